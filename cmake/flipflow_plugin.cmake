@@ -1,0 +1,20 @@
+# flipflow_add_plugin(NAME <name> SOURCES <cpp...> [CUDA_SOURCES <cu...>] [LIBS <libs...>])
+#
+# One plugin library = one folder under stages/ or plugins/. The .cu files are compiled only
+# when the CUDA backend is on; they see the repository root and Random123, nothing else.
+function(flipflow_add_plugin)
+  cmake_parse_arguments(P "" "NAME" "SOURCES;CUDA_SOURCES;LIBS" ${ARGN})
+  set(target flipflow_${P_NAME})
+  set(srcs ${P_SOURCES})
+  if(FLIPFLOW_HAVE_CUDA)
+    list(APPEND srcs ${P_CUDA_SOURCES})
+  endif()
+  add_library(${target} MODULE ${srcs})
+  target_link_libraries(${target} PRIVATE flipflow_core ${P_LIBS})
+  set_target_properties(${target} PROPERTIES
+    PREFIX "lib" OUTPUT_NAME "flipflow_${P_NAME}"
+    LIBRARY_OUTPUT_DIRECTORY ${FLIPFLOW_PLUGIN_DIR}
+    BUILD_RPATH "$ORIGIN/../lib"
+    CUDA_SEPARABLE_COMPILATION OFF)
+  set_property(GLOBAL APPEND PROPERTY FLIPFLOW_PLUGINS ${target})
+endfunction()

@@ -1,0 +1,26 @@
+// The CUDA element loop. Include only from .cu files. Launches on the stream the core gave the
+// stage (never the default stream) and checks the launch (FF_CUDA_CHECK_LAUNCH).
+#pragma once
+#include <cuda_runtime.h>
+
+#include "core/cuda/check.h"
+#include "core/exec.h"
+
+namespace ff {
+
+template <class F>
+__global__ void for_each_kernel(std::size_t n, F f) {
+  const std::size_t i = std::size_t(blockIdx.x) * blockDim.x + threadIdx.x;
+  if (i < n) f(i);
+}
+
+template <class F>
+void cuda_for_each(std::size_t n, const F& f, CUstream_st* stream) {
+  if (n == 0) return;
+  constexpr int block = 256;
+  const unsigned grid = unsigned((n + block - 1) / block);
+  for_each_kernel<F><<<grid, block, 0, stream>>>(n, f);
+  FF_CUDA_CHECK_LAUNCH("launching an element loop");
+}
+
+}  // namespace ff

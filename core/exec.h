@@ -1,0 +1,15 @@
+// Execution helpers: "physics once, loops twice". A stage's per-element operation is a functor
+// with an FF_HD operator()(std::size_t i) in its kernel.h. cpu.cpp instantiates cpu_for_each
+// (core/exec_cpu.h, oneTBB), cuda.cu instantiates cuda_for_each (core/cuda/loop.cuh); the
+// stage holds a pointer to whichever loop matches its backend. nvcc-clean.
+#pragma once
+#include <cstddef>
+
+#include "core/types.h"
+
+namespace ff {
+
+template <class F>
+using ElementLoop = void (*)(std::size_t n, const F& f, CUstream_st* stream);
+
+}  // namespace ff

@@ -1,0 +1,102 @@
+#include "core/field.h"
+
+#include <cstdlib>
+#include <cstring>
+#include <stdexcept>
+
+#include "core/error.h"
+#ifdef FLIPFLOW_HAVE_CUDA
+#include "core/cuda/device_buffer.h"
+#endif
+
+namespace ff {
+
+const char* to_string(Where w) { return w == Where::host ? "host" : "device"; }
+const char* to_string(Mode m) {
+  return m == Mode::read ? "read" : m == Mode::write ? "write" : "readwrite";
+}
+
+namespace {
+void* aligned_zeroed(std::size_t bytes) {
+  if (bytes == 0) return nullptr;
+  const std::size_t rounded = (bytes + 63) / 64 * 64;
+  void* p = std::aligned_alloc(64, rounded);
+  if (!p) throw RunError("out of host memory allocating " + std::to_string(bytes) + " bytes");
+  std::memset(p, 0, rounded);
+  return p;
+}
+}  // namespace
+
+Field::Field(std::string name, DType dtype, int components, std::size_t count)
+    : name_(std::move(name)), dtype_(dtype), components_(components), count_(count) {
+  host_ = aligned_zeroed(bytes());
+}
+
+Field::~Field() { std::free(host_); }
+
+void Field::check_type(DType asked) const {
+  if (asked != dtype_)
+    throw std::logic_error("field '" + name_ + "' holds " + to_string(dtype_) +
+                           " but was accessed as " + to_string(asked));
+}
+
+void* Field::host_raw() { return host_; }
+
+#ifdef FLIPFLOW_HAVE_CUDA
+
+void* Field::device_raw() {
+  if (!device_) device_ = std::make_unique<DeviceBuffer>(bytes());
+  return device_->data();
+}
+
+void Field::acquire(Where where, Mode mode, CUstream_st* stream) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (where == Where::device) {
+    if (!device_) device_ = std::make_unique<DeviceBuffer>(bytes());
+    if (reads(mode) && !device_valid_) device_->upload(host_, bytes(), stream);
+    device_valid_ = true;
+    if (writes(mode)) host_valid_ = false;
+  } else {
+    if (reads(mode) && !host_valid_ && device_) device_->download(host_, bytes(), stream);
+    host_valid_ = true;
+    if (writes(mode)) device_valid_ = false;
+  }
+}
+
+#else
+
+void* Field::device_raw() {
+  throw RunError("field '" + name_ + "': this flipflow was built without CUDA");
+}
+
+void Field::acquire(Where where, Mode mode, CUstream_st*) {
+  if (where == Where::device)
+    throw RunError("field '" + name_ + "': this flipflow was built without CUDA");
+  (void)mode;
+}
+
+#endif
+
+void Field::mark_written(Where where) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  host_valid_ = where == Where::host;
+  device_valid_ = where == Where::device;
+}
+
+void Field::resize(std::size_t count) {
+  if (count == count_) return;
+  acquire(Where::host, Mode::readwrite);
+  const std::size_t keep = std::min(count, count_) * components_ * dtype_size(dtype_);
+  void* fresh = aligned_zeroed(count * components_ * dtype_size(dtype_));
+  if (keep) std::memcpy(fresh, host_, keep);
+  std::free(host_);
+  host_ = fresh;
+  count_ = count;
+#ifdef FLIPFLOW_HAVE_CUDA
+  device_.reset();
+#endif
+  host_valid_ = true;
+  device_valid_ = false;
+}
+
+}  // namespace ff

@@ -1,0 +1,102 @@
+// The stage interface: what every integrate / topology / correction / observe step implements.
+// A stage declares the fields it touches (where and how), is configured once, and runs once
+// per step on the backend it was built for. It returns continue or request-rollback; it never
+// wires graph edges or synchronizes with other stages. nvcc-clean: CUDA stages include it.
+#pragma once
+#include <cstdint>
+#include <map>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "core/field.h"
+#include "core/params.h"
+#include "core/rng.h"
+#include "core/state.h"
+#include "core/types.h"
+
+namespace ff {
+
+struct Access {
+  std::string field;
+  Where where = Where::host;
+  Mode mode = Mode::read;
+};
+
+struct Outcome {
+  bool rollback = false;
+  std::string reason;                   // why, in words a user can act on
+  std::vector<std::uint64_t> particles; // particles involved (first few are reported)
+
+  static Outcome ok() { return {}; }
+  static Outcome request_rollback(std::string why, std::vector<std::uint64_t> who = {}) {
+    return Outcome{true, std::move(why), std::move(who)};
+  }
+};
+
+// Per-step numbers a stage reports (flips, overlap iterations, ...). Written by one stage only.
+class Metrics {
+ public:
+  void set(const std::string& name, double value) { values_[name] = value; }
+  const std::map<std::string, double>& values() const { return values_; }
+  void clear() { values_.clear(); }
+
+ private:
+  std::map<std::string, double> values_;
+};
+
+// What the core knows about the run as a whole; given to factories and to every step.
+struct RunInfo {
+  int dim = 2;
+  Precision precision = Precision::f64;
+  Backend backend = Backend::cpu;
+  std::uint64_t seed = 0;
+  std::uint64_t steps = 0;       // steps the run will take
+  double dt = 0;                 // configured (nominal) time step
+  std::string out_dir;           // where outputs go (created by the core before the run)
+  std::string pipeline_file;     // the YAML the run came from (recorded in outputs)
+  std::string stage_id;          // this stage's id in the step graph
+};
+
+// Whole-run observables the core keeps (observe stages write them out).
+struct RunStats {
+  std::uint64_t rollbacks = 0;        // since the start of the run
+  std::uint64_t step_rollbacks = 0;   // in the last accepted step
+  double dt = 0;                      // Δt of the last accepted step
+  // Last reported metrics, keyed "stage_id/metric".
+  std::map<std::string, double> metrics;
+};
+
+struct StepContext {
+  State& state;
+  const RunInfo& run;
+  const RunStats& stats;
+  std::uint64_t step;      // the step being computed (state.step before it is accepted)
+  std::uint32_t attempt;   // 0 for the first try, +1 for each rollback of this step
+  double dt;               // Δt of this attempt
+  double time;             // simulated time at the start of the step
+  Backend backend;
+  CUstream_st* stream;     // the CUDA stream the core assigned (nullptr on the CPU)
+  RngKey rng;              // (seed, this stage)
+  Metrics& metrics;
+};
+
+class Stage {
+ public:
+  virtual ~Stage() = default;
+  // Fields read and written, and on which side. The core derives graph checks, host/device
+  // copies and the rollback snapshot from this list. Called after configure().
+  virtual std::vector<Access> accesses() const = 0;
+  // Once, before the first step: add fields this stage owns, check preconditions. May throw
+  // InputError (bad combination of parameters and system) or RunError.
+  virtual void configure(State& state) { (void)state; }
+  virtual Outcome run(StepContext& ctx) = 0;
+  // Once, after the last step or when the run stops early: flush and close outputs.
+  virtual void finish(State& state, bool completed) { (void)state; (void)completed; }
+  // Files this stage will create (relative to out_dir): checked before anything is written.
+  virtual std::vector<std::string> outputs() const { return {}; }
+  // True if run() can return request_rollback: only then does the core snapshot the state.
+  virtual bool may_request_rollback() const { return false; }
+};
+
+}  // namespace ff

@@ -1,0 +1,24 @@
+// One test body, every backend: GENERATE(from_range(ff::test::backends())) runs a section per
+// available backend; CUDA is skipped with a visible WARN on a machine without a GPU.
+#pragma once
+#include <catch2/catch.hpp>
+#include <vector>
+
+#include "core/device.h"
+
+namespace ff::test {
+
+inline std::vector<Backend> backends() {
+  std::vector<Backend> b{Backend::cpu};
+  if (cuda_device_available()) b.push_back(Backend::cuda);
+  return b;
+}
+
+// For CPU-vs-CUDA comparisons: returns false (and warns visibly) when there is no GPU.
+inline bool have_cuda(const char* what) {
+  if (cuda_device_available()) return true;
+  WARN(std::string("SKIPPED (no CUDA device: ") + cuda_device_description() + "): " + what);
+  return false;
+}
+
+}  // namespace ff::test
