@@ -67,6 +67,14 @@ struct RunStats {
   std::map<std::string, double> metrics;
 };
 
+// A CUDA stage that finds a reason to roll back sets `requested` (non-zero: a stage-defined
+// code) and `particle` from its kernel; the core reads all flags once per step, so no stage
+// waits for the GPU to decide. Zeroed by the core before every attempt.
+struct DeviceRollbackFlag {
+  unsigned int requested;
+  unsigned int particle;
+};
+
 struct StepContext {
   State& state;
   const RunInfo& run;
@@ -79,6 +87,7 @@ struct StepContext {
   CUstream_st* stream;     // the CUDA stream the core assigned (nullptr on the CPU)
   RngKey rng;              // (seed, this stage)
   Metrics& metrics;
+  DeviceRollbackFlag* device_rollback = nullptr;  // device memory; CUDA runs only
 };
 
 class Stage {

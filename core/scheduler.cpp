@@ -1,0 +1,151 @@
+#include "core/scheduler.h"
+
+#include <oneapi/tbb/flow_graph.h>
+
+#include <chrono>
+#include <mutex>
+
+#ifdef FLIPFLOW_HAVE_CUDA
+#include "core/cuda/streams.h"
+#endif
+
+namespace ff {
+
+namespace flow = tbb::flow;
+
+struct Scheduler::Impl {
+  flow::graph graph;
+  flow::broadcast_node<flow::continue_msg> start{graph};
+  std::vector<std::unique_ptr<flow::continue_node<flow::continue_msg>>> nodes;
+  bool chain = false;
+  std::vector<int> compute;
+  std::mutex error_mutex;
+#ifdef FLIPFLOW_HAVE_CUDA
+  std::unique_ptr<StreamSet> streams;
+#endif
+  // Per-attempt parameters read by the node bodies.
+  std::uint64_t step = 0;
+  std::uint32_t attempt = 0;
+  double dt = 0, time = 0;
+};
+
+Scheduler::Scheduler(const StepGraph& graph, std::vector<StageSlot>& slots, State& state, const RunStats& stats,
+                     Backend backend)
+    : impl_(std::make_unique<Impl>()), graph_(graph), slots_(slots), state_(state), stats_(stats), backend_(backend) {
+  impl_->compute = graph.compute_nodes();
+  impl_->chain = graph.is_chain();
+#ifdef FLIPFLOW_HAVE_CUDA
+  if (backend == Backend::cuda) impl_->streams = std::make_unique<StreamSet>(graph);
+#endif
+  // The flow graph is built even for a chain (it is what `graph` prints and what a branch
+  // needs); a chain is simply run in order on the calling thread, which is the same schedule
+  // without a task hand-off per stage.
+  auto& g = impl_->graph;
+  impl_->nodes.resize(graph.nodes().size());
+  for (int i : impl_->compute) {
+    // make_edge registers each predecessor, so the node fires once all of them have.
+    impl_->nodes[i] = std::make_unique<flow::continue_node<flow::continue_msg>>(
+        g, [this, i](const flow::continue_msg&) {
+          run_node(i, impl_->step, impl_->attempt, impl_->dt, impl_->time);
+          return flow::continue_msg();
+        });
+  }
+  for (int i : impl_->compute) {
+    const auto& preds = graph.nodes()[i].preds;
+    if (preds.empty()) flow::make_edge(impl_->start, *impl_->nodes[i]);
+    for (int p : preds) flow::make_edge(*impl_->nodes[p], *impl_->nodes[i]);
+  }
+}
+
+Scheduler::~Scheduler() = default;
+
+CUstream_st* Scheduler::main_stream() const {
+#ifdef FLIPFLOW_HAVE_CUDA
+  if (impl_->streams) return impl_->streams->main();
+#endif
+  return nullptr;
+}
+
+void Scheduler::run_node(int i, std::uint64_t step, std::uint32_t attempt, double dt, double time) {
+  StageSlot& slot = slots_[i];
+  const GraphNode& node = graph_.nodes()[i];
+  slot.ran = false;
+  if (step % node.every != 0 || abort_.load(std::memory_order_relaxed)) return;
+  try {
+    CUstream_st* stream = nullptr;
+#ifdef FLIPFLOW_HAVE_CUDA
+    if (impl_->streams) {
+      impl_->streams->before(i);
+      stream = impl_->streams->stream(i);
+    }
+#endif
+    for (auto& a : node.accesses) state_.field(a.field).acquire(a.where, a.mode, stream);
+    slot.metrics.clear();
+    DeviceRollbackFlag* flag = nullptr;
+#ifdef FLIPFLOW_HAVE_CUDA
+    if (impl_->streams) flag = impl_->streams->rollback_flag(i);
+#endif
+    StepContext ctx{state_, slot.info, stats_, step, attempt, dt, time, backend_, stream, slot.rng, slot.metrics, flag};
+    const auto t0 = std::chrono::steady_clock::now();
+    slot.outcome = slot.stage->run(ctx);
+    const auto t1 = std::chrono::steady_clock::now();
+    slot.seconds += std::chrono::duration<double>(t1 - t0).count();
+    ++slot.calls;
+    slot.ran = true;
+#ifdef FLIPFLOW_HAVE_CUDA
+    if (impl_->streams) impl_->streams->after(i);
+#endif
+    if (slot.outcome.rollback) abort_.store(true);
+  } catch (...) {
+    std::lock_guard<std::mutex> lock(impl_->error_mutex);
+    if (!error_) error_ = std::current_exception();
+    has_error_.store(true);
+    abort_.store(true);
+  }
+}
+
+std::optional<RollbackRequest> Scheduler::run_compute(std::uint64_t step, std::uint32_t attempt, double dt,
+                                                      double time) {
+  abort_.store(false);
+  error_ = nullptr;
+  has_error_.store(false);
+  impl_->step = step;
+  impl_->attempt = attempt;
+  impl_->dt = dt;
+  impl_->time = time;
+#ifdef FLIPFLOW_HAVE_CUDA
+  if (impl_->streams) impl_->streams->begin_attempt();
+#endif
+  if (impl_->chain) {
+    for (int i : impl_->compute) run_node(i, step, attempt, dt, time);
+  } else {
+    impl_->start.try_put(flow::continue_msg());
+    impl_->graph.wait_for_all();
+  }
+  if (error_) std::rethrow_exception(error_);
+#ifdef FLIPFLOW_HAVE_CUDA
+  if (impl_->streams) {
+    // Stages that may request a rollback on the device report through flags read once here.
+    impl_->streams->join_all();
+    if (auto req = impl_->streams->read_rollback_flags(graph_, slots_)) return req;
+  }
+#endif
+  for (int i : impl_->compute)
+    if (slots_[i].ran && slots_[i].outcome.rollback) return RollbackRequest{i, slots_[i].outcome};
+  return std::nullopt;
+}
+
+void Scheduler::run_observers(std::uint64_t step, double dt, double time) {
+  for (int i : graph_.observer_nodes()) {
+    run_node(i, step, 0, dt, time);
+    if (error_) std::rethrow_exception(error_);
+  }
+}
+
+void Scheduler::synchronize() {
+#ifdef FLIPFLOW_HAVE_CUDA
+  if (impl_->streams) impl_->streams->synchronize();
+#endif
+}
+
+}  // namespace ff

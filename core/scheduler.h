@@ -1,0 +1,70 @@
+// Runs the compute phase of one step attempt over a oneTBB flow graph built once per run:
+// one continue_node per stage, edges from the step graph, independent stages concurrently.
+// Observer stages run afterwards, in order, on the calling thread.
+//
+// On CUDA every stage gets a stream (a chain shares one; a branch gets its own) and an event:
+// a stage waits for its predecessors' events on other streams and records its own, so the
+// host only enqueues work and never blocks a oneTBB worker on the GPU. See core/cuda/streams.h.
+#pragma once
+#include <atomic>
+#include <cstdint>
+#include <exception>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "core/stage.h"
+#include "core/step_graph.h"
+
+namespace ff {
+
+class StreamSet;  // core/cuda/streams.h (CUDA builds)
+
+// One stage instance in a run, with what the core keeps about it.
+struct StageSlot {
+  std::unique_ptr<Stage> stage;
+  RunInfo info;
+  RngKey rng;
+  Metrics metrics;
+  Outcome outcome;
+  bool ran = false;          // ran in the current attempt
+  double seconds = 0;        // wall time spent in run(), whole run
+  std::uint64_t calls = 0;
+};
+
+struct RollbackRequest {
+  int node = -1;
+  Outcome outcome;
+};
+
+class Scheduler {
+ public:
+  Scheduler(const StepGraph& graph, std::vector<StageSlot>& slots, State& state, const RunStats& stats,
+            Backend backend);
+  ~Scheduler();
+
+  // Runs the compute stages due at `step`. Returns the first rollback request (lowest node
+  // index among those that asked), or nothing. Exceptions from stages are rethrown here.
+  std::optional<RollbackRequest> run_compute(std::uint64_t step, std::uint32_t attempt, double dt, double time);
+  // Runs the observer stages due at `step` (the step is accepted; state.step/time updated).
+  void run_observers(std::uint64_t step, double dt, double time);
+  // Wait for all device work of the step (CUDA); a no-op on the CPU.
+  void synchronize();
+  CUstream_st* main_stream() const;
+
+ private:
+  struct Impl;
+  void run_node(int node, std::uint64_t step, std::uint32_t attempt, double dt, double time);
+  std::unique_ptr<Impl> impl_;
+  const StepGraph& graph_;
+  std::vector<StageSlot>& slots_;
+  State& state_;
+  const RunStats& stats_;
+  Backend backend_;
+  std::atomic<bool> abort_{false};
+  std::exception_ptr error_;
+  std::atomic<bool> has_error_{false};
+};
+
+}  // namespace ff

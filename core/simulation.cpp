@@ -1,0 +1,173 @@
+#include "core/simulation.h"
+
+#include <filesystem>
+#include <set>
+#include <sstream>
+
+#include "core/error.h"
+#include "core/init.h"
+
+namespace fs = std::filesystem;
+
+namespace ff {
+
+Simulation::Simulation(const PipelineSpec& spec, const Registry& registry, RunOptions options)
+    : Simulation(spec, registry, std::move(options), make_initial_state(spec.system, spec.run.precision, spec.run.seed)) {}
+
+Simulation::Simulation(const PipelineSpec& spec, const Registry& registry, RunOptions options,
+                       std::unique_ptr<State> state)
+    : spec_(spec), options_(std::move(options)), state_(std::move(state)) {
+  build(registry);
+  prepare_outputs();
+}
+
+Simulation::~Simulation() {
+  if (!finished_) {
+    try {
+      finish(false);
+    } catch (...) {
+      // Destructors must not throw; the run already failed if we get here.
+    }
+  }
+}
+
+void Simulation::build(const Registry& registry) {
+  std::vector<std::vector<Access>> accesses;
+  std::vector<bool> observer;
+  slots_.resize(spec_.step.size());
+  for (std::size_t i = 0; i < spec_.step.size(); ++i) {
+    const StepEntry& e = spec_.step[i];
+    StageSlot& slot = slots_[i];
+    slot.info = RunInfo{state_->dim(), spec_.run.precision, options_.backend, spec_.run.seed, spec_.run.steps,
+                        spec_.run.dt,  options_.out_dir,    spec_.file,       e.id};
+    slot.rng = make_rng_key(spec_.run.seed, e.id.c_str());
+    try {
+      slot.stage = registry.create(e.stage, options_.backend, e.params, slot.info);
+      slot.stage->configure(*state_);
+    } catch (const InputError& err) {
+      throw InputError(e.where.str() + ": step '" + e.id + "': " + err.what());
+    }
+    accesses.push_back(slot.stage->accesses());
+    for (auto& a : accesses.back())
+      if (!state_->has_field(a.field))
+        throw InputError(e.where.str() + ": step '" + e.id + "' uses field '" + a.field +
+                         "', which no stage before it created");
+    observer.push_back(registry.get(e.stage).decl.observer);
+  }
+  graph_ = std::make_unique<StepGraph>(spec_, std::move(accesses), observer);
+  scheduler_ = std::make_unique<Scheduler>(*graph_, slots_, *state_, stats_, options_.backend);
+  dt_ = std::make_unique<DtController>(spec_.run.dt, spec_.run.dt_min, spec_.run.dt_grow_after);
+  stats_.dt = spec_.run.dt;
+
+  bool may_roll_back = false;
+  std::set<std::string> written;
+  for (int i : graph_->compute_nodes()) {
+    may_roll_back = may_roll_back || slots_[i].stage->may_request_rollback();
+    for (auto& a : graph_->nodes()[i].accesses)
+      if (writes(a.mode)) written.insert(a.field);
+  }
+  if (may_roll_back) snapshot_ = std::make_unique<Snapshot>(std::vector<std::string>(written.begin(), written.end()));
+}
+
+std::vector<std::string> Simulation::snapshot_fields() const {
+  return snapshot_ ? snapshot_->fields() : std::vector<std::string>{};
+}
+
+void Simulation::prepare_outputs() {
+  std::vector<std::string> outputs;
+  for (auto& s : slots_)
+    for (auto& o : s.stage->outputs()) outputs.push_back(o);
+  if (outputs.empty()) return;
+  if (options_.out_dir.empty()) throw InputError("this pipeline writes files but no output directory was given (--out)");
+  for (auto& o : outputs) {
+    const fs::path p = fs::path(options_.out_dir) / o;
+    if (fs::exists(p) && !options_.force)
+      throw InputError("output '" + p.string() + "' exists; use --force to overwrite it or --out to write elsewhere");
+  }
+  std::error_code ec;
+  fs::create_directories(options_.out_dir, ec);
+  if (ec) throw InputError("cannot create output directory '" + options_.out_dir + "': " + ec.message());
+}
+
+void Simulation::collect_metrics() {
+  for (int i : graph_->compute_nodes()) {
+    if (!slots_[i].ran) continue;
+    for (auto& kv : slots_[i].metrics.values()) stats_.metrics[slots_[i].info.stage_id + "/" + kv.first] = kv.second;
+  }
+}
+
+void Simulation::give_up(const RollbackRequest& req, double dt) {
+  std::ostringstream os;
+  os << "step " << state_->step << ": stage '" << graph_->nodes()[req.node].id << "' requested a rollback ("
+     << req.outcome.reason << ") and Δt = " << dt << " cannot be halved again without going below dt_min = "
+     << dt_->min();
+  if (!req.outcome.particles.empty()) {
+    os << "; particles involved:";
+    for (std::size_t k = 0; k < req.outcome.particles.size() && k < 8; ++k) os << " " << req.outcome.particles[k];
+  }
+  os << ". Lower run.dt, or check the model's forces for a blow-up.";
+  throw RunError(os.str());
+}
+
+void Simulation::advance() {
+  if (!observed_initial_) {
+    // Frame 0: observers see the initial configuration.
+    scheduler_->run_observers(state_->step, dt_->dt(), state_->time);
+    observed_initial_ = true;
+  }
+  const std::uint64_t step = state_->step;
+  stats_.step_rollbacks = 0;
+  if (snapshot_) snapshot_->take(*state_, scheduler_->main_stream());
+  for (std::uint32_t attempt = 0;; ++attempt) {
+    const double dt = dt_->dt();
+    auto req = scheduler_->run_compute(step, attempt, dt, state_->time);
+    if (!req) {
+      stats_.dt = dt;
+      state_->time += dt;
+      state_->step = step + 1;
+      if (attempt == 0) dt_->accepted();
+      break;
+    }
+    ++stats_.rollbacks;
+    ++stats_.step_rollbacks;
+    snapshot_->restore(*state_, scheduler_->main_stream());
+    if (!dt_->halve()) give_up(*req, dt);
+  }
+  collect_metrics();
+  scheduler_->run_observers(state_->step, stats_.dt, state_->time);
+}
+
+void Simulation::run() {
+  try {
+    while (state_->step < spec_.run.steps) advance();
+    if (!observed_initial_) {
+      scheduler_->run_observers(state_->step, dt_->dt(), state_->time);
+      observed_initial_ = true;
+    }
+    scheduler_->synchronize();
+  } catch (...) {
+    try {
+      finish(false);
+    } catch (...) {
+    }
+    throw;
+  }
+  finish(true);
+}
+
+void Simulation::finish(bool completed) {
+  if (finished_) return;
+  finished_ = true;
+  if (completed) scheduler_->synchronize();
+  std::exception_ptr first;
+  for (auto& s : slots_) {
+    try {
+      s.stage->finish(*state_, completed);
+    } catch (...) {
+      if (!first) first = std::current_exception();
+    }
+  }
+  if (first) std::rethrow_exception(first);
+}
+
+}  // namespace ff
