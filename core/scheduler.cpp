@@ -88,6 +88,9 @@ void Scheduler::run_node(int i, std::uint64_t step, std::uint32_t attempt, doubl
     StepContext ctx{state_, slot.info, stats_, step, attempt, dt, time, backend_, stream, slot.rng, slot.metrics, flag};
     const auto t0 = std::chrono::steady_clock::now();
     slot.outcome = slot.stage->run(ctx);
+#ifdef FLIPFLOW_HAVE_CUDA
+    if (profiling_ && stream) impl_->streams->synchronize();
+#endif
     const auto t1 = std::chrono::steady_clock::now();
     slot.seconds += std::chrono::duration<double>(t1 - t0).count();
     ++slot.calls;
@@ -139,6 +142,13 @@ void Scheduler::run_observers(std::uint64_t step, double dt, double time) {
   for (int i : graph_.observer_nodes()) {
     run_node(i, step, 0, dt, time);
     if (error_) std::rethrow_exception(error_);
+  }
+}
+
+void Scheduler::reset_timers() {
+  for (auto& s : slots_) {
+    s.seconds = 0;
+    s.calls = 0;
   }
 }
 

@@ -52,6 +52,10 @@ class Scheduler {
   // Wait for all device work of the step (CUDA); a no-op on the CPU.
   void synchronize();
   CUstream_st* main_stream() const;
+  // Profiling: wait for each stage's device work before stopping its clock, so per-stage
+  // times are real on CUDA (serializes streams; `pipeline bench` reports both ways).
+  void set_profiling(bool on) { profiling_ = on; }
+  void reset_timers();
 
  private:
   struct Impl;
@@ -62,6 +66,7 @@ class Scheduler {
   State& state_;
   const RunStats& stats_;
   Backend backend_;
+  bool profiling_ = false;
   std::atomic<bool> abort_{false};
   std::exception_ptr error_;
   std::atomic<bool> has_error_{false};

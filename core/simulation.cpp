@@ -18,7 +18,7 @@ Simulation::Simulation(const PipelineSpec& spec, const Registry& registry, RunOp
                        std::unique_ptr<State> state)
     : spec_(spec), options_(std::move(options)), state_(std::move(state)) {
   build(registry);
-  prepare_outputs();
+  if (!options_.dry_run) prepare_outputs();
 }
 
 Simulation::~Simulation() {

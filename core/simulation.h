@@ -23,6 +23,7 @@ struct RunOptions {
   std::string out_dir;         // created if missing; empty = no outputs allowed
   bool force = false;          // overwrite existing outputs
   std::string pipeline_text;   // the YAML text, recorded in outputs (optional)
+  bool dry_run = false;        // validate/graph: build everything, touch no files
 };
 
 class Simulation {
@@ -50,6 +51,7 @@ class Simulation {
   const DtController& dt() const { return *dt_; }
   std::uint64_t steps_total() const { return spec_.run.steps; }
   void synchronize() { scheduler_->synchronize(); }
+  Scheduler& scheduler() { return *scheduler_; }
   // Fields the rollback snapshot holds (empty when no stage may request a rollback).
   std::vector<std::string> snapshot_fields() const;
 

@@ -1,0 +1,120 @@
+// Stages that exist only to test the core: they request rollbacks on cue, prove that two
+// stages ran at the same time, and record the order stages ran in. Built into test-plugins/,
+// never into the plugins users see.
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <thread>
+
+#include "core/plugin_api.h"
+
+namespace {
+
+using namespace ff;
+
+// testing.rollback: on the listed steps, requests a rollback on the first `fail_attempts`
+// attempts, after scrambling the positions (so only a correct restore gives the right answer).
+// With dt_above > 0 it also requests a rollback whenever Δt > dt_above.
+class RequestRollback final : public Stage {
+ public:
+  explicit RequestRollback(const ParamValues& v)
+      : steps_(v.reals("steps")), fail_attempts_(v.integer("fail_attempts")), dt_above_(v.real("dt_above")) {}
+  std::vector<Access> accesses() const override { return {{fields::position, Where::host, Mode::readwrite}}; }
+  bool may_request_rollback() const override { return true; }
+  Outcome run(StepContext& ctx) override {
+    bool listed = false;
+    for (double s : steps_) listed = listed || std::uint64_t(s) == ctx.step;
+    const bool fail = (listed && ctx.attempt < std::uint32_t(fail_attempts_)) || (dt_above_ > 0 && ctx.dt > dt_above_);
+    ctx.metrics.set("attempt", ctx.attempt);
+    if (!fail) return Outcome::ok();
+    Field& f = ctx.state.field(fields::position);
+    if (f.dtype() == DType::f64) {
+      double* x = f.host<double>();
+      for (std::size_t i = 0; i < f.size(); ++i) x[i] = -1e9 + double(i);
+    }
+    return Outcome::request_rollback("testing.rollback asked for it", {3, 1, 4});
+  }
+
+ private:
+  std::vector<double> steps_;
+  std::int64_t fail_attempts_;
+  double dt_above_;
+};
+
+// testing.barrier: two instances with the same `group` wait (bounded) for each other. Metric
+// `overlapped` = 1 when the partner arrived while this one was still running: only possible
+// when the scheduler ran them concurrently. Arrivals only ever count up: the k-th pair of a
+// group is complete once 2k+2 stages have arrived (no reset, so no race between steps).
+std::atomic<int> g_arrivals[4];
+class Barrier final : public Stage {
+ public:
+  explicit Barrier(const ParamValues& v) : group_(int(v.integer("group"))), field_(v.string("field")) {}
+  std::vector<Access> accesses() const override {
+    if (field_.empty()) return {};
+    return {{field_, Where::host, Mode::read}};
+  }
+  Outcome run(StepContext& ctx) override {
+    const int me = g_arrivals[group_].fetch_add(1);
+    const int pair_complete = (me / 2) * 2 + 2;
+    const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(2);
+    bool overlapped = false;
+    while (!(overlapped = g_arrivals[group_].load() >= pair_complete) && std::chrono::steady_clock::now() < deadline)
+      std::this_thread::yield();
+    ctx.metrics.set("overlapped", overlapped ? 1 : 0);
+    return Outcome::ok();
+  }
+
+ private:
+  int group_;
+  std::string field_;
+};
+
+// testing.record: metric `order` = a global counter taken when the stage runs. Optional
+// `writes` field so tests can build conflicting graphs.
+std::atomic<int> g_order{0};
+class Record final : public Stage {
+ public:
+  explicit Record(const ParamValues& v) : writes_(v.string("writes")), reads_(v.string("reads")) {}
+  std::vector<Access> accesses() const override {
+    std::vector<Access> a;
+    if (!writes_.empty()) a.push_back({writes_, Where::host, Mode::readwrite});
+    if (!reads_.empty()) a.push_back({reads_, Where::host, Mode::read});
+    return a;
+  }
+  Outcome run(StepContext& ctx) override {
+    std::this_thread::sleep_for(std::chrono::microseconds(200));
+    ctx.metrics.set("order", g_order.fetch_add(1));
+    return Outcome::ok();
+  }
+
+ private:
+  std::string writes_, reads_;
+};
+
+template <class S>
+StageFactory factory() {
+  return [](const ParamValues& v, const RunInfo&) { return std::make_unique<S>(v); };
+}
+
+void register_testing(Registry& r) {
+  r.declare({"testing.rollback", "requests rollbacks on cue (tests only)",
+             {ParamSpec{"steps", ParamType::real_list, ParamValue(std::vector<double>{}), {}, {}, false, {}, "steps to fail"},
+              ParamSpec::integer("fail_attempts", 1, "attempts that fail on those steps").at_least(0),
+              ParamSpec::real("dt_above", 0.0, "also fail whenever dt > this (0: never)").at_least(0)},
+             {2, 3}, false});
+  r.implement("testing.rollback", Backend::cpu, factory<RequestRollback>());
+  r.declare({"testing.barrier", "waits for its partner stage (tests only)",
+             {ParamSpec::integer("group", 0, "rendezvous group").at_least(0).at_most(3),
+              ParamSpec::string("field", std::string(), "field to declare as read")},
+             {2, 3}, false});
+  r.implement("testing.barrier", Backend::cpu, factory<Barrier>());
+  r.declare({"testing.record", "records the order stages ran in (tests only)",
+             {ParamSpec::string("writes", std::string(), "field to declare as written"),
+              ParamSpec::string("reads", std::string(), "field to declare as read")},
+             {2, 3}, false});
+  r.implement("testing.record", Backend::cpu, factory<Record>());
+}
+
+}  // namespace
+
+FLIPFLOW_PLUGIN(register_testing)

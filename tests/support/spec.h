@@ -1,0 +1,49 @@
+// Build PipelineSpecs in tests without YAML.
+#pragma once
+#include <map>
+#include <string>
+#include <vector>
+
+#include "core/pipeline_spec.h"
+#include "core/registry.h"
+
+namespace ff::test {
+
+struct EntryOptions {
+  std::string id;                          // default: the stage name
+  std::vector<std::string> after;          // with after_given
+  bool after_given = false;
+  std::uint64_t every = 1;
+};
+
+inline StepEntry entry(const Registry& r, const std::string& stage, const std::map<std::string, ParamValue>& params = {},
+                       EntryOptions o = {}) {
+  StepEntry e;
+  e.stage = stage;
+  e.id = o.id.empty() ? stage : o.id;
+  e.params = ParamValues::defaults(r.get(stage).decl.params);
+  for (auto& kv : params) e.params.set(kv.first, kv.second);
+  e.after = o.after;
+  e.after_given = o.after_given;
+  e.every = o.every;
+  e.where = Location{"test", 1, 1};
+  return e;
+}
+
+inline PipelineSpec spec(int dim, std::uint64_t n, double packing_fraction, std::uint64_t steps, double dt,
+                         std::vector<StepEntry> step, std::uint64_t seed = 1, Precision p = Precision::f64) {
+  PipelineSpec s;
+  s.file = "test";
+  s.system.dimensions = dim;
+  s.system.N = n;
+  s.system.packing_fraction = packing_fraction;
+  s.run.steps = steps;
+  s.run.dt = dt;
+  s.run.dt_min = dt / 1024;
+  s.run.seed = seed;
+  s.run.precision = p;
+  s.step = std::move(step);
+  return s;
+}
+
+}  // namespace ff::test

@@ -1,0 +1,129 @@
+// Rollback: bit-for-bit restore, Δt halving and regrowth, fresh noise per attempt, giving up.
+#include <catch2/catch.hpp>
+#include <cstring>
+
+#include "core/error.h"
+#include "core/simulation.h"
+#include "support/spec.h"
+#include "support/test_plugins.h"
+
+using namespace ff;
+using ff::test::entry;
+
+namespace {
+RunOptions dry() {
+  RunOptions o;
+  o.dry_run = true;
+  return o;
+}
+std::vector<double> positions(Simulation& s) {
+  Field& f = s.state().field(fields::position);
+  f.acquire(Where::host, Mode::read);
+  return std::vector<double>(f.host<double>(), f.host<double>() + f.size());
+}
+}  // namespace
+
+TEST_CASE("a rolled-back step restores the state bit for bit and retries with fresh noise at Δt/2", "[rollback]") {
+  auto r = test::registry_with({"brownian"}, {"testing"});
+  // Reference: the same run with no rollback, but taking step 2 at Δt/2 with attempt 1 is not
+  // reproducible by a plain run, so compare the restored state itself instead.
+  auto s = test::spec(2, 256, 0.2, 4, 0.01,
+                      {entry(*r, "brownian.integrate", {{"D", 1.0}}),
+                       entry(*r, "testing.rollback", {{"steps", std::vector<double>{2}}, {"fail_attempts", std::int64_t(2)}})});
+  s.run.dt_grow_after = 2;
+  Simulation sim(s, *r, dry());
+  sim.advance();
+  sim.advance();
+  CHECK(sim.stats().rollbacks == 0);
+  const auto before = positions(sim);
+  const double t_before = sim.state().time;
+  sim.advance();  // step 2: attempts 0 and 1 fail (positions scrambled, restored), attempt 2 passes at Δt/4
+  CHECK(sim.stats().rollbacks == 2);
+  CHECK(sim.stats().step_rollbacks == 2);
+  CHECK(sim.stats().dt == Approx(0.0025));
+  CHECK(sim.state().time == Approx(t_before + 0.0025));
+  const auto after = positions(sim);
+  // No scrambled value survived the restore, and the accepted step moved particles by a
+  // Brownian amount of sqrt(2·D·Δt) ≈ 0.07, far from the -1e9 the failed attempts wrote.
+  double max_move = 0;
+  for (std::size_t i = 0; i < after.size(); ++i) max_move = std::max(max_move, std::fabs(after[i] - before[i]));
+  CHECK(max_move < 1.0);
+  CHECK(max_move > 0.0);
+}
+
+TEST_CASE("snapshot restore is bit-exact", "[rollback]") {
+  auto r = test::registry_with({"brownian"}, {"testing"});
+  auto s = test::spec(2, 128, 0.2, 2, 0.01, {entry(*r, "brownian.integrate", {{"D", 1.0}})});
+  Simulation sim(s, *r, dry());
+  sim.advance();
+  Snapshot snap({fields::position, fields::image});
+  snap.take(sim.state(), nullptr);
+  const auto p0 = positions(sim);
+  Field& img = sim.state().field(fields::image);
+  std::vector<std::int32_t> i0(img.host<std::int32_t>(), img.host<std::int32_t>() + img.size());
+  sim.advance();
+  CHECK(positions(sim) != p0);
+  snap.restore(sim.state(), nullptr);
+  const auto p1 = positions(sim);
+  REQUIRE(p1.size() == p0.size());
+  CHECK(std::memcmp(p1.data(), p0.data(), p0.size() * sizeof(double)) == 0);
+  CHECK(std::memcmp(img.host<std::int32_t>(), i0.data(), i0.size() * sizeof(std::int32_t)) == 0);
+}
+
+TEST_CASE("Δt grows back after dt_grow_after good steps", "[rollback]") {
+  DtController dt(0.01, 0.01 / 64, 3);
+  REQUIRE(dt.halve());
+  REQUIRE(dt.halve());
+  CHECK(dt.dt() == Approx(0.0025));
+  dt.accepted();
+  dt.accepted();
+  CHECK(dt.dt() == Approx(0.0025));
+  dt.accepted();
+  CHECK(dt.dt() == Approx(0.005));
+  for (int k = 0; k < 3; ++k) dt.accepted();
+  CHECK(dt.dt() == Approx(0.01));
+  for (int k = 0; k < 10; ++k) dt.accepted();
+  CHECK(dt.dt() == Approx(0.01));  // never above the configured value
+}
+
+TEST_CASE("Δt regrowth inside a run", "[rollback]") {
+  auto r = test::registry_with({"brownian"}, {"testing"});
+  auto s = test::spec(2, 64, 0.2, 20, 0.01,
+                      {entry(*r, "brownian.integrate"), entry(*r, "testing.rollback", {{"steps", std::vector<double>{1}}})});
+  s.run.dt_grow_after = 4;
+  Simulation sim(s, *r, dry());
+  std::vector<double> dts;
+  for (int k = 0; k < 8; ++k) {
+    sim.advance();
+    dts.push_back(sim.stats().dt);
+  }
+  // step 0 at dt; step 1 rolled back once -> dt/2; steps 2..5 at dt/2 (4 good); then dt again.
+  CHECK(dts[0] == Approx(0.01));
+  CHECK(dts[1] == Approx(0.005));
+  CHECK(dts[5] == Approx(0.005));
+  CHECK(dts[6] == Approx(0.01));
+  CHECK(sim.stats().rollbacks == 1);
+}
+
+TEST_CASE("past dt_min the run stops, naming step, stage and particles", "[rollback]") {
+  auto r = test::registry_with({"brownian"}, {"testing"});
+  auto s = test::spec(2, 64, 0.2, 5, 0.01,
+                      {entry(*r, "brownian.integrate"), entry(*r, "testing.rollback", {{"dt_above", 1e-6}}, {"guard"})});
+  s.run.dt_min = 0.01 / 8;
+  Simulation sim(s, *r, dry());
+  CHECK_THROWS_AS(sim.advance(), RunError);
+  Simulation sim2(s, *r, dry());
+  CHECK_THROWS_WITH(sim2.advance(), Catch::Contains("step 0: stage 'guard' requested a rollback (testing.rollback asked for it)") &&
+                                        Catch::Contains("below dt_min = 0.00125") && Catch::Contains("particles involved: 3 1 4"));
+  CHECK(sim2.stats().rollbacks == 4);  // dt, dt/2, dt/4, dt/8 all failed
+}
+
+TEST_CASE("no snapshot is taken when no stage can request a rollback", "[rollback]") {
+  auto r = test::registry_with({"brownian"}, {"testing"});
+  auto s = test::spec(2, 64, 0.2, 1, 0.01, {entry(*r, "brownian.integrate")});
+  Simulation plain(s, *r, dry());
+  CHECK(plain.snapshot_fields().empty());
+  s.step.push_back(entry(*r, "testing.rollback"));
+  Simulation guarded(s, *r, dry());
+  CHECK(guarded.snapshot_fields() == std::vector<std::string>{"image", "position"});
+}

@@ -1,0 +1,122 @@
+// The step graph and its scheduler: order, concurrency, conflicts, `every`, errors from stages.
+#include <oneapi/tbb/global_control.h>
+
+#include <catch2/catch.hpp>
+
+#include "core/error.h"
+#include "core/simulation.h"
+#include "support/spec.h"
+#include "support/test_plugins.h"
+
+using namespace ff;
+using ff::test::entry;
+using ff::test::EntryOptions;
+
+namespace {
+RunOptions dry() {
+  RunOptions o;
+  o.dry_run = true;
+  return o;
+}
+double metric(const Simulation& s, const std::string& key) {
+  auto it = s.stats().metrics.find(key);
+  REQUIRE(it != s.stats().metrics.end());
+  return it->second;
+}
+}  // namespace
+
+TEST_CASE("independent stages run concurrently", "[scheduler]") {
+  tbb::global_control threads(tbb::global_control::max_allowed_parallelism, 4);
+  auto r = test::registry_with({}, {"testing"});
+  // start -> {left, right} -> end: left and right have no path between them.
+  auto s = test::spec(2, 64, 0.1, 3, 0.01,
+                      {entry(*r, "testing.record", {}, {"start"}),
+                       entry(*r, "testing.barrier", {{"group", std::int64_t(1)}}, {"left", {"start"}, true}),
+                       entry(*r, "testing.barrier", {{"group", std::int64_t(1)}}, {"right", {"start"}, true}),
+                       entry(*r, "testing.record", {}, {"end", {"left", "right"}, true})});
+  Simulation sim(s, *r, dry());
+  CHECK_FALSE(sim.graph().is_chain());
+  for (int k = 0; k < 3; ++k) {
+    sim.advance();
+    CHECK(metric(sim, "left/overlapped") == 1);
+    CHECK(metric(sim, "right/overlapped") == 1);
+    CHECK(metric(sim, "start/order") < metric(sim, "end/order"));
+  }
+}
+
+TEST_CASE("dependent stages run in declared order", "[scheduler]") {
+  auto r = test::registry_with({}, {"testing"});
+  auto s = test::spec(2, 16, 0.1, 5, 0.01,
+                      {entry(*r, "testing.record", {}, {"a"}), entry(*r, "testing.record", {}, {"b"}),
+                       entry(*r, "testing.record", {}, {"c"})});
+  Simulation sim(s, *r, dry());
+  CHECK(sim.graph().is_chain());
+  for (int k = 0; k < 5; ++k) {
+    sim.advance();
+    CHECK(metric(sim, "a/order") + 1 == metric(sim, "b/order"));
+    CHECK(metric(sim, "b/order") + 1 == metric(sim, "c/order"));
+  }
+}
+
+TEST_CASE("`after:` reorders, and a fork joins before its successor", "[scheduler]") {
+  tbb::global_control threads(tbb::global_control::max_allowed_parallelism, 2);
+  auto r = test::registry_with({}, {"testing"});
+  // c declared last but b waits for it.
+  auto s = test::spec(2, 16, 0.1, 4, 0.01,
+                      {entry(*r, "testing.record", {}, {"a"}),
+                       entry(*r, "testing.record", {}, {"c", {"a"}, true}),
+                       entry(*r, "testing.record", {}, {"b", {"a", "c"}, true})});
+  Simulation sim(s, *r, dry());
+  for (int k = 0; k < 4; ++k) {
+    sim.advance();
+    CHECK(metric(sim, "a/order") < metric(sim, "c/order"));
+    CHECK(metric(sim, "c/order") < metric(sim, "b/order"));
+  }
+}
+
+TEST_CASE("two unordered stages writing the same field are refused", "[scheduler]") {
+  auto r = test::registry_with({}, {"testing"});
+  auto s = test::spec(2, 16, 0.1, 1, 0.01,
+                      {entry(*r, "testing.record", {}, {"a"}),
+                       entry(*r, "testing.record", {{"writes", std::string("position")}}, {"w1", {"a"}, true}),
+                       entry(*r, "testing.record", {{"reads", std::string("position")}}, {"r2", {"a"}, true})});
+  CHECK_THROWS_WITH(Simulation(s, *r, dry()),
+                    Catch::Contains("step 'r2' and step 'w1' both use field 'position' (w1 writes it)") &&
+                        Catch::Contains("add `after: [w1]`"));
+  // Reading the same field from both branches is fine.
+  s.step[1].params.set("writes", std::string());
+  s.step[1].params.set("reads", std::string("position"));
+  CHECK_NOTHROW(Simulation(s, *r, dry()));
+}
+
+TEST_CASE("`every: k` runs a stage only on multiples of k", "[scheduler]") {
+  auto r = test::registry_with({}, {"testing"});
+  auto s = test::spec(2, 16, 0.1, 7, 0.01,
+                      {entry(*r, "testing.record", {}, {"always"}), entry(*r, "testing.record", {}, {"third", {}, false, 3})});
+  Simulation sim(s, *r, dry());
+  int ran_third = 0;
+  for (int k = 0; k < 7; ++k) {
+    sim.advance();
+    ran_third += sim.slots()[1].ran ? 1 : 0;
+    CHECK(sim.slots()[1].ran == (k % 3 == 0));
+  }
+  CHECK(ran_third == 3);  // steps 0, 3, 6
+}
+
+TEST_CASE("a stage that uses a field nobody created is an input error", "[scheduler]") {
+  auto r = test::registry_with({}, {"testing"});
+  auto s = test::spec(2, 16, 0.1, 1, 0.01, {entry(*r, "testing.record", {{"reads", std::string("velocity")}})});
+  CHECK_THROWS_WITH(Simulation(s, *r, dry()), Catch::Contains("uses field 'velocity', which no stage before it created"));
+}
+
+TEST_CASE("seven no-op stages make a chain the scheduler runs in order", "[scheduler]") {
+  auto r = test::registry_with({});
+  std::vector<StepEntry> steps;
+  for (int k = 0; k < 7; ++k) steps.push_back(entry(*r, "core.noop", {}, {"noop" + std::to_string(k)}));
+  auto s = test::spec(2, 16, 0.1, 100, 0.01, steps);
+  Simulation sim(s, *r, dry());
+  for (int k = 0; k < 100; ++k) sim.advance();
+  CHECK(sim.state().step == 100);
+  CHECK(sim.state().time == Approx(1.0));
+  for (auto& slot : sim.slots()) CHECK(slot.calls == 100);
+}

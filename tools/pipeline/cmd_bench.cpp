@@ -1,0 +1,174 @@
+// `pipeline bench`: median time per step (and per stage) over sizes N, as a table and as JSON
+// lines appended to bench/results/<pipeline>.jsonl. Observer stages are left out: this times
+// the compute step. Per-stage times come from a second pass that waits for each stage's device
+// work (on the CPU both passes are the same kind of measurement).
+#include <oneapi/tbb/global_control.h>
+#include <oneapi/tbb/info.h>
+
+#include <algorithm>
+#include <chrono>
+#include <ctime>
+#include <filesystem>
+#include <fstream>
+#include <iomanip>
+#include <iostream>
+#include <map>
+#include <sstream>
+
+#include "core/device.h"
+#include "core/error.h"
+#include "core/simulation.h"
+#include "tools/pipeline/commands.h"
+#include "tools/pipeline/common.h"
+#include "tools/pipeline/options.h"
+
+namespace po = boost::program_options;
+namespace fs = std::filesystem;
+
+namespace ff::cli {
+
+namespace {
+std::vector<std::uint64_t> parse_sizes(const std::string& s) {
+  std::vector<std::uint64_t> out;
+  std::stringstream ss(s);
+  std::string item;
+  while (std::getline(ss, item, ',')) {
+    try {
+      std::size_t used = 0;
+      // Accept 2^18 as well as 262144.
+      if (item.rfind("2^", 0) == 0) out.push_back(std::uint64_t(1) << std::stoi(item.substr(2), &used));
+      else out.push_back(std::stoull(item, &used));
+    } catch (const std::exception&) {
+      throw InputError("--sizes: '" + item + "' is not a size (use e.g. 1024,2^16)");
+    }
+  }
+  return out;
+}
+
+double median(std::vector<double> v) {
+  std::sort(v.begin(), v.end());
+  return v.empty() ? 0 : v.size() % 2 ? v[v.size() / 2] : 0.5 * (v[v.size() / 2 - 1] + v[v.size() / 2]);
+}
+
+struct Result {
+  std::uint64_t n = 0;
+  double median_ms = 0, mean_ms = 0;
+  std::map<std::string, double> stage_ms;       // per stage, profiled pass
+  std::map<std::string, double> metrics_mean;   // per step
+  double rollbacks_per_step = 0;
+};
+
+Result bench_one(const Loaded& loaded, std::uint64_t n, Backend backend, std::uint64_t steps, std::uint64_t warmup) {
+  PipelineSpec spec = loaded.spec;
+  spec.system.N = n;
+  spec.run.steps = warmup + 2 * steps;
+  // Drop observers: this measures the compute step.
+  std::vector<StepEntry> compute;
+  for (auto& e : spec.step)
+    if (!loaded.registry->get(e.stage).decl.observer) compute.push_back(e);
+  spec.step = compute;
+  RunOptions o;
+  o.backend = backend;
+  o.dry_run = true;
+  Simulation sim(spec, *loaded.registry, o);
+  for (std::uint64_t i = 0; i < warmup; ++i) sim.advance();
+  sim.synchronize();
+
+  Result r;
+  r.n = n;
+  std::vector<double> ms;
+  const auto rollbacks0 = sim.stats().rollbacks;
+  std::map<std::string, double> metric_sum;
+  for (std::uint64_t i = 0; i < steps; ++i) {
+    const auto t0 = std::chrono::steady_clock::now();
+    sim.advance();
+    sim.synchronize();
+    ms.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
+    for (auto& kv : sim.stats().metrics) metric_sum[kv.first] += kv.second;
+  }
+  r.median_ms = median(ms);
+  double total = 0;
+  for (double x : ms) total += x;
+  r.mean_ms = total / double(ms.size());
+  r.rollbacks_per_step = double(sim.stats().rollbacks - rollbacks0) / double(steps);
+  for (auto& kv : metric_sum) r.metrics_mean[kv.first] = kv.second / double(steps);
+
+  sim.scheduler().set_profiling(true);
+  sim.scheduler().reset_timers();
+  for (std::uint64_t i = 0; i < steps; ++i) sim.advance();
+  sim.synchronize();
+  for (auto& slot : sim.slots())
+    if (slot.calls) r.stage_ms[slot.info.stage_id] = 1e3 * slot.seconds / double(steps);
+  sim.finish(true);
+  return r;
+}
+
+std::string json_escape(const std::string& s) {
+  std::string o;
+  for (char c : s) o += (c == '"' || c == '\\') ? std::string("\\") + c : std::string(1, c);
+  return o;
+}
+}  // namespace
+
+int cmd_bench(const std::vector<std::string>& args) {
+  CommonOptions common;
+  std::string sizes_arg, results_dir;
+  std::uint64_t steps = 200, warmup = 20;
+  int threads = 0;
+  po::options_description extra;
+  extra.add_options()("sizes", po::value<std::string>(&sizes_arg), "comma-separated N (default: the file's N)")(
+      "steps", po::value<std::uint64_t>(&steps)->default_value(200), "timed steps per size")(
+      "warmup", po::value<std::uint64_t>(&warmup)->default_value(20), "untimed steps first")(
+      "threads", po::value<int>(&threads)->default_value(0), "CPU threads (0 = all cores)")(
+      "results", po::value<std::string>(&results_dir)->default_value("bench/results"), "where JSON lines go");
+  parse_options(args, extra, common);
+  if (steps == 0) throw InputError("--steps must be at least 1");
+  const Backend backend = resolve_backend(common.device);
+  Loaded loaded = load(common.file, common.overrides);
+  std::optional<tbb::global_control> limit;
+  if (threads > 0) limit.emplace(tbb::global_control::max_allowed_parallelism, std::size_t(threads));
+  const int cores = threads > 0 ? threads : tbb::info::default_concurrency();
+  auto sizes = sizes_arg.empty() ? std::vector<std::uint64_t>{loaded.spec.system.N} : parse_sizes(sizes_arg);
+
+  fs::create_directories(results_dir);
+  const std::string stem = fs::path(common.file).stem().string();
+  std::ofstream jsonl(fs::path(results_dir) / (stem + ".jsonl"), std::ios::app);
+  const std::string device = backend == Backend::cuda ? cuda_device_description() : std::to_string(cores) + " CPU threads";
+  const std::time_t now = std::time(nullptr);
+  char date[32];
+  std::strftime(date, sizeof date, "%Y-%m-%dT%H:%M:%SZ", std::gmtime(&now));
+
+  std::cout << "pipeline " << common.file << " on " << to_string(backend) << " (" << device << "), " << steps
+            << " timed steps after " << warmup << " warm-up\n";
+  std::cout << std::left << std::setw(10) << "N" << std::setw(14) << "median ms" << std::setw(14) << "steps/s"
+            << std::setw(16) << "particle-steps/s" << "  per stage (ms)\n";
+  for (auto n : sizes) {
+    Result r = bench_one(loaded, n, backend, steps, warmup);
+    std::ostringstream stages;
+    for (auto& kv : r.stage_ms) stages << " " << kv.first << "=" << std::setprecision(3) << kv.second;
+    std::cout << std::left << std::setw(10) << n << std::setw(14) << std::setprecision(4) << r.median_ms
+              << std::setw(14) << std::setprecision(5) << 1e3 / r.median_ms << std::setw(16) << std::setprecision(4)
+              << double(n) * 1e3 / r.median_ms << " " << stages.str() << "\n";
+    for (auto& kv : r.metrics_mean) std::cout << "            " << kv.first << " per step: " << kv.second << "\n";
+    jsonl << "{\"date\":\"" << date << "\",\"pipeline\":\"" << json_escape(common.file) << "\",\"backend\":\""
+          << to_string(backend) << "\",\"device\":\"" << json_escape(device) << "\",\"N\":" << n
+          << ",\"steps\":" << steps << ",\"median_ms\":" << r.median_ms << ",\"mean_ms\":" << r.mean_ms
+          << ",\"steps_per_s\":" << 1e3 / r.median_ms << ",\"particle_steps_per_s\":" << double(n) * 1e3 / r.median_ms
+          << ",\"rollbacks_per_step\":" << r.rollbacks_per_step << ",\"stage_ms\":{";
+    bool first = true;
+    for (auto& kv : r.stage_ms) {
+      jsonl << (first ? "" : ",") << "\"" << json_escape(kv.first) << "\":" << kv.second;
+      first = false;
+    }
+    jsonl << "},\"metrics_per_step\":{";
+    first = true;
+    for (auto& kv : r.metrics_mean) {
+      jsonl << (first ? "" : ",") << "\"" << json_escape(kv.first) << "\":" << kv.second;
+      first = false;
+    }
+    jsonl << "}}\n";
+  }
+  return 0;
+}
+
+}  // namespace ff::cli

@@ -1,0 +1,43 @@
+#include "tools/pipeline/common.h"
+
+#include <fstream>
+#include <sstream>
+
+#include "core/builtin_stages.h"
+#include "core/plugin_loader.h"
+
+namespace ff::cli {
+
+std::unique_ptr<Registry> make_registry(const std::vector<std::string>& plugins) {
+  auto r = std::make_unique<Registry>();
+  register_builtin_stages(*r);
+  const auto path = plugin_search_path();
+  std::vector<std::string> files = find_stage_libraries(path);
+  for (auto& p : plugins) files.push_back(find_plugin(p, path));
+  load_plugins(files, *r);
+  return r;
+}
+
+std::unique_ptr<Registry> make_full_registry() {
+  auto r = std::make_unique<Registry>();
+  register_builtin_stages(*r);
+  const auto path = plugin_search_path();
+  std::vector<std::string> files = find_stage_libraries(path);
+  for (auto& f : find_model_plugins(path)) files.push_back(f);
+  load_plugins(files, *r);
+  return r;
+}
+
+Loaded load(const std::string& file, const std::vector<std::string>& overrides) {
+  auto doc = PipelineDocument::parse(file, overrides);
+  Loaded l;
+  l.registry = make_registry(doc.plugins());
+  l.spec = doc.resolve(*l.registry);
+  std::ifstream in(file);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  l.text = ss.str();
+  return l;
+}
+
+}  // namespace ff::cli

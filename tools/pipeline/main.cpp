@@ -1,0 +1,51 @@
+// `pipeline`: run, check and inspect flipflow pipelines. Exit codes: 0 ok, 1 the run failed,
+// 2 bad input (file, flags, plugins).
+#include <iostream>
+#include <string>
+#include <vector>
+
+#include "core/error.h"
+#include "tools/pipeline/commands.h"
+
+namespace {
+const char* kUsage =
+    "usage: pipeline <command> [options]\n"
+    "\n"
+    "commands:\n"
+    "  run FILE.yaml [--set key.path=value]... [--device auto|cpu|cuda] [--out DIR] [--force] [--threads N]\n"
+    "  validate FILE.yaml [--set ...]   check without running; print the resolved step graph\n"
+    "  graph FILE.yaml [--set ...]      the step graph in Graphviz DOT\n"
+    "  stages                           every stage the plugins on the search path offer\n"
+    "  describe STAGE                   one stage: parameters, defaults, reads/writes, backends\n"
+    "  bench FILE.yaml [--sizes N,N,...] [--steps S] [--warmup W] [--device ...] [--set ...]\n"
+    "\n"
+    "Plugins are searched in $FLIPFLOW_PLUGIN_PATH, then in ../plugins next to this program.\n";
+}
+
+int main(int argc, char** argv) {
+  if (argc < 2 || std::string(argv[1]) == "--help" || std::string(argv[1]) == "-h" || std::string(argv[1]) == "help") {
+    std::cout << kUsage;
+    return argc < 2 ? 2 : 0;
+  }
+  const std::string command = argv[1];
+  std::vector<std::string> args(argv + 2, argv + argc);
+  try {
+    if (command == "run") return ff::cli::cmd_run(args);
+    if (command == "validate") return ff::cli::cmd_validate(args);
+    if (command == "graph") return ff::cli::cmd_graph(args);
+    if (command == "stages") return ff::cli::cmd_stages(args);
+    if (command == "describe") return ff::cli::cmd_describe(args);
+    if (command == "bench") return ff::cli::cmd_bench(args);
+    std::cerr << "pipeline: unknown command '" << command << "'\n\n" << kUsage;
+    return 2;
+  } catch (const ff::InputError& e) {
+    std::cerr << "error: " << e.what() << "\n";
+    return 2;
+  } catch (const ff::RunError& e) {
+    std::cerr << "run failed: " << e.what() << "\n";
+    return 1;
+  } catch (const std::exception& e) {
+    std::cerr << "run failed: " << e.what() << "\n";
+    return 1;
+  }
+}
