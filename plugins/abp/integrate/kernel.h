@@ -1,0 +1,108 @@
+// Active Brownian Particles, one Euler–Maruyama step per particle (Carter et al. 2017, eq. 10-11):
+//
+//   x  += v0 e(θ) Δt + sqrt(2 D Δt) ξ          e(θ) = (cos θ, sin θ) in 2D
+//   θ  += sqrt(2 D_r Δt) η                     (2D: the orientation field holds θ)
+//
+// In 3D the orientation field holds a unit vector e; it is rotated about the random axis
+// ω = sqrt(2 D_r Δt) η (η a 3-vector of unit Gaussians) by the angle |ω| (Rodrigues), which
+// keeps |e| = 1 and gives <e(t)·e(0)> = exp(-2 D_r t) to first order in Δt, then renormalised
+// so rounding never accumulates. Self-propulsion uses the orientation at the start of the step.
+// The noise is the truncated, variance-corrected Gaussian of core/rng.h; each quantity has its
+// own pair indices (translation: pairs 0-1, rotation: pairs 2-3), so none share numbers.
+#pragma once
+#include <cmath>
+#include <cstdint>
+
+#include "core/box.h"
+#include "core/hd.h"
+#include "core/rng.h"
+
+namespace ff::abp {
+
+constexpr std::uint32_t kTranslationPair = 0;  // pairs 0 (and 1 in 3D)
+constexpr std::uint32_t kRotationPair = 2;     // pairs 2 (and 3 in 3D)
+constexpr double kPi = 3.14159265358979323846;
+
+// θ brought into [-π, π) (keeps float angles precise over long runs).
+template <class R>
+FF_HD R wrap_angle(R theta) {
+  const R two_pi = R(2 * kPi);
+  return theta - two_pi * std::floor((theta + R(kPi)) / two_pi);
+}
+
+template <class R, int D>
+struct AbpStep {
+  R* position;          // N x D
+  std::int32_t* image;  // N x D
+  R* orientation;       // N x 1 (θ) in 2D, N x 3 (unit vector) in 3D
+  PeriodicBox<R> box;
+  R v0_dt;              // v0 Δt
+  R trans_amp;          // sqrt(2 D Δt)
+  R rot_amp;            // sqrt(2 D_r Δt)
+  RngKey key;
+  std::uint64_t step;
+  std::uint32_t attempt;
+
+  FF_HD void operator()(std::size_t i) const {
+    const auto p = std::uint32_t(i);
+    double xi[4], eta[4];
+    gaussians(key, p, step, attempt, kTranslationPair, D, xi);
+    gaussians(key, p, step, attempt, kRotationPair, D == 2 ? 1 : 3, eta);
+    R e[3];
+    if constexpr (D == 2) {
+      const R th = orientation[i];
+      e[0] = std::cos(th);
+      e[1] = std::sin(th);
+      orientation[i] = wrap_angle(th + rot_amp * R(eta[0]));
+    } else {
+      for (int k = 0; k < 3; ++k) e[k] = orientation[i * 3 + k];
+      rotate_3d(e, eta, &orientation[i * 3]);
+    }
+    for (int k = 0; k < D; ++k) {
+      R x = position[i * D + k] + v0_dt * e[k] + trans_amp * R(xi[k]);
+      box.wrap(x, image[i * D + k], k);
+      position[i * D + k] = x;
+    }
+  }
+
+  // out = e rotated about ω = rot_amp·η by |ω|, renormalised.
+  FF_HD void rotate_3d(const R e[3], const double eta[3], R* out) const {
+    R w[3] = {rot_amp * R(eta[0]), rot_amp * R(eta[1]), rot_amp * R(eta[2])};
+    const R angle = std::sqrt(w[0] * w[0] + w[1] * w[1] + w[2] * w[2]);
+    R r[3] = {e[0], e[1], e[2]};
+    if (angle > R(0)) {
+      for (int k = 0; k < 3; ++k) w[k] /= angle;
+      const R c = std::cos(angle), s = std::sin(angle);
+      const R dot = w[0] * e[0] + w[1] * e[1] + w[2] * e[2];
+      const R cross[3] = {w[1] * e[2] - w[2] * e[1], w[2] * e[0] - w[0] * e[2], w[0] * e[1] - w[1] * e[0]};
+      for (int k = 0; k < 3; ++k) r[k] = e[k] * c + cross[k] * s + w[k] * dot * (R(1) - c);
+    }
+    const R inv = R(1) / std::sqrt(r[0] * r[0] + r[1] * r[1] + r[2] * r[2]);
+    for (int k = 0; k < 3; ++k) out[k] = r[k] * inv;
+  }
+};
+
+// Uniformly random initial orientations: θ uniform in [-π, π) in 2D, e uniform on the unit
+// sphere in 3D (z uniform in [-1, 1], azimuth uniform). Keyed by (seed, "abp.orientation").
+template <class R, int D>
+struct RandomOrientation {
+  R* orientation;
+  RngKey key;
+
+  FF_HD void operator()(std::size_t i) const {
+    const auto p = std::uint32_t(i);
+    const double u0 = uniform01(key, p, 0, 0, 0);
+    if constexpr (D == 2) {
+      orientation[i] = wrap_angle(R(2 * kPi * u0 - kPi));
+    } else {
+      const double z = 2 * u0 - 1;
+      const double phi = 2 * kPi * uniform01(key, p, 0, 0, 1);
+      const double rho = std::sqrt(std::fmax(0.0, 1 - z * z));
+      orientation[i * 3 + 0] = R(rho * std::cos(phi));
+      orientation[i * 3 + 1] = R(rho * std::sin(phi));
+      orientation[i * 3 + 2] = R(z);
+    }
+  }
+};
+
+}  // namespace ff::abp

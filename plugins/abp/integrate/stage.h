@@ -1,0 +1,102 @@
+// abp.integrate: Active Brownian Particles (Carter et al. 2017, eq. 10-11), 2D and 3D.
+// Force-free: a `force` or `velocity` field written by other stages is not read.
+#pragma once
+#include <cmath>
+#include <string>
+
+#include "core/error.h"
+#include "core/exec.h"
+#include "core/params.h"
+#include "core/stage.h"
+#include "plugins/abp/integrate/kernel.h"
+
+namespace ff::abp {
+
+inline constexpr const char* kOrientation = "orientation";  // θ (real x1) in 2D, unit vector (real x3) in 3D
+
+struct IntegrateParams {
+  double v0 = 1.0;  // self-propulsion speed
+  double Dr = 1.0;  // rotational diffusion coefficient
+  double D = 0.0;   // translational diffusion coefficient
+
+  static std::vector<ParamSpec> schema() {
+    return {ParamSpec::real("v0", 1.0, "self-propulsion speed (σ/τ)").at_least(0),
+            ParamSpec::real("Dr", 1.0, "rotational diffusion coefficient (1/τ)").at_least(0),
+            ParamSpec::real("D", 0.0, "translational diffusion coefficient (σ²/τ)").at_least(0)};
+  }
+  static IntegrateParams from(const ParamValues& v) { return {v.real("v0"), v.real("Dr"), v.real("D")}; }
+};
+
+template <class R>
+struct IntegrateLoops {
+  ElementLoop<AbpStep<R, 2>> loop2;
+  ElementLoop<AbpStep<R, 3>> loop3;
+};
+
+inline int orientation_components(int dim) { return dim == 2 ? 1 : 3; }
+
+template <class R>
+class Integrate final : public Stage {
+ public:
+  Integrate(IntegrateParams p, std::uint64_t seed, Where where, IntegrateLoops<R> loops)
+      : p_(p), seed_(seed), where_(where), loops_(loops) {}
+
+  std::vector<Access> accesses() const override {
+    return {{fields::position, where_, Mode::readwrite},
+            {fields::image, where_, Mode::readwrite},
+            {kOrientation, where_, Mode::readwrite}};
+  }
+
+  // Adds the orientation field when no one has, and fills it with uniformly random
+  // orientations (keyed by the run's seed, independent of the stage id and backend).
+  void configure(State& s) override {
+    const int comps = orientation_components(s.dim());
+    if (s.has_field(kOrientation)) {
+      const Field& f = s.field(kOrientation);
+      if (f.dtype() != s.real() || f.components() != comps || f.count() != s.n())
+        throw InputError(std::string("abp.integrate: the field 'orientation' exists with ") +
+                         to_string(f.dtype()) + " x" + std::to_string(f.components()) + "; in " +
+                         std::to_string(s.dim()) + "D it must hold " + to_string(s.real()) + " x" +
+                         std::to_string(comps) + (s.dim() == 2 ? " (the angle θ)" : " (a unit vector)"));
+      return;
+    }
+    Field& f = s.add_particle_field(kOrientation, s.real(), comps);
+    f.acquire(Where::host, Mode::write);
+    const RngKey key = make_rng_key(seed_, "abp.orientation");
+    R* o = f.host<R>();
+    for (std::size_t i = 0; i < s.n(); ++i) {
+      if (s.dim() == 2) RandomOrientation<R, 2>{o, key}(i);
+      else RandomOrientation<R, 3>{o, key}(i);
+    }
+  }
+
+  Outcome run(StepContext& ctx) override {
+    State& s = ctx.state;
+    const bool dev = where_ == Where::device;
+    Field& pos = s.field(fields::position);
+    Field& img = s.field(fields::image);
+    Field& ori = s.field(kOrientation);
+    R* x = dev ? pos.device<R>() : pos.host<R>();
+    std::int32_t* im = dev ? img.device<std::int32_t>() : img.host<std::int32_t>();
+    R* o = dev ? ori.device<R>() : ori.host<R>();
+    const auto box = PeriodicBox<R>::make(s.box.L);
+    const R v0_dt = R(p_.v0 * ctx.dt);
+    const R trans = R(std::sqrt(2.0 * p_.D * ctx.dt));
+    const R rot = R(std::sqrt(2.0 * p_.Dr * ctx.dt));
+    if (s.dim() == 2)
+      loops_.loop2(s.n(), AbpStep<R, 2>{x, im, o, box, v0_dt, trans, rot, ctx.rng, ctx.step, ctx.attempt},
+                   ctx.stream);
+    else
+      loops_.loop3(s.n(), AbpStep<R, 3>{x, im, o, box, v0_dt, trans, rot, ctx.rng, ctx.step, ctx.attempt},
+                   ctx.stream);
+    return Outcome::ok();
+  }
+
+ private:
+  IntegrateParams p_;
+  std::uint64_t seed_;
+  Where where_;
+  IntegrateLoops<R> loops_;
+};
+
+}  // namespace ff::abp

@@ -1,0 +1,115 @@
+// Phoretic pair velocities (Carter et al. 2017, eq. 2-3), physics written once for both backends:
+//
+//   v_i = μ_{t_i} Σ_{k≠i} α_{t_k} f(d_ik),   d_ik = minimum image of r_i - r_k
+//   long range:  f(d) = d / |d|^3  over all pairs (exact O(N²))
+//   short range: f(d) = d / |d|^7  for |d| ≤ cutoff, through the Verlet list
+//
+// Each particle sums its own terms in ascending k (the Verlet rows are sorted by index), in the
+// precision of the run, so the sum is deterministic and the same on every backend and for any
+// tiling: the CPU blocked loop and the GPU warp-shuffle tiles only change where data comes from.
+#pragma once
+#include <cmath>
+#include <cstdint>
+
+#include "core/box.h"
+#include "core/hd.h"
+
+namespace ff::phoretic {
+
+constexpr int kMaxTypes = 16;
+
+// Charges per particle type, passed by value into kernels.
+template <class R>
+struct Charges {
+  R alpha[kMaxTypes];
+  R mu[kMaxTypes];
+};
+
+// acc += α_k d / |d|^3 (skips coincident points, whose term is undefined).
+template <class R, int D>
+FF_HD void add_long_range(R* acc, const R* xi, const R* xk, R alpha_k, const PeriodicBox<R>& box) {
+  R d[D];
+  R r2 = 0;
+  for (int c = 0; c < D; ++c) {
+    d[c] = box.min_image(xi[c] - xk[c], c);
+    r2 += d[c] * d[c];
+  }
+  if (r2 > R(0)) {
+    const R inv_r = R(1) / std::sqrt(r2);
+    const R s = alpha_k * inv_r * inv_r * inv_r;
+    for (int c = 0; c < D; ++c) acc[c] += s * d[c];
+  }
+}
+
+// acc += α_k d / |d|^7 for 0 < |d| ≤ cutoff.
+template <class R, int D>
+FF_HD void add_short_range(R* acc, const R* xi, const R* xk, R alpha_k, const PeriodicBox<R>& box, R cutoff2) {
+  R d[D];
+  R r2 = 0;
+  for (int c = 0; c < D; ++c) {
+    d[c] = box.min_image(xi[c] - xk[c], c);
+    r2 += d[c] * d[c];
+  }
+  if (r2 > R(0) && r2 <= cutoff2) {
+    const R inv_r = R(1) / std::sqrt(r2);
+    const R inv_r2 = inv_r * inv_r;
+    const R s = alpha_k * inv_r2 * inv_r2 * inv_r2 * inv_r;
+    for (int c = 0; c < D; ++c) acc[c] += s * d[c];
+  }
+}
+
+// All pairs. operator()(i) is the plain form (one particle against all, ascending k); the
+// backends' tiled loops use load/add/store and keep the same order of additions.
+template <class R, int D>
+struct LongRangeVelocity {
+  const R* position;
+  const std::int32_t* type;
+  R* velocity;
+  Charges<R> q;
+  PeriodicBox<R> box;
+  std::size_t n;
+
+  FF_HD R alpha_of(std::size_t k) const { return q.alpha[type[k]]; }
+  FF_HD void add(R* acc, const R* xi, const R* xk, R alpha_k) const {
+    add_long_range<R, D>(acc, xi, xk, alpha_k, box);
+  }
+  FF_HD void store(std::size_t i, const R* acc) const {
+    const R mu = q.mu[type[i]];
+    for (int c = 0; c < D; ++c) velocity[i * D + c] = mu * acc[c];
+  }
+  FF_HD void operator()(std::size_t i) const {
+    R acc[D] = {};
+    for (std::size_t k = 0; k < n; ++k)
+      if (k != i) add(acc, &position[i * D], &position[k * D], alpha_of(k));
+    store(i, acc);
+  }
+};
+
+// Short range through the Verlet list of neighbors.verlet (stages/neighbors/list.h).
+template <class R, int D>
+struct ShortRangeVelocity {
+  const R* position;
+  const std::int32_t* type;
+  R* velocity;
+  Charges<R> q;
+  PeriodicBox<R> box;
+  const std::uint32_t* list;  // N x capacity, rows ascending
+  const std::uint32_t* count;
+  std::uint32_t capacity;
+  R cutoff2;
+
+  FF_HD void operator()(std::size_t i) const {
+    R acc[D] = {};
+    const R* xi = &position[i * D];
+    const std::uint32_t* row = &list[i * capacity];
+    const std::uint32_t m = count[i];
+    for (std::uint32_t a = 0; a < m; ++a) {
+      const std::uint32_t k = row[a];
+      add_short_range<R, D>(acc, xi, &position[std::size_t(k) * D], q.alpha[type[k]], box, cutoff2);
+    }
+    const R mu = q.mu[type[i]];
+    for (int c = 0; c < D; ++c) velocity[i * D + c] = mu * acc[c];
+  }
+};
+
+}  // namespace ff::phoretic

@@ -1,0 +1,149 @@
+// phoretic.forces: pair velocities v_i = Σ_k μ_i α_k f(r_i - r_k) into the `velocity` field.
+// range: long  -> f = r/r³, all pairs, exact O(N²) with minimum image
+// range: short -> f = r/r⁷ up to `cutoff`, through the list of a neighbors.verlet stage before it
+#pragma once
+#include <algorithm>
+#include <string>
+
+#include "core/error.h"
+#include "core/exec.h"
+#include "core/params.h"
+#include "core/stage.h"
+#include "plugins/phoretic/forces/kernel.h"
+#include "stages/neighbors/list.h"
+
+namespace ff::phoretic {
+
+inline constexpr const char* kVelocity = "velocity";  // real x dim, velocity units
+
+struct ForcesParams {
+  bool long_range = true;
+  std::vector<double> alpha;  // per type: emitted charge
+  std::vector<double> mu;     // per type: response
+  double cutoff = 2.5;        // short range only
+
+  static std::vector<ParamSpec> schema() {
+    ParamSpec alpha, mu;
+    alpha.name = "alpha";
+    alpha.type = ParamType::real_list;
+    alpha.doc = "charge α per particle type (creates the field), indexed like system.types";
+    mu.name = "mu";
+    mu.type = ParamType::real_list;
+    mu.doc = "charge μ per particle type (responds to the field), indexed like system.types";
+    return {ParamSpec::string("range", std::string("long"),
+                              "long: f = r/r³ summed over all pairs; short: f = r/r⁷ cut at `cutoff`, "
+                              "through the Verlet list of a neighbors.verlet stage before this one")
+                .one_of({"long", "short"}),
+            alpha, mu,
+            ParamSpec::real("cutoff", 2.5, "short range cutoff (σ); must not exceed neighbors.verlet's cutoff")
+                .above(0)};
+  }
+  static ForcesParams from(const ParamValues& v) {
+    return {v.string("range") == "long", v.reals("alpha"), v.reals("mu"), v.real("cutoff")};
+  }
+};
+
+template <class R, int D>
+using LongRangeLoop = void (*)(const LongRangeVelocity<R, D>& f, CUstream_st* stream);
+
+template <class R>
+struct ForcesLoops {
+  LongRangeLoop<R, 2> long2;
+  LongRangeLoop<R, 3> long3;
+  ElementLoop<ShortRangeVelocity<R, 2>> short2;
+  ElementLoop<ShortRangeVelocity<R, 3>> short3;
+};
+
+template <class R>
+class Forces final : public Stage {
+ public:
+  Forces(ForcesParams p, Where where, ForcesLoops<R> loops) : p_(std::move(p)), where_(where), loops_(loops) {
+    if (p_.alpha.size() != p_.mu.size())
+      throw InputError("phoretic.forces: alpha has " + std::to_string(p_.alpha.size()) + " entries and mu has " +
+                       std::to_string(p_.mu.size()) + "; give one of each per particle type");
+    if (p_.alpha.empty() || p_.alpha.size() > std::size_t(kMaxTypes))
+      throw InputError("phoretic.forces: alpha and mu need between 1 and " + std::to_string(kMaxTypes) +
+                       " entries (one per particle type)");
+    for (std::size_t t = 0; t < p_.alpha.size(); ++t) {
+      q_.alpha[t] = R(p_.alpha[t]);
+      q_.mu[t] = R(p_.mu[t]);
+    }
+  }
+
+  std::vector<Access> accesses() const override {
+    std::vector<Access> a{{fields::position, where_, Mode::read},
+                          {fields::type, where_, Mode::read},
+                          {kVelocity, where_, Mode::write}};
+    if (!p_.long_range) {
+      a.push_back({neighbors::kList, where_, Mode::read});
+      a.push_back({neighbors::kCount, where_, Mode::read});
+    }
+    return a;
+  }
+
+  void configure(State& s) override {
+    // Every particle's type must have charges.
+    Field& type = s.field(fields::type);
+    type.acquire(Where::host, Mode::read);
+    std::size_t types = s.species.size();
+    const std::int32_t* t = type.host<std::int32_t>();
+    for (std::size_t i = 0; i < s.n(); ++i) {
+      if (t[i] < 0) throw InputError("phoretic.forces: particle " + std::to_string(i) + " has a negative type");
+      types = std::max(types, std::size_t(t[i]) + 1);
+    }
+    if (types > p_.alpha.size())
+      throw InputError("phoretic.forces: the system has " + std::to_string(types) + " particle types but alpha/mu give " +
+                       std::to_string(p_.alpha.size()) + "; give one α and one μ per type");
+    if (!p_.long_range) {
+      if (!s.has_field(neighbors::kList) || !s.has_field(neighbors::kCutoff))
+        throw InputError("phoretic.forces: range: short needs a neighbors.verlet stage earlier in the step list");
+      Field& c = s.field(neighbors::kCutoff);
+      c.acquire(Where::host, Mode::read);
+      const double listed = double(c.host<R>()[0]);
+      if (p_.cutoff > listed * (1 + 1e-12))
+        throw InputError("phoretic.forces: cutoff " + std::to_string(p_.cutoff) +
+                         " exceeds the neighbors.verlet cutoff " + std::to_string(listed) +
+                         "; pairs in between would be missed: raise neighbors.verlet's cutoff");
+    }
+    s.add_particle_field(kVelocity, s.real(), s.dim());
+  }
+
+  Outcome run(StepContext& ctx) override {
+    State& s = ctx.state;
+    if (s.dim() == 2) run_d<2>(ctx);
+    else run_d<3>(ctx);
+    return Outcome::ok();
+  }
+
+ private:
+  template <class T>
+  T* ptr(Field& f) const { return where_ == Where::device ? f.device<T>() : f.host<T>(); }
+
+  template <int D>
+  void run_d(StepContext& ctx) {
+    State& s = ctx.state;
+    const R* x = ptr<R>(s.field(fields::position));
+    const std::int32_t* type = ptr<std::int32_t>(s.field(fields::type));
+    R* v = ptr<R>(s.field(kVelocity));
+    const auto box = PeriodicBox<R>::make(s.box.L);
+    if (p_.long_range) {
+      const LongRangeVelocity<R, D> f{x, type, v, q_, box, s.n()};
+      if constexpr (D == 2) loops_.long2(f, ctx.stream);
+      else loops_.long3(f, ctx.stream);
+    } else {
+      const ShortRangeVelocity<R, D> f{x, type, v, q_, box,
+                                       ptr<std::uint32_t>(s.field(neighbors::kList)),
+                                       ptr<std::uint32_t>(s.field(neighbors::kCount)),
+                                       neighbors::list_capacity(s), R(p_.cutoff * p_.cutoff)};
+      if constexpr (D == 2) loops_.short2(s.n(), f, ctx.stream);
+      else loops_.short3(s.n(), f, ctx.stream);
+    }
+  }
+
+  ForcesParams p_;
+  Where where_;
+  ForcesLoops<R> loops_;
+  Charges<R> q_{};
+};
+
+}  // namespace ff::phoretic

@@ -1,0 +1,35 @@
+// Euler–Maruyama step of Carter et al. 2017, eq. 1: x += v Δt + sqrt(2 D Δt) ξ, with v the
+// pair velocity from phoretic.forces and ξ truncated unit Gaussians (core/rng.h), then wrap.
+#pragma once
+#include <cstdint>
+
+#include "core/box.h"
+#include "core/hd.h"
+#include "core/rng.h"
+
+namespace ff::phoretic {
+
+template <class R, int D>
+struct PhoreticStep {
+  R* position;          // N x D
+  std::int32_t* image;  // N x D
+  const R* velocity;    // N x D
+  PeriodicBox<R> box;
+  R dt;
+  R amplitude;          // sqrt(2 D Δt)
+  RngKey key;
+  std::uint64_t step;
+  std::uint32_t attempt;
+
+  FF_HD void operator()(std::size_t i) const {
+    double z[4];
+    gaussians(key, std::uint32_t(i), step, attempt, 0, D, z);
+    for (int k = 0; k < D; ++k) {
+      R x = position[i * D + k] + velocity[i * D + k] * dt + amplitude * R(z[k]);
+      box.wrap(x, image[i * D + k], k);
+      position[i * D + k] = x;
+    }
+  }
+};
+
+}  // namespace ff::phoretic
