@@ -3,6 +3,7 @@
 #include <iostream>
 
 #include "core/device.h"
+#include "core/error.h"
 #include "core/simulation.h"
 #include "core/state.h"
 #include "tools/pipeline/commands.h"
