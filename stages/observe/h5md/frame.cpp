@@ -1,0 +1,17 @@
+#include "stages/observe/h5md/frame.h"
+
+namespace ff::observe {
+
+void write_frame(H5mdWriter& w, const Frame& f) {
+  for (const FieldFrame& field : f.fields) {
+    if (field.connectivity)
+      w.append_connectivity(field.name, f.step, f.time, reinterpret_cast<const std::int32_t*>(field.bytes.data()),
+                            field.count);
+    else
+      w.append_particle_element(field.name, f.step, f.time, field.bytes.data());
+  }
+  for (const auto& [name, value] : f.observables) w.append_observable(name, f.step, f.time, value);
+  w.flush();
+}
+
+}  // namespace ff::observe

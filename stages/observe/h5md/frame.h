@@ -1,0 +1,30 @@
+// One output frame copied out of the state: what observe.h5md hands its writer thread.
+#pragma once
+#include <cstddef>
+#include <cstdint>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "core/h5md_writer.h"
+
+namespace ff::observe {
+
+struct FieldFrame {
+  std::string name;           // element name (the field's name)
+  bool connectivity = false;  // true: /connectivity/<name> (triangles); false: /particles/all/<name>
+  std::size_t count = 0;      // elements this frame (triangles for connectivity)
+  std::vector<unsigned char> bytes;
+};
+
+struct Frame {
+  std::int64_t step = 0;
+  double time = 0;
+  std::vector<FieldFrame> fields;
+  std::vector<std::pair<std::string, double>> observables;
+};
+
+// Append every field and observable of `f` to `w`, then flush (a killed run keeps this frame).
+void write_frame(H5mdWriter& w, const Frame& f);
+
+}  // namespace ff::observe

@@ -1,0 +1,135 @@
+#include "stages/observe/h5md/stage.h"
+
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <set>
+#include <sstream>
+
+#include "core/error.h"
+
+namespace ff::observe {
+
+namespace {
+
+bool is_triangle_list(const Field& f) { return f.dtype() == DType::i32 && f.components() == 3; }
+
+std::string writable_fields(const State& s) {
+  std::string out;
+  for (auto& name : s.field_names()) {
+    const Field& f = s.field(name);
+    if (f.count() == s.n() || is_triangle_list(f)) out += (out.empty() ? "" : ", ") + name;
+  }
+  return out;
+}
+
+std::string read_text(const std::string& file) {
+  std::ifstream in(file, std::ios::binary);
+  if (!in) throw RunError("observe.h5md: cannot read the pipeline file '" + file + "' to record it in the output");
+  std::ostringstream os;
+  os << in.rdbuf();
+  return os.str();
+}
+
+}  // namespace
+
+std::vector<Access> H5mdObserver::accesses() const {
+  std::vector<Access> a;
+  for (auto& name : p_.fields) a.push_back({name, Where::host, Mode::read});
+  a.push_back({fields::type, Where::host, Mode::read});  // /particles/all/species
+  return a;
+}
+
+void H5mdObserver::configure(State& state) {
+  connectivity_.clear();
+  std::set<std::string> seen;
+  for (auto& name : p_.fields) {
+    if (!seen.insert(name).second) throw InputError("observe.h5md: field '" + name + "' is listed twice in `fields`");
+    if (!state.has_field(name))
+      throw InputError("observe.h5md: there is no field '" + name + "' to write; fields available: " +
+                       writable_fields(state));
+    const Field& f = state.field(name);
+    if (f.count() != state.n() && !is_triangle_list(f))
+      throw InputError("observe.h5md: field '" + name + "' has " + std::to_string(f.count()) +
+                       " elements, neither one per particle (" + std::to_string(state.n()) +
+                       ") nor a triangle list (3 x i32); fields available: " + writable_fields(state));
+    connectivity_.push_back(f.count() != state.n());
+  }
+}
+
+std::string H5mdObserver::path() const { return (std::filesystem::path(info_.out_dir) / p_.file).string(); }
+
+void H5mdObserver::open(const State& state) {
+  H5mdHeader h;
+  h.dim = state.dim();
+  for (int k = 0; k < 3; ++k) h.edges[k] = state.box.L[k];
+  if (!info_.pipeline_file.empty()) h.pipeline_text = read_text(info_.pipeline_file);
+  h.run_attributes = {{"pipeline_file", info_.pipeline_file},
+                      {"precision", to_string(state.precision())},
+                      {"backend", to_string(info_.backend)},
+                      {"seed", std::to_string(info_.seed)},
+                      {"steps", std::to_string(info_.steps)},
+                      {"dt", [&] { std::ostringstream os; os.precision(17); os << info_.dt; return os.str(); }()},
+                      {"stage_id", info_.stage_id}};
+  auto w = std::make_unique<H5mdWriter>(path(), h);
+  w->write_species(state.field(fields::type).host<std::int32_t>(), state.n(), state.species);
+  for (std::size_t i = 0; i < p_.fields.size(); ++i) {
+    if (connectivity_[i]) continue;  // created with its first frame
+    const Field& f = state.field(p_.fields[i]);
+    w->add_particle_element(f.name(), f.dtype(), f.count(), f.components());
+  }
+  writer_ = std::make_unique<AsyncFrameWriter>(std::move(w), queue_depth);
+}
+
+void H5mdObserver::copy_frame(const StepContext& ctx, Frame& frame) const {
+  // Observers run on an accepted state: ctx.step and ctx.time are its clock (0 = the start).
+  frame.step = std::int64_t(ctx.step);
+  frame.time = ctx.time;
+  frame.fields.resize(p_.fields.size());
+  for (std::size_t i = 0; i < p_.fields.size(); ++i) {
+    Field& f = ctx.state.field(p_.fields[i]);
+    FieldFrame& out = frame.fields[i];
+    out.name = f.name();
+    out.connectivity = connectivity_[i];
+    out.count = f.count();
+    if (!out.connectivity && out.count != ctx.state.n())
+      throw RunError("observe.h5md: field '" + out.name + "' was written per particle but now has " +
+                     std::to_string(out.count) + " elements");
+    out.bytes.resize(f.bytes());
+    if (f.bytes()) std::memcpy(out.bytes.data(), f.host_raw(), f.bytes());
+  }
+  frame.observables.clear();
+  if (!p_.observables) return;
+  frame.observables.emplace_back("dt", ctx.stats.dt);
+  frame.observables.emplace_back("rollbacks", double(ctx.stats.rollbacks));
+  for (auto& [name, value] : ctx.stats.metrics) frame.observables.emplace_back(name, value);
+}
+
+Outcome H5mdObserver::run(StepContext& ctx) {
+  if (!writer_) open(ctx.state);
+  Frame frame = writer_->take();
+  copy_frame(ctx, frame);
+  writer_->submit(std::move(frame));
+  return Outcome::ok();
+}
+
+void H5mdObserver::drain() {
+  if (writer_) writer_->drain();
+}
+
+void H5mdObserver::finish(State& state, bool completed) {
+  if (finished_) return;
+  finished_ = true;
+  if (!writer_ && !completed) return;  // nothing was written
+  if (!writer_) open(state);           // a completed run leaves its file, even without frames
+  std::unique_ptr<AsyncFrameWriter> w = std::move(writer_);
+  try {
+    w->close(completed);
+  } catch (const std::exception& e) {
+    if (completed) throw;
+    std::fprintf(stderr, "flipflow: observe.h5md: %s\n", e.what());  // the run already failed
+  }
+}
+
+}  // namespace ff::observe

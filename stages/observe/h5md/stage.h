@@ -1,0 +1,63 @@
+// observe.h5md: writes chosen fields and the run's observables to an H5MD file
+// (core/h5md_writer.h has the layout). run() copies the frame into a recycled host buffer and
+// hands it to a writer thread, so the following steps compute while HDF5 writes; finish()
+// drains the queue and closes (renaming the .partial when the run completed).
+//
+// A field with one element per particle is written under /particles/all/<name>; any other
+// field must be a triangle list (3 x i32 per element) and goes under /connectivity/<name>.
+#pragma once
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "core/params.h"
+#include "core/stage.h"
+#include "stages/observe/h5md/async_writer.h"
+
+namespace ff::observe {
+
+struct H5mdParams {
+  std::string file = "trajectory.h5";
+  std::vector<std::string> fields{"position", "image"};
+  bool observables = true;
+
+  static std::vector<ParamSpec> schema() {
+    return {ParamSpec::string("file", std::string("trajectory.h5"), "output file, relative to the run's output directory"),
+            ParamSpec::strings("fields", {"position", "image"},
+                               "state fields to write each frame (per-particle fields, or triangle lists)"),
+            ParamSpec::boolean("observables", true, "write Δt, rollbacks and every stage metric under /observables")};
+  }
+  static H5mdParams from(const ParamValues& v) {
+    return H5mdParams{v.string("file"), v.strings("fields"), v.boolean("observables")};
+  }
+};
+
+class H5mdObserver final : public Stage {
+ public:
+  static constexpr std::size_t queue_depth = 2;  // frames waiting for the writer thread
+
+  H5mdObserver(H5mdParams p, RunInfo info) : p_(std::move(p)), info_(std::move(info)) {}
+
+  std::vector<Access> accesses() const override;
+  void configure(State& state) override;
+  Outcome run(StepContext& ctx) override;
+  void finish(State& state, bool completed) override;
+  std::vector<std::string> outputs() const override { return {p_.file}; }
+
+  // Block until every frame handed to the writer thread is on disk (finish() does this too).
+  void drain();
+  // Where the file goes: the run's output directory joined with `file`.
+  std::string path() const;
+
+ private:
+  void open(const State& state);
+  void copy_frame(const StepContext& ctx, Frame& frame) const;
+
+  H5mdParams p_;
+  RunInfo info_;
+  std::vector<bool> connectivity_;  // per entry of p_.fields
+  std::unique_ptr<AsyncFrameWriter> writer_;
+  bool finished_ = false;
+};
+
+}  // namespace ff::observe

@@ -1,0 +1,66 @@
+// observe.progress: a progress report every time it runs (the pipeline's `every: k`): step,
+// simulated time, Δt, steps/s, ETA and rollbacks. On a terminal one line updates in place (at
+// most ten times a second); otherwise a plain line at most every `interval` seconds, so logs
+// stay quiet. finish() prints one closing line.
+#pragma once
+#include <chrono>
+#include <cstdint>
+#include <cstdio>
+#include <string>
+
+#include "core/params.h"
+#include "core/stage.h"
+
+namespace ff::observe {
+
+struct ProgressParams {
+  double interval = 10;  // seconds between lines when the output is not a terminal
+
+  static std::vector<ParamSpec> schema() {
+    return {ParamSpec::real("interval", 10.0, "seconds between progress lines when stderr is not a terminal")
+                .at_least(0)};
+  }
+  static ProgressParams from(const ParamValues& v) { return ProgressParams{v.real("interval")}; }
+};
+
+struct ProgressLine {
+  std::uint64_t step = 0;   // steps done
+  std::uint64_t steps = 0;  // steps the run will take
+  double time = 0;          // simulated time
+  double dt = 0;
+  double rate = 0;          // steps per wall-clock second (0: not known yet)
+  std::uint64_t rollbacks = 0;
+};
+
+// "step 1200/10000 (12.0%)  t 12  Δt 0.01  850 steps/s  ETA 0:00:10  rollbacks 3"
+std::string format_progress(const ProgressLine& p);
+// "1:02:03"; "--:--" when unknown (negative or not finite).
+std::string format_duration(double seconds);
+
+class Progress final : public Stage {
+ public:
+  // `out` is where lines go (stderr in a run; tests pass a file).
+  Progress(ProgressParams p, RunInfo info, std::FILE* out = stderr);
+
+  std::vector<Access> accesses() const override { return {}; }
+  Outcome run(StepContext& ctx) override;
+  void finish(State& state, bool completed) override;
+
+ private:
+  using Clock = std::chrono::steady_clock;
+  double seconds_since_start(Clock::time_point now) const {
+    return std::chrono::duration<double>(now - start_).count();
+  }
+
+  ProgressParams p_;
+  RunInfo info_;
+  std::FILE* out_;
+  bool tty_;
+  bool started_ = false;
+  bool line_open_ = false;  // a terminal line was printed without its newline
+  std::uint64_t first_step_ = 0;
+  Clock::time_point start_, last_print_;
+  ProgressLine last_;
+};
+
+}  // namespace ff::observe

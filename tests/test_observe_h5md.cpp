@@ -1,0 +1,426 @@
+// The observe stages driven alone on hand-made states: observe.h5md (layout, values, float and
+// double files, the .partial of a killed or failed run), observe.msd (a hand-computed value,
+// thread-count determinism, written through observe.h5md) and observe.progress (log lines).
+// Files are checked with h5py: /usr/bin/python3 runs a script and must exit 0.
+#include <oneapi/tbb/global_control.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <catch2/catch.hpp>
+#include <csignal>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+
+#include "core/error.h"
+#include "core/h5md_writer.h"
+#include "core/state.h"
+#include "stages/observe/h5md/stage.h"
+#include "stages/observe/msd/stage.h"
+#include "stages/observe/progress/stage.h"
+
+using namespace ff;
+namespace fs = std::filesystem;
+
+namespace {
+
+// A scratch directory, removed afterwards.
+struct TempDir {
+  fs::path path;
+  explicit TempDir(const std::string& name)
+      : path(fs::temp_directory_path() / ("ff_observe_" + std::to_string(getpid()) + "_" + name)) {
+    fs::remove_all(path);
+    fs::create_directories(path);
+  }
+  ~TempDir() { fs::remove_all(path); }
+  std::string operator/(const std::string& f) const { return (path / f).string(); }
+};
+
+// Runs `script` with /usr/bin/python3 (numpy, h5py) and the given arguments; its exit status.
+int python(const TempDir& dir, const std::string& script, const std::string& args) {
+  const std::string file = dir / "check.py";
+  std::ofstream(file) << "import sys\nimport numpy as np\nimport h5py\n" << script;
+  std::fflush(nullptr);
+  const int rc = std::system(("/usr/bin/python3 '" + file + "' " + args).c_str());
+  return WIFEXITED(rc) ? WEXITSTATUS(rc) : -1;
+}
+
+// What the core hands an observer: the accepted state's clock, its stats, a metrics slot.
+struct Observe {
+  RunInfo info;
+  RunStats stats;
+  Metrics metrics;
+
+  void operator()(Stage& stage, State& s, std::uint64_t step, double time) {
+    metrics.clear();
+    StepContext ctx{s, info, stats, step, 0, stats.dt, time, Backend::cpu, nullptr, RngKey{}, metrics};
+    REQUIRE_FALSE(stage.run(ctx).rollback);
+  }
+};
+
+// Five disks in an 8 x 8 box; frame f has exactly representable values (checked in Python):
+// position = 0.5 + 1.25 i + 0.125 f + 0.5 k, image = f (i - 2) + k, charge = 0.5 i + f,
+// triangles (3 x i32, 7 of them, 6 in frame 2) = (j + f, j + 1, j + 2) mod 5 for row j.
+constexpr std::size_t kN = 5;
+
+template <class R>
+void fill_frame(State& s, int f) {
+  R* x = s.field(fields::position).host<R>();
+  std::int32_t* im = s.field(fields::image).host<std::int32_t>();
+  for (std::size_t i = 0; i < kN; ++i)
+    for (int k = 0; k < 2; ++k) {
+      x[i * 2 + k] = R(0.5 + 1.25 * double(i) + 0.125 * f + 0.5 * k);
+      im[i * 2 + k] = f * (int(i) - 2) + k;
+    }
+  double* q = s.field("charge").host<double>();
+  for (std::size_t i = 0; i < kN; ++i) q[i] = 0.5 * double(i) + f;
+  Field& tri = s.field("triangles");
+  tri.resize(f == 2 ? 6 : 7);
+  std::int32_t* t = tri.host<std::int32_t>();
+  for (std::size_t j = 0; j < tri.count(); ++j) {
+    t[j * 3 + 0] = std::int32_t((j + std::size_t(f)) % kN);
+    t[j * 3 + 1] = std::int32_t((j + 1) % kN);
+    t[j * 3 + 2] = std::int32_t((j + 2) % kN);
+  }
+}
+
+std::unique_ptr<State> make_state(Precision p) {
+  auto s = std::make_unique<State>(2, p, kN);
+  s->box.L[0] = s->box.L[1] = 8.0;
+  s->species = {"A", "B"};
+  std::int32_t* type = s->field(fields::type).host<std::int32_t>();
+  for (std::size_t i = 0; i < kN; ++i) type[i] = std::int32_t(i % 2);
+  s->add_particle_field("charge", DType::f64, 1);
+  s->add_field("triangles", DType::i32, 3, 7);
+  return s;
+}
+
+std::unique_ptr<observe::H5mdObserver> make_h5md(const std::string& out_dir, std::vector<std::string> fields,
+                                                 const std::string& pipeline_file = "") {
+  RunInfo info;
+  info.out_dir = out_dir;
+  info.pipeline_file = pipeline_file;
+  info.stage_id = "observe.h5md";
+  info.steps = 20;
+  info.dt = 0.01;
+  observe::H5mdParams p = observe::H5mdParams::from(ParamValues::defaults(observe::H5mdParams::schema()));
+  p.fields = std::move(fields);
+  return std::make_unique<observe::H5mdObserver>(p, info);
+}
+
+// Observes frames 0, 1, 2 at steps 0, 10, 20 (times 0, 0.125, 0.25), with rollbacks 0, 1, 3,
+// the metric integrate/flips = 2.5 f and, from frame 2 on only, overlap/iterations = 7.
+template <class R>
+void observe_three_frames(Stage& stage, State& s, Observe& obs) {
+  const std::uint32_t rollbacks[3] = {0, 1, 3};
+  obs.stats.dt = 0.01;
+  for (int f = 0; f < 3; ++f) {
+    fill_frame<R>(s, f);
+    obs.stats.rollbacks = rollbacks[f];
+    obs.stats.metrics["integrate/flips"] = 2.5 * f;
+    if (f == 2) obs.stats.metrics["overlap/iterations"] = 7;
+    obs(stage, s, std::uint64_t(10 * f), 0.125 * f);
+  }
+}
+
+// Checks positions/images/steps/times of the three frames (argv: file, numpy dtype, frames).
+const char* kCheckFrames = R"PY(
+f = h5py.File(sys.argv[1], "r")
+N, F = 5, int(sys.argv[3])
+i = np.arange(N)[:, None]; k = np.arange(2)[None, :]
+pos = f["particles/all/position"]
+assert pos["value"].shape == (F, N, 2), pos["value"].shape
+assert pos["value"].dtype == np.dtype(sys.argv[2]), pos["value"].dtype
+assert list(pos["step"][()]) == [0, 10, 20][:F], pos["step"][()]
+assert pos["step"].dtype == np.int64
+assert list(pos["time"][()]) == [0.0, 0.125, 0.25][:F], pos["time"][()]
+img = f["particles/all/image"]
+assert img["value"].dtype == np.int32 and img["value"].shape == (F, N, 2)
+for fr in range(F):
+    assert np.array_equal(pos["value"][fr], 0.5 + 1.25 * i + 0.125 * fr + 0.5 * k), (fr, pos["value"][fr])
+    assert np.array_equal(img["value"][fr], fr * (i - 2) + k), (fr, img["value"][fr])
+)PY";
+
+const char* kCheckLayout = R"PY(
+f = h5py.File(sys.argv[1], "r")
+N, F = 5, 3
+assert list(f["h5md"].attrs["version"]) == [1, 1]
+assert f["h5md/creator"].attrs["name"] == b"flipflow"
+assert len(f["h5md/creator"].attrs["version"]) > 0 and len(f["h5md/author"].attrs["name"]) > 0
+box = f["particles/all/box"]
+assert box.attrs["dimension"] == 2
+assert list(box.attrs["boundary"]) == [b"periodic", b"periodic"], box.attrs["boundary"]
+assert list(box["edges"][()]) == [8.0, 8.0]
+sp = f["particles/all/species"]
+assert sp.dtype == np.int32 and list(sp[()]) == [0, 1, 0, 1, 0], sp[()]
+assert list(sp.attrs["names"]) == [b"A", b"B"]
+q = f["particles/all/charge/value"]
+assert q.shape == (F, N) and q.dtype == np.float64
+assert np.array_equal(q[2], 0.5 * np.arange(N) + 2)
+tri = f["connectivity/triangles"]
+assert tri["value"].shape == (F, 7, 3) and tri["value"].dtype == np.int32, tri["value"].shape
+assert f[tri.attrs["particles_group"]].name == "/particles/all"
+j = np.arange(7)
+for fr in range(F):
+    m = 6 if fr == 2 else 7
+    want = np.stack([(j[:m] + fr) % N, (j[:m] + 1) % N, (j[:m] + 2) % N], axis=1)
+    assert np.array_equal(tri["value"][fr, :m], want), (fr, tri["value"][fr])
+assert list(tri["value"][2, 6]) == [-1, -1, -1]
+assert list(tri["step"][()]) == [0, 10, 20]
+obs = f["observables"]
+assert list(obs["dt/value"][()]) == [0.01] * 3
+assert list(obs["rollbacks/value"][()]) == [0, 1, 3]
+assert list(obs["rollbacks/step"][()]) == [0, 10, 20]
+assert list(obs["integrate/flips/value"][()]) == [0.0, 2.5, 5.0]
+assert list(obs["overlap/iterations/step"][()]) == [20]
+assert list(obs["overlap/iterations/time"][()]) == [0.25]
+assert list(obs["overlap/iterations/value"][()]) == [7.0]
+par = f["parameters"]
+assert par["pipeline"][()].decode() == open(sys.argv[2]).read()
+assert par.attrs["precision"] == sys.argv[3].encode(), par.attrs["precision"]
+assert par.attrs["pipeline_file"] == sys.argv[2].encode()
+)PY";
+
+template <class R>
+void h5md_layout(Precision p, const char* numpy_type) {
+  TempDir dir(std::string("layout_") + to_string(p));
+  const std::string yaml = dir / "pipe.yaml";
+  std::ofstream(yaml) << "run: {steps: 20, dt: 0.01}  # Δt\nstep:\n  - {stage: observe.h5md, every: 10}\n";
+  auto s = make_state(p);
+  auto stage = make_h5md(dir.path.string(), {"position", "image", "charge", "triangles"}, yaml);
+  stage->configure(*s);
+  Observe obs;
+  observe_three_frames<R>(*stage, *s, obs);
+  stage->finish(*s, true);
+
+  const std::string file = dir / "trajectory.h5";
+  CHECK(fs::exists(file));
+  CHECK_FALSE(fs::exists(file + ".partial"));
+  CHECK(python(dir, kCheckFrames, "'" + file + "' " + numpy_type + " 3") == 0);
+  CHECK(python(dir, kCheckLayout, "'" + file + "' '" + yaml + "' " + to_string(p)) == 0);
+}
+
+}  // namespace
+
+TEST_CASE("observe.h5md writes the H5MD layout in double precision", "[observe][h5md]") {
+  h5md_layout<double>(Precision::f64, "float64");
+}
+
+TEST_CASE("observe.h5md writes positions in float for a float run", "[observe][h5md]") {
+  h5md_layout<float>(Precision::f32, "float32");
+}
+
+TEST_CASE("observe.h5md declares host reads of what it writes", "[observe][h5md]") {
+  auto s = make_state(Precision::f64);
+  auto stage = make_h5md("", {"position", "charge"});
+  stage->configure(*s);
+  const auto a = stage->accesses();
+  REQUIRE(a.size() == 3);  // the fields, and `type` for /particles/all/species
+  for (auto& x : a) {
+    CHECK(x.where == Where::host);
+    CHECK(x.mode == Mode::read);
+  }
+  CHECK(a[0].field == "position");
+  CHECK(a[1].field == "charge");
+  CHECK(a[2].field == "type");
+  CHECK(stage->outputs() == std::vector<std::string>{"trajectory.h5"});
+}
+
+TEST_CASE("observe.h5md rejects an unknown field in configure, naming the fields it has", "[observe][h5md]") {
+  auto s = make_state(Precision::f64);
+  auto stage = make_h5md("", {"position", "velocity"});
+  try {
+    stage->configure(*s);
+    FAIL("configure accepted an unknown field");
+  } catch (const InputError& e) {
+    const std::string m = e.what();
+    CHECK(m.find("'velocity'") != std::string::npos);
+    CHECK(m.find("position") != std::string::npos);
+    CHECK(m.find("charge") != std::string::npos);
+  }
+  s->add_field("edge_lengths", DType::f64, 1, 3);  // neither per particle nor triangles
+  auto other = make_h5md("", {"edge_lengths"});
+  CHECK_THROWS_AS(other->configure(*s), InputError);
+  auto twice = make_h5md("", {"image", "image"});
+  CHECK_THROWS_AS(twice->configure(*s), InputError);
+}
+
+TEST_CASE("A killed observe.h5md run leaves a readable .partial with the frames written", "[observe][h5md]") {
+  TempDir dir("killed");
+  const std::string file = dir / "trajectory.h5";
+  std::fflush(nullptr);
+  const pid_t child = fork();
+  REQUIRE(child >= 0);
+  if (child == 0) {  // the "run": three frames on disk, then killed before finish()
+    try {
+      auto s = make_state(Precision::f64);
+      auto stage = make_h5md(dir.path.string(), {"position", "image"});
+      stage->configure(*s);
+      Observe obs;
+      observe_three_frames<double>(*stage, *s, obs);
+      stage->drain();
+      std::raise(SIGKILL);
+    } catch (...) {
+    }
+    _exit(3);
+  }
+  int status = 0;
+  REQUIRE(waitpid(child, &status, 0) == child);
+  REQUIRE(WIFSIGNALED(status));
+  REQUIRE(WTERMSIG(status) == SIGKILL);
+  CHECK_FALSE(fs::exists(file));
+  REQUIRE(fs::exists(file + ".partial"));
+  CHECK(python(dir, kCheckFrames, "'" + file + ".partial' float64 3") == 0);
+}
+
+TEST_CASE("observe.h5md keeps the .partial when the run does not complete", "[observe][h5md]") {
+  TempDir dir("failed");
+  const std::string file = dir / "trajectory.h5";
+  auto s = make_state(Precision::f64);
+  Observe obs;
+  SECTION("finish(completed = false)") {
+    auto stage = make_h5md(dir.path.string(), {"position", "image"});
+    stage->configure(*s);
+    observe_three_frames<double>(*stage, *s, obs);
+    stage->finish(*s, false);
+  }
+  SECTION("destroyed without finish(): queued frames are still written") {
+    auto stage = make_h5md(dir.path.string(), {"position", "image"});
+    stage->configure(*s);
+    observe_three_frames<double>(*stage, *s, obs);
+  }
+  CHECK_FALSE(fs::exists(file));
+  REQUIRE(fs::exists(file + ".partial"));
+  CHECK(python(dir, kCheckFrames, "'" + file + ".partial' float64 3") == 0);
+}
+
+TEST_CASE("observe.h5md: a completed run without frames still leaves its file", "[observe][h5md]") {
+  TempDir dir("empty");
+  auto s = make_state(Precision::f64);
+  auto stage = make_h5md(dir.path.string(), {"position"});
+  stage->configure(*s);
+  stage->finish(*s, true);
+  CHECK(python(dir, R"PY(
+f = h5py.File(sys.argv[1], "r")
+assert f["particles/all/position/value"].shape == (0, 5, 2)
+assert list(f["particles/all/species"][()]) == [0, 1, 0, 1, 0]
+)PY", dir / "trajectory.h5") == 0);
+}
+
+TEST_CASE("H5mdWriter: an unwritable path is a RunError naming the file", "[observe][h5md]") {
+  try {
+    H5mdWriter w("/nonexistent-flipflow-dir/x.h5", H5mdHeader{});
+    FAIL("created a file in a directory that does not exist");
+  } catch (const RunError& e) {
+    CHECK(std::string(e.what()).find("/nonexistent-flipflow-dir/x.h5.partial") != std::string::npos);
+  }
+}
+
+TEST_CASE("observe.msd matches a hand-computed value and reaches the H5MD file", "[observe][msd]") {
+  const Precision p = GENERATE(Precision::f32, Precision::f64);
+  TempDir dir(std::string("msd_") + to_string(p));
+  State s(2, p, 3);
+  s.box.L[0] = s.box.L[1] = 10.0;
+  auto set = [&](std::vector<double> x, std::vector<std::int32_t> im) {
+    for (std::size_t i = 0; i < x.size(); ++i) {
+      if (p == Precision::f32) s.field(fields::position).host<float>()[i] = float(x[i]);
+      else s.field(fields::position).host<double>()[i] = x[i];
+      s.field(fields::image).host<std::int32_t>()[i] = im[i];
+    }
+  };
+  observe::Msd msd;
+  auto h5md = make_h5md(dir.path.string(), {}, "");
+  h5md->configure(s);
+  Observe obs;
+  auto both = [&](std::uint64_t step) {
+    obs(msd, s, step, 0.5 * double(step));
+    for (auto& [k, v] : obs.metrics.values()) obs.stats.metrics["msd/" + k] = v;  // as the core does
+    obs(*h5md, s, step, 0.5 * double(step));
+  };
+  set({1, 1, 5, 5, 2, 3}, {0, 0, 0, 0, 0, 0});
+  both(0);
+  CHECK(obs.stats.metrics.at("msd/msd") == 0.0);
+  // p0 crosses the left edge: (9.5, 1) with image (-1, 0) is (-0.5, 1) unwrapped: |d|² = 2.25.
+  // p1 moves up by 2: 4. p2 sits at (2, 3) with image (1, -1): (12, -7), |d|² = 100 + 100.
+  set({9.5, 1, 5, 7, 2, 3}, {-1, 0, 0, 0, 1, -1});
+  both(4);
+  CHECK(obs.stats.metrics.at("msd/msd") == (2.25 + 4.0 + 200.0) / 3.0);
+  h5md->finish(s, true);
+  CHECK(python(dir, R"PY(
+f = h5py.File(sys.argv[1], "r")
+m = f["observables/msd/msd"]
+assert list(m["step"][()]) == [0, 4] and list(m["time"][()]) == [0.0, 2.0]
+assert list(m["value"][()]) == [0.0, 68.75], m["value"][()]
+)PY", dir / "trajectory.h5") == 0);
+}
+
+TEST_CASE("observe.msd gives the same bits for any thread count", "[observe][msd]") {
+  const std::size_t n = 200000;
+  State s(3, Precision::f64, n);
+  s.box.L[0] = s.box.L[1] = s.box.L[2] = 50.0;
+  std::uint64_t r = 12345;
+  auto next = [&] {
+    r = r * 6364136223846793005ull + 1442695040888963407ull;
+    return double(r >> 11) / double(1ull << 53);
+  };
+  double* x = s.field(fields::position).host<double>();
+  std::int32_t* im = s.field(fields::image).host<std::int32_t>();
+  for (std::size_t i = 0; i < 3 * n; ++i) x[i] = 50.0 * next();
+  auto value = [&](int threads) {
+    tbb::global_control c(tbb::global_control::max_allowed_parallelism, std::size_t(threads));
+    observe::Msd msd;
+    Observe obs;
+    for (std::size_t i = 0; i < 3 * n; ++i) im[i] = 0;
+    obs(msd, s, 0, 0.0);
+    for (std::size_t i = 0; i < 3 * n; ++i) im[i] = std::int32_t(i % 5) - 2;
+    obs(msd, s, 1, 0.0);
+    return obs.metrics.values().at("msd");
+  };
+  const double one = value(1);
+  // Every image is i % 5 - 2 along each axis: MSD = L² Σ_k (i_k)² averaged = 2500 · 3 · 2 = 15000.
+  CHECK(one == Approx(15000.0).epsilon(1e-3));
+  CHECK(value(4) == one);
+  CHECK(value(2) == one);
+}
+
+TEST_CASE("observe.progress: terse log lines, a closing line", "[observe][progress]") {
+  observe::ProgressLine l;
+  l.step = 20;
+  l.steps = 100;
+  l.time = 0.2;
+  l.dt = 0.01;
+  l.rate = 50;
+  l.rollbacks = 3;
+  CHECK(observe::format_progress(l) == "step 20/100 (20.0%)  t 0.2  Δt 0.01  50 steps/s  ETA 0:00:02  rollbacks 3");
+  CHECK(observe::format_duration(3725) == "1:02:05");
+  CHECK(observe::format_duration(-1) == "--:--");
+
+  auto lines_for = [](double interval) {
+    std::FILE* out = std::tmpfile();
+    RunInfo info;
+    info.steps = 100;
+    observe::Progress progress(observe::ProgressParams{interval}, info, out);
+    State s(2, Precision::f64, 1);
+    Observe obs;
+    obs.stats.dt = 0.01;
+    for (int k = 1; k <= 3; ++k) {
+      obs.stats.rollbacks = std::uint64_t(k);
+      obs(progress, s, std::uint64_t(10 * k), 0.1 * k);
+    }
+    progress.finish(s, true);
+    std::rewind(out);
+    std::vector<std::string> lines;
+    char buf[512];
+    while (std::fgets(buf, sizeof buf, out)) lines.emplace_back(buf);
+    std::fclose(out);
+    return lines;
+  };
+  const auto every = lines_for(0.0);  // not a terminal, no rate limit: a line per call
+  REQUIRE(every.size() == 4);
+  CHECK(every[2].rfind("step 30/100 (30.0%)  t 0.3  Δt 0.01  ", 0) == 0);
+  CHECK(every[2].find("rollbacks 3\n") != std::string::npos);
+  CHECK(every[3].rfind("done at step 30 after 0:00:00 (t 0.3, rollbacks 3)", 0) == 0);
+  const auto quiet = lines_for(3600.0);  // a log: nothing before the interval, then the closing line
+  REQUIRE(quiet.size() == 1);
+  CHECK(quiet[0].rfind("done at step 30", 0) == 0);
+}
