@@ -81,7 +81,7 @@ std::string ParamSpec::expectation() const {
     case ParamType::string_list: e = "a list of strings"; break;
     case ParamType::real_list: e = "a list of real numbers"; break;
   }
-  if (min && max) e += " in [" + number(*min) + ", " + number(*max) + "]";
+  if (min && max) e += std::string(" in ") + (min_exclusive ? "(" : "[") + number(*min) + ", " + number(*max) + "]";
   else if (min) e += (min_exclusive ? " > " : " >= ") + number(*min);
   else if (max) e += " <= " + number(*max);
   if (!choices.empty()) e += (type == ParamType::string ? " (one of: " : " (each one of: ") + join(choices) + ")";

@@ -138,10 +138,12 @@ std::optional<RollbackRequest> Scheduler::run_compute(std::uint64_t step, std::u
   return std::nullopt;
 }
 
-void Scheduler::run_observers(std::uint64_t step, double dt, double time) {
+void Scheduler::run_observers(std::uint64_t step, double dt, double time,
+                              const std::function<void(int)>& after_each) {
   for (int i : graph_.observer_nodes()) {
     run_node(i, step, 0, dt, time);
     if (error_) std::rethrow_exception(error_);
+    if (slots_[i].ran) after_each(i);
   }
 }
 

@@ -9,6 +9,7 @@
 #include <atomic>
 #include <cstdint>
 #include <exception>
+#include <functional>
 #include <memory>
 #include <optional>
 #include <string>
@@ -47,8 +48,9 @@ class Scheduler {
   // Runs the compute stages due at `step`. Returns the first rollback request (lowest node
   // index among those that asked), or nothing. Exceptions from stages are rethrown here.
   std::optional<RollbackRequest> run_compute(std::uint64_t step, std::uint32_t attempt, double dt, double time);
-  // Runs the observer stages due at `step` (the step is accepted; state.step/time updated).
-  void run_observers(std::uint64_t step, double dt, double time);
+  // Runs the observer stages due at `step` (the step is accepted; state.step/time updated),
+  // calling after_each(node) after each one that ran (so a later observer sees its metrics).
+  void run_observers(std::uint64_t step, double dt, double time, const std::function<void(int)>& after_each);
   // Wait for all device work of the step (CUDA); a no-op on the CPU.
   void synchronize();
   CUstream_st* main_stream() const;

@@ -89,11 +89,12 @@ void Simulation::prepare_outputs() {
   if (ec) throw InputError("cannot create output directory '" + options_.out_dir + "': " + ec.message());
 }
 
-void Simulation::collect_metrics() {
-  for (int i : graph_->compute_nodes()) {
-    if (!slots_[i].ran) continue;
-    for (auto& kv : slots_[i].metrics.values()) stats_.metrics[slots_[i].info.stage_id + "/" + kv.first] = kv.second;
-  }
+void Simulation::collect_metrics(int node) {
+  for (auto& kv : slots_[node].metrics.values()) stats_.metrics[slots_[node].info.stage_id + "/" + kv.first] = kv.second;
+}
+
+void Simulation::observe(double dt) {
+  scheduler_->run_observers(state_->step, dt, state_->time, [this](int node) { collect_metrics(node); });
 }
 
 void Simulation::give_up(const RollbackRequest& req, double dt) {
@@ -112,7 +113,7 @@ void Simulation::give_up(const RollbackRequest& req, double dt) {
 void Simulation::advance() {
   if (!observed_initial_) {
     // Frame 0: observers see the initial configuration.
-    scheduler_->run_observers(state_->step, dt_->dt(), state_->time);
+    observe(dt_->dt());
     observed_initial_ = true;
   }
   const std::uint64_t step = state_->step;
@@ -133,15 +134,16 @@ void Simulation::advance() {
     snapshot_->restore(*state_, scheduler_->main_stream());
     if (!dt_->halve()) give_up(*req, dt);
   }
-  collect_metrics();
-  scheduler_->run_observers(state_->step, stats_.dt, state_->time);
+  for (int i : graph_->compute_nodes())
+    if (slots_[i].ran) collect_metrics(i);
+  observe(stats_.dt);
 }
 
 void Simulation::run() {
   try {
     while (state_->step < spec_.run.steps) advance();
     if (!observed_initial_) {
-      scheduler_->run_observers(state_->step, dt_->dt(), state_->time);
+      observe(dt_->dt());
       observed_initial_ = true;
     }
     scheduler_->synchronize();

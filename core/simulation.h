@@ -58,7 +58,8 @@ class Simulation {
  private:
   void build(const Registry& registry);
   void prepare_outputs();
-  void collect_metrics();
+  void collect_metrics(int node);
+  void observe(double dt);
   [[noreturn]] void give_up(const RollbackRequest& req, double dt);
 
   PipelineSpec spec_;

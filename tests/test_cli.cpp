@@ -1,0 +1,116 @@
+// The `pipeline` command end to end: run writes a valid H5MD file, bad input exits 2 with a
+// located message, outputs are not overwritten without --force, graph prints DOT.
+#include <boost/dll/runtime_symbol_info.hpp>
+#include <catch2/catch.hpp>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include "support/backends.h"
+
+namespace fs = std::filesystem;
+
+namespace {
+std::string pipeline_exe() { return (boost::dll::program_location().parent_path() / "pipeline").string(); }
+
+fs::path repo_file(const std::string& rel) {
+  const char* data = std::getenv("FLIPFLOW_TEST_DATA");
+  fs::path base = data ? fs::path(data) / ".." / ".." : fs::path(__FILE__).parent_path().parent_path();
+  return (base / rel).lexically_normal();
+}
+
+struct Result {
+  int code;
+  std::string out;
+};
+
+Result run(const std::string& args) {
+  const fs::path log = fs::temp_directory_path() / ("ff_cli_" + std::to_string(::getpid()) + ".log");
+  const std::string cmd = pipeline_exe() + " " + args + " > " + log.string() + " 2>&1";
+  const int status = std::system(cmd.c_str());
+  std::ifstream in(log);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  fs::remove(log);
+  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, ss.str()};
+}
+
+fs::path fresh_dir(const std::string& name) {
+  fs::path d = fs::temp_directory_path() / ("ff_cli_" + name + "_" + std::to_string(::getpid()));
+  fs::remove_all(d);
+  return d;
+}
+}  // namespace
+
+TEST_CASE("pipeline run writes a valid H5MD file; a second run needs --force", "[cli]") {
+  const fs::path out = fresh_dir("run");
+  const std::string base = "run " + repo_file("pipelines/brownian.yaml").string() +
+                           " --device cpu --set run.steps=300 --set system.N=500 --out " + out.string();
+  auto r = run(base);
+  INFO(r.out);
+  REQUIRE(r.code == 0);
+  REQUIRE(fs::exists(out / "trajectory.h5"));
+  CHECK_FALSE(fs::exists(out / "trajectory.h5.partial"));
+  const std::string check =
+      "/usr/bin/python3 -c \"import h5py,sys; f=h5py.File(sys.argv[1],'r'); "
+      "assert list(f['h5md'].attrs['version'])==[1,1]; "
+      "p=f['particles/all/position']; assert p['value'].shape==(4,500,2), p['value'].shape; "
+      "assert list(p['step'][:])==[0,100,200,300]; "
+      "assert abs(p['time'][-1]-3.0)<1e-9; "
+      "assert f['particles/all/image/value'].shape==(4,500,2); "
+      "assert f['particles/all/box/edges'].shape==(2,); "
+      "names=[]; f['observables'].visit(names.append); assert any('msd' in n for n in names), names\" " +
+      (out / "trajectory.h5").string();
+  CHECK(std::system(check.c_str()) == 0);
+
+  auto again = run(base);
+  CHECK(again.code == 2);
+  CHECK_THAT(again.out, Catch::Contains("exists; use --force"));
+  CHECK(run(base + " --force").code == 0);
+  fs::remove_all(out);
+}
+
+TEST_CASE("pipeline validate: good file exits 0, broken file exits 2 with file:line:column", "[cli]") {
+  auto good = run("validate " + repo_file("pipelines/brownian.yaml").string());
+  INFO(good.out);
+  CHECK(good.code == 0);
+  CHECK_THAT(good.out, Catch::Contains("valid") && Catch::Contains("brownian.integrate"));
+
+  const fs::path bad = fs::temp_directory_path() / ("ff_bad_" + std::to_string(::getpid()) + ".yaml");
+  std::ofstream(bad) << "system: {dimensions: 2, N: 100, packing_fraction: 0.3}\n"
+                        "run: {steps: 10, dt: -0.1}\n"
+                        "step:\n  - {stage: core.noop}\n";
+  auto r = run("validate " + bad.string());
+  INFO(r.out);
+  CHECK(r.code == 2);
+  CHECK_THAT(r.out, Catch::Contains(bad.string() + ":2:") && Catch::Contains("run.dt"));
+  fs::remove(bad);
+}
+
+TEST_CASE("pipeline graph prints DOT; stages and describe list the stages", "[cli]") {
+  auto g = run("graph " + repo_file("pipelines/bench-noop-fork.yaml").string());
+  CHECK(g.code == 0);
+  CHECK_THAT(g.out, Catch::StartsWith("digraph step {") && Catch::Contains("n0 -> n2;"));
+  auto s = run("stages");
+  CHECK(s.code == 0);
+  CHECK_THAT(s.out, Catch::Contains("brownian.integrate") && Catch::Contains("observe.h5md"));
+  auto d = run("describe brownian.integrate");
+  CHECK(d.code == 0);
+  CHECK_THAT(d.out, Catch::Contains("position") && Catch::Contains("readwrite"));
+  CHECK(run("describe no.such.stage").code == 2);
+  CHECK(run("frobnicate").code == 2);
+}
+
+TEST_CASE("--device cuda without a GPU is an input error, not a silent CPU run", "[cli]") {
+  if (ff::cuda_device_available()) {
+    SUCCEED("a GPU is present");
+    return;
+  }
+  const fs::path out = fresh_dir("nocuda");
+  auto rr = run("run " + repo_file("pipelines/brownian.yaml").string() + " --device cuda --out " + out.string());
+  CHECK(rr.code == 2);
+  CHECK_THAT(rr.out, Catch::Contains("--device cuda"));
+  CHECK_FALSE(fs::exists(out));
+}
