@@ -1,6 +1,8 @@
 #include "core/h5md_writer.h"
 
 #include <hdf5.h>
+#include <pwd.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <cstdio>
@@ -42,6 +44,13 @@ std::string hdf5_error() {
   std::string s;
   H5Ewalk2(H5E_DEFAULT, H5E_WALK_DOWNWARD, collect_error, &s);
   return s.empty() ? "unknown HDF5 error" : s;
+}
+
+// The login name for /h5md/author: $USER, else the password database, else "unknown".
+std::string user_name() {
+  if (const char* u = std::getenv("USER"); u && *u) return u;
+  if (const passwd* pw = getpwuid(getuid()); pw && pw->pw_name) return pw->pw_name;
+  return "unknown";
 }
 
 // ---- RAII handle ------------------------------------------------------------------------
@@ -241,8 +250,7 @@ struct H5mdWriter::Impl {
   void write_header(const H5mdHeader& h) const {
     Hid h5md = group(file.get(), "h5md");
     attr_int(h5md.get(), "version", {1, 1}, false);
-    std::string author = h.author;
-    if (author.empty()) author = std::getenv("USER") ? std::getenv("USER") : "unknown";
+    const std::string author = h.author.empty() ? user_name() : h.author;
     attr_strings(group(h5md.get(), "author").get(), "name", {author}, true);
     Hid creator = group(h5md.get(), "creator");
     attr_strings(creator.get(), "name", {"flipflow"}, true);

@@ -33,7 +33,7 @@
 namespace ff {
 
 struct H5mdHeader {
-  std::string author;          // /h5md/author name (empty: $USER, else "unknown")
+  std::string author;          // /h5md/author name (empty: the login name)
   int dim = 2;
   double edges[3] = {0, 0, 0};
   std::string pipeline_text;   // /parameters/pipeline (omitted when empty)

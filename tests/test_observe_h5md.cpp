@@ -12,8 +12,10 @@
 #include <filesystem>
 #include <fstream>
 
+#include "core/device.h"
 #include "core/error.h"
 #include "core/h5md_writer.h"
+#include "core/plugin_loader.h"
 #include "core/state.h"
 #include "stages/observe/h5md/stage.h"
 #include "stages/observe/msd/stage.h"
@@ -383,7 +385,7 @@ TEST_CASE("observe.msd gives the same bits for any thread count", "[observe][msd
   CHECK(value(2) == one);
 }
 
-TEST_CASE("observe.progress: terse log lines, a closing line", "[observe][progress]") {
+TEST_CASE("observe.progress: a line per interval in logs", "[observe][progress]") {
   observe::ProgressLine l;
   l.step = 20;
   l.steps = 100;
@@ -416,11 +418,33 @@ TEST_CASE("observe.progress: terse log lines, a closing line", "[observe][progre
     return lines;
   };
   const auto every = lines_for(0.0);  // not a terminal, no rate limit: a line per call
-  REQUIRE(every.size() == 4);
+  REQUIRE(every.size() == 3);
+  CHECK(every[0].rfind("step 10/100 (10.0%)  t 0.1  Δt 0.01  0 steps/s  ETA --:--  rollbacks 1\n", 0) == 0);
   CHECK(every[2].rfind("step 30/100 (30.0%)  t 0.3  Δt 0.01  ", 0) == 0);
   CHECK(every[2].find("rollbacks 3\n") != std::string::npos);
-  CHECK(every[3].rfind("done at step 30 after 0:00:00 (t 0.3, rollbacks 3)", 0) == 0);
-  const auto quiet = lines_for(3600.0);  // a log: nothing before the interval, then the closing line
-  REQUIRE(quiet.size() == 1);
-  CHECK(quiet[0].rfind("done at step 30", 0) == 0);
+  CHECK(lines_for(3600.0).empty());  // a log: nothing before `interval` seconds have passed
+}
+
+TEST_CASE("stage_observe registers three observers, for CUDA runs too", "[observe][plugin]") {
+  std::vector<std::string> lib;
+  for (auto& f : find_stage_libraries(plugin_search_path()))
+    if (fs::path(f).filename() == "libflipflow_stage_observe.so") lib.push_back(f);
+  REQUIRE(lib.size() == 1);
+  Registry r;
+  load_plugins(lib, r);
+  for (const char* name : {"observe.h5md", "observe.progress", "observe.msd"}) {
+    INFO(name);
+    const auto& e = r.get(name);
+    CHECK(e.decl.observer);
+    CHECK(e.factories.count(Backend::cpu) == 1);
+    CHECK(e.factories.count(Backend::cuda) == (built_with_cuda() ? 1u : 0u));
+  }
+  const auto defaults = ParamValues::defaults(r.get("observe.h5md").decl.params);
+  CHECK(defaults.string("file") == "trajectory.h5");
+  CHECK(defaults.strings("fields") == std::vector<std::string>{"position", "image"});
+  CHECK(defaults.boolean("observables"));
+  RunInfo info;
+  auto stage = r.create("observe.h5md", Backend::cpu, defaults, info);
+  CHECK(stage->outputs() == std::vector<std::string>{"trajectory.h5"});
+  CHECK(ParamValues::defaults(r.get("observe.progress").decl.params).real("interval") == 10.0);
 }

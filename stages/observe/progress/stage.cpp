@@ -40,7 +40,7 @@ Outcome Progress::run(StepContext& ctx) {
     start_ = last_print_ = now;
     first_step_ = ctx.step;
   }
-  const double elapsed = seconds_since_start(now);
+  const double elapsed = std::chrono::duration<double>(now - start_).count();
   last_.step = ctx.step;  // observers see the accepted state: steps done
   last_.steps = info_.steps;
   last_.time = ctx.time;
@@ -62,14 +62,10 @@ Outcome Progress::run(StepContext& ctx) {
   return Outcome::ok();
 }
 
-void Progress::finish(State&, bool completed) {
-  if (!started_) return;
-  const double elapsed = seconds_since_start(Clock::now());
+void Progress::finish(State&, bool) {
+  // The `pipeline` command prints the run's summary; here only the terminal line is ended.
   if (line_open_) std::fputc('\n', out_);
   line_open_ = false;
-  std::fprintf(out_, "%s at step %llu after %s (t %.6g, rollbacks %llu)\n", completed ? "done" : "stopped",
-               (unsigned long long)last_.step, format_duration(elapsed).c_str(), last_.time,
-               (unsigned long long)last_.rollbacks);
   std::fflush(out_);
 }
 

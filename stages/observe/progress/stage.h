@@ -1,7 +1,7 @@
 // observe.progress: a progress report every time it runs (the pipeline's `every: k`): step,
 // simulated time, Δt, steps/s, ETA and rollbacks. On a terminal one line updates in place (at
 // most ten times a second); otherwise a plain line at most every `interval` seconds, so logs
-// stay quiet. finish() prints one closing line.
+// stay quiet. finish() ends the terminal line (the `pipeline` command prints the summary).
 #pragma once
 #include <chrono>
 #include <cstdint>
@@ -48,10 +48,6 @@ class Progress final : public Stage {
 
  private:
   using Clock = std::chrono::steady_clock;
-  double seconds_since_start(Clock::time_point now) const {
-    return std::chrono::duration<double>(now - start_).count();
-  }
-
   ProgressParams p_;
   RunInfo info_;
   std::FILE* out_;
