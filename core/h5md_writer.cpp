@@ -205,7 +205,8 @@ struct H5mdWriter::Impl {
     std::vector<hsize_t> dims{0}, maxdims{H5S_UNLIMITED}, chunk{frames_per_chunk};
     for (std::size_t k = 0; k < frame.size(); ++k) {
       dims.push_back(frame[k]);
-      maxdims.push_back(variable_rows && k == 0 ? H5S_UNLIMITED : frame[k]);
+      // A zero-sized fixed axis cannot hold a chunk: leave it unlimited (it never grows).
+      maxdims.push_back((variable_rows && k == 0) || frame[k] == 0 ? H5S_UNLIMITED : frame[k]);
       chunk.push_back(std::max<hsize_t>(frame[k], 1));
     }
     s.value = dataset(s.group.get(), "value", file_type(dtype), dims, maxdims, chunk, fill);
@@ -305,7 +306,9 @@ H5mdWriter::~H5mdWriter() {
 void H5mdWriter::write_species(const std::int32_t* species, std::size_t n, const std::vector<std::string>& names) {
   QuietErrors quiet;
   Hid d = impl_->dataset(impl_->particles.get(), "species", H5T_STD_I32LE, {hsize_t(n)}, {}, {}, nullptr);
-  if (n) impl_->check(H5Dwrite(d.get(), H5T_NATIVE_INT32, H5S_ALL, H5S_ALL, H5P_DEFAULT, species) >= 0, "writing species");
+  if (n)
+    impl_->check(H5Dwrite(d.get(), H5T_NATIVE_INT32, H5S_ALL, H5S_ALL, H5P_DEFAULT, species) >= 0,
+                 "writing species");
   if (!names.empty()) impl_->attr_strings(d.get(), "names", names, false);
 }
 
@@ -342,7 +345,8 @@ void H5mdWriter::append_connectivity(const std::string& name, std::int64_t step,
     const std::int32_t fill = -1;
     Series s = impl_->series(impl_->connectivity.get(), name, DType::i32, {hsize_t(m), 3}, true, &fill);
     hobj_ref_t ref;
-    impl_->check(H5Rcreate(&ref, impl_->file.get(), "/particles/all", H5R_OBJECT, -1) >= 0, "referencing /particles/all");
+    impl_->check(H5Rcreate(&ref, impl_->file.get(), "/particles/all", H5R_OBJECT, -1) >= 0,
+                 "referencing /particles/all");
     impl_->attr(s.group.get(), "particles_group", H5T_STD_REF_OBJ, H5T_STD_REF_OBJ, {}, &ref);
     it = impl_->topologies.emplace(name, std::move(s)).first;
   }

@@ -1,5 +1,6 @@
 #include "stages/observe/h5md/stage.h"
 
+#include <algorithm>
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
@@ -24,6 +25,13 @@ std::string writable_fields(const State& s) {
   return out;
 }
 
+std::string exact(double v) {
+  std::ostringstream os;
+  os.precision(17);
+  os << v;
+  return os.str();
+}
+
 std::string read_text(const std::string& file) {
   std::ifstream in(file, std::ios::binary);
   if (!in) throw RunError("observe.h5md: cannot read the pipeline file '" + file + "' to record it in the output");
@@ -37,7 +45,8 @@ std::string read_text(const std::string& file) {
 std::vector<Access> H5mdObserver::accesses() const {
   std::vector<Access> a;
   for (auto& name : p_.fields) a.push_back({name, Where::host, Mode::read});
-  a.push_back({fields::type, Where::host, Mode::read});  // /particles/all/species
+  if (std::find(p_.fields.begin(), p_.fields.end(), fields::type) == p_.fields.end())
+    a.push_back({fields::type, Where::host, Mode::read});  // /particles/all/species
   return a;
 }
 
@@ -46,6 +55,9 @@ void H5mdObserver::configure(State& state) {
   std::set<std::string> seen;
   for (auto& name : p_.fields) {
     if (!seen.insert(name).second) throw InputError("observe.h5md: field '" + name + "' is listed twice in `fields`");
+    if (name == "box" || name == "species")
+      throw InputError("observe.h5md: '" + name + "' is written anyway (/particles/all/" + name +
+                       "); remove it from `fields`");
     if (!state.has_field(name))
       throw InputError("observe.h5md: there is no field '" + name + "' to write; fields available: " +
                        writable_fields(state));
@@ -70,7 +82,7 @@ void H5mdObserver::open(const State& state) {
                       {"backend", to_string(info_.backend)},
                       {"seed", std::to_string(info_.seed)},
                       {"steps", std::to_string(info_.steps)},
-                      {"dt", [&] { std::ostringstream os; os.precision(17); os << info_.dt; return os.str(); }()},
+                      {"dt", exact(info_.dt)},
                       {"stage_id", info_.stage_id}};
   auto w = std::make_unique<H5mdWriter>(path(), h);
   w->write_species(state.field(fields::type).host<std::int32_t>(), state.n(), state.species);

@@ -22,7 +22,8 @@ struct H5mdParams {
   bool observables = true;
 
   static std::vector<ParamSpec> schema() {
-    return {ParamSpec::string("file", std::string("trajectory.h5"), "output file, relative to the run's output directory"),
+    return {ParamSpec::string("file", std::string("trajectory.h5"),
+                              "output file, relative to the run's output directory"),
             ParamSpec::strings("fields", {"position", "image"},
                                "state fields to write each frame (per-particle fields, or triangle lists)"),
             ParamSpec::boolean("observables", true, "write Δt, rollbacks and every stage metric under /observables")};
