@@ -1,0 +1,28 @@
+// Building the topology fields from the current positions (host, through CGAL: cgal.cpp).
+#pragma once
+#include <array>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "core/state.h"
+
+namespace ff::delaunay {
+
+struct HalfEdges {
+  std::vector<std::int32_t> he;     // 2 x 6N: origin, next
+  std::vector<std::int32_t> vedge;  // N
+};
+
+// Half-edges from 2N CCW triangles of a periodic triangulation of n vertices. Edge ids follow
+// the sorted (lower vertex, higher vertex) pairs; half-edge 2e leaves the lower vertex.
+// vedge[v] is the lowest half-edge leaving v. RunError if the triangles are not a triangulation
+// of the torus.
+HalfEdges assemble(const std::vector<std::array<int, 3>>& triangles, std::size_t n);
+
+// Triangulates the current positions and fills every topology field: halfedge, vertex_edge,
+// position_prev (= position) and status (built, nothing pending). Host side; `stream` is used
+// only to bring positions to the host. Returns how the triangles were obtained.
+std::string build_topology(State& s, CUstream_st* stream);
+
+}  // namespace ff::delaunay

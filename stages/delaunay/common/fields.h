@@ -1,0 +1,36 @@
+// The topology fields of the delaunay stages and the small status record they share.
+// Everything is a State field, so snapshots (rollback), host/device copies and checkpoints
+// treat the triangulation like particle data. nvcc-clean.
+#pragma once
+#include <cstddef>
+#include <cstdint>
+
+namespace ff::delaunay {
+
+namespace fields {
+// i32 x 2, count 6N (half-edges): {origin vertex, next half-edge CCW in the same triangle}.
+// Half-edges 2e and 2e+1 are the two sides of edge e (twin(h) = h ^ 1).
+inline constexpr const char* halfedge = "delaunay.halfedge";
+// i32 x 1, count N: one half-edge leaving each vertex (for walks around a vertex).
+inline constexpr const char* vertex_edge = "delaunay.vertex_edge";
+// real x 2, count N: the positions at which the triangulation was last known valid (written by
+// delaunay.build and, at the end of an accepted detection, by delaunay.detect_inversion).
+inline constexpr const char* position_prev = "delaunay.position_prev";
+// u8, count 3N (edges): 1 = flipping this edge repairs an inverted triangle (detect -> flip).
+inline constexpr const char* flip_mark = "delaunay.flip_mark";
+// i32 x kStatusSize, count 1, host only: see Status below.
+inline constexpr const char* status = "delaunay.status";
+}  // namespace fields
+
+// Components of the `delaunay.status` field.
+enum Status : int {
+  kBuilt = 0,    // 1 once a triangulation exists (0: the first topology stage builds one)
+  kPending = 1,  // repair flips marked by detect_inversion and not yet done by delaunay.flip
+  kStatusSize = 2
+};
+
+// A periodic triangulation of N points on the torus has N vertices, 3N edges and 2N triangles.
+inline std::size_t edge_count(std::size_t n) { return 3 * n; }
+inline std::size_t halfedge_count(std::size_t n) { return 6 * n; }
+
+}  // namespace ff::delaunay

@@ -1,0 +1,77 @@
+#include "stages/delaunay/common/host.h"
+
+#include "core/error.h"
+#include "stages/delaunay/build/build.h"
+
+namespace ff::delaunay {
+
+void add_topology_fields(State& s, const char* stage_name) {
+  if (s.dim() != 2)
+    throw InputError(std::string(stage_name) + ": the Delaunay triangulation stages are 2D only (system.dimensions is " +
+                     std::to_string(s.dim()) + ")");
+  if (s.n() < 3)
+    throw InputError(std::string(stage_name) + ": a triangulation needs at least 3 particles (N = " +
+                     std::to_string(s.n()) + ")");
+  const std::size_t n = s.n();
+  s.add_field(fields::halfedge, DType::i32, 2, halfedge_count(n));
+  s.add_field(fields::vertex_edge, DType::i32, 1, n);
+  s.add_field(fields::position_prev, s.real(), 2, n);
+  s.add_field(fields::flip_mark, DType::u8, 1, edge_count(n));
+  s.add_field(fields::status, DType::i32, kStatusSize, 1);
+}
+
+std::int32_t* status(State& s) { return s.field(fields::status).host<std::int32_t>(); }
+
+bool ensure_topology(State& s, const std::vector<Access>& acc, CUstream_st* stream) {
+  if (status(s)[kBuilt]) return false;
+  build_topology(s, stream);
+  for (const Access& a : acc) s.field(a.field).acquire(a.where, a.mode, stream);
+  return true;
+}
+
+namespace {
+std::int32_t read_int(Field& f, Where w, const MemOps& ops, std::size_t index, CUstream_st* stream) {
+  std::int32_t v = 0;
+  const std::int32_t* base = data<std::int32_t>(f, w);
+  ops.to_host(&v, base + index, sizeof v, stream);
+  return v;
+}
+}  // namespace
+
+std::vector<std::uint64_t> triangle_vertices(State& s, Where w, const MemOps& ops, int h, CUstream_st* stream) {
+  Field& he = s.field(fields::halfedge);
+  std::vector<std::uint64_t> v;
+  for (int k = 0; k < 3; ++k) {
+    v.push_back(std::uint64_t(read_int(he, w, ops, 2 * std::size_t(h), stream)));
+    h = read_int(he, w, ops, 2 * std::size_t(h) + 1, stream);
+  }
+  return v;
+}
+
+std::vector<std::uint64_t> edge_vertices(State& s, Where w, const MemOps& ops, int e, CUstream_st* stream) {
+  Field& he = s.field(fields::halfedge);
+  return {std::uint64_t(read_int(he, w, ops, 4 * std::size_t(e), stream)),
+          std::uint64_t(read_int(he, w, ops, 4 * std::size_t(e) + 2, stream))};
+}
+
+void throw_if_too_long(State& s, Where w, const MemOps& ops, unsigned count, unsigned at, CUstream_st* stream,
+                       const char* stage) {
+  if (!count) return;
+  const auto ids = edge_vertices(s, w, ops, int(at), stream);
+  throw RunError(std::string(stage) + ": a triangle at the edge between particles " + list_ids(ids) +
+                 " no longer closes under minimum image (" + std::to_string(count) +
+                 " edge(s)): an edge has grown longer than half the box, which the periodic triangulation cannot "
+                 "store. Use a larger system (more particles at this density) or rebuild the triangulation more often "
+                 "(delaunay.build with every: k)");
+}
+
+std::string list_ids(const std::vector<std::uint64_t>& ids) {
+  std::string out;
+  for (std::size_t i = 0; i < ids.size(); ++i) {
+    if (i) out += i + 1 == ids.size() ? " and " : ", ";
+    out += std::to_string(ids[i]);
+  }
+  return out;
+}
+
+}  // namespace ff::delaunay

@@ -1,0 +1,56 @@
+// Host-side helpers of the delaunay stage classes: adding the topology fields, building the
+// triangulation on first use, views of the fields on the stage's side, and naming the
+// particles of an edge or triangle in messages. nvcc-clean (declarations and plain inlines).
+#pragma once
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "core/box.h"
+#include "core/stage.h"
+#include "stages/delaunay/common/fields.h"
+#include "stages/delaunay/common/memory.h"
+#include "stages/delaunay/common/mesh.h"
+
+namespace ff::delaunay {
+
+// Adds every topology field (idempotent). InputError unless the state is 2D with N >= 3.
+void add_topology_fields(State& s, const char* stage_name);
+
+// The status record (host side; stages declare it as a host access).
+std::int32_t* status(State& s);
+
+// If no triangulation exists yet (status kBuilt == 0), build one from the current positions
+// (delaunay.build's CGAL path) and re-acquire `acc` so the stage's declared side is current.
+// Returns true when it built.
+bool ensure_topology(State& s, const std::vector<Access>& acc, CUstream_st* stream);
+
+inline Mesh mesh_view(State& s, Where w) {
+  Field& he = s.field(fields::halfedge);
+  Field& ve = s.field(fields::vertex_edge);
+  if (w == Where::device) return {he.device<std::int32_t>(), ve.device<std::int32_t>()};
+  return {he.host<std::int32_t>(), ve.host<std::int32_t>()};
+}
+
+template <class T>
+T* data(Field& f, Where w) {
+  return w == Where::device ? f.device<T>() : f.host<T>();
+}
+
+template <class R>
+Points<R> points_view(State& s, const char* field, Where w) {
+  return {data<R>(s.field(field), w), PeriodicBox<double>::make(s.box.L)};
+}
+
+// The vertices of the triangle left of half-edge h, read from the stage's side (small copies
+// on the device; used only for messages).
+std::vector<std::uint64_t> triangle_vertices(State& s, Where w, const MemOps& ops, int h, CUstream_st* stream);
+// The endpoints of edge e.
+std::vector<std::uint64_t> edge_vertices(State& s, Where w, const MemOps& ops, int e, CUstream_st* stream);
+// RunError when `count` triangles (lowest at edge `at`) do not close under minimum image.
+void throw_if_too_long(State& s, Where w, const MemOps& ops, unsigned count, unsigned at, CUstream_st* stream,
+                       const char* stage);
+// "12, 57 and 60"
+std::string list_ids(const std::vector<std::uint64_t>& ids);
+
+}  // namespace ff::delaunay

@@ -1,0 +1,73 @@
+// Stage-private buffers on the stage's backend (host memory for CPU stages, device memory for
+// CUDA stages): scratch arrays (flip decisions) and small counter blocks that a loop fills and
+// the host reads to decide (rollback, another round). The backend is a table of functions
+// (cpu: memory_cpu.cpp, cuda: memory_cuda.cu) picked in plugin.cpp. nvcc-clean.
+#pragma once
+#include <array>
+#include <cstddef>
+
+#include "core/types.h"
+
+namespace ff::delaunay {
+
+struct MemOps {
+  void* (*alloc)(std::size_t bytes);  // zeroed
+  void (*release)(void* p);
+  void (*to_backend)(void* dst, const void* host_src, std::size_t bytes, CUstream_st* s);
+  void (*to_host)(void* host_dst, const void* src, std::size_t bytes, CUstream_st* s);  // waits
+  void (*copy)(void* dst, const void* src, std::size_t bytes, CUstream_st* s);         // same side
+};
+
+MemOps cpu_mem_ops();
+MemOps cuda_mem_ops();  // CUDA builds only
+
+// A zeroed array of `count` T on the backend, reallocated when the count changes.
+template <class T>
+class Scratch {
+ public:
+  explicit Scratch(const MemOps& ops) : ops_(ops) {}
+  ~Scratch() { ops_.release(p_); }
+  Scratch(const Scratch&) = delete;
+  Scratch& operator=(const Scratch&) = delete;
+
+  T* get(std::size_t count) {
+    if (count != count_) {
+      ops_.release(p_);
+      p_ = static_cast<T*>(ops_.alloc(count * sizeof(T)));
+      count_ = count;
+    }
+    return p_;
+  }
+
+ private:
+  MemOps ops_;
+  T* p_ = nullptr;
+  std::size_t count_ = 0;
+};
+
+// K unsigned counters: reset() before a group of loops, read() after them (waits on the stream).
+template <int K>
+class Counters {
+ public:
+  explicit Counters(const MemOps& ops) : ops_(ops), buf_(ops) {}
+
+  unsigned* ptr() { return buf_.get(K); }
+  // Counts start at 0; slots listed in `min_slots` start at ~0u (they keep a minimum).
+  template <std::size_t M>
+  void reset(const std::array<int, M>& min_slots, CUstream_st* s) {
+    host_.fill(0u);
+    for (int slot : min_slots) host_[slot] = ~0u;
+    ops_.to_backend(ptr(), host_.data(), sizeof(unsigned) * K, s);
+  }
+  const std::array<unsigned, K>& read(CUstream_st* s) {
+    ops_.to_host(host_.data(), ptr(), sizeof(unsigned) * K, s);
+    return host_;
+  }
+
+ private:
+  MemOps ops_;
+  Scratch<unsigned> buf_;
+  std::array<unsigned, K> host_{};
+};
+
+}  // namespace ff::delaunay

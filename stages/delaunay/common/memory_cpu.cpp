@@ -1,0 +1,24 @@
+#include <cstdlib>
+#include <cstring>
+
+#include "core/error.h"
+#include "stages/delaunay/common/memory.h"
+
+namespace ff::delaunay {
+
+namespace {
+void* host_alloc(std::size_t bytes) {
+  if (bytes == 0) return nullptr;
+  void* p = std::calloc(1, bytes);
+  if (!p) throw RunError("delaunay: out of host memory (" + std::to_string(bytes) + " bytes)");
+  return p;
+}
+void host_release(void* p) { std::free(p); }
+void host_copy(void* dst, const void* src, std::size_t bytes, CUstream_st*) {
+  if (bytes) std::memcpy(dst, src, bytes);
+}
+}  // namespace
+
+MemOps cpu_mem_ops() { return {&host_alloc, &host_release, &host_copy, &host_copy, &host_copy}; }
+
+}  // namespace ff::delaunay

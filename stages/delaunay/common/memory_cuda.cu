@@ -1,0 +1,34 @@
+#include <cuda_runtime.h>
+
+#include "core/cuda/check.h"
+#include "stages/delaunay/common/memory.h"
+
+namespace ff::delaunay {
+
+namespace {
+void* dev_alloc(std::size_t bytes) {
+  if (bytes == 0) return nullptr;
+  void* p = nullptr;
+  FF_CUDA_CHECK(cudaMalloc(&p, bytes), "allocating delaunay scratch memory");
+  FF_CUDA_CHECK(cudaMemset(p, 0, bytes), "clearing delaunay scratch memory");
+  return p;
+}
+void dev_release(void* p) {
+  if (p) cudaFree(p);
+}
+void dev_upload(void* dst, const void* src, std::size_t bytes, CUstream_st* s) {
+  if (bytes) FF_CUDA_CHECK(cudaMemcpyAsync(dst, src, bytes, cudaMemcpyHostToDevice, s), "resetting delaunay counters");
+}
+void dev_download(void* dst, const void* src, std::size_t bytes, CUstream_st* s) {
+  if (!bytes) return;
+  FF_CUDA_CHECK(cudaMemcpyAsync(dst, src, bytes, cudaMemcpyDeviceToHost, s), "reading delaunay counters");
+  FF_CUDA_CHECK(cudaStreamSynchronize(s), "waiting for delaunay counters");
+}
+void dev_copy(void* dst, const void* src, std::size_t bytes, CUstream_st* s) {
+  if (bytes) FF_CUDA_CHECK(cudaMemcpyAsync(dst, src, bytes, cudaMemcpyDeviceToDevice, s), "copying a delaunay buffer");
+}
+}  // namespace
+
+MemOps cuda_mem_ops() { return {&dev_alloc, &dev_release, &dev_upload, &dev_download, &dev_copy}; }
+
+}  // namespace ff::delaunay

@@ -1,0 +1,145 @@
+// Per-element topology and geometry shared by every delaunay stage and both backends:
+// the half-edge view of the triangulation, minimum-image vectors, the orientation and
+// in-circle predicates, and the edge flip itself. FF_HD only; nvcc-clean.
+//
+// Predicates are evaluated in double for both precisions: the inputs are differences of the
+// stored coordinates (exact or nearly so in double), so float runs get accurate signs too.
+#pragma once
+#include <cmath>
+#include <cstdint>
+
+#include "core/box.h"
+#include "core/hd.h"
+
+namespace ff::delaunay {
+
+// ---- topology ---------------------------------------------------------------------------
+// Half-edge h: he[2h] = origin vertex, he[2h+1] = next half-edge (CCW around its triangle).
+// twin(h) = h ^ 1, edge(h) = h >> 1. A triangle is a cycle h -> next -> next -> h.
+FF_HD int twin(int h) { return h ^ 1; }
+
+struct Mesh {
+  std::int32_t* he;     // 2 x 6N
+  std::int32_t* vedge;  // N: one outgoing half-edge per vertex
+
+  FF_HD int origin(int h) const { return he[2 * h]; }
+  FF_HD int next(int h) const { return he[2 * h + 1]; }
+  // True for exactly one half-edge of each triangle (its lowest id): count triangles once.
+  FF_HD bool canonical(int h) const {
+    const int n = next(h);
+    return h < n && h < next(n);
+  }
+};
+
+// The quad around edge e: a -> b is half-edge 2e, c closes the triangle on its left (a, b, c),
+// d the triangle on its right (b, a, d); both CCW. hXn / hXp are next / previous of hX.
+struct Quad {
+  int h0, h1, h0n, h0p, h1n, h1p;
+  int a, b, c, d;
+};
+
+FF_HD Quad quad(const Mesh& m, int e) {
+  Quad q;
+  q.h0 = 2 * e;
+  q.h1 = 2 * e + 1;
+  q.h0n = m.next(q.h0);
+  q.h0p = m.next(q.h0n);
+  q.h1n = m.next(q.h1);
+  q.h1p = m.next(q.h1n);
+  q.a = m.origin(q.h0);
+  q.b = m.origin(q.h1);
+  q.c = m.origin(q.h0p);
+  q.d = m.origin(q.h1p);
+  return q;
+}
+
+// Relaxed atomic load/store of a topology word that a concurrent flip may also touch
+// (vertex_edge); plain accesses on the device, where word accesses are atomic.
+FF_HD int load_relaxed(const std::int32_t* p) {
+#if defined(__CUDA_ARCH__)
+  return *(volatile const std::int32_t*)p;
+#else
+  return __atomic_load_n(p, __ATOMIC_RELAXED);
+#endif
+}
+FF_HD void store_relaxed(std::int32_t* p, int v) {
+#if defined(__CUDA_ARCH__)
+  *(volatile std::int32_t*)p = v;
+#else
+  __atomic_store_n(p, v, __ATOMIC_RELAXED);
+#endif
+}
+
+// Replace edge (a, b) by (c, d). Writes only the six half-edges of the two triangles (plus
+// vertex_edge of a and b when it pointed at the removed edge), so flips of edges that share no
+// triangle can run concurrently. Afterwards h0 = d -> c in triangle (d, c, a) and
+// h1 = c -> d in triangle (c, d, b), both CCW when the quad a, d, b, c is convex.
+FF_HD void flip_edge(const Mesh& m, int e) {
+  const Quad q = quad(m, e);
+  m.he[2 * q.h0] = q.d;
+  m.he[2 * q.h1] = q.c;
+  m.he[2 * q.h0 + 1] = q.h0p;   // d -> c -> a
+  m.he[2 * q.h0p + 1] = q.h1n;  // c -> a -> d
+  m.he[2 * q.h1n + 1] = q.h0;   // a -> d -> c
+  m.he[2 * q.h1 + 1] = q.h1p;   // c -> d -> b
+  m.he[2 * q.h1p + 1] = q.h0n;  // d -> b -> c
+  m.he[2 * q.h0n + 1] = q.h1;   // b -> c -> d
+  if (load_relaxed(m.vedge + q.a) == q.h0) store_relaxed(m.vedge + q.a, q.h1n);
+  if (load_relaxed(m.vedge + q.b) == q.h1) store_relaxed(m.vedge + q.b, q.h0n);
+}
+
+// ---- geometry ---------------------------------------------------------------------------
+struct V2 {
+  double x, y;
+};
+FF_HD V2 operator-(V2 p, V2 q) { return {p.x - q.x, p.y - q.y}; }
+FF_HD double cross(V2 p, V2 q) { return p.x * q.y - p.y * q.x; }
+FF_HD double dot(V2 p, V2 q) { return p.x * q.x + p.y * q.y; }
+
+// Positions (N x 2, precision R) seen through the periodic box.
+template <class R>
+struct Points {
+  const R* p;
+  PeriodicBox<double> box;
+
+  // Minimum-image vector from particle i to particle j.
+  FF_HD V2 rel(int i, int j) const {
+    return {box.min_image(double(p[2 * j]) - double(p[2 * i]), 0),
+            box.min_image(double(p[2 * j + 1]) - double(p[2 * i + 1]), 1)};
+  }
+};
+
+// True when v is its own minimum image with a margin: |v_k| < L_k / 2.
+FF_HD bool is_min_image(V2 v, const PeriodicBox<double>& box) {
+  return std::fabs(v.x) < 0.5 * box.L[0] && std::fabs(v.y) < 0.5 * box.L[1];
+}
+
+// A triangle closes when its three minimum-image sides sum to zero. With every edge shorter than
+// half the box this holds up to rounding; an edge that grew past half the box shows up as a
+// residual of a whole box length.
+FF_HD bool closes(V2 ab, V2 ac, V2 bc_min_image, const PeriodicBox<double>& box) {
+  const V2 r = (ac - ab) - bc_min_image;
+  return std::fabs(r.x) < 0.25 * box.L[0] && std::fabs(r.y) < 0.25 * box.L[1];
+}
+
+// orient(p, q, r) > 0 when p, q, r turn counter-clockwise.
+FF_HD double orient(V2 p, V2 q, V2 r) { return cross(q - p, r - p); }
+
+// In-circle determinant: > 0 when d lies inside the circle through the CCW triangle (a, b, c).
+// `perm` receives the permanent (the same sum with absolute values), which bounds the rounding
+// error: |computed - exact| <= ~1e-15 * perm for exact inputs (Shewchuk's iccerrboundA).
+FF_HD double incircle(V2 a, V2 b, V2 c, V2 d, double& perm) {
+  const double adx = a.x - d.x, ady = a.y - d.y;
+  const double bdx = b.x - d.x, bdy = b.y - d.y;
+  const double cdx = c.x - d.x, cdy = c.y - d.y;
+  const double alift = adx * adx + ady * ady;
+  const double blift = bdx * bdx + bdy * bdy;
+  const double clift = cdx * cdx + cdy * cdy;
+  const double bc = bdx * cdy - cdx * bdy, ca = cdx * ady - adx * cdy, ab = adx * bdy - bdx * ady;
+  perm = alift * (std::fabs(bdx * cdy) + std::fabs(cdx * bdy)) +
+         blift * (std::fabs(cdx * ady) + std::fabs(adx * cdy)) +
+         clift * (std::fabs(adx * bdy) + std::fabs(bdx * ady));
+  return alift * bc + blift * ca + clift * ab;
+}
+
+}  // namespace ff::delaunay

@@ -1,0 +1,96 @@
+// delaunay.detect_inversion per-element math: inverted-triangle detection (Carter et al. 2017,
+// sec. 4.3), also used by
+// delaunay.flip after each repair round.
+//
+// Per edge e = (a, b) with c left and d right (common/mesh.h), coordinates by minimum image
+// from a:
+//  * r⁰·r¹ < 0 for the edge vector before/after the step: a and b went through each other.
+//  * both triangles non-positive: the edge was crossed twice (or flattened from both sides).
+//  * exactly one triangle non-positive and both triangles of the flipped edge (c, a, d) and
+//    (d, b, c) positive: one vertex crossed this one edge into the other triangle, and flipping
+//    the edge repairs it. This is Carter's barycentric test (eqs. 5–8): the mover lies inside
+//    the triangle formed by the edge and the other opposite vertex. The edge is marked.
+//  * the triangles must close under minimum image (every edge shorter than half the box).
+// A second pass (CheckInverted) requires each inverted triangle to have exactly one marked
+// edge; anything else (a vertex across two edges, a vertex across a vertex) is not repairable
+// by single flips. FF_HD; nvcc-clean.
+#pragma once
+#include <cstdint>
+
+#include "stages/delaunay/common/atomics.h"
+#include "stages/delaunay/common/mesh.h"
+
+namespace ff::delaunay {
+
+// Counter slots (unsigned); *_at slots hold the lowest edge / half-edge id of the event.
+enum InversionCounter : int {
+  kInverted = 0,      // inverted (non-positive) triangles, each counted once
+  kMarked,            // edges marked for a repair flip
+  kThrough,           // edges whose vector reversed (r⁰·r¹ < 0)
+  kThroughAt,         //   lowest such edge
+  kTwice,             // edges with both triangles inverted
+  kTwiceAt,           //   lowest such edge
+  kUnrepairable,      // inverted triangles without exactly one repairing edge
+  kUnrepairableAt,    //   lowest canonical half-edge of such a triangle
+  kTooLong,           // triangles that do not close under minimum image
+  kTooLongAt,         //   lowest such edge
+  kRepairFlips,       // flips done by DecideFlips (delaunay.flip)
+  kInversionCounters
+};
+
+template <class R>
+struct MarkInversions {
+  Mesh mesh;
+  Points<R> pts;
+  const R* prev;  // positions at which the triangulation was valid; nullptr: skip r⁰·r¹
+  std::uint8_t* mark;
+  unsigned* counters;
+
+  FF_HD void operator()(std::size_t i) const {
+    const int e = int(i);
+    const Quad q = quad(mesh, e);
+    const V2 ab = pts.rel(q.a, q.b), ac = pts.rel(q.a, q.c), ad = pts.rel(q.a, q.d);
+    if (!closes(ab, ac, pts.rel(q.b, q.c), pts.box) || !closes(ab, ad, pts.rel(q.b, q.d), pts.box))
+      record(counters, kTooLong, kTooLongAt, unsigned(e));
+    if (prev) {
+      const Points<R> before{prev, pts.box};
+      if (dot(before.rel(q.a, q.b), ab) < 0) record(counters, kThrough, kThroughAt, unsigned(e));
+    }
+    const V2 o{0, 0};
+    const double left = orient(o, ab, ac);   // (a, b, c)
+    const double right = orient(ab, o, ad);  // (b, a, d)
+    if (left <= 0 && mesh.canonical(q.h0)) count_one(counters + kInverted);
+    if (right <= 0 && mesh.canonical(q.h1)) count_one(counters + kInverted);
+    bool m = false;
+    if (left <= 0 && right <= 0) {
+      record(counters, kTwice, kTwiceAt, unsigned(e));
+    } else if (left <= 0 || right <= 0) {
+      m = orient(ac, o, ad) > 0 && orient(ad, ab, ac) > 0;  // (c, a, d) and (d, b, c)
+    }
+    mark[e] = m ? 1 : 0;
+    if (m) count_one(counters + kMarked);
+  }
+};
+
+// Per half-edge: an inverted triangle (seen from its canonical half-edge) must have exactly one
+// marked edge.
+template <class R>
+struct CheckInverted {
+  Mesh mesh;
+  Points<R> pts;
+  const std::uint8_t* mark;
+  unsigned* counters;
+
+  FF_HD void operator()(std::size_t i) const {
+    const int h = int(i);
+    if (!mesh.canonical(h)) return;
+    const int hn = mesh.next(h), hp = mesh.next(hn);
+    const int a = mesh.origin(h), b = mesh.origin(hn), c = mesh.origin(hp);
+    const V2 o{0, 0};
+    if (orient(o, pts.rel(a, b), pts.rel(a, c)) > 0) return;
+    const int marked = mark[h >> 1] + mark[hn >> 1] + mark[hp >> 1];
+    if (marked != 1) record(counters, kUnrepairable, kUnrepairableAt, unsigned(h));
+  }
+};
+
+}  // namespace ff::delaunay

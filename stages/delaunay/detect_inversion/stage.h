@@ -1,0 +1,100 @@
+// delaunay.detect_inversion: after integration, find inverted triangles and decide whether
+// single edge flips can repair them (marks them in delaunay.flip_mark for delaunay.flip) or the
+// step must be rolled back (particles through each other, an edge crossed from both sides, a
+// vertex across more than one edge). At the end of an accepted detection it copies `position`
+// into `delaunay.position_prev`, the reference for the next step's r⁰·r¹ test.
+#pragma once
+#include <array>
+
+#include "core/error.h"
+#include "core/exec.h"
+#include "core/stage.h"
+#include "stages/delaunay/common/host.h"
+#include "stages/delaunay/common/memory.h"
+#include "stages/delaunay/detect_inversion/kernel.h"
+
+namespace ff::delaunay {
+
+template <class R>
+struct DetectOps {
+  ElementLoop<MarkInversions<R>> mark;
+  ElementLoop<CheckInverted<R>> check;
+  MemOps mem;
+};
+
+template <class R>
+class DetectInversion final : public Stage {
+ public:
+  DetectInversion(Where where, DetectOps<R> ops) : where_(where), ops_(ops), counters_(ops.mem) {}
+
+  std::vector<Access> accesses() const override {
+    // halfedge/vertex_edge are written only when no triangulation exists yet (first step).
+    return {{ff::fields::position, where_, Mode::read},
+            {fields::halfedge, where_, Mode::readwrite},
+            {fields::vertex_edge, where_, Mode::readwrite},
+            {fields::position_prev, where_, Mode::readwrite},
+            {fields::flip_mark, where_, Mode::write},
+            {fields::status, Where::host, Mode::readwrite}};
+  }
+  void configure(State& s) override { add_topology_fields(s, "delaunay.detect_inversion"); }
+  bool may_request_rollback() const override { return true; }
+
+  Outcome run(StepContext& ctx) override {
+    State& s = ctx.state;
+    CUstream_st* st = ctx.stream;
+    const bool fresh = ensure_topology(s, accesses(), st);
+    const Mesh m = mesh_view(s, where_);
+    const Points<R> pts = points_view<R>(s, ff::fields::position, where_);
+    R* prev = data<R>(s.field(fields::position_prev), where_);
+    std::uint8_t* mark = data<std::uint8_t>(s.field(fields::flip_mark), where_);
+    unsigned* c = counters_.ptr();
+    const std::size_t E = edge_count(s.n());
+
+    counters_.reset(kMinSlots, st);
+    ops_.mark(E, MarkInversions<R>{m, pts, fresh ? nullptr : prev, mark, c}, st);
+    auto h = counters_.read(st);
+    throw_if_too_long(s, where_, ops_.mem, h[kTooLong], h[kTooLongAt], st, "delaunay.detect_inversion");
+    if (h[kInverted]) {
+      ops_.check(halfedge_count(s.n()), CheckInverted<R>{m, pts, mark, c}, st);
+      h = counters_.read(st);
+    }
+    ctx.metrics.set("inversions", h[kInverted]);
+    ctx.metrics.set("repairable", h[kMarked]);
+
+    const char* retry = "; the step is retried with a smaller time step";
+    if (h[kThrough]) {
+      auto ids = edge_vertices(s, where_, ops_.mem, int(h[kThroughAt]), st);
+      return Outcome::request_rollback("delaunay.detect_inversion: particles " + list_ids(ids) +
+                                           " passed through each other (their separation vector reversed, r0.r1 < 0; " +
+                                           std::to_string(h[kThrough]) + " such pair(s))" + retry,
+                                       ids);
+    }
+    if (h[kTwice]) {
+      auto ids = edge_vertices(s, where_, ops_.mem, int(h[kTwiceAt]), st);
+      return Outcome::request_rollback("delaunay.detect_inversion: the edge between particles " + list_ids(ids) +
+                                           " was crossed from both sides (both its triangles inverted; " +
+                                           std::to_string(h[kTwice]) + " such edge(s))" + retry,
+                                       ids);
+    }
+    if (h[kUnrepairable]) {
+      auto ids = triangle_vertices(s, where_, ops_.mem, int(h[kUnrepairableAt]), st);
+      return Outcome::request_rollback("delaunay.detect_inversion: the triangle of particles " + list_ids(ids) +
+                                           " is inverted and no single edge flip repairs it (a particle crossed "
+                                           "more than one edge; " +
+                                           std::to_string(h[kUnrepairable]) + " such triangle(s))" + retry,
+                                       ids);
+    }
+    status(s)[kPending] = std::int32_t(h[kMarked]);
+    const Field& pos = s.field(ff::fields::position);
+    ops_.mem.copy(prev, pts.p, pos.bytes(), st);
+    return Outcome::ok();
+  }
+
+ private:
+  static constexpr std::array<int, 4> kMinSlots{kThroughAt, kTwiceAt, kUnrepairableAt, kTooLongAt};
+  Where where_;
+  DetectOps<R> ops_;
+  Counters<kInversionCounters> counters_;
+};
+
+}  // namespace ff::delaunay

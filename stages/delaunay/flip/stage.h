@@ -1,0 +1,97 @@
+// delaunay.flip: repair the inverted triangles that delaunay.detect_inversion marked, by edge
+// flips (Carter et al. 2017, figs. 5–6), in parallel without conflicts (common/flip.h). Each
+// round flips the marked edges that win their triangles, then re-detects; a flip turns one
+// inverted triangle into two positive ones and touches nothing else, so the number of inverted
+// triangles drops every round. Whatever cannot be repaired this way requests a rollback.
+#pragma once
+#include <array>
+
+#include "core/error.h"
+#include "core/exec.h"
+#include "core/stage.h"
+#include "stages/delaunay/common/host.h"
+#include "stages/delaunay/common/memory.h"
+#include "stages/delaunay/flip/kernel.h"
+
+namespace ff::delaunay {
+
+struct FlipParams {
+  std::int64_t max_rounds = 64;
+
+  static std::vector<ParamSpec> schema() {
+    return {ParamSpec::integer("max_rounds", 64, "repair rounds before the step is rolled back").at_least(1)};
+  }
+  static FlipParams from(const ParamValues& v) { return FlipParams{v.integer("max_rounds")}; }
+};
+
+template <class R>
+struct FlipOps {
+  ElementLoop<DecideFlips> decide;
+  ElementLoop<ApplyFlips> apply;
+  ElementLoop<MarkInversions<R>> mark;
+  MemOps mem;
+};
+
+template <class R>
+class Flip final : public Stage {
+ public:
+  Flip(FlipParams p, Where where, FlipOps<R> ops) : p_(p), where_(where), ops_(ops), counters_(ops.mem), go_(ops.mem) {}
+
+  std::vector<Access> accesses() const override {
+    return {{ff::fields::position, where_, Mode::read},
+            {fields::halfedge, where_, Mode::readwrite},
+            {fields::vertex_edge, where_, Mode::readwrite},
+            {fields::flip_mark, where_, Mode::readwrite},
+            {fields::status, Where::host, Mode::readwrite}};
+  }
+  void configure(State& s) override { add_topology_fields(s, "delaunay.flip"); }
+  bool may_request_rollback() const override { return true; }
+
+  Outcome run(StepContext& ctx) override {
+    State& s = ctx.state;
+    CUstream_st* st = ctx.stream;
+    ensure_topology(s, accesses(), st);
+    ctx.metrics.set("flips", 0);
+    ctx.metrics.set("flip_rounds", 0);
+    if (status(s)[kPending] == 0) return Outcome::ok();  // detect_inversion found nothing to repair
+
+    const Mesh m = mesh_view(s, where_);
+    const Points<R> pts = points_view<R>(s, ff::fields::position, where_);
+    std::uint8_t* mark = data<std::uint8_t>(s.field(fields::flip_mark), where_);
+    const std::size_t E = edge_count(s.n());
+    std::uint8_t* go = go_.get(E);
+    unsigned* c = counters_.ptr();
+
+    unsigned flips = 0;
+    std::int64_t rounds = 0;
+    std::array<unsigned, kInversionCounters> h{};
+    do {
+      counters_.reset(kMinSlots, st);
+      ops_.decide(E, DecideFlips{m, mark, go, c, kRepairFlips}, st);
+      ops_.apply(E, ApplyFlips{m, go}, st);
+      ops_.mark(E, MarkInversions<R>{m, pts, nullptr, mark, c}, st);
+      h = counters_.read(st);
+      flips += h[kRepairFlips];
+      ++rounds;
+      throw_if_too_long(s, where_, ops_.mem, h[kTooLong], h[kTooLongAt], st, "delaunay.flip");
+    } while (h[kMarked] && rounds < p_.max_rounds);
+    status(s)[kPending] = 0;
+    ctx.metrics.set("flips", flips);
+    ctx.metrics.set("flip_rounds", double(rounds));
+    if (h[kInverted])
+      return Outcome::request_rollback("delaunay.flip: " + std::to_string(h[kInverted]) +
+                                       " inverted triangle(s) remain after " + std::to_string(flips) + " repair flip(s) in " +
+                                       std::to_string(rounds) + " round(s); the step is retried with a smaller time step");
+    return Outcome::ok();
+  }
+
+ private:
+  static constexpr std::array<int, 4> kMinSlots{kThroughAt, kTwiceAt, kUnrepairableAt, kTooLongAt};
+  FlipParams p_;
+  Where where_;
+  FlipOps<R> ops_;
+  Counters<kInversionCounters> counters_;
+  Scratch<std::uint8_t> go_;
+};
+
+}  // namespace ff::delaunay

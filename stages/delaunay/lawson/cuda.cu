@@ -1,0 +1,13 @@
+#include "core/cuda/loop.cuh"
+#include "stages/delaunay/lawson/cuda.cuh"
+
+namespace ff::delaunay {
+
+template <class R>
+LawsonOps<R> lawson_cuda_ops() {
+  return {&cuda_for_each<MarkNonDelaunay<R>>, &cuda_for_each<DecideFlips>, &cuda_for_each<ApplyFlips>, cuda_mem_ops()};
+}
+template LawsonOps<float> lawson_cuda_ops<float>();
+template LawsonOps<double> lawson_cuda_ops<double>();
+
+}  // namespace ff::delaunay

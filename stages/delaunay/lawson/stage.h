@@ -1,0 +1,113 @@
+// delaunay.lawson: parallel Lawson flips until every edge is locally Delaunay (Navarro et al.,
+// as used by Carter et al. 2017). Rounds of mark / decide / apply; the lowest marked edge id wins
+// both of its triangles, so the result is independent of thread scheduling and backend. The
+// input must be a valid (all triangles positive) triangulation: run delaunay.flip first.
+#pragma once
+#include <array>
+
+#include "core/error.h"
+#include "core/exec.h"
+#include "core/stage.h"
+#include "stages/delaunay/common/host.h"
+#include "stages/delaunay/common/memory.h"
+#include "stages/delaunay/lawson/kernel.h"
+
+namespace ff::delaunay {
+
+struct LawsonParams {
+  std::int64_t max_rounds = 1000;
+  double tolerance = 1e-10;
+
+  static std::vector<ParamSpec> schema() {
+    return {ParamSpec::integer("max_rounds", 1000, "flip rounds before the run stops with an error").at_least(1),
+            ParamSpec::real("tolerance", 1e-10,
+                            "in-circle tolerance relative to the determinant's rounding scale (co-circular points "
+                            "within it are left as they are)")
+                .at_least(0)};
+  }
+  static LawsonParams from(const ParamValues& v) { return LawsonParams{v.integer("max_rounds"), v.real("tolerance")}; }
+};
+
+template <class R>
+struct LawsonOps {
+  ElementLoop<MarkNonDelaunay<R>> mark;
+  ElementLoop<DecideFlips> decide;
+  ElementLoop<ApplyFlips> apply;
+  MemOps mem;
+};
+
+template <class R>
+class Lawson final : public Stage {
+ public:
+  Lawson(LawsonParams p, Where where, LawsonOps<R> ops)
+      : p_(p), where_(where), ops_(ops), counters_(ops.mem), mark_(ops.mem), go_(ops.mem) {}
+
+  std::vector<Access> accesses() const override {
+    return {{ff::fields::position, where_, Mode::read},
+            {fields::halfedge, where_, Mode::readwrite},
+            {fields::vertex_edge, where_, Mode::readwrite},
+            {fields::status, Where::host, Mode::readwrite}};
+  }
+  void configure(State& s) override { add_topology_fields(s, "delaunay.lawson"); }
+
+  Outcome run(StepContext& ctx) override {
+    State& s = ctx.state;
+    CUstream_st* st = ctx.stream;
+    ensure_topology(s, accesses(), st);
+    if (status(s)[kPending])
+      throw RunError("delaunay.lawson: " + std::to_string(status(s)[kPending]) +
+                     " inverted triangle(s) found by delaunay.detect_inversion were not repaired; put delaunay.flip "
+                     "between delaunay.detect_inversion and delaunay.lawson");
+    const Mesh m = mesh_view(s, where_);
+    const Points<R> pts = points_view<R>(s, ff::fields::position, where_);
+    const std::size_t E = edge_count(s.n());
+    std::uint8_t* mark = mark_.get(E);
+    std::uint8_t* go = go_.get(E);
+    unsigned* c = counters_.ptr();
+
+    unsigned flips = 0;
+    std::int64_t rounds = 0;  // rounds that flipped something
+    for (;;) {
+      counters_.reset(std::array<int, 1>{kLawsonTooLongAt}, st);
+      ops_.mark(E, MarkNonDelaunay<R>{m, pts, p_.tolerance, mark, c}, st);
+      const bool may_flip = rounds < p_.max_rounds;
+      if (may_flip) {
+        ops_.decide(E, DecideFlips{m, mark, go, c, kLawsonFlips}, st);
+        ops_.apply(E, ApplyFlips{m, go}, st);
+      }
+      const auto& h = counters_.read(st);
+      throw_if_too_long_flip(s, h[kLawsonTooLong], h[kLawsonTooLongAt], st);
+      if (!h[kLawsonMarked]) break;
+      if (!may_flip)
+        throw RunError("delaunay.lawson: the triangulation is still not Delaunay after max_rounds = " +
+                       std::to_string(p_.max_rounds) + " rounds (" + std::to_string(flips) + " flips; " +
+                       std::to_string(h[kLawsonMarked]) +
+                       " edge(s) left). Raise max_rounds, or raise tolerance if points are (nearly) co-circular");
+      flips += h[kLawsonFlips];
+      ++rounds;
+    }
+    ctx.metrics.set("lawson_rounds", double(rounds));
+    ctx.metrics.set("lawson_flips", flips);
+    return Outcome::ok();
+  }
+
+ private:
+  void throw_if_too_long_flip(State& s, unsigned count, unsigned at, CUstream_st* st) {
+    if (!count) return;
+    const auto ids = edge_vertices(s, where_, ops_.mem, int(at), st);
+    throw RunError("delaunay.lawson: restoring the Delaunay property needs an edge longer than half the box (next to "
+                   "the edge between particles " +
+                   list_ids(ids) + "; " + std::to_string(count) +
+                   " such flip(s)); the periodic triangulation is stored by minimum image and cannot hold it. Use a "
+                   "larger system (more particles at this density)");
+  }
+
+  LawsonParams p_;
+  Where where_;
+  LawsonOps<R> ops_;
+  Counters<kLawsonCounters> counters_;
+  Scratch<std::uint8_t> mark_;
+  Scratch<std::uint8_t> go_;
+};
+
+}  // namespace ff::delaunay

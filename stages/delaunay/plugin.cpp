@@ -1,0 +1,18 @@
+// The standard delaunay stage library: build, detect_inversion, flip, lawson (2D).
+#include "core/plugin_api.h"
+
+namespace ff::delaunay {
+void register_build(Registry& r);
+void register_detect_inversion(Registry& r);
+void register_flip(Registry& r);
+void register_lawson(Registry& r);
+}  // namespace ff::delaunay
+
+static void register_delaunay(ff::Registry& r) {
+  ff::delaunay::register_build(r);
+  ff::delaunay::register_detect_inversion(r);
+  ff::delaunay::register_flip(r);
+  ff::delaunay::register_lawson(r);
+}
+
+FLIPFLOW_PLUGIN(register_delaunay)

@@ -1,0 +1,177 @@
+// delaunay.detect_inversion alone, on hand-made moves of Carter et al. 2017 figs. 4–6: a vertex
+// across one edge is marked for a flip; across two edges, through another particle, or an edge
+// crossed from both sides requests a rollback naming the particles.
+#include "core/error.h"
+#include "test_delaunay_support.h"
+
+using namespace ff;
+using namespace ff::test::dl;
+
+namespace {
+std::vector<std::uint8_t> marks(State& s) {
+  Field& f = s.field(ff::delaunay::fields::flip_mark);
+  f.acquire(Where::host, Mode::read);
+  return std::vector<std::uint8_t>(f.host<std::uint8_t>(), f.host<std::uint8_t>() + f.size());
+}
+bool contains(const std::vector<std::uint64_t>& v, int x) { return std::find(v.begin(), v.end(), std::uint64_t(x)) != v.end(); }
+}  // namespace
+
+TEST_CASE("detect_inversion: nothing moved, nothing found", "[delaunay][detect]") {
+  const Backend b = GENERATE(from_range(ff::test::backends()));
+  Scene sc;
+  auto st = make_stage("delaunay.detect_inversion", b);
+  st->configure(*sc.s);
+  Runner r(*sc.s, b);
+  const Outcome o = r.run(*st);
+  CHECK_FALSE(o.rollback);
+  CHECK(r.metric("inversions") == 0);
+  CHECK(status_of(*sc.s)[ff::delaunay::kPending] == 0);
+  const auto m = marks(*sc.s);
+  CHECK(std::count(m.begin(), m.end(), 1) == 0);
+}
+
+TEST_CASE("detect_inversion: one vertex across one edge is marked for a flip (fig. 5)", "[delaunay][detect]") {
+  const Backend b = GENERATE(from_range(ff::test::backends()));
+  const Precision p = GENERATE(Precision::f64, Precision::f32);
+  Scene sc(p);
+  const auto f = sc.fan(45);
+  sc.cross_one_edge(f);
+  auto st = make_stage("delaunay.detect_inversion", b, p);
+  st->configure(*sc.s);
+  Runner r(*sc.s, b);
+  const Outcome o = r.run(*st);
+  INFO(o.reason);
+  REQUIRE_FALSE(o.rollback);
+  CHECK(r.metric("inversions") == 1);
+  CHECK(r.metric("repairable") == 1);
+  const auto m = marks(*sc.s);
+  CHECK(std::count(m.begin(), m.end(), 1) == 1);
+  CHECK(m[f.pq] == 1);
+  CHECK(status_of(*sc.s)[ff::delaunay::kPending] == 1);
+  // position_prev now holds the accepted positions (the next step's r0).
+  Field& prev = sc.s->field(ff::delaunay::fields::position_prev);
+  prev.acquire(Where::host, Mode::read);
+  const auto xy = positions(*sc.s);
+  for (std::size_t i = 0; i < xy.size(); ++i)
+    REQUIRE((p == Precision::f64 ? prev.host<double>()[i] : double(prev.host<float>()[i])) == xy[i]);
+}
+
+TEST_CASE("detect_inversion: a vertex across two edges requests a rollback (fig. 6)", "[delaunay][detect]") {
+  const Backend b = GENERATE(from_range(ff::test::backends()));
+  // Fig. 6: v crosses (p, q) and then (q, w) of the triangle T = (q, p, w), passing close to q.
+  // In a lattice that turns v around q by more than 90 degrees (the r0.r1 test fires first), so
+  // look for a vertex of a random point set whose two triangles at q are thin enough that every
+  // edge of v keeps r0.r1 > 0: then only the inversion analysis can catch it.
+  const double L = 14;
+  int found = 0;
+  for (std::uint64_t seed = 1; seed <= 20 && found < 3; ++seed) {
+    Scene sc(Precision::f64, 10, 10);
+    sc.s = make_state(random_points(196, L, L, seed), L, L);
+    auto build = make_stage("delaunay.build", Backend::cpu);
+    build->configure(*sc.s);
+    Runner rb(*sc.s, Backend::cpu);
+    REQUIRE_FALSE(rb.run(*build).rollback);
+    sc.t = topology(*sc.s);
+    sc.xy = positions(*sc.s);
+    for (int v = 0; v < int(sc.n()) && found < 3; ++v) {
+      const auto f = sc.fan(v);
+      // Just past (q, w), 30% of the way from q to w.
+      const auto q = sc.near(f.v, f.q), w = sc.near(f.v, f.w), z = sc.near(f.v, f.z);
+      const auto on = sc.lerp(q, w, 0.3);
+      const std::array<double, 2> to{on[0] + 0.05 * (z[0] - on[0]), on[1] + 0.05 * (z[1] - on[1])};
+      const auto from = sc.near(f.v, f.v);
+      bool keeps_sign = true;
+      for (int h = 0; h < int(6 * sc.n()); ++h) {
+        if (sc.origin(h) != v) continue;
+        const auto y = sc.near(f.v, sc.origin(h ^ 1));
+        keeps_sign = keeps_sign && (y[0] - from[0]) * (y[0] - to[0]) + (y[1] - from[1]) * (y[1] - to[1]) > 0.05;
+      }
+      if (!keeps_sign) continue;
+      ++found;
+      const auto saved = sc.xy;
+      sc.move(v, to);
+      auto st = make_stage("delaunay.detect_inversion", b);
+      st->configure(*sc.s);
+      Runner r(*sc.s, b);
+      const Outcome o = r.run(*st);
+      INFO("seed " << seed << ", v = " << v << ": " << o.reason);
+      REQUIRE(o.rollback);
+      CHECK(r.metric("inversions") >= 1);
+      CHECK_THAT(o.reason, Catch::Contains("no single edge flip repairs it"));
+      CHECK(contains(o.particles, f.v));
+      CHECK(status_of(*sc.s)[ff::delaunay::kPending] == 0);
+      sc.move(v, {saved[2 * v], saved[2 * v + 1]});
+      REQUIRE_FALSE(rb.run(*build).rollback);  // the next candidate starts from a fresh build
+      REQUIRE(topology(*sc.s).he == sc.t.he);
+    }
+  }
+  CHECK(found == 3);
+}
+
+TEST_CASE("detect_inversion: particles through each other request a rollback", "[delaunay][detect]") {
+  const Backend b = GENERATE(from_range(ff::test::backends()));
+  Scene sc;
+  const auto f = sc.fan(45);
+  // v jumps over its neighbour p: the edge vector v->p reverses (r0.r1 < 0).
+  const auto v = sc.near(f.p, f.v), pp = sc.near(f.p, f.p);
+  sc.move(f.v, {pp[0] + 0.3 * (pp[0] - v[0]), pp[1] + 0.3 * (pp[1] - v[1])});
+  auto st = make_stage("delaunay.detect_inversion", b);
+  st->configure(*sc.s);
+  Runner r(*sc.s, b);
+  const Outcome o = r.run(*st);
+  INFO(o.reason);
+  REQUIRE(o.rollback);
+  CHECK_THAT(o.reason, Catch::Contains("passed through each other"));
+  REQUIRE(o.particles.size() == 2);
+  CHECK(contains(o.particles, f.v));
+  CHECK(contains(o.particles, f.p));
+}
+
+TEST_CASE("detect_inversion: an edge crossed from both sides requests a rollback", "[delaunay][detect]") {
+  const Backend b = GENERATE(from_range(ff::test::backends()));
+  Scene sc;
+  const auto f = sc.fan(45);  // edge (p, q) between v and w: move both across it
+  const auto m = sc.mid(f.p, f.p, f.q);
+  const auto v = sc.near(f.p, f.v), w = sc.near(f.p, f.w);
+  sc.move(f.v, sc.lerp(m, w, 0.25));
+  sc.move(f.w, sc.lerp(m, v, 0.25));
+  auto st = make_stage("delaunay.detect_inversion", b);
+  st->configure(*sc.s);
+  Runner r(*sc.s, b);
+  const Outcome o = r.run(*st);
+  INFO(o.reason);
+  REQUIRE(o.rollback);
+  CHECK_THAT(o.reason, Catch::Contains("crossed from both sides"));
+  CHECK(contains(o.particles, f.p));
+  CHECK(contains(o.particles, f.q));
+}
+
+TEST_CASE("detect_inversion: an edge longer than half the box is a RunError", "[delaunay][detect]") {
+  // 4 x 4 square lattice: spacing = L/4. Shifting one row by 0.6 L makes the minimum image of
+  // the edges to the next rows point the other way, so their triangles no longer close.
+  auto s = make_state(square_lattice(4, 4, 1.0), 4.0, 4.0);
+  auto build = make_stage("delaunay.build", Backend::cpu);
+  build->configure(*s);
+  Runner r(*s, Backend::cpu);
+  REQUIRE_FALSE(r.run(*build).rollback);
+  auto xy = positions(*s);
+  for (int i = 0; i < 4; ++i) xy[2 * i] += 2.4;
+  set_positions(*s, xy);
+  auto st = make_stage("delaunay.detect_inversion", Backend::cpu);
+  st->configure(*s);
+  CHECK_THROWS_WITH(r.run(*st), Catch::Contains("longer than half the box"));
+}
+
+TEST_CASE("detect_inversion: builds the triangulation when none exists", "[delaunay][detect]") {
+  const Backend b = GENERATE(from_range(ff::test::backends()));
+  const double L = 20;
+  auto s = make_state(random_points(300, L, L, 9), L, L);
+  auto st = make_stage("delaunay.detect_inversion", b);
+  st->configure(*s);
+  CHECK(status_of(*s)[ff::delaunay::kBuilt] == 0);
+  Runner r(*s, b);
+  REQUIRE_FALSE(r.run(*st).rollback);
+  CHECK(status_of(*s)[ff::delaunay::kBuilt] == 1);
+  CHECK(r.metric("inversions") == 0);
+  require_valid(*s);
+}

@@ -1,0 +1,290 @@
+// delaunay.lawson alone (with detect_inversion + flip in front where particles move): after
+// Brownian steps the maintained triangulation equals CGAL's Delaunay triangulation of the new
+// points (up to co-circular ties), every triangle stays positive with 3N edges, the result does
+// not depend on the thread count, square lattices (co-circular everywhere) terminate, and the
+// round limit is a clear error.
+#include <oneapi/tbb/global_control.h>
+
+#include "core/error.h"
+#include "core/init.h"
+#include "test_delaunay_support.h"
+
+using namespace ff;
+using namespace ff::test::dl;
+
+namespace {
+
+// x += sqrt(2 D dt) xi per component (truncated Gaussians, as brownian.integrate), on the host.
+void brownian_step(State& s, double D, double dt, std::uint64_t step, std::uint32_t attempt = 0) {
+  auto xy = positions(s);
+  const RngKey key = make_rng_key(42, "brownian");
+  const double amp = std::sqrt(2 * D * dt);
+  for (std::size_t i = 0; i < s.n(); ++i) {
+    double z[2];
+    gaussians(key, std::uint32_t(i), step, attempt, 0, 2, z);
+    xy[2 * i] += amp * z[0];
+    xy[2 * i + 1] += amp * z[1];
+  }
+  set_positions(s, xy);
+}
+
+struct Pipeline {
+  std::unique_ptr<Stage> detect, flip, lawson;
+  Pipeline(State& s, Backend b, std::int64_t max_rounds = 1000) {
+    detect = make_stage("delaunay.detect_inversion", b, s.precision());
+    flip = make_stage("delaunay.flip", b, s.precision());
+    lawson = make_stage("delaunay.lawson", b, s.precision(), {{"max_rounds", max_rounds}});
+    for (Stage* st : {detect.get(), flip.get(), lawson.get()}) st->configure(s);
+  }
+  struct Counts {
+    double inversions = 0, flips = 0, lawson_flips = 0, lawson_rounds = 0;
+  };
+  Counts step(Runner& r, std::uint64_t k) {
+    Counts c;
+    Outcome o = r.run(*detect, k);
+    INFO(o.reason);
+    REQUIRE_FALSE(o.rollback);
+    c.inversions = r.metric("inversions");
+    o = r.run(*flip, k);
+    REQUIRE_FALSE(o.rollback);
+    c.flips = r.metric("flips");
+    REQUIRE_FALSE(r.run(*lawson, k).rollback);
+    c.lawson_flips = r.metric("lawson_flips");
+    c.lawson_rounds = r.metric("lawson_rounds");
+    return c;
+  }
+};
+
+std::unique_ptr<State> initial(double phi, std::size_t n, std::uint64_t seed) {
+  SystemSpec sys;
+  sys.dimensions = 2;
+  sys.N = n;
+  sys.packing_fraction = phi;
+  sys.init = phi > 0.54 ? "triangular_lattice_sample" : "random";
+  return make_initial_state(sys, Precision::f64, seed);
+}
+
+void require_delaunay(State& s) {
+  const Topo t = topology(s);
+  const auto xy = positions(s);
+  CHECK(ff::delaunay::count_non_delaunay(t.he.data(), s.n(), xy.data(), s.box.L[0], s.box.L[1], 1e-9) == 0);
+  CHECK(real_differences(t, cgal_reference(s), s) == 0);
+}
+
+}  // namespace
+
+TEST_CASE("lawson: Brownian steps keep CGAL's Delaunay triangulation", "[delaunay][lawson]") {
+  const Backend b = GENERATE(from_range(ff::test::backends()));
+  const double phi = GENERATE(0.1, 0.5, 0.8);
+  const std::size_t n = 2000;
+  const int steps = 200;
+  INFO("phi = " << phi << ", backend " << to_string(b));
+  auto s = initial(phi, n, 17);
+  Pipeline p(*s, b);
+  Runner r(*s, b);
+  double inversions = 0, flips = 0, lawson_flips = 0, max_rounds = 0;
+  for (int k = 0; k < steps; ++k) {
+    brownian_step(*s, 0.01, 0.01, std::uint64_t(k));
+    const auto c = p.step(r, std::uint64_t(k));
+    inversions += c.inversions;
+    flips += c.flips;
+    lawson_flips += c.lawson_flips;
+    max_rounds = std::max(max_rounds, c.lawson_rounds);
+    require_valid(*s);
+    if (k % 20 == 19) require_delaunay(*s);
+  }
+  INFO("inversions " << inversions << ", repair flips " << flips << ", Lawson flips " << lawson_flips
+                     << ", most rounds " << max_rounds);
+  CHECK(lawson_flips > 0);
+  CHECK(flips == inversions);
+}
+
+namespace {
+// What the core's rollback snapshot holds for these stages (their declared writes).
+struct Snapshot {
+  std::vector<std::vector<unsigned char>> data;
+  const std::vector<std::string> names{fields::position, ff::delaunay::fields::halfedge,
+                                       ff::delaunay::fields::vertex_edge, ff::delaunay::fields::position_prev,
+                                       ff::delaunay::fields::flip_mark, ff::delaunay::fields::status};
+  void take(State& s) {
+    data.clear();
+    for (auto& n : names) {
+      Field& f = s.field(n);
+      f.acquire(Where::host, Mode::read);
+      auto* p = static_cast<unsigned char*>(f.host_raw());
+      data.emplace_back(p, p + f.bytes());
+    }
+  }
+  void restore(State& s) {
+    for (std::size_t k = 0; k < names.size(); ++k) {
+      Field& f = s.field(names[k]);
+      f.acquire(Where::host, Mode::write);
+      std::copy(data[k].begin(), data[k].end(), static_cast<unsigned char*>(f.host_raw()));
+    }
+  }
+};
+}  // namespace
+
+TEST_CASE("lawson: large steps with repairs and rollbacks stay valid and Delaunay", "[delaunay][lawson]") {
+  // Δt 50x the test above at φ = 0.8: vertices cross edges (repaired by delaunay.flip) or pass
+  // through each other / cross several edges (rolled back, retried at Δt/2 with fresh noise, as
+  // the core does). Every accepted step ends valid and Delaunay.
+  const Backend b = GENERATE(from_range(ff::test::backends()));
+  auto s = initial(0.8, 1000, 3);
+  Pipeline p(*s, b);
+  Runner r(*s, b);
+  Snapshot snap;
+  double inversions = 0, flips = 0, rollbacks = 0;
+  for (int k = 0; k < 60; ++k) {
+    snap.take(*s);
+    double dt = 0.5;
+    for (std::uint32_t attempt = 0;; ++attempt) {
+      REQUIRE(attempt < 20);
+      brownian_step(*s, 0.01, dt, std::uint64_t(k), attempt);
+      Outcome o = r.run(*p.detect, std::uint64_t(k));
+      const double inv = r.metric("inversions");
+      if (!o.rollback) o = r.run(*p.flip, std::uint64_t(k));
+      const double fl = r.metric("flips");
+      if (o.rollback) {
+        ++rollbacks;
+        snap.restore(*s);
+        dt /= 2;
+        continue;
+      }
+      inversions += inv;
+      flips += fl;
+      REQUIRE_FALSE(r.run(*p.lawson, std::uint64_t(k)).rollback);
+      break;
+    }
+    require_valid(*s);
+    if (k % 10 == 9) require_delaunay(*s);
+  }
+  INFO("inversions " << inversions << ", repair flips " << flips << ", rollbacks " << rollbacks);
+  CHECK(inversions > 0);
+  CHECK(flips == inversions);
+  CHECK(rollbacks > 0);
+}
+
+TEST_CASE("lawson: the result does not depend on the thread count", "[delaunay][lawson]") {
+  std::vector<std::vector<std::int32_t>> results;
+  for (int threads : {1, 2, 4}) {
+    tbb::global_control limit(tbb::global_control::max_allowed_parallelism, std::size_t(threads));
+    auto s = initial(0.5, 3000, 5);
+    Pipeline p(*s, Backend::cpu);
+    Runner r(*s, Backend::cpu);
+    // Larger steps (D dt 4x the test above) so that more flips compete every round.
+    for (int k = 0; k < 30; ++k) {
+      brownian_step(*s, 0.02, 0.02, std::uint64_t(k));
+      p.step(r, std::uint64_t(k));
+    }
+    results.push_back(topology(*s).he);
+  }
+  CHECK(results[0] == results[1]);
+  CHECK(results[0] == results[2]);
+}
+
+TEST_CASE("lawson: square lattices (co-circular everywhere) terminate", "[delaunay][lawson]") {
+  const Backend b = GENERATE(from_range(ff::test::backends()));
+  const double noise = GENERATE(0.0, 1e-13, 1e-6, 1e-3);
+  INFO("noise " << noise << ", backend " << to_string(b));
+  auto s = make_state(square_lattice(30, 30, 1.0), 30, 30);
+  auto build = make_stage("delaunay.build", Backend::cpu);
+  build->configure(*s);
+  Runner rb(*s, Backend::cpu);
+  REQUIRE_FALSE(rb.run(*build).rollback);
+  auto xy = positions(*s);
+  const RngKey key = make_rng_key(8, "noise");
+  for (std::size_t i = 0; i < xy.size(); ++i) xy[i] += noise * (uniform01(key, std::uint32_t(i), 0, 0, 0) - 0.5);
+  set_positions(*s, xy);
+  auto lawson = make_stage("delaunay.lawson", b);
+  lawson->configure(*s);
+  Runner r(*s, b);
+  REQUIRE_FALSE(r.run(*lawson).rollback);
+  if (noise < 1e-12) CHECK(r.metric("lawson_flips") == 0);  // ties are left alone
+  if (noise >= 1e-3) CHECK(r.metric("lawson_flips") > 0);
+  CHECK(r.metric("lawson_rounds") < 20);
+  require_valid(*s);
+  require_delaunay(*s);
+  // A second pass finds nothing to do: no cycling between the two diagonals of a square.
+  REQUIRE_FALSE(r.run(*lawson).rollback);
+  CHECK(r.metric("lawson_flips") == 0);
+}
+
+namespace {
+// A shear x += A sin(2 pi y / L) of a built random triangulation: triangles stay positive, many
+// edges stop being Delaunay, and the flips of one round compete for triangles.
+std::unique_ptr<State> sheared(double amplitude) {
+  const double L = 40;
+  auto s = make_state(random_points(1600, L, L, 21), L, L);
+  auto build = make_stage("delaunay.build", Backend::cpu);
+  build->configure(*s);
+  Runner rb(*s, Backend::cpu);
+  REQUIRE_FALSE(rb.run(*build).rollback);
+  auto xy = positions(*s);
+  for (std::size_t i = 0; i < s->n(); ++i) xy[2 * i] += amplitude * std::sin(2 * M_PI * xy[2 * i + 1] / L);
+  set_positions(*s, xy);
+  return s;
+}
+}  // namespace
+
+TEST_CASE("lawson: a sheared triangulation is flipped back to Delaunay over several rounds", "[delaunay][lawson]") {
+  const Backend b = GENERATE(from_range(ff::test::backends()));
+  auto s = sheared(1.5);
+  {
+    const Topo t = topology(*s);
+    const auto xy = positions(*s);
+    REQUIRE(ff::delaunay::count_bad_triangles(t.he.data(), s->n(), xy.data(), 40, 40) == 0);
+    REQUIRE(ff::delaunay::count_non_delaunay(t.he.data(), s->n(), xy.data(), 40, 40, 1e-9) > 100);
+  }
+  auto lawson = make_stage("delaunay.lawson", b);
+  lawson->configure(*s);
+  Runner r(*s, b);
+  REQUIRE_FALSE(r.run(*lawson).rollback);
+  INFO("flips " << r.metric("lawson_flips") << ", rounds " << r.metric("lawson_rounds"));
+  CHECK(r.metric("lawson_flips") > 100);
+  CHECK(r.metric("lawson_rounds") > 2);
+  require_valid(*s);
+  require_delaunay(*s);
+}
+
+TEST_CASE("lawson: errors", "[delaunay][lawson]") {
+  SECTION("max_rounds reached") {
+    auto s = sheared(1.5);
+    auto lawson = make_stage("delaunay.lawson", Backend::cpu, Precision::f64, {{"max_rounds", std::int64_t(1)}});
+    lawson->configure(*s);
+    Runner r(*s, Backend::cpu);
+    CHECK_THROWS_WITH(r.run(*lawson), Catch::Contains("max_rounds = 1"));
+  }
+  SECTION("unrepaired inversions (no delaunay.flip)") {
+    auto s = make_state(random_points(200, 12, 12, 4), 12, 12);
+    auto lawson = make_stage("delaunay.lawson", Backend::cpu);
+    lawson->configure(*s);
+    Runner r(*s, Backend::cpu);
+    REQUIRE_FALSE(r.run(*lawson).rollback);
+    status_of(*s)[ff::delaunay::kPending] = 1;
+    CHECK_THROWS_WITH(r.run(*lawson), Catch::Contains("put delaunay.flip"));
+  }
+}
+
+TEST_CASE("lawson: CPU and CUDA give the same triangulation", "[delaunay][lawson][cuda]") {
+  if (!ff::test::have_cuda("lawson CPU-vs-CUDA")) return;
+  std::vector<std::vector<std::int32_t>> he;
+  for (Backend b : {Backend::cpu, Backend::cuda}) {
+    auto s = initial(0.5, 3000, 5);
+    Pipeline p(*s, b);
+    Runner r(*s, b);
+    for (int k = 0; k < 30; ++k) {
+      brownian_step(*s, 0.02, 0.02, std::uint64_t(k));
+      p.step(r, std::uint64_t(k));
+    }
+    he.push_back(topology(*s).he);
+    auto sh = sheared(1.5);
+    auto lawson = make_stage("delaunay.lawson", b);
+    lawson->configure(*sh);
+    Runner r2(*sh, b);
+    REQUIRE_FALSE(r2.run(*lawson).rollback);
+    he.push_back(topology(*sh).he);
+  }
+  CHECK(he[0] == he[2]);
+  CHECK(he[1] == he[3]);
+}
