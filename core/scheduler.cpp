@@ -35,7 +35,11 @@ Scheduler::Scheduler(const StepGraph& graph, std::vector<StageSlot>& slots, Stat
   impl_->compute = graph.compute_nodes();
   impl_->chain = graph.is_chain();
 #ifdef FLIPFLOW_HAVE_CUDA
-  if (backend == Backend::cuda) impl_->streams = std::make_unique<StreamSet>(graph);
+  if (backend == Backend::cuda) {
+    bool may_roll_back = false;
+    for (int i : impl_->compute) may_roll_back = may_roll_back || slots[i].stage->may_request_rollback();
+    impl_->streams = std::make_unique<StreamSet>(graph, may_roll_back);
+  }
 #endif
   // The flow graph is built even for a chain (it is what `graph` prints and what a branch
   // needs); a chain is simply run in order on the calling thread, which is the same schedule

@@ -9,6 +9,7 @@
 #include <sstream>
 
 #include "support/backends.h"
+#include "support/h5py.h"
 
 namespace fs = std::filesystem;
 
@@ -63,7 +64,7 @@ TEST_CASE("pipeline run writes a valid H5MD file; a second run needs --force", "
       "assert f['particles/all/box/edges'].shape==(2,); "
       "names=[]; f['observables'].visit(names.append); assert any('msd' in n for n in names), names\" " +
       (out / "trajectory.h5").string();
-  CHECK(std::system(check.c_str()) == 0);
+  if (ff::test::can_check_h5md("H5MD layout of the pipeline run")) CHECK(std::system(check.c_str()) == 0);
 
   auto again = run(base);
   CHECK(again.code == 2);

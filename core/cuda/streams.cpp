@@ -6,7 +6,7 @@
 
 namespace ff {
 
-StreamSet::StreamSet(const StepGraph& graph) : graph_(graph) {
+StreamSet::StreamSet(const StepGraph& graph, bool device_flags) : graph_(graph), device_flags_(device_flags) {
   const auto& nodes = graph.nodes();
   stream_of_.assign(nodes.size(), 0);
   std::vector<bool> stream_taken_by_successor(nodes.size(), false);
@@ -46,8 +46,11 @@ StreamSet::~StreamSet() {
 }
 
 void StreamSet::begin_attempt() {
-  FF_CUDA_CHECK(cudaMemsetAsync(flags_, 0, sizeof(DeviceRollbackFlag) * graph_.nodes().size(), main()),
-                "zeroing rollback flags");
+  // Flags only matter when some stage can raise one; otherwise skip the per-step memset (on a
+  // step of tiny kernels it is one launch in eight).
+  if (device_flags_)
+    FF_CUDA_CHECK(cudaMemsetAsync(flags_, 0, sizeof(DeviceRollbackFlag) * graph_.nodes().size(), main()),
+                  "zeroing rollback flags");
   if (streams_.size() > 1) FF_CUDA_CHECK(cudaEventRecord(start_, main()), "recording the step start");
 }
 
@@ -73,9 +76,7 @@ void StreamSet::join_all() {
 
 std::optional<RollbackRequest> StreamSet::read_rollback_flags(const StepGraph& graph,
                                                               const std::vector<StageSlot>& slots) {
-  bool any = false;
-  for (int i : graph.compute_nodes()) any = any || slots[i].stage->may_request_rollback();
-  if (!any) return std::nullopt;
+  if (!device_flags_) return std::nullopt;
   const std::size_t bytes = sizeof(DeviceRollbackFlag) * graph.nodes().size();
   FF_CUDA_CHECK(cudaMemcpyAsync(host_flags_, flags_, bytes, cudaMemcpyDeviceToHost, main()), "reading rollback flags");
   FF_CUDA_CHECK(cudaStreamSynchronize(main()), "waiting for the step's rollback decision");

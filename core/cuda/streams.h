@@ -19,7 +19,8 @@ namespace ff {
 
 class StreamSet {
  public:
-  explicit StreamSet(const StepGraph& graph);
+  // device_flags: some compute stage may request a rollback (flags are zeroed and read per step).
+  StreamSet(const StepGraph& graph, bool device_flags);
   ~StreamSet();
   StreamSet(const StreamSet&) = delete;
   StreamSet& operator=(const StreamSet&) = delete;
@@ -38,6 +39,7 @@ class StreamSet {
 
  private:
   const StepGraph& graph_;
+  bool device_flags_;
   std::vector<cudaStream_t> streams_;
   std::vector<int> stream_of_;
   std::vector<cudaEvent_t> events_;  // one per node
