@@ -1,0 +1,219 @@
+// overlap_correct: hard-core exclusion on the maintained Delaunay triangulation (Carter et al.
+// 2017, sec. 2.3 and 4.4). Every pair joined by a Delaunay edge and closer than
+// σ_ij = (σ_i + σ_j)/2 is pushed apart along its line of centres (kernel.h); the displacements
+// are summed per particle, capped, applied, and the pass repeats until no pair overlaps by more
+// than `tolerance`·σ_ij. The closest overlapping pair of any configuration is a Delaunay edge (a
+// point inside its diametral circle would be closer still), so when no edge overlaps no pair
+// does. Needs the triangulation: delaunay stages must come before it in the step.
+#pragma once
+#include <algorithm>
+#include <cfloat>
+#include <cmath>
+#include <cstring>
+#include <sstream>
+#include <string>
+
+#include "core/error.h"
+#include "core/exec.h"
+#include "core/params.h"
+#include "core/stage.h"
+#include "stages/delaunay/common/fields.h"
+#include "stages/overlap_correct/kernel.h"
+
+namespace ff::overlap {
+
+struct Params {
+  std::string mode = "reflect";
+  double cap = 0.25;
+  double tolerance = 1e-6;
+  std::int64_t max_iterations = 1000;
+
+  static std::vector<ParamSpec> schema() {
+    return {ParamSpec::string("mode", std::string("reflect"),
+                              "reflect: each particle of an overlapping pair moves by δ = σ_ij − r (the pair bounces "
+                              "off contact, r' = 2σ_ij − r; the paper's choice); contact: each moves by δ/2 (r' = σ_ij)")
+                .one_of({"reflect", "contact"}),
+            ParamSpec::real("cap", 0.25, "largest displacement of a particle per iteration, as a fraction of its "
+                                         "diameter (the paper's σ/4)")
+                .above(0),
+            ParamSpec::real("tolerance", 1e-6,
+                            "converged when no pair overlaps by more than tolerance·σ_ij; in float runs it is raised "
+                            "to the position resolution, 4·ε·L_max/σ_min")
+                .above(0)
+                .at_most(0.5),
+            ParamSpec::integer("max_iterations", 1000, "iterations before the run stops with an error").at_least(1)};
+  }
+  static Params from(const ParamValues& v) {
+    return Params{v.string("mode"), v.real("cap"), v.real("tolerance"), v.integer("max_iterations")};
+  }
+};
+
+// Backend memory for the stage's scratch (displacements) and counters.
+struct MemOps {
+  void* (*alloc)(std::size_t bytes);
+  void (*release)(void* p);
+  void (*zero)(void* p, std::size_t bytes, CUstream_st* s);
+  void (*to_host)(void* host_dst, const void* src, std::size_t bytes, CUstream_st* s);  // waits
+};
+
+template <class R>
+struct Ops {
+  ElementLoop<Gather<R>> gather;
+  ElementLoop<Apply<R>> apply;
+  MemOps mem;
+};
+
+class Buffer {
+ public:
+  explicit Buffer(const MemOps& ops) : ops_(ops) {}
+  ~Buffer() { ops_.release(p_); }
+  Buffer(const Buffer&) = delete;
+  Buffer& operator=(const Buffer&) = delete;
+  void* get(std::size_t bytes) {
+    if (bytes != bytes_) {
+      ops_.release(p_);
+      p_ = ops_.alloc(bytes);
+      bytes_ = bytes;
+    }
+    return p_;
+  }
+
+ private:
+  MemOps ops_;
+  void* p_ = nullptr;
+  std::size_t bytes_ = 0;
+};
+
+template <class R>
+class OverlapCorrect final : public Stage {
+ public:
+  OverlapCorrect(Params p, Where where, Ops<R> ops)
+      : p_(std::move(p)), where_(where), ops_(ops), disp_(ops.mem), counters_(ops.mem) {}
+
+  std::vector<Access> accesses() const override {
+    return {{fields::position, where_, Mode::readwrite},
+            {fields::image, where_, Mode::readwrite},
+            {fields::diameter, where_, Mode::read},
+            {delaunay::fields::halfedge, where_, Mode::read},
+            {delaunay::fields::vertex_edge, where_, Mode::read},
+            {delaunay::fields::status, Where::host, Mode::read}};
+  }
+
+  void configure(State& s) override {
+    if (s.dim() != 2)
+      throw InputError("overlap_correct works on the 2D Delaunay triangulation (system.dimensions is " +
+                       std::to_string(s.dim()) + ")");
+    for (const char* f : {delaunay::fields::halfedge, delaunay::fields::vertex_edge, delaunay::fields::status})
+      if (!s.has_field(f))
+        throw InputError(std::string("overlap_correct needs the Delaunay triangulation (field '") + f +
+                         "'), which no stage before it provides: put the delaunay stages before it in `step:` "
+                         "(delaunay.detect_inversion, delaunay.flip, delaunay.lawson after the integrator, or "
+                         "delaunay.build)");
+    double dmin = HUGE_VAL, dmax = 0;
+    Field& d = s.field(fields::diameter);
+    d.acquire(Where::host, Mode::read);
+    for (std::size_t i = 0; i < s.n(); ++i) {
+      dmin = std::min(dmin, double(d.host<R>()[i]));
+      dmax = std::max(dmax, double(d.host<R>()[i]));
+    }
+    if (!(dmin > 0)) throw InputError("overlap_correct: every particle needs a positive diameter");
+    unit_ = dmax;
+    tol_ = p_.tolerance;
+    if (s.precision() == Precision::f32) {
+      const double lmax = std::max(s.box.L[0], s.box.L[1]);
+      tol_ = std::max(tol_, 4.0 * double(FLT_EPSILON) * lmax / dmin);
+    }
+  }
+
+  Outcome run(StepContext& ctx) override {
+    State& s = ctx.state;
+    CUstream_st* st = ctx.stream;
+    if (!s.field(delaunay::fields::status).host<std::int32_t>()[delaunay::kBuilt])
+      throw RunError("overlap_correct: step " + std::to_string(ctx.step) +
+                     ": no Delaunay triangulation has been built yet; put delaunay.build (or "
+                     "delaunay.detect_inversion) before overlap_correct");
+    const std::size_t n = s.n();
+    R* x = ptr<R>(s.field(fields::position));
+    std::int32_t* img = ptr<std::int32_t>(s.field(fields::image));
+    const R* diam = ptr<R>(s.field(fields::diameter));
+    const std::int32_t* he = ptr<std::int32_t>(s.field(delaunay::fields::halfedge));
+    const std::int32_t* ve = ptr<std::int32_t>(s.field(delaunay::fields::vertex_edge));
+    double* disp = static_cast<double*>(disp_.get(2 * n * sizeof(double)));
+    auto* c = static_cast<std::uint64_t*>(counters_.get(kCounters * sizeof(std::uint64_t)));
+    const Gather<R> gather{x,   diam,     he, ve, PeriodicBox<double>::make(s.box.L), p_.mode == "contact" ? 0.5 : 1.0,
+                           p_.cap, tol_, 1.0 / unit_, disp, c};
+    const Apply<R> apply{x, img, disp, PeriodicBox<R>::make(s.box.L)};
+
+    std::int64_t iterations = 0;
+    std::uint64_t pairs = 0;
+    double correction = 0;
+    for (;;) {
+      ops_.mem.zero(c, kCounters * sizeof(std::uint64_t), st);
+      ops_.gather(n, gather, st);
+      std::uint64_t h[kCounters];
+      ops_.mem.to_host(h, c, sizeof h, st);
+      if (h[kBroken])
+        throw RunError("overlap_correct: step " + std::to_string(ctx.step) + ": the half-edges around " +
+                       std::to_string(h[kBroken]) + " particle(s) do not form a closed fan; the triangulation is "
+                       "corrupt (a delaunay stage before overlap_correct failed to keep it valid)");
+      if (!h[kBad]) break;
+      if (iterations == p_.max_iterations) give_up(ctx, h[kBad]);
+      pairs += h[kPairs];
+      correction += double(h[kCorrection]) / kFixedOne * unit_;
+      ops_.apply(n, apply, st);
+      ++iterations;
+    }
+    ctx.metrics.set("iterations", double(iterations));
+    ctx.metrics.set("pairs", double(pairs));
+    ctx.metrics.set("correction", correction);
+    return Outcome::ok();
+  }
+
+  double effective_tolerance() const { return tol_; }
+
+ private:
+  template <class T>
+  T* ptr(Field& f) const { return where_ == Where::device ? f.device<T>() : f.host<T>(); }
+
+  // The error path: find the worst pair on the host (fields are copied there) and stop.
+  [[noreturn]] void give_up(StepContext& ctx, std::uint64_t bad) {
+    State& s = ctx.state;
+    for (const Access& a : accesses()) s.field(a.field).acquire(Where::host, Mode::read, ctx.stream);
+    const R* x = s.field(fields::position).host<R>();
+    const R* d = s.field(fields::diameter).host<R>();
+    const std::int32_t* he = s.field(delaunay::fields::halfedge).host<std::int32_t>();
+    const auto box = PeriodicBox<double>::make(s.box.L);
+    int wa = -1, wb = -1;
+    double worst = -1, wr = 0, ws = 0;
+    for (std::size_t e = 0; e < 3 * s.n(); ++e) {
+      const int a = he[4 * e], b = he[4 * e + 2];
+      const double rx = box.min_image(double(x[2 * b]) - double(x[2 * a]), 0);
+      const double ry = box.min_image(double(x[2 * b + 1]) - double(x[2 * a + 1]), 1);
+      const double sab = 0.5 * (double(d[a]) + double(d[b])), r = std::sqrt(rx * rx + ry * ry);
+      if ((sab - r) / sab > worst) {
+        worst = (sab - r) / sab;
+        wa = std::min(a, b);
+        wb = std::max(a, b);
+        wr = r;
+        ws = sab;
+      }
+    }
+    std::ostringstream os;
+    os << "overlap_correct: step " << ctx.step << ": " << bad << " pair(s) still overlap by more than tolerance = "
+       << tol_ << " after max_iterations = " << p_.max_iterations << " iterations; the worst is particles " << wa
+       << " and " << wb << " at r = " << wr << " with σ_ij = " << ws << " (overlap " << worst
+       << "·σ_ij). Lower run.dt (smaller moves make fewer, shallower overlaps), raise max_iterations, or lower "
+          "the packing fraction";
+    throw RunError(os.str());
+  }
+
+  Params p_;
+  Where where_;
+  Ops<R> ops_;
+  Buffer disp_;
+  Buffer counters_;
+  double unit_ = 1;  // length unit of the fixed-point correction counter (largest diameter)
+  double tol_ = 1e-6;
+};
+
+}  // namespace ff::overlap

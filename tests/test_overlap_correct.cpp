@@ -1,0 +1,214 @@
+// overlap_correct: exact two-particle moves (reflect, contact, cap), no overlaps left after
+// correcting random overlaps up to packing fraction 0.8, bounded iterations, errors, bit-identical
+// results for 1/2/4 threads and CPU vs CUDA. Pipelines are built without YAML (support/spec.h):
+// delaunay.build triangulates, overlap_correct corrects.
+#include <oneapi/tbb/global_control.h>
+
+#include <catch2/catch.hpp>
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <random>
+
+#include "core/error.h"
+#include "core/init.h"
+#include "core/simulation.h"
+#include "stages/overlap_correct/kernel.h"
+#include "support/backends.h"
+#include "support/spec.h"
+#include "support/test_plugins.h"
+
+using namespace ff;
+using ff::test::entry;
+
+namespace {
+
+RunOptions dry(Backend b = Backend::cpu) {
+  RunOptions o;
+  o.dry_run = true;
+  o.backend = b;
+  return o;
+}
+
+const Registry& registry() {
+  static const auto r = test::registry_with({});
+  return *r;
+}
+
+PipelineSpec correct_spec(std::uint64_t n, double eta, const std::map<std::string, ParamValue>& params = {},
+                          Precision p = Precision::f64) {
+  const Registry& r = registry();
+  auto s = test::spec(2, n, eta, 1, 0.01, {entry(r, "delaunay.build"), entry(r, "overlap_correct", params)}, 3, p);
+  s.system.init = "triangular_lattice_sample";
+  return s;
+}
+
+template <class R>
+std::vector<double> positions(State& s) {
+  Field& f = s.field(fields::position);
+  f.acquire(Where::host, Mode::read);
+  return std::vector<double>(f.host<R>(), f.host<R>() + f.size());
+}
+
+std::vector<double> positions(State& s) {
+  return s.precision() == Precision::f64 ? positions<double>(s) : positions<float>(s);
+}
+
+template <class R>
+void set_positions(State& s, const std::vector<double>& xy) {
+  Field& f = s.field(fields::position);
+  f.acquire(Where::host, Mode::write);
+  for (std::size_t i = 0; i < xy.size(); ++i) {
+    const double L = s.box.L[i % 2];
+    double x = xy[i] - L * std::floor(xy[i] / L);
+    if (x >= L) x -= L;
+    f.host<R>()[i] = R(x);
+  }
+}
+
+void set_positions(State& s, const std::vector<double>& xy) {
+  if (s.precision() == Precision::f64)
+    set_positions<double>(s, xy);
+  else
+    set_positions<float>(s, xy);
+}
+
+std::vector<double> diameters(State& s) {
+  Field& f = s.field(fields::diameter);
+  f.acquire(Where::host, Mode::read);
+  std::vector<double> d(s.n());
+  for (std::size_t i = 0; i < s.n(); ++i)
+    d[i] = s.precision() == Precision::f64 ? f.host<double>()[i] : double(f.host<float>()[i]);
+  return d;
+}
+
+// Smallest r_ij / σ_ij over all pairs (minimum image, brute force).
+double min_gap(State& s) {
+  const auto xy = positions(s);
+  const auto d = diameters(s);
+  const double L0 = s.box.L[0], L1 = s.box.L[1];
+  double worst = HUGE_VAL;
+  for (std::size_t i = 0; i < s.n(); ++i)
+    for (std::size_t j = i + 1; j < s.n(); ++j) {
+      double dx = xy[2 * j] - xy[2 * i], dy = xy[2 * j + 1] - xy[2 * i + 1];
+      dx -= L0 * std::rint(dx / L0);
+      dy -= L1 * std::rint(dy / L1);
+      worst = std::min(worst, std::sqrt(dx * dx + dy * dy) / (0.5 * (d[i] + d[j])));
+    }
+  return worst;
+}
+
+// Every particle displaced by a Gaussian of `amplitude` per component (seeded): random overlaps.
+void jiggle(State& s, double amplitude, std::uint64_t seed) {
+  auto xy = positions(s);
+  std::mt19937_64 gen(seed);
+  std::normal_distribution<double> g(0.0, amplitude);
+  for (auto& x : xy) x += g(gen);
+  set_positions(s, xy);
+}
+
+// Uniform random positions: an ideal gas, overlapping everywhere.
+void scatter(State& s, std::uint64_t seed) {
+  std::vector<double> xy(2 * s.n());
+  std::mt19937_64 gen(seed);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  for (std::size_t i = 0; i < xy.size(); ++i) xy[i] = u(gen) * s.box.L[i % 2];
+  set_positions(s, xy);
+}
+
+double metric(const Simulation& sim, const std::string& m) {
+  auto it = sim.stats().metrics.find("overlap_correct/" + m);
+  REQUIRE(it != sim.stats().metrics.end());
+  return it->second;
+}
+
+}  // namespace
+
+TEST_CASE("overlap_correct: exact moves of an isolated overlapping pair", "[overlap]") {
+  // 64 particles on a lattice at η = 0.05 (spacing ≈ 4.3σ); particle b is put next to particle
+  // a along x, both on a grid of 1/64, so every number below is exact in double.
+  struct Case {
+    const char* mode;
+    double cap, r;   // parameters; initial separation (σ = 1)
+    double r_after;  // expected separation
+    double iterations, pairs, correction;
+  };
+  const Case cases[] = {
+      {"reflect", 0.25, 0.75, 1.25, 1, 1, 0.5},    // δ = σ − r = 0.25 each: r' = 2σ − r
+      {"contact", 0.25, 0.75, 1.0, 1, 1, 0.25},    // δ/2 = 0.125 each: r' = σ
+      {"reflect", 0.25, 0.25, 1.25, 2, 2, 1.0},    // 0.75 capped to 0.25: r = 0.75; then 0.25: 1.25
+      {"contact", 0.25, 0.25, 1.0, 2, 2, 0.75},    // 0.375 capped to 0.25: r = 0.75; then 0.125: 1.0
+      {"reflect", 1.0, 0.25, 1.75, 1, 1, 1.5},     // cap out of the way: r' = 2σ − r
+      {"reflect", 0.125, 0.75, 1.0, 1, 1, 0.25},   // 0.25 capped to 0.125: r = 1.0, contact, done
+      {"reflect", 0.125, 0.5, 1.0, 2, 2, 0.5},     // 0.5 -> 0.125: r = 0.75; 0.25 -> 0.125: r = 1.0
+      {"contact", 0.25, 0.984375, 1.0, 1, 1, 0.015625},  // shallow overlap (1/64): one iteration
+  };
+  for (const Case& c : cases) {
+    INFO("mode " << c.mode << ", cap " << c.cap << ", r " << c.r);
+    const auto spec = correct_spec(64, 0.05, {{"mode", std::string(c.mode)}, {"cap", c.cap}});
+    auto state = make_initial_state(spec.system, spec.run.precision, spec.run.seed);
+    auto xy = positions(*state);
+    const double L = state->box.L[0];
+    std::size_t a = 0;
+    while (!(xy[2 * a] > 2 && xy[2 * a] < L - 3 && xy[2 * a + 1] > 2 && xy[2 * a + 1] < L - 3)) ++a;
+    const std::size_t b = a == 0 ? 1 : 0;
+    const double x0 = std::round(xy[2 * a] * 64) / 64, y0 = std::round(xy[2 * a + 1] * 64) / 64;
+    xy[2 * a] = x0;
+    xy[2 * a + 1] = y0;
+    xy[2 * b] = x0 + c.r;
+    xy[2 * b + 1] = y0;
+    set_positions(*state, xy);
+    REQUIRE(min_gap(*state) == c.r);
+    Simulation sim(spec, registry(), dry(), std::move(state));
+    sim.advance();
+    const auto after = positions(sim.state());
+    CHECK(after[2 * b] - after[2 * a] == c.r_after);
+    CHECK(after[2 * a] + after[2 * b] == 2 * x0 + c.r);  // symmetric moves
+    CHECK(after[2 * a + 1] == y0);
+    CHECK(after[2 * b + 1] == y0);
+    CHECK(metric(sim, "iterations") == c.iterations);
+    CHECK(metric(sim, "pairs") == c.pairs);
+    CHECK(metric(sim, "correction") == Approx(c.correction).epsilon(1e-9));
+    std::size_t moved = 0;
+    for (std::size_t i = 0; i < after.size() / 2; ++i)
+      if (i != a && i != b && (after[2 * i] != xy[2 * i] || after[2 * i + 1] != xy[2 * i + 1])) ++moved;
+    CHECK(moved == 0);
+  }
+}
+
+TEST_CASE("overlap_correct: oblique pair, unequal diameters, and coincident centres", "[overlap]") {
+  SECTION("along (3, 4)/5 with σ_a = 1, σ_b = 2: σ_ab = 1.5, reflect gives r' = 2σ_ab − r") {
+    const auto spec = correct_spec(64, 0.02, {{"cap", 1.0}});
+    auto state = make_initial_state(spec.system, spec.run.precision, spec.run.seed);
+    auto xy = positions(*state);
+    const double L = state->box.L[0];
+    std::size_t a = 0;
+    while (!(xy[2 * a] > 3 && xy[2 * a] < L - 4 && xy[2 * a + 1] > 3 && xy[2 * a + 1] < L - 4)) ++a;
+    const std::size_t b = a == 0 ? 1 : 0;
+    xy[2 * b] = xy[2 * a] + 0.6;  // r = 1.0 along (0.6, 0.8)
+    xy[2 * b + 1] = xy[2 * a + 1] + 0.8;
+    set_positions(*state, xy);
+    Field& d = state->field(fields::diameter);
+    d.host<double>()[b] = 2.0;
+    Simulation sim(spec, registry(), dry(), std::move(state));
+    sim.advance();
+    const auto after = positions(sim.state());
+    const double dx = after[2 * b] - after[2 * a], dy = after[2 * b + 1] - after[2 * a + 1];
+    CHECK(std::hypot(dx, dy) == Approx(2.0).epsilon(1e-14));  // 2·1.5 − 1.0
+    CHECK(dx / dy == Approx(0.75).epsilon(1e-14));            // still along (3, 4)
+    // Each moved by δ = 0.5 (cap = 1·σ_a is not reached).
+    CHECK(std::hypot(after[2 * a] - xy[2 * a], after[2 * a + 1] - xy[2 * a + 1]) == Approx(0.5).epsilon(1e-13));
+  }
+  SECTION("coincident centres separate along x, the lower index towards −x") {
+    double dxa = 0, dya = 0, dxb = 0, dyb = 0;
+    CHECK(overlap::pair_push(0.0, 0.0, 1.0, 1.0, 1.0, 3, 7, dxa, dya) == 1.0);
+    CHECK(overlap::pair_push(-0.0, 0.0, 1.0, 1.0, 1.0, 7, 3, dxb, dyb) == 1.0);
+    CHECK(dxa == -1.0);
+    CHECK(dxb == 1.0);
+    CHECK(dya == 0.0);
+    CHECK(dyb == 0.0);
+    double dx = 0, dy = 0;
+    CHECK(overlap::pair_push(1.0, 0.0, 1.0, 1.0, 1.0, 3, 7, dx, dy) < 0);  // contact is no overlap
+    CHECK(dx == 0.0);
+  }
+}
