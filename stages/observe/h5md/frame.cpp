@@ -2,7 +2,8 @@
 
 namespace ff::observe {
 
-void write_frame(H5mdWriter& w, const Frame& f) {
+void write_frame(H5mdWriter& w, Frame& f) {
+  f.ready.wait();
   for (const FieldFrame& field : f.fields) {
     if (field.connectivity)
       w.append_connectivity(field.name, f.step, f.time, reinterpret_cast<const std::int32_t*>(field.bytes.data()),

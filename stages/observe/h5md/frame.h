@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "core/h5md_writer.h"
+#include "core/host_buffer.h"
 
 namespace ff::observe {
 
@@ -14,7 +15,7 @@ struct FieldFrame {
   std::string name;           // element name (the field's name)
   bool connectivity = false;  // true: /connectivity/<name> (triangles); false: /particles/all/<name>
   std::size_t count = 0;      // elements this frame (triangles for connectivity)
-  std::vector<unsigned char> bytes;
+  HostBuffer bytes;           // pinned in CUDA runs: filled by an asynchronous device copy
 };
 
 struct Frame {
@@ -22,9 +23,11 @@ struct Frame {
   double time = 0;
   std::vector<FieldFrame> fields;
   std::vector<std::pair<std::string, double>> observables;
+  StreamMark ready;  // CUDA runs: the frame's device copies are done once this is reached
 };
 
-// Append every field and observable of `f` to `w`, then flush (a killed run keeps this frame).
-void write_frame(H5mdWriter& w, const Frame& f);
+// Wait for the frame's device copies (if any), append every field and observable of `f` to
+// `w`, then flush (a killed run keeps this frame).
+void write_frame(H5mdWriter& w, Frame& f);
 
 }  // namespace ff::observe

@@ -43,8 +43,12 @@ std::string read_text(const std::string& file) {
 }  // namespace
 
 std::vector<Access> H5mdObserver::accesses() const {
+  // On CUDA the frame is copied from the device asynchronously (pinned buffers, an event the
+  // writer thread waits on), so the GPU never waits for HDF5 and the host never waits for
+  // the copy.
+  const Where where = info_.backend == Backend::cuda ? Where::device : Where::host;
   std::vector<Access> a;
-  for (auto& name : p_.fields) a.push_back({name, Where::host, Mode::read});
+  for (auto& name : p_.fields) a.push_back({name, where, Mode::read});
   if (std::find(p_.fields.begin(), p_.fields.end(), fields::type) == p_.fields.end())
     a.push_back({fields::type, Where::host, Mode::read});  // /particles/all/species
   return a;
@@ -94,7 +98,7 @@ void H5mdObserver::open(const State& state) {
   writer_ = std::make_unique<AsyncFrameWriter>(std::move(w), queue_depth);
 }
 
-void H5mdObserver::copy_frame(const StepContext& ctx, Frame& frame) const {
+void H5mdObserver::copy_frame(StepContext& ctx, Frame& frame) const {
   // Observers run on an accepted state: ctx.step and ctx.time are its clock (0 = the start).
   frame.step = std::int64_t(ctx.step);
   frame.time = ctx.time;
@@ -108,9 +112,13 @@ void H5mdObserver::copy_frame(const StepContext& ctx, Frame& frame) const {
     if (!out.connectivity && out.count != ctx.state.n())
       throw RunError("observe.h5md: field '" + out.name + "' was written per particle but now has " +
                      std::to_string(out.count) + " elements");
+    const bool on_device = info_.backend == Backend::cuda;
+    if (out.bytes.size() == 0) out.bytes = HostBuffer(on_device);
     out.bytes.resize(f.bytes());
-    if (f.bytes()) std::memcpy(out.bytes.data(), f.host_raw(), f.bytes());
+    if (on_device) copy_device_to_host_async(out.bytes.data(), f.device_raw(), f.bytes(), ctx.stream);
+    else if (f.bytes()) std::memcpy(out.bytes.data(), f.host_raw(), f.bytes());
   }
+  if (info_.backend == Backend::cuda) frame.ready.record(ctx.stream);
   frame.observables.clear();
   if (!p_.observables) return;
   frame.observables.emplace_back("dt", ctx.stats.dt);

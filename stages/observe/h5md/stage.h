@@ -52,7 +52,7 @@ class H5mdObserver final : public Stage {
 
  private:
   void open(const State& state);
-  void copy_frame(const StepContext& ctx, Frame& frame) const;
+  void copy_frame(StepContext& ctx, Frame& frame) const;
 
   H5mdParams p_;
   RunInfo info_;
