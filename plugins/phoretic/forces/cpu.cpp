@@ -1,7 +1,9 @@
-// CPU loops of phoretic.forces. Long range: a blocked all-pairs loop — blocks of 64 targets
-// (one oneTBB task each) sweep tiles of 512 sources, so a tile's positions and charges stay in
-// cache while 64 accumulators use them; each target still adds its sources in ascending order,
-// exactly as LongRangeVelocity::operator() does. Short range: the element loop.
+// CPU loops of phoretic.forces. Long range: a blocked all-pairs loop. A block of 64 targets
+// (one oneTBB task) keeps its coordinates and accumulators in small arrays; the sources stream
+// past once per block, and each source updates the 64 independent accumulators, so the loop
+// is throughput- rather than latency-bound and vectorizes over targets. Each target still adds
+// its sources in ascending order, exactly as LongRangeVelocity::operator() does.
+// Short range: the element loop over Verlet rows.
 #include <oneapi/tbb/blocked_range.h>
 #include <oneapi/tbb/parallel_for.h>
 
@@ -17,25 +19,36 @@ namespace {
 
 template <class R, int D>
 void cpu_long_range(const LongRangeVelocity<R, D>& f, CUstream_st* /*stream*/) {
-  constexpr std::size_t kTargets = 64, kSources = 512;
+  constexpr std::size_t kTargets = 64;
   const std::size_t n = f.n;
   std::vector<R> alpha(n);
   for (std::size_t k = 0; k < n; ++k) alpha[k] = f.alpha_of(k);
   const std::size_t blocks = (n + kTargets - 1) / kTargets;
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, blocks), [&](const tbb::blocked_range<std::size_t>& r) {
     for (std::size_t b = r.begin(); b != r.end(); ++b) {
-      const std::size_t i0 = b * kTargets, i1 = std::min(n, i0 + kTargets);
-      R acc[kTargets][D] = {};
-      for (std::size_t k0 = 0; k0 < n; k0 += kSources) {
-        const std::size_t k1 = std::min(n, k0 + kSources);
-        for (std::size_t i = i0; i < i1; ++i) {
-          const R* xi = &f.position[i * D];
-          R* a = acc[i - i0];
-          for (std::size_t k = k0; k < k1; ++k)
-            if (k != i) f.add(a, xi, &f.position[k * D], alpha[k]);
+      const std::size_t i0 = b * kTargets, m = std::min(n, i0 + kTargets) - i0;
+      R xt[D][kTargets] = {}, acc[D][kTargets] = {};
+      for (std::size_t t = 0; t < m; ++t)
+        for (int c = 0; c < D; ++c) xt[c][t] = f.position[(i0 + t) * D + c];
+      for (std::size_t k = 0; k < n; ++k) {
+        R xk[D];
+        for (int c = 0; c < D; ++c) xk[c] = f.position[k * D + c];
+        const R ak = alpha[k];
+        for (std::size_t t = 0; t < kTargets; ++t) {  // full block: padding targets are discarded
+          R xi[D], a[D];
+          for (int c = 0; c < D; ++c) {
+            xi[c] = xt[c][t];
+            a[c] = acc[c][t];
+          }
+          f.add(a, xi, xk, ak);
+          for (int c = 0; c < D; ++c) acc[c][t] = a[c];
         }
       }
-      for (std::size_t i = i0; i < i1; ++i) f.store(i, acc[i - i0]);
+      for (std::size_t t = 0; t < m; ++t) {
+        R a[D];
+        for (int c = 0; c < D; ++c) a[c] = acc[c][t];
+        f.store(i0 + t, a);
+      }
     }
   });
 }

@@ -2,7 +2,8 @@
 // one thread per target; the warp walks the sources in tiles of 32: each lane loads one source
 // from global memory (coalesced), then the 32 sources are broadcast lane by lane with
 // __shfl_sync, so most reads come from registers. Lanes past N still take part in the shuffles
-// (the whole warp must) but add nothing. Sources are added in ascending order, as on the CPU.
+// (the whole warp must) but store nothing; sources past N are skipped. Sources are added in
+// ascending order, k = i included (it adds zero), exactly as on the CPU.
 // Short range: the element loop over Verlet rows.
 #include "core/cuda/loop.cuh"
 #include "plugins/phoretic/forces/cuda.cuh"
@@ -34,8 +35,7 @@ __global__ void __launch_bounds__(kBlock) long_range_kernel(LongRangeVelocity<R,
       R xs[D];
       for (int c = 0; c < D; ++c) xs[c] = __shfl_sync(0xffffffffu, xk[c], s);
       const R as = __shfl_sync(0xffffffffu, ak, s);
-      const std::size_t k = k0 + s;
-      if (active && k < f.n && k != i) f.add(acc, xi, xs, as);
+      if (k0 + s < f.n) f.add(acc, xi, xs, as);
     }
   }
   if (active) f.store(i, acc);
