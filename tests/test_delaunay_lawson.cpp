@@ -55,13 +55,13 @@ struct Pipeline {
   }
 };
 
-std::unique_ptr<State> initial(double phi, std::size_t n, std::uint64_t seed) {
+std::unique_ptr<State> initial(double phi, std::size_t n, std::uint64_t seed, Precision p = Precision::f64) {
   SystemSpec sys;
   sys.dimensions = 2;
   sys.N = n;
   sys.packing_fraction = phi;
   sys.init = phi > 0.54 ? "triangular_lattice_sample" : "random";
-  return make_initial_state(sys, Precision::f64, seed);
+  return make_initial_state(sys, p, seed);
 }
 
 void require_delaunay(State& s) {
@@ -163,6 +163,21 @@ TEST_CASE("lawson: large steps with repairs and rollbacks stay valid and Delauna
   CHECK(inversions > 0);
   CHECK(flips == inversions);
   CHECK(rollbacks > 0);
+}
+
+TEST_CASE("lawson: float precision (predicates in double) keeps CGAL's Delaunay", "[delaunay][lawson]") {
+  const Backend b = GENERATE(from_range(ff::test::backends()));
+  auto s = initial(0.5, 2000, 23, Precision::f32);
+  Pipeline p(*s, b);
+  Runner r(*s, b);
+  double lawson_flips = 0;
+  for (int k = 0; k < 100; ++k) {
+    brownian_step(*s, 0.01, 0.01, std::uint64_t(k));
+    lawson_flips += p.step(r, std::uint64_t(k)).lawson_flips;
+    require_valid(*s);
+  }
+  CHECK(lawson_flips > 0);
+  require_delaunay(*s);
 }
 
 TEST_CASE("lawson: the result does not depend on the thread count", "[delaunay][lawson]") {
