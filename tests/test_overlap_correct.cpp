@@ -212,3 +212,160 @@ TEST_CASE("overlap_correct: oblique pair, unequal diameters, and coincident cent
     CHECK(dx == 0.0);
   }
 }
+
+TEST_CASE("overlap_correct: random overlaps up to η = 0.8 are removed in a bounded number of iterations",
+          "[overlap][physics]") {
+  // A lattice sample (no overlaps) jiggled by a Gaussian of `amplitude`·σ per component: the
+  // overlaps one large time step makes. Iteration bounds are ~2.5x what this seed needs.
+  struct Case {
+    double eta, amplitude;
+    const char* mode;
+    double max_iterations;
+  };
+  const Case cases[] = {{0.3, 0.3, "reflect", 5},   {0.5, 0.15, "reflect", 8},  {0.7, 0.05, "reflect", 5},
+                        {0.7, 0.1, "reflect", 10},  {0.8, 0.05, "reflect", 12}, {0.8, 0.1, "reflect", 18},
+                        {0.3, 0.3, "contact", 40},  {0.7, 0.1, "contact", 50},  {0.8, 0.1, "contact", 200}};
+  for (const Case& c : cases) {
+    const auto spec = correct_spec(2000, c.eta, {{"mode", std::string(c.mode)}});
+    auto state = make_initial_state(spec.system, spec.run.precision, spec.run.seed);
+    jiggle(*state, c.amplitude, 11);
+    const double before = min_gap(*state);
+    Simulation sim(spec, registry(), dry(), std::move(state));
+    sim.advance();
+    const double after = min_gap(sim.state());
+    INFO("η " << c.eta << " jiggle " << c.amplitude << " " << c.mode << ": min r/σ " << before << " -> " << after
+              << ", iterations " << metric(sim, "iterations") << ", pairs " << metric(sim, "pairs")
+              << ", correction " << metric(sim, "correction"));
+    REQUIRE(before < 0.9);
+    CHECK(after >= 1 - 1e-6);
+    CHECK(metric(sim, "iterations") >= 1);
+    CHECK(metric(sim, "iterations") <= c.max_iterations);
+    CHECK(metric(sim, "pairs") >= 1);
+  }
+}
+
+TEST_CASE("overlap_correct: an ideal gas is pushed apart by repeated triangulate + correct steps", "[overlap][physics]") {
+  // Uniform random points overlap everywhere; corrections this large outrun the triangulation
+  // (it is no longer Delaunay for the moved points, and some overlapping pairs are not edges),
+  // so a step of rebuild + correct is repeated until none is left.
+  for (const char* mode : {"reflect", "contact"})
+    for (double eta : {0.3, 0.5}) {
+      const auto spec = correct_spec(2000, eta, {{"mode", std::string(mode)}});
+      auto state = make_initial_state(spec.system, spec.run.precision, spec.run.seed);
+      scatter(*state, 12);
+      Simulation sim(spec, registry(), dry(), std::move(state));
+      int steps = 0;
+      double gap = 0, its = 0;
+      std::string trace;
+      while (steps < 50) {
+        sim.advance();
+        ++steps;
+        gap = min_gap(sim.state());
+        its += metric(sim, "iterations");
+        trace += " " + std::to_string(gap);
+        if (gap >= 1 - 1e-6) break;
+      }
+      INFO(mode << " η " << eta << ": " << steps << " steps, " << its << " iterations; min r/σ after each:" << trace);
+      CHECK(gap >= 1 - 1e-6);
+      CHECK(steps <= 5);
+    }
+}
+
+TEST_CASE("overlap_correct: float runs end within the float tolerance", "[overlap]") {
+  const auto spec = correct_spec(2000, 0.7, {}, Precision::f32);
+  auto state = make_initial_state(spec.system, spec.run.precision, spec.run.seed);
+  jiggle(*state, 0.1, 11);
+  Simulation sim(spec, registry(), dry(), std::move(state));
+  sim.advance();
+  // 4·ε_f32·L/σ: the position resolution (L ≈ 47 here, so ≈ 2.2e-5).
+  const double tol = 4 * 1.1920929e-7 * sim.state().box.L[0];
+  INFO("min r/σ " << min_gap(sim.state()) << ", tolerance " << tol);
+  CHECK(min_gap(sim.state()) >= 1 - tol);
+  CHECK(metric(sim, "iterations") <= 10);
+}
+
+TEST_CASE("overlap_correct: bit-identical results for 1, 2 and 4 threads", "[overlap][determinism]") {
+  const auto spec = correct_spec(20000, 0.75, {});
+  std::vector<std::vector<double>> results;
+  std::vector<double> iterations, correction;
+  for (int threads : {1, 2, 4}) {
+    tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
+    auto state = make_initial_state(spec.system, spec.run.precision, spec.run.seed);
+    jiggle(*state, 0.1, 5);
+    Simulation sim(spec, registry(), dry(), std::move(state));
+    sim.advance();
+    results.push_back(positions(sim.state()));
+    iterations.push_back(metric(sim, "iterations"));
+    correction.push_back(metric(sim, "correction"));
+  }
+  CHECK(iterations[0] >= 2);
+  for (std::size_t k = 1; k < results.size(); ++k) {
+    CHECK(std::memcmp(results[k].data(), results[0].data(), results[0].size() * sizeof(double)) == 0);
+    CHECK(iterations[k] == iterations[0]);
+    CHECK(correction[k] == correction[0]);
+  }
+}
+
+TEST_CASE("overlap_correct: CPU and CUDA give the same bits (double) and agree in float", "[overlap][cuda]") {
+  if (!test::have_cuda("overlap_correct CPU-vs-CUDA")) return;
+  for (Precision p : {Precision::f64, Precision::f32})
+    for (const char* mode : {"reflect", "contact"}) {
+      INFO(to_string(p) << " " << mode);
+      const auto spec = correct_spec(20000, 0.75, {{"mode", std::string(mode)}}, p);
+      std::vector<std::vector<double>> xy;
+      std::vector<double> iterations;
+      for (Backend b : {Backend::cpu, Backend::cuda}) {
+        auto state = make_initial_state(spec.system, spec.run.precision, spec.run.seed);
+        jiggle(*state, 0.1, 5);
+        Simulation sim(spec, registry(), dry(b), std::move(state));
+        sim.advance();
+        sim.synchronize();
+        xy.push_back(positions(sim.state()));
+        iterations.push_back(metric(sim, "iterations"));
+      }
+      CHECK(iterations[0] == iterations[1]);
+      if (p == Precision::f64) {
+        CHECK(std::memcmp(xy[0].data(), xy[1].data(), xy[0].size() * sizeof(double)) == 0);
+      } else {
+        double worst = 0;
+        for (std::size_t i = 0; i < xy[0].size(); ++i) worst = std::max(worst, std::fabs(xy[0][i] - xy[1][i]));
+        INFO("largest float difference " << worst);
+        CHECK(worst <= 1e-4);
+      }
+    }
+}
+
+TEST_CASE("overlap_correct: errors name what to change", "[overlap][errors]") {
+  const Registry& r = registry();
+  SECTION("no triangulation before it") {
+    auto s = test::spec(2, 200, 0.3, 1, 0.01, {entry(r, "overlap_correct")});
+    try {
+      Simulation sim(s, r, dry());
+      FAIL("expected an InputError");
+    } catch (const InputError& e) {
+      const std::string m = e.what();
+      CHECK(m.find("delaunay") != std::string::npos);
+      CHECK(m.find("before") != std::string::npos);
+    }
+  }
+  SECTION("3D") {
+    auto s = test::spec(3, 200, 0.3, 1, 0.01, {entry(r, "overlap_correct")});
+    CHECK_THROWS_AS(Simulation(s, r, dry()), InputError);
+  }
+  SECTION("max_iterations reached: the step and the worst pair are named") {
+    const auto spec = correct_spec(2000, 0.8, {{"max_iterations", std::int64_t(2)}});
+    auto state = make_initial_state(spec.system, spec.run.precision, spec.run.seed);
+    jiggle(*state, 0.1, 11);
+    Simulation sim(spec, r, dry(), std::move(state));
+    try {
+      sim.advance();
+      FAIL("expected a RunError");
+    } catch (const RunError& e) {
+      const std::string m = e.what();
+      INFO(m);
+      CHECK(m.find("step 0") != std::string::npos);
+      CHECK(m.find("max_iterations = 2") != std::string::npos);
+      CHECK(m.find("worst is particles") != std::string::npos);
+    }
+  }
+}
