@@ -30,6 +30,12 @@ class Scratch {
   Scratch(const Scratch&) = delete;
   Scratch& operator=(const Scratch&) = delete;
 
+  // Drop the contents: the next get() returns a fresh zeroed array.
+  void reset() {
+    ops_.release(p_);
+    p_ = nullptr;
+    count_ = 0;
+  }
   T* get(std::size_t count) {
     if (count != count_) {
       ops_.release(p_);
@@ -58,6 +64,11 @@ class Counters {
     host_.fill(0u);
     for (int slot : min_slots) host_[slot] = ~0u;
     ops_.to_backend(ptr(), host_.data(), sizeof(unsigned) * K, s);
+  }
+  // Zero slots [first, first + count) only (the others keep what the loops left there).
+  void zero(int first, int count, CUstream_st* s) {
+    for (int k = first; k < first + count; ++k) host_[k] = 0u;
+    ops_.to_backend(ptr() + first, host_.data() + first, sizeof(unsigned) * count, s);
   }
   const std::array<unsigned, K>& read(CUstream_st* s) {
     ops_.to_host(host_.data(), ptr(), sizeof(unsigned) * K, s);

@@ -1,26 +1,34 @@
-// delaunay.lawson per-element math: which edges are not locally Delaunay. A round is this mark
-// pass, then decide + apply (common/flip.h). FF_HD; nvcc-clean.
+// delaunay.lawson per-element math. FF_HD; nvcc-clean.
 //
-// Edge e = (a, b) with c left and d right is flipped when d lies inside the circle through the
-// CCW triangle (a, b, c) by more than `tol` times the in-circle permanent (the rounding-error
-// scale of the determinant, so the tolerance follows the geometry: co-circular points, as in a
-// square lattice, are left alone instead of flipping back and forth), and when the flip keeps
-// both triangles positive by more than their own rounding scale. A flip whose new edge (c, d)
-// would be longer than half the box is not done but reported (the triangulation could not store
-// it).
+// Which edges are not locally Delaunay: edge e = (a, b) with c left and d right is flipped when
+// d lies inside the circle through the CCW triangle (a, b, c) by more than `tol` times the
+// in-circle permanent (the rounding-error scale of the determinant, so the tolerance follows the
+// geometry: co-circular points, as in a square lattice, are left alone instead of flipping back
+// and forth), and when the flip keeps both triangles positive by more than their own rounding
+// scale. A flip whose new edge (c, d) would be longer than half the box is not done but reported
+// (the triangulation could not store it).
+//
+// Rounds work on lists. Round 0 tests every edge; a round's marked edges are decided
+// (lowest id wins both triangles, as common/flip.h) and applied, and only the edges whose quad
+// changed — the flipped edge and the four around it — plus the marked edges that lost are tested
+// again in the next round: every other edge keeps both triangles, so its answer cannot change.
+// Lists are filled with atomic appends (their order varies from run to run) but the *sets* are
+// fixed, and every decision depends only on the set of marked edges, so the triangulation is the
+// same for any thread count, launch order or backend. Per-edge stamps (`marked == round`,
+// `queued == round`) replace clearing arrays between rounds.
 #pragma once
 #include <cmath>
 #include <cstdint>
 
 #include "stages/delaunay/common/atomics.h"
-#include "stages/delaunay/common/flip.h"
 #include "stages/delaunay/common/mesh.h"
 
 namespace ff::delaunay {
 
 enum LawsonCounter : int {
-  kLawsonMarked = 0,  // edges not locally Delaunay in this round
-  kLawsonFlips,       // of which flipped this round
+  kLawsonMarked = 0,  // edges marked in this round (length of the marked list)
+  kLawsonQueued,      // length of the list of edges to test in the next round
+  kLawsonFlips,       // flips in this step so far
   kLawsonTooLong,     // flips refused: the new edge would exceed half the box
   kLawsonTooLongAt,   //   lowest such edge
   kLawsonCounters
@@ -32,30 +40,100 @@ FF_HD double orient_surely(V2 p, V2 q, V2 r) {
   return (u.x * v.y - u.y * v.x) - 1e-12 * (std::fabs(u.x * v.y) + std::fabs(u.y * v.x));
 }
 
+FF_HD unsigned append_index(unsigned* counter, unsigned k) {
+#if defined(__CUDA_ARCH__)
+  return atomicAdd(counter, k);
+#else
+  return __atomic_fetch_add(counter, k, __ATOMIC_RELAXED);
+#endif
+}
+
+// Claim edge e for `round` in `stamps`; true for the first claimant only.
+FF_HD bool claim(std::int32_t* stamps, int e, std::int32_t round) {
+#if defined(__CUDA_ARCH__)
+  return atomicExch(reinterpret_cast<int*>(stamps + e), round) != round;
+#else
+  return __atomic_exchange_n(stamps + e, round, __ATOMIC_RELAXED) != round;
+#endif
+}
+
+// Round pass 1: test the listed edges (all edges when `list` is null) and list the marked ones.
 template <class R>
 struct MarkNonDelaunay {
   Mesh mesh;
   Points<R> pts;
-  double tol;  // relative to the in-circle permanent
-  std::uint8_t* mark;
+  double tol;                // relative to the in-circle permanent
+  const std::int32_t* list;  // edges to test, or nullptr for 0 .. n-1
+  const unsigned* list_len;  // device-side length of `list` (the launch covers an upper bound)
+  std::int32_t* marked;      // per edge: round in which it was last marked
+  std::int32_t round;
+  std::int32_t* marked_list;
   unsigned* counters;
 
   FF_HD void operator()(std::size_t i) const {
-    const int e = int(i);
+    int e = int(i);
+    if (list) {
+      if (i >= *list_len) return;
+      e = list[i];
+    }
     const Quad q = quad(mesh, e);
     const V2 o{0, 0};
     const V2 ab = pts.rel(q.a, q.b), ac = pts.rel(q.a, q.c), ad = pts.rel(q.a, q.d);
     double perm;
     const double det = incircle(o, ab, ac, ad, perm);
-    bool m = false;
-    if (det > tol * perm && orient_surely(ac, o, ad) > 0 && orient_surely(ad, ab, ac) > 0) {
-      if (is_min_image(ad - ac, pts.box))
-        m = true;
-      else
-        record(counters, kLawsonTooLong, kLawsonTooLongAt, unsigned(e));
+    if (!(det > tol * perm && orient_surely(ac, o, ad) > 0 && orient_surely(ad, ab, ac) > 0)) return;
+    if (!is_min_image(ad - ac, pts.box)) {
+      record(counters, kLawsonTooLong, kLawsonTooLongAt, unsigned(e));
+      return;
     }
-    mark[e] = m ? 1 : 0;
-    if (m) count_one(counters + kLawsonMarked);
+    marked[e] = round;
+    marked_list[append_index(counters + kLawsonMarked, 1)] = e;
+  }
+};
+
+// Round pass 2: a marked edge flips when no edge around it is marked with a lower id.
+struct DecideMarked {
+  Mesh mesh;
+  const std::int32_t* marked;
+  std::int32_t round;
+  const std::int32_t* marked_list;
+  std::uint8_t* go;  // per edge, meaningful for listed edges only
+  unsigned* counters;
+
+  FF_HD void operator()(std::size_t i) const {
+    const int e = marked_list[i];
+    const int h0n = mesh.next(2 * e), h1n = mesh.next(2 * e + 1);
+    const int around[4] = {h0n >> 1, mesh.next(h0n) >> 1, h1n >> 1, mesh.next(h1n) >> 1};
+    bool win = true;
+    for (int k = 0; k < 4; ++k) win = win && !(around[k] < e && marked[around[k]] == round);
+    go[e] = win ? 1 : 0;
+    if (win) count_one(counters + kLawsonFlips);
+  }
+};
+
+// Round pass 3: flip the winners and queue what the next round must test (each edge once,
+// through the `queued` stamps).
+struct ApplyMarked {
+  Mesh mesh;
+  const std::int32_t* marked_list;
+  const std::uint8_t* go;
+  std::int32_t* queued;      // per edge: round for which it was last queued
+  std::int32_t next_round;
+  std::int32_t* next_list;
+  unsigned* counters;
+
+  FF_HD void push(int e) const {
+    if (claim(queued, e, next_round)) next_list[append_index(counters + kLawsonQueued, 1)] = e;
+  }
+  FF_HD void operator()(std::size_t i) const {
+    const int e = marked_list[i];
+    if (go[e]) {
+      const int h0n = mesh.next(2 * e), h1n = mesh.next(2 * e + 1);
+      const int around[4] = {h0n >> 1, mesh.next(h0n) >> 1, h1n >> 1, mesh.next(h1n) >> 1};
+      flip_edge(mesh, e);
+      for (int k = 0; k < 4; ++k) push(around[k]);
+    }
+    push(e);
   }
 };
 

@@ -1,8 +1,11 @@
 // delaunay.lawson: parallel Lawson flips until every edge is locally Delaunay (Navarro et al.,
-// as used by Carter et al. 2017). Rounds of mark / decide / apply; the lowest marked edge id wins
-// both of its triangles, so the result is independent of thread scheduling and backend. The
-// input must be a valid (all triangles positive) triangulation: run delaunay.flip first.
+// as used by Carter et al. 2017). Rounds of mark / decide / apply over lists (kernel.h): round 0
+// tests every edge, later rounds only the edges whose quad changed. The lowest marked edge id
+// wins both of its triangles, so the result is independent of thread scheduling and backend.
+// One host read per round. The input must be a valid (all triangles positive) triangulation:
+// run delaunay.flip first.
 #pragma once
+#include <algorithm>
 #include <array>
 
 #include "core/error.h"
@@ -31,8 +34,8 @@ struct LawsonParams {
 template <class R>
 struct LawsonOps {
   ElementLoop<MarkNonDelaunay<R>> mark;
-  ElementLoop<DecideFlips> decide;
-  ElementLoop<ApplyFlips> apply;
+  ElementLoop<DecideMarked> decide;
+  ElementLoop<ApplyMarked> apply;
   MemOps mem;
 };
 
@@ -40,7 +43,15 @@ template <class R>
 class Lawson final : public Stage {
  public:
   Lawson(LawsonParams p, Where where, LawsonOps<R> ops)
-      : p_(p), where_(where), ops_(ops), counters_(ops.mem), mark_(ops.mem), go_(ops.mem) {}
+      : p_(p),
+        where_(where),
+        ops_(ops),
+        counters_(ops.mem),
+        marked_(ops.mem),
+        queued_(ops.mem),
+        go_(ops.mem),
+        list_(ops.mem),
+        marked_list_(ops.mem) {}
 
   std::vector<Access> accesses() const override {
     return {{ff::fields::position, where_, Mode::read},
@@ -61,29 +72,42 @@ class Lawson final : public Stage {
     const Mesh m = mesh_view(s, where_);
     const Points<R> pts = points_view<R>(s, ff::fields::position, where_);
     const std::size_t E = edge_count(s.n());
-    std::uint8_t* mark = mark_.get(E);
+    if (round_ > 2000000000) {  // stamps are round ids: start over long before they wrap
+      marked_.reset();
+      queued_.reset();
+      round_ = 0;
+    }
+    std::int32_t* marked = marked_.get(E);
+    std::int32_t* queued = queued_.get(E);
     std::uint8_t* go = go_.get(E);
+    std::int32_t* list = list_.get(E);
+    std::int32_t* marked_list = marked_list_.get(E);
     unsigned* c = counters_.ptr();
 
+    counters_.reset(std::array<int, 1>{kLawsonTooLongAt}, st);
+    std::size_t launch = E;             // round 0 tests every edge
+    const std::int32_t* test = nullptr;
     unsigned flips = 0;
     std::int64_t rounds = 0;  // rounds that flipped something
     for (;;) {
-      counters_.reset(std::array<int, 1>{kLawsonTooLongAt}, st);
-      ops_.mark(E, MarkNonDelaunay<R>{m, pts, p_.tolerance, mark, c}, st);
-      const bool may_flip = rounds < p_.max_rounds;
-      if (may_flip) {
-        ops_.decide(E, DecideFlips{m, mark, go, c, kLawsonFlips}, st);
-        ops_.apply(E, ApplyFlips{m, go}, st);
-      }
+      const std::int32_t round = ++round_;
+      ops_.mark(launch, MarkNonDelaunay<R>{m, pts, p_.tolerance, test, c + kLawsonQueued, marked, round, marked_list, c},
+                st);
       const auto& h = counters_.read(st);
       throw_if_too_long_flip(s, h[kLawsonTooLong], h[kLawsonTooLongAt], st);
-      if (!h[kLawsonMarked]) break;
-      if (!may_flip)
+      const unsigned n_marked = h[kLawsonMarked];
+      flips = h[kLawsonFlips];
+      if (!n_marked) break;
+      if (rounds >= p_.max_rounds)
         throw RunError("delaunay.lawson: the triangulation is still not Delaunay after max_rounds = " +
                        std::to_string(p_.max_rounds) + " rounds (" + std::to_string(flips) + " flips; " +
-                       std::to_string(h[kLawsonMarked]) +
+                       std::to_string(n_marked) +
                        " edge(s) left). Raise max_rounds, or raise tolerance if points are (nearly) co-circular");
-      flips += h[kLawsonFlips];
+      counters_.zero(kLawsonMarked, 2, st);  // marked and queued lengths
+      ops_.decide(n_marked, DecideMarked{m, marked, round, marked_list, go, c}, st);
+      ops_.apply(n_marked, ApplyMarked{m, marked_list, go, queued, round + 1, list, c}, st);
+      test = list;
+      launch = std::min<std::size_t>(5 * std::size_t(n_marked), E);
       ++rounds;
     }
     ctx.metrics.set("lawson_rounds", double(rounds));
@@ -106,8 +130,12 @@ class Lawson final : public Stage {
   Where where_;
   LawsonOps<R> ops_;
   Counters<kLawsonCounters> counters_;
-  Scratch<std::uint8_t> mark_;
+  Scratch<std::int32_t> marked_;  // round stamps: marked in that round
+  Scratch<std::int32_t> queued_;  // round stamps: queued for that round
   Scratch<std::uint8_t> go_;
+  Scratch<std::int32_t> list_;         // edges to test in the next round
+  Scratch<std::int32_t> marked_list_;  // edges marked in this round
+  std::int32_t round_ = 0;
 };
 
 }  // namespace ff::delaunay
