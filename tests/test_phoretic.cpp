@@ -3,6 +3,8 @@
 // O(N²) sum, short-range Verlet sums and pair counts against a brute-force cutoff sum, dynamic
 // Verlet rebuilds against rebuilds every step along a trajectory, the Euler–Maruyama update,
 // determinism, parameter errors, CPU vs CUDA.
+#include <oneapi/tbb/global_control.h>
+
 #include <algorithm>
 #include <catch2/catch.hpp>
 #include <cmath>
@@ -337,6 +339,28 @@ TEST_CASE("phoretic: same seed, same backend -> identical bits (long range, 2D a
   const auto a = trajectory(3), again = trajectory(3), other = trajectory(4);
   CHECK(std::memcmp(a.data(), again.data(), a.size() * sizeof(double)) == 0);
   CHECK(std::memcmp(a.data(), other.data(), a.size() * sizeof(double)) != 0);
+}
+
+TEST_CASE("phoretic: CPU trajectories are bit-identical for 1, 2 and 4 threads", "[phoretic][determinism]") {
+  const std::string range = GENERATE(std::string("long"), std::string("short"));
+  auto trajectory = [&] {
+    auto s = lattice_state(2, Precision::f64, 4500, 1.3, 12);  // several blocks and TBB chunks
+    Run verlet("neighbors.verlet", Backend::cpu, Precision::f64, 2, verlet_params(2.5, 0.3));
+    Run forces("phoretic.forces", Backend::cpu, Precision::f64, 2, forces_params(range, {1.0, 0.5}, {1.0, 2.0}));
+    Run integrate("phoretic.integrate", Backend::cpu, Precision::f64, 2, integrate_params(0.2), 8);
+    for (auto* r : {&verlet, &forces, &integrate}) r->stage->configure(*s);
+    for (std::uint64_t k = 0; k < 8; ++k)
+      for (auto* r : {&verlet, &forces, &integrate}) r->step(*s, k, 0.005);
+    return values(*s, fields::position);
+  };
+  std::vector<std::vector<double>> runs;
+  for (int threads : {1, 2, 4}) {
+    tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
+    runs.push_back(trajectory());
+  }
+  INFO("range " << range);
+  for (std::size_t k = 1; k < runs.size(); ++k)
+    CHECK(std::memcmp(runs[k].data(), runs[0].data(), runs[0].size() * sizeof(double)) == 0);
 }
 
 TEST_CASE("phoretic: parameter and pipeline mistakes are InputErrors", "[phoretic][errors]") {
