@@ -21,6 +21,7 @@ class Noop final : public Stage {
 #endif
     return Outcome::ok();
   }
+  bool graph_capturable() const override { return true; }
 
  private:
   std::vector<Access> accesses_;

@@ -6,6 +6,7 @@
 #include <mutex>
 
 #ifdef FLIPFLOW_HAVE_CUDA
+#include "core/cuda/graph.h"
 #include "core/cuda/streams.h"
 #endif
 
@@ -22,11 +23,18 @@ struct Scheduler::Impl {
   std::mutex error_mutex;
 #ifdef FLIPFLOW_HAVE_CUDA
   std::unique_ptr<StreamSet> streams;
+  std::unique_ptr<DeviceStepParams> device_params;  // when some stage reads ctx.params on CUDA
+  CapturedStep captured;
+  bool capturable = false;       // every compute stage graph_capturable, none uses `every`
+  bool capture_failed = false;
+  std::uint64_t steps_run = 0;  // the first runs without the graph, settling every field
 #endif
-  // Per-attempt parameters read by the node bodies.
+  // Per-attempt parameters read by the node bodies; `params` is their host copy (ctx.params
+  // on the CPU).
   std::uint64_t step = 0;
   std::uint32_t attempt = 0;
   double dt = 0, time = 0;
+  StepParams params{};
 };
 
 Scheduler::Scheduler(const StepGraph& graph, std::vector<StageSlot>& slots, State& state, const RunStats& stats,
@@ -39,6 +47,14 @@ Scheduler::Scheduler(const StepGraph& graph, std::vector<StageSlot>& slots, Stat
     bool may_roll_back = false;
     for (int i : impl_->compute) may_roll_back = may_roll_back || slots[i].stage->may_request_rollback();
     impl_->streams = std::make_unique<StreamSet>(graph, may_roll_back);
+    bool any_capturable = false;
+    impl_->capturable = !impl_->compute.empty();
+    for (int i : impl_->compute) {
+      const bool c = slots[i].stage->graph_capturable();
+      any_capturable = any_capturable || c;
+      impl_->capturable = impl_->capturable && c && graph.nodes()[i].every == 1;
+    }
+    if (any_capturable) impl_->device_params = std::make_unique<DeviceStepParams>();
   }
 #endif
   // The flow graph is built even for a chain (it is what `graph` prints and what a branch
@@ -86,10 +102,15 @@ void Scheduler::run_node(int i, std::uint64_t step, std::uint32_t attempt, doubl
     for (auto& a : node.accesses) state_.field(a.field).acquire(a.where, a.mode, stream);
     slot.metrics.clear();
     DeviceRollbackFlag* flag = nullptr;
+    const StepParams* params = &impl_->params;
 #ifdef FLIPFLOW_HAVE_CUDA
-    if (impl_->streams) flag = impl_->streams->rollback_flag(i);
+    if (impl_->streams) {
+      flag = impl_->streams->rollback_flag(i);
+      params = impl_->device_params ? impl_->device_params->device() : nullptr;
+    }
 #endif
-    StepContext ctx{state_, slot.info, stats_, step, attempt, dt, time, backend_, stream, slot.rng, slot.metrics, flag};
+    StepContext ctx{state_, slot.info, stats_, step, attempt, dt, time, backend_, stream, slot.rng, slot.metrics,
+                    flag,   params};
     const auto t0 = std::chrono::steady_clock::now();
     slot.outcome = slot.stage->run(ctx);
 #ifdef FLIPFLOW_HAVE_CUDA
@@ -120,14 +141,21 @@ std::optional<RollbackRequest> Scheduler::run_compute(std::uint64_t step, std::u
   impl_->attempt = attempt;
   impl_->dt = dt;
   impl_->time = time;
+  impl_->params = StepParams{step, attempt, dt, time};
 #ifdef FLIPFLOW_HAVE_CUDA
-  if (impl_->streams) impl_->streams->begin_attempt();
+  if (impl_->device_params) impl_->device_params->set(impl_->params, main_stream());
+  if (run_captured()) {
+    ++impl_->steps_run;
+  } else
 #endif
-  if (impl_->chain) {
-    for (int i : impl_->compute) run_node(i, step, attempt, dt, time);
-  } else {
-    impl_->start.try_put(flow::continue_msg());
-    impl_->graph.wait_for_all();
+  {
+#ifdef FLIPFLOW_HAVE_CUDA
+    if (impl_->streams) impl_->streams->begin_attempt();
+#endif
+    enqueue_compute();
+#ifdef FLIPFLOW_HAVE_CUDA
+    if (impl_->streams) ++impl_->steps_run;
+#endif
   }
   if (error_) std::rethrow_exception(error_);
 #ifdef FLIPFLOW_HAVE_CUDA
@@ -140,6 +168,61 @@ std::optional<RollbackRequest> Scheduler::run_compute(std::uint64_t step, std::u
   for (int i : impl_->compute)
     if (slots_[i].ran && slots_[i].outcome.rollback) return RollbackRequest{i, slots_[i].outcome};
   return std::nullopt;
+}
+
+void Scheduler::enqueue_compute() {
+  if (impl_->chain) {
+    for (int i : impl_->compute) run_node(i, impl_->step, impl_->attempt, impl_->dt, impl_->time);
+  } else {
+    impl_->start.try_put(flow::continue_msg());
+    impl_->graph.wait_for_all();
+  }
+}
+
+bool Scheduler::run_captured() {
+#ifdef FLIPFLOW_HAVE_CUDA
+  auto& im = *impl_;
+  // The first step runs directly so every field is settled on the device before capture;
+  // profiling needs each stage's own launches.
+  if (!im.capturable || im.capture_failed || profiling_ || im.steps_run == 0) return false;
+  if (!im.captured.ready()) {
+    std::string why;
+    const bool ok = im.captured.capture(main_stream(), [&] {
+      im.streams->begin_attempt();
+      enqueue_compute();
+      if (error_) std::rethrow_exception(error_);
+      im.streams->join_all();
+      launch_advance_step(im.device_params->device(), main_stream());
+    }, why);
+    if (!ok) {
+      // Not fatal: the step runs with direct launches from now on.
+      im.capture_failed = true;
+      error_ = nullptr;
+      abort_.store(false);
+      return false;
+    }
+  }
+  im.captured.launch(main_stream());
+  im.device_params->advanced_by_graph();
+  // The graph wrote what the stages declared: keep host/device coherence flags true.
+  for (int i : im.compute) {
+    for (auto& a : graph_.nodes()[i].accesses) state_.field(a.field).acquire(a.where, a.mode, main_stream());
+    slots_[i].ran = true;
+    slots_[i].outcome = Outcome::ok();
+    slots_[i].metrics.clear();
+  }
+  return true;
+#else
+  return false;
+#endif
+}
+
+bool Scheduler::step_is_captured() const {
+#ifdef FLIPFLOW_HAVE_CUDA
+  return impl_->captured.ready() && !profiling_;
+#else
+  return false;
+#endif
 }
 
 void Scheduler::run_observers(std::uint64_t step, double dt, double time,

@@ -58,10 +58,14 @@ class Scheduler {
   // times are real on CUDA (serializes streams; `pipeline bench` reports both ways).
   void set_profiling(bool on) { profiling_ = on; }
   void reset_timers();
+  // True once the steady-state step replays a captured CUDA graph.
+  bool step_is_captured() const;
 
  private:
   struct Impl;
   void run_node(int node, std::uint64_t step, std::uint32_t attempt, double dt, double time);
+  void enqueue_compute();  // run every compute stage once (flow graph, or in order for a chain)
+  bool run_captured();     // CUDA: replay (capturing first if needed) the step graph
   std::unique_ptr<Impl> impl_;
   const StepGraph& graph_;
   std::vector<StageSlot>& slots_;

@@ -13,6 +13,7 @@
 #include "core/params.h"
 #include "core/rng.h"
 #include "core/state.h"
+#include "core/step_params.h"
 #include "core/types.h"
 
 namespace ff {
@@ -75,6 +76,11 @@ struct DeviceRollbackFlag {
   unsigned int particle;
 };
 
+// StepParams (core/step_params.h): the per-step values a kernel may need, readable on the
+// stage's side: StepContext::params points to host memory on the CPU and to device memory on CUDA. A stage that takes these
+// values from here (not by value from StepContext) can be captured once into a CUDA graph
+// and replayed every step: the core keeps the device copy current (a kernel at the end of a
+// captured step advances it; the host rewrites it after a rollback or a Δt change).
 struct StepContext {
   State& state;
   const RunInfo& run;
@@ -88,6 +94,7 @@ struct StepContext {
   RngKey rng;              // (seed, this stage)
   Metrics& metrics;
   DeviceRollbackFlag* device_rollback = nullptr;  // device memory; CUDA runs only
+  const StepParams* params = nullptr;              // on the stage's side (see StepParams)
 };
 
 class Stage {
@@ -106,6 +113,10 @@ class Stage {
   virtual std::vector<std::string> outputs() const { return {}; }
   // True if run() can return request_rollback: only then does the core snapshot the state.
   virtual bool may_request_rollback() const { return false; }
+  // True if, on CUDA, run() only enqueues device work on ctx.stream, never synchronizes or
+  // reads the host, and takes step-dependent values from ctx.params. When every compute stage
+  // says so (and none uses `every`), the core captures the step once as a CUDA graph.
+  virtual bool graph_capturable() const { return false; }
 };
 
 }  // namespace ff

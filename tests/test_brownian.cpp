@@ -91,6 +91,8 @@ TEST_CASE("CPU and CUDA free Brownian steps agree to 1e-12 relative (double)", "
       cpu.advance();
       gpu.advance();
     }
+    // From the second step on, the CUDA step replays a captured graph: same numbers.
+    CHECK(gpu.scheduler().step_is_captured());
     const auto a = unwrapped<double>(cpu.state());
     const auto b = unwrapped<double>(gpu.state());
     double worst = 0;

@@ -6,6 +6,7 @@
 #include "core/box.h"
 #include "core/hd.h"
 #include "core/rng.h"
+#include "core/step_params.h"
 
 namespace ff::brownian {
 
@@ -14,12 +15,14 @@ struct BrownianStep {
   R* position;          // N x D
   std::int32_t* image;  // N x D
   PeriodicBox<R> box;
-  R amplitude;          // sqrt(2 D Δt)
+  double two_D;         // 2 × diffusion coefficient
   RngKey key;
-  std::uint64_t step;
-  std::uint32_t attempt;
+  const StepParams* params;  // step, attempt, Δt (on the side this runs on)
 
   FF_HD void operator()(std::size_t i) const {
+    const std::uint64_t step = params->step;
+    const std::uint32_t attempt = params->attempt;
+    const R amplitude = R(std::sqrt(two_D * params->dt));  // sqrt(2 D Δt)
     double z[4];
     gaussians(key, std::uint32_t(i), step, attempt, 0, D, z);
     for (int k = 0; k < D; ++k) {

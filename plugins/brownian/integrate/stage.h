@@ -41,15 +41,17 @@ class Integrate final : public Stage {
     Field& img = s.field(fields::image);
     const bool dev = where_ == Where::device;
     const auto box = PeriodicBox<R>::make(s.box.L);
-    const R amplitude = R(std::sqrt(2.0 * p_.D * ctx.dt));
     R* x = dev ? pos.device<R>() : pos.host<R>();
     std::int32_t* im = dev ? img.device<std::int32_t>() : img.host<std::int32_t>();
     if (s.dim() == 2)
-      loops_.loop2(s.n(), BrownianStep<R, 2>{x, im, box, amplitude, ctx.rng, ctx.step, ctx.attempt}, ctx.stream);
+      loops_.loop2(s.n(), BrownianStep<R, 2>{x, im, box, 2 * p_.D, ctx.rng, ctx.params}, ctx.stream);
     else
-      loops_.loop3(s.n(), BrownianStep<R, 3>{x, im, box, amplitude, ctx.rng, ctx.step, ctx.attempt}, ctx.stream);
+      loops_.loop3(s.n(), BrownianStep<R, 3>{x, im, box, 2 * p_.D, ctx.rng, ctx.params}, ctx.stream);
     return Outcome::ok();
   }
+
+  // Per-step values come from ctx.params, so a CUDA run can replay this stage from a graph.
+  bool graph_capturable() const override { return true; }
 
  private:
   IntegrateParams p_;
