@@ -13,6 +13,7 @@
 #include <cmath>
 
 #include "core/simulation.h"
+#include "support/backends.h"
 #include "support/spec.h"
 #include "support/test_plugins.h"
 
@@ -43,6 +44,7 @@ double min_gap(State& s) {
 
 TEST_CASE("hard-disk equation of state: Z = 1 + 2η g(σ⁺) within 3 % of Henderson at η = 0.3 and 0.5",
           "[physics][eos][long]") {
+  const Backend backend = GENERATE(from_range(test::backends()));
   auto r = test::registry_with({"brownian"});
   const double dt = 3e-4;
   const std::uint64_t equilibrate = 3334, steps = 16667;  // t = 1, then 4 more
@@ -55,13 +57,15 @@ TEST_CASE("hard-disk equation of state: Z = 1 + 2η g(σ⁺) within 3 % of Hende
     s.system.init = "random";
     RunOptions o;
     o.dry_run = true;
+    o.backend = backend;
     Simulation sim(s, *r, o);
     sim.run();
     const double z = sim.stats().metrics.at("observe.gr/Z");
     const double g = sim.stats().metrics.at("observe.gr/g_contact");
     const double ref = henderson(eta);
-    WARN("η = " << eta << ", Δt = " << dt << ": g(σ⁺) = " << g << ", Z = " << z << ", Henderson " << ref << " ("
-                << 100 * (z / ref - 1) << " %), rollbacks " << sim.stats().rollbacks);
+    WARN(to_string(backend) << ": η = " << eta << ", Δt = " << dt << ": g(σ⁺) = " << g << ", Z = " << z
+                            << ", Henderson " << ref << " (" << 100 * (z / ref - 1) << " %), rollbacks "
+                            << sim.stats().rollbacks);
     CHECK(std::fabs(z / ref - 1) < 0.03);
     CHECK(min_gap(sim.state()) >= 1 - 1e-6);  // and no overlap is left
   }

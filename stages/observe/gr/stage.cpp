@@ -221,8 +221,8 @@ void Gr::finish(State&, bool completed) {
   out.precision(17);
   out << "# observe.gr: pair distribution g(r), " << dim_ << "D, N = " << n_ << ", sigma = " << sigma_
       << ", packing_fraction = " << eta_ << ", frames = " << frames_ << "\n";
-  out << "# g_contact = " << g_contact_ << ", Z = " << z_ << " (" << (dim_ == 2 ? "1 + 2 eta g_contact" : "1 + 4 eta g_contact")
-      << ")\n";
+  out << "# g_contact = " << g_contact_ << ", Z = " << z_ << " (1 + " << (dim_ == 2 ? 2 : 4)
+      << " eta g_contact)\n";
   out << "r_lo,r_hi,r,g,pairs\n";
   const auto gk = g();
   for (std::size_t k = 0; k < hist_.size(); ++k) {
