@@ -144,7 +144,8 @@ std::optional<RollbackRequest> Scheduler::run_compute(std::uint64_t step, std::u
   impl_->params = StepParams{step, attempt, dt, time};
 #ifdef FLIPFLOW_HAVE_CUDA
   if (impl_->device_params) impl_->device_params->set(impl_->params, main_stream());
-  if (run_captured()) {
+  const bool captured = run_captured();
+  if (captured) {
     ++impl_->steps_run;
   } else
 #endif
@@ -161,7 +162,8 @@ std::optional<RollbackRequest> Scheduler::run_compute(std::uint64_t step, std::u
 #ifdef FLIPFLOW_HAVE_CUDA
   if (impl_->streams) {
     // Stages that may request a rollback on the device report through flags read once here.
-    impl_->streams->join_all();
+    // A replayed graph joined its own forks (its events exist only inside the graph).
+    if (!captured) impl_->streams->join_all();
     if (auto req = impl_->streams->read_rollback_flags(graph_, slots_)) return req;
   }
 #endif

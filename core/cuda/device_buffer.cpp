@@ -22,14 +22,27 @@ DeviceBuffer::~DeviceBuffer() {
   if (ptr_) cudaFree(ptr_);
 }
 
+// A null stream means "from outside the step" (tests, set-up, output after the run): the
+// flipflow streams are non-blocking and do not order with the legacy default stream, so such
+// an access must wait for all device work first.
 void DeviceBuffer::upload(const void* host, std::size_t bytes, CUstream_st* stream) {
   if (!bytes) return;
+  if (!stream) {
+    FF_CUDA_CHECK(cudaDeviceSynchronize(), "waiting for the device before a field copy");
+    FF_CUDA_CHECK(cudaMemcpy(ptr_, host, bytes, cudaMemcpyHostToDevice), "copying a field to the device");
+    return;
+  }
   FF_CUDA_CHECK(cudaMemcpyAsync(ptr_, host, bytes, cudaMemcpyHostToDevice, stream),
                 "copying a field to the device");
 }
 
 void DeviceBuffer::download(void* host, std::size_t bytes, CUstream_st* stream) {
   if (!bytes) return;
+  if (!stream) {
+    FF_CUDA_CHECK(cudaDeviceSynchronize(), "waiting for the device before a field copy");
+    FF_CUDA_CHECK(cudaMemcpy(host, ptr_, bytes, cudaMemcpyDeviceToHost), "copying a field to the host");
+    return;
+  }
   FF_CUDA_CHECK(cudaMemcpyAsync(host, ptr_, bytes, cudaMemcpyDeviceToHost, stream),
                 "copying a field to the host");
   FF_CUDA_CHECK(cudaStreamSynchronize(stream), "waiting for a field copy to the host");

@@ -7,22 +7,23 @@ bundle=${1:-bundle}
 out=${OUT:-gpu-out}
 mkdir -p "$out"
 export PATH="$bundle/bin:$PATH"
-nvidia-smi --query-gpu=name,memory.total,driver_version --format=csv,noheader | tee "$out/gpu.txt"
+nvidia-smi --query-gpu=name,memory.total,driver_version --format=csv,noheader
 
 echo "== tests"
 "$bundle/bin/run-tests" >"$out/tests.log" 2>&1
-echo "run-tests exit $?"; tail -n 25 "$out/tests.log"
+echo "run-tests exit $?"; grep -E "^(PASS|FAIL)|SKIPPED|passed, " "$out/tests.log" | head -n 40
 
 echo "== device-to-device copy bandwidth"
 "$bundle/bin/copy-bandwidth" 1024 | tee "$out/copy_bandwidth.json"
 
 echo "== benchmarks"
-res="$out/results"; mkdir -p "$res"
-pipeline bench "$bundle/pipelines/bench-brownian.yaml" --device cuda --sizes 2^20,2^24 --steps 200 --warmup 20 --results "$res" 2>&1 | tee "$out/bench_brownian_cuda.txt"
-pipeline bench "$bundle/pipelines/bench-brownian.yaml" --device cuda --sizes 2^20,2^24 --steps 200 --warmup 20 --set run.precision=float --results "$res" 2>&1 | tee "$out/bench_brownian_cuda_float.txt"
-pipeline bench "$bundle/pipelines/bench-noop.yaml" --device cuda --steps 20000 --warmup 1000 --results "$res" 2>&1 | tee "$out/bench_noop_cuda.txt"
-pipeline bench "$bundle/pipelines/bench-noop-fork.yaml" --device cuda --steps 20000 --warmup 1000 --results "$res" 2>&1 | tee "$out/bench_noop_fork_cuda.txt"
-for f in "${EXTRA_BENCH[@]:-}"; do [ -n "$f" ] && eval "$f"; done
+res="$out/results"; mkdir -p "$res"  # one folder: JSON lines per pipeline
+pipeline bench "$bundle/pipelines/bench-brownian.yaml" --device cuda --sizes 2^20,2^24 --steps 200 --warmup 20 --results "$res" 2>&1 | tee -a "$out/bench.txt"
+pipeline bench "$bundle/pipelines/bench-brownian.yaml" --device cuda --sizes 2^20,2^24 --steps 200 --warmup 20 --set run.precision=float --results "$res" 2>&1 | tee -a "$out/bench.txt"
+pipeline bench "$bundle/pipelines/bench-noop.yaml" --device cuda --steps 20000 --warmup 1000 --results "$res" 2>&1 | tee -a "$out/bench.txt"
+pipeline bench "$bundle/pipelines/bench-noop-fork.yaml" --device cuda --steps 20000 --warmup 1000 --results "$res" 2>&1 | tee -a "$out/bench.txt"
+# Extra commands (a file of shell lines) for this session: EXTRA=file tools/gpu/session.sh ...
+if [[ -n ${EXTRA:-} && -f $EXTRA ]]; then B=$bundle OUT=$out bash "$EXTRA"; fi
 
 echo "== brownian.yaml on cuda and cpu: same H5MD layout"
 rm -rf "$out/run_cuda" "$out/run_cpu"
@@ -45,4 +46,5 @@ def layout(p):
 a, b = layout("/tmp/run_cuda/trajectory.h5"), layout("/tmp/run_cpu/trajectory.h5")
 print("same layout:", a == b, len(a), "objects")
 PY
-cp /tmp/run_cuda/trajectory.h5 "$out/brownian_cuda.h5" 2>/dev/null || true
+# Few files come back from a device run: pack the JSON lines into one archive.
+tar -C "$out" -cf "$out/results.tar" results && rm -rf "$out/results"
