@@ -1,5 +1,5 @@
 // `pipeline bench`: time per step (and per stage) over sizes N, as a table and as JSON lines
-// appended to bench/results/<pipeline>.jsonl. Observer stages are left out: this times the
+// appended to bench/results/<pipeline>-<backend>.jsonl. Observer stages are left out: this times the
 // compute step. Three passes of `steps` steps each: throughput (steps in a row, one wait at the
 // end: how a run behaves), latency (each step waited for; the median is reported), and
 // per-stage times (each stage waited for, so device work is charged to the stage that did it).
@@ -140,7 +140,8 @@ int cmd_bench(const std::vector<std::string>& args) {
 
   fs::create_directories(results_dir);
   const std::string stem = fs::path(common.file).stem().string();
-  std::ofstream jsonl(fs::path(results_dir) / (stem + ".jsonl"), std::ios::app);
+  // One file per pipeline and backend, so CPU and GPU results never mix.
+  std::ofstream jsonl(fs::path(results_dir) / (stem + "-" + to_string(backend) + ".jsonl"), std::ios::app);
   const std::string device = backend == Backend::cuda ? cuda_device_description() : std::to_string(cores) + " CPU threads";
   const std::time_t now = std::time(nullptr);
   char date[32];
