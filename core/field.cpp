@@ -7,6 +7,10 @@
 #include "core/error.h"
 #ifdef FLIPFLOW_HAVE_CUDA
 #include "core/cuda/device_buffer.h"
+#else
+namespace ff {
+class DeviceBuffer {};  // never allocated in a build without CUDA
+}  // namespace ff
 #endif
 
 namespace ff {
