@@ -1,4 +1,5 @@
-// The standard delaunay stage library: build, detect_inversion, flip, lawson (2D).
+// The standard delaunay stage library: build, detect_inversion, flip, lawson (2D), and the
+// observers check (against CGAL) and triangles (for H5MD /connectivity).
 #include "core/plugin_api.h"
 
 namespace ff::delaunay {
@@ -6,6 +7,8 @@ void register_build(Registry& r);
 void register_detect_inversion(Registry& r);
 void register_flip(Registry& r);
 void register_lawson(Registry& r);
+void register_check(Registry& r);
+void register_triangles(Registry& r);
 }  // namespace ff::delaunay
 
 static void register_delaunay(ff::Registry& r) {
@@ -13,6 +16,8 @@ static void register_delaunay(ff::Registry& r) {
   ff::delaunay::register_detect_inversion(r);
   ff::delaunay::register_flip(r);
   ff::delaunay::register_lawson(r);
+  ff::delaunay::register_check(r);
+  ff::delaunay::register_triangles(r);
 }
 
 FLIPFLOW_PLUGIN(register_delaunay)
