@@ -1,0 +1,113 @@
+// tools/render end to end: `pipeline run` writes a small H5MD file (ABP, with orientations), and
+// /usr/bin/python3 tools/render draws its last frame and plots an observable to PNG files; bad
+// input exits 2 with a message naming the file and the missing path. Skips visibly where
+// /usr/bin/python3 lacks numpy, h5py or matplotlib (a GPU node running a bundle).
+#include <boost/dll/runtime_symbol_info.hpp>
+#include <catch2/catch.hpp>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <sys/wait.h>
+#include <unistd.h>
+
+namespace fs = std::filesystem;
+
+namespace {
+std::string pipeline_exe() { return (boost::dll::program_location().parent_path() / "pipeline").string(); }
+
+fs::path repo_file(const std::string& rel) {
+  const char* data = std::getenv("FLIPFLOW_TEST_DATA");
+  fs::path base = data ? fs::path(data) / ".." / ".." : fs::path(__FILE__).parent_path().parent_path();
+  return (base / rel).lexically_normal();
+}
+
+struct Result {
+  int code;
+  std::string out;
+};
+
+Result sh(const std::string& cmd, const fs::path& dir) {
+  const fs::path log = dir / "cmd.log";
+  const int status = std::system((cmd + " > " + log.string() + " 2>&1").c_str());
+  std::ifstream in(log);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, ss.str()};
+}
+
+bool have_plotting() {
+  static const bool ok = std::system("/usr/bin/python3 -c 'import h5py, numpy, matplotlib' >/dev/null 2>&1") == 0;
+  return ok;
+}
+
+bool is_png(const fs::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  char sig[8] = {};
+  in.read(sig, 8);
+  static const unsigned char want[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
+  return in.gcount() == 8 && std::equal(sig, sig + 8, reinterpret_cast<const char*>(want));
+}
+}  // namespace
+
+TEST_CASE("tools/render draws an H5MD frame and an observable to PNG; bad input exits 2", "[cli][render]") {
+  if (!have_plotting()) {
+    WARN("SKIPPED (no numpy/h5py/matplotlib in /usr/bin/python3): tools/render");
+    return;
+  }
+  const fs::path dir = fs::temp_directory_path() / ("ff_render_" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  const std::string render = "/usr/bin/python3 " + repo_file("tools/render").string();
+
+  auto run = sh(pipeline_exe() + " run " + repo_file("pipelines/abp.yaml").string() +
+                    " --device cpu --set run.steps=200 --set system.N=300 --out " + (dir / "run").string(),
+                dir);
+  INFO(run.out);
+  REQUIRE(run.code == 0);
+  const fs::path h5 = dir / "run" / "abp.h5";
+  REQUIRE(fs::exists(h5));
+
+  SECTION("last frame, coloured by orientation") {
+    auto r = sh(render + " " + h5.string() + " --out " + (dir / "frame.png").string() + " --dpi 40", dir);
+    INFO(r.out);
+    CHECK(r.code == 0);
+    CHECK_THAT(r.out, Catch::Contains("colour by orientation"));
+    CHECK(is_png(dir / "frame.png"));
+  }
+  SECTION("first frame by species; an observable") {
+    auto r = sh(render + " " + h5.string() + " --frame 0 --color-by species --out " + (dir / "f0.png").string() +
+                    " --dpi 40",
+                dir);
+    INFO(r.out);
+    CHECK(r.code == 0);
+    CHECK(is_png(dir / "f0.png"));
+    auto o = sh(render + " " + h5.string() + " --plot-observable observe.msd/msd --out " + (dir / "msd.png").string() +
+                    " --dpi 40",
+                dir);
+    INFO(o.out);
+    CHECK(o.code == 0);
+    CHECK(is_png(dir / "msd.png"));
+  }
+  SECTION("errors name the file and the missing path") {
+    auto f = sh(render + " " + h5.string() + " --frame 99 --out " + (dir / "x.png").string(), dir);
+    CHECK(f.code == 2);
+    CHECK_THAT(f.out, Catch::Contains("abp.h5") && Catch::Contains("out of range"));
+    auto o = sh(render + " " + h5.string() + " --plot-observable no_such --out " + (dir / "x.png").string(), dir);
+    CHECK(o.code == 2);
+    CHECK_THAT(o.out, Catch::Contains("/observables/no_such/value") && Catch::Contains("observe.msd/msd"));
+    auto m = sh(render + " " + (dir / "missing.h5").string(), dir);
+    CHECK(m.code == 2);
+    CHECK_THAT(m.out, Catch::Contains("missing.h5"));
+    // A file without positions.
+    auto w = sh("/usr/bin/python3 -c \"import h5py; h5py.File('" + (dir / "empty.h5").string() +
+                    "','w').create_group('particles/all')\"",
+                dir);
+    REQUIRE(w.code == 0);
+    auto e = sh(render + " " + (dir / "empty.h5").string(), dir);
+    CHECK(e.code == 2);
+    CHECK_THAT(e.out, Catch::Contains("empty.h5") && Catch::Contains("/particles/all/position/value"));
+    CHECK_FALSE(fs::exists(dir / "x.png"));
+  }
+  fs::remove_all(dir);
+}
