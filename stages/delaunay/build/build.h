@@ -15,10 +15,16 @@ struct HalfEdges {
 };
 
 // Half-edges from 2N CCW triangles of a periodic triangulation of n vertices. Edge ids follow
-// the sorted (lower vertex, higher vertex) pairs; half-edge 2e leaves the lower vertex.
+// the sorted (lower, higher) pairs of the endpoints' `rank` (a permutation of 0..n-1; the vertex
+// ids themselves when null); half-edge 2e leaves the endpoint of lower rank.
 // vedge[v] is the lowest half-edge leaving v. RunError if the triangles are not a triangulation
 // of the torus.
-HalfEdges assemble(const std::vector<std::array<int, 3>>& triangles, std::size_t n);
+HalfEdges assemble(const std::vector<std::array<int, 3>>& triangles, std::size_t n,
+                   const std::vector<std::int32_t>* rank = nullptr);
+
+// Each point's rank along a Hilbert curve over the periodic box Lx x Ly (2^16 cells a side;
+// points in one cell by index): a spatially coherent order. xy: x0 y0 x1 y1 ...
+std::vector<std::int32_t> hilbert_ranks(const std::vector<double>& xy, double Lx, double Ly);
 
 // Triangulates the current positions and fills every topology field: halfedge, vertex_edge,
 // position_prev (= position) and status (built, nothing pending). Host side; `stream` is used

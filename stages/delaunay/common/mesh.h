@@ -102,10 +102,14 @@ struct Points {
   const R* p;
   PeriodicBox<double> box;
 
-  // Minimum-image vector from particle i to particle j.
+  // Minimum-image vector from particle i to particle j. The same value as
+  // box.min_image(d, k) = d - L rint(d / L), but the rounding is skipped when |d| <= L/2 (almost
+  // every edge: positions are wrapped and edges are short), which the edge loops feel.
+  FF_HD double image(double d, int k) const {
+    return std::fabs(d) > 0.5 * box.L[k] ? d - box.L[k] * std::rint(d * box.inv_L[k]) : d;
+  }
   FF_HD V2 rel(int i, int j) const {
-    return {box.min_image(double(p[2 * j]) - double(p[2 * i]), 0),
-            box.min_image(double(p[2 * j + 1]) - double(p[2 * i + 1]), 1)};
+    return {image(double(p[2 * j]) - double(p[2 * i]), 0), image(double(p[2 * j + 1]) - double(p[2 * i + 1]), 1)};
   }
 };
 

@@ -50,7 +50,10 @@ struct MarkInversions {
     const int e = int(i);
     const Quad q = quad(mesh, e);
     const V2 ab = pts.rel(q.a, q.b), ac = pts.rel(q.a, q.c), ad = pts.rel(q.a, q.d);
-    if (!closes(ab, ac, pts.rel(q.b, q.c), pts.box) || !closes(ab, ad, pts.rel(q.b, q.d), pts.box))
+    // Each triangle is checked once, from the edge of its lowest half-edge.
+    const bool left_here = q.h0 < q.h0n && q.h0 < q.h0p, right_here = q.h1 < q.h1n && q.h1 < q.h1p;
+    if ((left_here && !closes(ab, ac, pts.rel(q.b, q.c), pts.box)) ||
+        (right_here && !closes(ab, ad, pts.rel(q.b, q.d), pts.box)))
       record(counters, kTooLong, kTooLongAt, unsigned(e));
     if (prev) {
       const Points<R> before{prev, pts.box};
@@ -59,8 +62,8 @@ struct MarkInversions {
     const V2 o{0, 0};
     const double left = orient(o, ab, ac);   // (a, b, c)
     const double right = orient(ab, o, ad);  // (b, a, d)
-    if (left <= 0 && mesh.canonical(q.h0)) count_one(counters + kInverted);
-    if (right <= 0 && mesh.canonical(q.h1)) count_one(counters + kInverted);
+    if (left <= 0 && left_here) count_one(counters + kInverted);
+    if (right <= 0 && right_here) count_one(counters + kInverted);
     bool m = false;
     if (left <= 0 && right <= 0) {
       record(counters, kTwice, kTwiceAt, unsigned(e));
