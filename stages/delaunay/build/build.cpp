@@ -131,6 +131,7 @@ std::string build_topology(State& s, CUstream_st* stream) {
   st.acquire(Where::host, Mode::readwrite, stream);
   st.host<std::int32_t>()[kBuilt] = 1;
   st.host<std::int32_t>()[kPending] = 0;
+  st.host<std::int32_t>()[kCandidates] = 0;
   return tri.method;
 }
 

@@ -24,6 +24,15 @@ FF_HD void keep_min(unsigned* p, unsigned v) {
 #endif
 }
 
+// Reserve k consecutive slots of a list whose length is *counter; returns the first.
+FF_HD unsigned append_index(unsigned* counter, unsigned k) {
+#if defined(__CUDA_ARCH__)
+  return atomicAdd(counter, k);
+#else
+  return __atomic_fetch_add(counter, k, __ATOMIC_RELAXED);
+#endif
+}
+
 // Count an event and remember the lowest element id it happened at (for the error message).
 FF_HD void record(unsigned* counters, int count_slot, int where_slot, unsigned id) {
   count_one(counters + count_slot);

@@ -20,17 +20,30 @@ inline constexpr const char* position_prev = "delaunay.position_prev";
 inline constexpr const char* flip_mark = "delaunay.flip_mark";
 // i32 x kStatusSize, count 1, host only: see Status below.
 inline constexpr const char* status = "delaunay.status";
+// i32, count candidate_capacity(N): edges that delaunay.detect_inversion found not locally
+// Delaunay (in-circle > 0, flip keeps both triangles positive), a superset of what
+// delaunay.lawson's first round would mark; valid while status kCandidates says so.
+inline constexpr const char* lawson_candidates = "delaunay.lawson_candidates";
 }  // namespace fields
 
 // Components of the `delaunay.status` field.
 enum Status : int {
   kBuilt = 0,    // 1 once a triangulation exists (0: the first topology stage builds one)
   kPending = 1,  // repair flips marked by detect_inversion and not yet done by delaunay.flip
-  kStatusSize = 2
+  // 1 + the number of edges in delaunay.lawson_candidates when that list holds every edge that
+  // is not locally Delaunay for the current topology and for the positions detect_inversion
+  // saw (= delaunay.position_prev); 0 when no such list exists. detect_inversion sets it,
+  // anything else that changes the topology (flip, build) clears it, delaunay.lawson consumes it
+  // (testing only those edges in its first round when the positions did not change since).
+  kCandidates = 2,
+  kStatusSize = 3
 };
 
 // A periodic triangulation of N points on the torus has N vertices, 3N edges and 2N triangles.
 inline std::size_t edge_count(std::size_t n) { return 3 * n; }
 inline std::size_t halfedge_count(std::size_t n) { return 6 * n; }
+// Room in delaunay.lawson_candidates: a step's non-Delaunay edges are a small fraction of all
+// edges; more than this and Lawson's first round simply tests every edge.
+inline std::size_t candidate_capacity(std::size_t n) { return edge_count(n) / 16 + 256; }
 
 }  // namespace ff::delaunay

@@ -18,6 +18,7 @@ void add_topology_fields(State& s, const char* stage_name) {
   s.add_field(fields::position_prev, s.real(), 2, n);
   s.add_field(fields::flip_mark, DType::u8, 1, edge_count(n));
   s.add_field(fields::status, DType::i32, kStatusSize, 1);
+  s.add_field(fields::lawson_candidates, DType::i32, 1, candidate_capacity(n));
 }
 
 std::int32_t* status(State& s) { return s.field(fields::status).host<std::int32_t>(); }

@@ -65,6 +65,11 @@ class Counters {
     for (int slot : min_slots) host_[slot] = ~0u;
     ops_.to_backend(ptr(), host_.data(), sizeof(unsigned) * K, s);
   }
+  // Set one slot (the others keep what the loops left there).
+  void set(int slot, unsigned value, CUstream_st* s) {
+    host_[slot] = value;
+    ops_.to_backend(ptr() + slot, host_.data() + slot, sizeof(unsigned), s);
+  }
   // Zero slots [first, first + count) only (the others keep what the loops left there).
   void zero(int first, int count, CUstream_st* s) {
     for (int k = first; k < first + count; ++k) host_[k] = 0u;

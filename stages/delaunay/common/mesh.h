@@ -146,4 +146,21 @@ FF_HD double incircle(V2 a, V2 b, V2 c, V2 d, double& perm) {
   return alift * bc + blift * ca + clift * ab;
 }
 
+// orient(p, q, r) minus its rounding-error scale: > 0 only when surely counter-clockwise.
+FF_HD double orient_surely(V2 p, V2 q, V2 r) {
+  const V2 u = q - p, v = r - p;
+  return (u.x * v.y - u.y * v.x) - 1e-12 * (std::fabs(u.x * v.y) + std::fabs(u.y * v.x));
+}
+
+// Lawson's test for the quad around edge (a, b), c left and d right, given as vectors from a:
+// d lies inside the circle through the CCW triangle (a, b, c) by more than `tol` times the
+// in-circle permanent, and both triangles of the flipped edge, (c, a, d) and (d, b, c), are
+// surely positive. With tol = 0 it accepts a superset of what any tol >= 0 accepts.
+FF_HD bool wants_flip(V2 ab, V2 ac, V2 ad, double tol) {
+  const V2 o{0, 0};
+  double perm;
+  const double det = incircle(o, ab, ac, ad, perm);
+  return det > tol * perm && orient_surely(ac, o, ad) > 0 && orient_surely(ad, ab, ac) > 0;
+}
+
 }  // namespace ff::delaunay

@@ -35,6 +35,7 @@ enum InversionCounter : int {
   kTooLong,           // triangles that do not close under minimum image
   kTooLongAt,         //   lowest such edge
   kRepairFlips,       // flips done by DecideFlips (delaunay.flip)
+  kCandidateCount,    // edges appended to `candidates` (may exceed its capacity)
   kInversionCounters
 };
 
@@ -45,6 +46,11 @@ struct MarkInversions {
   const R* prev;  // positions at which the triangulation was valid; nullptr: skip r⁰·r¹
   std::uint8_t* mark;
   unsigned* counters;
+  // When set: every edge with both triangles positive that is not locally Delaunay
+  // (wants_flip with tolerance 0, a superset of delaunay.lawson's first round) is appended,
+  // so Lawson's first round need not test every edge again (same quads, same positions).
+  std::int32_t* candidates = nullptr;
+  unsigned capacity = 0;
 
   FF_HD void operator()(std::size_t i) const {
     const int e = int(i);
@@ -72,6 +78,10 @@ struct MarkInversions {
     }
     mark[e] = m ? 1 : 0;
     if (m) count_one(counters + kMarked);
+    if (candidates && left > 0 && right > 0 && wants_flip(ab, ac, ad, 0.0)) {
+      const unsigned k = append_index(counters + kCandidateCount, 1);
+      if (k < capacity) candidates[k] = e;
+    }
   }
 };
 

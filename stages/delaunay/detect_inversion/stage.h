@@ -34,6 +34,7 @@ class DetectInversion final : public Stage {
             {fields::vertex_edge, where_, Mode::readwrite},
             {fields::position_prev, where_, Mode::readwrite},
             {fields::flip_mark, where_, Mode::write},
+            {fields::lawson_candidates, where_, Mode::write},
             {fields::status, Where::host, Mode::readwrite}};
   }
   void configure(State& s) override { add_topology_fields(s, "delaunay.detect_inversion"); }
@@ -47,11 +48,15 @@ class DetectInversion final : public Stage {
     const Points<R> pts = points_view<R>(s, ff::fields::position, where_);
     R* prev = data<R>(s.field(fields::position_prev), where_);
     std::uint8_t* mark = data<std::uint8_t>(s.field(fields::flip_mark), where_);
+    Field& cand = s.field(fields::lawson_candidates);
     unsigned* c = counters_.ptr();
     const std::size_t E = edge_count(s.n());
 
+    status(s)[kCandidates] = 0;
     counters_.reset(kMinSlots, st);
-    ops_.mark(E, MarkInversions<R>{m, pts, fresh ? nullptr : prev, mark, c}, st);
+    ops_.mark(E, MarkInversions<R>{m, pts, fresh ? nullptr : prev, mark, c, data<std::int32_t>(cand, where_),
+                                   unsigned(cand.count())},
+              st);
     auto h = counters_.read(st);
     throw_if_too_long(s, where_, ops_.mem, h[kTooLong], h[kTooLongAt], st, "delaunay.detect_inversion");
     if (h[kInverted]) {
@@ -60,6 +65,7 @@ class DetectInversion final : public Stage {
     }
     ctx.metrics.set("inversions", h[kInverted]);
     ctx.metrics.set("repairable", h[kMarked]);
+    ctx.metrics.set("lawson_candidates", h[kCandidateCount]);
 
     const char* retry = "; the step is retried with a smaller time step";
     if (h[kThrough]) {
@@ -85,6 +91,10 @@ class DetectInversion final : public Stage {
                                        ids);
     }
     status(s)[kPending] = std::int32_t(h[kMarked]);
+    // Lawson's first round may test only the candidates when nothing is left to repair (repair
+    // flips change quads) and the list did not overflow.
+    if (h[kMarked] == 0 && h[kInverted] == 0 && h[kCandidateCount] <= cand.count())
+      status(s)[kCandidates] = std::int32_t(h[kCandidateCount]) + 1;
     const Field& pos = s.field(ff::fields::position);
     ops_.mem.copy(prev, pts.p, pos.bytes(), st);
     return Outcome::ok();

@@ -76,6 +76,7 @@ class Flip final : public Stage {
       throw_if_too_long(s, where_, ops_.mem, h[kTooLong], h[kTooLongAt], st, "delaunay.flip");
     } while (h[kMarked] && rounds < p_.max_rounds);
     status(s)[kPending] = 0;
+    if (flips) status(s)[kCandidates] = 0;  // quads changed: Lawson tests every edge
     ctx.metrics.set("flips", flips);
     ctx.metrics.set("flip_rounds", double(rounds));
     if (h[kInverted])

@@ -31,22 +31,10 @@ enum LawsonCounter : int {
   kLawsonFlips,       // flips in this step so far
   kLawsonTooLong,     // flips refused: the new edge would exceed half the box
   kLawsonTooLongAt,   //   lowest such edge
+  kLawsonMoved,       // particles whose position differs from delaunay.position_prev
   kLawsonCounters
 };
 
-// orient(p, q, r) minus its rounding-error scale: > 0 only when surely counter-clockwise.
-FF_HD double orient_surely(V2 p, V2 q, V2 r) {
-  const V2 u = q - p, v = r - p;
-  return (u.x * v.y - u.y * v.x) - 1e-12 * (std::fabs(u.x * v.y) + std::fabs(u.y * v.x));
-}
-
-FF_HD unsigned append_index(unsigned* counter, unsigned k) {
-#if defined(__CUDA_ARCH__)
-  return atomicAdd(counter, k);
-#else
-  return __atomic_fetch_add(counter, k, __ATOMIC_RELAXED);
-#endif
-}
 
 // Claim edge e for `round` in `stamps`; true for the first claimant only.
 FF_HD bool claim(std::int32_t* stamps, int e, std::int32_t round) {
@@ -69,25 +57,38 @@ struct MarkNonDelaunay {
   std::int32_t round;
   std::int32_t* marked_list;
   unsigned* counters;
+  // Round 0 from detect_inversion's candidates on the device: when *every_edge_if != 0 the
+  // positions moved since detection, and thread i tests edge i instead (the launch covers all).
+  const unsigned* every_edge_if = nullptr;
 
   FF_HD void operator()(std::size_t i) const {
     int e = int(i);
-    if (list) {
+    if (list && !(every_edge_if && *every_edge_if)) {
       if (i >= *list_len) return;
       e = list[i];
     }
     const Quad q = quad(mesh, e);
-    const V2 o{0, 0};
     const V2 ab = pts.rel(q.a, q.b), ac = pts.rel(q.a, q.c), ad = pts.rel(q.a, q.d);
-    double perm;
-    const double det = incircle(o, ab, ac, ad, perm);
-    if (!(det > tol * perm && orient_surely(ac, o, ad) > 0 && orient_surely(ad, ab, ac) > 0)) return;
+    if (!wants_flip(ab, ac, ad, tol)) return;
     if (!is_min_image(ad - ac, pts.box)) {
       record(counters, kLawsonTooLong, kLawsonTooLongAt, unsigned(e));
       return;
     }
     marked[e] = round;
     marked_list[append_index(counters + kLawsonMarked, 1)] = e;
+  }
+};
+
+// Before round 0 from candidates: count particles whose position is not bitwise the one
+// detect_inversion saw (it copies position into delaunay.position_prev when it accepts).
+template <class R>
+struct CountMoved {
+  const R* position;
+  const R* prev;
+  unsigned* counters;
+
+  FF_HD void operator()(std::size_t i) const {
+    if (position[2 * i] != prev[2 * i] || position[2 * i + 1] != prev[2 * i + 1]) count_one(counters + kLawsonMoved);
   }
 };
 
