@@ -303,3 +303,114 @@ TEST_CASE("lawson: CPU and CUDA give the same triangulation", "[delaunay][lawson
   CHECK(he[0] == he[2]);
   CHECK(he[1] == he[3]);
 }
+
+namespace {
+std::int32_t candidates_status(State& s) { return status_of(s)[ff::delaunay::kCandidates]; }
+
+// The sheared set-up, but through detect_inversion: `amplitude` decides how many edges it lists.
+std::unique_ptr<State> sheared_detected(double amplitude, Backend b, Runner*& r, std::unique_ptr<Stage>& detect) {
+  auto s = sheared(amplitude);
+  detect = make_stage("delaunay.detect_inversion", b);
+  detect->configure(*s);
+  r = new Runner(*s, b);
+  REQUIRE_FALSE(r->run(*detect, 1).rollback);
+  return s;
+}
+}  // namespace
+
+TEST_CASE("lawson: the first round from detect_inversion's candidates gives the full pass's triangulation",
+          "[delaunay][lawson]") {
+  const Backend b = GENERATE(from_range(ff::test::backends()));
+  INFO("backend " << to_string(b));
+  // Two copies, stepped identically; B's candidate list is withdrawn before every Lawson, so B
+  // tests every edge in round 0 (the path before candidates existed).
+  auto a = initial(0.5, 3000, 23), c = initial(0.5, 3000, 23);
+  Pipeline pa(*a, b), pc(*c, b);
+  Runner ra(*a, b), rc(*c, b);
+  double listed = 0, used = 0;
+  for (int k = 0; k < 60; ++k) {
+    brownian_step(*a, 0.02, 0.02, std::uint64_t(k));
+    brownian_step(*c, 0.02, 0.02, std::uint64_t(k));
+    for (auto [s, p, r] : {std::tuple{a.get(), &pa, &ra}, std::tuple{c.get(), &pc, &rc}}) {
+      REQUIRE_FALSE(r->run(*p->detect, k).rollback);
+      if (s == a.get()) {
+        listed += r->metric("lawson_candidates");
+        used += candidates_status(*s) > 0;
+      } else {
+        status_of(*s)[ff::delaunay::kCandidates] = 0;
+      }
+      REQUIRE_FALSE(r->run(*p->flip, k).rollback);
+      REQUIRE_FALSE(r->run(*p->lawson, k).rollback);
+      CHECK(candidates_status(*s) == 0);  // consumed
+    }
+    REQUIRE(topology(*a).he == topology(*c).he);
+  }
+  INFO("candidates listed " << listed << ", steps that used them " << used);
+  CHECK(listed > 0);
+  CHECK(used > 30);
+  require_delaunay(*a);
+}
+
+TEST_CASE("lawson: candidates are not trusted after positions moved, or when the list overflowed",
+          "[delaunay][lawson]") {
+  const Backend b = GENERATE(from_range(ff::test::backends()));
+  INFO("backend " << to_string(b));
+  auto lawson = make_stage("delaunay.lawson", b);
+  std::unique_ptr<Stage> detect;
+  Runner* raw = nullptr;
+  SECTION("positions moved between detection and Lawson") {
+    // Detection on a Delaunay triangulation lists (almost) nothing; then a shear the detection
+    // never saw. Lawson must notice (positions differ from position_prev) and test every edge.
+    auto s = sheared_detected(0.0, b, raw, detect);
+    std::unique_ptr<Runner> r(raw);
+    REQUIRE(candidates_status(*s) > 0);
+    CHECK(r->metric("lawson_candidates") == 0);
+    auto xy = positions(*s);
+    for (std::size_t i = 0; i < s->n(); ++i) xy[2 * i] += 1.5 * std::sin(2 * M_PI * xy[2 * i + 1] / 40);
+    set_positions(*s, xy);
+    lawson->configure(*s);
+    REQUIRE_FALSE(r->run(*lawson, 1).rollback);
+    CHECK(r->metric("lawson_flips") > 100);
+    require_valid(*s);
+    require_delaunay(*s);
+  }
+  SECTION("more candidates than the list holds") {
+    // A square lattice (every quad co-circular, build picks either diagonal) jiggled by 1e-6:
+    // about half the diagonals are now the wrong one, far more than the list holds.
+    auto s = make_state(square_lattice(60, 60, 1.0), 60, 60);
+    auto build = make_stage("delaunay.build", Backend::cpu);
+    build->configure(*s);
+    Runner rb(*s, Backend::cpu);
+    REQUIRE_FALSE(rb.run(*build).rollback);
+    auto xy = positions(*s);
+    const RngKey key = make_rng_key(9, "jiggle");
+    for (std::size_t i = 0; i < xy.size(); ++i) xy[i] += 1e-6 * (uniform01(key, std::uint32_t(i), 0, 0, 0) - 0.5);
+    set_positions(*s, xy);
+    detect = make_stage("delaunay.detect_inversion", b);
+    detect->configure(*s);
+    Runner r(*s, b);
+    REQUIRE_FALSE(r.run(*detect, 1).rollback);
+    const double listed = r.metric("lawson_candidates");
+    INFO("listed " << listed << ", capacity " << ff::delaunay::candidate_capacity(s->n()));
+    REQUIRE(listed > double(ff::delaunay::candidate_capacity(s->n())));
+    CHECK(candidates_status(*s) == 0);
+    lawson->configure(*s);
+    REQUIRE_FALSE(r.run(*lawson, 1).rollback);
+    CHECK(r.metric("lawson_flips") >= listed / 2);
+    require_valid(*s);
+    require_delaunay(*s);
+  }
+  SECTION("a few candidates, used") {
+    auto s = sheared_detected(0.3, b, raw, detect);
+    std::unique_ptr<Runner> r(raw);
+    const double listed = r->metric("lawson_candidates");
+    INFO("listed " << listed);
+    REQUIRE(listed > 0);
+    REQUIRE(candidates_status(*s) == std::int32_t(listed) + 1);
+    lawson->configure(*s);
+    REQUIRE_FALSE(r->run(*lawson, 1).rollback);
+    CHECK(r->metric("lawson_flips") > 0);
+    require_valid(*s);
+    require_delaunay(*s);
+  }
+}

@@ -9,40 +9,6 @@
 
 namespace ff::delaunay {
 
-std::uint64_t hilbert_index(std::uint32_t x, std::uint32_t y, int bits) {
-  std::uint64_t d = 0;
-  for (std::uint32_t s = std::uint32_t(1) << (bits - 1); s > 0; s >>= 1) {
-    const std::uint32_t rx = (x & s) ? 1 : 0, ry = (y & s) ? 1 : 0;
-    d += std::uint64_t(s) * s * ((3 * rx) ^ ry);
-    if (ry == 0) {  // rotate the quadrant
-      if (rx == 1) {
-        x = s - 1 - (x & (s - 1)) + (x & ~(s - 1));
-        y = s - 1 - (y & (s - 1)) + (y & ~(s - 1));
-      }
-      std::swap(x, y);
-    }
-  }
-  return d;
-}
-
-std::vector<std::int32_t> hilbert_ranks(const std::vector<double>& xy, double Lx, double Ly) {
-  const std::size_t n = xy.size() / 2;
-  constexpr int bits = 16;
-  const double cells = double(1u << bits);
-  std::vector<std::pair<std::uint64_t, std::int32_t>> key(n);
-  for (std::size_t i = 0; i < n; ++i) {
-    auto cell = [&](double x, double L) {
-      const double c = std::floor((x - L * std::floor(x / L)) / L * cells);
-      return std::uint32_t(std::min(std::max(c, 0.0), cells - 1));
-    };
-    key[i] = {hilbert_index(cell(xy[2 * i], Lx), cell(xy[2 * i + 1], Ly), bits), std::int32_t(i)};
-  }
-  std::sort(key.begin(), key.end());
-  std::vector<std::int32_t> rank(n);
-  for (std::size_t r = 0; r < n; ++r) rank[std::size_t(key[r].second)] = std::int32_t(r);
-  return rank;
-}
-
 HalfEdges assemble(const std::vector<std::array<int, 3>>& triangles, std::size_t n, const std::vector<std::int32_t>* rank) {
   if (triangles.size() != 2 * n)
     throw RunError("delaunay: " + std::to_string(triangles.size()) + " triangles for " + std::to_string(n) +

@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "core/state.h"
+#include "stages/delaunay/common/hilbert.h"
 
 namespace ff::delaunay {
 
@@ -22,9 +23,6 @@ struct HalfEdges {
 HalfEdges assemble(const std::vector<std::array<int, 3>>& triangles, std::size_t n,
                    const std::vector<std::int32_t>* rank = nullptr);
 
-// Each point's rank along a Hilbert curve over the periodic box Lx x Ly (2^16 cells a side;
-// points in one cell by index): a spatially coherent order. xy: x0 y0 x1 y1 ...
-std::vector<std::int32_t> hilbert_ranks(const std::vector<double>& xy, double Lx, double Ly);
 
 // Triangulates the current positions and fills every topology field: halfedge, vertex_edge,
 // position_prev (= position) and status (built, nothing pending). Host side; `stream` is used

@@ -1,0 +1,36 @@
+// delaunay.sort: renumbers the particles along a Hilbert curve over the box, once, when the
+// pipeline is configured (before any step or output). Every field with one element per
+// particle (position, image, type, diameter, and whatever the stages listed before it added)
+// is permuted the same way, so the initial state is the same set of particles in another
+// order. Afterwards neighbours in space are neighbours in memory: the triangulation's edge loops
+// (and any per-particle loop that gathers from neighbours) hit the cache instead of memory.
+//
+// List it first in `step:` (or at least before any stage that keeps per-particle data outside
+// State fields). It refuses to run on a state that already has a triangulation. Its per-step
+// run() does nothing (capturable on CUDA). Particle numbers in outputs and messages are the
+// sorted ones; for `init: random` (placed in random order anyway) nothing else changes.
+#pragma once
+#include <string>
+#include <vector>
+
+#include "core/stage.h"
+
+namespace ff::delaunay {
+
+// Permutes every per-particle field of `s` (count == N) into Hilbert order of the positions.
+// Returns the names of the fields permuted. InputError unless 2D, or if a triangulation exists.
+std::vector<std::string> sort_particles_hilbert(State& s);
+
+class Sort final : public Stage {
+ public:
+  std::vector<Access> accesses() const override { return {}; }
+  void configure(State& s) override { sorted_ = sort_particles_hilbert(s); }
+  Outcome run(StepContext&) override { return Outcome::ok(); }
+  bool graph_capturable() const override { return true; }
+  const std::vector<std::string>& sorted_fields() const { return sorted_; }
+
+ private:
+  std::vector<std::string> sorted_;
+};
+
+}  // namespace ff::delaunay
