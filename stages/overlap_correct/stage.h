@@ -48,47 +48,47 @@ struct Params {
   }
 };
 
-// Backend memory for the stage's scratch (displacements) and counters.
-struct MemOps {
-  void* (*alloc)(std::size_t bytes);
-  void (*release)(void* p);
-  void (*zero)(void* p, std::size_t bytes, CUstream_st* s);
-  void (*to_host)(void* host_dst, const void* src, std::size_t bytes, CUstream_st* s);  // waits
+// One call of a backend's iteration loop: the counters of each gather it ran, in order.
+inline constexpr int kBatch = 64;
+struct Batch {
+  std::uint64_t counters[kBatch][kCounters];
+  int gathers = 0;
 };
+
+// Whether gather k's counters let the loop apply its displacements and go on (the host replays
+// the same rule to report errors).
+FF_HD bool keeps_going(const std::uint64_t* c, std::int64_t k, std::int64_t max_iterations) {
+  return c[kBroken] == 0 && c[kBad] != 0 && k < max_iterations;
+}
 
 template <class R>
-struct Ops {
-  ElementLoop<Gather<R>> gather;
-  ElementLoop<Apply<R>> apply;
-  MemOps mem;
+struct Problem {
+  Mesh<R> mesh;
+  R* pos;                // == mesh.pos
+  std::int32_t* image;
+  PeriodicBox<R> box;
+  std::size_t n;
 };
 
-class Buffer {
- public:
-  explicit Buffer(const MemOps& ops) : ops_(ops) {}
-  ~Buffer() { ops_.release(p_); }
-  Buffer(const Buffer&) = delete;
-  Buffer& operator=(const Buffer&) = delete;
-  void* get(std::size_t bytes) {
-    if (bytes != bytes_) {
-      ops_.release(p_);
-      p_ = ops_.alloc(bytes);
-      bytes_ = bytes;
-    }
-    return p_;
-  }
-
- private:
-  MemOps ops_;
-  void* p_ = nullptr;
-  std::size_t bytes_ = 0;
+// A backend's loop: runs gathers k0, k0 + 1, ..., applying the displacements after each one
+// that keeps_going(), until one does not or kBatch gathers were run; fills `out`. The workspace
+// (create/destroy) holds the backend's scratch memory for n particles.
+template <class R>
+struct Ops {
+  void* (*create)(std::size_t n);
+  void (*destroy)(void* ws);
+  void (*iterate)(void* ws, const Problem<R>& p, std::int64_t k0, std::int64_t max_iterations, Batch& out,
+                  CUstream_st* s);
 };
 
 template <class R>
 class OverlapCorrect final : public Stage {
  public:
   OverlapCorrect(Params p, Where where, Ops<R> ops)
-      : p_(std::move(p)), where_(where), ops_(ops), disp_(ops.mem), counters_(ops.mem) {}
+      : p_(std::move(p)), where_(where), ops_(ops) {}
+  ~OverlapCorrect() override {
+    if (ws_) ops_.destroy(ws_);
+  }
 
   std::vector<Access> accesses() const override {
     return {{fields::position, where_, Mode::readwrite},
@@ -138,30 +138,40 @@ class OverlapCorrect final : public Stage {
     const R* diam = ptr<R>(s.field(fields::diameter));
     const std::int32_t* he = ptr<std::int32_t>(s.field(delaunay::fields::halfedge));
     const std::int32_t* ve = ptr<std::int32_t>(s.field(delaunay::fields::vertex_edge));
-    double* disp = static_cast<double*>(disp_.get(2 * n * sizeof(double)));
-    auto* c = static_cast<std::uint64_t*>(counters_.get(kCounters * sizeof(std::uint64_t)));
-    const Gather<R> gather{x,   diam,     he, ve, PeriodicBox<double>::make(s.box.L), p_.mode == "contact" ? 0.5 : 1.0,
-                           p_.cap, tol_, 1.0 / unit_, disp, c};
-    const Apply<R> apply{x, img, disp, PeriodicBox<R>::make(s.box.L)};
+    if (!ws_ || ws_n_ != n) {
+      if (ws_) ops_.destroy(ws_);
+      ws_ = nullptr;
+      ws_ = ops_.create(n);
+      ws_n_ = n;
+    }
+    const Mesh<R> mesh{x, diam, he, ve, PeriodicBox<double>::make(s.box.L), p_.mode == "contact" ? 0.5 : 1.0,
+                       p_.cap, tol_, 1.0 / unit_};
+    const Problem<R> prob{mesh, x, img, PeriodicBox<R>::make(s.box.L), n};
 
+    // Replays the loop's rule on each gather's counters: error, converged, or apply and go on.
     std::int64_t iterations = 0;
     std::uint64_t pairs = 0;
     double correction = 0;
-    for (;;) {
-      ops_.mem.zero(c, kCounters * sizeof(std::uint64_t), st);
-      ops_.gather(n, gather, st);
-      std::uint64_t h[kCounters];
-      ops_.mem.to_host(h, c, sizeof h, st);
-      if (h[kBroken])
-        throw RunError("overlap_correct: step " + std::to_string(ctx.step) + ": the half-edges around " +
-                       std::to_string(h[kBroken]) + " particle(s) do not form a closed fan; the triangulation is "
-                       "corrupt (a delaunay stage before overlap_correct failed to keep it valid)");
-      if (!h[kBad]) break;
-      if (iterations == p_.max_iterations) give_up(ctx, h[kBad]);
-      pairs += h[kPairs];
-      correction += double(h[kCorrection]) / kFixedOne * unit_;
-      ops_.apply(n, apply, st);
-      ++iterations;
+    for (bool done = false; !done;) {
+      ops_.iterate(ws_, prob, iterations, p_.max_iterations, batch_, st);
+      if (batch_.gathers < 1 || batch_.gathers > kBatch)
+        throw RunError("overlap_correct: step " + std::to_string(ctx.step) + ": the iteration loop reported " +
+                       std::to_string(batch_.gathers) + " gathers");
+      for (int j = 0; j < batch_.gathers && !done; ++j) {
+        const std::uint64_t* h = batch_.counters[j];
+        if (h[kBroken])
+          throw RunError("overlap_correct: step " + std::to_string(ctx.step) + ": the half-edges around " +
+                         std::to_string(h[kBroken]) + " particle(s) do not form a closed fan; the triangulation is "
+                         "corrupt (a delaunay stage before overlap_correct failed to keep it valid)");
+        if (!h[kBad]) {
+          done = true;
+          break;
+        }
+        if (iterations == p_.max_iterations) give_up(ctx, h[kBad]);
+        pairs += h[kPairs];
+        correction += double(h[kCorrection]) / kFixedOne * unit_;
+        ++iterations;
+      }
     }
     ctx.metrics.set("iterations", double(iterations));
     ctx.metrics.set("pairs", double(pairs));
@@ -210,8 +220,9 @@ class OverlapCorrect final : public Stage {
   Params p_;
   Where where_;
   Ops<R> ops_;
-  Buffer disp_;
-  Buffer counters_;
+  void* ws_ = nullptr;
+  std::size_t ws_n_ = 0;
+  Batch batch_;
   double unit_ = 1;  // length unit of the fixed-point correction counter (largest diameter)
   double tol_ = 1e-6;
 };
