@@ -1,0 +1,11 @@
+#!/usr/bin/env bash
+# Device run for overlap_correct tuning (see PERF.md): tests, bench-abp at three sizes, the
+# hard-disk EOS test. Needs a bundle in bundle-perf (tools/bundle build-perf bundle-perf).
+B=bundle-perf
+P=$B/pipelines/bench-abp.yaml
+nvidia-smi --query-gpu=name,clocks.sm,clocks.mem,temperature.gpu,utilization.gpu --format=csv
+echo "== test_overlap_correct"; $B/bin/test_overlap_correct 2>&1 | tail -4
+bench() { local tag=$1; shift; echo "== $tag"; "$@" 2>&1 | grep -E "^[0-9]|overlap_correct/iter|rror"; }
+bench default $B/bin/pipeline bench $P --device cuda --sizes 2^16,2^18,2^20 --steps 50 --warmup 10 --results $OUT/default
+# (variants: set FF_* switches of an experimental build here and repeat the 2^20 bench)
+echo "== eos"; timeout ${EOS_S:-150} $B/bin/test_hard_disk_eos 2>&1 | grep -E "cuda:|cpu:|%|passed|failed" 
