@@ -125,6 +125,9 @@ FF_HD bool closes(V2 ab, V2 ac, V2 bc_min_image, const PeriodicBox<double>& box)
   const V2 r = (ac - ab) - bc_min_image;
   return std::fabs(r.x) < 0.25 * box.L[0] && std::fabs(r.y) < 0.25 * box.L[1];
 }
+// The same test without the third side: ac - ab is congruent to c - b modulo the box, so it is
+// b -> c's minimum image (and the sides sum to zero) exactly when it is a minimum image itself.
+FF_HD bool closes(V2 ab, V2 ac, const PeriodicBox<double>& box) { return is_min_image(ac - ab, box); }
 
 // orient(p, q, r) > 0 when p, q, r turn counter-clockwise.
 FF_HD double orient(V2 p, V2 q, V2 r) { return cross(q - p, r - p); }
@@ -132,18 +135,30 @@ FF_HD double orient(V2 p, V2 q, V2 r) { return cross(q - p, r - p); }
 // In-circle determinant: > 0 when d lies inside the circle through the CCW triangle (a, b, c).
 // `perm` receives the permanent (the same sum with absolute values), which bounds the rounding
 // error: |computed - exact| <= ~1e-15 * perm for exact inputs (Shewchuk's iccerrboundA).
+// In two parts, so that a caller that only needs the sign for det <= 0 skips the permanent.
+struct InCircle {
+  double adx, ady, bdx, bdy, cdx, cdy, alift, blift, clift, det;
+  FF_HD double permanent() const {
+    return alift * (std::fabs(bdx * cdy) + std::fabs(cdx * bdy)) + blift * (std::fabs(cdx * ady) + std::fabs(adx * cdy)) +
+           clift * (std::fabs(adx * bdy) + std::fabs(bdx * ady));
+  }
+};
+FF_HD InCircle incircle_terms(V2 a, V2 b, V2 c, V2 d) {
+  InCircle t;
+  t.adx = a.x - d.x, t.ady = a.y - d.y;
+  t.bdx = b.x - d.x, t.bdy = b.y - d.y;
+  t.cdx = c.x - d.x, t.cdy = c.y - d.y;
+  t.alift = t.adx * t.adx + t.ady * t.ady;
+  t.blift = t.bdx * t.bdx + t.bdy * t.bdy;
+  t.clift = t.cdx * t.cdx + t.cdy * t.cdy;
+  const double bc = t.bdx * t.cdy - t.cdx * t.bdy, ca = t.cdx * t.ady - t.adx * t.cdy, ab = t.adx * t.bdy - t.bdx * t.ady;
+  t.det = t.alift * bc + t.blift * ca + t.clift * ab;
+  return t;
+}
 FF_HD double incircle(V2 a, V2 b, V2 c, V2 d, double& perm) {
-  const double adx = a.x - d.x, ady = a.y - d.y;
-  const double bdx = b.x - d.x, bdy = b.y - d.y;
-  const double cdx = c.x - d.x, cdy = c.y - d.y;
-  const double alift = adx * adx + ady * ady;
-  const double blift = bdx * bdx + bdy * bdy;
-  const double clift = cdx * cdx + cdy * cdy;
-  const double bc = bdx * cdy - cdx * bdy, ca = cdx * ady - adx * cdy, ab = adx * bdy - bdx * ady;
-  perm = alift * (std::fabs(bdx * cdy) + std::fabs(cdx * bdy)) +
-         blift * (std::fabs(cdx * ady) + std::fabs(adx * cdy)) +
-         clift * (std::fabs(adx * bdy) + std::fabs(bdx * ady));
-  return alift * bc + blift * ca + clift * ab;
+  const InCircle t = incircle_terms(a, b, c, d);
+  perm = t.permanent();
+  return t.det;
 }
 
 // orient(p, q, r) minus its rounding-error scale: > 0 only when surely counter-clockwise.
@@ -158,9 +173,9 @@ FF_HD double orient_surely(V2 p, V2 q, V2 r) {
 // surely positive. With tol = 0 it accepts a superset of what any tol >= 0 accepts.
 FF_HD bool wants_flip(V2 ab, V2 ac, V2 ad, double tol) {
   const V2 o{0, 0};
-  double perm;
-  const double det = incircle(o, ab, ac, ad, perm);
-  return det > tol * perm && orient_surely(ac, o, ad) > 0 && orient_surely(ad, ab, ac) > 0;
+  const InCircle t = incircle_terms(o, ab, ac, ad);
+  if (!(t.det > 0)) return false;  // tol x permanent >= 0: most edges stop here
+  return t.det > tol * t.permanent() && orient_surely(ac, o, ad) > 0 && orient_surely(ad, ab, ac) > 0;
 }
 
 }  // namespace ff::delaunay

@@ -58,8 +58,7 @@ struct MarkInversions {
     const V2 ab = pts.rel(q.a, q.b), ac = pts.rel(q.a, q.c), ad = pts.rel(q.a, q.d);
     // Each triangle is checked once, from the edge of its lowest half-edge.
     const bool left_here = q.h0 < q.h0n && q.h0 < q.h0p, right_here = q.h1 < q.h1n && q.h1 < q.h1p;
-    if ((left_here && !closes(ab, ac, pts.rel(q.b, q.c), pts.box)) ||
-        (right_here && !closes(ab, ad, pts.rel(q.b, q.d), pts.box)))
+    if ((left_here && !closes(ab, ac, pts.box)) || (right_here && !closes(ab, ad, pts.box)))
       record(counters, kTooLong, kTooLongAt, unsigned(e));
     if (prev) {
       const Points<R> before{prev, pts.box};

@@ -96,7 +96,10 @@ class Lawson final : public Stage {
     // here: bitwise equal to delaunay.position_prev, which detection wrote).
     const std::int32_t hint = status(s)[kCandidates];
     status(s)[kCandidates] = 0;  // consumed: the flips below change quads
-    if (hint > 0) {
+    // The candidates are those with in-circle determinant > 0, computed by the same code in
+    // another loop; at tolerance 0 a co-circular quad (determinant at rounding level) could
+    // in principle round differently there (FMA contraction on the device), so test all.
+    if (hint > 0 && p_.tolerance >= 1e-13) {
       const unsigned count = unsigned(hint - 1);
       counters_.set(kLawsonQueued, count, st);  // the list's length, read by round 0
       ops_.moved(s.n(),
