@@ -26,7 +26,7 @@
 # ../shared/peers/build_lammps_bd.sh), BUILD (a flipflow build folder; default build-render if
 # it has bin/pipeline, else build), PEERS (default ../shared/peers), N_EXP (default 16), ROUNDS
 # (default 3), FF_STEPS (default 100), FF_WARMUP (default: 0.2 τ_B of steps, at least 50),
-# PIPELINE_FILE (default pipelines/hard-disks.yaml), OUT (default
+# PIPELINE_FILE (default pipelines/hard-disks.yaml of the tree BUILD was built from), OUT (default
 # bench/results/cpu_vs_lammps.txt; the report is appended).
 set -euo pipefail
 ROOT=$(cd "$(dirname "$0")/../.." && pwd)
@@ -37,7 +37,6 @@ if [ -z "${BUILD:-}" ]; then
   if [ -x build-render/bin/pipeline ]; then BUILD=build-render; else BUILD=build; fi
 fi
 PIPELINE=$BUILD/bin/pipeline
-PIPELINE_FILE=${PIPELINE_FILE:-pipelines/hard-disks.yaml}
 N_EXP=${N_EXP:-16}
 N=$((1 << N_EXP))
 LMP_DT=2e-4
@@ -52,7 +51,6 @@ die() { echo "cpu_vs_lammps: $*" >&2; exit 2; }
 [ -x "$LMP" ] || die "no LAMMPS binary at $LMP (run ../shared/peers/build_lammps_bd.sh, ~6 min on 2 cores, or set LMP)"
 [ -n "$PEERS" ] && [ -f "$PEERS/in.bd2d" ] && [ -x "$PEERS/run_lammps.sh" ] || die "no in.bd2d/run_lammps.sh in '$PEERS' (set PEERS)"
 [ -x "$PIPELINE" ] || die "no $PIPELINE (build first, or set BUILD)"
-[ -f "$PIPELINE_FILE" ] || die "no $PIPELINE_FILE"
 command -v mpirun >/dev/null || die "no mpirun (apt-get install openmpi-bin)"
 
 work=$(mktemp -d /tmp/cpu_vs_lammps.XXXXXX)
@@ -65,6 +63,9 @@ load() { uptime | sed 's/.*load average: *//'; }
 # whether that tree had uncommitted changes in the code (a shared checkout may).
 src=$(sed -n 's/^CMAKE_HOME_DIRECTORY:INTERNAL=//p' "$BUILD/CMakeCache.txt" 2>/dev/null || true)
 src=${src:-$ROOT}
+# The pipeline file from the same source tree as the binary (stages come and go).
+PIPELINE_FILE=${PIPELINE_FILE:-$src/pipelines/hard-disks.yaml}
+[ -f "$PIPELINE_FILE" ] || die "no $PIPELINE_FILE"
 if git -C "$src" rev-parse --git-dir >/dev/null 2>&1; then
   rev="commit $(git -C "$src" rev-parse --short HEAD)"
   git -C "$src" diff --quiet HEAD -- core stages plugins tools/pipeline ||
