@@ -12,6 +12,7 @@
 #include "core/registry.h"
 #include "core/state.h"
 #include "support/backends.h"
+#include "support/stage_driver.h"
 
 using namespace ff;
 
@@ -26,32 +27,16 @@ const Registry& registry() {
   return *r;
 }
 
-struct Run {
-  RunInfo info;
-  RunStats stats;
-  Metrics metrics;
-  std::unique_ptr<Stage> stage;
-
-  Run(Backend b, Precision p, int dim, std::uint64_t seed, double v0, double Dr, double D) {
-    info.dim = dim;
-    info.precision = p;
-    info.backend = b;
-    info.seed = seed;
-    info.stage_id = "abp.integrate";
+// abp.integrate with (v0, Dr, D), driven step by step (support/stage_driver.h).
+struct Run : test::StageDriver {
+  Run(Backend b, Precision p, int dim, std::uint64_t seed, double v0, double Dr, double D)
+      : StageDriver(registry(), "abp.integrate", b, p, dim, params(v0, Dr, D), seed) {}
+  static ParamValues params(double v0, double Dr, double D) {
     ParamValues v;
     v.set("v0", v0);
     v.set("Dr", Dr);
     v.set("D", D);
-    stage = registry().create("abp.integrate", b, v, info);
-  }
-
-  // What the scheduler does around a stage: acquire the declared fields, then run.
-  void step(State& s, std::uint64_t k, double dt) {
-    for (auto& a : stage->accesses()) s.field(a.field).acquire(a.where, a.mode, nullptr);
-    metrics.clear();
-    StepContext ctx{s, info, stats, k, 0, dt, k * dt, info.backend, nullptr,
-                    make_rng_key(info.seed, info.stage_id.c_str()), metrics};
-    REQUIRE_FALSE(stage->run(ctx).rollback);
+    return v;
   }
 };
 

@@ -1,41 +1,24 @@
 // The `pipeline` command end to end: run writes a valid H5MD file, bad input exits 2 with a
 // located message, outputs are not overwritten without --force, graph prints DOT.
-#include <boost/dll/runtime_symbol_info.hpp>
 #include <catch2/catch.hpp>
 #include <cstdio>
-#include <cstdlib>
 #include <filesystem>
 #include <fstream>
-#include <sstream>
 
 #include "support/backends.h"
+#include "support/cli.h"
 #include "support/h5py.h"
 
 namespace fs = std::filesystem;
 
 namespace {
-std::string pipeline_exe() { return (boost::dll::program_location().parent_path() / "pipeline").string(); }
+using ff::test::pipeline_exe;
+using ff::test::repo_file;
 
-fs::path repo_file(const std::string& rel) {
-  const char* data = std::getenv("FLIPFLOW_TEST_DATA");
-  fs::path base = data ? fs::path(data) / ".." / ".." : fs::path(__FILE__).parent_path().parent_path();
-  return (base / rel).lexically_normal();
-}
-
-struct Result {
-  int code;
-  std::string out;
-};
-
-Result run(const std::string& args) {
-  const fs::path log = fs::temp_directory_path() / ("ff_cli_" + std::to_string(::getpid()) + ".log");
-  const std::string cmd = pipeline_exe() + " " + args + " > " + log.string() + " 2>&1";
-  const int status = std::system(cmd.c_str());
-  std::ifstream in(log);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  fs::remove(log);
-  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, ss.str()};
+// `pipeline ARGS`, output captured through a per-process log file.
+ff::test::CommandResult run(const std::string& args) {
+  return ff::test::run_command(pipeline_exe() + " " + args,
+                               fs::temp_directory_path() / ("ff_cli_" + std::to_string(::getpid()) + ".log"));
 }
 
 fs::path fresh_dir(const std::string& name) {

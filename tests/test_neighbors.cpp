@@ -14,6 +14,7 @@
 #include "core/state.h"
 #include "stages/neighbors/list.h"
 #include "support/backends.h"
+#include "support/stage_driver.h"
 
 using namespace ff;
 
@@ -32,30 +33,18 @@ const Registry& registry() {
   return *r;
 }
 
-struct Run {
-  RunInfo info;
-  RunStats stats;
-  Metrics metrics;
-  std::unique_ptr<Stage> stage;
-
-  Run(Backend b, Precision p, int dim, double cutoff, double skin) {
-    info.dim = dim;
-    info.precision = p;
-    info.backend = b;
-    info.stage_id = "neighbors.verlet";
+// neighbors.verlet with (cutoff, skin), driven step by step (support/stage_driver.h). It reads
+// neither dt, time nor the RNG key, so step(s, k) passes a nominal dt and seed 0.
+struct Run : test::StageDriver {
+  Run(Backend b, Precision p, int dim, double cutoff, double skin)
+      : StageDriver(registry(), "neighbors.verlet", b, p, dim, params(cutoff, skin), 0) {}
+  static ParamValues params(double cutoff, double skin) {
     ParamValues v;
     v.set("cutoff", cutoff);
     v.set("skin", skin);
-    stage = registry().create("neighbors.verlet", b, v, info);
+    return v;
   }
-
-  void step(State& s, std::uint64_t k) {
-    for (auto& a : stage->accesses()) s.field(a.field).acquire(a.where, a.mode, nullptr);
-    metrics.clear();
-    StepContext ctx{s, info, stats, k, 0, 0.01, 0.0, info.backend, nullptr, RngKey{}, metrics};
-    REQUIRE_FALSE(stage->run(ctx).rollback);
-  }
-  double metric(const char* name) const { return metrics.values().at(name); }
+  void step(State& s, std::uint64_t k) { StageDriver::step(s, k, 0.01); }
 };
 
 // Uniformly random positions in a box with edges L (one per axis).

@@ -19,6 +19,7 @@
 #include "core/state.h"
 #include "stages/neighbors/list.h"
 #include "support/backends.h"
+#include "support/stage_driver.h"
 
 using namespace ff;
 
@@ -38,28 +39,10 @@ const Registry& registry() {
   return *r;
 }
 
-// One stage with what the scheduler gives it: declared fields acquired, then run().
-struct Run {
-  RunInfo info;
-  RunStats stats;
-  Metrics metrics;
-  std::unique_ptr<Stage> stage;
-
-  Run(const std::string& name, Backend b, Precision p, int dim, const ParamValues& v, std::uint64_t seed = 1) {
-    info.dim = dim;
-    info.precision = p;
-    info.backend = b;
-    info.seed = seed;
-    info.stage_id = name;
-    stage = registry().create(name, b, v, info);
-  }
-  void step(State& s, std::uint64_t k, double dt) {
-    for (auto& a : stage->accesses()) s.field(a.field).acquire(a.where, a.mode, nullptr);
-    metrics.clear();
-    StepContext ctx{s, info, stats, k, 0, dt, k * dt, info.backend, nullptr,
-                    make_rng_key(info.seed, info.stage_id.c_str()), metrics};
-    REQUIRE_FALSE(stage->run(ctx).rollback);
-  }
+// One stage of this test's registry, driven step by step (support/stage_driver.h).
+struct Run : test::StageDriver {
+  Run(const std::string& name, Backend b, Precision p, int dim, const ParamValues& v, std::uint64_t seed = 1)
+      : StageDriver(registry(), name, b, p, dim, v, seed) {}
 };
 
 ParamValues forces_params(const std::string& range, std::vector<double> alpha, std::vector<double> mu,

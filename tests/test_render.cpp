@@ -2,39 +2,22 @@
 // /usr/bin/python3 tools/render draws its last frame and plots an observable to PNG files; bad
 // input exits 2 with a message naming the file and the missing path. Skips visibly where
 // /usr/bin/python3 lacks numpy, h5py or matplotlib (a GPU node running a bundle).
-#include <boost/dll/runtime_symbol_info.hpp>
 #include <catch2/catch.hpp>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
-#include <sstream>
-#include <sys/wait.h>
 #include <unistd.h>
+
+#include "support/cli.h"
 
 namespace fs = std::filesystem;
 
 namespace {
-std::string pipeline_exe() { return (boost::dll::program_location().parent_path() / "pipeline").string(); }
+using ff::test::pipeline_exe;
+using ff::test::repo_file;
 
-fs::path repo_file(const std::string& rel) {
-  const char* data = std::getenv("FLIPFLOW_TEST_DATA");
-  fs::path base = data ? fs::path(data) / ".." / ".." : fs::path(__FILE__).parent_path().parent_path();
-  return (base / rel).lexically_normal();
-}
-
-struct Result {
-  int code;
-  std::string out;
-};
-
-Result sh(const std::string& cmd, const fs::path& dir) {
-  const fs::path log = dir / "cmd.log";
-  const int status = std::system((cmd + " > " + log.string() + " 2>&1").c_str());
-  std::ifstream in(log);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, ss.str()};
-}
+// `cmd` through the shell, output captured in `dir`/cmd.log.
+ff::test::CommandResult sh(const std::string& cmd, const fs::path& dir) { return ff::test::run_command(cmd, dir / "cmd.log"); }
 
 bool have_plotting() {
   static const bool ok = std::system("/usr/bin/python3 -c 'import h5py, numpy, matplotlib' >/dev/null 2>&1") == 0;
