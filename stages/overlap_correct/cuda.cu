@@ -240,6 +240,8 @@ void shape(std::size_t n, int& grid, int& tile) {
   tile = int(std::max<std::size_t>(16, (t + 15) / 16 * 16));
 }
 
+void dev_destroy(void* p);
+
 void* dev_create(std::size_t n) {
   auto* w = new DevWorkspace;
   try {
@@ -256,14 +258,7 @@ void* dev_create(std::size_t n) {
     w->result = dev_alloc<u64>(kResultWords, "allocating overlap_correct counters");
     FF_CUDA_CHECK(cudaMallocHost(&w->host, kResultWords * sizeof(u64)), "allocating overlap_correct counters");
   } catch (...) {
-    cudaFree(w->flags);
-    cudaFree(w->cand);
-    cudaFree(w->moved);
-    cudaFree(w->disp);
-    cudaFree(w->slots);
-    cudaFree(w->result);
-    cudaFreeHost(w->host);
-    delete w;
+    dev_destroy(w);  // every pointer starts null, so a partial allocation frees cleanly
     throw;
   }
   return w;

@@ -14,6 +14,7 @@
 #include <cstdint>
 
 #include "core/box.h"
+#include "core/overdamped.h"
 #include "core/hd.h"
 #include "core/rng.h"
 
@@ -58,11 +59,9 @@ struct AbpStep {
       for (int k = 0; k < 3; ++k) e[k] = orientation[i * 3 + k];
       rotate_3d(e, eta, &orientation[i * 3]);
     }
-    for (int k = 0; k < D; ++k) {
-      R x = position[i * D + k] + v0_dt * e[k] + trans_amp * R(xi[k]);
-      box.wrap(x, image[i * D + k], k);
-      position[i * D + k] = x;
-    }
+    R drift[D];
+    for (int k = 0; k < D; ++k) drift[k] = v0_dt * e[k];  // self-propulsion along e
+    overdamped_move<R, D>(position, image, box, i, drift, trans_amp, xi);
   }
 
   // out = e rotated about ω = rot_amp·η by |ω|, renormalised.

@@ -4,6 +4,7 @@
 #include <cstdint>
 
 #include "core/box.h"
+#include "core/overdamped.h"
 #include "core/hd.h"
 #include "core/rng.h"
 #include "core/step_params.h"
@@ -25,11 +26,7 @@ struct BrownianStep {
     const R amplitude = R(std::sqrt(two_D * params->dt));  // sqrt(2 D Δt)
     double z[4];
     gaussians(key, std::uint32_t(i), step, attempt, 0, D, z);
-    for (int k = 0; k < D; ++k) {
-      R x = position[i * D + k] + amplitude * R(z[k]);
-      box.wrap(x, image[i * D + k], k);
-      position[i * D + k] = x;
-    }
+    overdamped_move<R, D>(position, image, box, i, nullptr, amplitude, z);
   }
 };
 

@@ -4,6 +4,7 @@
 #include <cstdint>
 
 #include "core/box.h"
+#include "core/overdamped.h"
 #include "core/hd.h"
 #include "core/rng.h"
 
@@ -24,11 +25,9 @@ struct PhoreticStep {
   FF_HD void operator()(std::size_t i) const {
     double z[4];
     gaussians(key, std::uint32_t(i), step, attempt, 0, D, z);
-    for (int k = 0; k < D; ++k) {
-      R x = position[i * D + k] + velocity[i * D + k] * dt + amplitude * R(z[k]);
-      box.wrap(x, image[i * D + k], k);
-      position[i * D + k] = x;
-    }
+    R drift[D];
+    for (int k = 0; k < D; ++k) drift[k] = velocity[i * D + k] * dt;
+    overdamped_move<R, D>(position, image, box, i, drift, amplitude, z);
   }
 };
 
