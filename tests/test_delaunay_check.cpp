@@ -39,9 +39,11 @@ Outcome check(State& s, Backend b, Runner& r, std::uint64_t step, double toleran
 ff::delaunay::Mesh host_mesh(State& s) {
   Field& he = s.field(dfields::halfedge);
   Field& ve = s.field(dfields::vertex_edge);
+  Field& op = s.field(dfields::opposite);
   he.acquire(Where::host, Mode::readwrite);
   ve.acquire(Where::host, Mode::readwrite);
-  return {he.host<std::int32_t>(), ve.host<std::int32_t>()};
+  op.acquire(Where::host, Mode::readwrite);
+  return {he.host<std::int32_t>(), ve.host<std::int32_t>(), op.host<std::int32_t>()};
 }
 
 // In-circle / permanent of edge e's quad, and whether flipping it keeps both triangles positive.

@@ -104,7 +104,7 @@ namespace {
 struct Snapshot {
   std::vector<std::vector<unsigned char>> data;
   const std::vector<std::string> names{fields::position, ff::delaunay::fields::halfedge,
-                                       ff::delaunay::fields::vertex_edge, ff::delaunay::fields::position_prev,
+                                       ff::delaunay::fields::opposite,       ff::delaunay::fields::vertex_edge, ff::delaunay::fields::position_prev,
                                        ff::delaunay::fields::flip_mark, ff::delaunay::fields::status};
   void take(State& s) {
     data.clear();

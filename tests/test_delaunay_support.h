@@ -140,16 +140,19 @@ inline void set_positions(State& s, const std::vector<double>& xy) {
 }
 
 struct Topo {
-  std::vector<std::int32_t> he, vedge;
+  std::vector<std::int32_t> he, vedge, opp;
 };
 
 inline Topo topology(State& s) {
   Field& he = s.field(dfields::halfedge);
   Field& ve = s.field(dfields::vertex_edge);
+  Field& op = s.field(dfields::opposite);
   he.acquire(Where::host, Mode::read);
   ve.acquire(Where::host, Mode::read);
+  op.acquire(Where::host, Mode::read);
   return {std::vector<std::int32_t>(he.host<std::int32_t>(), he.host<std::int32_t>() + he.size()),
-          std::vector<std::int32_t>(ve.host<std::int32_t>(), ve.host<std::int32_t>() + ve.size())};
+          std::vector<std::int32_t>(ve.host<std::int32_t>(), ve.host<std::int32_t>() + ve.size()),
+          std::vector<std::int32_t>(op.host<std::int32_t>(), op.host<std::int32_t>() + op.size())};
 }
 
 // Structure valid, every triangle positive and closed, 3N edges.
@@ -157,6 +160,7 @@ inline void require_valid(State& s) {
   const Topo t = topology(s);
   REQUIRE(t.he.size() == 2 * 6 * s.n());
   REQUIRE(ff::delaunay::check_structure(t.he.data(), t.vedge.data(), s.n()) == "");
+  REQUIRE(ff::delaunay::check_opposite(t.he.data(), t.opp.data(), s.n()) == "");
   const auto xy = positions(s);
   REQUIRE(ff::delaunay::count_bad_triangles(t.he.data(), s.n(), xy.data(), s.box.L[0], s.box.L[1]) == 0);
 }

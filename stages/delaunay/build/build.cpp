@@ -87,6 +87,9 @@ std::string build_topology(State& s, CUstream_st* stream) {
   Field& he = s.field(fields::halfedge);
   he.acquire(Where::host, Mode::write, stream);
   std::memcpy(he.host<std::int32_t>(), h.he.data(), h.he.size() * sizeof(std::int32_t));
+  Field& op = s.field(fields::opposite);
+  op.acquire(Where::host, Mode::write, stream);
+  for (std::size_t k = 0; k < halfedge_count(n); ++k) op.host<std::int32_t>()[k] = opposite_of(h.he.data(), int(k));
   Field& ve = s.field(fields::vertex_edge);
   ve.acquire(Where::host, Mode::write, stream);
   std::memcpy(ve.host<std::int32_t>(), h.vedge.data(), h.vedge.size() * sizeof(std::int32_t));

@@ -24,7 +24,7 @@ HalfEdges assemble(const std::vector<std::array<int, 3>>& triangles, std::size_t
                    const std::vector<std::int32_t>* rank = nullptr);
 
 
-// Triangulates the current positions and fills every topology field: halfedge, vertex_edge,
+// Triangulates the current positions and fills every topology field: halfedge, opposite, vertex_edge,
 // position_prev (= position) and status (built, nothing pending). Host side; `stream` is used
 // only to bring positions to the host. Returns how the triangles were obtained.
 std::string build_topology(State& s, CUstream_st* stream);

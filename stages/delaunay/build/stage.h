@@ -14,6 +14,7 @@ class Build final : public Stage {
   std::vector<Access> accesses() const override {
     return {{ff::fields::position, Where::host, Mode::read},
             {fields::halfedge, Where::host, Mode::write},
+            {fields::opposite, Where::host, Mode::write},
             {fields::vertex_edge, Where::host, Mode::write},
             {fields::position_prev, Where::host, Mode::write},
             {fields::status, Where::host, Mode::readwrite}};

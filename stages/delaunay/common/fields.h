@@ -11,6 +11,11 @@ namespace fields {
 // i32 x 2, count 6N (half-edges): {origin vertex, next half-edge CCW in the same triangle}.
 // Half-edges 2e and 2e+1 are the two sides of edge e (twin(h) = h ^ 1).
 inline constexpr const char* halfedge = "delaunay.halfedge";
+// i32, count 6N (half-edges): the vertex opposite half-edge h in its triangle,
+// origin(next(next(h))). Redundant with `halfedge` and kept by every flip (flip_edge), so the
+// per-edge loops read an edge's quad a, b, c, d from records 2e and 2e+1 of both fields, in
+// edge order, instead of chasing next pointers to scattered half-edges.
+inline constexpr const char* opposite = "delaunay.opposite";
 // i32 x 1, count N: one half-edge leaving each vertex (for walks around a vertex).
 inline constexpr const char* vertex_edge = "delaunay.vertex_edge";
 // real x 2, count N: the positions at which the triangulation was last known valid (written by

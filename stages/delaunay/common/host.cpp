@@ -14,6 +14,7 @@ void add_topology_fields(State& s, const char* stage_name) {
                      std::to_string(s.n()) + ")");
   const std::size_t n = s.n();
   s.add_field(fields::halfedge, DType::i32, 2, halfedge_count(n));
+  s.add_field(fields::opposite, DType::i32, 1, halfedge_count(n));
   s.add_field(fields::vertex_edge, DType::i32, 1, n);
   s.add_field(fields::position_prev, s.real(), 2, n);
   s.add_field(fields::flip_mark, DType::u8, 1, edge_count(n));

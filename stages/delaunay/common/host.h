@@ -28,8 +28,9 @@ bool ensure_topology(State& s, const std::vector<Access>& acc, CUstream_st* stre
 inline Mesh mesh_view(State& s, Where w) {
   Field& he = s.field(fields::halfedge);
   Field& ve = s.field(fields::vertex_edge);
-  if (w == Where::device) return {he.device<std::int32_t>(), ve.device<std::int32_t>()};
-  return {he.host<std::int32_t>(), ve.host<std::int32_t>()};
+  Field& op = s.field(fields::opposite);
+  if (w == Where::device) return {he.device<std::int32_t>(), ve.device<std::int32_t>(), op.device<std::int32_t>()};
+  return {he.host<std::int32_t>(), ve.host<std::int32_t>(), op.host<std::int32_t>()};
 }
 
 template <class T>

@@ -21,9 +21,13 @@ FF_HD int twin(int h) { return h ^ 1; }
 struct Mesh {
   std::int32_t* he;     // 2 x 6N
   std::int32_t* vedge;  // N: one outgoing half-edge per vertex
+  // 6N: vertex opposite each half-edge (fields::opposite). May be null in read-only views that
+  // walk triangles by `next`; every view that flips edges or calls quad_vertices has it.
+  std::int32_t* opp = nullptr;
 
   FF_HD int origin(int h) const { return he[2 * h]; }
   FF_HD int next(int h) const { return he[2 * h + 1]; }
+  FF_HD int opposite(int h) const { return opp[h]; }
   // True for exactly one half-edge of each triangle (its lowest id): count triangles once.
   FF_HD bool canonical(int h) const {
     const int n = next(h);
@@ -53,6 +57,18 @@ FF_HD Quad quad(const Mesh& m, int e) {
   return q;
 }
 
+// The quad's vertices alone, from two contiguous records per field (no pointer chasing): what
+// the per-edge tests need. Equal to quad(m, e)'s a, b, c, d while `opp` is current.
+struct QuadVertices {
+  int a, b, c, d;
+};
+FF_HD QuadVertices quad_vertices(const Mesh& m, int e) {
+  return {m.origin(2 * e), m.origin(2 * e + 1), m.opposite(2 * e), m.opposite(2 * e + 1)};
+}
+
+// opp[h] for every half-edge of a valid `he` (host or device element loop, one h per call).
+FF_HD int opposite_of(const std::int32_t* he, int h) { return he[2 * he[2 * he[2 * h + 1] + 1]]; }
+
 // Relaxed atomic load/store of a topology word that a concurrent flip may also touch
 // (vertex_edge); plain accesses on the device, where word accesses are atomic.
 FF_HD int load_relaxed(const std::int32_t* p) {
@@ -70,9 +86,9 @@ FF_HD void store_relaxed(std::int32_t* p, int v) {
 #endif
 }
 
-// Replace edge (a, b) by (c, d). Writes only the six half-edges of the two triangles (plus
-// vertex_edge of a and b when it pointed at the removed edge), so flips of edges that share no
-// triangle can run concurrently. Afterwards h0 = d -> c in triangle (d, c, a) and
+// Replace edge (a, b) by (c, d). Writes only the six half-edges of the two triangles (their
+// `he` and `opp` records, plus vertex_edge of a and b when it pointed at the removed edge), so
+// flips of edges that share no triangle can run concurrently. Afterwards h0 = d -> c in triangle (d, c, a) and
 // h1 = c -> d in triangle (c, d, b), both CCW when the quad a, d, b, c is convex.
 FF_HD void flip_edge(const Mesh& m, int e) {
   const Quad q = quad(m, e);
@@ -84,6 +100,12 @@ FF_HD void flip_edge(const Mesh& m, int e) {
   m.he[2 * q.h1 + 1] = q.h1p;   // c -> d -> b
   m.he[2 * q.h1p + 1] = q.h0n;  // d -> b -> c
   m.he[2 * q.h0n + 1] = q.h1;   // b -> c -> d
+  m.opp[q.h0] = q.a;  // (d, c, a): d -> c faces a, c -> a faces d, a -> d faces c
+  m.opp[q.h0p] = q.d;
+  m.opp[q.h1n] = q.c;
+  m.opp[q.h1] = q.b;  // (c, d, b): c -> d faces b, d -> b faces c, b -> c faces d
+  m.opp[q.h1p] = q.c;
+  m.opp[q.h0n] = q.d;
   if (load_relaxed(m.vedge + q.a) == q.h0) store_relaxed(m.vedge + q.a, q.h1n);
   if (load_relaxed(m.vedge + q.b) == q.h1) store_relaxed(m.vedge + q.b, q.h0n);
 }

@@ -47,6 +47,16 @@ inline std::string check_structure(const std::int32_t* he, const std::int32_t* v
   return {};
 }
 
+// Empty string when `opp` (6n) holds, for every half-edge, the vertex opposite it in its
+// triangle (fields::opposite; kept by every flip).
+inline std::string check_opposite(const std::int32_t* he, const std::int32_t* opp, std::size_t n) {
+  for (int h = 0; h < int(6 * n); ++h)
+    if (opp[h] != opposite_of(he, h))
+      return "half-edge " + std::to_string(h) + ": opposite vertex " + std::to_string(opp[h]) + ", triangle says " +
+             std::to_string(opposite_of(he, h));
+  return {};
+}
+
 // Sorted undirected edges (lower, higher).
 inline std::vector<std::pair<int, int>> edge_set(const std::int32_t* he, std::size_t n) {
   std::vector<std::pair<int, int>> edges;

@@ -32,7 +32,7 @@ enum InversionCounter : int {
   kTwiceAt,           //   lowest such edge
   kUnrepairable,      // inverted triangles without exactly one repairing edge
   kUnrepairableAt,    //   lowest canonical half-edge of such a triangle
-  kTooLong,           // triangles that do not close under minimum image
+  kTooLong,           // edges with a triangle that does not close under minimum image
   kTooLongAt,         //   lowest such edge
   kRepairFlips,       // flips done by DecideFlips (delaunay.flip)
   kCandidateCount,    // edges appended to `candidates` (may exceed its capacity)
@@ -54,12 +54,12 @@ struct MarkInversions {
 
   FF_HD void operator()(std::size_t i) const {
     const int e = int(i);
-    const Quad q = quad(mesh, e);
+    // The common case (nothing inverted) needs only the quad's vertices: two contiguous records
+    // per field, no `next` chasing. Topology beyond them is read only for rare events.
+    const QuadVertices q = quad_vertices(mesh, e);
     const V2 ab = pts.rel(q.a, q.b), ac = pts.rel(q.a, q.c), ad = pts.rel(q.a, q.d);
-    // Each triangle is checked once, from the edge of its lowest half-edge.
-    const bool left_here = q.h0 < q.h0n && q.h0 < q.h0p, right_here = q.h1 < q.h1n && q.h1 < q.h1p;
-    if ((left_here && !closes(ab, ac, pts.box)) || (right_here && !closes(ab, ad, pts.box)))
-      record(counters, kTooLong, kTooLongAt, unsigned(e));
+    // Both triangles from every edge (so each triangle three times): the count is of edges.
+    if (!closes(ab, ac, pts.box) || !closes(ab, ad, pts.box)) record(counters, kTooLong, kTooLongAt, unsigned(e));
     if (prev) {
       const Points<R> before{prev, pts.box};
       if (dot(before.rel(q.a, q.b), ab) < 0) record(counters, kThrough, kThroughAt, unsigned(e));
@@ -67,8 +67,9 @@ struct MarkInversions {
     const V2 o{0, 0};
     const double left = orient(o, ab, ac);   // (a, b, c)
     const double right = orient(ab, o, ad);  // (b, a, d)
-    if (left <= 0 && left_here) count_one(counters + kInverted);
-    if (right <= 0 && right_here) count_one(counters + kInverted);
+    // Each inverted triangle is counted once, from the edge of its lowest half-edge.
+    if (left <= 0 && mesh.canonical(2 * e)) count_one(counters + kInverted);
+    if (right <= 0 && mesh.canonical(2 * e + 1)) count_one(counters + kInverted);
     bool m = false;
     if (left <= 0 && right <= 0) {
       record(counters, kTwice, kTwiceAt, unsigned(e));

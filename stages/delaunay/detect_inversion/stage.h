@@ -31,6 +31,7 @@ class DetectInversion final : public Stage {
     // halfedge/vertex_edge are written only when no triangulation exists yet (first step).
     return {{ff::fields::position, where_, Mode::read},
             {fields::halfedge, where_, Mode::readwrite},
+            {fields::opposite, where_, Mode::readwrite},
             {fields::vertex_edge, where_, Mode::readwrite},
             {fields::position_prev, where_, Mode::readwrite},
             {fields::flip_mark, where_, Mode::write},

@@ -40,6 +40,7 @@ class Flip final : public Stage {
   std::vector<Access> accesses() const override {
     return {{ff::fields::position, where_, Mode::read},
             {fields::halfedge, where_, Mode::readwrite},
+            {fields::opposite, where_, Mode::readwrite},
             {fields::vertex_edge, where_, Mode::readwrite},
             {fields::flip_mark, where_, Mode::readwrite},
             {fields::status, Where::host, Mode::readwrite}};

@@ -67,7 +67,7 @@ struct MarkNonDelaunay {
       if (i >= *list_len) return;
       e = list[i];
     }
-    const Quad q = quad(mesh, e);
+    const QuadVertices q = quad_vertices(mesh, e);
     const V2 ab = pts.rel(q.a, q.b), ac = pts.rel(q.a, q.c), ad = pts.rel(q.a, q.d);
     if (!wants_flip(ab, ac, ad, tol)) return;
     if (!is_min_image(ad - ac, pts.box)) {

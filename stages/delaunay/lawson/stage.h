@@ -59,6 +59,7 @@ class Lawson final : public Stage {
             {fields::position_prev, where_, Mode::read},
             {fields::lawson_candidates, where_, Mode::read},
             {fields::halfedge, where_, Mode::readwrite},
+            {fields::opposite, where_, Mode::readwrite},
             {fields::vertex_edge, where_, Mode::readwrite},
             {fields::status, Where::host, Mode::readwrite}};
   }
