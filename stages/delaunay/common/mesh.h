@@ -66,6 +66,33 @@ FF_HD QuadVertices quad_vertices(const Mesh& m, int e) {
   return {m.origin(2 * e), m.origin(2 * e + 1), m.opposite(2 * e), m.opposite(2 * e + 1)};
 }
 
+// Software prefetch for the edge loops on the host (no-op on the device, where many warps in
+// flight hide latency instead). Once the mesh and coordinates outgrow the L2 cache, a loop that
+// reads edge e's quad waits on a chain of misses (list entry -> records -> coordinates); asking
+// for edge e + k's data k elements ahead overlaps those waits.
+template <class R>
+FF_HD void prefetch_quad_points(const Mesh& m, const R* p, const R* p2, int e) {
+#if !defined(__CUDA_ARCH__)
+  const QuadVertices q = quad_vertices(m, e);
+  __builtin_prefetch(p + 2 * q.a);
+  __builtin_prefetch(p + 2 * q.b);
+  __builtin_prefetch(p + 2 * q.c);
+  __builtin_prefetch(p + 2 * q.d);
+  if (p2) {
+    __builtin_prefetch(p2 + 2 * q.a);
+    __builtin_prefetch(p2 + 2 * q.b);
+  }
+#endif
+}
+FF_HD void prefetch_quad_records(const Mesh& m, int e) {
+#if !defined(__CUDA_ARCH__)
+  __builtin_prefetch(m.he + 4 * e);
+  __builtin_prefetch(m.opp + 2 * e);
+#endif
+}
+// How many elements ahead the host loops prefetch.
+constexpr int kPrefetchAhead = 8;
+
 // opp[h] for every half-edge of a valid `he` (host or device element loop, one h per call).
 FF_HD int opposite_of(const std::int32_t* he, int h) { return he[2 * he[2 * he[2 * h + 1] + 1]]; }
 

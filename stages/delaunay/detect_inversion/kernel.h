@@ -51,9 +51,11 @@ struct MarkInversions {
   // so Lawson's first round need not test every edge again (same quads, same positions).
   std::int32_t* candidates = nullptr;
   unsigned capacity = 0;
+  int edges = 0;  // 3N: bound for the host's prefetch (0: none)
 
   FF_HD void operator()(std::size_t i) const {
     const int e = int(i);
+    if (e + kPrefetchAhead < edges) prefetch_quad_points(mesh, pts.p, prev, e + kPrefetchAhead);
     // The common case (nothing inverted) needs only the quad's vertices: two contiguous records
     // per field, no `next` chasing. Topology beyond them is read only for rare events.
     const QuadVertices q = quad_vertices(mesh, e);

@@ -56,7 +56,7 @@ class DetectInversion final : public Stage {
     status(s)[kCandidates] = 0;
     counters_.reset(kMinSlots, st);
     ops_.mark(E, MarkInversions<R>{m, pts, fresh ? nullptr : prev, mark, c, data<std::int32_t>(cand, where_),
-                                   unsigned(cand.count())},
+                                   unsigned(cand.count()), int(E)},
               st);
     auto h = counters_.read(st);
     throw_if_too_long(s, where_, ops_.mem, h[kTooLong], h[kTooLongAt], st, "delaunay.detect_inversion");

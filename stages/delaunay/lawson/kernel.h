@@ -64,8 +64,11 @@ struct MarkNonDelaunay {
   FF_HD void operator()(std::size_t i) const {
     int e = int(i);
     if (list && !(every_edge_if && *every_edge_if)) {
-      if (i >= *list_len) return;
+      const std::size_t len = *list_len;
+      if (i >= len) return;
       e = list[i];
+      if (i + 2 * kPrefetchAhead < len) prefetch_quad_records(mesh, list[i + 2 * kPrefetchAhead]);
+      if (i + kPrefetchAhead < len) prefetch_quad_points(mesh, pts.p, (const R*)nullptr, list[i + kPrefetchAhead]);
     }
     const QuadVertices q = quad_vertices(mesh, e);
     const V2 ab = pts.rel(q.a, q.b), ac = pts.rel(q.a, q.c), ad = pts.rel(q.a, q.d);
