@@ -67,6 +67,7 @@ void* Field::device_raw() {
 
 void Field::acquire(Where where, Mode mode, CUstream_st* stream) {
   std::lock_guard<std::mutex> lock(mutex_);
+  if (writes(mode)) ++version_;
   if (where == Where::device) {
     if (!device_) device_ = std::make_unique<DeviceBuffer>(bytes());
     if (reads(mode) && !device_valid_) device_->upload(host_, bytes(), stream);
@@ -88,20 +89,21 @@ void* Field::device_raw() {
 void Field::acquire(Where where, Mode mode, CUstream_st*) {
   if (where == Where::device)
     throw RunError("field '" + name_ + "': this flipflow was built without CUDA");
-  (void)mode;
+  if (writes(mode)) ++version_;
 }
 
 #endif
 
 void Field::mark_written(Where where) {
   std::lock_guard<std::mutex> lock(mutex_);
+  ++version_;
   host_valid_ = where == Where::host;
   device_valid_ = where == Where::device;
 }
 
 void Field::resize(std::size_t count) {
   if (count == count_) return;
-  acquire(Where::host, Mode::readwrite);
+  acquire(Where::host, Mode::readwrite);  // bumps the version
   const std::size_t keep = std::min(count, count_) * components_ * dtype_size(dtype_);
   void* fresh = aligned_zeroed(count * components_ * dtype_size(dtype_));
   if (keep) std::memcpy(fresh, host_, keep);

@@ -4,7 +4,9 @@
 // side asked for is stale. Nothing here copies per step unless a stage on the other side
 // wrote the field. nvcc-clean.
 #pragma once
+#include <atomic>
 #include <cstddef>
+#include <cstdint>
 #include <memory>
 #include <mutex>
 #include <string>
@@ -51,6 +53,9 @@ class Field {
   // (stream-ordered: later work on `stream` sees the data). A write marks the other side stale.
   void acquire(Where where, Mode mode, CUstream_st* stream = nullptr);
   bool valid_on(Where w) const { return w == Where::host ? host_valid_ : device_valid_; }
+  // Bumped by every acquire for writing, mark_written and resize: equal versions mean nothing
+  // wrote the field in between (a stage may skip work that depends only on unchanged data).
+  std::uint64_t version() const { return version_.load(std::memory_order_relaxed); }
   // Declare that the side `where` was just written outside acquire() (e.g. by a restore).
   void mark_written(Where where);
 
@@ -69,6 +74,7 @@ class Field {
   std::unique_ptr<DeviceBuffer> device_;
   bool host_valid_ = true;
   bool device_valid_ = false;
+  std::atomic<std::uint64_t> version_{0};
   std::mutex mutex_;  // concurrent stages may acquire the same field
 };
 

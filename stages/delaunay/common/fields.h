@@ -37,12 +37,25 @@ enum Status : int {
   kPending = 1,  // repair flips marked by detect_inversion and not yet done by delaunay.flip
   // 1 + the number of edges in delaunay.lawson_candidates when that list holds every edge that
   // is not locally Delaunay for the current topology and for the positions detect_inversion
-  // saw (= delaunay.position_prev); 0 when no such list exists. detect_inversion sets it,
+  // saw (of version kPositionVersion*); 0 when no such list exists. detect_inversion sets it,
   // anything else that changes the topology (flip, build) clears it, delaunay.lawson consumes it
   // (testing only those edges in its first round when the positions did not change since).
   kCandidates = 2,
-  kStatusSize = 3
+  // Field::version() of `position` when detect_inversion filled the candidates (low, high 32
+  // bits): delaunay.lawson uses the list only if nothing has written the positions since.
+  kPositionVersionLo = 3,
+  kPositionVersionHi = 4,
+  kStatusSize = 5
 };
+
+inline void set_position_version(std::int32_t* status, std::uint64_t v) {
+  status[kPositionVersionLo] = std::int32_t(std::uint32_t(v));
+  status[kPositionVersionHi] = std::int32_t(std::uint32_t(v >> 32));
+}
+inline std::uint64_t position_version(const std::int32_t* status) {
+  return std::uint64_t(std::uint32_t(status[kPositionVersionLo])) |
+         (std::uint64_t(std::uint32_t(status[kPositionVersionHi])) << 32);
+}
 
 // A periodic triangulation of N points on the torus has N vertices, 3N edges and 2N triangles.
 inline std::size_t edge_count(std::size_t n) { return 3 * n; }

@@ -94,8 +94,10 @@ class DetectInversion final : public Stage {
     status(s)[kPending] = std::int32_t(h[kMarked]);
     // Lawson's first round may test only the candidates when nothing is left to repair (repair
     // flips change quads) and the list did not overflow.
-    if (h[kMarked] == 0 && h[kInverted] == 0 && h[kCandidateCount] <= cand.count())
+    if (h[kMarked] == 0 && h[kInverted] == 0 && h[kCandidateCount] <= cand.count()) {
       status(s)[kCandidates] = std::int32_t(h[kCandidateCount]) + 1;
+      set_position_version(status(s), s.field(ff::fields::position).version());
+    }
     const Field& pos = s.field(ff::fields::position);
     ops_.mem.copy(prev, pts.p, pos.bytes(), st);
     return Outcome::ok();

@@ -31,7 +31,6 @@ enum LawsonCounter : int {
   kLawsonFlips,       // flips in this step so far
   kLawsonTooLong,     // flips refused: the new edge would exceed half the box
   kLawsonTooLongAt,   //   lowest such edge
-  kLawsonMoved,       // particles whose position differs from delaunay.position_prev
   kLawsonCounters
 };
 
@@ -57,13 +56,10 @@ struct MarkNonDelaunay {
   std::int32_t round;
   std::int32_t* marked_list;
   unsigned* counters;
-  // Round 0 from detect_inversion's candidates on the device: when *every_edge_if != 0 the
-  // positions moved since detection, and thread i tests edge i instead (the launch covers all).
-  const unsigned* every_edge_if = nullptr;
 
   FF_HD void operator()(std::size_t i) const {
     int e = int(i);
-    if (list && !(every_edge_if && *every_edge_if)) {
+    if (list) {
       const std::size_t len = *list_len;
       if (i >= len) return;
       e = list[i];
@@ -79,19 +75,6 @@ struct MarkNonDelaunay {
     }
     marked[e] = round;
     marked_list[append_index(counters + kLawsonMarked, 1)] = e;
-  }
-};
-
-// Before round 0 from candidates: count particles whose position is not bitwise the one
-// detect_inversion saw (it copies position into delaunay.position_prev when it accepts).
-template <class R>
-struct CountMoved {
-  const R* position;
-  const R* prev;
-  unsigned* counters;
-
-  FF_HD void operator()(std::size_t i) const {
-    if (position[2 * i] != prev[2 * i] || position[2 * i + 1] != prev[2 * i + 1]) count_one(counters + kLawsonMoved);
   }
 };
 

@@ -33,7 +33,6 @@ struct LawsonParams {
 
 template <class R>
 struct LawsonOps {
-  ElementLoop<CountMoved<R>> moved;
   ElementLoop<MarkNonDelaunay<R>> mark;
   ElementLoop<DecideMarked> decide;
   ElementLoop<ApplyMarked> apply;
@@ -56,7 +55,6 @@ class Lawson final : public Stage {
 
   std::vector<Access> accesses() const override {
     return {{ff::fields::position, where_, Mode::read},
-            {fields::position_prev, where_, Mode::read},
             {fields::lawson_candidates, where_, Mode::read},
             {fields::halfedge, where_, Mode::readwrite},
             {fields::opposite, where_, Mode::readwrite},
@@ -91,38 +89,26 @@ class Lawson final : public Stage {
     counters_.reset(std::array<int, 1>{kLawsonTooLongAt}, st);
     std::size_t launch = E;             // round 0 tests every edge ...
     const std::int32_t* test = nullptr;
-    const unsigned* every_edge_if = nullptr;
     // ... or only detect_inversion's candidates (a superset of the edges round 0 would mark),
-    // when they are current: no flip or rebuild since (status) and the same positions (checked
-    // here: bitwise equal to delaunay.position_prev, which detection wrote).
+    // when they are current: no flip or rebuild since (status kCandidates) and nothing wrote
+    // the positions since (their Field::version, recorded by detect_inversion).
     const std::int32_t hint = status(s)[kCandidates];
     status(s)[kCandidates] = 0;  // consumed: the flips below change quads
     // The candidates are those with in-circle determinant > 0, computed by the same code in
     // another loop; at tolerance 0 a co-circular quad (determinant at rounding level) could
     // in principle round differently there (FMA contraction on the device), so test all.
-    if (hint > 0 && p_.tolerance >= 1e-13) {
-      const unsigned count = unsigned(hint - 1);
-      counters_.set(kLawsonQueued, count, st);  // the list's length, read by round 0
-      ops_.moved(s.n(),
-                 CountMoved<R>{pts.p, data<R>(s.field(fields::position_prev), where_), c},
-                 st);
+    if (hint > 0 && p_.tolerance >= 1e-13 &&
+        position_version(status(s)) == s.field(ff::fields::position).version()) {
+      launch = unsigned(hint - 1);
+      counters_.set(kLawsonQueued, unsigned(launch), st);  // the list's length, read by round 0
       test = data<std::int32_t>(s.field(fields::lawson_candidates), where_);
-      if (where_ == Where::host) {  // decide here (no device to wait for)
-        if (counters_.read(st)[kLawsonMoved]) test = nullptr;
-        else launch = count;
-      } else {
-        every_edge_if = c + kLawsonMoved;  // each thread decides; the launch covers every edge
-      }
     }
     unsigned flips = 0;
     std::int64_t rounds = 0;  // rounds that flipped something
     for (;;) {
       const std::int32_t round = ++round_;
-      ops_.mark(launch,
-                MarkNonDelaunay<R>{m, pts, p_.tolerance, test, c + kLawsonQueued, marked, round, marked_list, c,
-                                   every_edge_if},
+      ops_.mark(launch, MarkNonDelaunay<R>{m, pts, p_.tolerance, test, c + kLawsonQueued, marked, round, marked_list, c},
                 st);
-      every_edge_if = nullptr;
       const auto& h = counters_.read(st);
       throw_if_too_long_flip(s, h[kLawsonTooLong], h[kLawsonTooLongAt], st);
       const unsigned n_marked = h[kLawsonMarked];
