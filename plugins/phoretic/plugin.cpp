@@ -4,7 +4,7 @@
 //
 // Two stages rather than one fused kernel: phoretic.forces writes the pair velocity into the
 // `velocity` field, phoretic.integrate moves the particles. The pair sum has two very different
-// loop shapes (all pairs tiled by warps, or Verlet rows) while the update is one elementwise
+// loop shapes (all pairs in shared-memory tiles, or Verlet rows) while the update is one elementwise
 // step; keeping them apart writes the update once, lets other velocity sources feed the same
 // integrator, and makes `velocity` an observable. The price is one extra read and write of
 // N·d reals per step, small next to the O(N²) or O(N·neighbours) pair sum.

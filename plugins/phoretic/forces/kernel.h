@@ -6,7 +6,7 @@
 //
 // Each particle sums its own terms in ascending k (the Verlet rows are sorted by index), in the
 // precision of the run, so the sum is deterministic and the same on every backend and for any
-// tiling: the CPU blocked loop and the GPU warp-shuffle tiles only change where data comes from.
+// tiling: the CPU blocked loop and the GPU shared-memory tiles only change where data comes from.
 #pragma once
 #include <cmath>
 #include <cstdint>
