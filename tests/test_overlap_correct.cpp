@@ -12,10 +12,13 @@
 
 #include "core/error.h"
 #include "core/init.h"
+#include "core/rng.h"
 #include "core/simulation.h"
 #include "stages/overlap_correct/kernel.h"
+#include "stages/delaunay/common/fields.h"
 #include "support/backends.h"
 #include "support/spec.h"
+#include "support/stage_driver.h"
 #include "support/test_plugins.h"
 
 using namespace ff;
@@ -122,7 +125,194 @@ double metric(const Simulation& sim, const std::string& m) {
   return it->second;
 }
 
+// A triangulated state: the lattice sample of correct_spec, `before` applied to it, then
+// delaunay.build run once, then `after` applied.
+template <class Before, class After>
+std::unique_ptr<Simulation> triangulated(std::uint64_t n, double eta, Before before, After after) {
+  const Registry& r = registry();
+  auto s = test::spec(2, n, eta, 1, 0.01, {entry(r, "delaunay.build")}, 3);
+  s.system.init = "triangular_lattice_sample";
+  auto state = make_initial_state(s.system, s.run.precision, s.run.seed);
+  before(*state);
+  auto sim = std::make_unique<Simulation>(s, r, dry(), std::move(state));
+  sim->advance();
+  after(sim->state());
+  return sim;
+}
+
+// overlap_correct driven alone on a triangulated state, as the scheduler would.
+test::StageDriver corrector(State& s, Backend b, const std::map<std::string, ParamValue>& params = {}) {
+  auto v = ParamValues::defaults(registry().get("overlap_correct").decl.params);
+  for (auto& kv : params) v.set(kv.first, kv.second);
+  test::StageDriver d(registry(), "overlap_correct", b, Precision::f64, 2, v, 1);
+  d.stage->configure(s);
+  return d;
+}
+
+// One run of the driver's stage that may throw (StageDriver::step reports a throw as a failure).
+void run_throwing(test::StageDriver& d, State& s) {
+  for (auto& a : d.stage->accesses()) s.field(a.field).acquire(a.where, a.mode, nullptr);
+  StepContext ctx{s, d.info, d.stats, 0, 0, 0.01, 0.0, d.info.backend, nullptr,
+                  make_rng_key(d.info.seed, d.info.stage_id.c_str()), d.metrics};
+  ctx.params = d.info.backend == Backend::cpu ? &d.params : nullptr;
+  d.stage->run(ctx);
+}
+
+// The stage's definition, naively: every iteration gathers every particle (Mesh::gather, the
+// fan walk in fan order), then applies every displacement, until no pair overlaps beyond the
+// tolerance. The stage's loops (edge passes, work lists, GPU) must give these bits.
+struct Reference {
+  std::vector<double> xy;
+  double iterations = 0, pairs = 0;
+};
+Reference reference(State& s, double factor, double cap, double tol) {
+  const std::size_t n = s.n();
+  Reference out{positions(s)};
+  Field& img = s.field(fields::image);
+  img.acquire(Where::host, Mode::read);
+  std::vector<std::int32_t> image(img.host<std::int32_t>(), img.host<std::int32_t>() + 2 * n);
+  for (const char* f : {fields::diameter, delaunay::fields::halfedge, delaunay::fields::vertex_edge})
+    s.field(f).acquire(Where::host, Mode::read);
+  const auto diam = diameters(s);
+  const double dmax = *std::max_element(diam.begin(), diam.end());
+  const overlap::Mesh<double> m{out.xy.data(),
+                                s.field(fields::diameter).host<double>(),
+                                s.field(delaunay::fields::halfedge).host<std::int32_t>(),
+                                s.field(delaunay::fields::vertex_edge).host<std::int32_t>(),
+                                std::int32_t(n),
+                                dmax * dmax,
+                                PeriodicBox<double>::make(s.box.L),
+                                factor,
+                                cap,
+                                tol,
+                                1.0};
+  std::vector<double> d(2 * n);
+  for (;;) {
+    std::uint64_t bad = 0, pairs = 0, broken = 0;
+    for (std::size_t v = 0; v < n; ++v) {
+      const auto q = m.gather(int(v));
+      broken += q.broken;
+      d[2 * v] = q.dx;
+      d[2 * v + 1] = q.dy;
+      bad += q.bad;
+      pairs += q.pairs;
+    }
+    REQUIRE(broken == 0);
+    if (!bad) return out;
+    out.pairs += double(pairs);
+    ++out.iterations;
+    for (std::size_t v = 0; v < n; ++v)
+      overlap::apply_one(out.xy.data(), image.data(), m.box, v, d[2 * v], d[2 * v + 1]);
+  }
+}
+
 }  // namespace
+
+TEST_CASE("overlap_correct: the same bits as gathering every particle in every iteration",
+          "[overlap][determinism]") {
+  // Dense jiggles (edge passes, then work lists), and an ideal gas (many particles with three
+  // or more overlapping edges, whose sum needs the fan order).
+  const Backend backend = GENERATE(from_range(test::backends()));
+  struct Case {
+    double eta, amplitude;  // amplitude 0: uniform random positions
+    const char* mode;
+    double cap;
+  };
+  const Case cases[] = {{0.75, 0.1, "reflect", 0.25}, {0.5, 0.15, "reflect", 0.25}, {0.8, 0.1, "contact", 0.25},
+                        {0.7, 0.1, "reflect", 1.0},   {0.5, 0.0, "reflect", 0.25}, {0.3, 0.0, "contact", 0.25}};
+  for (const Case& c : cases) {
+    INFO(to_string(backend) << ": η " << c.eta << " jiggle " << c.amplitude << " " << c.mode << " cap " << c.cap);
+    auto sim = triangulated(
+        20000, c.eta,
+        [&](State& s) {
+          if (c.amplitude > 0)
+            jiggle(s, c.amplitude, 7);
+          else
+            scatter(s, 8);
+        },
+        [](State&) {});
+    State& s = sim->state();
+    const Reference ref = reference(s, std::string(c.mode) == "contact" ? 0.5 : 1.0, c.cap, 1e-6);
+    auto d = corrector(s, backend, {{"mode", std::string(c.mode)}, {"cap", c.cap}});
+    d.step(s, 0, 0.01);
+    const auto xy = positions(s);
+    INFO("iterations " << ref.iterations << ", pairs " << ref.pairs);
+    CHECK(ref.iterations >= 3);
+    CHECK(d.metric("iterations") == ref.iterations);
+    CHECK(d.metric("pairs") == ref.pairs);
+    CHECK(std::memcmp(xy.data(), ref.xy.data(), xy.size() * sizeof(double)) == 0);
+  }
+}
+
+TEST_CASE("overlap_correct: unequal diameters, also when they change between steps", "[overlap][determinism]") {
+  // Diameters 0.7-1.3σ; then every diameter grows by 10 % (a write to the field) and the next
+  // step must see the new ones (the edge passes look no farther than the largest diameter).
+  const Backend backend = GENERATE(from_range(test::backends()));
+  INFO(to_string(backend));
+  auto set_diameters = [](State& s, double scale) {
+    Field& f = s.field(fields::diameter);
+    f.acquire(Where::host, Mode::readwrite);
+    std::mt19937_64 gen(9);
+    std::uniform_real_distribution<double> u(0.7, 1.3);
+    for (std::size_t i = 0; i < s.n(); ++i) f.host<double>()[i] = scale * u(gen);
+  };
+  auto sim = triangulated(
+      20000, 0.6,
+      [&](State& s) {
+        set_diameters(s, 1.0);
+        jiggle(s, 0.1, 3);
+      },
+      [](State&) {});
+  State& s = sim->state();
+  auto d = corrector(s, backend);
+  for (double scale : {1.0, 1.1}) {
+    INFO("diameters x " << scale);
+    set_diameters(s, scale);
+    const Reference ref = reference(s, 1.0, 0.25, 1e-6);
+    d.step(s, scale == 1.0 ? 0 : 1, 0.01);
+    const auto xy = positions(s);
+    CHECK(ref.iterations >= 2);
+    CHECK(d.metric("iterations") == ref.iterations);
+    CHECK(d.metric("pairs") == ref.pairs);
+    CHECK(std::memcmp(xy.data(), ref.xy.data(), xy.size() * sizeof(double)) == 0);
+  }
+}
+
+TEST_CASE("overlap_correct: a corrupt triangulation is an error, also away from any overlap", "[overlap][errors]") {
+  // A lattice at η = 0.3 has no overlaps; each corruption below is one half-edge record.
+  const Backend backend = GENERATE(from_range(test::backends()));
+  struct Case {
+    const char* what;
+    int field;  // 0: origin, 1: next
+    int value;  // -1: out of range; -2: the next of another half-edge; -3: the edge's other end
+  };
+  const Case cases[] = {{"origin out of range", 0, -1},
+                        {"next out of range", 1, -1},
+                        {"next not a permutation", 1, -2},
+                        {"loop edge", 0, -3}};
+  for (const Case& c : cases) {
+    INFO(to_string(backend) << ": " << c.what);
+    auto sim = triangulated(2000, 0.3, [](State&) {}, [&](State& s) {
+      Field& f = s.field(delaunay::fields::halfedge);
+      f.acquire(Where::host, Mode::readwrite);
+      std::int32_t* he = f.host<std::int32_t>();
+      const std::size_t h = 2 * 1234;  // edge 1234's first half-edge
+      he[2 * h + c.field] = c.value == -1   ? std::int32_t(6 * s.n() + 5)
+                            : c.value == -2 ? he[2 * (h + 10) + 1]
+                                            : he[2 * (h + 1)];
+    });
+    State& s = sim->state();
+    auto d = corrector(s, backend);
+    try {
+      run_throwing(d, s);
+      FAIL("expected a RunError");
+    } catch (const RunError& e) {
+      const std::string m = e.what();
+      INFO(m);
+      CHECK(m.find("corrupt") != std::string::npos);
+    }
+  }
+}
 
 TEST_CASE("overlap_correct: exact moves of an isolated overlapping pair", "[overlap]") {
   // 64 particles on a lattice at η = 0.05 (spacing ≈ 4.3σ); particle b is put next to particle

@@ -42,6 +42,10 @@ inline constexpr int kMaxFan = 4096;
 inline constexpr double kFixedOne = 4294967296.0;  // 2^32
 // pair_push's answer for a pair that does not overlap.
 inline constexpr double kNoOverlap = -1.0;
+// Mesh::edge's answers.
+inline constexpr int kEdgeApart = 0, kEdgeOverlap = 1, kEdgeCorrupt = -1;
+// Terms an edge pass keeps per particle (gather_known): two, whose sum is order-free.
+inline constexpr unsigned kKnownTerms = 2;
 
 FF_HD void add_u64(std::uint64_t* p, std::uint64_t v) {
 #if defined(__CUDA_ARCH__)
@@ -51,23 +55,39 @@ FF_HD void add_u64(std::uint64_t* p, std::uint64_t v) {
 #endif
 }
 
-// The push on particle v from neighbour u at minimum-image offset (rx, ry) = x_u − x_v,
-// added to (dx, dy). Returns the relative overlap (σ_vu − r)/σ_vu when r² < σ_vu², else
-// kNoOverlap (−1; an overlapping pair cannot return it, since r < 2σ_vu).
-FF_HD double pair_push(double rx, double ry, double sv, double su, double factor, int v, int u, double& dx,
-                       double& dy) {
+// The push on particle v from neighbour u at minimum-image offset (rx, ry) = x_u − x_v: the
+// term t that v's displacement loses (d_v −= t). Returns the relative overlap (σ_vu − r)/σ_vu
+// when r² < σ_vu², else kNoOverlap (−1; an overlapping pair cannot return it, since r < 2σ_vu)
+// and leaves t alone. The term on u from v is −t, bit for bit: (rx, ry) negates exactly, and so
+// does the coincident-centres rule.
+FF_HD double pair_term(double rx, double ry, double sv, double su, double factor, int v, int u, double& tx,
+                       double& ty) {
   const double s = 0.5 * (sv + su);
   const double r2 = rx * rx + ry * ry;
   if (!(r2 < s * s)) return kNoOverlap;
   const double r = std::sqrt(r2);
   const double delta = factor * (s - r);
   if (r > 0) {
-    dx -= delta * (rx / r);
-    dy -= delta * (ry / r);
+    tx = delta * (rx / r);
+    ty = delta * (ry / r);
   } else {  // coincident centres: separate along x, the lower index towards −x
-    dx -= v < u ? delta : -delta;
+    tx = v < u ? delta : -delta;
+    ty = 0;
   }
   return (s - r) / s;
+}
+
+// pair_term added to (dx, dy). (A displacement sum starts at +0 and never becomes −0, since
+// x − x = +0, so subtracting a zero term, of either sign, leaves it as it is.)
+FF_HD double pair_push(double rx, double ry, double sv, double su, double factor, int v, int u, double& dx,
+                       double& dy) {
+  double tx, ty;
+  const double o = pair_term(rx, ry, sv, su, factor, v, u, tx, ty);
+  if (o != kNoOverlap) {
+    dx -= tx;
+    dy -= ty;
+  }
+  return o;
 }
 
 // Loads. On the device, positions move during the persistent kernel (other blocks write them
@@ -103,6 +123,37 @@ FF_HD void load_halfedge(const std::int32_t* he, int h, int& origin, int& next) 
 #endif
 }
 
+// Edge e = half-edges 2e and 2e + 1, one 16-byte record {origin(2e), next(2e), origin(2e+1),
+// next(2e+1)}: its two ends a, b and the half-edges that follow each side.
+FF_HD void load_edge(const std::int32_t* he, std::size_t e, int& a, int& na, int& b, int& nb) {
+#if defined(__CUDA_ARCH__)
+  const int4 r = __ldg(reinterpret_cast<const int4*>(he) + e);
+  a = r.x;
+  na = r.y;
+  b = r.z;
+  nb = r.w;
+#else
+  a = he[4 * e];
+  na = he[4 * e + 1];
+  b = he[4 * e + 2];
+  nb = he[4 * e + 3];
+#endif
+}
+
+// Permutation check of the next pointers: Σ_h mix(next(h)) must equal Σ_h mix(h) (mod 2^64).
+// A corrupt mesh whose next pointers are not a permutation fails it unless the 64-bit sums
+// collide by chance; next is a permutation exactly when every fan walk (next ∘ twin) closes.
+FF_HD std::uint64_t mix(std::uint64_t x) {
+  x = (x + 0x9e3779b97f4a7c15ull) * 0xbf58476d1ce4e5b9ull;
+  x ^= x >> 31;
+  return x * 0x94d049bb133111ebull;
+}
+inline std::uint64_t mix_sum(std::uint64_t count) {
+  std::uint64_t s = 0;
+  for (std::uint64_t h = 0; h < count; ++h) s += mix(h);
+  return s;
+}
+
 // What one particle's gather found.
 struct VertexPush {
   double dx = 0, dy = 0;  // capped displacement
@@ -119,6 +170,8 @@ struct Mesh {
   const R* diameter;           // N
   const std::int32_t* he;      // 2 x 6N: {origin, next}
   const std::int32_t* vedge;   // N
+  std::int32_t n;              // particles (the mesh has 3n edges, 6n half-edges)
+  double reach2;               // (largest diameter)²: no pair farther apart overlaps
   PeriodicBox<double> box;
   double factor;               // 1 = reflect, 0.5 = contact
   double cap;                  // fraction of σ_v
@@ -126,14 +179,18 @@ struct Mesh {
   double inv_unit;             // 1 / length unit of the correction counter
 
   // Calls f(u, h) for each neighbour u of v in fan order (h = the half-edge v -> u); returns
-  // false when the fan does not close.
+  // false when the fan does not close (or an index is out of range: nothing out of range is
+  // read).
   template <class F>
   FF_HD bool for_each_neighbour(int v, F&& f) const {
+    const unsigned nh = 6u * unsigned(n);
     const int h0 = vedge[v];
+    if (unsigned(h0) >= nh) return false;
     int h = h0, steps = 0;
     do {
       int u, hn;
       load_halfedge(he, h ^ 1, u, hn);  // twin(h) = u -> v; next(twin(h)) leaves v again
+      if (unsigned(u) >= unsigned(n) || unsigned(hn) >= nh) return false;
       f(u, h);
       h = hn;
       if (++steps > kMaxFan) return false;
@@ -141,26 +198,50 @@ struct Mesh {
     return true;
   }
 
-  FF_HD VertexPush gather(int v) const {
-    VertexPush out;
-    double xv, yv;
-    load_xy(pos, v, xv, yv);
-    const double sv = double(diameter[v]);
-    double dx = 0, dy = 0;
-    out.broken = !for_each_neighbour(v, [&](int u, int) {
-      double xu, yu;
-      load_xy(pos, u, xu, yu);
-      const double rx = box.min_image(xu - xv, 0);
-      const double ry = box.min_image(yu - yv, 1);
-      const double o = pair_push(rx, ry, sv, double(diameter[u]), factor, v, u, dx, dy);
-      if (o != kNoOverlap) {
-        out.touched = true;
-        if (v < u && o > 0) {
-          ++out.pairs;
-          if (o > tol) ++out.bad;
-        }
-      }
-    });
+  // box.min_image(d, k), bit for bit; on the host without the rounding when |d| ≤ L/4 (then
+  // rint(d/L) = ±0 and the minimum image is d + 0: d, or +0 for d = −0).
+  FF_HD double min_image(double d, int k) const {
+#if !defined(__CUDA_ARCH__)
+    if (std::fabs(d) <= 0.25 * box.L[k]) return d + 0.0;
+#endif
+    return box.min_image(d, k);
+  }
+
+  // The pair (a, b) as a gather of a sees it: returns pair_term's answer for the offset
+  // x_b − x_a, with t the term on a (the term on b is −t).
+  FF_HD double pair(int a, int b, double& tx, double& ty) const {
+    double xa, ya, xb, yb;
+    load_xy(pos, a, xa, ya);
+    load_xy(pos, b, xb, yb);
+    return pair_term(min_image(xb - xa, 0), min_image(yb - ya, 1), double(diameter[a]), double(diameter[b]), factor,
+                     a, b, tx, ty);
+  }
+
+  // Edge e of an edge pass: its ends a, b; whether they overlap (then pair()'s term t on a and
+  // relative overlap o). With Check (the first pass of a step) its next pointers are checked
+  // too: in range, and added to the permutation check. Returns kEdgeApart, kEdgeOverlap, or
+  // kEdgeCorrupt when an index it uses is out of range or the edge is a loop (a = b; nothing
+  // else is read then). Most edges end at the reach test, before any diameter is read.
+  template <bool Check>
+  FF_HD int edge(std::size_t e, int& a, int& b, double& tx, double& ty, double& o, std::uint64_t& next_hash) const {
+    int na, nb;
+    load_edge(he, e, a, na, b, nb);
+    if (unsigned(a) >= unsigned(n) || unsigned(b) >= unsigned(n) || a == b) return kEdgeCorrupt;
+    if (Check) {
+      if (unsigned(na) >= 6u * unsigned(n) || unsigned(nb) >= 6u * unsigned(n)) return kEdgeCorrupt;
+      next_hash += mix(std::uint64_t(unsigned(na))) + mix(std::uint64_t(unsigned(nb)));
+    }
+    double xa, ya, xb, yb;
+    load_xy(pos, a, xa, ya);
+    load_xy(pos, b, xb, yb);
+    const double rx = min_image(xb - xa, 0), ry = min_image(yb - ya, 1);
+    if (!(rx * rx + ry * ry < reach2)) return kEdgeApart;  // σ_ab ≤ largest diameter
+    o = pair_term(rx, ry, double(diameter[a]), double(diameter[b]), factor, a, b, tx, ty);
+    return o != kNoOverlap ? kEdgeOverlap : kEdgeApart;
+  }
+
+  // (dx, dy), the summed terms of v's overlapping edges, capped at cap·σ_v, into out.
+  FF_HD void finish(double dx, double dy, double sv, VertexPush& out) const {
     double len = std::sqrt(dx * dx + dy * dy);
     const double limit = cap * sv;
     if (len > limit) {
@@ -172,6 +253,50 @@ struct Mesh {
     out.dx = dx;
     out.dy = dy;
     out.len = len;
+  }
+
+  // Particle v's walk: every edge in fan order (the order of the sum).
+  FF_HD VertexPush gather(int v) const {
+    VertexPush out;
+    double xv, yv;
+    load_xy(pos, v, xv, yv);
+    const double sv = double(diameter[v]);
+    double dx = 0, dy = 0;
+    out.broken = !for_each_neighbour(v, [&](int u, int) {
+      double xu, yu;
+      load_xy(pos, u, xu, yu);
+      const double o =
+          pair_push(min_image(xu - xv, 0), min_image(yu - yv, 1), sv, double(diameter[u]), factor, v, u, dx, dy);
+      if (o != kNoOverlap) {
+        out.touched = true;
+        if (v < u && o > 0) {
+          ++out.pairs;
+          if (o > tol) ++out.bad;
+        }
+      }
+    });
+    finish(dx, dy, sv, out);
+    return out;
+  }
+
+  // What a gather of v gives when its overlapping edges' terms are known already: the first
+  // `count` of t[] in any order when count ≤ 2 (a sum of two terms does not depend on their
+  // order), else its walk (the order of three terms or more is the fan's). Pairs are counted by
+  // the edge pass, not here.
+  FF_HD VertexPush gather_known(int v, unsigned count, const double* t) const {
+    if (count > kKnownTerms) {
+      VertexPush q = gather(v);
+      q.pairs = q.bad = 0;
+      return q;
+    }
+    VertexPush out;
+    out.touched = count > 0;
+    double dx = 0, dy = 0;
+    for (unsigned i = 0; i < count; ++i) {
+      dx -= t[2 * i];
+      dy -= t[2 * i + 1];
+    }
+    finish(dx, dy, double(diameter[v]), out);
     return out;
   }
 
@@ -192,33 +317,5 @@ FF_HD void apply_one(R* pos, std::int32_t* image, const PeriodicBox<R>& box, std
     pos[2 * i + k] = x;
   }
 }
-
-// CPU loops: gather every particle into disp, then apply.
-template <class R>
-struct Gather {
-  Mesh<R> mesh;
-  double* disp;                // N x 2, out
-  std::uint64_t* counters;     // kCounters
-
-  FF_HD void operator()(std::size_t i) const {
-    const VertexPush p = mesh.gather(int(i));
-    disp[2 * i] = p.dx;
-    disp[2 * i + 1] = p.dy;
-    if (p.broken) add_u64(counters + kBroken, 1);
-    if (p.pairs) add_u64(counters + kPairs, p.pairs);
-    if (p.bad) add_u64(counters + kBad, p.bad);
-    if (p.len > 0) add_u64(counters + kCorrection, mesh.fixed_len(p.len));
-  }
-};
-
-template <class R>
-struct Apply {
-  R* pos;                 // N x 2
-  std::int32_t* image;    // N x 2
-  const double* disp;     // N x 2
-  PeriodicBox<R> box;
-
-  FF_HD void operator()(std::size_t i) const { apply_one(pos, image, box, i, disp[2 * i], disp[2 * i + 1]); }
-};
 
 }  // namespace ff::overlap

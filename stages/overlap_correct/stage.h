@@ -109,15 +109,10 @@ class OverlapCorrect final : public Stage {
                          "'), which no stage before it provides: put the delaunay stages before it in `step:` "
                          "(delaunay.detect_inversion, delaunay.flip, delaunay.lawson after the integrator, or "
                          "delaunay.build)");
-    double dmin = HUGE_VAL, dmax = 0;
-    Field& d = s.field(fields::diameter);
-    d.acquire(Where::host, Mode::read);
-    for (std::size_t i = 0; i < s.n(); ++i) {
-      dmin = std::min(dmin, double(d.host<R>()[i]));
-      dmax = std::max(dmax, double(d.host<R>()[i]));
-    }
+    double dmin = HUGE_VAL;
+    measure_diameters(s, nullptr, dmin);
     if (!(dmin > 0)) throw InputError("overlap_correct: every particle needs a positive diameter");
-    unit_ = dmax;
+    unit_ = dmax_;
     tol_ = p_.tolerance;
     if (s.precision() == Precision::f32) {
       const double lmax = std::max(s.box.L[0], s.box.L[1]);
@@ -138,13 +133,17 @@ class OverlapCorrect final : public Stage {
     const R* diam = ptr<R>(s.field(fields::diameter));
     const std::int32_t* he = ptr<std::int32_t>(s.field(delaunay::fields::halfedge));
     const std::int32_t* ve = ptr<std::int32_t>(s.field(delaunay::fields::vertex_edge));
+    if (s.field(fields::diameter).version() != diameter_version_) {  // written since: measure again
+      double dmin = HUGE_VAL;
+      measure_diameters(s, st, dmin);
+    }
     if (!ws_ || ws_n_ != n) {
       if (ws_) ops_.destroy(ws_);
       ws_ = nullptr;
       ws_ = ops_.create(n);
       ws_n_ = n;
     }
-    const Mesh<R> mesh{x, diam, he, ve, PeriodicBox<double>::make(s.box.L), p_.mode == "contact" ? 0.5 : 1.0,
+    const Mesh<R> mesh{x, diam, he, ve, std::int32_t(n), dmax_ * dmax_, PeriodicBox<double>::make(s.box.L), p_.mode == "contact" ? 0.5 : 1.0,
                        p_.cap, tol_, 1.0 / unit_};
     const Problem<R> prob{mesh, x, img, PeriodicBox<R>::make(s.box.L), n};
 
@@ -160,9 +159,10 @@ class OverlapCorrect final : public Stage {
       for (int j = 0; j < batch_.gathers && !done; ++j) {
         const std::uint64_t* h = batch_.counters[j];
         if (h[kBroken])
-          throw RunError("overlap_correct: step " + std::to_string(ctx.step) + ": the half-edges around " +
-                         std::to_string(h[kBroken]) + " particle(s) do not form a closed fan; the triangulation is "
-                         "corrupt (a delaunay stage before overlap_correct failed to keep it valid)");
+          throw RunError("overlap_correct: step " + std::to_string(ctx.step) + ": the triangulation is corrupt (" +
+                         std::to_string(h[kBroken]) + " failed check(s): half-edge indices out of range, next "
+                         "pointers that are not a permutation, or the half-edges around a particle that do not "
+                         "form a closed fan); a delaunay stage before overlap_correct failed to keep it valid");
         if (!h[kBad]) {
           done = true;
           break;
@@ -184,6 +184,18 @@ class OverlapCorrect final : public Stage {
  private:
   template <class T>
   T* ptr(Field& f) const { return where_ == Where::device ? f.device<T>() : f.host<T>(); }
+
+  // The largest diameter (the edge passes' reach) and the smallest, from the host copy.
+  void measure_diameters(State& s, CUstream_st* st, double& dmin) {
+    Field& d = s.field(fields::diameter);
+    d.acquire(Where::host, Mode::read, st);
+    dmax_ = 0;
+    for (std::size_t i = 0; i < s.n(); ++i) {
+      dmin = std::min(dmin, double(d.host<R>()[i]));
+      dmax_ = std::max(dmax_, double(d.host<R>()[i]));
+    }
+    diameter_version_ = d.version();
+  }
 
   // The error path: find the worst pair on the host (fields are copied there) and stop.
   [[noreturn]] void give_up(StepContext& ctx, std::uint64_t bad) {
@@ -224,6 +236,8 @@ class OverlapCorrect final : public Stage {
   std::size_t ws_n_ = 0;
   Batch batch_;
   double unit_ = 1;  // length unit of the fixed-point correction counter (largest diameter)
+  double dmax_ = 1;  // largest diameter now
+  std::uint64_t diameter_version_ = 0;
   double tol_ = 1e-6;
 };
 
