@@ -175,3 +175,30 @@ TEST_CASE("detect_inversion: builds the triangulation when none exists", "[delau
   CHECK(r.metric("inversions") == 0);
   require_valid(*s);
 }
+
+TEST_CASE("detect_inversion: the candidates' cheap in-circle determinant has incircle()'s sign", "[delaunay][detect]") {
+  // Random convex-ish quads around an edge (a at the origin, c left, d right) at the scales of
+  // a triangulation: wherever incircle() is clear of its rounding scale, the 3x3 form agrees.
+  using namespace ff::delaunay;
+  const RngKey key = make_rng_key(7, "incircle");
+  int agree = 0, inside = 0;
+  for (std::uint32_t i = 0; i < 200000; ++i) {
+    auto u = [&](std::uint32_t k) { return uniform01(key, i, 0, 0, k); };
+    const double scale = std::pow(10.0, 4 * u(0) - 2);  // edges 0.01 ... 100
+    const V2 o{0, 0}, ab{scale * (0.5 + u(1)), scale * (u(2) - 0.5)};
+    const V2 ac{scale * (2 * u(3) - 0.5), scale * (0.05 + u(4))}, ad{scale * (2 * u(5) - 0.5), -scale * (0.05 + u(6))};
+    const double left = orient(o, ab, ac), right = orient(ab, o, ad);
+    if (!(left > 0 && right > 0)) continue;  // not a quad around a valid edge
+    double perm;
+    const double ref = incircle(o, ab, ac, ad, perm);
+    if (std::fabs(ref) <= 1e-12 * perm) continue;
+    const double cheap = incircle_from_a(ab, ac, ad, left, right);
+    agree += (cheap > 0) == (ref > 0);
+    inside += ref > 0;
+    if ((cheap > 0) != (ref > 0)) FAIL_CHECK("quad " << i << ": " << cheap << " vs " << ref << " (perm " << perm << ")");
+  }
+  INFO("agreeing " << agree << ", d inside " << inside);
+  CHECK(agree > 100000);
+  CHECK(inside > 10000);
+  CHECK(agree - inside > 10000);
+}

@@ -210,6 +210,16 @@ FF_HD double incircle(V2 a, V2 b, V2 c, V2 d, double& perm) {
   return t.det;
 }
 
+// The in-circle determinant of the quad around edge (a, b) (c left, d right), as vectors from a,
+// given the two orientations detection has already computed: left = cross(ab, ac) and
+// right = orient(ab, o, ad) = -cross(ab, ad). With a at the origin the 4x4 determinant is a 3x3
+// one, expanded along its lift column; same sign as incircle(a, b, c, d) (> 0: d inside the
+// circle through a, b, c) up to rounding, at a third of the cost. Used only as a pre-filter
+// (detect_inversion's Lawson candidates, tolerance 0), never as Lawson's decision.
+FF_HD double incircle_from_a(V2 ab, V2 ac, V2 ad, double left, double right) {
+  return -(dot(ab, ab) * cross(ac, ad) + dot(ac, ac) * right + dot(ad, ad) * left);
+}
+
 // orient(p, q, r) minus its rounding-error scale: > 0 only when surely counter-clockwise.
 FF_HD double orient_surely(V2 p, V2 q, V2 r) {
   const V2 u = q - p, v = r - p;

@@ -47,7 +47,7 @@ struct MarkInversions {
   std::uint8_t* mark;
   unsigned* counters;
   // When set: every edge with both triangles positive that is not locally Delaunay
-  // (wants_flip with tolerance 0, a superset of delaunay.lawson's first round) is appended,
+  // (in-circle > 0 and a convex quad: a superset of delaunay.lawson's first round) is appended,
   // so Lawson's first round need not test every edge again (same quads, same positions).
   std::int32_t* candidates = nullptr;
   unsigned capacity = 0;
@@ -80,7 +80,11 @@ struct MarkInversions {
     }
     mark[e] = m ? 1 : 0;
     if (m) count_one(counters + kMarked);
-    if (candidates && left > 0 && right > 0 && wants_flip(ab, ac, ad, 0.0)) {
+    // Lawson candidates: d inside the circle (cheap determinant from the orientations above;
+    // Lawson's own test, with its tolerance, decides later) and both new triangles surely
+    // positive, exactly as wants_flip checks them.
+    if (candidates && left > 0 && right > 0 && incircle_from_a(ab, ac, ad, left, right) > 0 &&
+        orient_surely(ac, o, ad) > 0 && orient_surely(ad, ab, ac) > 0) {
       const unsigned k = append_index(counters + kCandidateCount, 1);
       if (k < capacity) candidates[k] = e;
     }
