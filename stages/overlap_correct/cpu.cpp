@@ -4,14 +4,14 @@
 // The particles are cut into tiles of kTile consecutive indices; a tile is one oneTBB task, and
 // its edges [3·t0, 3·t1) are its share of an edge pass. An iteration is one of two kinds:
 //   - edge pass (iteration 0, and each iteration after one that moved at least n / kEdgeMode
-//     particles): stream over the 3N edge records, each pair once; a tile lists its
-//     overlapping edges with their terms (kernel.h, pair_term: +t on one end, −t on the other)
-//     and counts their pairs. One thread then hands the terms to the particles in edge order,
-//     listing each touched particle once with its first kKnownTerms terms (no atomics: a locked
-//     add per term cost more than the whole hand-out). Each listed particle finishes from its
-//     terms (Mesh::gather_known: with one or two terms their sum does not depend on the order;
-//     with more it walks its fan as a gather does). Iteration 0's pass also checks the mesh
-//     (indices in range, no loops, next pointers a permutation).
+//     particles): stream over the 3N edge records, each pair once; an overlapping edge counts
+//     its pair and hands its term (kernel.h, pair_term: +t on one end, −t on the other) to its
+//     ends: directly to an end in the tile's own particles, through a list to any other (one
+//     thread hands those out afterwards, in tile order; no atomics: a locked add per term cost
+//     more than the edge test). Each tile lists its touched particles once, with their first
+//     kKnownTerms terms, and finishes them (Mesh::gather_known: with one or two terms their sum
+//     does not depend on the order; with more it walks the fan as a gather does). Iteration
+//     0's pass also checks the mesh (indices in range, no loops, next pointers a permutation).
 //   - work list (otherwise): gather only the flagged particles of each tile (in index order,
 //     the flags cleared as they are read), flagged for iteration k + 1 by iteration k:
 //       - each particle that had an overlapping edge but did not move (d = 0);
@@ -49,9 +49,9 @@ constexpr std::size_t kTile = 2048;
 // the apply) and their gathers (measured, hard disks at η = 0.5, 2^16).
 constexpr std::size_t kEdgeMode = 8;
 
-// An overlapping edge found by an edge pass: its ends and the term on a (−t on b).
-struct Hit {
-  int a, b;
+// A term for a particle of another tile, from an edge pass.
+struct Remote {
+  int v;
   double tx, ty;
 };
 
@@ -63,24 +63,24 @@ struct Touched {
 };
 
 struct Tile {
-  std::size_t t0 = 0, t1 = 0;  // its particles; its edges in an edge pass are [3·t0, 3·t1)
-  std::vector<int> cand;       // this iteration's flagged particles, in index order
-  std::vector<int> moved;      // particles with d != 0
-  std::vector<double> disp;    // their displacements, 2 per moved particle
+  std::size_t t0 = 0, t1 = 0;    // its particles; its edges in an edge pass are [3·t0, 3·t1)
+  std::vector<int> cand;         // this iteration's flagged particles, in index order
+  std::vector<int> moved;        // particles with d != 0
+  std::vector<double> disp;      // their displacements, 2 per moved particle
   std::size_t nmoved = 0;
-  std::vector<Hit> hits;       // an edge pass's overlapping edges of this tile (3·kTile)
-  std::size_t nhits = 0;
-  std::uint64_t c[kCounters];  // this gather's counters
-  std::uint64_t next_hash = 0; // the edge pass's share of the permutation check
+  std::vector<Touched> touched;  // an edge pass's touched particles of this tile
+  std::size_t ntouched = 0;
+  std::vector<Remote> remote;    // an edge pass's terms for other tiles' particles (6·kTile)
+  std::size_t nremote = 0;
+  std::uint64_t c[kCounters];    // this gather's counters
+  std::uint64_t next_hash = 0;   // the edge pass's share of the permutation check
 };
 
 struct HostWorkspace {
   std::size_t n = 0;
   std::uint64_t next_hash = 0;          // Σ mix(h) over the 6n half-edges (kernel.h)
   std::vector<std::uint8_t> flags[2];   // one byte per particle (+ padding to 8)
-  std::vector<Touched> touched;         // an edge pass's touched particles, n at most
-  std::size_t ntouched = 0;
-  std::vector<std::int32_t> slot;       // per particle: its index in `touched`, or −1
+  std::vector<std::int32_t> slot;       // per particle: its index in its tile's `touched`, or −1
   std::vector<Tile> tiles;
   bool edge_pass = true;                // the next iteration is an edge pass
 };
@@ -91,7 +91,6 @@ void* host_create(std::size_t n) {
   w->next_hash = mix_sum(6 * std::uint64_t(n));
   const std::size_t padded = (n + 7) / 8 * 8;
   for (auto& f : w->flags) f.assign(padded, 0);
-  w->touched.resize(n);
   w->slot.assign(n, -1);
   const std::size_t nt = (n + kTile - 1) / kTile;
   w->tiles.resize(nt);
@@ -103,7 +102,8 @@ void* host_create(std::size_t n) {
     tl.cand.resize(m);
     tl.moved.resize(m);
     tl.disp.resize(2 * m);
-    tl.hits.resize(3 * m);
+    tl.touched.resize(m);
+    tl.remote.resize(6 * m);
   }
   return w;
 }
@@ -111,16 +111,17 @@ void host_destroy(void* p) { delete static_cast<HostWorkspace*>(p); }
 
 inline void flag(std::uint8_t* f, int v) { __atomic_store_n(f + v, std::uint8_t(1), __ATOMIC_RELAXED); }
 
-// Particle v's next term from an edge pass (one thread): lists v when it is new, keeps the
-// first kKnownTerms terms, counts them all.
-inline void deposit(HostWorkspace& w, int v, double tx, double ty) {
-  std::int32_t& i = w.slot[std::size_t(v)];
+// A term for particle v of tile tl (only tl's own task, or the one thread handing out the
+// remote terms, writes there): lists v when it is new, keeps the first kKnownTerms terms,
+// counts them all.
+inline void deposit(std::int32_t* slot, Tile& tl, int v, double tx, double ty) {
+  std::int32_t& i = slot[std::size_t(v)];
   if (i < 0) {
-    i = std::int32_t(w.ntouched++);
-    w.touched[std::size_t(i)].v = v;
-    w.touched[std::size_t(i)].count = 0;
+    i = std::int32_t(tl.ntouched++);
+    tl.touched[std::size_t(i)].v = v;
+    tl.touched[std::size_t(i)].count = 0;
   }
-  Touched& p = w.touched[std::size_t(i)];
+  Touched& p = tl.touched[std::size_t(i)];
   if (p.count < kKnownTerms) {
     p.t[2 * p.count] = tx;
     p.t[2 * p.count + 1] = ty;
@@ -162,18 +163,25 @@ void for_each_tile(std::size_t nt, const F& f) {
       tbb::simple_partitioner());
 }
 
-// One tile's share of an edge pass (Check: iteration 0, with the mesh checks): lists its
-// overlapping edges in tl.hits, counts their pairs into tl.c.
+// One tile's share of an edge pass (Check: iteration 0, with the mesh checks): hands the terms
+// of its overlapping edges to its own particles and lists the others', counts pairs into tl.c.
 template <bool Check, class R>
-void edge_pass(const Mesh<R>& mesh, Tile& tl) {
+void edge_pass(const Mesh<R>& mesh, Tile& tl, std::int32_t* slot) {
   const Mesh<R> m = mesh;  // a local copy: the stores below cannot alias its fields
   std::uint64_t pairs = 0, bad = 0, broken = 0, hash = 0;
-  Hit* hits = tl.hits.data();
-  std::size_t nhits = 0;
+  const unsigned t0 = unsigned(tl.t0), size = unsigned(tl.t1 - tl.t0);
+  tl.ntouched = 0;
+  std::size_t nremote = 0;
+  auto hand = [&](int v, double tx, double ty) {
+    if (unsigned(v) - t0 < size)
+      deposit(slot, tl, v, tx, ty);
+    else
+      tl.remote[nremote++] = Remote{v, tx, ty};
+  };
   for (std::size_t e = 3 * tl.t0, e1 = 3 * tl.t1; e < e1; ++e) {
-    Hit h;
-    double o;
-    const int r = m.template edge<Check>(e, h.a, h.b, h.tx, h.ty, o, hash);
+    int a, b;
+    double tx, ty, o;
+    const int r = m.template edge<Check>(e, a, b, tx, ty, o, hash);
     if (r == kEdgeApart) continue;
     if (r == kEdgeCorrupt) {
       ++broken;
@@ -183,9 +191,10 @@ void edge_pass(const Mesh<R>& mesh, Tile& tl) {
       ++pairs;
       if (o > m.tol) ++bad;
     }
-    hits[nhits++] = h;
+    hand(a, tx, ty);
+    hand(b, -tx, -ty);
   }
-  tl.nhits = nhits;
+  tl.nremote = nremote;
   tl.c[kBad] = bad;
   tl.c[kPairs] = pairs;
   tl.c[kCorrection] = 0;
@@ -211,15 +220,14 @@ void host_iterate(void* ws, const Problem<R>& p, std::int64_t k0, std::int64_t m
     std::uint8_t* next = w->flags[(k + 1) & 1].data();
     const bool edge = w->edge_pass;
 
-    // The particles to gather: an edge pass's touched particles (each with its terms) in chunks
-    // of kTile, or each tile's flagged particles.
-    std::size_t chunks = nt;
+    // The particles to gather: each tile's touched particles with their terms after an edge
+    // pass, else its flagged particles.
     if (edge) {
       for_each_tile(nt, [&](std::size_t t) {
         if (k == 0)
-          edge_pass<true>(mesh, w->tiles[t]);
+          edge_pass<true>(mesh, w->tiles[t], w->slot.data());
         else
-          edge_pass<false>(mesh, w->tiles[t]);
+          edge_pass<false>(mesh, w->tiles[t], w->slot.data());
       });
       std::uint64_t broken = 0, hash = 0;
       for (const Tile& tl : w->tiles) {
@@ -233,24 +241,21 @@ void host_iterate(void* ws, const Problem<R>& p, std::int64_t k0, std::int64_t m
         out.gathers = 1;
         return;
       }
-      w->ntouched = 0;
       for (const Tile& tl : w->tiles)
-        for (std::size_t i = 0; i < tl.nhits; ++i) {
-          const Hit& h = tl.hits[i];
-          deposit(*w, h.a, h.tx, h.ty);
-          deposit(*w, h.b, -h.tx, -h.ty);
+        for (std::size_t i = 0; i < tl.nremote; ++i) {
+          const Remote& r = tl.remote[i];
+          deposit(w->slot.data(), w->tiles[std::size_t(r.v) / kTile], r.v, r.tx, r.ty);
         }
-      chunks = (w->ntouched + kTile - 1) / kTile;
       std::memset(cur, 0, w->flags[0].size());  // an edge pass finds every candidate itself
     }
 
-    for_each_tile(chunks, [&](std::size_t t) {
+    for_each_tile(nt, [&](std::size_t t) {
       Tile& tl = w->tiles[t];
       std::uint64_t c[kCounters] = {0, 0, 0, 0};
       std::size_t count;
       if (edge) {
         std::memcpy(c, tl.c, sizeof c);  // this tile's edge pass counted the pairs
-        count = std::min(kTile, w->ntouched - t * kTile);
+        count = tl.ntouched;
       } else {
         count = compact(cur, tl.t0, tl.t1, tl.cand.data());
       }
@@ -259,7 +264,7 @@ void host_iterate(void* ws, const Problem<R>& p, std::int64_t k0, std::int64_t m
         int v;
         VertexPush q;
         if (edge) {
-          const Touched& p = w->touched[t * kTile + i];
+          const Touched& p = tl.touched[i];
           v = p.v;
           q = mesh.gather_known(v, p.count, p.t);
           w->slot[std::size_t(v)] = -1;
@@ -284,10 +289,6 @@ void host_iterate(void* ws, const Problem<R>& p, std::int64_t k0, std::int64_t m
       std::memcpy(tl.c, c, sizeof c);
       tl.nmoved = nm;
     });
-    if (edge)  // tiles without a chunk still hold their edge pass's counts
-      for (std::size_t t = chunks; t < nt; ++t) w->tiles[t].nmoved = 0;
-    else
-      chunks = nt;
 
     std::uint64_t* c = out.counters[j];
     std::memset(c, 0, kCounters * sizeof(std::uint64_t));
@@ -299,7 +300,7 @@ void host_iterate(void* ws, const Problem<R>& p, std::int64_t k0, std::int64_t m
     out.gathers = j + 1;
     if (!keeps_going(c, k, max_iterations)) return;
 
-    for_each_tile(chunks, [&](std::size_t t) {
+    for_each_tile(nt, [&](std::size_t t) {
       const Tile& tl = w->tiles[t];
       for (std::size_t i = 0, nm = tl.nmoved; i < nm; ++i)
         apply_one(p.pos, p.image, p.box, std::size_t(tl.moved[i]), tl.disp[2 * i], tl.disp[2 * i + 1]);
@@ -308,7 +309,7 @@ void host_iterate(void* ws, const Problem<R>& p, std::int64_t k0, std::int64_t m
     if (w->edge_pass) continue;  // it finds every overlapping edge itself
     // Flag both ends of each edge of a moved particle that overlaps now (a little beyond the
     // gather's own test r² < σ², so rounding can only add particles, never leave one out).
-    for_each_tile(chunks, [&](std::size_t t) {
+    for_each_tile(nt, [&](std::size_t t) {
       const Tile& tl = w->tiles[t];
       for (std::size_t i = 0, nm = tl.nmoved; i < nm; ++i) {
         const int v = tl.moved[i];

@@ -144,9 +144,8 @@ FF_HD void load_edge(const std::int32_t* he, std::size_t e, int& a, int& na, int
 // A corrupt mesh whose next pointers are not a permutation fails it unless the 64-bit sums
 // collide by chance; next is a permutation exactly when every fan walk (next ∘ twin) closes.
 FF_HD std::uint64_t mix(std::uint64_t x) {
-  x = (x + 0x9e3779b97f4a7c15ull) * 0xbf58476d1ce4e5b9ull;
-  x ^= x >> 31;
-  return x * 0x94d049bb133111ebull;
+  x *= 0x9e3779b97f4a7c15ull;
+  return x ^ (x >> 29);
 }
 inline std::uint64_t mix_sum(std::uint64_t count) {
   std::uint64_t s = 0;
@@ -234,7 +233,18 @@ struct Mesh {
     double xa, ya, xb, yb;
     load_xy(pos, a, xa, ya);
     load_xy(pos, b, xb, yb);
-    const double rx = min_image(xb - xa, 0), ry = min_image(yb - ya, 1);
+    double rx = xb - xa, ry = yb - ya;
+#if !defined(__CUDA_ARCH__)
+    if (std::fabs(rx) <= 0.25 * box.L[0] && std::fabs(ry) <= 0.25 * box.L[1]) {  // as min_image() does
+      if (!(rx * rx + ry * ry < reach2)) return kEdgeApart;
+      rx += 0.0;
+      ry += 0.0;
+    } else
+#endif
+    {
+      rx = box.min_image(rx, 0);
+      ry = box.min_image(ry, 1);
+    }
     if (!(rx * rx + ry * ry < reach2)) return kEdgeApart;  // σ_ab ≤ largest diameter
     o = pair_term(rx, ry, double(diameter[a]), double(diameter[b]), factor, a, b, tx, ty);
     return o != kNoOverlap ? kEdgeOverlap : kEdgeApart;
