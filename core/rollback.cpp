@@ -7,6 +7,7 @@
 #include "core/cuda/check.h"
 #endif
 #include "core/error.h"
+#include "core/stage.h"
 
 namespace ff {
 
@@ -30,33 +31,67 @@ void copy_field_contents(Field& dst, Field& src, Where where, CUstream_st* strea
 #endif
 }
 
-void Snapshot::take(State& state, CUstream_st* stream) {
-  if (copies_.empty()) {
-    for (auto& name : names_) {
-      Field& f = state.field(name);
-      copies_.push_back(std::make_unique<Field>(name, f.dtype(), f.components(), f.count()));
-      sides_.push_back(Where::host);
-    }
-  }
-  for (std::size_t i = 0; i < names_.size(); ++i) {
-    Field& f = state.field(names_[i]);
-    // Keep the copy where the data is current: on the device for a CUDA run, so a snapshot
-    // never crosses the bus.
-    sides_[i] = f.valid_on(Where::device) && !f.valid_on(Where::host) ? Where::device : Where::host;
-    if (f.valid_on(Where::device) && f.valid_on(Where::host)) sides_[i] = Where::device;
+Snapshot::Snapshot(std::vector<std::string> fields, std::vector<std::string> on_demand) {
+  for (auto& f : fields) entries_.push_back(Entry{std::move(f), false});
+  for (auto& f : on_demand) entries_.push_back(Entry{std::move(f), true});
+}
+
+void Snapshot::copy_in(State& state, Entry& e, CUstream_st* stream) {
+  Field& f = state.field(e.name);
+  if (!e.copy) e.copy = std::make_unique<Field>(e.name, f.dtype(), f.components(), f.count());
+  // Keep the copy where the data is current: on the device for a CUDA run, so a snapshot
+  // never crosses the bus.
+  e.side = f.valid_on(Where::device) ? Where::device : Where::host;
 #ifndef FLIPFLOW_HAVE_CUDA
-    sides_[i] = Where::host;
+  e.side = Where::host;
 #endif
-    copy_field_contents(*copies_[i], f, sides_[i], stream);
+  copy_field_contents(*e.copy, f, e.side, stream);
+}
+
+void Snapshot::take(State& state, CUstream_st* stream) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  for (Entry& e : entries_) {
+    e.taken = false;
+    if (!e.on_demand) copy_in(state, e, stream);
   }
 }
 
+void Snapshot::take_before_write(State& state, const std::string& field, CUstream_st* stream) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  for (Entry& e : entries_)
+    if (e.on_demand && !e.taken && e.name == field) {
+      copy_in(state, e, stream);
+      e.taken = true;
+    }
+}
+
 void Snapshot::restore(State& state, CUstream_st* stream) {
-  for (std::size_t i = 0; i < names_.size(); ++i) {
-    Field& f = state.field(names_[i]);
-    copy_field_contents(f, *copies_[i], sides_[i], stream);
-    f.mark_written(sides_[i]);
+  std::lock_guard<std::mutex> lock(mutex_);
+  for (Entry& e : entries_) {
+    if (e.on_demand && !e.taken) continue;  // not written in this step
+    Field& f = state.field(e.name);
+    copy_field_contents(f, *e.copy, e.side, stream);
+    f.mark_written(e.side);
+    e.taken = false;  // the retried attempt announces its writes again
   }
+}
+
+std::vector<std::string> Snapshot::fields() const {
+  std::vector<std::string> out;
+  for (const Entry& e : entries_)
+    if (!e.on_demand) out.push_back(e.name);
+  return out;
+}
+
+std::vector<std::string> Snapshot::on_demand_fields() const {
+  std::vector<std::string> out;
+  for (const Entry& e : entries_)
+    if (e.on_demand) out.push_back(e.name);
+  return out;
+}
+
+void StepContext::will_write(const std::string& field) const {
+  if (snapshot) snapshot->take_before_write(state, field, stream);
 }
 
 bool DtController::halve() {

@@ -7,6 +7,7 @@
 #pragma once
 #include <cstdint>
 #include <memory>
+#include <mutex>
 #include <string>
 #include <vector>
 
@@ -20,16 +21,31 @@ void copy_field_contents(Field& dst, Field& src, Where where, CUstream_st* strea
 
 class Snapshot {
  public:
-  // The fields to keep; each is copied from whichever side is current.
-  explicit Snapshot(std::vector<std::string> fields) : names_(std::move(fields)) {}
+  // `fields` are copied before every step (take); `on_demand` ones only when a stage announces
+  // a write (take_before_write), at most once per step. Each copy is kept on the side where the
+  // field is current.
+  explicit Snapshot(std::vector<std::string> fields, std::vector<std::string> on_demand = {});
+  // Before a step: copy the every-step fields; forget the last step's on-demand copies.
   void take(State& state, CUstream_st* stream);
+  // Copy `field` now if it is an on-demand field not yet copied in this step; else nothing.
+  // Thread-safe (stages on different branches may call it concurrently).
+  void take_before_write(State& state, const std::string& field, CUstream_st* stream);
+  // Every-step fields and the on-demand fields copied in this step.
   void restore(State& state, CUstream_st* stream);
-  const std::vector<std::string>& fields() const { return names_; }
+  std::vector<std::string> fields() const;            // every step
+  std::vector<std::string> on_demand_fields() const;  // when announced
 
  private:
-  std::vector<std::string> names_;
-  std::vector<std::unique_ptr<Field>> copies_;
-  std::vector<Where> sides_;
+  struct Entry {
+    std::string name;
+    bool on_demand = false;
+    bool taken = false;  // this step (on-demand entries)
+    Where side = Where::host;
+    std::unique_ptr<Field> copy;
+  };
+  void copy_in(State& state, Entry& e, CUstream_st* stream);
+  std::vector<Entry> entries_;
+  std::mutex mutex_;
 };
 
 class DtController {

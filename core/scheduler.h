@@ -57,12 +57,15 @@ class Scheduler {
   // Profiling: wait for each stage's device work before stopping its clock, so per-stage
   // times are real on CUDA (serializes streams; `pipeline bench` reports both ways).
   void set_profiling(bool on) { profiling_ = on; }
+  // The rollback snapshot stages reach through StepContext::will_write (null: none).
+  void set_snapshot(Snapshot* snapshot) { snapshot_ = snapshot; }
   void reset_timers();
   // True once the steady-state step replays a captured CUDA graph.
   bool step_is_captured() const;
 
  private:
   struct Impl;
+  Snapshot* snapshot_ = nullptr;
   void run_node(int node, std::uint64_t step, std::uint32_t attempt, double dt, double time);
   void enqueue_compute();  // run every compute stage once (flow graph, or in order for a chain)
   bool run_captured();     // CUDA: replay (capturing first if needed) the step graph

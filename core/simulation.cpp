@@ -59,18 +59,41 @@ void Simulation::build(const Registry& registry) {
   dt_ = std::make_unique<DtController>(spec_.run.dt, spec_.run.dt_min, spec_.run.dt_grow_after);
   stats_.dt = spec_.run.dt;
 
-  bool may_roll_back = false;
-  std::set<std::string> written;
-  for (int i : graph_->compute_nodes()) {
-    may_roll_back = may_roll_back || slots_[i].stage->may_request_rollback();
-    for (auto& a : graph_->nodes()[i].accesses)
-      if (writes(a.mode)) written.insert(a.field);
+  make_snapshot();
+}
+
+// What a rollback must restore: the writes of every stage that can run before a rollback
+// request is seen. On the CPU a request stops the step at once (the scheduler skips what has
+// not started), so the writes of a stage that runs after every stage that may request one —
+// Lawson flips and the overlap correction after detect_inversion and flip — need no copy. On
+// the device requests could also come from device flags read at the end of the step, so every
+// stage counts. Writes declared on_demand are copied only when the stage announces them.
+void Simulation::make_snapshot() {
+  std::vector<int> requesters;
+  for (int i : graph_->compute_nodes())
+    if (slots_[i].stage->may_request_rollback()) requesters.push_back(i);
+  if (requesters.empty()) return;
+  const bool host_requests_only = options_.backend == Backend::cpu;
+  std::set<std::string> every_step, on_demand;
+  for (int j : graph_->compute_nodes()) {
+    bool before_a_request = !host_requests_only;
+    for (int k : requesters) before_a_request = before_a_request || k == j || !graph_->ordered(k, j);
+    if (!before_a_request) continue;
+    for (auto& a : graph_->nodes()[j].accesses)
+      if (writes(a.mode)) (a.on_demand ? on_demand : every_step).insert(a.field);
   }
-  if (may_roll_back) snapshot_ = std::make_unique<Snapshot>(std::vector<std::string>(written.begin(), written.end()));
+  for (auto& f : every_step) on_demand.erase(f);
+  snapshot_ = std::make_unique<Snapshot>(std::vector<std::string>(every_step.begin(), every_step.end()),
+                                         std::vector<std::string>(on_demand.begin(), on_demand.end()));
+  scheduler_->set_snapshot(snapshot_.get());
 }
 
 std::vector<std::string> Simulation::snapshot_fields() const {
   return snapshot_ ? snapshot_->fields() : std::vector<std::string>{};
+}
+
+std::vector<std::string> Simulation::snapshot_on_demand_fields() const {
+  return snapshot_ ? snapshot_->on_demand_fields() : std::vector<std::string>{};
 }
 
 void Simulation::prepare_outputs() {

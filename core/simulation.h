@@ -53,10 +53,14 @@ class Simulation {
   void synchronize() { scheduler_->synchronize(); }
   Scheduler& scheduler() { return *scheduler_; }
   // Fields the rollback snapshot holds (empty when no stage may request a rollback).
+  // Fields the rollback snapshot copies before every step, and those it copies only when a stage
+  // announces a write (Access::on_demand).
   std::vector<std::string> snapshot_fields() const;
+  std::vector<std::string> snapshot_on_demand_fields() const;
 
  private:
   void build(const Registry& registry);
+  void make_snapshot();
   void prepare_outputs();
   void collect_metrics(int node);
   void observe(double dt);

@@ -22,6 +22,10 @@ struct Access {
   std::string field;
   Where where = Where::host;
   Mode mode = Mode::read;
+  // For writes that happen only on some steps (a triangulation that changes only when something
+  // flips): the rollback snapshot copies the field only when the stage announces the write with
+  // StepContext::will_write before it, instead of before every step.
+  bool on_demand = false;
 };
 
 struct Outcome {
@@ -81,6 +85,8 @@ struct DeviceRollbackFlag {
 // values from here (not by value from StepContext) can be captured once into a CUDA graph
 // and replayed every step: the core keeps the device copy current (a kernel at the end of a
 // captured step advances it; the host rewrites it after a rollback or a Δt change).
+class Snapshot;  // core/rollback.h
+
 struct StepContext {
   State& state;
   const RunInfo& run;
@@ -95,6 +101,12 @@ struct StepContext {
   Metrics& metrics;
   DeviceRollbackFlag* device_rollback = nullptr;  // device memory; CUDA runs only
   const StepParams* params = nullptr;              // on the stage's side (see StepParams)
+  Snapshot* snapshot = nullptr;                    // the core's rollback snapshot, if any
+
+  // Call before first writing a field declared with Access::on_demand in this step: the
+  // rollback snapshot takes its copy now (once per step; a no-op when nothing can roll back the
+  // write). Stream-ordered on `stream`.
+  void will_write(const std::string& field) const;
 };
 
 class Stage {

@@ -101,7 +101,7 @@ TEST_CASE("lawson: Brownian steps keep CGAL's Delaunay triangulation", "[delauna
 
 namespace {
 // What the core's rollback snapshot holds for these stages (their declared writes).
-struct Snapshot {
+struct TopologySnapshot {
   std::vector<std::vector<unsigned char>> data;
   const std::vector<std::string> names{fields::position,
                                        ff::delaunay::fields::halfedge,
@@ -137,7 +137,7 @@ TEST_CASE("lawson: large steps with repairs and rollbacks stay valid and Delauna
   auto s = initial(0.8, 1000, 3);
   Pipeline p(*s, b);
   Runner r(*s, b);
-  Snapshot snap;
+  TopologySnapshot snap;
   double inversions = 0, flips = 0, rollbacks = 0;
   for (int k = 0; k < 60; ++k) {
     snap.take(*s);
@@ -185,7 +185,7 @@ TEST_CASE("lawson: 10^4 Brownian steps at N = 10^4 stay CGAL's Delaunay triangul
   auto s = initial(phi, n, 29);
   Pipeline p(*s, b);
   Runner r(*s, b);
-  Snapshot snap;
+  TopologySnapshot snap;
   double lawson_flips = 0, flips = 0, rollbacks = 0;
   std::size_t not_delaunay = 0, bad_triangles = 0, cgal_checks = 0;
   for (int k = 0; k < steps; ++k) {

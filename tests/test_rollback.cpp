@@ -127,3 +127,45 @@ TEST_CASE("no snapshot is taken when no stage can request a rollback", "[rollbac
   Simulation guarded(s, *r, dry());
   CHECK(guarded.snapshot_fields() == std::vector<std::string>{"image", "position"});
 }
+
+namespace {
+double count_value(Simulation& sim) {
+  Field& f = sim.state().field("testing.count");
+  f.acquire(Where::host, Mode::read);
+  return f.host<double>()[0];
+}
+}  // namespace
+
+TEST_CASE("on-demand writes are copied when announced and restored on a rollback", "[rollback]") {
+  auto r = test::registry_with({"brownian"}, {"testing"});
+  // count runs before the stage that fails step 2 once: 1, 2, (3, rolled back to 2), 3.
+  const bool announce = GENERATE(true, false);
+  auto s = test::spec(2, 64, 0.2, 3, 0.01,
+                      {entry(*r, "brownian.integrate"),
+                       entry(*r, "testing.count", {{"on_demand", true}, {"announce", announce}}),
+                       entry(*r, "testing.rollback", {{"steps", std::vector<double>{2}}, {"fail_attempts", std::int64_t(1)}})});
+  Simulation sim(s, *r, dry());
+  CHECK(sim.snapshot_fields() == std::vector<std::string>{"image", "position"});
+  CHECK(sim.snapshot_on_demand_fields() == std::vector<std::string>{"testing.count"});
+  sim.run();
+  CHECK(sim.stats().rollbacks == 1);
+  // A stage that breaks the contract (writes without announcing) is not restored: what the
+  // announcement is for.
+  CHECK(count_value(sim) == (announce ? 3.0 : 4.0));
+}
+
+TEST_CASE("on the CPU, writes after every stage that may roll back are not copied", "[rollback]") {
+  auto r = test::registry_with({"brownian"}, {"testing"});
+  // A rollback request stops the step before count runs, so count's field never needs a copy
+  // and the rolled-back attempt never reaches it: 1, 2, 3.
+  auto s = test::spec(2, 64, 0.2, 3, 0.01,
+                      {entry(*r, "brownian.integrate"),
+                       entry(*r, "testing.rollback", {{"steps", std::vector<double>{2}}, {"fail_attempts", std::int64_t(2)}}),
+                       entry(*r, "testing.count")});
+  Simulation sim(s, *r, dry());
+  CHECK(sim.snapshot_fields() == std::vector<std::string>{"image", "position"});
+  CHECK(sim.snapshot_on_demand_fields().empty());
+  sim.run();
+  CHECK(sim.stats().rollbacks == 2);
+  CHECK(count_value(sim) == 3.0);
+}

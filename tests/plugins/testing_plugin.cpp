@@ -91,6 +91,27 @@ class Record final : public Stage {
   std::string writes_, reads_;
 };
 
+// testing.count: adds 1 to every element of the field `testing.count` (created here, f64, N)
+// each time it runs. With on_demand it declares the write Access::on_demand and, when
+// `announce` is set, calls ctx.will_write first, as a stage that writes only sometimes must.
+class Count final : public Stage {
+ public:
+  explicit Count(const ParamValues& v) : on_demand_(v.boolean("on_demand")), announce_(v.boolean("announce")) {}
+  std::vector<Access> accesses() const override {
+    return {{"testing.count", Where::host, Mode::readwrite, on_demand_}};
+  }
+  void configure(State& s) override { s.add_field("testing.count", DType::f64, 1, s.n()); }
+  Outcome run(StepContext& ctx) override {
+    if (on_demand_ && announce_) ctx.will_write("testing.count");
+    Field& f = ctx.state.field("testing.count");
+    for (std::size_t i = 0; i < f.size(); ++i) f.host<double>()[i] += 1;
+    return Outcome::ok();
+  }
+
+ private:
+  bool on_demand_, announce_;
+};
+
 template <class S>
 StageFactory factory() {
   return [](const ParamValues& v, const RunInfo&) { return std::make_unique<S>(v); };
@@ -113,6 +134,11 @@ void register_testing(Registry& r) {
               ParamSpec::string("reads", std::string(), "field to declare as read")},
              {2, 3}, false});
   r.implement("testing.record", Backend::cpu, factory<Record>());
+  r.declare({"testing.count", "adds 1 to the field testing.count (tests only)",
+             {ParamSpec::boolean("on_demand", false, "declare the write on_demand"),
+              ParamSpec::boolean("announce", true, "call will_write before writing (with on_demand)")},
+             {2, 3}, false});
+  r.implement("testing.count", Backend::cpu, factory<Count>());
 }
 
 }  // namespace

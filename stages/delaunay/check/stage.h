@@ -53,7 +53,7 @@ class Check final : public Stage {
 
   Outcome run(StepContext& ctx) override {
     State& s = ctx.state;
-    ensure_topology(s, accesses(), ctx.stream);
+    ensure_topology(ctx, accesses());
     const std::size_t n = s.n();
     Field& pos = s.field(p_.positions);
     std::vector<double> xy(2 * n);

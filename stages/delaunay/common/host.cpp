@@ -24,8 +24,15 @@ void add_topology_fields(State& s, const char* stage_name) {
 
 std::int32_t* status(State& s) { return s.field(fields::status).host<std::int32_t>(); }
 
-bool ensure_topology(State& s, const std::vector<Access>& acc, CUstream_st* stream) {
+void will_flip(const StepContext& ctx) {
+  for (const char* f : {fields::halfedge, fields::opposite, fields::vertex_edge}) ctx.will_write(f);
+}
+
+bool ensure_topology(const StepContext& ctx, const std::vector<Access>& acc) {
+  State& s = ctx.state;
+  CUstream_st* stream = ctx.stream;
   if (status(s)[kBuilt]) return false;
+  will_flip(ctx);
   build_topology(s, stream);
   for (const Access& a : acc) s.field(a.field).acquire(a.where, a.mode, stream);
   return true;

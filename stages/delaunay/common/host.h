@@ -22,8 +22,13 @@ std::int32_t* status(State& s);
 
 // If no triangulation exists yet (status kBuilt == 0), build one from the current positions
 // (delaunay.build's CGAL path) and re-acquire `acc` so the stage's declared side is current.
-// Returns true when it built.
-bool ensure_topology(State& s, const std::vector<Access>& acc, CUstream_st* stream);
+// Announces the writes first (ctx.will_write: the topology fields are on-demand in the
+// rollback snapshot). Returns true when it built.
+bool ensure_topology(const StepContext& ctx, const std::vector<Access>& acc);
+
+// The topology fields a flip rewrites (declared Access::on_demand by the stages that flip only
+// on some steps): announce them before the first flip of a step.
+void will_flip(const StepContext& ctx);
 
 inline Mesh mesh_view(State& s, Where w) {
   Field& he = s.field(fields::halfedge);

@@ -30,9 +30,9 @@ class DetectInversion final : public Stage {
   std::vector<Access> accesses() const override {
     // halfedge/vertex_edge are written only when no triangulation exists yet (first step).
     return {{ff::fields::position, where_, Mode::read},
-            {fields::halfedge, where_, Mode::readwrite},
-            {fields::opposite, where_, Mode::readwrite},
-            {fields::vertex_edge, where_, Mode::readwrite},
+            {fields::halfedge, where_, Mode::readwrite, true},
+            {fields::opposite, where_, Mode::readwrite, true},
+            {fields::vertex_edge, where_, Mode::readwrite, true},
             {fields::position_prev, where_, Mode::readwrite},
             {fields::flip_mark, where_, Mode::write},
             {fields::lawson_candidates, where_, Mode::write},
@@ -44,7 +44,7 @@ class DetectInversion final : public Stage {
   Outcome run(StepContext& ctx) override {
     State& s = ctx.state;
     CUstream_st* st = ctx.stream;
-    const bool fresh = ensure_topology(s, accesses(), st);
+    const bool fresh = ensure_topology(ctx, accesses());
     const Mesh m = mesh_view(s, where_);
     const Points<R> pts = points_view<R>(s, ff::fields::position, where_);
     R* prev = data<R>(s.field(fields::position_prev), where_);

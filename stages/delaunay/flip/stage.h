@@ -39,9 +39,9 @@ class Flip final : public Stage {
 
   std::vector<Access> accesses() const override {
     return {{ff::fields::position, where_, Mode::read},
-            {fields::halfedge, where_, Mode::readwrite},
-            {fields::opposite, where_, Mode::readwrite},
-            {fields::vertex_edge, where_, Mode::readwrite},
+            {fields::halfedge, where_, Mode::readwrite, true},
+            {fields::opposite, where_, Mode::readwrite, true},
+            {fields::vertex_edge, where_, Mode::readwrite, true},
             {fields::flip_mark, where_, Mode::readwrite},
             {fields::status, Where::host, Mode::readwrite}};
   }
@@ -51,10 +51,11 @@ class Flip final : public Stage {
   Outcome run(StepContext& ctx) override {
     State& s = ctx.state;
     CUstream_st* st = ctx.stream;
-    ensure_topology(s, accesses(), st);
+    ensure_topology(ctx, accesses());
     ctx.metrics.set("flips", 0);
     ctx.metrics.set("flip_rounds", 0);
     if (status(s)[kPending] == 0) return Outcome::ok();  // detect_inversion found nothing to repair
+    will_flip(ctx);  // the topology is in the rollback snapshot only on steps that flip
 
     const Mesh m = mesh_view(s, where_);
     const Points<R> pts = points_view<R>(s, ff::fields::position, where_);

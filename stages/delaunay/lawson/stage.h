@@ -56,9 +56,9 @@ class Lawson final : public Stage {
   std::vector<Access> accesses() const override {
     return {{ff::fields::position, where_, Mode::read},
             {fields::lawson_candidates, where_, Mode::read},
-            {fields::halfedge, where_, Mode::readwrite},
-            {fields::opposite, where_, Mode::readwrite},
-            {fields::vertex_edge, where_, Mode::readwrite},
+            {fields::halfedge, where_, Mode::readwrite, true},
+            {fields::opposite, where_, Mode::readwrite, true},
+            {fields::vertex_edge, where_, Mode::readwrite, true},
             {fields::status, Where::host, Mode::readwrite}};
   }
   void configure(State& s) override { add_topology_fields(s, "delaunay.lawson"); }
@@ -66,7 +66,7 @@ class Lawson final : public Stage {
   Outcome run(StepContext& ctx) override {
     State& s = ctx.state;
     CUstream_st* st = ctx.stream;
-    ensure_topology(s, accesses(), st);
+    ensure_topology(ctx, accesses());
     if (status(s)[kPending])
       throw RunError("delaunay.lawson: " + std::to_string(status(s)[kPending]) +
                      " inverted triangle(s) found by delaunay.detect_inversion were not repaired; put delaunay.flip "
@@ -119,6 +119,7 @@ class Lawson final : public Stage {
                        std::to_string(p_.max_rounds) + " rounds (" + std::to_string(flips) + " flips; " +
                        std::to_string(n_marked) +
                        " edge(s) left). Raise max_rounds, or raise tolerance if points are (nearly) co-circular");
+      if (rounds == 0) will_flip(ctx);  // announce before the first flip (rollback snapshot)
       counters_.zero(kLawsonMarked, 2, st);  // marked and queued lengths
       ops_.decide(n_marked, DecideMarked{m, marked, round, marked_list, go, c}, st);
       ops_.apply(n_marked, ApplyMarked{m, marked_list, go, queued, round + 1, list, c}, st);
