@@ -10,11 +10,19 @@
 // var_3 = 1 − 6φ(3)/(2Φ(3) − 1) = 0.97333692 is the variance of a unit normal truncated to
 // [−3, 3], so the numbers have exactly unit variance. Truncation bounds the largest
 // displacement in a step, which keeps the triangulation repairable.
+//
+// Box–Muller's log and sincos are written here (musl's fdlibm polynomials, < 1 ulp), not taken
+// from the platform's libm: branch-free code that a CPU loop vectorizes over particles, the
+// same on both backends, and sincos(2πu) needs no general range reduction because u ∈ (0, 1]
+// reduces exactly to a quadrant. gaussian_pair_lanes (host loops) gives bit-identical numbers
+// to gaussian_pair as long as its translation unit does not contract a·b + c into fma (the
+// CPU loops are built with -ffp-contract=off); on CUDA nvcc may fuse, a difference of ulps.
 #pragma once
 #include <Random123/philox.h>
 
 #include <cmath>
 #include <cstdint>
+#include <cstring>
 
 #include "core/hd.h"
 
@@ -41,7 +49,6 @@ namespace rng_detail {
 constexpr std::uint32_t kRedrawBase = 0x8000u;
 constexpr double kTruncation = 3.0;
 constexpr double kTruncatedVarianceScale = 1.013604197642207;  // 1/sqrt(var_3)
-constexpr double kTwoPi = 6.283185307179586;
 
 FF_HD r123::Philox4x32::ctr_type raw(RngKey key, std::uint32_t particle, std::uint64_t step,
                                      std::uint32_t attempt, std::uint32_t draw) {
@@ -52,10 +59,102 @@ FF_HD r123::Philox4x32::ctr_type raw(RngKey key, std::uint32_t particle, std::ui
   return philox(c, k);
 }
 
-// Uniform in (0, 1]: never 0, so log() in Box–Muller is finite.
+// Uniform in (0, 1]: never 0, so log() in Box–Muller is finite. The 53 bits hi·2^21 + lo/2^11
+// are summed in double (exact), which vectorizes where a 64-bit integer conversion does not.
 FF_HD double u01_open0(std::uint32_t hi, std::uint32_t lo) {
-  const std::uint64_t bits = (std::uint64_t(hi) << 21) ^ (lo >> 11);  // 53 bits
-  return (double((bits & ((std::uint64_t(1) << 53) - 1))) + 1.0) * (1.0 / 9007199254740992.0);
+  return (double(hi) * 2097152.0 + double(lo >> 11) + 1.0) * (1.0 / 9007199254740992.0);
+}
+
+FF_HD std::uint64_t bits_of(double x) {
+#if defined(__CUDA_ARCH__)
+  return std::uint64_t(__double_as_longlong(x));
+#else
+  std::uint64_t u;
+  std::memcpy(&u, &x, sizeof u);
+  return u;
+#endif
+}
+
+FF_HD double from_bits(std::uint64_t u) {
+#if defined(__CUDA_ARCH__)
+  return __longlong_as_double(static_cast<long long>(u));
+#else
+  double x;
+  std::memcpy(&x, &u, sizeof x);
+  return x;
+#endif
+}
+
+// log(u) for a normal positive u (musl's fdlibm e_log.c main path, < 1 ulp): u = 2^k (1 + f)
+// with 1 + f in [√2/2, √2), log(1 + f) = f − f²/2 + s (f²/2 + R(s²)), s = f / (2 + f).
+FF_HD double log_positive(double u) {
+  constexpr double ln2_hi = 0x1.62e42fee00000p-1, ln2_lo = 0x1.a39ef35793c76p-33;
+  constexpr double Lg1 = 0x1.5555555555593p-1, Lg2 = 0x1.999999997fa04p-2, Lg3 = 0x1.2492494229359p-2,
+                   Lg4 = 0x1.c71c51d8e78afp-3, Lg5 = 0x1.7466496cb03dep-3, Lg6 = 0x1.39a09d078c69fp-3,
+                   Lg7 = 0x1.2f112df3e5244p-3;
+  const std::uint64_t ix = bits_of(u) + (0x3ff0000000000000ull - 0x3fe6a09e00000000ull);
+  // k + 1023 is ix's exponent field; 2^52 + (k + 1023) − (2^52 + 1023) is k, exactly.
+  const double k = from_bits(0x4330000000000000ull | (ix >> 52)) - 4503599627371519.0;
+  const double f = from_bits((ix & 0x000fffffffffffffull) + 0x3fe6a09e00000000ull) - 1.0;
+  const double hfsq = 0.5 * f * f;
+  const double s = f / (2.0 + f);
+  const double z = s * s;
+  const double w = z * z;
+  const double t1 = w * (Lg2 + w * (Lg4 + w * Lg6));
+  const double t2 = z * (Lg1 + w * (Lg3 + w * (Lg5 + w * Lg7)));
+  const double R = t2 + t1;
+  return s * (hfsq + R) + k * ln2_lo - hfsq + f + k * ln2_hi;
+}
+
+// cos(2πu) and sin(2πu) for u in [0, 1]: 4u = q + r exactly (q = rint(4u), |r| ≤ 1/2), then
+// musl's __cos/__sin kernels (< 1 ulp on [−π/4, π/4]) at x = r·π/2 and the quadrant q.
+FF_HD void sincos_2pi(double u, double& s_out, double& c_out) {
+  constexpr double C1 = 0x1.555555555554cp-5, C2 = -0x1.6c16c16c15177p-10, C3 = 0x1.a01a019cb1590p-16,
+                   C4 = -0x1.27e4f809c52adp-22, C5 = 0x1.1ee9ebdb4b1c4p-29, C6 = -0x1.8fae9be8838d4p-37;
+  constexpr double S1 = -0x1.5555555555549p-3, S2 = 0x1.111111110f8a6p-7, S3 = -0x1.a01a019c161d5p-13,
+                   S4 = 0x1.71de357b1fe7dp-19, S5 = -0x1.ae5e68a2b9cebp-26, S6 = 0x1.5d93a5acfd57cp-33;
+  constexpr double kHalfPi = 1.5707963267948966;
+  const double t = 4.0 * u;
+  const double q = std::rint(t);
+  const double x = (t - q) * kHalfPi;
+  const double z = x * x;
+  const double w = z * z;
+  const double rs = S2 + z * (S3 + z * S4) + z * w * (S5 + z * S6);
+  const double sn = x + z * x * (S1 + z * rs);
+  const double rc = z * (C1 + z * (C2 + z * C3)) + w * w * (C4 + z * (C5 + z * C6));
+  const double hz = 0.5 * z;
+  const double one_minus_hz = 1.0 - hz;
+  const double cs = one_minus_hz + (((1.0 - one_minus_hz) - hz) + z * rc);
+  // Quadrants 0..4 (4 is 0 again): odd ones swap sin and cos; the signs follow the quadrant.
+  // (Non-short-circuit & and | keep the loops over lanes free of branches.)
+  const bool odd = (q == 1.0) | (q == 3.0);
+  const double s_abs = odd ? cs : sn, c_abs = odd ? sn : cs;
+  s_out = ((q == 2.0) | (q == 3.0)) ? -s_abs : s_abs;
+  c_out = ((q == 1.0) | (q == 2.0)) ? -c_abs : c_abs;
+}
+
+// Box–Muller on one Philox output (before truncation and rescaling).
+FF_HD void box_muller(std::uint32_t r0, std::uint32_t r1, std::uint32_t r2, std::uint32_t r3, double& z0,
+                      double& z1) {
+  const double rad = std::sqrt(-2.0 * log_positive(u01_open0(r0, r1)));
+  double s, c;
+  sincos_2pi(u01_open0(r2, r3), s, c);
+  z0 = rad * c;
+  z1 = rad * s;
+}
+
+FF_HD bool inside_truncation(double z0, double z1) {
+  return (std::fabs(z0) <= kTruncation) & (std::fabs(z1) <= kTruncation);
+}
+
+// The redraws of a pair whose first draw (z0, z1) fell outside ±3: draw index
+// kRedrawBase + pair·64 + t for t = 0, 1, ... (a region no first draw uses), at most 64.
+FF_HD void redraw_pair(RngKey key, std::uint32_t particle, std::uint64_t step, std::uint32_t attempt,
+                       std::uint32_t pair, double& z0, double& z1) {
+  for (std::uint32_t t = 0; t < 64 && !inside_truncation(z0, z1); ++t) {
+    const auto r = raw(key, particle, step, attempt, kRedrawBase + ((pair * 64u + t) & 0x7fffu));
+    box_muller(r[0], r[1], r[2], r[3], z0, z1);
+  }
 }
 }  // namespace rng_detail
 
@@ -70,20 +169,57 @@ FF_HD double uniform01(RngKey key, std::uint32_t particle, std::uint64_t step,
 FF_HD void gaussian_pair(RngKey key, std::uint32_t particle, std::uint64_t step,
                          std::uint32_t attempt, std::uint32_t pair, double& z0, double& z1) {
   using namespace rng_detail;
-  std::uint32_t draw = pair;
-  for (std::uint32_t tries = 0;; ++tries) {
-    const auto r = raw(key, particle, step, attempt, draw);
-    const double u1 = u01_open0(r[0], r[1]);
-    const double u2 = u01_open0(r[2], r[3]);
-    const double rad = std::sqrt(-2.0 * std::log(u1));
-    z0 = rad * std::cos(kTwoPi * u2);
-    z1 = rad * std::sin(kTwoPi * u2);
-    if ((std::fabs(z0) <= kTruncation && std::fabs(z1) <= kTruncation) || tries >= 64) break;
-    // Redraws walk a region no first draw uses: kRedrawBase + pair * 64 + tries.
-    draw = kRedrawBase + ((pair * 64u + tries) & 0x7fffu);
-  }
+  const auto r = raw(key, particle, step, attempt, pair);
+  box_muller(r[0], r[1], r[2], r[3], z0, z1);
+  if (!inside_truncation(z0, z1)) redraw_pair(key, particle, step, attempt, pair, z0, z1);
   z0 *= kTruncatedVarianceScale;
   z1 *= kTruncatedVarianceScale;
+}
+
+// gaussian_pair for the W particles first .. first + W − 1, for CPU loops: Philox4x32-10 and
+// Box–Muller as loops over the lanes with no branches (the compiler vectorizes them), then the
+// rare lane that needs a truncation redraw (≈ 0.5 %) finished one at a time. Same numbers as
+// gaussian_pair (checked in tests/test_rng.cpp).
+template <int W>
+inline void gaussian_pair_lanes(RngKey key, std::uint32_t first, std::uint64_t step, std::uint32_t attempt,
+                                std::uint32_t pair, double* z0, double* z1) {
+  using namespace rng_detail;
+  std::uint32_t c0[W], c1[W], c2[W], c3[W];
+  for (int l = 0; l < W; ++l) {
+    c0[l] = first + std::uint32_t(l);
+    c1[l] = std::uint32_t(step);
+    c2[l] = std::uint32_t(step >> 32);
+    c3[l] = (attempt << 16) | pair;
+  }
+  std::uint32_t k0 = key.seed_lo, k1 = key.seed_hi_stage;
+#if defined(__GNUC__) && !defined(__CUDACC__) && !defined(__clang__)
+#pragma GCC unroll 10
+#endif
+  for (int round = 0; round < 10; ++round) {  // Random123's Philox4x32 round and key schedule
+    for (int l = 0; l < W; ++l) {
+      const std::uint64_t p0 = std::uint64_t(0xD2511F53u) * c0[l];
+      const std::uint64_t p1 = std::uint64_t(0xCD9E8D57u) * c2[l];
+      const std::uint32_t n0 = std::uint32_t(p1 >> 32) ^ c1[l] ^ k0;
+      const std::uint32_t n2 = std::uint32_t(p0 >> 32) ^ c3[l] ^ k1;
+      c0[l] = n0;
+      c1[l] = std::uint32_t(p1);
+      c2[l] = n2;
+      c3[l] = std::uint32_t(p0);
+    }
+    k0 += 0x9E3779B9u;
+    k1 += 0xBB67AE85u;
+  }
+  double a0[W], a1[W];
+  for (int l = 0; l < W; ++l) box_muller(c0[l], c1[l], c2[l], c3[l], a0[l], a1[l]);
+  int outside = 0;
+  for (int l = 0; l < W; ++l) outside |= int(!inside_truncation(a0[l], a1[l]));
+  if (outside)
+    for (int l = 0; l < W; ++l)
+      if (!inside_truncation(a0[l], a1[l])) redraw_pair(key, first + std::uint32_t(l), step, attempt, pair, a0[l], a1[l]);
+  for (int l = 0; l < W; ++l) {
+    z0[l] = a0[l] * kTruncatedVarianceScale;
+    z1[l] = a1[l] * kTruncatedVarianceScale;
+  }
 }
 
 // `count` (≤ 4) truncated unit Gaussians for one particle, starting at pair `first_pair`.

@@ -1,6 +1,8 @@
 // Philox Gaussians: moments, truncation, determinism, independence of attempts and stages.
 #include <catch2/catch.hpp>
+#include <algorithm>
 #include <cmath>
+#include <cstring>
 
 #include "core/rng.h"
 
@@ -79,4 +81,64 @@ TEST_CASE("consecutive pairs of one particle are uncorrelated", "[rng]") {
     c += a0 * b0 + a1 * b1;
   }
   CHECK(std::fabs(c / (2.0 * n)) < 5.0 / std::sqrt(2.0 * n));
+}
+
+TEST_CASE("the lanes of gaussian_pair_lanes equal gaussian_pair, redraws included", "[rng]") {
+  // The CPU integrators draw 16 particles at once; every lane must give gaussian_pair's bits.
+  const RngKey key = make_rng_key(2024, "brownian.integrate");
+  std::size_t mismatches = 0, redrawn = 0;
+  for (std::uint64_t step : {std::uint64_t(0), std::uint64_t(123456789012345)}) {
+    for (std::uint32_t pair : {0u, 3u}) {
+      for (std::uint32_t first = 7; first < 7 + (1u << 16); first += 16) {
+        double z0[16], z1[16];
+        gaussian_pair_lanes<16>(key, first, step, 2, pair, z0, z1);
+        for (std::uint32_t l = 0; l < 16; ++l) {
+          double a0, a1;
+          gaussian_pair(key, first + l, step, 2, pair, a0, a1);
+          mismatches += (a0 != z0[l]) || (a1 != z1[l]);
+          const auto r = rng_detail::raw(key, first + l, step, 2, pair);
+          rng_detail::box_muller(r[0], r[1], r[2], r[3], a0, a1);
+          redrawn += !rng_detail::inside_truncation(a0, a1);
+        }
+      }
+    }
+  }
+  CHECK(mismatches == 0);
+  CHECK(redrawn > 1000);  // ≈ 0.5 % of the 2^18 pairs took the redraw path
+}
+
+TEST_CASE("Box–Muller's own log and sincos(2πu) agree with libm to an ulp or two", "[rng]") {
+  // rng_detail::log_positive and sincos_2pi replace std::log / std::sincos so the lanes
+  // vectorize; check them on the uniforms they actually get and at the ends of (0, 1].
+  using namespace rng_detail;
+  const RngKey key = make_rng_key(5, "check");
+  auto ulps = [](double a, double b) {
+    std::int64_t x, y;
+    std::memcpy(&x, &a, 8);
+    std::memcpy(&y, &b, 8);
+    return x > y ? x - y : y - x;
+  };
+  std::int64_t worst_log = 0;
+  double worst_trig = 0;
+  for (std::uint32_t i = 0; i < (1u << 18); ++i) {
+    const auto r = raw(key, i, 0, 0, 0);
+    const double u = u01_open0(r[0], r[1]), v = u01_open0(r[2], r[3]);
+    worst_log = std::max(worst_log, ulps(log_positive(u), std::log(u)));
+    double s, c;
+    sincos_2pi(v, s, c);
+    // 2πv in long double is good to ~1e-19 absolute, so compare absolutely.
+    const long double a = 6.283185307179586476925286766559L * static_cast<long double>(v);
+    worst_trig = std::max({worst_trig, std::fabs(s - double(std::sin(a))), std::fabs(c - double(std::cos(a)))});
+  }
+  CHECK(worst_log <= 1);
+  CHECK(worst_trig <= 2.3e-16);
+  CHECK(log_positive(1.0) == 0.0);
+  CHECK(log_positive(std::ldexp(1.0, -53)) == std::log(std::ldexp(1.0, -53)));
+  double s, c;
+  sincos_2pi(1.0, s, c);
+  CHECK((s == 0.0 && c == 1.0));
+  sincos_2pi(0.25, s, c);
+  CHECK((s == 1.0 && c == 0.0));
+  sincos_2pi(0.5, s, c);
+  CHECK((s == 0.0 && c == -1.0));
 }

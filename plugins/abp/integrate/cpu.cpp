@@ -1,11 +1,11 @@
-#include "core/exec_cpu.h"
+#include "core/overdamped_cpu.h"
 #include "plugins/abp/integrate/cpu.h"
 
 namespace ff::abp {
 
 template <class R>
 IntegrateLoops<R> cpu_loops() {
-  return {&cpu_for_each<AbpStep<R, 2>>, &cpu_for_each<AbpStep<R, 3>>};
+  return {&cpu_overdamped_for_each<AbpStep<R, 2>>, &cpu_overdamped_for_each<AbpStep<R, 3>>};
 }
 template IntegrateLoops<float> cpu_loops<float>();
 template IntegrateLoops<double> cpu_loops<double>();

@@ -44,11 +44,17 @@ struct AbpStep {
   std::uint64_t step;
   std::uint32_t attempt;
 
-  FF_HD void operator()(std::size_t i) const {
-    const auto p = std::uint32_t(i);
-    double xi[4], eta[4];
-    gaussians(key, p, step, attempt, kTranslationPair, D, xi);
-    gaussians(key, p, step, attempt, kRotationPair, D == 2 ? 1 : 3, eta);
+  // 2D: translation pair 0, rotation pair 2; 3D: translation pairs 0-1, rotation pairs 2-3.
+  static constexpr int kNoisePairs = D == 2 ? 2 : 4;
+  FF_HD std::uint32_t noise_pair(int j) const {
+    return D == 2 ? (j == 0 ? kTranslationPair : kRotationPair) : std::uint32_t(j);
+  }
+  FF_HD NoiseCounter noise_counter() const { return {key, step, attempt}; }
+
+  // z: pair j in z[2j], z[2j + 1]; ξ is z[0 .. D-1], η starts at the first rotation pair.
+  FF_HD void move(std::size_t i, const double* z) const {
+    const double* xi = z;
+    const double* eta = z + (D == 2 ? 2 : 4);
     R e[3];
     if constexpr (D == 2) {
       const R th = orientation[i];
@@ -63,6 +69,8 @@ struct AbpStep {
     for (int k = 0; k < D; ++k) drift[k] = v0_dt * e[k];  // self-propulsion along e
     overdamped_move<R, D>(position, image, box, i, drift, trans_amp, xi);
   }
+
+  FF_HD void operator()(std::size_t i) const { overdamped_step(*this, i); }
 
   // out = e rotated about ω = rot_amp·η by |ω|, renormalised.
   FF_HD void rotate_3d(const R e[3], const double eta[3], R* out) const {

@@ -1,11 +1,11 @@
-#include "core/exec_cpu.h"
+#include "core/overdamped_cpu.h"
 #include "plugins/brownian/integrate/cpu.h"
 
 namespace ff::brownian {
 
 template <class R>
 IntegrateLoops<R> cpu_loops() {
-  return {&cpu_for_each<BrownianStep<R, 2>>, &cpu_for_each<BrownianStep<R, 3>>};
+  return {&cpu_overdamped_for_each<BrownianStep<R, 2>>, &cpu_overdamped_for_each<BrownianStep<R, 3>>};
 }
 template IntegrateLoops<float> cpu_loops<float>();
 template IntegrateLoops<double> cpu_loops<double>();

@@ -20,14 +20,17 @@ struct BrownianStep {
   RngKey key;
   const StepParams* params;  // step, attempt, Δt (on the side this runs on)
 
-  FF_HD void operator()(std::size_t i) const {
-    const std::uint64_t step = params->step;
-    const std::uint32_t attempt = params->attempt;
+  static constexpr int kNoisePairs = (D + 1) / 2;  // pairs 0 (and 1 in 3D)
+  FF_HD std::uint32_t noise_pair(int j) const { return std::uint32_t(j); }
+  FF_HD NoiseCounter noise_counter() const { return {key, params->step, params->attempt}; }
+
+  // z: the particle's Gaussians, z[k] for component k.
+  FF_HD void move(std::size_t i, const double* z) const {
     const R amplitude = R(std::sqrt(two_D * params->dt));  // sqrt(2 D Δt)
-    double z[4];
-    gaussians(key, std::uint32_t(i), step, attempt, 0, D, z);
     overdamped_move<R, D>(position, image, box, i, nullptr, amplitude, z);
   }
+
+  FF_HD void operator()(std::size_t i) const { overdamped_step(*this, i); }
 };
 
 }  // namespace ff::brownian

@@ -22,13 +22,18 @@ struct PhoreticStep {
   std::uint64_t step;
   std::uint32_t attempt;
 
-  FF_HD void operator()(std::size_t i) const {
-    double z[4];
-    gaussians(key, std::uint32_t(i), step, attempt, 0, D, z);
+  static constexpr int kNoisePairs = (D + 1) / 2;  // pairs 0 (and 1 in 3D)
+  FF_HD std::uint32_t noise_pair(int j) const { return std::uint32_t(j); }
+  FF_HD NoiseCounter noise_counter() const { return {key, step, attempt}; }
+
+  // z: the particle's Gaussians, z[k] for component k.
+  FF_HD void move(std::size_t i, const double* z) const {
     R drift[D];
     for (int k = 0; k < D; ++k) drift[k] = velocity[i * D + k] * dt;
     overdamped_move<R, D>(position, image, box, i, drift, amplitude, z);
   }
+
+  FF_HD void operator()(std::size_t i) const { overdamped_step(*this, i); }
 };
 
 }  // namespace ff::phoretic
