@@ -142,3 +142,21 @@ TEST_CASE("Box–Muller's own log and sincos(2πu) agree with libm to an ulp or 
   sincos_2pi(0.5, s, c);
   CHECK((s == 0.0 && c == -1.0));
 }
+
+TEST_CASE("Philox lanes (AVX2 for 16 where the build has it, generic otherwise) equal Random123", "[rng]") {
+  const RngKey key = make_rng_key(77, "lanes");
+  INFO("AVX2 Philox lanes: " << FF_RNG_AVX2);
+  std::size_t mismatches = 0;
+  for (std::uint64_t step : {std::uint64_t(3), std::uint64_t(0xfedcba9876543ull)}) {
+    for (std::uint32_t first = 0xfffff000u; first != 0x1000u; first += 16) {  // wraps past 2^32
+      std::uint32_t c16[4][16], c8[4][8];
+      rng_detail::philox_lanes<16>(key, first, step, 5, 0x8123, c16);
+      rng_detail::philox_lanes<8>(key, first, step, 5, 0x8123, c8);
+      for (std::uint32_t l = 0; l < 16; ++l) {
+        const auto r = rng_detail::raw(key, first + l, step, 5, 0x8123);
+        for (int w = 0; w < 4; ++w) mismatches += r[w] != c16[w][l] || (l < 8 && r[w] != c8[w][l]);
+      }
+    }
+  }
+  CHECK(mismatches == 0);
+}
