@@ -4,6 +4,11 @@
 #include <cmath>
 #include <cstring>
 
+#include <oneapi/tbb/global_control.h>
+
+#include <vector>
+
+#include "core/overdamped_cpu.h"
 #include "core/rng.h"
 
 using namespace ff;
@@ -159,4 +164,39 @@ TEST_CASE("Philox lanes (AVX2 for 16 where the build has it, generic otherwise) 
     }
   }
   CHECK(mismatches == 0);
+}
+
+namespace {
+// An overdamped functor that only records its noise (pairs 1 and 4, as an integrator with
+// noise pairs that are not consecutive would), to test the CPU loop's lanes against the
+// per-particle path the CUDA loop takes.
+struct RecordNoise {
+  double* out;  // N x 4
+  RngKey key;
+  std::uint64_t step;
+  std::uint32_t attempt;
+  static constexpr int kNoisePairs = 2;
+  std::uint32_t noise_pair(int j) const { return j == 0 ? 1u : 4u; }
+  NoiseCounter noise_counter() const { return {key, step, attempt}; }
+  void move(std::size_t i, const double* z) const {
+    for (int k = 0; k < 4; ++k) out[i * 4 + k] = z[k];
+  }
+};
+}  // namespace
+
+TEST_CASE("the CPU overdamped loop gives every particle its own noise for any N and thread count", "[rng]") {
+  // N not a multiple of the 16-particle block (padded last block) and more than one task.
+  const std::size_t n = (std::size_t(1) << 15) + 37;
+  std::vector<double> expect(4 * n);
+  const RecordNoise ref{expect.data(), make_rng_key(3, "loop"), 77, 1};
+  for (std::size_t i = 0; i < n; ++i) overdamped_step(ref, i);
+  for (int threads : {1, 2, 3}) {
+    tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
+    std::vector<double> got(4 * n, -100.0);
+    cpu_overdamped_for_each(n, RecordNoise{got.data(), ref.key, ref.step, ref.attempt}, nullptr);
+    std::size_t mismatches = 0;
+    for (std::size_t k = 0; k < 4 * n; ++k) mismatches += got[k] != expect[k];
+    INFO("threads " << threads);
+    CHECK(mismatches == 0);
+  }
 }
