@@ -127,6 +127,35 @@ struct TopologySnapshot {
     }
   }
 };
+
+// One accepted step as the core takes it: a Brownian move of Δt = dt, detect + flip; a rollback
+// restores the snapshot and retries at Δt/2 with the next attempt's noise; then Lawson. Adds
+// the step's inversions, repair flips, Lawson flips and rollbacks to `c`.
+struct Totals {
+  double inversions = 0, flips = 0, lawson_flips = 0, rollbacks = 0;
+};
+void accepted_step(State& s, Pipeline& p, Runner& r, std::uint64_t k, double D, double dt, Totals& c) {
+  TopologySnapshot snap;
+  snap.take(s);
+  for (std::uint32_t attempt = 0;; ++attempt) {
+    REQUIRE(attempt < 30);
+    brownian_step(s, D, dt, k, attempt);
+    Outcome o = r.run(*p.detect, k);
+    const double inv = r.metric("inversions");
+    if (!o.rollback) o = r.run(*p.flip, k);
+    if (o.rollback) {
+      ++c.rollbacks;
+      snap.restore(s);
+      dt /= 2;
+      continue;
+    }
+    c.inversions += inv;
+    c.flips += r.metric("flips");
+    REQUIRE_FALSE(r.run(*p.lawson, k).rollback);
+    c.lawson_flips += r.metric("lawson_flips");
+    return;
+  }
+}
 }  // namespace
 
 TEST_CASE("lawson: large steps with repairs and rollbacks stay valid and Delaunay", "[delaunay][lawson]") {
@@ -137,36 +166,16 @@ TEST_CASE("lawson: large steps with repairs and rollbacks stay valid and Delauna
   auto s = initial(0.8, 1000, 3);
   Pipeline p(*s, b);
   Runner r(*s, b);
-  TopologySnapshot snap;
-  double inversions = 0, flips = 0, rollbacks = 0;
+  Totals c;
   for (int k = 0; k < 60; ++k) {
-    snap.take(*s);
-    double dt = 0.5;
-    for (std::uint32_t attempt = 0;; ++attempt) {
-      REQUIRE(attempt < 20);
-      brownian_step(*s, 0.01, dt, std::uint64_t(k), attempt);
-      Outcome o = r.run(*p.detect, std::uint64_t(k));
-      const double inv = r.metric("inversions");
-      if (!o.rollback) o = r.run(*p.flip, std::uint64_t(k));
-      const double fl = r.metric("flips");
-      if (o.rollback) {
-        ++rollbacks;
-        snap.restore(*s);
-        dt /= 2;
-        continue;
-      }
-      inversions += inv;
-      flips += fl;
-      REQUIRE_FALSE(r.run(*p.lawson, std::uint64_t(k)).rollback);
-      break;
-    }
+    accepted_step(*s, p, r, std::uint64_t(k), 0.01, 0.5, c);
     require_valid(*s);
     if (k % 10 == 9) require_delaunay(*s);
   }
-  INFO("inversions " << inversions << ", repair flips " << flips << ", rollbacks " << rollbacks);
-  CHECK(inversions > 0);
-  CHECK(flips == inversions);
-  CHECK(rollbacks > 0);
+  INFO("inversions " << c.inversions << ", repair flips " << c.flips << ", rollbacks " << c.rollbacks);
+  CHECK(c.inversions > 0);
+  CHECK(c.flips == c.inversions);
+  CHECK(c.rollbacks > 0);
 }
 
 TEST_CASE("lawson: 10^4 Brownian steps at N = 10^4 stay CGAL's Delaunay triangulation", "[delaunay][lawson][long]") {
@@ -185,34 +194,18 @@ TEST_CASE("lawson: 10^4 Brownian steps at N = 10^4 stay CGAL's Delaunay triangul
   auto s = initial(phi, n, 29);
   Pipeline p(*s, b);
   Runner r(*s, b);
-  TopologySnapshot snap;
-  double lawson_flips = 0, flips = 0, rollbacks = 0;
+  Totals c;
   std::size_t not_delaunay = 0, bad_triangles = 0, cgal_checks = 0;
   for (int k = 0; k < steps; ++k) {
-    snap.take(*s);
-    double dt = 0.01;
-    for (std::uint32_t attempt = 0;; ++attempt) {
-      REQUIRE(attempt < 30);
-      brownian_step(*s, 0.01, dt, std::uint64_t(k), attempt);
-      Outcome o = r.run(*p.detect, std::uint64_t(k));
-      if (!o.rollback) o = r.run(*p.flip, std::uint64_t(k));
-      if (o.rollback) {
-        ++rollbacks;
-        snap.restore(*s);
-        dt /= 2;
-        continue;
-      }
-      flips += r.metric("flips");
-      REQUIRE_FALSE(r.run(*p.lawson, std::uint64_t(k)).rollback);
-      lawson_flips += r.metric("lawson_flips");
-      break;
-    }
+    accepted_step(*s, p, r, std::uint64_t(k), 0.01, 0.01, c);
     const Topo t = topology(*s);
     const auto xy = positions(*s);
     not_delaunay += ff::delaunay::count_non_delaunay(t.he.data(), n, xy.data(), s->box.L[0], s->box.L[1], 1e-9);
     bad_triangles += ff::delaunay::count_bad_triangles(t.he.data(), n, xy.data(), s->box.L[0], s->box.L[1]);
-    if (not_delaunay || bad_triangles) FAIL_CHECK("step " << k << ": not Delaunay or not valid");
-    if (not_delaunay || bad_triangles) break;
+    if (not_delaunay || bad_triangles) {
+      FAIL_CHECK("step " << k << ": not Delaunay or not valid");
+      break;
+    }
     if (k % 100 == 99) {
       REQUIRE(ff::delaunay::check_structure(t.he.data(), t.vedge.data(), n) == "");
       REQUIRE(ff::delaunay::check_opposite(t.he.data(), t.opp.data(), n) == "");
@@ -222,11 +215,12 @@ TEST_CASE("lawson: 10^4 Brownian steps at N = 10^4 stay CGAL's Delaunay triangul
       ++cgal_checks;
     }
   }
-  INFO("Lawson flips " << lawson_flips << ", repair flips " << flips << ", rollbacks " << rollbacks);
+  INFO("Lawson flips " << c.lawson_flips << ", repair flips " << c.flips << ", rollbacks " << c.rollbacks);
   CHECK(not_delaunay == 0);
   CHECK(bad_triangles == 0);
   CHECK(cgal_checks == 10);
-  CHECK(lawson_flips > 1000);  // the triangulation really changed
+  CHECK(c.flips == c.inversions);
+  CHECK(c.lawson_flips > 1000);  // the triangulation really changed
 }
 
 TEST_CASE("lawson: float precision (predicates in double) keeps CGAL's Delaunay", "[delaunay][lawson]") {
