@@ -5,13 +5,14 @@
 // its edges [3·t0, 3·t1) are its share of an edge pass. An iteration is one of two kinds:
 //   - edge pass (iteration 0, and each iteration after one that moved at least n / kEdgeMode
 //     particles): stream over the 3N edge records, each pair once; an overlapping edge counts
-//     its pair and hands its term (kernel.h, pair_term: +t on one end, −t on the other) to its
-//     ends: directly to an end in the tile's own particles, through a list to any other (one
-//     thread hands those out afterwards, in tile order; no atomics: a locked add per term cost
-//     more than the edge test). Each tile lists its touched particles once, with their first
-//     kKnownTerms terms, and finishes them (Mesh::gather_known: with one or two terms their sum
-//     does not depend on the order; with more it walks the fan as a gather does). Iteration
-//     0's pass also checks the mesh (indices in range, no loops, next pointers a permutation).
+//     its pair and adds its push (kernel.h, fixed point: +q on one end, −q on the other) to
+//     both ends: directly to an end in the tile's own particles, else through a list: for the
+//     tile before or after (taken by that tile when it finishes), or for any other (one thread
+//     adds those; ~7 % of them). No atomics: a locked add per push cost more than the edge test.
+//     Each tile lists its touched particles once, with their sums. When the counts say to go
+//     on, each tile finishes its touched particles (Mesh::from_sum) and moves them at once
+//     (nothing reads positions then). Iteration 0's pass also checks the mesh (indices in
+//     range, no loops, next pointers a permutation).
 //   - work list (otherwise): gather only the flagged particles of each tile (in index order,
 //     the flags cleared as they are read), flagged for iteration k + 1 by iteration k:
 //       - each particle that had an overlapping edge but did not move (d = 0);
@@ -19,10 +20,10 @@
 //         positions (tested with r² < σ²·(1 + 1e-9), so rounding can only add particles).
 //     An edge that overlaps at k + 1 either has a moved end (then it is tested after the apply)
 //     or had both ends fixed, so it overlapped at k already and both ends were flagged.
-// Either way every particle left out would have gathered d = 0 and no pairs, and every one
-// gathered gets the same bits as its walk: the same result as gathering every particle, for
-// any thread count and as on the GPU. Which kind an iteration is depends only on counts, never
-// on the threads. The apply touches only the moved particles.
+// Either way every particle left out would have gathered d = 0 and no pairs, and the sums are
+// exact integers: the same result as gathering every particle, for any thread count and as on
+// the GPU. Which kind an iteration is depends only on counts, never on the threads. The apply
+// touches only the moved particles.
 //
 // Counters: each tile sums its own (plain integers), the host adds the tiles up; integer sums
 // do not depend on the order. No allocation after the workspace is made.
@@ -49,17 +50,16 @@ constexpr std::size_t kTile = 2048;
 // the apply) and their gathers (measured, hard disks at η = 0.5, 2^16).
 constexpr std::size_t kEdgeMode = 8;
 
-// A term for a particle of another tile, from an edge pass.
+// A push for a particle of another tile, from an edge pass.
 struct Remote {
   int v;
-  double tx, ty;
+  std::int64_t qx, qy;
 };
 
-// A particle touched in an edge pass: its overlapping edges and their first kKnownTerms terms.
+// A particle touched in an edge pass and the sum of its pushes.
 struct Touched {
   int v;
-  unsigned count;
-  double t[2 * kKnownTerms];
+  std::int64_t qx, qy;
 };
 
 struct Tile {
@@ -70,8 +70,8 @@ struct Tile {
   std::size_t nmoved = 0;
   std::vector<Touched> touched;  // an edge pass's touched particles of this tile
   std::size_t ntouched = 0;
-  std::vector<Remote> remote;    // an edge pass's terms for other tiles' particles (6·kTile)
-  std::size_t nremote = 0;
+  std::vector<Remote> remote[3]; // an edge pass's pushes for the tiles before, after, and others
+  std::size_t nremote[3] = {0, 0, 0};
   std::uint64_t c[kCounters];    // this gather's counters
   std::uint64_t next_hash = 0;   // the edge pass's share of the permutation check
 };
@@ -83,6 +83,7 @@ struct HostWorkspace {
   std::vector<std::int32_t> slot;       // per particle: its index in its tile's `touched`, or −1
   std::vector<Tile> tiles;
   bool edge_pass = true;                // the next iteration is an edge pass
+  std::size_t last_moved = 0;           // particles the last iteration moved
 };
 
 void* host_create(std::size_t n) {
@@ -103,7 +104,7 @@ void* host_create(std::size_t n) {
     tl.moved.resize(m);
     tl.disp.resize(2 * m);
     tl.touched.resize(m);
-    tl.remote.resize(6 * m);
+    for (auto& r : tl.remote) r.resize(6 * m);
   }
   return w;
 }
@@ -111,22 +112,17 @@ void host_destroy(void* p) { delete static_cast<HostWorkspace*>(p); }
 
 inline void flag(std::uint8_t* f, int v) { __atomic_store_n(f + v, std::uint8_t(1), __ATOMIC_RELAXED); }
 
-// A term for particle v of tile tl (only tl's own task, or the one thread handing out the
-// remote terms, writes there): lists v when it is new, keeps the first kKnownTerms terms,
-// counts them all.
-inline void deposit(std::int32_t* slot, Tile& tl, int v, double tx, double ty) {
+// A push for particle v of tile tl (only tl's own task, or the one thread adding the remote
+// pushes, writes there): lists v when it is new, adds the push to its sum.
+inline void deposit(std::int32_t* slot, Tile& tl, int v, std::int64_t qx, std::int64_t qy) {
   std::int32_t& i = slot[std::size_t(v)];
   if (i < 0) {
     i = std::int32_t(tl.ntouched++);
-    tl.touched[std::size_t(i)].v = v;
-    tl.touched[std::size_t(i)].count = 0;
+    tl.touched[std::size_t(i)] = Touched{v, 0, 0};
   }
   Touched& p = tl.touched[std::size_t(i)];
-  if (p.count < kKnownTerms) {
-    p.t[2 * p.count] = tx;
-    p.t[2 * p.count + 1] = ty;
-  }
-  ++p.count;
+  p.qx += qx;
+  p.qy += qy;
 }
 
 // The flagged particles of [t0, t1) into cand, in index order; clears those flags. Returns the
@@ -149,8 +145,17 @@ std::size_t compact(std::uint8_t* flags, std::size_t t0, std::size_t t1, int* ca
 
 constexpr double kLoose = 1 + 1e-9;
 
+// Below this many particles moved in the iteration before, the work of a work-list iteration
+// is a few hundred walks: one thread does it, sparing the threads' start-up (a few µs per
+// loop, three loops per iteration, iterations 3+ at η = 0.5).
+constexpr std::size_t kSerial = 2048;
+
 template <class F>
-void for_each_tile(std::size_t nt, const F& f) {
+void for_each_tile(std::size_t nt, const F& f, bool serial = false) {
+  if (nt == 1 || serial) {
+    for (std::size_t t = 0; t < nt; ++t) f(t);
+    return;
+  }
   if (nt == 1) {
     f(std::size_t(0));
     return;
@@ -163,7 +168,7 @@ void for_each_tile(std::size_t nt, const F& f) {
       tbb::simple_partitioner());
 }
 
-// One tile's share of an edge pass (Check: iteration 0, with the mesh checks): hands the terms
+// One tile's share of an edge pass (Check: iteration 0, with the mesh checks): adds the pushes
 // of its overlapping edges to its own particles and lists the others', counts pairs into tl.c.
 template <bool Check, class R>
 void edge_pass(const Mesh<R>& mesh, Tile& tl, std::int32_t* slot) {
@@ -171,17 +176,20 @@ void edge_pass(const Mesh<R>& mesh, Tile& tl, std::int32_t* slot) {
   std::uint64_t pairs = 0, bad = 0, broken = 0, hash = 0;
   const unsigned t0 = unsigned(tl.t0), size = unsigned(tl.t1 - tl.t0);
   tl.ntouched = 0;
-  std::size_t nremote = 0;
-  auto hand = [&](int v, double tx, double ty) {
-    if (unsigned(v) - t0 < size)
-      deposit(slot, tl, v, tx, ty);
-    else
-      tl.remote[nremote++] = Remote{v, tx, ty};
+  std::size_t nremote[3] = {0, 0, 0};
+  auto add = [&](int v, std::int64_t qx, std::int64_t qy) {
+    if (unsigned(v) - t0 < size) {
+      deposit(slot, tl, v, qx, qy);
+    } else {
+      const int side = unsigned(v) + kTile - t0 < kTile ? 0 : unsigned(v) - t0 - size < kTile ? 1 : 2;
+      tl.remote[side][nremote[side]++] = Remote{v, qx, qy};
+    }
   };
   for (std::size_t e = 3 * tl.t0, e1 = 3 * tl.t1; e < e1; ++e) {
     int a, b;
-    double tx, ty, o;
-    const int r = m.template edge<Check>(e, a, b, tx, ty, o, hash);
+    std::int64_t qx, qy;
+    double o;
+    const int r = m.template edge<Check>(e, a, b, qx, qy, o, hash);
     if (r == kEdgeApart) continue;
     if (r == kEdgeCorrupt) {
       ++broken;
@@ -191,10 +199,10 @@ void edge_pass(const Mesh<R>& mesh, Tile& tl, std::int32_t* slot) {
       ++pairs;
       if (o > m.tol) ++bad;
     }
-    hand(a, tx, ty);
-    hand(b, -tx, -ty);
+    add(a, qx, qy);
+    add(b, -qx, -qy);
   }
-  tl.nremote = nremote;
+  for (int q = 0; q < 3; ++q) tl.nremote[q] = nremote[q];
   tl.c[kBad] = bad;
   tl.c[kPairs] = pairs;
   tl.c[kCorrection] = 0;
@@ -212,6 +220,7 @@ void host_iterate(void* ws, const Problem<R>& p, std::int64_t k0, std::int64_t m
   if (k0 == 0) {
     for (auto& f : w->flags) std::memset(f.data(), 0, f.size());
     w->edge_pass = true;
+    w->last_moved = w->n;
   }
   out.gathers = 0;
   for (int j = 0; j < kBatch; ++j) {
@@ -220,8 +229,9 @@ void host_iterate(void* ws, const Problem<R>& p, std::int64_t k0, std::int64_t m
     std::uint8_t* next = w->flags[(k + 1) & 1].data();
     const bool edge = w->edge_pass;
 
-    // The particles to gather: each tile's touched particles with their terms after an edge
-    // pass, else its flagged particles.
+    std::uint64_t* c = out.counters[j];
+    std::memset(c, 0, kCounters * sizeof(std::uint64_t));
+    out.gathers = j + 1;
     if (edge) {
       for_each_tile(nt, [&](std::size_t t) {
         if (k == 0)
@@ -229,86 +239,94 @@ void host_iterate(void* ws, const Problem<R>& p, std::int64_t k0, std::int64_t m
         else
           edge_pass<false>(mesh, w->tiles[t], w->slot.data());
       });
-      std::uint64_t broken = 0, hash = 0;
+      std::uint64_t hash = 0;
       for (const Tile& tl : w->tiles) {
-        broken += tl.c[kBroken];
+        for (int q = 0; q < kCounters; ++q) c[q] += tl.c[q];
         hash += tl.next_hash;
       }
-      if (k == 0 && (broken || hash != w->next_hash)) {  // corrupt: stop before anything walks it
-        std::uint64_t* c = out.counters[0];
-        std::memset(c, 0, kCounters * sizeof(std::uint64_t));
-        c[kBroken] = broken + (hash != w->next_hash);
-        out.gathers = 1;
-        return;
-      }
+      if (k == 0 && hash != w->next_hash) ++c[kBroken];  // next is not a permutation
+      for (const Tile& tl : w->tiles)  // pushes for tiles that are not neighbours: one thread
+        for (std::size_t i = 0; i < tl.nremote[2]; ++i) {
+          const Remote& r = tl.remote[2][i];
+          deposit(w->slot.data(), w->tiles[std::size_t(r.v) / kTile], r.v, r.qx, r.qy);
+        }
+      const bool go = keeps_going(c, k, max_iterations);
+      // Each tile takes its neighbours' pushes for it, then finishes its touched particles (and
+      // moves them, when going on); clears their slots.
+      for_each_tile(nt, [&](std::size_t t) {
+        Tile& tl = w->tiles[t];
+        for (int side = 0; side < 2; ++side) {
+          const std::size_t from = side == 0 ? t + 1 : t - 1;  // tile t is its side 0 or 1
+          if (from >= nt) continue;
+          const Tile& o = w->tiles[from];
+          for (std::size_t i = 0; i < o.nremote[side]; ++i)
+            deposit(w->slot.data(), tl, o.remote[side][i].v, o.remote[side][i].qx, o.remote[side][i].qy);
+        }
+        std::uint64_t corr = 0;
+        std::size_t nm = 0;
+        for (std::size_t i = 0; i < tl.ntouched; ++i) {
+          const Touched& tp = tl.touched[i];
+          w->slot[std::size_t(tp.v)] = -1;
+          if (!go) continue;
+          const VertexPush q = mesh.from_sum(tp.v, tp.qx, tp.qy);
+          corr += mesh.fixed_len(q.len);
+          if (q.dx != 0 || q.dy != 0) {
+            apply_one(p.pos, p.image, p.box, std::size_t(tp.v), q.dx, q.dy);
+            tl.moved[nm++] = tp.v;
+          } else {
+            flag(next, tp.v);  // overlapping, not moved
+          }
+        }
+        tl.c[kCorrection] = corr;
+        tl.nmoved = nm;
+        std::memset(cur + tl.t0, 0, tl.t1 - tl.t0);  // an edge pass finds every candidate itself
+      });
+      if (!go) return;
+      for (const Tile& tl : w->tiles) c[kCorrection] += tl.c[kCorrection];
+    } else {
+      const bool serial = w->last_moved < kSerial;
+      for_each_tile(nt, [&](std::size_t t) {
+        Tile& tl = w->tiles[t];
+        std::uint64_t tc[kCounters] = {0, 0, 0, 0};
+        std::size_t nm = 0;
+        const std::size_t count = compact(cur, tl.t0, tl.t1, tl.cand.data());
+        for (std::size_t i = 0; i < count; ++i) {
+          const int v = tl.cand[i];
+          const VertexPush q = mesh.gather(v);
+          tc[kBad] += q.bad;
+          tc[kPairs] += q.pairs;
+          tc[kBroken] += q.broken;
+          if (!q.touched) continue;  // d = 0, len = 0
+          tc[kCorrection] += mesh.fixed_len(q.len);
+          if (q.dx != 0 || q.dy != 0) {
+            tl.moved[nm] = v;
+            tl.disp[2 * nm] = q.dx;
+            tl.disp[2 * nm + 1] = q.dy;
+            ++nm;
+          } else {
+            flag(next, v);  // overlapping, not moved
+          }
+        }
+        std::memcpy(tl.c, tc, sizeof tc);
+        tl.nmoved = nm;
+      }, serial);
       for (const Tile& tl : w->tiles)
-        for (std::size_t i = 0; i < tl.nremote; ++i) {
-          const Remote& r = tl.remote[i];
-          deposit(w->slot.data(), w->tiles[std::size_t(r.v) / kTile], r.v, r.tx, r.ty);
-        }
-      std::memset(cur, 0, w->flags[0].size());  // an edge pass finds every candidate itself
+        for (int q = 0; q < kCounters; ++q) c[q] += tl.c[q];
+      if (!keeps_going(c, k, max_iterations)) return;
+      for_each_tile(nt, [&](std::size_t t) {
+        const Tile& tl = w->tiles[t];
+        for (std::size_t i = 0, nm = tl.nmoved; i < nm; ++i)
+          apply_one(p.pos, p.image, p.box, std::size_t(tl.moved[i]), tl.disp[2 * i], tl.disp[2 * i + 1]);
+      }, serial);
     }
-
-    for_each_tile(nt, [&](std::size_t t) {
-      Tile& tl = w->tiles[t];
-      std::uint64_t c[kCounters] = {0, 0, 0, 0};
-      std::size_t count;
-      if (edge) {
-        std::memcpy(c, tl.c, sizeof c);  // this tile's edge pass counted the pairs
-        count = tl.ntouched;
-      } else {
-        count = compact(cur, tl.t0, tl.t1, tl.cand.data());
-      }
-      std::size_t nm = 0;
-      for (std::size_t i = 0; i < count; ++i) {
-        int v;
-        VertexPush q;
-        if (edge) {
-          const Touched& p = tl.touched[i];
-          v = p.v;
-          q = mesh.gather_known(v, p.count, p.t);
-          w->slot[std::size_t(v)] = -1;
-        } else {
-          v = tl.cand[i];
-          q = mesh.gather(v);
-        }
-        c[kBad] += q.bad;
-        c[kPairs] += q.pairs;
-        c[kBroken] += q.broken;
-        if (!q.touched) continue;  // d = 0, len = 0
-        c[kCorrection] += mesh.fixed_len(q.len);
-        if (q.dx != 0 || q.dy != 0) {
-          tl.moved[nm] = v;
-          tl.disp[2 * nm] = q.dx;
-          tl.disp[2 * nm + 1] = q.dy;
-          ++nm;
-        } else {
-          flag(next, v);  // overlapping, not moved
-        }
-      }
-      std::memcpy(tl.c, c, sizeof c);
-      tl.nmoved = nm;
-    });
-
-    std::uint64_t* c = out.counters[j];
-    std::memset(c, 0, kCounters * sizeof(std::uint64_t));
     std::size_t moved = 0;
-    for (const Tile& tl : w->tiles) {
-      for (int q = 0; q < kCounters; ++q) c[q] += tl.c[q];
-      moved += tl.nmoved;
-    }
-    out.gathers = j + 1;
-    if (!keeps_going(c, k, max_iterations)) return;
-
-    for_each_tile(nt, [&](std::size_t t) {
-      const Tile& tl = w->tiles[t];
-      for (std::size_t i = 0, nm = tl.nmoved; i < nm; ++i)
-        apply_one(p.pos, p.image, p.box, std::size_t(tl.moved[i]), tl.disp[2 * i], tl.disp[2 * i + 1]);
-    });
+    for (const Tile& tl : w->tiles) moved += tl.nmoved;
+    w->last_moved = moved;
     w->edge_pass = moved >= w->n / kEdgeMode;
     if (w->edge_pass) continue;  // it finds every overlapping edge itself
     // Flag both ends of each edge of a moved particle that overlaps now (a little beyond the
     // gather's own test r² < σ², so rounding can only add particles, never leave one out).
+    const bool serial = moved < kSerial;
     for_each_tile(nt, [&](std::size_t t) {
       const Tile& tl = w->tiles[t];
       for (std::size_t i = 0, nm = tl.nmoved; i < nm; ++i) {
@@ -330,7 +348,7 @@ void host_iterate(void* ws, const Problem<R>& p, std::int64_t k0, std::int64_t m
         });
         if (any) flag(next, v);
       }
-    });
+    }, serial);
   }
 }
 

@@ -10,8 +10,11 @@
 // gathers only the flagged particles of the block's tile (compacted in index order with a block
 // scan, the flags cleared as they are read). Any edge that overlaps at k + 1 overlapped at k
 // (both ends flagged) or has a moved end (the other end flagged), so every particle left out
-// would have gathered d = 0 and no pairs: the result is the same as gathering everyone, as the
-// CPU loop does. The particles a block moves are kept in a block-private list for its apply.
+// would have gathered d = 0 and no pairs: the result is the same as gathering everyone, the
+// CPU loop's result (kernel.h: pushes are summed in 64-bit fixed point, so the CPU's edge passes
+// and these walks give the same bits). The particles a block moves are kept in a block-private
+// list for its apply. (An edge-pass version of this kernel was tried and is not correct yet:
+// experiments/gpu-edge-pass-fixed-point.patch, PERF.md.)
 //
 // Counters: per-thread sums, a block reduction, then one integer atomic per block into one of
 // kShards copies of each counter (spreading same-address atomics); after the barrier every

@@ -1,25 +1,23 @@
 // overlap_correct per-element math (Carter et al. 2017, sec. 2.3 eq. 4 and sec. 4.4), shared by
 // the CPU and CUDA loops. FF_HD only; nvcc-clean.
 //
-// One iteration is two passes over the particles:
-//   Gather (Mesh::gather): particle v walks the Delaunay edges around it (its fan of outgoing
-//     half-edges, always in the same order: from vertex_edge[v], turning by next(twin(h)), one
-//     8-byte load per neighbour) and sums, for each neighbour u closer than σ_vu = (σ_v + σ_u)/2,
-//     a push of length δ away from u along the line of centres:
-//       reflect: δ = σ_vu − r   (both move by δ: r' = 2σ_vu − r, the pair bounces off contact)
-//       contact: δ = (σ_vu − r)/2  (r' = σ_vu, tangential contact)
-//     The sum is capped at `cap`·σ_v in length (the paper's σ/4 against runaway corrections).
-//     The summation order is fixed by the mesh, so the result is the same bits for any thread
-//     count and on either backend (cuda.cu is compiled without FMA contraction).
-//   Apply (apply_one): x_v += d_v, wrapped into the box (image counts box crossings).
+// The push on particle v from an overlapping neighbour u (closer than σ_vu = (σ_v + σ_u)/2) has
+// length δ, away from u along the line of centres:
+//   reflect: δ = σ_vu − r   (both move by δ: r' = 2σ_vu − r, the pair bounces off contact)
+//   contact: δ = (σ_vu − r)/2  (r' = σ_vu, tangential contact)
+// Each push (pair_term, in double, the same bits from either end with the sign flipped) is
+// rounded to a multiple of 2^-50·unit (unit: the largest diameter at configure), and v's pushes
+// are summed as 64-bit integers: a sum that does not depend on the order, so an edge pass (each
+// pair once, Carter's Algorithm 2, adding each push to both ends) and a walk around v's fan
+// (Mesh::gather) give the same bits, for any thread count and on either backend (cuda.cu is
+// compiled without FMA contraction). The sum is capped at `cap`·σ_v in length (the paper's σ/4
+// against runaway corrections) and applied: x_v += d_v, wrapped into the box (apply_one).
 // Counters (pairs found, pairs beyond the tolerance, summed |d_v| in 64-bit fixed point) are
 // integer sums, hence order-independent too.
 //
-// A particle's gather depends only on its own position and its neighbours', so it gives d_v = 0
-// and no pairs unless it has an overlapping edge. The CUDA loop uses that to gather, after the
-// first iteration, only the particles that can have one (those that had an overlapping edge in
-// the previous iteration, and the neighbours of those that moved): the same values as gathering
-// every particle, so the same bits as the CPU loop, which gathers every particle every time.
+// A particle's d_v depends only on its own position and its neighbours', and is zero with no
+// pairs unless it has an overlapping edge; the loops use that to visit only particles that can
+// have one (cpu.cpp, cuda.cu): the same values as visiting every particle.
 #pragma once
 #include <cmath>
 #include <cstdint>
@@ -44,8 +42,8 @@ inline constexpr double kFixedOne = 4294967296.0;  // 2^32
 inline constexpr double kNoOverlap = -1.0;
 // Mesh::edge's answers.
 inline constexpr int kEdgeApart = 0, kEdgeOverlap = 1, kEdgeCorrupt = -1;
-// Terms an edge pass keeps per particle (gather_known): two, whose sum is order-free.
-inline constexpr unsigned kKnownTerms = 2;
+// Pushes are summed in units of 2^-50·unit: |d| up to 8192 units, resolution 8.9e-16 units.
+inline constexpr double kPushOne = 1125899906842624.0;  // 2^50
 
 FF_HD void add_u64(std::uint64_t* p, std::uint64_t v) {
 #if defined(__CUDA_ARCH__)
@@ -175,7 +173,7 @@ struct Mesh {
   double factor;               // 1 = reflect, 0.5 = contact
   double cap;                  // fraction of σ_v
   double tol;                  // relative overlap that still counts as converged
-  double inv_unit;             // 1 / length unit of the correction counter
+  double inv_unit;             // 1 / length unit (the largest diameter at configure)
 
   // Calls f(u, h) for each neighbour u of v in fan order (h = the half-edge v -> u); returns
   // false when the fan does not close (or an index is out of range: nothing out of range is
@@ -206,23 +204,18 @@ struct Mesh {
     return box.min_image(d, k);
   }
 
-  // The pair (a, b) as a gather of a sees it: returns pair_term's answer for the offset
-  // x_b − x_a, with t the term on a (the term on b is −t).
-  FF_HD double pair(int a, int b, double& tx, double& ty) const {
-    double xa, ya, xb, yb;
-    load_xy(pos, a, xa, ya);
-    load_xy(pos, b, xb, yb);
-    return pair_term(min_image(xb - xa, 0), min_image(yb - ya, 1), double(diameter[a]), double(diameter[b]), factor,
-                     a, b, tx, ty);
-  }
+  // A push in the sums' fixed point (rint is odd: the push of −t is −(that of t)).
+  FF_HD std::int64_t fixed_push(double t) const { return std::int64_t(std::rint(t * (inv_unit * kPushOne))); }
 
-  // Edge e of an edge pass: its ends a, b; whether they overlap (then pair()'s term t on a and
-  // relative overlap o). With Check (the first pass of a step) its next pointers are checked
-  // too: in range, and added to the permutation check. Returns kEdgeApart, kEdgeOverlap, or
-  // kEdgeCorrupt when an index it uses is out of range or the edge is a loop (a = b; nothing
-  // else is read then). Most edges end at the reach test, before any diameter is read.
+  // Edge e of an edge pass: its ends a, b; whether they overlap, and then the push on a in fixed
+  // point (qx, qy; the push on b is −q) and the relative overlap o. With Check (the first pass of
+  // a step) its next pointers are checked too: in range, and added to the permutation check.
+  // Returns kEdgeApart, kEdgeOverlap, or kEdgeCorrupt when an index it uses is out of range or
+  // the edge is a loop (a = b; nothing else is read then). Most edges end at the reach test,
+  // before any diameter is read.
   template <bool Check>
-  FF_HD int edge(std::size_t e, int& a, int& b, double& tx, double& ty, double& o, std::uint64_t& next_hash) const {
+  FF_HD int edge(std::size_t e, int& a, int& b, std::int64_t& qx, std::int64_t& qy, double& o,
+                 std::uint64_t& next_hash) const {
     int na, nb;
     load_edge(he, e, a, na, b, nb);
     if (unsigned(a) >= unsigned(n) || unsigned(b) >= unsigned(n) || a == b) return kEdgeCorrupt;
@@ -246,12 +239,18 @@ struct Mesh {
       ry = box.min_image(ry, 1);
     }
     if (!(rx * rx + ry * ry < reach2)) return kEdgeApart;  // σ_ab ≤ largest diameter
+    double tx, ty;
     o = pair_term(rx, ry, double(diameter[a]), double(diameter[b]), factor, a, b, tx, ty);
-    return o != kNoOverlap ? kEdgeOverlap : kEdgeApart;
+    if (o == kNoOverlap) return kEdgeApart;
+    qx = -fixed_push(tx);
+    qy = -fixed_push(ty);
+    return kEdgeOverlap;
   }
 
-  // (dx, dy), the summed terms of v's overlapping edges, capped at cap·σ_v, into out.
-  FF_HD void finish(double dx, double dy, double sv, VertexPush& out) const {
+  // v's displacement from its summed pushes (qx, qy), capped at cap·σ_v, into out.
+  FF_HD void finish(std::int64_t qx, std::int64_t qy, double sv, VertexPush& out) const {
+    const double to_length = 1.0 / (inv_unit * kPushOne);
+    double dx = double(qx) * to_length, dy = double(qy) * to_length;
     double len = std::sqrt(dx * dx + dy * dy);
     const double limit = cap * sv;
     if (len > limit) {
@@ -265,19 +264,22 @@ struct Mesh {
     out.len = len;
   }
 
-  // Particle v's walk: every edge in fan order (the order of the sum).
+  // Particle v's walk around its fan: every edge, its pushes summed, its pairs counted.
   FF_HD VertexPush gather(int v) const {
     VertexPush out;
     double xv, yv;
     load_xy(pos, v, xv, yv);
     const double sv = double(diameter[v]);
-    double dx = 0, dy = 0;
+    std::int64_t qx = 0, qy = 0;
     out.broken = !for_each_neighbour(v, [&](int u, int) {
       double xu, yu;
       load_xy(pos, u, xu, yu);
+      double tx, ty;
       const double o =
-          pair_push(min_image(xu - xv, 0), min_image(yu - yv, 1), sv, double(diameter[u]), factor, v, u, dx, dy);
+          pair_term(min_image(xu - xv, 0), min_image(yu - yv, 1), sv, double(diameter[u]), factor, v, u, tx, ty);
       if (o != kNoOverlap) {
+        qx -= fixed_push(tx);
+        qy -= fixed_push(ty);
         out.touched = true;
         if (v < u && o > 0) {
           ++out.pairs;
@@ -285,28 +287,16 @@ struct Mesh {
         }
       }
     });
-    finish(dx, dy, sv, out);
+    finish(qx, qy, sv, out);
     return out;
   }
 
-  // What a gather of v gives when its overlapping edges' terms are known already: the first
-  // `count` of t[] in any order when count ≤ 2 (a sum of two terms does not depend on their
-  // order), else its walk (the order of three terms or more is the fan's). Pairs are counted by
-  // the edge pass, not here.
-  FF_HD VertexPush gather_known(int v, unsigned count, const double* t) const {
-    if (count > kKnownTerms) {
-      VertexPush q = gather(v);
-      q.pairs = q.bad = 0;
-      return q;
-    }
+  // What a gather of v gives when an edge pass has summed its pushes already (pairs are counted
+  // by the edge pass, not here).
+  FF_HD VertexPush from_sum(int v, std::int64_t qx, std::int64_t qy) const {
     VertexPush out;
-    out.touched = count > 0;
-    double dx = 0, dy = 0;
-    for (unsigned i = 0; i < count; ++i) {
-      dx -= t[2 * i];
-      dy -= t[2 * i + 1];
-    }
-    finish(dx, dy, double(diameter[v]), out);
+    out.touched = true;
+    finish(qx, qy, double(diameter[v]), out);
     return out;
   }
 
