@@ -176,8 +176,8 @@ struct Mesh {
   double inv_unit;             // 1 / length unit (the largest diameter at configure)
 
   // Calls f(u, h) for each neighbour u of v in fan order (h = the half-edge v -> u); returns
-  // false when the fan does not close (or an index is out of range: nothing out of range is
-  // read).
+  // false when the fan does not close, an index is out of range (nothing out of range is read)
+  // or an edge leads back to v.
   template <class F>
   FF_HD bool for_each_neighbour(int v, F&& f) const {
     const unsigned nh = 6u * unsigned(n);
@@ -187,7 +187,9 @@ struct Mesh {
     do {
       int u, hn;
       load_halfedge(he, h ^ 1, u, hn);  // twin(h) = u -> v; next(twin(h)) leaves v again
-      if (unsigned(u) >= unsigned(n) || unsigned(hn) >= nh) return false;
+      // u == v: a loop edge (a corrupt record); the CPU's edge pass also checks it, the device
+      // finds it here, in iteration 0's walk around every particle.
+      if (unsigned(u) >= unsigned(n) || u == v || unsigned(hn) >= nh) return false;
       f(u, h);
       h = hn;
       if (++steps > kMaxFan) return false;
