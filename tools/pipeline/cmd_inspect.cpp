@@ -40,6 +40,11 @@ int cmd_validate(const std::vector<std::string>& args) {
   std::cout << "rollback snapshot: ";
   if (snap.empty()) std::cout << "none (no stage can request a rollback)";
   for (std::size_t i = 0; i < snap.size(); ++i) std::cout << (i ? ", " : "") << snap[i];
+  const auto on_demand = sim.snapshot_on_demand_fields();
+  if (!on_demand.empty()) {
+    std::cout << "; only on steps that write them: ";
+    for (std::size_t i = 0; i < on_demand.size(); ++i) std::cout << (i ? ", " : "") << on_demand[i];
+  }
   std::cout << "\n";
   return 0;
 }
