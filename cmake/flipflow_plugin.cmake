@@ -18,3 +18,19 @@ function(flipflow_add_plugin)
     CUDA_SEPARABLE_COMPILATION OFF)
   set_property(GLOBAL APPEND PROPERTY FLIPFLOW_PLUGINS ${target})
 endfunction()
+
+# flipflow_overdamped_cpu_flags(<integrate cpu.cpp>)
+#
+# The overdamped integrators' CPU loop draws the Gaussians of 16 particles at once
+# (core/overdamped_cpu.h): AVX2 lanes (x86-64-v3), sqrt without errno, no trapping FP
+# exceptions. No contraction into fma, so the lanes give the same bits as the scalar path
+# (core/rng.h); values are otherwise unchanged. Call from the plugin's CMakeLists.txt.
+function(flipflow_overdamped_cpu_flags source)
+  if(CMAKE_SYSTEM_PROCESSOR MATCHES "x86_64|AMD64" AND CMAKE_CXX_COMPILER_ID MATCHES "GNU|Clang")
+    set_source_files_properties(${source} PROPERTIES COMPILE_OPTIONS
+      "-march=x86-64-v3;-ffp-contract=off;-fno-math-errno;-fno-trapping-math")
+  else()
+    set_source_files_properties(${source} PROPERTIES COMPILE_OPTIONS
+      "-ffp-contract=off;-fno-math-errno")
+  endif()
+endfunction()
