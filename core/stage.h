@@ -72,6 +72,8 @@ struct RunStats {
   std::map<std::string, double> metrics;
 };
 
+class Snapshot;  // core/rollback.h
+
 // A CUDA stage that finds a reason to roll back sets `requested` (non-zero: a stage-defined
 // code) and `particle` from its kernel; the core reads all flags once per step, so no stage
 // waits for the GPU to decide. Zeroed by the core before every attempt.
@@ -85,8 +87,6 @@ struct DeviceRollbackFlag {
 // values from here (not by value from StepContext) can be captured once into a CUDA graph
 // and replayed every step: the core keeps the device copy current (a kernel at the end of a
 // captured step advances it; the host rewrites it after a rollback or a Δt change).
-class Snapshot;  // core/rollback.h
-
 struct StepContext {
   State& state;
   const RunInfo& run;
