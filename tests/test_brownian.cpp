@@ -11,16 +11,10 @@
 #include "support/test_plugins.h"
 
 using namespace ff;
+using ff::test::dry;
 using ff::test::entry;
 
 namespace {
-RunOptions dry(Backend b = Backend::cpu) {
-  RunOptions o;
-  o.dry_run = true;
-  o.backend = b;
-  return o;
-}
-
 template <class R>
 std::vector<double> unwrapped(State& s) {
   Field& x = s.field(fields::position);

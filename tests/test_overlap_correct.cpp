@@ -22,16 +22,10 @@
 #include "support/test_plugins.h"
 
 using namespace ff;
+using ff::test::dry;
 using ff::test::entry;
 
 namespace {
-
-RunOptions dry(Backend b = Backend::cpu) {
-  RunOptions o;
-  o.dry_run = true;
-  o.backend = b;
-  return o;
-}
 
 const Registry& registry() {
   static const auto r = test::registry_with({});

@@ -8,14 +8,10 @@
 #include "support/test_plugins.h"
 
 using namespace ff;
+using ff::test::dry;
 using ff::test::entry;
 
 namespace {
-RunOptions dry() {
-  RunOptions o;
-  o.dry_run = true;
-  return o;
-}
 std::vector<double> positions(Simulation& s) {
   Field& f = s.state().field(fields::position);
   f.acquire(Where::host, Mode::read);

@@ -9,15 +9,11 @@
 #include "support/test_plugins.h"
 
 using namespace ff;
+using ff::test::dry;
 using ff::test::entry;
 using ff::test::EntryOptions;
 
 namespace {
-RunOptions dry() {
-  RunOptions o;
-  o.dry_run = true;
-  return o;
-}
 double metric(const Simulation& s, const std::string& key) {
   auto it = s.stats().metrics.find(key);
   REQUIRE(it != s.stats().metrics.end());

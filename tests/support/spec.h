@@ -6,8 +6,17 @@
 
 #include "core/pipeline_spec.h"
 #include "core/registry.h"
+#include "core/simulation.h"
 
 namespace ff::test {
+
+// Options for a Simulation that writes no files (tests drive it step by step).
+inline RunOptions dry(Backend b = Backend::cpu) {
+  RunOptions o;
+  o.dry_run = true;
+  o.backend = b;
+  return o;
+}
 
 struct EntryOptions {
   std::string id;                          // default: the stage name
