@@ -32,8 +32,8 @@ void copy_field_contents(Field& dst, Field& src, Where where, CUstream_st* strea
 }
 
 Snapshot::Snapshot(std::vector<std::string> fields, std::vector<std::string> on_demand) {
-  for (auto& f : fields) entries_.push_back(Entry{std::move(f), false});
-  for (auto& f : on_demand) entries_.push_back(Entry{std::move(f), true});
+  for (auto& f : fields) entries_.push_back(Entry{std::move(f), false, false, Where::host, nullptr});
+  for (auto& f : on_demand) entries_.push_back(Entry{std::move(f), true, false, Where::host, nullptr});
 }
 
 void Snapshot::copy_in(State& state, Entry& e, CUstream_st* stream) {

@@ -110,7 +110,7 @@ void Scheduler::run_node(int i, std::uint64_t step, std::uint32_t attempt, doubl
     }
 #endif
     StepContext ctx{state_, slot.info, stats_, step, attempt, dt, time, backend_, stream, slot.rng, slot.metrics,
-                    flag,   params, snapshot_};
+                    flag,   params, snapshot_undone_.size() > std::size_t(i) && snapshot_undone_[i] ? snapshot_ : nullptr};
     const auto t0 = std::chrono::steady_clock::now();
     slot.outcome = slot.stage->run(ctx);
 #ifdef FLIPFLOW_HAVE_CUDA

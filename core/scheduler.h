@@ -57,8 +57,13 @@ class Scheduler {
   // Profiling: wait for each stage's device work before stopping its clock, so per-stage
   // times are real on CUDA (serializes streams; `pipeline bench` reports both ways).
   void set_profiling(bool on) { profiling_ = on; }
-  // The rollback snapshot stages reach through StepContext::will_write (null: none).
-  void set_snapshot(Snapshot* snapshot) { snapshot_ = snapshot; }
+  // The rollback snapshot stages reach through StepContext::will_write (null: none), for the
+  // nodes whose writes a rollback must undo (`undone[node]`); the others see no snapshot, so
+  // their announced writes cost no copy.
+  void set_snapshot(Snapshot* snapshot, std::vector<bool> undone) {
+    snapshot_ = snapshot;
+    snapshot_undone_ = std::move(undone);
+  }
   void reset_timers();
   // True once the steady-state step replays a captured CUDA graph.
   bool step_is_captured() const;
@@ -66,6 +71,7 @@ class Scheduler {
  private:
   struct Impl;
   Snapshot* snapshot_ = nullptr;
+  std::vector<bool> snapshot_undone_;  // per node: its writes are in the snapshot
   void run_node(int node, std::uint64_t step, std::uint32_t attempt, double dt, double time);
   void enqueue_compute();  // run every compute stage once (flow graph, or in order for a chain)
   bool run_captured();     // CUDA: replay (capturing first if needed) the step graph

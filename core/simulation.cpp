@@ -75,17 +75,19 @@ void Simulation::make_snapshot() {
   if (requesters.empty()) return;
   const bool host_requests_only = options_.backend == Backend::cpu;
   std::set<std::string> every_step, on_demand;
+  std::vector<bool> undone(graph_->nodes().size(), false);
   for (int j : graph_->compute_nodes()) {
     bool before_a_request = !host_requests_only;
     for (int k : requesters) before_a_request = before_a_request || k == j || !graph_->ordered(k, j);
     if (!before_a_request) continue;
+    undone[j] = true;
     for (auto& a : graph_->nodes()[j].accesses)
       if (writes(a.mode)) (a.on_demand ? on_demand : every_step).insert(a.field);
   }
   for (auto& f : every_step) on_demand.erase(f);
   snapshot_ = std::make_unique<Snapshot>(std::vector<std::string>(every_step.begin(), every_step.end()),
                                          std::vector<std::string>(on_demand.begin(), on_demand.end()));
-  scheduler_->set_snapshot(snapshot_.get());
+  scheduler_->set_snapshot(snapshot_.get(), std::move(undone));
 }
 
 std::vector<std::string> Simulation::snapshot_fields() const {

@@ -101,7 +101,9 @@ struct StepContext {
   Metrics& metrics;
   DeviceRollbackFlag* device_rollback = nullptr;  // device memory; CUDA runs only
   const StepParams* params = nullptr;              // on the stage's side (see StepParams)
-  Snapshot* snapshot = nullptr;                    // the core's rollback snapshot, if any
+  // The core's rollback snapshot; null when nothing can roll back this stage's writes (no
+  // stage may request a rollback, or on the CPU every one that may runs before this stage).
+  Snapshot* snapshot = nullptr;
 
   // Call before first writing a field declared with Access::on_demand in this step: the
   // rollback snapshot takes its copy now (once per step; a no-op when nothing can roll back the

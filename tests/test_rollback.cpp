@@ -165,3 +165,24 @@ TEST_CASE("on the CPU, writes after every stage that may roll back are not copie
   CHECK(sim.stats().rollbacks == 2);
   CHECK(count_value(sim) == 3.0);
 }
+
+TEST_CASE("on the CPU, an on-demand write announced after every stage that may roll back costs no copy",
+          "[rollback]") {
+  auto r = test::registry_with({"brownian"}, {"testing"});
+  // The field is on demand because `before` may write it before the rollback request; `after`
+  // (as delaunay.lawson after detect_inversion) announces its writes too, but nothing can roll
+  // them back, so it is handed no snapshot and its announcement copies nothing.
+  auto s = test::spec(2, 64, 0.2, 3, 0.01,
+                      {entry(*r, "brownian.integrate"),
+                       entry(*r, "testing.count", {{"on_demand", true}}, {"before"}),
+                       entry(*r, "testing.rollback", {{"steps", std::vector<double>{2}}, {"fail_attempts", std::int64_t(1)}}),
+                       entry(*r, "testing.count", {{"on_demand", true}}, {"after"})});
+  Simulation sim(s, *r, dry());
+  CHECK(sim.snapshot_on_demand_fields() == std::vector<std::string>{"testing.count"});
+  sim.run();
+  CHECK(sim.stats().rollbacks == 1);
+  CHECK(sim.stats().metrics.at("before/snapshot") == 1.0);
+  CHECK(sim.stats().metrics.at("after/snapshot") == 0.0);
+  // 3 accepted steps, two increments each; the rolled-back attempt's first increment undone.
+  CHECK(count_value(sim) == 6.0);
+}

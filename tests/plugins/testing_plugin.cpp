@@ -94,6 +94,8 @@ class Record final : public Stage {
 // testing.count: adds 1 to every element of the field `testing.count` (created here, f64, N)
 // each time it runs. With on_demand it declares the write Access::on_demand and, when
 // `announce` is set, calls ctx.will_write first, as a stage that writes only sometimes must.
+// Metric `snapshot`: 1 when the core handed this run a rollback snapshot (its writes can be
+// rolled back), else 0.
 class Count final : public Stage {
  public:
   explicit Count(const ParamValues& v) : on_demand_(v.boolean("on_demand")), announce_(v.boolean("announce")) {}
@@ -103,6 +105,7 @@ class Count final : public Stage {
   void configure(State& s) override { s.add_field("testing.count", DType::f64, 1, s.n()); }
   Outcome run(StepContext& ctx) override {
     if (on_demand_ && announce_) ctx.will_write("testing.count");
+    ctx.metrics.set("snapshot", ctx.snapshot ? 1.0 : 0.0);
     Field& f = ctx.state.field("testing.count");
     for (std::size_t i = 0; i < f.size(); ++i) f.host<double>()[i] += 1;
     return Outcome::ok();

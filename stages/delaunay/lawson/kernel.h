@@ -99,7 +99,11 @@ struct DecideMarked {
 };
 
 // Round pass 3: flip the winners and queue what the next round must test (each edge once,
-// through the `queued` stamps).
+// through the `queued` stamps): the four edges around each flip (their quads changed) and the
+// marked edges that lost (a neighbour's flip changed their quad). A flipped edge itself is not
+// queued: its new quad is the same four points, on which the new edge is locally Delaunay (the
+// in-circle determinant changes sign with the flip; at the default tolerance tol x permanent
+// is far above its rounding, so no retest could mark it), and no other flip of the round touches its two triangles (the winners share none).
 struct ApplyMarked {
   Mesh mesh;
   const std::int32_t* marked_list;
@@ -119,8 +123,9 @@ struct ApplyMarked {
       const int around[4] = {h0n >> 1, mesh.next(h0n) >> 1, h1n >> 1, mesh.next(h1n) >> 1};
       flip_edge(mesh, e);
       for (int k = 0; k < 4; ++k) push(around[k]);
+    } else {
+      push(e);
     }
-    push(e);
   }
 };
 
