@@ -12,8 +12,11 @@ namespace ff {
 // shared counter (list appends): with two threads that counter's cache line moves between cores
 // on every append, which costs more than the elements' own work (delaunay.lawson's apply: ~5
 // appends per flip took 2 ms per step at N = 2^16 in parallel).
+// Element functors are inlined into the loops (flatten): called out of line (through the PLT,
+// as a template in a shared library) detect_inversion's edge test spent a third of its time on
+// the call and on reloading the functor's members for every element.
 template <class F>
-void cpu_serial_for_each(std::size_t n, const F& f, CUstream_st* /*stream*/) {
+__attribute__((flatten)) void cpu_serial_for_each(std::size_t n, const F& f, CUstream_st* /*stream*/) {
   const F local = f;  // see cpu_for_each
   for (std::size_t i = 0; i < n; ++i) local(i);
 }
@@ -25,7 +28,7 @@ void cpu_for_each(std::size_t n, const F& f, CUstream_st* /*stream*/) {
     cpu_serial_for_each(n, f, nullptr);
     return;
   }
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, grain), [&](const tbb::blocked_range<std::size_t>& r) {
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, grain), [&](const tbb::blocked_range<std::size_t>& r) __attribute__((flatten)) {
     // A private copy: the compiler may keep its members in registers across the loop's atomic
     // counter updates, which it must assume can change anything reachable through `f`.
     const F local = f;
