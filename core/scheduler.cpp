@@ -44,9 +44,9 @@ Scheduler::Scheduler(const StepGraph& graph, std::vector<StageSlot>& slots, Stat
   impl_->chain = graph.is_chain();
 #ifdef FLIPFLOW_HAVE_CUDA
   if (backend == Backend::cuda) {
-    bool may_roll_back = false;
-    for (int i : impl_->compute) may_roll_back = may_roll_back || slots[i].stage->may_request_rollback();
-    impl_->streams = std::make_unique<StreamSet>(graph, may_roll_back);
+    bool device_requests = false;
+    for (int i : impl_->compute) device_requests = device_requests || slots[i].stage->requests_rollback_on_device();
+    impl_->streams = std::make_unique<StreamSet>(graph, device_requests);
     bool any_capturable = false;
     impl_->capturable = !impl_->compute.empty();
     for (int i : impl_->compute) {

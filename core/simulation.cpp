@@ -63,17 +63,22 @@ void Simulation::build(const Registry& registry) {
 }
 
 // What a rollback must restore: the writes of every stage that can run before a rollback
-// request is seen. On the CPU a request stops the step at once (the scheduler skips what has
-// not started), so the writes of a stage that runs after every stage that may request one —
+// request is seen. A request returned by run() stops the step at once (the scheduler skips what
+// has not started), so the writes of a stage that runs after every stage that may request one —
 // Lawson flips and the overlap correction after detect_inversion and flip — need no copy. On
-// the device requests could also come from device flags read at the end of the step, so every
-// stage counts. Writes declared on_demand are copied only when the stage announces them.
+// CUDA a stage may also request from its kernels (device flags read at the end of the step);
+// when one may, every stage counts. Writes declared on_demand are copied only when the stage
+// announces them.
 void Simulation::make_snapshot() {
   std::vector<int> requesters;
+  bool device_requests = false;
   for (int i : graph_->compute_nodes())
-    if (slots_[i].stage->may_request_rollback()) requesters.push_back(i);
+    if (slots_[i].stage->may_request_rollback()) {
+      requesters.push_back(i);
+      device_requests = device_requests || slots_[i].stage->requests_rollback_on_device();
+    }
   if (requesters.empty()) return;
-  const bool host_requests_only = options_.backend == Backend::cpu;
+  const bool host_requests_only = options_.backend == Backend::cpu || !device_requests;
   std::set<std::string> every_step, on_demand;
   std::vector<bool> undone(graph_->nodes().size(), false);
   for (int j : graph_->compute_nodes()) {

@@ -102,7 +102,8 @@ struct StepContext {
   DeviceRollbackFlag* device_rollback = nullptr;  // device memory; CUDA runs only
   const StepParams* params = nullptr;              // on the stage's side (see StepParams)
   // The core's rollback snapshot; null when nothing can roll back this stage's writes (no
-  // stage may request a rollback, or on the CPU every one that may runs before this stage).
+  // stage may request a rollback, or every one that may runs before this stage and requests
+  // only from run(): always so on the CPU).
   Snapshot* snapshot = nullptr;
 
   // Call before first writing a field declared with Access::on_demand in this step: the
@@ -127,6 +128,11 @@ class Stage {
   virtual std::vector<std::string> outputs() const { return {}; }
   // True if run() can return request_rollback: only then does the core snapshot the state.
   virtual bool may_request_rollback() const { return false; }
+  // True if, on CUDA, the stage may also ask for a rollback from its kernels
+  // (StepContext::device_rollback, read only at the end of the step, after every later stage
+  // ran). A stage whose requests all come from run() says false: then on CUDA, as on the CPU, a
+  // request stops the step before the stages after it, and their writes need no snapshot.
+  virtual bool requests_rollback_on_device() const { return may_request_rollback(); }
   // True if, on CUDA, run() only enqueues device work on ctx.stream, never synchronizes or
   // reads the host, and takes step-dependent values from ctx.params. When every compute stage
   // says so (and none uses `every`), the core captures the step once as a CUDA graph.

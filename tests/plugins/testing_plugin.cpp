@@ -14,13 +14,19 @@ using namespace ff;
 
 // testing.rollback: on the listed steps, requests a rollback on the first `fail_attempts`
 // attempts, after scrambling the positions (so only a correct restore gives the right answer).
-// With dt_above > 0 it also requests a rollback whenever Δt > dt_above.
+// With dt_above > 0 it also requests a rollback whenever Δt > dt_above. It always requests from
+// run(); with device_requests it says it may also request from kernels on CUDA (as a stage
+// using StepContext::device_rollback would), so the core snapshots the stages after it there.
 class RequestRollback final : public Stage {
  public:
   explicit RequestRollback(const ParamValues& v)
-      : steps_(v.reals("steps")), fail_attempts_(v.integer("fail_attempts")), dt_above_(v.real("dt_above")) {}
+      : steps_(v.reals("steps")),
+        fail_attempts_(v.integer("fail_attempts")),
+        dt_above_(v.real("dt_above")),
+        device_requests_(v.boolean("device_requests")) {}
   std::vector<Access> accesses() const override { return {{fields::position, Where::host, Mode::readwrite}}; }
   bool may_request_rollback() const override { return true; }
+  bool requests_rollback_on_device() const override { return device_requests_; }
   Outcome run(StepContext& ctx) override {
     bool listed = false;
     for (double s : steps_) listed = listed || std::uint64_t(s) == ctx.step;
@@ -39,6 +45,7 @@ class RequestRollback final : public Stage {
   std::vector<double> steps_;
   std::int64_t fail_attempts_;
   double dt_above_;
+  bool device_requests_;
 };
 
 // testing.barrier: two instances with the same `group` wait (bounded) for each other. Metric
@@ -124,9 +131,12 @@ void register_testing(Registry& r) {
   r.declare({"testing.rollback", "requests rollbacks on cue (tests only)",
              {ParamSpec{"steps", ParamType::real_list, ParamValue(std::vector<double>{}), {}, {}, false, {}, "steps to fail"},
               ParamSpec::integer("fail_attempts", 1, "attempts that fail on those steps").at_least(0),
-              ParamSpec::real("dt_above", 0.0, "also fail whenever dt > this (0: never)").at_least(0)},
+              ParamSpec::real("dt_above", 0.0, "also fail whenever dt > this (0: never)").at_least(0),
+              ParamSpec::boolean("device_requests", true, "may also request from kernels on CUDA")},
              {2, 3}, false});
+  // rollback and count act on host fields; on CUDA too (the core keeps host and device coherent).
   r.implement("testing.rollback", Backend::cpu, factory<RequestRollback>());
+  r.implement("testing.rollback", Backend::cuda, factory<RequestRollback>());
   r.declare({"testing.barrier", "waits for its partner stage (tests only)",
              {ParamSpec::integer("group", 0, "rendezvous group").at_least(0).at_most(3),
               ParamSpec::string("field", std::string(), "field to declare as read")},
@@ -142,6 +152,7 @@ void register_testing(Registry& r) {
               ParamSpec::boolean("announce", true, "call will_write before writing (with on_demand)")},
              {2, 3}, false});
   r.implement("testing.count", Backend::cpu, factory<Count>());
+  r.implement("testing.count", Backend::cuda, factory<Count>());
 }
 
 }  // namespace

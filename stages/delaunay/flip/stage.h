@@ -47,6 +47,7 @@ class Flip final : public Stage {
   }
   void configure(State& s) override { add_topology_fields(s, "delaunay.flip"); }
   bool may_request_rollback() const override { return true; }
+  bool requests_rollback_on_device() const override { return false; }  // from run(), after reading counters
 
   Outcome run(StepContext& ctx) override {
     State& s = ctx.state;
