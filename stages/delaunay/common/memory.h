@@ -16,6 +16,9 @@ struct MemOps {
   void (*to_backend)(void* dst, const void* host_src, std::size_t bytes, CUstream_st* s);
   void (*to_host)(void* host_dst, const void* src, std::size_t bytes, CUstream_st* s);  // waits
   void (*copy)(void* dst, const void* src, std::size_t bytes, CUstream_st* s);         // same side
+  // Every byte of [dst, dst + bytes) to `byte`, stream-ordered. On CUDA a memset node: unlike an
+  // upload from pageable host memory it never waits for the stream.
+  void (*fill)(void* dst, int byte, std::size_t bytes, CUstream_st* s);
 };
 
 MemOps cpu_mem_ops();
@@ -52,28 +55,30 @@ class Scratch {
 };
 
 // K unsigned counters: reset() before a group of loops, read() after them (waits on the stream).
+// Writes are fills (memsets), never uploads: on CUDA an upload from pageable host memory may
+// wait for the stream, which between two rounds of loops stalls the host for a whole round.
 template <int K>
 class Counters {
  public:
   explicit Counters(const MemOps& ops) : ops_(ops), buf_(ops) {}
 
   unsigned* ptr() { return buf_.get(K); }
-  // Counts start at 0; slots listed in `min_slots` start at ~0u (they keep a minimum).
+  // Counts start at 0; slots listed in `min_slots` start at ~0u (they keep a minimum). One fill
+  // per run of equal start values: keep the minimum slots together in the enum.
   template <std::size_t M>
   void reset(const std::array<int, M>& min_slots, CUstream_st* s) {
-    host_.fill(0u);
-    for (int slot : min_slots) host_[slot] = ~0u;
-    ops_.to_backend(ptr(), host_.data(), sizeof(unsigned) * K, s);
-  }
-  // Set one slot (the others keep what the loops left there).
-  void set(int slot, unsigned value, CUstream_st* s) {
-    host_[slot] = value;
-    ops_.to_backend(ptr() + slot, host_.data() + slot, sizeof(unsigned), s);
+    bool ones[K] = {};
+    for (int slot : min_slots) ones[slot] = true;
+    for (int k = 0; k < K;) {
+      int end = k + 1;
+      while (end < K && ones[end] == ones[k]) ++end;
+      ops_.fill(ptr() + k, ones[k] ? 0xFF : 0, sizeof(unsigned) * std::size_t(end - k), s);
+      k = end;
+    }
   }
   // Zero slots [first, first + count) only (the others keep what the loops left there).
   void zero(int first, int count, CUstream_st* s) {
-    for (int k = first; k < first + count; ++k) host_[k] = 0u;
-    ops_.to_backend(ptr() + first, host_.data() + first, sizeof(unsigned) * count, s);
+    ops_.fill(ptr() + first, 0, sizeof(unsigned) * std::size_t(count), s);
   }
   const std::array<unsigned, K>& read(CUstream_st* s) {
     ops_.to_host(host_.data(), ptr(), sizeof(unsigned) * K, s);

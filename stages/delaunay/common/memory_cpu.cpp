@@ -17,8 +17,11 @@ void host_release(void* p) { std::free(p); }
 void host_copy(void* dst, const void* src, std::size_t bytes, CUstream_st*) {
   if (bytes) std::memcpy(dst, src, bytes);
 }
+void host_fill(void* dst, int byte, std::size_t bytes, CUstream_st*) {
+  if (bytes) std::memset(dst, byte, bytes);
+}
 }  // namespace
 
-MemOps cpu_mem_ops() { return {&host_alloc, &host_release, &host_copy, &host_copy, &host_copy}; }
+MemOps cpu_mem_ops() { return {&host_alloc, &host_release, &host_copy, &host_copy, &host_copy, &host_fill}; }
 
 }  // namespace ff::delaunay

@@ -17,7 +17,7 @@ void dev_release(void* p) {
   if (p) cudaFree(p);
 }
 void dev_upload(void* dst, const void* src, std::size_t bytes, CUstream_st* s) {
-  if (bytes) FF_CUDA_CHECK(cudaMemcpyAsync(dst, src, bytes, cudaMemcpyHostToDevice, s), "resetting delaunay counters");
+  if (bytes) FF_CUDA_CHECK(cudaMemcpyAsync(dst, src, bytes, cudaMemcpyHostToDevice, s), "uploading to a delaunay buffer");
 }
 void dev_download(void* dst, const void* src, std::size_t bytes, CUstream_st* s) {
   if (!bytes) return;
@@ -27,8 +27,11 @@ void dev_download(void* dst, const void* src, std::size_t bytes, CUstream_st* s)
 void dev_copy(void* dst, const void* src, std::size_t bytes, CUstream_st* s) {
   if (bytes) FF_CUDA_CHECK(cudaMemcpyAsync(dst, src, bytes, cudaMemcpyDeviceToDevice, s), "copying a delaunay buffer");
 }
+void dev_fill(void* dst, int byte, std::size_t bytes, CUstream_st* s) {
+  if (bytes) FF_CUDA_CHECK(cudaMemsetAsync(dst, byte, bytes, s), "resetting delaunay counters");
+}
 }  // namespace
 
-MemOps cuda_mem_ops() { return {&dev_alloc, &dev_release, &dev_upload, &dev_download, &dev_copy}; }
+MemOps cuda_mem_ops() { return {&dev_alloc, &dev_release, &dev_upload, &dev_download, &dev_copy, &dev_fill}; }
 
 }  // namespace ff::delaunay

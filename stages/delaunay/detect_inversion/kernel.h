@@ -22,20 +22,21 @@
 
 namespace ff::delaunay {
 
-// Counter slots (unsigned); *_at slots hold the lowest edge / half-edge id of the event.
+// Counter slots (unsigned); *_at slots hold the lowest edge / half-edge id of the event (they
+// start at ~0u and come last, so a reset is two fills).
 enum InversionCounter : int {
   kInverted = 0,      // inverted (non-positive) triangles, each counted once
   kMarked,            // edges marked for a repair flip
   kThrough,           // edges whose vector reversed (r⁰·r¹ < 0)
-  kThroughAt,         //   lowest such edge
   kTwice,             // edges with both triangles inverted
-  kTwiceAt,           //   lowest such edge
   kUnrepairable,      // inverted triangles without exactly one repairing edge
-  kUnrepairableAt,    //   lowest canonical half-edge of such a triangle
   kTooLong,           // edges with a triangle that does not close under minimum image
-  kTooLongAt,         //   lowest such edge
   kRepairFlips,       // flips done by DecideFlips (delaunay.flip)
   kCandidateCount,    // edges appended to `candidates` (may exceed its capacity)
+  kThroughAt,         // lowest edge counted in kThrough
+  kTwiceAt,           // lowest edge counted in kTwice
+  kUnrepairableAt,    // lowest canonical half-edge of a triangle counted in kUnrepairable
+  kTooLongAt,         // lowest edge counted in kTooLong
   kInversionCounters
 };
 

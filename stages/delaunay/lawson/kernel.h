@@ -51,16 +51,18 @@ struct MarkNonDelaunay {
   Points<R> pts;
   double tol;                // relative to the in-circle permanent
   const std::int32_t* list;  // edges to test, or nullptr for 0 .. n-1
-  const unsigned* list_len;  // device-side length of `list` (the launch covers an upper bound)
+  const unsigned* list_len;  // backend-side length of `list` (the launch covers an upper bound),
+                             // or nullptr: the length is list_count (the launch's own size)
   std::int32_t* marked;      // per edge: round in which it was last marked
   std::int32_t round;
   std::int32_t* marked_list;
   unsigned* counters;
+  unsigned list_count = 0;
 
   FF_HD void operator()(std::size_t i) const {
     int e = int(i);
     if (list) {
-      const std::size_t len = *list_len;
+      const std::size_t len = list_len ? *list_len : list_count;
       if (i >= len) return;
       e = list[i];
       if (i + 2 * kPrefetchAhead < len) prefetch_quad_records(mesh, list[i + 2 * kPrefetchAhead]);

@@ -89,6 +89,7 @@ class Lawson final : public Stage {
     counters_.reset(std::array<int, 1>{kLawsonTooLongAt}, st);
     std::size_t launch = E;             // round 0 tests every edge ...
     const std::int32_t* test = nullptr;
+    const unsigned* test_len = nullptr;  // later rounds: the list's length, on the backend
     // ... or only detect_inversion's candidates (a superset of the edges round 0 would mark),
     // when they are current: no flip or rebuild since (status kCandidates) and nothing wrote
     // the positions since (their Field::version, recorded by detect_inversion).
@@ -99,15 +100,15 @@ class Lawson final : public Stage {
     // in principle round differently there (FMA contraction on the device), so test all.
     if (hint > 0 && p_.tolerance >= 1e-13 &&
         position_version(status(s)) == s.field(ff::fields::position).version()) {
-      launch = unsigned(hint - 1);
-      counters_.set(kLawsonQueued, unsigned(launch), st);  // the list's length, read by round 0
+      launch = unsigned(hint - 1);  // the list's length: the launch's own size
       test = data<std::int32_t>(s.field(fields::lawson_candidates), where_);
     }
     unsigned flips = 0;
     std::int64_t rounds = 0;  // rounds that flipped something
     for (;;) {
       const std::int32_t round = ++round_;
-      ops_.mark(launch, MarkNonDelaunay<R>{m, pts, p_.tolerance, test, c + kLawsonQueued, marked, round, marked_list, c},
+      ops_.mark(launch,
+                MarkNonDelaunay<R>{m, pts, p_.tolerance, test, test_len, marked, round, marked_list, c, unsigned(launch)},
                 st);
       const auto& h = counters_.read(st);
       throw_if_too_long_flip(s, h[kLawsonTooLong], h[kLawsonTooLongAt], st);
@@ -124,6 +125,7 @@ class Lawson final : public Stage {
       ops_.decide(n_marked, DecideMarked{m, marked, round, marked_list, go, c}, st);
       ops_.apply(n_marked, ApplyMarked{m, marked_list, go, queued, round + 1, list, c}, st);
       test = list;
+      test_len = c + kLawsonQueued;
       launch = std::min<std::size_t>(5 * std::size_t(n_marked), E);
       ++rounds;
     }
