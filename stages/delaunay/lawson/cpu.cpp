@@ -1,16 +1,82 @@
-#include "core/exec_cpu.h"
+// CPU loops of delaunay.lawson. The per-edge math is kernel.h's (marks, wins, apply); what
+// differs from the device is how the lists are filled. Nearly every element of a round appends
+// to a list, and on the host one shared counter bumped from two threads moves its cache line
+// between the cores on every append (Lawson took 2 ms per step at N = 2^16 that way). So each
+// chunk of elements fills its own list, and the chunks' lists are appended in chunk order
+// afterwards: no shared counter, and the lists' order no longer depends on the thread count.
+#include <oneapi/tbb/blocked_range.h>
+#include <oneapi/tbb/parallel_for.h>
+#include <oneapi/tbb/partitioner.h>
+
+#include <algorithm>
+#include <vector>
+
 #include "stages/delaunay/lawson/cpu.h"
 
 namespace ff::delaunay {
 
-// Lists are short (a few thousand edges per step at N = 2^16) and their elements append to
-// shared lists: marking runs on one thread up to 16384 edges (most of what it tests is marked
-// in round 0, detect_inversion's candidates), deciding and applying always (nearly every
-// element bumps the flip count or the next round's list).
+namespace {
+
+constexpr std::size_t kChunk = 1024;  // elements per task: a few tasks per round at N = 2^16
+
+// Calls body(i, out) for i in [0, n), chunk by chunk on the oneTBB threads (out: the chunk's
+// own list), then appends the chunks' lists to list[*len ...] in chunk order and adds their
+// total to *len.
+template <class Body>
+void append_by_chunks(std::size_t n, std::int32_t* list, unsigned* len, const Body& body) {
+  const std::size_t chunks = (n + kChunk - 1) / kChunk;
+  std::vector<std::vector<std::int32_t>> out(chunks);
+  auto run = [&](std::size_t c) __attribute__((flatten)) {
+    std::vector<std::int32_t>& o = out[c];
+    o.reserve(std::min(kChunk, n - c * kChunk));
+    for (std::size_t i = c * kChunk, end = std::min(n, i + kChunk); i < end; ++i) body(i, o);
+  };
+  if (chunks <= 1) {
+    for (std::size_t c = 0; c < chunks; ++c) run(c);
+  } else {
+    tbb::parallel_for(
+        tbb::blocked_range<std::size_t>(0, chunks, 1),
+        [&](const tbb::blocked_range<std::size_t>& r) {
+          for (std::size_t c = r.begin(); c != r.end(); ++c) run(c);
+        },
+        tbb::simple_partitioner());
+  }
+  unsigned at = *len;
+  for (const auto& o : out) {
+    std::copy(o.begin(), o.end(), list + at);
+    at += unsigned(o.size());
+  }
+  *len = at;
+}
+
+template <class R>
+void mark(std::size_t n, const MarkNonDelaunay<R>& f, CUstream_st*) {
+  const std::size_t len = f.length(n);
+  append_by_chunks(len, f.marked_list, f.counters + kLawsonMarked, [&](std::size_t i, std::vector<std::int32_t>& out) {
+    const int e = f.edge_at(i, len);
+    if (f.marks(e)) out.push_back(e);
+  });
+}
+
+void decide(std::size_t n, const DecideMarked& f, CUstream_st*) {
+  unsigned flips = 0;
+  for (std::size_t i = 0; i < n; ++i) flips += f.wins(f.marked_list[i]) ? 1u : 0u;
+  f.counters[kLawsonFlips] += flips;
+}
+
+void apply(std::size_t n, const ApplyMarked& f, CUstream_st*) {
+  append_by_chunks(n, f.next_list, f.counters + kLawsonQueued, [&](std::size_t i, std::vector<std::int32_t>& out) {
+    int q[4];
+    const int k = f.apply(f.marked_list[i], q);
+    out.insert(out.end(), q, q + k);
+  });
+}
+
+}  // namespace
+
 template <class R>
 LawsonOps<R> lawson_cpu_ops() {
-  return {&cpu_for_each<MarkNonDelaunay<R>, 16384>, &cpu_serial_for_each<DecideMarked>,
-          &cpu_serial_for_each<ApplyMarked>, cpu_mem_ops()};
+  return {&mark<R>, &decide, &apply, cpu_mem_ops()};
 }
 template LawsonOps<float> lawson_cpu_ops<float>();
 template LawsonOps<double> lawson_cpu_ops<double>();

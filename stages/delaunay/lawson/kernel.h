@@ -59,24 +59,33 @@ struct MarkNonDelaunay {
   unsigned* counters;
   unsigned list_count = 0;
 
-  FF_HD void operator()(std::size_t i) const {
-    int e = int(i);
-    if (list) {
-      const std::size_t len = list_len ? *list_len : list_count;
-      if (i >= len) return;
-      e = list[i];
-      if (i + 2 * kPrefetchAhead < len) prefetch_quad_records(mesh, list[i + 2 * kPrefetchAhead]);
-      if (i + kPrefetchAhead < len) prefetch_quad_points(mesh, pts.p, (const R*)nullptr, list[i + kPrefetchAhead]);
-    }
+  // How many elements the launch really has (the list's length; n for all edges).
+  FF_HD std::size_t length(std::size_t n) const { return list ? (list_len ? *list_len : list_count) : n; }
+  // The edge of element i < length (prefetching those a few elements ahead on the host).
+  FF_HD int edge_at(std::size_t i, std::size_t len) const {
+    if (!list) return int(i);
+    if (i + 2 * kPrefetchAhead < len) prefetch_quad_records(mesh, list[i + 2 * kPrefetchAhead]);
+    if (i + kPrefetchAhead < len) prefetch_quad_points(mesh, pts.p, (const R*)nullptr, list[i + kPrefetchAhead]);
+    return list[i];
+  }
+  // Tests edge e; true (and stamps it) when it is to be flipped in this round.
+  FF_HD bool marks(int e) const {
     const QuadVertices q = quad_vertices(mesh, e);
     const V2 ab = pts.rel(q.a, q.b), ac = pts.rel(q.a, q.c), ad = pts.rel(q.a, q.d);
-    if (!wants_flip(ab, ac, ad, tol)) return;
+    if (!wants_flip(ab, ac, ad, tol)) return false;
     if (!is_min_image(ad - ac, pts.box)) {
       record(counters, kLawsonTooLong, kLawsonTooLongAt, unsigned(e));
-      return;
+      return false;
     }
     marked[e] = round;
-    marked_list[append_index(counters + kLawsonMarked, 1)] = e;
+    return true;
+  }
+  // The device loop: one element per thread, appended to the shared list.
+  FF_HD void operator()(std::size_t i) const {
+    const std::size_t len = length(~std::size_t(0));
+    if (i >= len) return;
+    const int e = edge_at(i, len);
+    if (marks(e)) marked_list[append_index(counters + kLawsonMarked, 1)] = e;
   }
 };
 
@@ -89,14 +98,17 @@ struct DecideMarked {
   std::uint8_t* go;  // per edge, meaningful for listed edges only
   unsigned* counters;
 
-  FF_HD void operator()(std::size_t i) const {
-    const int e = marked_list[i];
+  // Decides marked edge e (go[e]); true when it flips.
+  FF_HD bool wins(int e) const {
     const int h0n = mesh.next(2 * e), h1n = mesh.next(2 * e + 1);
     const int around[4] = {h0n >> 1, mesh.next(h0n) >> 1, h1n >> 1, mesh.next(h1n) >> 1};
     bool win = true;
     for (int k = 0; k < 4; ++k) win = win && !(around[k] < e && marked[around[k]] == round);
     go[e] = win ? 1 : 0;
-    if (win) count_one(counters + kLawsonFlips);
+    return win;
+  }
+  FF_HD void operator()(std::size_t i) const {
+    if (wins(marked_list[i])) count_one(counters + kLawsonFlips);
   }
 };
 
@@ -115,18 +127,27 @@ struct ApplyMarked {
   std::int32_t* next_list;
   unsigned* counters;
 
-  FF_HD void push(int e) const {
-    if (claim(queued, e, next_round)) next_list[append_index(counters + kLawsonQueued, 1)] = e;
-  }
-  FF_HD void operator()(std::size_t i) const {
-    const int e = marked_list[i];
+  // Flips marked edge e when it won; writes the edges this queues (claimed: no other element
+  // queues them again in this round) to out and returns how many (at most 4).
+  FF_HD int apply(int e, int out[4]) const {
+    int n = 0;
     if (go[e]) {
       const int h0n = mesh.next(2 * e), h1n = mesh.next(2 * e + 1);
       const int around[4] = {h0n >> 1, mesh.next(h0n) >> 1, h1n >> 1, mesh.next(h1n) >> 1};
       flip_edge(mesh, e);
-      for (int k = 0; k < 4; ++k) push(around[k]);
-    } else {
-      push(e);
+      for (int k = 0; k < 4; ++k)
+        if (claim(queued, around[k], next_round)) out[n++] = around[k];
+    } else if (claim(queued, e, next_round)) {
+      out[n++] = e;
+    }
+    return n;
+  }
+  FF_HD void operator()(std::size_t i) const {
+    int out[4];
+    const int n = apply(marked_list[i], out);
+    if (n) {
+      const unsigned at = append_index(counters + kLawsonQueued, unsigned(n));
+      for (int k = 0; k < n; ++k) next_list[at + unsigned(k)] = out[k];
     }
   }
 };
