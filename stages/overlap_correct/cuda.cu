@@ -1,20 +1,37 @@
 // CUDA loop of overlap_correct: one persistent cooperative kernel per step runs the whole
-// iteration (gather, grid barrier, decide, apply, grid barrier, ...) on the device and reports
-// every gather's counters with one read-back. Compiled with -fmad=false (CMakeLists.txt):
-// without contracted multiply-adds the per-particle math (kernel.h) rounds exactly as on the
-// CPU, so both backends produce the same bits in double.
+// iteration (gather, grid barrier, decide, apply, grid barrier, check, ...) on the device and
+// reports every gather's counters with one read-back. Compiled with -fmad=false
+// (CMakeLists.txt): without contracted multiply-adds the per-particle math (kernel.h) rounds
+// exactly as on the CPU, so both backends produce the same bits in double.
 //
-// Work lists. Block b owns the particles [b·T, (b+1)·T). Iteration 0 gathers all of them.
-// A gather flags (one byte per particle, in the array of the next iteration) each particle that
-// had an overlapping edge, and every neighbour of each particle that moved; iteration k + 1
-// gathers only the flagged particles of the block's tile (compacted in index order with a block
-// scan, the flags cleared as they are read). Any edge that overlaps at k + 1 overlapped at k
-// (both ends flagged) or has a moved end (the other end flagged), so every particle left out
-// would have gathered d = 0 and no pairs: the result is the same as gathering everyone, the
+// Work lists (the CPU's rule, cpu.cpp). Block b owns the particles [b·T, (b+1)·T). Iteration 0
+// gathers all of them. Each gather lists, block-private, the particles it touched (an
+// overlapping edge): those that moved, with their displacements, and those that did not (d = 0).
+// After the apply and a grid barrier, the check marks the candidates of iteration k + 1:
+//   - each touched particle that did not move;
+//   - both ends of each edge of a moved particle that overlaps at the new positions (tested
+//     with r² < σ²·(1 + 1e-9), a superset of the gather's own test r² < σ², whose r² is the same
+//     bits from either end, so rounding can only add particles).
+// An edge that overlaps at k + 1 either has a moved end (then the check of that end marks both)
+// or had both ends fixed, so it overlapped at k already, both ends were touched, and an end
+// that did not move is marked as such (an end that moved was checked). So every particle left
+// out would have gathered d = 0 and no pairs: the result is the same as gathering everyone, the
 // CPU loop's result (kernel.h: pushes are summed in 64-bit fixed point, so the CPU's edge passes
-// and these walks give the same bits). The particles a block moves are kept in a block-private
-// list for its apply. (An edge-pass version of this kernel was tried and is not correct yet:
-// experiments/gpu-edge-pass-fixed-point.patch, PERF.md.)
+// and these walks give the same bits). The rule before (every neighbour of a moved particle)
+// gathered 2.3x as many in iteration 1 at 2^20 (988k against 429k; PERF.md); the check costs a
+// third grid barrier per iteration and walks each moved particle once, as the flagging did.
+//
+// Marks are one byte per particle. While many particles move, they are plain stores, and after a
+// grid barrier each block compacts the marks of its tile (in index order, clearing them). Once an
+// iteration moves at most kTailMoved particles, the remaining iterations run in block 0 alone with
+// __syncthreads only (an iteration of a few hundred particles took ~20 µs on the grid, ~13 µs in
+// one block, whose time is then the chains of dependent loads of its walks): the check of that
+// iteration (all blocks, then one last grid barrier) and each one after claims a mark with a word
+// atomic and lists the particle that claimed it first in one global list, which block 0 gathers
+// (clearing each mark) without scanning every tile. Block 0's lists then span the whole arrays
+// (grid·tile ≥ N entries; a particle is listed once an iteration).
+// The same particles are gathered either way; only who gathers them differs. (Tried and not in,
+// being slower: edge passes, and the check fused with the next gather: experiments/, PERF.md.)
 //
 // Counters: per-thread sums, a block reduction, then one integer atomic per block into one of
 // kShards copies of each counter (spreading same-address atomics); after the barrier every
@@ -38,19 +55,26 @@ constexpr int kThreads = 256;
 constexpr int kWarps = kThreads / 32;
 constexpr int kShards = 8;
 constexpr int kShardStride = 4;  // u64 between shards: one 32-byte sector each
-constexpr std::size_t kSlotWords = std::size_t(kBatch) * kCounters * kShards * kShardStride;
+// A device-side counter beyond kernel.h's: particles moved (summed over the blocks like the
+// others; decides when the tail starts, not reported to the host).
+constexpr int kMoved = kCounters, kDevCounters = kCounters + 1;
+constexpr std::size_t kSlotWords = std::size_t(kBatch) * kDevCounters * kShards * kShardStride;
 constexpr std::size_t kResultWords = std::size_t(kBatch) * kCounters + 1;  // + gathers run
+constexpr double kLoose = 1 + 1e-9;
+// Iterations after one that moved at most this many particles run in block 0 alone (PERF.md).
+constexpr int kTailMoved = 512;
 
 using u64 = unsigned long long;
 
 template <class R>
 struct Args {
   Problem<R> p;
-  std::uint8_t* flags[2];  // 2 x grid·tile bytes, one per particle (padding never set)
-  int* cand;               // grid·tile: each block's candidates, tile-private
-  int* moved;              // grid·tile: each block's moved particles
-  double2* disp;           // grid·tile: their displacements
-  u64* slots;              // kBatch x kCounters x kShards (sharded counters, zeroed per launch)
+  std::uint8_t* marks;     // grid·tile bytes, one per particle (padding never set): next candidates
+  int* cand;               // grid·tile: each block's candidates, tile-private; in the tail, the claimed
+  int* seed;               // grid·tile: each block's touched particles, v if it moved, ~v if not
+  double2* disp;           // grid·tile: the displacements of the moved ones
+  u64* slots;              // kBatch x kDevCounters x kShards (sharded counters, zeroed per launch)
+  u64* claims;             // entries of cand claimed for the tail (zeroed per launch)
   u64* result;             // kBatch x kCounters + 1 (block 0 writes the sums and the gather count)
   int tile;                // particles per block, a multiple of 16
   long long k0;
@@ -80,13 +104,13 @@ __device__ int block_scan(int c, int* total, int* s_warp) {
   return before + x - c;
 }
 
-// The flagged particles of [t0, t0 + tile) into cand, in index order; clears those flags.
-__device__ int compact(std::uint8_t* flags, int t0, int tile, int* cand, int* s_warp) {
+// The marked particles of [t0, t0 + tile) into cand, in index order; clears those marks.
+__device__ int compact(std::uint8_t* marks, int t0, int tile, int* cand, int* s_warp) {
   int count = 0;
   for (int base = 0; base < tile; base += 16 * kThreads) {
     const int off = base + 16 * int(threadIdx.x);
     uint4 w = make_uint4(0, 0, 0, 0);
-    auto* p = reinterpret_cast<uint4*>(flags + t0 + off);
+    auto* p = reinterpret_cast<uint4*>(marks + t0 + off);
     if (off < tile) w = __ldcg(p);
     const int c = __popc(w.x) + __popc(w.y) + __popc(w.z) + __popc(w.w);  // bytes are 0 or 1
     int total;
@@ -105,6 +129,17 @@ __device__ int compact(std::uint8_t* flags, int t0, int tile, int* cand, int* s_
   return count;
 }
 
+// Marks u as a candidate of the next iteration: a plain store, or (claim) a word atomic whose
+// first taker lists u in cand.
+__device__ void mark(std::uint8_t* marks, int u, bool claim, int* cand, u64* claims) {
+  if (!claim) {
+    marks[u] = 1;
+    return;
+  }
+  const unsigned bit = 1u << (8 * (u & 3));
+  if (!(atomicOr(reinterpret_cast<unsigned*>(marks) + (u >> 2), bit) & bit)) cand[atomicAdd(claims, 1ull)] = int(u);
+}
+
 __device__ u64 warp_sum(u64 x) {
 #pragma unroll
   for (int o = 16; o > 0; o >>= 1) x += __shfl_down_sync(0xffffffffu, x, o);
@@ -115,42 +150,58 @@ template <class R, int MinBlocks>
 __global__ void __launch_bounds__(kThreads, MinBlocks) correct_kernel(Args<R> a) {
   cg::grid_group grid = cg::this_grid();
   __shared__ int s_warp[kWarps];
-  __shared__ int s_moved;
+  __shared__ int s_seeds, s_moved, s_count;
   __shared__ u64 s_red[kCounters][kWarps];
-  __shared__ u64 s_tot[kCounters];
+  __shared__ u64 s_tot[kDevCounters];
 
   const Mesh<R>& mesh = a.p.mesh;
   const int n = int(a.p.n);
   const int t0 = int(blockIdx.x) * a.tile;
   const int t1 = min(n, t0 + a.tile);
-  const std::size_t mine = std::size_t(blockIdx.x) * a.tile;
+  const std::size_t mine = std::size_t(blockIdx.x) * a.tile;  // 0 for block 0: its tail lists span all
   int* cand = a.cand + mine;
-  int* moved = a.moved + mine;
+  int* seed = a.seed + mine;
   double2* disp = a.disp + mine;
   const int lane = threadIdx.x & 31, warp = threadIdx.x >> 5;
   const int shard = int(blockIdx.x % kShards) * kShardStride;
+  bool tail = false;  // block 0 alone runs the iterations
 
   for (int j = 0; j < kBatch; ++j) {
     const long long k = a.k0 + j;
-    std::uint8_t* next = a.flags[(k + 1) & 1];
-    const int count = k == 0 ? max(0, t1 - t0) : compact(a.flags[k & 1], t0, a.tile, cand, s_warp);
-    if (threadIdx.x == 0) s_moved = 0;
+    int count;
+    if (k == 0) {
+      count = max(0, t1 - t0);
+    } else if (!tail) {
+      count = compact(a.marks, t0, a.tile, cand, s_warp);
+    } else {
+      if (threadIdx.x == 0) {
+        s_count = int(__ldcg(a.claims));
+        *a.claims = 0;
+      }
+      __syncthreads();
+      count = s_count;
+    }
+    if (threadIdx.x == 0) s_seeds = s_moved = 0;
     __syncthreads();
 
     u64 c[kCounters] = {0, 0, 0, 0};
     for (int i = int(threadIdx.x); i < count; i += kThreads) {
-      const int v = k == 0 ? t0 + i : cand[i];
+      const int v = k == 0 ? t0 + i : __ldcg(cand + i);
+      if (tail)  // its claim: cleared for the next check
+        atomicAnd(reinterpret_cast<unsigned*>(a.marks) + (v >> 2), ~(1u << (8 * (v & 3))));
       const VertexPush q = mesh.gather(v);
       c[kBad] += q.bad;
       c[kPairs] += q.pairs;
       c[kCorrection] += mesh.fixed_len(q.len);
       c[kBroken] += q.broken;
-      if (q.touched) next[v] = 1;
-      if (q.dx != 0 || q.dy != 0) {
-        const int m = atomicAdd(&s_moved, 1);
-        moved[m] = v;
-        disp[m] = make_double2(q.dx, q.dy);
-        mesh.for_each_neighbour(v, [&](int u, int) { next[u] = 1; });
+      if (q.touched) {
+        const bool moves = q.dx != 0 || q.dy != 0;
+        const int m = atomicAdd(&s_seeds, 1);
+        seed[m] = moves ? v : ~v;
+        if (moves) {
+          disp[m] = make_double2(q.dx, q.dy);
+          atomicAdd(&s_moved, 1);
+        }
       }
     }
 #pragma unroll
@@ -159,40 +210,89 @@ __global__ void __launch_bounds__(kThreads, MinBlocks) correct_kernel(Args<R> a)
       if (lane == 0) s_red[q][warp] = s;
     }
     __syncthreads();
-    if (threadIdx.x < kCounters) {
+    if (threadIdx.x < kDevCounters) {
       u64 s = 0;
+      if (threadIdx.x < kCounters) {
 #pragma unroll
-      for (int w = 0; w < kWarps; ++w) s += s_red[threadIdx.x][w];
-      if (s) atomicAdd(a.slots + (std::size_t(j) * kCounters + threadIdx.x) * kShards * kShardStride + shard, s);
+        for (int w = 0; w < kWarps; ++w) s += s_red[threadIdx.x][w];
+      } else {
+        s = u64(s_moved);
+      }
+      if (tail)
+        s_tot[threadIdx.x] = s;
+      else if (s)
+        atomicAdd(a.slots + (std::size_t(j) * kDevCounters + threadIdx.x) * kShards * kShardStride + shard, s);
     }
-    grid.sync();
-
-    if (threadIdx.x < kCounters) {
-      const u64* p = a.slots + (std::size_t(j) * kCounters + threadIdx.x) * kShards * kShardStride;
-      u64 s = 0;
+    if (!tail) {
+      grid.sync();
+      if (threadIdx.x < kDevCounters) {
+        const u64* p = a.slots + (std::size_t(j) * kDevCounters + threadIdx.x) * kShards * kShardStride;
+        u64 s = 0;
 #pragma unroll
-      for (int h = 0; h < kShards; ++h) s += __ldcg(p + h * kShardStride);
-      s_tot[threadIdx.x] = s;
-      if (blockIdx.x == 0) a.result[std::size_t(j) * kCounters + threadIdx.x] = s;
+        for (int h = 0; h < kShards; ++h) s += __ldcg(p + h * kShardStride);
+        s_tot[threadIdx.x] = s;
+      }
     }
-    if (blockIdx.x == 0 && threadIdx.x == 0) a.result[std::size_t(kBatch) * kCounters] = u64(j + 1);
     __syncthreads();
+    if (blockIdx.x == 0 && threadIdx.x < kCounters)
+      a.result[std::size_t(j) * kCounters + threadIdx.x] = s_tot[threadIdx.x];
+    if (blockIdx.x == 0 && threadIdx.x == 0) a.result[std::size_t(kBatch) * kCounters] = u64(j + 1);
     const std::uint64_t tot[kCounters] = {s_tot[0], s_tot[1], s_tot[2], s_tot[3]};
-    if (!keeps_going(tot, k, a.max_iterations)) {
-      // The step ends here: clear this tile's flags for the next iteration so the next step
-      // starts from clean flags (this iteration's were cleared as they were read).
-      for (int off = 16 * int(threadIdx.x); off < a.tile; off += 16 * kThreads)
-        *reinterpret_cast<uint4*>(next + t0 + off) = make_uint4(0, 0, 0, 0);
-      return;
-    }
+    // The step ends here. Every mark is clear: the compaction or the gather cleared each one,
+    // and none is set before the check that follows an apply.
+    if (!keeps_going(tot, k, a.max_iterations)) return;
 
-    const int nm = s_moved;
-    for (int i = int(threadIdx.x); i < nm; i += kThreads) {
-      const double2 d = disp[i];
-      apply_one(a.p.pos, a.p.image, a.p.box, std::size_t(moved[i]), d.x, d.y);
+    const int ns = s_seeds;
+    for (int i = int(threadIdx.x); i < ns; i += kThreads) {
+      const int v = seed[i];
+      if (v >= 0) {
+        const double2 d = disp[i];
+        apply_one(a.p.pos, a.p.image, a.p.box, std::size_t(v), d.x, d.y);
+      }
     }
-    if (j + 1 == kBatch) return;  // the host launches the next batch (flags for it are set)
-    grid.sync();
+    if (tail)
+      __syncthreads();
+    else
+      grid.sync();
+
+    // The check (positions are the new ones now): marks the next iteration's candidates. The
+    // last iteration of a batch leaves plain marks, which the next launch compacts.
+    const bool last = j + 1 == kBatch;
+    const bool to_tail = !tail && s_tot[kMoved] <= u64(kTailMoved);
+    const bool claim = (tail || to_tail) && !last;
+    for (int i = int(threadIdx.x); i < ns; i += kThreads) {
+      const int v = seed[i];
+      if (v < 0) {
+        mark(a.marks, ~v, claim, a.cand, a.claims);
+        continue;
+      }
+      double xv, yv;
+      load_xy(mesh.pos, v, xv, yv);
+      const double sv = double(mesh.diameter[v]);
+      bool any = false;
+      // The fan closed in iteration 0 (else the step ended there), and the walk is range-checked.
+      mesh.for_each_neighbour(v, [&](int u, int) {
+        double xu, yu;
+        load_xy(mesh.pos, u, xu, yu);
+        const double rx = mesh.min_image(xu - xv, 0), ry = mesh.min_image(yu - yv, 1);
+        const double s = 0.5 * (sv + double(mesh.diameter[u]));
+        if (rx * rx + ry * ry < s * s * kLoose) {
+          mark(a.marks, u, claim, a.cand, a.claims);
+          any = true;
+        }
+      });
+      if (any) mark(a.marks, v, claim, a.cand, a.claims);
+    }
+    if (last) return;  // the host launches the next batch
+    if (tail) {
+      __syncthreads();
+    } else {
+      grid.sync();
+      if (to_tail) {
+        if (blockIdx.x != 0) return;
+        tail = true;
+      }
+    }
   }
 }
 
@@ -201,11 +301,11 @@ struct DevWorkspace {
   int grid[2] = {0, 0};  // per precision (float, double): co-resident blocks used
   int tile[2] = {0, 0};
   std::size_t cap = 0;   // grid·tile of the allocation (≥ both)
-  std::uint8_t* flags = nullptr;  // 2 x cap
+  std::uint8_t* marks = nullptr;
   int* cand = nullptr;
-  int* moved = nullptr;
+  int* seed = nullptr;
   double2* disp = nullptr;
-  u64* slots = nullptr;
+  u64* slots = nullptr;  // kSlotWords + the claims count
   u64* result = nullptr;
   u64* host = nullptr;  // pinned copy of result
 };
@@ -252,12 +352,12 @@ void* dev_create(std::size_t n) {
     shape<float>(n, w->grid[0], w->tile[0]);
     shape<double>(n, w->grid[1], w->tile[1]);
     w->cap = std::max(std::size_t(w->grid[0]) * w->tile[0], std::size_t(w->grid[1]) * w->tile[1]);
-    w->flags = dev_alloc<std::uint8_t>(2 * w->cap, "allocating overlap_correct flags");
-    FF_CUDA_CHECK(cudaMemset(w->flags, 0, 2 * w->cap), "clearing overlap_correct flags");
+    w->marks = dev_alloc<std::uint8_t>(w->cap, "allocating overlap_correct marks");
+    FF_CUDA_CHECK(cudaMemset(w->marks, 0, w->cap), "clearing overlap_correct marks");
     w->cand = dev_alloc<int>(w->cap, "allocating overlap_correct work lists");
-    w->moved = dev_alloc<int>(w->cap, "allocating overlap_correct work lists");
+    w->seed = dev_alloc<int>(w->cap, "allocating overlap_correct work lists");
     w->disp = dev_alloc<double2>(w->cap, "allocating overlap_correct displacements");
-    w->slots = dev_alloc<u64>(kSlotWords, "allocating overlap_correct counters");
+    w->slots = dev_alloc<u64>(kSlotWords + 1, "allocating overlap_correct counters");
     w->result = dev_alloc<u64>(kResultWords, "allocating overlap_correct counters");
     FF_CUDA_CHECK(cudaMallocHost(&w->host, kResultWords * sizeof(u64)), "allocating overlap_correct counters");
   } catch (...) {
@@ -269,9 +369,9 @@ void* dev_create(std::size_t n) {
 
 void dev_destroy(void* p) {
   auto* w = static_cast<DevWorkspace*>(p);
-  cudaFree(w->flags);
+  cudaFree(w->marks);
   cudaFree(w->cand);
-  cudaFree(w->moved);
+  cudaFree(w->seed);
   cudaFree(w->disp);
   cudaFree(w->slots);
   cudaFree(w->result);
@@ -285,16 +385,17 @@ void dev_iterate(void* ws, const Problem<R>& p, std::int64_t k0, std::int64_t ma
   auto* w = static_cast<DevWorkspace*>(ws);
   const int r = sizeof(R) == 8 ? 1 : 0;
   Args<R> a{p,
-            {w->flags, w->flags + w->cap},
+            w->marks,
             w->cand,
-            w->moved,
+            w->seed,
             w->disp,
             w->slots,
+            w->slots + kSlotWords,
             w->result,
             w->tile[r],
             static_cast<long long>(k0),
             static_cast<long long>(max_iterations)};
-  FF_CUDA_CHECK(cudaMemsetAsync(w->slots, 0, kSlotWords * sizeof(u64), s), "clearing overlap_correct counters");
+  FF_CUDA_CHECK(cudaMemsetAsync(w->slots, 0, (kSlotWords + 1) * sizeof(u64), s), "clearing overlap_correct counters");
   void* args[] = {&a};
   FF_CUDA_CHECK(cudaLaunchCooperativeKernel(kernel_ptr<R>(), dim3(w->grid[r]),
                                             dim3(kThreads), args, 0, s),
