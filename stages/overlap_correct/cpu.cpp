@@ -143,8 +143,6 @@ std::size_t compact(std::uint8_t* flags, std::size_t t0, std::size_t t1, int* ca
   return count;
 }
 
-constexpr double kLoose = 1 + 1e-9;
-
 // Below this many particles moved in the iteration before, the work of a work-list iteration
 // is a few hundred walks: one thread does it, sparing the threads' start-up (a few µs per
 // loop, three loops per iteration, iterations 3+ at η = 0.5).
@@ -331,22 +329,7 @@ void host_iterate(void* ws, const Problem<R>& p, std::int64_t k0, std::int64_t m
       const Tile& tl = w->tiles[t];
       for (std::size_t i = 0, nm = tl.nmoved; i < nm; ++i) {
         const int v = tl.moved[i];
-        double xv, yv;
-        load_xy(mesh.pos, v, xv, yv);
-        const double sv = double(mesh.diameter[v]);
-        bool any = false;
-        mesh.for_each_neighbour(v, [&](int u, int) {
-          double xu, yu;
-          load_xy(mesh.pos, u, xu, yu);
-          const double rx = mesh.min_image(xu - xv, 0);
-          const double ry = mesh.min_image(yu - yv, 1);
-          const double s = 0.5 * (sv + double(mesh.diameter[u]));
-          if (rx * rx + ry * ry < s * s * kLoose) {
-            flag(next, u);
-            any = true;
-          }
-        });
-        if (any) flag(next, v);
+        if (mesh.overlapping_neighbours(v, [&](int u) { flag(next, u); })) flag(next, v);
       }
     }, serial);
   }

@@ -60,7 +60,6 @@ constexpr int kShardStride = 4;  // u64 between shards: one 32-byte sector each
 constexpr int kMoved = kCounters, kDevCounters = kCounters + 1;
 constexpr std::size_t kSlotWords = std::size_t(kBatch) * kDevCounters * kShards * kShardStride;
 constexpr std::size_t kResultWords = std::size_t(kBatch) * kCounters + 1;  // + gathers run
-constexpr double kLoose = 1 + 1e-9;
 // Iterations after one that moved at most this many particles run in block 0 alone (PERF.md).
 constexpr int kTailMoved = 512;
 
@@ -266,22 +265,9 @@ __global__ void __launch_bounds__(kThreads, MinBlocks) correct_kernel(Args<R> a)
         mark(a.marks, ~v, claim, a.cand, a.claims);
         continue;
       }
-      double xv, yv;
-      load_xy(mesh.pos, v, xv, yv);
-      const double sv = double(mesh.diameter[v]);
-      bool any = false;
       // The fan closed in iteration 0 (else the step ended there), and the walk is range-checked.
-      mesh.for_each_neighbour(v, [&](int u, int) {
-        double xu, yu;
-        load_xy(mesh.pos, u, xu, yu);
-        const double rx = mesh.min_image(xu - xv, 0), ry = mesh.min_image(yu - yv, 1);
-        const double s = 0.5 * (sv + double(mesh.diameter[u]));
-        if (rx * rx + ry * ry < s * s * kLoose) {
-          mark(a.marks, u, claim, a.cand, a.claims);
-          any = true;
-        }
-      });
-      if (any) mark(a.marks, v, claim, a.cand, a.claims);
+      if (mesh.overlapping_neighbours(v, [&](int u) { mark(a.marks, u, claim, a.cand, a.claims); }))
+        mark(a.marks, v, claim, a.cand, a.claims);
     }
     if (last) return;  // the host launches the next batch
     if (tail) {

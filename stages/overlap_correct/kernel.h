@@ -249,6 +249,30 @@ struct Mesh {
     return kEdgeOverlap;
   }
 
+  // The check after an apply, for a particle v that moved: calls f(u) for each neighbour u
+  // that overlaps v at the new positions and returns whether any did. The test is a little
+  // looser than a gather's (r² < σ²·(1 + 1e-9)), so rounding can only add particles to the
+  // next iteration's candidates, never leave one out. Both loops build their work lists with it.
+  template <class F>
+  FF_HD bool overlapping_neighbours(int v, F&& f) const {
+    constexpr double kLoose = 1 + 1e-9;
+    double xv, yv;
+    load_xy(pos, v, xv, yv);
+    const double sv = double(diameter[v]);
+    bool any = false;
+    for_each_neighbour(v, [&](int u, int) {
+      double xu, yu;
+      load_xy(pos, u, xu, yu);
+      const double rx = min_image(xu - xv, 0), ry = min_image(yu - yv, 1);
+      const double s = 0.5 * (sv + double(diameter[u]));
+      if (rx * rx + ry * ry < s * s * kLoose) {
+        f(u);
+        any = true;
+      }
+    });
+    return any;
+  }
+
   // v's displacement from its summed pushes (qx, qy), capped at cap·σ_v, into out.
   FF_HD void finish(std::int64_t qx, std::int64_t qy, double sv, VertexPush& out) const {
     const double to_length = 1.0 / (inv_unit * kPushOne);

@@ -12,8 +12,8 @@
 // (lowest id wins both triangles, as common/flip.h) and applied, and only the edges whose quad
 // changed — the flipped edge and the four around it — plus the marked edges that lost are tested
 // again in the next round: every other edge keeps both triangles, so its answer cannot change.
-// Lists are filled with atomic appends (their order varies from run to run) but the *sets* are
-// fixed, and every decision depends only on the set of marked edges, so the triangulation is the
+// On the device lists are filled with atomic appends (their order varies from run to run; the
+// CPU fills them chunk by chunk, cpu.cpp) but the *sets* are fixed, and every decision depends only on the set of marked edges, so the triangulation is the
 // same for any thread count, launch order or backend. Per-edge stamps (`marked == round`,
 // `queued == round`) replace clearing arrays between rounds.
 #pragma once
