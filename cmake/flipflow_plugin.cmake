@@ -27,9 +27,10 @@ endfunction()
 # without errno, no trapping FP exceptions. No contraction into fma, so every loop gives the
 # same bits as its scalar form and as the CUDA loops (core/rng.h, the delaunay predicates,
 # overlap_correct's fixed-point pushes); values are otherwise unchanged. Call from the plugin's
-# CMakeLists.txt. A CPU without AVX2 cannot run these files.
+# CMakeLists.txt. A CPU without AVX2 cannot run these files: the plugin loader says so instead
+# of letting them fault; configure with -DFLIPFLOW_X86_64_V3=OFF for such a CPU.
 function(flipflow_cpu_loop_flags)
-  if(CMAKE_SYSTEM_PROCESSOR MATCHES "x86_64|AMD64" AND CMAKE_CXX_COMPILER_ID MATCHES "GNU|Clang")
+  if(FLIPFLOW_X86_64_V3)
     set_source_files_properties(${ARGN} PROPERTIES COMPILE_OPTIONS
       "-march=x86-64-v3;-ffp-contract=off;-fno-math-errno;-fno-trapping-math")
   else()
