@@ -87,7 +87,7 @@ void Simulation::make_snapshot() {
     if (!before_a_request) continue;
     undone[j] = true;
     for (auto& a : graph_->nodes()[j].accesses)
-      if (writes(a.mode)) (a.on_demand ? on_demand : every_step).insert(a.field);
+      if (writes(a.mode) && !a.step_local) (a.on_demand ? on_demand : every_step).insert(a.field);
   }
   for (auto& f : every_step) on_demand.erase(f);
   snapshot_ = std::make_unique<Snapshot>(std::vector<std::string>(every_step.begin(), every_step.end()),

@@ -26,6 +26,10 @@ struct Access {
   // flips): the rollback snapshot copies the field only when the stage announces the write with
   // StepContext::will_write before it, instead of before every step.
   bool on_demand = false;
+  // For scratch fields that carry nothing from one step to the next (every step writes what it
+  // reads of them before reading it: detect_inversion's flip marks and Lawson candidates): a
+  // retried step rewrites them anyway, so the rollback snapshot never copies this write.
+  bool step_local = false;
 };
 
 struct Outcome {

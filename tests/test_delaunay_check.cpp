@@ -5,6 +5,8 @@
 // pass, and the tolerance decides what counts as co-circular. In a pipeline it runs every k
 // accepted steps (CPU and CUDA) and, with positions: delaunay.position_prev, after overlap
 // correction too.
+#include <algorithm>
+
 #include "core/error.h"
 #include "core/simulation.h"
 #include "stages/delaunay/common/mesh.h"
@@ -226,6 +228,16 @@ TEST_CASE("check: in pipelines, every k accepted steps, on every backend", "[del
     o.dry_run = true;
     o.backend = backend;
     Simulation sim(spec, *reg, o);
+    // The rollback snapshot: positions and detection's reference every step, the triangulation
+    // when a stage announces a write; never the per-step scratch (flip marks, Lawson candidates).
+    const auto every = sim.snapshot_fields(), on_demand = sim.snapshot_on_demand_fields();
+    CHECK(std::count(every.begin(), every.end(), "position") == 1);
+    CHECK(std::count(every.begin(), every.end(), "delaunay.position_prev") == 1);
+    CHECK(std::count(on_demand.begin(), on_demand.end(), "delaunay.halfedge") == 1);
+    for (const char* scratch : {"delaunay.flip_mark", "delaunay.lawson_candidates"}) {
+      CHECK(std::count(every.begin(), every.end(), scratch) == 0);
+      CHECK(std::count(on_demand.begin(), on_demand.end(), scratch) == 0);
+    }
     sim.run();
     CHECK(sim.slots()[4].calls == 5);  // steps 0, 100, 200, 300, 400
     CHECK(sim.stats().metrics.at("delaunay.check/checked") == 1);

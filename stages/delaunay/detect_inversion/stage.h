@@ -34,8 +34,8 @@ class DetectInversion final : public Stage {
             {fields::opposite, where_, Mode::readwrite, true},
             {fields::vertex_edge, where_, Mode::readwrite, true},
             {fields::position_prev, where_, Mode::readwrite},
-            {fields::flip_mark, where_, Mode::write},
-            {fields::lawson_candidates, where_, Mode::write},
+            {fields::flip_mark, where_, Mode::write, false, /*step_local=*/true},
+            {fields::lawson_candidates, where_, Mode::write, false, /*step_local=*/true},
             {fields::status, Where::host, Mode::readwrite}};
   }
   void configure(State& s) override { add_topology_fields(s, "delaunay.detect_inversion"); }

@@ -42,7 +42,7 @@ class Flip final : public Stage {
             {fields::halfedge, where_, Mode::readwrite, true},
             {fields::opposite, where_, Mode::readwrite, true},
             {fields::vertex_edge, where_, Mode::readwrite, true},
-            {fields::flip_mark, where_, Mode::readwrite},
+            {fields::flip_mark, where_, Mode::readwrite, false, /*step_local=*/true},
             {fields::status, Where::host, Mode::readwrite}};
   }
   void configure(State& s) override { add_topology_fields(s, "delaunay.flip"); }
