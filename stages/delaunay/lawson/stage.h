@@ -126,7 +126,7 @@ class Lawson final : public Stage {
       ops_.apply(n_marked, ApplyMarked{m, marked_list, go, queued, round + 1, list, c}, st);
       test = list;
       test_len = c + kLawsonQueued;
-      launch = std::min<std::size_t>(5 * std::size_t(n_marked), E);
+      launch = std::min<std::size_t>(4 * std::size_t(n_marked), E);  // each queues at most 4 (apply)
       ++rounds;
     }
     ctx.metrics.set("lawson_rounds", double(rounds));
