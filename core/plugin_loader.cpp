@@ -43,6 +43,22 @@ std::vector<std::string> find_with_prefix(const std::vector<std::string>& path, 
   }
   return out;
 }
+
+// The plugins' hot CPU loops are built for x86-64-v3 (FLIPFLOW_X86_64_V3, CMakeLists.txt): on an
+// older CPU they would stop at the first AVX2 instruction with SIGILL; say why instead.
+void require_cpu_features() {
+#if defined(FLIPFLOW_X86_64_V3)
+  __builtin_cpu_init();
+  const char* missing = !__builtin_cpu_supports("avx2")   ? "avx2"
+                        : !__builtin_cpu_supports("fma")  ? "fma"
+                        : !__builtin_cpu_supports("bmi2") ? "bmi2"
+                                                          : nullptr;
+  if (missing)
+    throw RunError(std::string("this CPU lacks ") + missing +
+                   ": this flipflow build's CPU loops need an x86-64-v3 CPU (AVX2, FMA, BMI2). Rebuild with "
+                   "cmake -DFLIPFLOW_X86_64_V3=OFF");
+#endif
+}
 }  // namespace
 
 std::vector<std::string> plugin_search_path() {
@@ -83,22 +99,6 @@ std::vector<std::string> find_stage_libraries(const std::vector<std::string>& pa
 
 std::vector<std::string> find_model_plugins(const std::vector<std::string>& path) {
   return find_with_prefix(path, kPluginPrefix);
-}
-
-// The plugins' hot CPU loops are built for x86-64-v3 (FLIPFLOW_X86_64_V3, CMakeLists.txt): on an
-// older CPU they would stop at the first AVX2 instruction with SIGILL; say why instead.
-void require_cpu_features() {
-#if defined(FLIPFLOW_X86_64_V3)
-  __builtin_cpu_init();
-  const char* missing = !__builtin_cpu_supports("avx2")   ? "avx2"
-                        : !__builtin_cpu_supports("fma")  ? "fma"
-                        : !__builtin_cpu_supports("bmi2") ? "bmi2"
-                                                          : nullptr;
-  if (missing)
-    throw RunError(std::string("this CPU lacks ") + missing +
-                   ": this flipflow build's CPU loops need an x86-64-v3 CPU (AVX2, FMA, BMI2). Rebuild with "
-                   "cmake -DFLIPFLOW_X86_64_V3=OFF");
-#endif
 }
 
 void load_plugins(const std::vector<std::string>& files, Registry& registry) {
