@@ -3,6 +3,7 @@
 // the host reads to decide (rollback, another round). The backend is a table of functions
 // (cpu: memory_cpu.cpp, cuda: memory_cuda.cu) picked in plugin.cpp. nvcc-clean.
 #pragma once
+#include <algorithm>
 #include <array>
 #include <cstddef>
 
@@ -13,6 +14,10 @@ namespace ff::delaunay {
 struct MemOps {
   void* (*alloc)(std::size_t bytes);  // zeroed
   void (*release)(void* p);
+  // Host memory that to_host can copy into directly (pinned on CUDA: a read from pageable
+  // memory goes through a staging buffer, a few µs more on each of a step's counter reads).
+  void* (*alloc_host)(std::size_t bytes);  // zeroed
+  void (*release_host)(void* p);
   void (*to_backend)(void* dst, const void* host_src, std::size_t bytes, CUstream_st* s);
   void (*to_host)(void* host_dst, const void* src, std::size_t bytes, CUstream_st* s);  // waits
   void (*copy)(void* dst, const void* src, std::size_t bytes, CUstream_st* s);         // same side
@@ -60,7 +65,11 @@ class Scratch {
 template <int K>
 class Counters {
  public:
-  explicit Counters(const MemOps& ops) : ops_(ops), buf_(ops) {}
+  explicit Counters(const MemOps& ops)
+      : ops_(ops), buf_(ops), landing_(static_cast<unsigned*>(ops.alloc_host(sizeof(unsigned) * K))) {}
+  ~Counters() { ops_.release_host(landing_); }
+  Counters(const Counters&) = delete;
+  Counters& operator=(const Counters&) = delete;
 
   unsigned* ptr() { return buf_.get(K); }
   // Counts start at 0; slots listed in `min_slots` start at ~0u (they keep a minimum). One fill
@@ -81,13 +90,15 @@ class Counters {
     ops_.fill(ptr() + first, 0, sizeof(unsigned) * std::size_t(count), s);
   }
   const std::array<unsigned, K>& read(CUstream_st* s) {
-    ops_.to_host(host_.data(), ptr(), sizeof(unsigned) * K, s);
+    ops_.to_host(landing_, ptr(), sizeof(unsigned) * K, s);
+    std::copy(landing_, landing_ + K, host_.begin());
     return host_;
   }
 
  private:
   MemOps ops_;
   Scratch<unsigned> buf_;
+  unsigned* landing_;  // alloc_host: where read() copies to
   std::array<unsigned, K> host_{};
 };
 

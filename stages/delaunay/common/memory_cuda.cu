@@ -1,5 +1,7 @@
 #include <cuda_runtime.h>
 
+#include <cstring>
+
 #include "core/cuda/check.h"
 #include "stages/delaunay/common/memory.h"
 
@@ -15,6 +17,16 @@ void* dev_alloc(std::size_t bytes) {
 }
 void dev_release(void* p) {
   if (p) cudaFree(p);
+}
+void* pinned_alloc(std::size_t bytes) {
+  if (bytes == 0) return nullptr;
+  void* p = nullptr;
+  FF_CUDA_CHECK(cudaMallocHost(&p, bytes), "allocating pinned delaunay counters");
+  std::memset(p, 0, bytes);
+  return p;
+}
+void pinned_release(void* p) {
+  if (p) cudaFreeHost(p);
 }
 void dev_upload(void* dst, const void* src, std::size_t bytes, CUstream_st* s) {
   if (bytes) FF_CUDA_CHECK(cudaMemcpyAsync(dst, src, bytes, cudaMemcpyHostToDevice, s), "uploading to a delaunay buffer");
@@ -32,6 +44,8 @@ void dev_fill(void* dst, int byte, std::size_t bytes, CUstream_st* s) {
 }
 }  // namespace
 
-MemOps cuda_mem_ops() { return {&dev_alloc, &dev_release, &dev_upload, &dev_download, &dev_copy, &dev_fill}; }
+MemOps cuda_mem_ops() {
+  return {&dev_alloc, &dev_release, &pinned_alloc, &pinned_release, &dev_upload, &dev_download, &dev_copy, &dev_fill};
+}
 
 }  // namespace ff::delaunay
