@@ -63,12 +63,15 @@ void mark(std::size_t n, const MarkNonDelaunay<R>& f, CUstream_st*) {
 }
 
 void decide(std::size_t n, const DecideMarked& f, CUstream_st*) {
+  if (f.len) n = std::min<std::size_t>(n, *f.len);
+  if (n) ++f.counters[kLawsonRounds];
   unsigned flips = 0;
   for (std::size_t i = 0; i < n; ++i) flips += f.wins(f.marked_list[i]) ? 1u : 0u;
   f.counters[kLawsonFlips] += flips;
 }
 
 void apply(std::size_t n, const ApplyMarked& f, CUstream_st*) {
+  if (f.len) n = std::min<std::size_t>(n, *f.len);
   append_by_chunks(n, f.next_list, f.counters + kLawsonQueued, [&](std::size_t i, std::vector<std::int32_t>& out) {
     int q[4];
     const int k = f.apply(f.marked_list[i], q);

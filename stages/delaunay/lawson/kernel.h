@@ -29,6 +29,7 @@ enum LawsonCounter : int {
   kLawsonMarked = 0,  // edges marked in this round (length of the marked list)
   kLawsonQueued,      // length of the list of edges to test in the next round
   kLawsonFlips,       // flips in this step so far
+  kLawsonRounds,      // rounds in this step that marked (and so flipped) something
   kLawsonTooLong,     // flips refused: the new edge would exceed half the box
   kLawsonTooLongAt,   //   lowest such edge
   kLawsonCounters
@@ -97,6 +98,8 @@ struct DecideMarked {
   const std::int32_t* marked_list;
   std::uint8_t* go;  // per edge, meaningful for listed edges only
   unsigned* counters;
+  const unsigned* len = nullptr;  // backend-side length of marked_list (the launch covers an
+                                  // upper bound), or nullptr: the launch's own size
 
   // Decides marked edge e (go[e]); true when it flips.
   FF_HD bool wins(int e) const {
@@ -108,6 +111,8 @@ struct DecideMarked {
     return win;
   }
   FF_HD void operator()(std::size_t i) const {
+    if (len && i >= *len) return;
+    if (i == 0) count_one(counters + kLawsonRounds);
     if (wins(marked_list[i])) count_one(counters + kLawsonFlips);
   }
 };
@@ -126,6 +131,7 @@ struct ApplyMarked {
   std::int32_t next_round;
   std::int32_t* next_list;
   unsigned* counters;
+  const unsigned* len = nullptr;  // as DecideMarked::len
 
   // Flips marked edge e when it won; writes the edges this queues (claimed: no other element
   // queues them again in this round) to out and returns how many (at most 4).
@@ -143,6 +149,7 @@ struct ApplyMarked {
     return n;
   }
   FF_HD void operator()(std::size_t i) const {
+    if (len && i >= *len) return;
     int out[4];
     const int n = apply(marked_list[i], out);
     if (n) {

@@ -2,7 +2,8 @@
 // as used by Carter et al. 2017). Rounds of mark / decide / apply over lists (kernel.h): round 0
 // tests every edge, later rounds only the edges whose quad changed. The lowest marked edge id
 // wins both of its triangles, so the result is independent of thread scheduling and backend.
-// One host read per round. The input must be a valid (all triangles positive) triangulation:
+// The host reads the counters after round 0's marks and then after every round on the CPU, every
+// kDeviceRoundsPerRead rounds on the device (each read waits for it). The input must be a valid (all triangles positive) triangulation:
 // run delaunay.flip first.
 #pragma once
 #include <algorithm>
@@ -16,6 +17,9 @@
 #include "stages/delaunay/lawson/kernel.h"
 
 namespace ff::delaunay {
+
+// Rounds a CUDA Lawson runs between two reads of its counters (one read waits for the device).
+inline constexpr std::int64_t kDeviceRoundsPerRead = 3;
 
 struct LawsonParams {
   std::int64_t max_rounds = 1000;
@@ -89,7 +93,6 @@ class Lawson final : public Stage {
     counters_.reset(std::array<int, 1>{kLawsonTooLongAt}, st);
     std::size_t launch = E;             // round 0 tests every edge ...
     const std::int32_t* test = nullptr;
-    const unsigned* test_len = nullptr;  // later rounds: the list's length, on the backend
     // ... or only detect_inversion's candidates (a superset of the edges round 0 would mark),
     // when they are current: no flip or rebuild since (status kCandidates) and nothing wrote
     // the positions since (their Field::version, recorded by detect_inversion).
@@ -103,32 +106,46 @@ class Lawson final : public Stage {
       launch = unsigned(hint - 1);  // the list's length: the launch's own size
       test = data<std::int32_t>(s.field(fields::lawson_candidates), where_);
     }
-    unsigned flips = 0;
-    std::int64_t rounds = 0;  // rounds that flipped something
-    for (;;) {
-      const std::int32_t round = ++round_;
-      ops_.mark(launch,
-                MarkNonDelaunay<R>{m, pts, p_.tolerance, test, test_len, marked, round, marked_list, c, unsigned(launch)},
-                st);
-      const auto& h = counters_.read(st);
-      throw_if_too_long_flip(s, h[kLawsonTooLong], h[kLawsonTooLongAt], st);
-      const unsigned n_marked = h[kLawsonMarked];
-      flips = h[kLawsonFlips];
-      if (!n_marked) break;
-      if (rounds >= p_.max_rounds)
+    // Round 0's marks, read back: most steps flip, but when none is needed nothing is announced.
+    std::int32_t round = ++round_;
+    ops_.mark(launch,
+              MarkNonDelaunay<R>{m, pts, p_.tolerance, test, nullptr, marked, round, marked_list, c, unsigned(launch)},
+              st);
+    auto h = counters_.read(st);
+    throw_if_too_long_flip(s, h[kLawsonTooLong], h[kLawsonTooLongAt], st);
+    std::size_t bound = h[kLawsonMarked];  // this round's marked edges (exact, or an upper bound)
+    const unsigned* marked_len = nullptr;  // null: `bound` is exact; else their count, on the backend
+    std::int64_t launched = 0;              // decide/apply rounds launched
+    if (bound) will_flip(ctx);              // announce before the first flip (rollback snapshot)
+    // Then rounds of decide, apply, mark. On the device several rounds go between two reads
+    // (kernels take the lists' lengths from the backend and launch over upper bounds: each
+    // marked edge queues at most 4 edges), so a step waits for the device ~2 times instead of
+    // once per round; a round after the last marking one finds empty lists and does nothing.
+    const std::int64_t per_read = where_ == Where::device ? kDeviceRoundsPerRead : 1;
+    while (h[kLawsonMarked]) {
+      if (launched >= p_.max_rounds)
         throw RunError("delaunay.lawson: the triangulation is still not Delaunay after max_rounds = " +
-                       std::to_string(p_.max_rounds) + " rounds (" + std::to_string(flips) + " flips; " +
-                       std::to_string(n_marked) +
+                       std::to_string(p_.max_rounds) + " rounds (" + std::to_string(h[kLawsonFlips]) + " flips; " +
+                       std::to_string(h[kLawsonMarked]) +
                        " edge(s) left). Raise max_rounds, or raise tolerance if points are (nearly) co-circular");
-      if (rounds == 0) will_flip(ctx);  // announce before the first flip (rollback snapshot)
-      counters_.zero(kLawsonMarked, 2, st);  // marked and queued lengths
-      ops_.decide(n_marked, DecideMarked{m, marked, round, marked_list, go, c}, st);
-      ops_.apply(n_marked, ApplyMarked{m, marked_list, go, queued, round + 1, list, c}, st);
-      test = list;
-      test_len = c + kLawsonQueued;
-      launch = std::min<std::size_t>(4 * std::size_t(n_marked), E);  // each queues at most 4 (apply)
-      ++rounds;
+      for (std::int64_t j = 0; j < per_read && launched < p_.max_rounds; ++j, ++launched) {
+        counters_.zero(kLawsonQueued, 1, st);  // apply lists the next round's edges
+        ops_.decide(bound, DecideMarked{m, marked, round, marked_list, go, c, marked_len}, st);
+        ops_.apply(bound, ApplyMarked{m, marked_list, go, queued, round + 1, list, c, marked_len}, st);
+        counters_.zero(kLawsonMarked, 1, st);
+        round = ++round_;
+        bound = std::min<std::size_t>(4 * bound, E);
+        ops_.mark(bound, MarkNonDelaunay<R>{m, pts, p_.tolerance, list, c + kLawsonQueued, marked, round, marked_list, c},
+                  st);
+        marked_len = c + kLawsonMarked;
+      }
+      h = counters_.read(st);
+      throw_if_too_long_flip(s, h[kLawsonTooLong], h[kLawsonTooLongAt], st);
+      bound = h[kLawsonMarked];
+      marked_len = nullptr;
     }
+    const unsigned flips = h[kLawsonFlips];
+    const std::int64_t rounds = h[kLawsonRounds];  // rounds that flipped something
     ctx.metrics.set("lawson_rounds", double(rounds));
     ctx.metrics.set("lawson_flips", flips);
     return Outcome::ok();
