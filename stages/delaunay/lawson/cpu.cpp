@@ -6,6 +6,7 @@
 // afterwards: no shared counter, and the lists' order no longer depends on the thread count.
 #include <oneapi/tbb/blocked_range.h>
 #include <oneapi/tbb/parallel_for.h>
+#include <oneapi/tbb/parallel_reduce.h>
 #include <oneapi/tbb/partitioner.h>
 
 #include <algorithm>
@@ -65,8 +66,14 @@ void mark(std::size_t n, const MarkNonDelaunay<R>& f, CUstream_st*) {
 void decide(std::size_t n, const DecideMarked& f, CUstream_st*) {
   if (f.len) n = std::min<std::size_t>(n, *f.len);
   if (n) ++f.counters[kLawsonRounds];
-  unsigned flips = 0;
-  for (std::size_t i = 0; i < n; ++i) flips += f.wins(f.marked_list[i]) ? 1u : 0u;
+  // Each element decides its own edge (go[e]); the flips are counted per task and added once.
+  const unsigned flips = tbb::parallel_reduce(
+      tbb::blocked_range<std::size_t>(0, n, kChunk), 0u,
+      [&](const tbb::blocked_range<std::size_t>& r, unsigned sum) __attribute__((flatten)) {
+        for (std::size_t i = r.begin(); i != r.end(); ++i) sum += f.wins(f.marked_list[i]) ? 1u : 0u;
+        return sum;
+      },
+      [](unsigned a, unsigned b) { return a + b; });
   f.counters[kLawsonFlips] += flips;
 }
 
