@@ -18,7 +18,6 @@ struct MemOps {
   // memory goes through a staging buffer, a few µs more on each of a step's counter reads).
   void* (*alloc_host)(std::size_t bytes);  // zeroed
   void (*release_host)(void* p);
-  void (*to_backend)(void* dst, const void* host_src, std::size_t bytes, CUstream_st* s);
   void (*to_host)(void* host_dst, const void* src, std::size_t bytes, CUstream_st* s);  // waits
   void (*copy)(void* dst, const void* src, std::size_t bytes, CUstream_st* s);         // same side
   // Every byte of [dst, dst + bytes) to `byte`, stream-ordered. On CUDA a memset node: unlike an

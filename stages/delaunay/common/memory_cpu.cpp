@@ -23,7 +23,7 @@ void host_fill(void* dst, int byte, std::size_t bytes, CUstream_st*) {
 }  // namespace
 
 MemOps cpu_mem_ops() {
-  return {&host_alloc, &host_release, &host_alloc, &host_release, &host_copy, &host_copy, &host_copy, &host_fill};
+  return {&host_alloc, &host_release, &host_alloc, &host_release, &host_copy, &host_copy, &host_fill};
 }
 
 }  // namespace ff::delaunay

@@ -28,9 +28,6 @@ void* pinned_alloc(std::size_t bytes) {
 void pinned_release(void* p) {
   if (p) cudaFreeHost(p);
 }
-void dev_upload(void* dst, const void* src, std::size_t bytes, CUstream_st* s) {
-  if (bytes) FF_CUDA_CHECK(cudaMemcpyAsync(dst, src, bytes, cudaMemcpyHostToDevice, s), "uploading to a delaunay buffer");
-}
 void dev_download(void* dst, const void* src, std::size_t bytes, CUstream_st* s) {
   if (!bytes) return;
   FF_CUDA_CHECK(cudaMemcpyAsync(dst, src, bytes, cudaMemcpyDeviceToHost, s), "reading delaunay counters");
@@ -45,7 +42,7 @@ void dev_fill(void* dst, int byte, std::size_t bytes, CUstream_st* s) {
 }  // namespace
 
 MemOps cuda_mem_ops() {
-  return {&dev_alloc, &dev_release, &pinned_alloc, &pinned_release, &dev_upload, &dev_download, &dev_copy, &dev_fill};
+  return {&dev_alloc, &dev_release, &pinned_alloc, &pinned_release, &dev_download, &dev_copy, &dev_fill};
 }
 
 }  // namespace ff::delaunay
