@@ -7,6 +7,7 @@
 #include "core/cuda/check.h"
 #endif
 #include "core/error.h"
+#include "core/host_copy.h"
 #include "core/stage.h"
 
 namespace ff {
@@ -16,7 +17,7 @@ void copy_field_contents(Field& dst, Field& src, Where where, CUstream_st* strea
   if (where == Where::host) {
     src.acquire(Where::host, Mode::read);
     dst.acquire(Where::host, Mode::write);
-    if (src.bytes()) std::memcpy(dst.host_raw(), src.host_raw(), src.bytes());
+    host_copy(dst.host_raw(), src.host_raw(), src.bytes());
     return;
   }
 #ifdef FLIPFLOW_HAVE_CUDA

@@ -1,8 +1,10 @@
 // Rollback: bit-for-bit restore, Δt halving and regrowth, fresh noise per attempt, giving up.
 #include <catch2/catch.hpp>
 #include <cstring>
+#include <vector>
 
 #include "core/error.h"
+#include "core/host_copy.h"
 #include "core/simulation.h"
 #include "support/backends.h"
 #include "support/spec.h"
@@ -65,6 +67,21 @@ TEST_CASE("snapshot restore is bit-exact", "[rollback]") {
   REQUIRE(p1.size() == p0.size());
   CHECK(std::memcmp(p1.data(), p0.data(), p0.size() * sizeof(double)) == 0);
   CHECK(std::memcmp(img.host<std::int32_t>(), i0.data(), i0.size() * sizeof(std::int32_t)) == 0);
+}
+
+TEST_CASE("host_copy copies every byte, in one piece or in parallel chunks", "[rollback]") {
+  // Sizes around the parallel threshold (256 KiB) and the chunk (128 KiB), odd tails included.
+  for (std::size_t bytes : {std::size_t(0), std::size_t(1), std::size_t(256 * 1024 - 1), std::size_t(256 * 1024),
+                            std::size_t(1024 * 1024 + 3), std::size_t(5 * 128 * 1024 + 77)}) {
+    std::vector<unsigned char> src(bytes + 16), dst(bytes + 16, 0xAB);
+    for (std::size_t i = 0; i < src.size(); ++i) src[i] = static_cast<unsigned char>(i * 131 + 7);
+    host_copy(dst.data() + 8, src.data() + 8, bytes);  // unaligned on purpose
+    CHECK(std::memcmp(dst.data() + 8, src.data() + 8, bytes) == 0);
+    for (std::size_t i = 0; i < 8; ++i) {  // nothing outside [8, 8 + bytes) is touched
+      CHECK(dst[i] == 0xAB);
+      CHECK(dst[bytes + 8 + i] == 0xAB);
+    }
+  }
 }
 
 TEST_CASE("Δt grows back after dt_grow_after good steps", "[rollback]") {

@@ -2,6 +2,7 @@
 #include <cstring>
 
 #include "core/error.h"
+#include "core/host_copy.h"
 #include "stages/delaunay/common/memory.h"
 
 namespace ff::delaunay {
@@ -14,16 +15,14 @@ void* host_alloc(std::size_t bytes) {
   return p;
 }
 void host_release(void* p) { std::free(p); }
-void host_copy(void* dst, const void* src, std::size_t bytes, CUstream_st*) {
-  if (bytes) std::memcpy(dst, src, bytes);
-}
+void copy(void* dst, const void* src, std::size_t bytes, CUstream_st*) { ff::host_copy(dst, src, bytes); }
 void host_fill(void* dst, int byte, std::size_t bytes, CUstream_st*) {
   if (bytes) std::memset(dst, byte, bytes);
 }
 }  // namespace
 
 MemOps cpu_mem_ops() {
-  return {&host_alloc, &host_release, &host_alloc, &host_release, &host_copy, &host_copy, &host_fill};
+  return {&host_alloc, &host_release, &host_alloc, &host_release, &copy, &copy, &host_fill};
 }
 
 }  // namespace ff::delaunay
