@@ -10,6 +10,7 @@
 #include <oneapi/tbb/partitioner.h>
 
 #include <algorithm>
+#include <type_traits>
 #include <vector>
 
 #include "stages/delaunay/lawson/cpu.h"
@@ -21,11 +22,14 @@ namespace {
 constexpr std::size_t kChunk = 1024;  // elements per task: a few tasks per round at N = 2^16
 
 // Calls body(i, out) for i in [0, n), chunk by chunk on the oneTBB threads (out: the chunk's
-// own list), then appends the chunks' lists to list[*len ...] in chunk order and adds their
-// total to *len. The chunk lists are kept between calls (per calling thread), so a warm run
-// allocates nothing.
-template <class Body>
-void append_by_chunks(std::size_t n, std::int32_t* list, unsigned* len, const Body& body) {
+// own list), then appends the chunks' lists to list[*len ...] in chunk order, each entry e only
+// if keep(e) (called on one thread, in that order), and adds their total to *len. The chunk lists
+// are kept between calls (per calling thread), so a warm run allocates nothing.
+struct KeepAll {
+  bool operator()(std::int32_t) const { return true; }
+};
+template <class Body, class Keep = KeepAll>
+void append_by_chunks(std::size_t n, std::int32_t* list, unsigned* len, const Body& body, const Keep& keep = {}) {
   const std::size_t chunks = (n + kChunk - 1) / kChunk;
   thread_local std::vector<std::vector<std::int32_t>> lists;
   if (lists.size() < chunks) lists.resize(chunks);
@@ -48,8 +52,13 @@ void append_by_chunks(std::size_t n, std::int32_t* list, unsigned* len, const Bo
   unsigned at = *len;
   for (std::size_t c = 0; c < chunks; ++c) {
     const std::vector<std::int32_t>& o = out[std::ptrdiff_t(c)];
-    std::copy(o.begin(), o.end(), list + at);
-    at += unsigned(o.size());
+    if constexpr (std::is_same_v<Keep, KeepAll>) {
+      std::copy(o.begin(), o.end(), list + at);
+      at += unsigned(o.size());
+    } else {
+      for (const std::int32_t e : o)
+        if (keep(e)) list[at++] = e;
+    }
   }
   *len = at;
 }
@@ -79,11 +88,21 @@ void decide(std::size_t n, const DecideMarked& f, CUstream_st*) {
 
 void apply(std::size_t n, const ApplyMarked& f, CUstream_st*) {
   if (f.len) n = std::min<std::size_t>(n, *f.len);
-  append_by_chunks(n, f.next_list, f.counters + kLawsonQueued, [&](std::size_t i, std::vector<std::int32_t>& out) {
-    int q[4];
-    const int k = f.apply(f.marked_list[i], q);
-    out.insert(out.end(), q, q + k);
-  });
+  // The edges to retest are listed by each flip and kept once each afterwards, on one thread with
+  // plain stamps: a locked exchange per edge (the device's claim) waited for the flip's stores
+  // to drain and took two thirds of this loop.
+  append_by_chunks(
+      n, f.next_list, f.counters + kLawsonQueued,
+      [&](std::size_t i, std::vector<std::int32_t>& out) {
+        int q[4];
+        const int k = f.flip_and_list(f.marked_list[i], q);
+        out.insert(out.end(), q, q + k);
+      },
+      [&](std::int32_t e) {
+        if (f.queued[e] == f.next_round) return false;
+        f.queued[e] = f.next_round;
+        return true;
+      });
 }
 
 }  // namespace

@@ -133,19 +133,30 @@ struct ApplyMarked {
   unsigned* counters;
   const unsigned* len = nullptr;  // as DecideMarked::len
 
-  // Flips marked edge e when it won; writes the edges this queues (claimed: no other element
-  // queues them again in this round) to out and returns how many (at most 4).
-  FF_HD int apply(int e, int out[4]) const {
-    int n = 0;
-    if (go[e]) {
-      const int h0n = mesh.next(2 * e), h1n = mesh.next(2 * e + 1);
-      const int around[4] = {h0n >> 1, mesh.next(h0n) >> 1, h1n >> 1, mesh.next(h1n) >> 1};
-      flip_edge(mesh, e);
-      for (int k = 0; k < 4; ++k)
-        if (claim(queued, around[k], next_round)) out[n++] = around[k];
-    } else if (claim(queued, e, next_round)) {
-      out[n++] = e;
+  // Flips marked edge e when it won; writes the edges whose quads this changes (the four around
+  // it, or e itself when it lost) to out and returns how many. Two elements may list the same
+  // edge: the caller keeps each once (`queued`).
+  FF_HD int flip_and_list(int e, int out[4]) const {
+    if (!go[e]) {
+      out[0] = e;
+      return 1;
     }
+    const int h0n = mesh.next(2 * e), h1n = mesh.next(2 * e + 1);
+    out[0] = h0n >> 1;
+    out[1] = mesh.next(h0n) >> 1;
+    out[2] = h1n >> 1;
+    out[3] = mesh.next(h1n) >> 1;
+    flip_edge(mesh, e);
+    return 4;
+  }
+  // flip_and_list, keeping only the edges this element claims (no other element queues them
+  // again in this round); returns how many it wrote to out.
+  FF_HD int apply(int e, int out[4]) const {
+    int listed[4];
+    const int m = flip_and_list(e, listed);
+    int n = 0;
+    for (int k = 0; k < m; ++k)
+      if (claim(queued, listed[k], next_round)) out[n++] = listed[k];
     return n;
   }
   FF_HD void operator()(std::size_t i) const {
