@@ -2,6 +2,9 @@
 // across one edge is marked for a flip; across two edges, through another particle, or an edge
 // crossed from both sides requests a rollback naming the particles.
 #include "core/error.h"
+#include <algorithm>
+
+#include "stages/delaunay/detect_inversion/kernel.h"
 #include "test_delaunay_support.h"
 
 using namespace ff;
@@ -201,4 +204,74 @@ TEST_CASE("detect_inversion: the candidates' cheap in-circle determinant has inc
   CHECK(agree > 100000);
   CHECK(inside > 10000);
   CHECK(agree - inside > 10000);
+}
+
+TEST_CASE("detect_inversion: the CPU loop agrees with the per-edge test on every edge", "[delaunay][detect]") {
+  // The CPU loop settles quiet edges four at a time (AVX2) and hands the others to
+  // MarkInversions::test; the result must be what test() alone gives for every edge: marks,
+  // counts, lowest event ids, the candidate set. Random moves of growing size make every kind of
+  // edge: quiet, Lawson candidates, crossed (marked), inverted twice, reversed, across the
+  // periodic boundary; edges come in groups of four, mixed.
+  using namespace ff::delaunay;
+  namespace df = ff::delaunay::fields;
+  const double amplitude = GENERATE(0.02, 0.3, 0.45, 0.6);
+  Scene sc(Precision::f64, 24, 24);
+  const RngKey key = make_rng_key(11, "moves");
+  std::vector<double> xy = sc.xy;
+  for (std::size_t i = 0; i < sc.n(); ++i)
+    for (int k = 0; k < 2; ++k) {
+      const double L = sc.s->box.L[k];
+      double x = xy[2 * i + k] + amplitude * (2 * uniform01(key, std::uint32_t(i), 0, 0, std::uint32_t(k)) - 1);
+      x -= L * std::floor(x / L);
+      xy[2 * i + k] = x;
+    }
+  set_positions(*sc.s, xy);
+
+  // The reference: test() edge by edge, on the host fields, before the stage writes anything.
+  State& s = *sc.s;
+  const std::size_t E = edge_count(s.n());
+  for (const char* f : {df::halfedge, df::opposite, df::vertex_edge, df::position_prev})
+    s.field(f).acquire(Where::host, Mode::read);
+  const Mesh m{s.field(df::halfedge).host<std::int32_t>(), s.field(df::vertex_edge).host<std::int32_t>(),
+               s.field(df::opposite).host<std::int32_t>()};
+  const Points<double> pts{s.field(ff::fields::position).host<double>(), PeriodicBox<double>::make(s.box.L)};
+  std::vector<std::uint8_t> ref_mark(E, 7);
+  std::vector<unsigned> c(kInversionCounters, 0);
+  for (int k = kThroughAt; k < kInversionCounters; ++k) c[std::size_t(k)] = ~0u;
+  std::vector<std::int32_t> cand(E);
+  const MarkInversions<double> f{m, pts, s.field(df::position_prev).host<double>(), ref_mark.data(), c.data(),
+                                 cand.data(), unsigned(E), int(E)};
+  std::vector<int> ref_cand;
+  for (int e = 0; e < int(E); ++e)
+    if (f.test(e)) ref_cand.push_back(e);
+  INFO("amplitude " << amplitude << ": inverted " << c[kInverted] << ", marked " << c[kMarked] << ", through "
+                    << c[kThrough] << ", twice " << c[kTwice] << ", candidates " << ref_cand.size());
+
+  auto st = make_stage("delaunay.detect_inversion", Backend::cpu);
+  st->configure(s);
+  Runner r(s, Backend::cpu);
+  const Outcome o = r.run(*st);
+  CHECK(marks(s) == ref_mark);
+  CHECK(r.metric("inversions") == c[kInverted]);
+  CHECK(r.metric("repairable") == c[kMarked]);
+  CHECK(r.metric("lawson_candidates") == ref_cand.size());
+  Field& lc = s.field(df::lawson_candidates);
+  lc.acquire(Where::host, Mode::read);
+  std::vector<int> got(lc.host<std::int32_t>(), lc.host<std::int32_t>() + std::min(ref_cand.size(), lc.count()));
+  std::sort(got.begin(), got.end());
+  CHECK(got == std::vector<int>(ref_cand.begin(), ref_cand.begin() + std::ptrdiff_t(got.size())));
+  if (c[kThrough]) {  // the first reason checked, naming the ends of the lowest such edge
+    REQUIRE(o.rollback);
+    CHECK_THAT(o.reason, Catch::Contains("passed through each other") &&
+                             Catch::Contains("; " + std::to_string(c[kThrough]) + " such pair(s))"));
+    CHECK(contains(o.particles, m.origin(2 * int(c[kThroughAt]))));
+  } else if (c[kTwice]) {
+    REQUIRE(o.rollback);
+    CHECK_THAT(o.reason, Catch::Contains("(both its triangles inverted; " + std::to_string(c[kTwice])));
+  }
+  // Each amplitude makes what it is meant to (so the comparison above covers it).
+  if (amplitude == 0.02) CHECK(c[kInverted] == 0);
+  if (amplitude >= 0.3) CHECK(ref_cand.size() > 20);
+  if (amplitude >= 0.45) CHECK(c[kMarked] > 0);
+  if (amplitude == 0.6) CHECK(c[kThrough] > 0);
 }
