@@ -206,16 +206,18 @@ TEST_CASE("detect_inversion: the candidates' cheap in-circle determinant has inc
   CHECK(agree - inside > 10000);
 }
 
-TEST_CASE("detect_inversion: the CPU loop agrees with the per-edge test on every edge", "[delaunay][detect]") {
-  // The CPU loop settles quiet edges four at a time (AVX2) and hands the others to
-  // MarkInversions::test; the result must be what test() alone gives for every edge: marks,
-  // counts, lowest event ids, the candidate set. Random moves of growing size make every kind of
-  // edge: quiet, Lawson candidates, crossed (marked), inverted twice, reversed, across the
-  // periodic boundary; edges come in groups of four, mixed.
+namespace {
+// The CPU loop settles quiet edges four at a time (AVX2) and hands the others to
+// MarkInversions::test; the result must be what test() alone gives for every edge: marks,
+// counts, lowest event ids, the candidate set. Random moves of growing size make every kind of
+// edge: quiet, Lawson candidates, crossed (marked), inverted twice, reversed, across the
+// periodic boundary; edges come in groups of four, mixed.
+template <class R>
+void check_cpu_loop_against_test(double amplitude) {
   using namespace ff::delaunay;
   namespace df = ff::delaunay::fields;
-  const double amplitude = GENERATE(0.02, 0.3, 0.45, 0.6);
-  Scene sc(Precision::f64, 24, 24);
+  const Precision precision = sizeof(R) == 8 ? Precision::f64 : Precision::f32;
+  Scene sc(precision, 24, 24);
   const RngKey key = make_rng_key(11, "moves");
   std::vector<double> xy = sc.xy;
   for (std::size_t i = 0; i < sc.n(); ++i)
@@ -234,12 +236,12 @@ TEST_CASE("detect_inversion: the CPU loop agrees with the per-edge test on every
     s.field(f).acquire(Where::host, Mode::read);
   const Mesh m{s.field(df::halfedge).host<std::int32_t>(), s.field(df::vertex_edge).host<std::int32_t>(),
                s.field(df::opposite).host<std::int32_t>()};
-  const Points<double> pts{s.field(ff::fields::position).host<double>(), PeriodicBox<double>::make(s.box.L)};
+  const Points<R> pts{s.field(ff::fields::position).host<R>(), PeriodicBox<double>::make(s.box.L)};
   std::vector<std::uint8_t> ref_mark(E, 7);
   std::vector<unsigned> c(kInversionCounters, 0);
   for (int k = kThroughAt; k < kInversionCounters; ++k) c[std::size_t(k)] = ~0u;
   std::vector<std::int32_t> cand(E);
-  const MarkInversions<double> f{m, pts, s.field(df::position_prev).host<double>(), ref_mark.data(), c.data(),
+  const MarkInversions<R> f{m, pts, s.field(df::position_prev).host<R>(), ref_mark.data(), c.data(),
                                  cand.data(), unsigned(E), int(E)};
   std::vector<int> ref_cand;
   for (int e = 0; e < int(E); ++e)
@@ -247,7 +249,7 @@ TEST_CASE("detect_inversion: the CPU loop agrees with the per-edge test on every
   INFO("amplitude " << amplitude << ": inverted " << c[kInverted] << ", marked " << c[kMarked] << ", through "
                     << c[kThrough] << ", twice " << c[kTwice] << ", candidates " << ref_cand.size());
 
-  auto st = make_stage("delaunay.detect_inversion", Backend::cpu);
+  auto st = make_stage("delaunay.detect_inversion", Backend::cpu, precision);
   st->configure(s);
   Runner r(s, Backend::cpu);
   const Outcome o = r.run(*st);
@@ -274,4 +276,11 @@ TEST_CASE("detect_inversion: the CPU loop agrees with the per-edge test on every
   if (amplitude >= 0.3) CHECK(ref_cand.size() > 20);
   if (amplitude >= 0.45) CHECK(c[kMarked] > 0);
   if (amplitude == 0.6) CHECK(c[kThrough] > 0);
+}
+}  // namespace
+
+TEST_CASE("detect_inversion: the CPU loop agrees with the per-edge test on every edge", "[delaunay][detect]") {
+  const double amplitude = GENERATE(0.02, 0.3, 0.45, 0.6);
+  SECTION("double") { check_cpu_loop_against_test<double>(amplitude); }
+  SECTION("float") { check_cpu_loop_against_test<float>(amplitude); }
 }

@@ -2,7 +2,6 @@
 #include <oneapi/tbb/parallel_for.h>
 
 #include <cstring>
-#include <type_traits>
 #if defined(__AVX2__)
 #include <immintrin.h>
 #endif
@@ -15,9 +14,10 @@ namespace ff::delaunay {
 namespace {
 
 #if defined(__AVX2__)
-// The common case four edges at a time (AVX2, double positions): an edge is quiet when both
-// its triangles close under minimum image, its vector did not reverse (r⁰·r¹ >= 0), both its
-// triangles are positive and it is not a Lawson candidate (in-circle determinant <= 0). A quiet
+// The common case four edges at a time (AVX2; coordinates in double for either precision, as
+// Points<R> has them): an edge is quiet when both its triangles close under minimum image, its
+// vector did not reverse (r⁰·r¹ >= 0), both its triangles are positive and it is not a Lawson
+// candidate (in-circle determinant <= 0). A quiet
 // edge gets mark 0 and nothing else, exactly what MarkInversions::test does for it; any other
 // edge goes through test() itself. Every value compared is computed with the same operations in
 // the same order as test()'s scalar code (no fma in this file), so the two agree bit for bit:
@@ -27,12 +27,17 @@ struct Xy {
   __m256d x, y;
 };
 
+// Point i's (x, y) in double (exact for float positions, as Points<R> converts them).
+inline __m128d load_xy(const double* p, int i) { return _mm_loadu_pd(p + 2 * i); }
+inline __m128d load_xy(const float* p, int i) {
+  return _mm_cvtps_pd(_mm_castsi128_ps(_mm_loadl_epi64(reinterpret_cast<const __m128i*>(p + 2 * i))));
+}
+
 // The coordinates of points idx[0..3] (x, y interleaved), as a lane per point.
-inline Xy gather_xy(const double* p, const int* idx) {
-  const __m256d t02 = _mm256_insertf128_pd(_mm256_castpd128_pd256(_mm_loadu_pd(p + 2 * idx[0])),
-                                           _mm_loadu_pd(p + 2 * idx[2]), 1);
-  const __m256d t13 = _mm256_insertf128_pd(_mm256_castpd128_pd256(_mm_loadu_pd(p + 2 * idx[1])),
-                                           _mm_loadu_pd(p + 2 * idx[3]), 1);
+template <class R>
+inline Xy gather_xy(const R* p, const int* idx) {
+  const __m256d t02 = _mm256_insertf128_pd(_mm256_castpd128_pd256(load_xy(p, idx[0])), load_xy(p, idx[2]), 1);
+  const __m256d t13 = _mm256_insertf128_pd(_mm256_castpd128_pd256(load_xy(p, idx[1])), load_xy(p, idx[3]), 1);
   return {_mm256_unpacklo_pd(t02, t13), _mm256_unpackhi_pd(t02, t13)};
 }
 
@@ -81,7 +86,8 @@ inline __m256d dot(const Xy& p, const Xy& q) {
 }
 
 // Bit k set: edge e + k is quiet (see above).
-inline int quiet4(const MarkInversions<double>& f, const Box4& box, int e) {
+template <class R>
+inline int quiet4(const MarkInversions<R>& f, const Box4& box, int e) {
   int a[4], b[4], c[4], d[4];
   for (int k = 0; k < 4; ++k) {
     const QuadVertices q = quad_vertices(f.mesh, e + k);
@@ -90,7 +96,7 @@ inline int quiet4(const MarkInversions<double>& f, const Box4& box, int e) {
     c[k] = q.c;
     d[k] = q.d;
   }
-  const double* p = f.pts.p;
+  const R* p = f.pts.p;
   const Xy pa = gather_xy(p, a), pb = gather_xy(p, b), pc = gather_xy(p, c), pd = gather_xy(p, d);
   Xy ab = sub(pb, pa), ac = sub(pc, pa), ad = sub(pd, pa);  // as Points::rel when nothing wraps
   if (_mm256_movemask_pd(_mm256_or_pd(box.wraps(ab), _mm256_or_pd(box.wraps(ac), box.wraps(ad))))) {
@@ -122,8 +128,8 @@ inline int quiet4(const MarkInversions<double>& f, const Box4& box, int e) {
 #endif
 
 // MarkInversions over the edges, each task appending its Lawson candidates in batches of up to
-// kBatch (one update of the shared counter per batch instead of per candidate). With AVX2 and
-// double positions, four edges at a time where all four are quiet (quiet4).
+// kBatch (one update of the shared counter per batch instead of per candidate). With AVX2, four
+// edges at a time where all four are quiet (quiet4).
 template <class R>
 void mark(std::size_t n, const MarkInversions<R>& f, CUstream_st*) {
   constexpr std::size_t kGrain = 2048, kBatch = 256;
@@ -141,7 +147,7 @@ void mark(std::size_t n, const MarkInversions<R>& f, CUstream_st*) {
     };
     std::size_t i = begin;
 #if defined(__AVX2__)
-    if constexpr (std::is_same_v<R, double>) {
+    {  // four at a time
       const Box4 box(local.pts.box);
       for (; i + 4 <= end; i += 4) {
         for (int j = 0; j < 4; ++j)
