@@ -15,8 +15,8 @@
 #           delaunay.detect_inversion/flip/lawson, overlap_correct; bench leaves observers
 #           out), 2 threads, at each DT given, FF_STEPS timed steps after 0.2 τ_B of warm-up.
 #           Default DTs: 1e-3, the largest Δt whose hard-disk Z = 1 + 2η g(σ⁺) is within 3 %
-#           of Henderson (η = 0.5, N = 2000, t = 5: +2.2 % at 1e-3, +5.0 % at 2e-3; the EOS
-#           test's own notes: +2.6…2.7 % at 1e-3), and 3e-4, the Δt tests/test_hard_disk_eos.cpp
+#           of Henderson (η = 0.5, N = 4096, t = 1…21, 4 seeds: +2.9 % at 1e-3, +2.6 % at 9e-4;
+#           +5.0 % at 2e-3; bench/README.md), and 3e-4, the Δt tests/test_hard_disk_eos.cpp
 #           runs (+0.4…1.2 %).
 # Under load the two degrade differently (LAMMPS's MPI ranks run in lockstep, so a core taken by
 # another job stalls both; oneTBB threads steal work), so the per-round ratio moves with the load;
