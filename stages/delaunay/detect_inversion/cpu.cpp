@@ -17,12 +17,12 @@ namespace {
 // The common case four edges at a time (AVX2; coordinates in double for either precision, as
 // Points<R> has them): an edge is quiet when both its triangles close under minimum image, its
 // vector did not reverse (r⁰·r¹ >= 0), both its triangles are positive and it is not a Lawson
-// candidate (in-circle determinant <= 0). A quiet
-// edge gets mark 0 and nothing else, exactly what MarkInversions::test does for it; any other
-// edge goes through test() itself. Every value compared is computed with the same operations in
-// the same order as test()'s scalar code (no fma in this file), so the two agree bit for bit:
-// quiet here <=> test() would find nothing (tests/test_delaunay_detect_inversion.cpp compares
-// both loops on configurations full of rare events).
+// candidate (in-circle determinant <= 0). A quiet edge gets mark 0 and nothing else, exactly
+// what MarkInversions::test does for it; any other edge goes through test() itself. Every value
+// compared is computed with the same operations in the same order as test()'s scalar code (no
+// fma in this file), so the two agree bit for bit: quiet here <=> test() would find nothing
+// (tests/test_delaunay_detect_inversion.cpp compares both loops on configurations full of rare
+// events, in both precisions).
 struct Xy {
   __m256d x, y;
 };
