@@ -1,4 +1,4 @@
-// CPU loops of delaunay.lawson. The per-edge math is kernel.h's (marks, wins, apply); what
+// CPU loops of delaunay.lawson. The per-edge math is kernel.h's (marks, wins, flip_and_list); what
 // differs from the device is how the lists are filled. Nearly every element of a round appends
 // to a list, and on the host one shared counter bumped from two threads moves its cache line
 // between the cores on every append (Lawson took 2 ms per step at N = 2^16 that way). So each
@@ -52,7 +52,7 @@ void append_by_chunks(std::size_t n, std::int32_t* list, unsigned* len, const Bo
   unsigned at = *len;
   for (std::size_t c = 0; c < chunks; ++c) {
     const std::vector<std::int32_t>& o = out[std::ptrdiff_t(c)];
-    if constexpr (std::is_same_v<Keep, KeepAll>) {
+    if constexpr (std::is_same_v<Keep, KeepAll>) {  // a plain copy (memmove) where nothing is dropped
       std::copy(o.begin(), o.end(), list + at);
       at += unsigned(o.size());
     } else {
