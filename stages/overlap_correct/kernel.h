@@ -89,17 +89,24 @@ FF_HD double pair_push(double rx, double ry, double sv, double su, double factor
 }
 
 // Loads. On the device, positions move during the persistent kernel (other blocks write them
-// between grid barriers), so they are read through L2 (ld.global.cg), never the read-only
-// path; the half-edges are read-only for the whole stage.
+// between grid barriers), so they are never read through the read-only path (ld.global.nc),
+// which is not kept coherent within a kernel. They are plain loads, cached in L1: each phase
+// between two barriers only reads them, and a grid barrier (cg::grid_group::sync, an acquire at
+// GPU scope) invalidates the L1 before anything after it reads, so a plain load sees every write
+// made before the barrier (the tail's __syncthreads does the same within block 0's SM). L1 hits
+// matter: a block's particles are neighbours of each other (Hilbert order), and each position
+// is read by ~6 walks; with ld.global.cg (L2 only) the stage took 1.10 ms per step at N = 2^20
+// in bench-abp on the H100, 0.88 ms with plain loads (PERF.md). The half-edges are read-only
+// for the whole stage (__ldg).
 template <class R>
 FF_HD void load_xy(const R* pos, int v, double& x, double& y) {
 #if defined(__CUDA_ARCH__)
   if constexpr (sizeof(R) == 8) {
-    const double2 p = __ldcg(reinterpret_cast<const double2*>(pos) + v);
+    const double2 p = reinterpret_cast<const double2*>(pos)[v];
     x = p.x;
     y = p.y;
   } else {
-    const float2 p = __ldcg(reinterpret_cast<const float2*>(pos) + v);
+    const float2 p = reinterpret_cast<const float2*>(pos)[v];
     x = double(p.x);
     y = double(p.y);
   }
@@ -174,6 +181,12 @@ struct Mesh {
   double cap;                  // fraction of σ_v
   double tol;                  // relative overlap that still counts as converged
   double inv_unit;             // 1 / length unit (the largest diameter at configure)
+  // Every diameter when they are all equal (else 0): the walks then read no diameters at all.
+  // At N = 2^20 a gather's three loads per neighbour (half-edge, position, diameter) do not fit
+  // in the GPU's L2, so one load fewer is traffic saved; the value is the same bits.
+  double uniform = 0;
+
+  FF_HD double diameter_of(int v) const { return uniform > 0 ? uniform : double(diameter[v]); }
 
   // Calls f(u, h) for each neighbour u of v in fan order (h = the half-edge v -> u); returns
   // false when the fan does not close, an index is out of range (nothing out of range is read)
@@ -242,7 +255,7 @@ struct Mesh {
     }
     if (!(rx * rx + ry * ry < reach2)) return kEdgeApart;  // σ_ab ≤ largest diameter
     double tx, ty;
-    o = pair_term(rx, ry, double(diameter[a]), double(diameter[b]), factor, a, b, tx, ty);
+    o = pair_term(rx, ry, diameter_of(a), diameter_of(b), factor, a, b, tx, ty);
     if (o == kNoOverlap) return kEdgeApart;
     qx = -fixed_push(tx);
     qy = -fixed_push(ty);
@@ -258,13 +271,13 @@ struct Mesh {
     constexpr double kLoose = 1 + 1e-9;
     double xv, yv;
     load_xy(pos, v, xv, yv);
-    const double sv = double(diameter[v]);
+    const double sv = diameter_of(v);
     bool any = false;
     for_each_neighbour(v, [&](int u, int) {
       double xu, yu;
       load_xy(pos, u, xu, yu);
       const double rx = min_image(xu - xv, 0), ry = min_image(yu - yv, 1);
-      const double s = 0.5 * (sv + double(diameter[u]));
+      const double s = 0.5 * (sv + diameter_of(u));
       if (rx * rx + ry * ry < s * s * kLoose) {
         f(u);
         any = true;
@@ -295,14 +308,14 @@ struct Mesh {
     VertexPush out;
     double xv, yv;
     load_xy(pos, v, xv, yv);
-    const double sv = double(diameter[v]);
+    const double sv = diameter_of(v);
     std::int64_t qx = 0, qy = 0;
     out.broken = !for_each_neighbour(v, [&](int u, int) {
       double xu, yu;
       load_xy(pos, u, xu, yu);
       double tx, ty;
       const double o =
-          pair_term(min_image(xu - xv, 0), min_image(yu - yv, 1), sv, double(diameter[u]), factor, v, u, tx, ty);
+          pair_term(min_image(xu - xv, 0), min_image(yu - yv, 1), sv, diameter_of(u), factor, v, u, tx, ty);
       if (o != kNoOverlap) {
         qx -= fixed_push(tx);
         qy -= fixed_push(ty);
@@ -322,7 +335,7 @@ struct Mesh {
   FF_HD VertexPush from_sum(int v, std::int64_t qx, std::int64_t qy) const {
     VertexPush out;
     out.touched = true;
-    finish(qx, qy, double(diameter[v]), out);
+    finish(qx, qy, diameter_of(v), out);
     return out;
   }
 

@@ -109,14 +109,13 @@ class OverlapCorrect final : public Stage {
                          "'), which no stage before it provides: put the delaunay stages before it in `step:` "
                          "(delaunay.detect_inversion, delaunay.flip, delaunay.lawson after the integrator, or "
                          "delaunay.build)");
-    double dmin = HUGE_VAL;
-    measure_diameters(s, nullptr, dmin);
-    if (!(dmin > 0)) throw InputError("overlap_correct: every particle needs a positive diameter");
+    measure_diameters(s, nullptr);
+    if (!(dmin_ > 0)) throw InputError("overlap_correct: every particle needs a positive diameter");
     unit_ = dmax_;
     tol_ = p_.tolerance;
     if (s.precision() == Precision::f32) {
       const double lmax = std::max(s.box.L[0], s.box.L[1]);
-      tol_ = std::max(tol_, 4.0 * double(FLT_EPSILON) * lmax / dmin);
+      tol_ = std::max(tol_, 4.0 * double(FLT_EPSILON) * lmax / dmin_);
     }
   }
 
@@ -133,18 +132,17 @@ class OverlapCorrect final : public Stage {
     const R* diam = ptr<R>(s.field(fields::diameter));
     const std::int32_t* he = ptr<std::int32_t>(s.field(delaunay::fields::halfedge));
     const std::int32_t* ve = ptr<std::int32_t>(s.field(delaunay::fields::vertex_edge));
-    if (s.field(fields::diameter).version() != diameter_version_) {  // written since: measure again
-      double dmin = HUGE_VAL;
-      measure_diameters(s, st, dmin);
-    }
+    if (s.field(fields::diameter).version() != diameter_version_)  // written since: measure again
+      measure_diameters(s, st);
     if (!ws_ || ws_n_ != n) {
       if (ws_) ops_.destroy(ws_);
       ws_ = nullptr;
       ws_ = ops_.create(n);
       ws_n_ = n;
     }
-    const Mesh<R> mesh{x, diam, he, ve, std::int32_t(n), dmax_ * dmax_, PeriodicBox<double>::make(s.box.L), p_.mode == "contact" ? 0.5 : 1.0,
-                       p_.cap, tol_, 1.0 / unit_};
+    const double uniform = dmin_ == dmax_ ? dmax_ : 0.0;  // all diameters equal: none is read
+    const Mesh<R> mesh{x, diam, he, ve, std::int32_t(n), dmax_ * dmax_, PeriodicBox<double>::make(s.box.L),
+                       p_.mode == "contact" ? 0.5 : 1.0, p_.cap, tol_, 1.0 / unit_, uniform};
     const Problem<R> prob{mesh, x, img, PeriodicBox<R>::make(s.box.L), n};
 
     // Replays the loop's rule on each gather's counters: error, converged, or apply and go on.
@@ -186,12 +184,13 @@ class OverlapCorrect final : public Stage {
   T* ptr(Field& f) const { return where_ == Where::device ? f.device<T>() : f.host<T>(); }
 
   // The largest diameter (the edge passes' reach) and the smallest, from the host copy.
-  void measure_diameters(State& s, CUstream_st* st, double& dmin) {
+  void measure_diameters(State& s, CUstream_st* st) {
     Field& d = s.field(fields::diameter);
     d.acquire(Where::host, Mode::read, st);
     dmax_ = 0;
+    dmin_ = HUGE_VAL;
     for (std::size_t i = 0; i < s.n(); ++i) {
-      dmin = std::min(dmin, double(d.host<R>()[i]));
+      dmin_ = std::min(dmin_, double(d.host<R>()[i]));
       dmax_ = std::max(dmax_, double(d.host<R>()[i]));
     }
     diameter_version_ = d.version();
@@ -237,6 +236,7 @@ class OverlapCorrect final : public Stage {
   Batch batch_;
   double unit_ = 1;  // length unit of the fixed-point correction counter (largest diameter)
   double dmax_ = 1;  // largest diameter now
+  double dmin_ = 1;  // smallest diameter now (equal to dmax_: the walks read no diameters)
   std::uint64_t diameter_version_ = 0;
   double tol_ = 1e-6;
 };
