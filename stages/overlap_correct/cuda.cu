@@ -30,7 +30,9 @@
 // atomic and lists the particle that claimed it first in one global list, which block 0 gathers
 // (clearing each mark) without scanning every tile. Block 0's lists then span the whole arrays
 // (grid·tile ≥ N entries; a particle is listed once an iteration).
-// The same particles are gathered either way; only who gathers them differs. (Tried and not in,
+// The same particles are gathered either way; only who gathers them differs. Iteration 0's walks
+// copy each particle's neighbours to a per-step list that the later gathers and checks read
+// instead of walking the fan again (kCached below). (Tried and not in,
 // being slower: edge passes, and the check fused with the next gather: experiments/, PERF.md.)
 //
 // Counters: per-thread sums, a block reduction, then one integer atomic per block into one of
@@ -72,6 +74,8 @@ struct Args {
   int* cand;               // grid·tile: each block's candidates, tile-private; in the tail, the claimed
   int* seed;               // grid·tile: each block's touched particles, v if it moved, ~v if not
   double2* disp;           // grid·tile: the displacements of the moved ones
+  int* nb;                 // kCached x grid·tile: each particle's neighbours, filled in iteration 0
+  std::uint8_t* degree;    // grid·tile: how many (kWalk: more than kCached, walk the fan)
   u64* slots;              // kBatch x kDevCounters x kShards (sharded counters, zeroed per launch)
   u64* claims;             // entries of cand claimed for the tail (zeroed per launch)
   u64* result;             // kBatch x kCounters + 1 (block 0 writes the sums and the gather count)
@@ -139,6 +143,48 @@ __device__ void mark(std::uint8_t* marks, int u, bool claim, int* cand, u64* cla
   if (!(atomicOr(reinterpret_cast<unsigned*>(marks) + (u >> 2), bit) & bit)) cand[atomicAdd(claims, 1ull)] = int(u);
 }
 
+// Neighbour lists of the step. Iteration 0 walks every particle's fan (checking that it
+// closes) and copies its neighbours, up to kCached, to nb (one 32-byte sector per particle;
+// in a Delaunay triangulation the mean degree is 6); later walks read them from there: one
+// load for the ids instead of a chain of one dependent half-edge load per neighbour, and one
+// sector instead of ~6 (the triangulation does not change during the stage). A particle with
+// more neighbours walks its fan each time.
+constexpr int kCached = 8;
+constexpr std::uint8_t kWalk = 0xff;
+
+// Iteration 0's source of v's neighbours: its fan, copied to the lists on the way.
+template <class R>
+__device__ auto fan_copied(const Mesh<R>& mesh, int v, int* nb, std::uint8_t* degree) {
+  return [&mesh, v, nb, degree](auto&& g) {
+    int i = 0;
+    const bool closed = mesh.for_each_neighbour(v, [&](int u, int) {
+      if (i < kCached) nb[std::size_t(kCached) * v + i] = u;
+      ++i;
+      g(u);
+    });
+    degree[v] = closed && i <= kCached ? std::uint8_t(i) : kWalk;
+    return closed;
+  };
+}
+
+// Later iterations' source: the copied list, or the fan when it did not fit.
+template <class R>
+__device__ auto listed(const Mesh<R>& mesh, int v, const int* nb, const std::uint8_t* degree) {
+  return [&mesh, v, nb, degree](auto&& g) {
+    const int d = degree[v];
+    if (d == kWalk) return mesh.for_each_neighbour(v, [&](int u, int) { g(u); });
+    const int4* p = reinterpret_cast<const int4*>(nb + std::size_t(kCached) * v);
+    int4 lo = p[0];
+    int4 hi = d > 4 ? p[1] : make_int4(0, 0, 0, 0);
+    for (int i = 0; i < d; ++i) {  // the next id is always lo.x: no indexing, no local memory
+      g(lo.x);
+      lo = make_int4(lo.y, lo.z, lo.w, hi.x);
+      hi = make_int4(hi.y, hi.z, hi.w, 0);
+    }
+    return true;
+  };
+}
+
 __device__ u64 warp_sum(u64 x) {
 #pragma unroll
   for (int o = 16; o > 0; o >>= 1) x += __shfl_down_sync(0xffffffffu, x, o);
@@ -188,7 +234,8 @@ __global__ void __launch_bounds__(kThreads, MinBlocks) correct_kernel(Args<R> a)
       const int v = k == 0 ? t0 + i : __ldcg(cand + i);
       if (tail)  // its claim: cleared for the next check
         atomicAnd(reinterpret_cast<unsigned*>(a.marks) + (v >> 2), ~(1u << (8 * (v & 3))));
-      const VertexPush q = mesh.gather(v);
+      const VertexPush q = k == 0 ? mesh.gather_by(v, fan_copied(mesh, v, a.nb, a.degree))
+                                  : mesh.gather_by(v, listed(mesh, v, a.nb, a.degree));
       c[kBad] += q.bad;
       c[kPairs] += q.pairs;
       c[kCorrection] += mesh.fixed_len(q.len);
@@ -266,7 +313,8 @@ __global__ void __launch_bounds__(kThreads, MinBlocks) correct_kernel(Args<R> a)
         continue;
       }
       // The fan closed in iteration 0 (else the step ended there), and the walk is range-checked.
-      if (mesh.overlapping_neighbours(v, [&](int u) { mark(a.marks, u, claim, a.cand, a.claims); }))
+      if (mesh.overlapping_neighbours_by(v, listed(mesh, v, a.nb, a.degree),
+                                         [&](int u) { mark(a.marks, u, claim, a.cand, a.claims); }))
         mark(a.marks, v, claim, a.cand, a.claims);
     }
     if (last) return;  // the host launches the next batch
@@ -291,6 +339,8 @@ struct DevWorkspace {
   int* cand = nullptr;
   int* seed = nullptr;
   double2* disp = nullptr;
+  int* nb = nullptr;
+  std::uint8_t* degree = nullptr;
   u64* slots = nullptr;  // kSlotWords + the claims count
   u64* result = nullptr;
   u64* host = nullptr;  // pinned copy of result
@@ -305,9 +355,11 @@ T* dev_alloc(std::size_t count, const char* what) {
 
 // Blocks and tile for n particles: at most what fits on the device at once (a cooperative
 // launch needs every block resident), tiles of at least 256 particles, a multiple of 16.
-// 4 blocks of 256 per SM (64 registers): measured on the H100 against 1, 6 and 8 (the last two
-// spill) at N = 2^20; 1.5 ms per step against 2.2, 3.4 and 3.2.
-constexpr int kMinBlocks = 4;
+// 3 blocks of 256 per SM (80 registers), measured on the H100 at N = 2^20 (bench-abp, overlap
+// ms per step): with the neighbour lists 0.84 against 0.91 with 4 blocks (64 registers, more
+// spills) and 0.88–0.89 with 2; before them (fan walks only) 4 blocks took 1.5 ms against 2.2,
+// 3.4 and 3.2 with 1, 6 and 8, and 3 or 2 blocks were as fast as 4.
+constexpr int kMinBlocks = 3;
 template <class R>
 void* kernel_ptr() {
   return reinterpret_cast<void*>(correct_kernel<R, kMinBlocks>);
@@ -343,6 +395,8 @@ void* dev_create(std::size_t n) {
     w->cand = dev_alloc<int>(w->cap, "allocating overlap_correct work lists");
     w->seed = dev_alloc<int>(w->cap, "allocating overlap_correct work lists");
     w->disp = dev_alloc<double2>(w->cap, "allocating overlap_correct displacements");
+    w->nb = dev_alloc<int>(kCached * w->cap, "allocating overlap_correct neighbour lists");
+    w->degree = dev_alloc<std::uint8_t>(w->cap, "allocating overlap_correct neighbour lists");
     w->slots = dev_alloc<u64>(kSlotWords + 1, "allocating overlap_correct counters");
     w->result = dev_alloc<u64>(kResultWords, "allocating overlap_correct counters");
     FF_CUDA_CHECK(cudaMallocHost(&w->host, kResultWords * sizeof(u64)), "allocating overlap_correct counters");
@@ -359,6 +413,8 @@ void dev_destroy(void* p) {
   cudaFree(w->cand);
   cudaFree(w->seed);
   cudaFree(w->disp);
+  cudaFree(w->nb);
+  cudaFree(w->degree);
   cudaFree(w->slots);
   cudaFree(w->result);
   cudaFreeHost(w->host);
@@ -375,6 +431,8 @@ void dev_iterate(void* ws, const Problem<R>& p, std::int64_t k0, std::int64_t ma
             w->cand,
             w->seed,
             w->disp,
+            w->nb,
+            w->degree,
             w->slots,
             w->slots + kSlotWords,
             w->result,

@@ -268,12 +268,24 @@ struct Mesh {
   // next iteration's candidates, never leave one out. Both loops build their work lists with it.
   template <class F>
   FF_HD bool overlapping_neighbours(int v, F&& f) const {
+    return overlapping_neighbours_by(v, fan_of(v), f);
+  }
+
+  // The walk around v's fan as a neighbour source: neighbours(g) calls g(u) for each
+  // neighbour u and returns false when the fan does not close (see for_each_neighbour). The
+  // device loop also has another source of the same neighbours (a per-step copy, cuda.cu).
+  FF_HD auto fan_of(int v) const {
+    return [this, v](auto&& g) { return for_each_neighbour(v, [&](int u, int) { g(u); }); };
+  }
+
+  template <class N, class F>
+  FF_HD bool overlapping_neighbours_by(int v, N&& neighbours, F&& f) const {
     constexpr double kLoose = 1 + 1e-9;
     double xv, yv;
     load_xy(pos, v, xv, yv);
     const double sv = diameter_of(v);
     bool any = false;
-    for_each_neighbour(v, [&](int u, int) {
+    neighbours([&](int u) {
       double xu, yu;
       load_xy(pos, u, xu, yu);
       const double rx = min_image(xu - xv, 0), ry = min_image(yu - yv, 1);
@@ -304,13 +316,18 @@ struct Mesh {
   }
 
   // Particle v's walk around its fan: every edge, its pushes summed, its pairs counted.
-  FF_HD VertexPush gather(int v) const {
+  FF_HD VertexPush gather(int v) const { return gather_by(v, fan_of(v)); }
+
+  // The same from another source of v's neighbours (fan_of's contract; any order: the sums are
+  // in fixed point).
+  template <class N>
+  FF_HD VertexPush gather_by(int v, N&& neighbours) const {
     VertexPush out;
     double xv, yv;
     load_xy(pos, v, xv, yv);
     const double sv = diameter_of(v);
     std::int64_t qx = 0, qy = 0;
-    out.broken = !for_each_neighbour(v, [&](int u, int) {
+    out.broken = !neighbours([&](int u) {
       double xu, yu;
       load_xy(pos, u, xu, yu);
       double tx, ty;
