@@ -2,8 +2,9 @@
 // as used by Carter et al. 2017). Rounds of mark / decide / apply over lists (kernel.h): round 0
 // tests every edge, later rounds only the edges whose quad changed. The lowest marked edge id
 // wins both of its triangles, so the result is independent of thread scheduling and backend.
-// The host reads the counters after round 0's marks and then after every round on the CPU, every
-// kDeviceRoundsPerRead rounds on the device (each read waits for it). The input must be a valid (all triangles positive) triangulation:
+// The host reads the counters after round 0's marks (on the device not always: see run()) and
+// then after every round on the CPU, every kDeviceRoundsPerRead rounds on the device (each read
+// waits for it). The input must be a valid (all triangles positive) triangulation:
 // run delaunay.flip first.
 #pragma once
 #include <algorithm>
@@ -20,6 +21,8 @@ namespace ff::delaunay {
 
 // Rounds a CUDA Lawson runs between two reads of its counters (one read waits for the device).
 inline constexpr std::int64_t kDeviceRoundsPerRead = 3;
+// Round 0 tests at least this many edges: the device does not wait for its count (see run()).
+inline constexpr std::size_t kSkipReadFrom = 64;
 
 struct LawsonParams {
   std::int64_t max_rounds = 1000;
@@ -106,17 +109,34 @@ class Lawson final : public Stage {
       launch = unsigned(hint - 1);  // the list's length: the launch's own size
       test = data<std::int32_t>(s.field(fields::lawson_candidates), where_);
     }
-    // Round 0's marks, read back: most steps flip, but when none is needed nothing is announced.
+    // Round 0's marks, read back: when none is needed nothing is announced to the rollback
+    // snapshot (no copy of the topology), and the rounds launch over the exact count. On the
+    // device, when there is no snapshot to take (ctx.snapshot null: every rollback requester ran
+    // before this stage) and round 0 tests at least kSkipReadFrom edges, the read is skipped and
+    // round 1 launches over round 0's list length, an upper bound of its marks: one wait for the
+    // device fewer per step. detect_inversion's candidates fail the in-circle test, so nearly all
+    // of them flip (bench-abp: 1171 candidates and 1182 flips a step at N = 2^16, 18,790 and
+    // 18,950 at 2^20); with only a few a step may flip nothing, and then the read saves three
+    // empty rounds. Flips that would need an edge longer than half the box are refused by the
+    // marking, so reporting them at a later read is safe.
     std::int32_t round = ++round_;
     ops_.mark(launch,
               MarkNonDelaunay<R>{m, pts, p_.tolerance, test, nullptr, marked, round, marked_list, c, unsigned(launch)},
               st);
-    auto h = counters_.read(st);
-    throw_if_too_long_flip(s, h[kLawsonTooLong], h[kLawsonTooLongAt], st);
-    std::size_t bound = h[kLawsonMarked];  // this round's marked edges (exact, or an upper bound)
-    const unsigned* marked_len = nullptr;  // null: `bound` is exact; else their count, on the backend
-    std::int64_t launched = 0;              // decide/apply rounds launched
-    if (bound) will_flip(ctx);              // announce before the first flip (rollback snapshot)
+    const bool skip_first_read = where_ == Where::device && ctx.snapshot == nullptr && launch >= kSkipReadFrom;
+    std::array<unsigned, kLawsonCounters> h{};
+    std::size_t bound = launch;            // this round's marked edges (exact, or an upper bound)
+    const unsigned* marked_len = c + kLawsonMarked;  // null: `bound` is exact; else their count, on the backend
+    if (skip_first_read) {
+      h[kLawsonMarked] = 1;  // not known yet: go into the loop, which reads it
+    } else {
+      h = counters_.read(st);
+      throw_if_too_long_flip(s, h[kLawsonTooLong], h[kLawsonTooLongAt], st);
+      bound = h[kLawsonMarked];
+      marked_len = nullptr;
+      if (bound) will_flip(ctx);  // announce before the first flip (rollback snapshot)
+    }
+    std::int64_t launched = 0;  // decide/apply rounds launched
     // Then rounds of decide, apply, mark. On the device several rounds go between two reads
     // (kernels take the lists' lengths from the backend and launch over upper bounds: each
     // marked edge queues at most 4 edges), so a step waits for the device ~2 times instead of
