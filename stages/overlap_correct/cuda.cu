@@ -32,7 +32,9 @@
 // (grid·tile ≥ N entries; a particle is listed once an iteration).
 // The same particles are gathered either way; only who gathers them differs. Iteration 0's walks
 // copy each particle's neighbours to a per-step list that the later gathers and checks read
-// instead of walking the fan again (kCached below). (Tried and not in,
+// instead of walking the fan again (kCached below): one thread per particle, its neighbours'
+// positions loaded kInFlight at a time, or, when a block has at most kGroupBelow particles to
+// do (the late iterations), a group of 8 lanes per particle, one neighbour each. (Tried and not in,
 // being slower: edge passes, and the check fused with the next gather: experiments/, PERF.md.)
 //
 // Counters: per-thread sums, a block reduction, then one integer atomic per block into one of
@@ -167,22 +169,155 @@ __device__ auto fan_copied(const Mesh<R>& mesh, int v, int* nb, std::uint8_t* de
   };
 }
 
-// Later iterations' source: the copied list, or the fan when it did not fit.
+// v's listed neighbours (d ≤ kCached of them) into ids: one or two 16-byte loads.
+__device__ void load_ids(const int* nb, int v, int d, int (&ids)[kCached]) {
+  const int4* p = reinterpret_cast<const int4*>(nb + std::size_t(kCached) * v);
+  const int4 lo = p[0];
+  const int4 hi = d > 4 ? p[1] : make_int4(0, 0, 0, 0);
+  ids[0] = lo.x, ids[1] = lo.y, ids[2] = lo.z, ids[3] = lo.w;
+  ids[4] = hi.x, ids[5] = hi.y, ids[6] = hi.z, ids[7] = hi.w;
+}
+
+// Later iterations' gather of v by one thread: the list, then the neighbours' positions
+// kInFlight at a time (independent loads in flight together, not one after the other), then
+// their pushes. A particle whose list did not fit walks its fan.
+constexpr int kInFlight = 4;
 template <class R>
-__device__ auto listed(const Mesh<R>& mesh, int v, const int* nb, const std::uint8_t* degree) {
-  return [&mesh, v, nb, degree](auto&& g) {
+__device__ VertexPush thread_gather(const Mesh<R>& mesh, int v, const int* nb, const std::uint8_t* degree) {
+  const int d = degree[v];
+  if (d == kWalk) return mesh.gather(v);
+  int ids[kCached];
+  load_ids(nb, v, d, ids);
+  VertexPush out;
+  double xv, yv;
+  load_xy(mesh.pos, v, xv, yv);
+  const double sv = mesh.diameter_of(v);
+  std::int64_t qx = 0, qy = 0;
+#pragma unroll
+  for (int h = 0; h < kCached; h += kInFlight) {
+    double xu[kInFlight], yu[kInFlight];
+#pragma unroll
+    for (int i = 0; i < kInFlight; ++i)
+      if (h + i < d) load_xy(mesh.pos, ids[h + i], xu[i], yu[i]);
+#pragma unroll
+    for (int i = 0; i < kInFlight; ++i)
+      if (h + i < d) mesh.gather_pair_at(v, xv, yv, sv, ids[h + i], xu[i], yu[i], qx, qy, out);
+  }
+  mesh.finish(qx, qy, sv, out);
+  return out;
+}
+
+// The check of moved particle v by one thread, loading as thread_gather: calls f(u) for each
+// neighbour u that overlaps v at the new positions (Mesh::overlapping_neighbours' test) and
+// returns whether any did.
+template <class R, class F>
+__device__ bool thread_check(const Mesh<R>& mesh, int v, const int* nb, const std::uint8_t* degree, F&& f) {
+  const int d = degree[v];
+  if (d == kWalk) return mesh.overlapping_neighbours(v, f);
+  int ids[kCached];
+  load_ids(nb, v, d, ids);
+  double xv, yv;
+  load_xy(mesh.pos, v, xv, yv);
+  const double sv = mesh.diameter_of(v);
+  bool any = false;
+#pragma unroll
+  for (int h = 0; h < kCached; h += kInFlight) {
+    double xu[kInFlight], yu[kInFlight];
+#pragma unroll
+    for (int i = 0; i < kInFlight; ++i)
+      if (h + i < d) load_xy(mesh.pos, ids[h + i], xu[i], yu[i]);
+#pragma unroll
+    for (int i = 0; i < kInFlight; ++i)
+      if (h + i < d && mesh.overlaps_after_move_at(xv, yv, sv, ids[h + i], xu[i], yu[i])) {
+        f(ids[h + i]);
+        any = true;
+      }
+  }
+  return any;
+}
+
+// Later iterations read the lists with a group of kGroup lanes per particle: lane l takes
+// neighbour l, so the group loads all of them at once instead of one after the other (a
+// thread's walk was a chain of dependent loads), and the parts are added across the group.
+// Fixed-point sums do not depend on the order, so the result is the same bits as one thread's
+// walk. A particle whose list did not fit is walked by the group's first lane alone.
+constexpr int kGroup = kCached;
+constexpr int kGroups = kThreads / kGroup;
+// A block's gathers (checks) go to lane groups when it has at most this many particles to do,
+// else one thread each: a group shortens one particle's chain of loads, but puts 8x fewer
+// particles in flight (measured on the H100, PERF.md).
+constexpr int kGroupBelow = 128;
+static_assert(32 % kGroup == 0, "a lane group lies within one warp");
+
+// Sum (int64 / unsigned) or OR across the kGroup lanes of each group; every lane gets the result.
+template <class T>
+__device__ T group_sum(T x) {
+#pragma unroll
+  for (int o = 1; o < kGroup; o <<= 1) x += __shfl_xor_sync(0xffffffffu, x, o);
+  return x;
+}
+__device__ unsigned group_or(unsigned x) {
+#pragma unroll
+  for (int o = 1; o < kGroup; o <<= 1) x |= __shfl_xor_sync(0xffffffffu, x, o);
+  return x;
+}
+
+// The gather of particle v by its lane group (lane l of kGroup); `has` false: the group has no
+// particle but its lanes still take part in the shuffles. Every lane of the group returns v's
+// VertexPush (meaningful when `has`).
+template <class R>
+__device__ VertexPush group_gather(const Mesh<R>& mesh, int v, bool has, int l, const int* nb,
+                                   const std::uint8_t* degree) {
+  VertexPush part;
+  std::int64_t qx = 0, qy = 0;
+  double sv = 0;
+  if (has) {
+    double xv, yv;
+    load_xy(mesh.pos, v, xv, yv);
+    sv = mesh.diameter_of(v);
     const int d = degree[v];
-    if (d == kWalk) return mesh.for_each_neighbour(v, [&](int u, int) { g(u); });
-    const int4* p = reinterpret_cast<const int4*>(nb + std::size_t(kCached) * v);
-    int4 lo = p[0];
-    int4 hi = d > 4 ? p[1] : make_int4(0, 0, 0, 0);
-    for (int i = 0; i < d; ++i) {  // the next id is always lo.x: no indexing, no local memory
-      g(lo.x);
-      lo = make_int4(lo.y, lo.z, lo.w, hi.x);
-      hi = make_int4(hi.y, hi.z, hi.w, 0);
+    if (d == kWalk) {
+      if (l == 0) part.broken = !mesh.fan_of(v)([&](int u) { mesh.gather_pair(v, xv, yv, sv, u, qx, qy, part); });
+    } else if (l < d) {
+      mesh.gather_pair(v, xv, yv, sv, nb[std::size_t(kCached) * v + l], qx, qy, part);
     }
-    return true;
-  };
+  }
+  // pairs and bad are at most kMaxFan each (< 2^16): one word carries both.
+  const unsigned counts = group_sum(part.pairs | (part.bad << 16));
+  const unsigned flags = group_or(unsigned(part.touched) | (unsigned(part.broken) << 1));
+  qx = group_sum(qx);
+  qy = group_sum(qy);
+  VertexPush out;
+  out.pairs = counts & 0xffffu;
+  out.bad = counts >> 16;
+  out.touched = flags & 1u;
+  out.broken = flags & 2u;
+  mesh.finish(qx, qy, sv, out);
+  return out;
+}
+
+// The check of moved particle v by its lane group: calls f(u) for each neighbour u that
+// overlaps v at the new positions (Mesh::overlapping_neighbours_by's test); every lane of the
+// group returns whether any did.
+template <class R, class F>
+__device__ bool group_check(const Mesh<R>& mesh, int v, bool has, int l, const int* nb, const std::uint8_t* degree,
+                            F&& f) {
+  bool any = false;
+  if (has) {
+    const int d = degree[v];
+    if (d == kWalk) {
+      if (l == 0) any = mesh.overlapping_neighbours_by(v, mesh.fan_of(v), f);
+    } else if (l < d) {
+      double xv, yv;
+      load_xy(mesh.pos, v, xv, yv);
+      const int u = nb[std::size_t(kCached) * v + l];
+      if (mesh.overlaps_after_move(xv, yv, mesh.diameter_of(v), u)) {
+        f(u);
+        any = true;
+      }
+    }
+  }
+  return group_or(unsigned(any)) != 0;
 }
 
 __device__ u64 warp_sum(u64 x) {
@@ -230,12 +365,8 @@ __global__ void __launch_bounds__(kThreads, MinBlocks) correct_kernel(Args<R> a)
     __syncthreads();
 
     u64 c[kCounters] = {0, 0, 0, 0};
-    for (int i = int(threadIdx.x); i < count; i += kThreads) {
-      const int v = k == 0 ? t0 + i : __ldcg(cand + i);
-      if (tail)  // its claim: cleared for the next check
-        atomicAnd(reinterpret_cast<unsigned*>(a.marks) + (v >> 2), ~(1u << (8 * (v & 3))));
-      const VertexPush q = k == 0 ? mesh.gather_by(v, fan_copied(mesh, v, a.nb, a.degree))
-                                  : mesh.gather_by(v, listed(mesh, v, a.nb, a.degree));
+    // What a gather found: counted, and the particle listed when it touched an overlap.
+    auto take = [&](int v, const VertexPush& q) {
       c[kBad] += q.bad;
       c[kPairs] += q.pairs;
       c[kCorrection] += mesh.fixed_len(q.len);
@@ -248,6 +379,28 @@ __global__ void __launch_bounds__(kThreads, MinBlocks) correct_kernel(Args<R> a)
           disp[m] = make_double2(q.dx, q.dy);
           atomicAdd(&s_moved, 1);
         }
+      }
+    };
+    if (k == 0) {  // one thread per particle: the walks that copy the lists
+      for (int i = int(threadIdx.x); i < count; i += kThreads)
+        take(t0 + i, mesh.gather_by(t0 + i, fan_copied(mesh, t0 + i, a.nb, a.degree)));
+    } else if (count > kGroupBelow) {  // one thread per particle
+      for (int i = int(threadIdx.x); i < count; i += kThreads) {
+        const int v = __ldcg(cand + i);
+        if (tail)  // its claim: cleared for the next check
+          atomicAnd(reinterpret_cast<unsigned*>(a.marks) + (v >> 2), ~(1u << (8 * (v & 3))));
+        take(v, thread_gather(mesh, v, a.nb, a.degree));
+      }
+    } else {  // one lane group per particle (the loop is uniform over the block: shuffles)
+      const int l = int(threadIdx.x) % kGroup;
+      for (int base = 0; base < count; base += kGroups) {
+        const int i = base + int(threadIdx.x) / kGroup;
+        const bool has = i < count;
+        const int v = has ? __ldcg(cand + i) : 0;
+        if (tail && has && l == 0)  // its claim: cleared for the next check
+          atomicAnd(reinterpret_cast<unsigned*>(a.marks) + (v >> 2), ~(1u << (8 * (v & 3))));
+        const VertexPush q = group_gather(mesh, v, has, l, a.nb, a.degree);
+        if (has && l == 0) take(v, q);
       }
     }
 #pragma unroll
@@ -306,16 +459,24 @@ __global__ void __launch_bounds__(kThreads, MinBlocks) correct_kernel(Args<R> a)
     const bool last = j + 1 == kBatch;
     const bool to_tail = !tail && s_tot[kMoved] <= u64(kTailMoved);
     const bool claim = (tail || to_tail) && !last;
-    for (int i = int(threadIdx.x); i < ns; i += kThreads) {
-      const int v = seed[i];
-      if (v < 0) {
-        mark(a.marks, ~v, claim, a.cand, a.claims);
-        continue;
+    auto mark_it = [&](int u) { mark(a.marks, u, claim, a.cand, a.claims); };
+    if (ns > kGroupBelow) {  // one thread per listed particle
+      for (int i = int(threadIdx.x); i < ns; i += kThreads) {
+        const int v = seed[i];
+        if (v < 0)
+          mark_it(~v);
+        else if (thread_check(mesh, v, a.nb, a.degree, mark_it))  // (the fan closed in iteration 0)
+          mark_it(v);
       }
-      // The fan closed in iteration 0 (else the step ended there), and the walk is range-checked.
-      if (mesh.overlapping_neighbours_by(v, listed(mesh, v, a.nb, a.degree),
-                                         [&](int u) { mark(a.marks, u, claim, a.cand, a.claims); }))
-        mark(a.marks, v, claim, a.cand, a.claims);
+    } else {
+      const int l = int(threadIdx.x) % kGroup;
+      for (int base = 0; base < ns; base += kGroups) {  // one lane group per listed particle
+        const int i = base + int(threadIdx.x) / kGroup;
+        const int v = i < ns ? seed[i] : ~0;
+        if (i < ns && v < 0 && l == 0) mark_it(~v);
+        // The fan closed in iteration 0 (else the step ended there), and the walk is range-checked.
+        if (group_check(mesh, v, i < ns && v >= 0, l, a.nb, a.degree, mark_it) && l == 0) mark_it(v);
+      }
     }
     if (last) return;  // the host launches the next batch
     if (tail) {
@@ -355,11 +516,12 @@ T* dev_alloc(std::size_t count, const char* what) {
 
 // Blocks and tile for n particles: at most what fits on the device at once (a cooperative
 // launch needs every block resident), tiles of at least 256 particles, a multiple of 16.
-// 3 blocks of 256 per SM (80 registers), measured on the H100 at N = 2^20 (bench-abp, overlap
-// ms per step): with the neighbour lists 0.84 against 0.91 with 4 blocks (64 registers, more
-// spills) and 0.88–0.89 with 2; before them (fan walks only) 4 blocks took 1.5 ms against 2.2,
-// 3.4 and 3.2 with 1, 6 and 8, and 3 or 2 blocks were as fast as 4.
-constexpr int kMinBlocks = 3;
+// 2 blocks of 256 per SM (128 registers), measured on the H100 (bench-abp, overlap ms per step):
+// with the gathers' loads kInFlight at a time, 0.215 at N = 2^16 and 0.835 at 2^20 against 0.235
+// and 0.877 with 3 blocks (80 registers, 536 B of spills), and the same with 8 in flight.
+// Before (one load after the other): 3 blocks, 0.84 at 2^20 against 0.91 with 4 and 0.88 with 2;
+// with fan walks only, 4 blocks took 1.5 ms against 2.2, 3.4 and 3.2 with 1, 6 and 8.
+constexpr int kMinBlocks = 2;
 template <class R>
 void* kernel_ptr() {
   return reinterpret_cast<void*>(correct_kernel<R, kMinBlocks>);

@@ -280,22 +280,30 @@ struct Mesh {
 
   template <class N, class F>
   FF_HD bool overlapping_neighbours_by(int v, N&& neighbours, F&& f) const {
-    constexpr double kLoose = 1 + 1e-9;
     double xv, yv;
     load_xy(pos, v, xv, yv);
     const double sv = diameter_of(v);
     bool any = false;
     neighbours([&](int u) {
-      double xu, yu;
-      load_xy(pos, u, xu, yu);
-      const double rx = min_image(xu - xv, 0), ry = min_image(yu - yv, 1);
-      const double s = 0.5 * (sv + diameter_of(u));
-      if (rx * rx + ry * ry < s * s * kLoose) {
+      if (overlaps_after_move(xv, yv, sv, u)) {
         f(u);
         any = true;
       }
     });
     return any;
+  }
+
+  // The check's test for one neighbour u of v (at xv, yv with diameter sv); see above.
+  FF_HD bool overlaps_after_move(double xv, double yv, double sv, int u) const {
+    double xu, yu;
+    load_xy(pos, u, xu, yu);
+    return overlaps_after_move_at(xv, yv, sv, u, xu, yu);
+  }
+  FF_HD bool overlaps_after_move_at(double xv, double yv, double sv, int u, double xu, double yu) const {
+    constexpr double kLoose = 1 + 1e-9;
+    const double rx = min_image(xu - xv, 0), ry = min_image(yu - yv, 1);
+    const double s = 0.5 * (sv + diameter_of(u));
+    return rx * rx + ry * ry < s * s * kLoose;
   }
 
   // v's displacement from its summed pushes (qx, qy), capped at cap·σ_v, into out.
@@ -327,24 +335,35 @@ struct Mesh {
     load_xy(pos, v, xv, yv);
     const double sv = diameter_of(v);
     std::int64_t qx = 0, qy = 0;
-    out.broken = !neighbours([&](int u) {
-      double xu, yu;
-      load_xy(pos, u, xu, yu);
-      double tx, ty;
-      const double o =
-          pair_term(min_image(xu - xv, 0), min_image(yu - yv, 1), sv, diameter_of(u), factor, v, u, tx, ty);
-      if (o != kNoOverlap) {
-        qx -= fixed_push(tx);
-        qy -= fixed_push(ty);
-        out.touched = true;
-        if (v < u && o > 0) {
-          ++out.pairs;
-          if (o > tol) ++out.bad;
-        }
-      }
-    });
+    out.broken = !neighbours([&](int u) { gather_pair(v, xv, yv, sv, u, qx, qy, out); });
     finish(qx, qy, sv, out);
     return out;
+  }
+
+  // One neighbour u's part of v's gather (v at xv, yv with diameter sv): its push subtracted
+  // from the fixed-point sum (qx, qy), and out's touched / pairs / bad. The parts of v's
+  // neighbours may be summed in any order, or apart and then added (the device's lane groups).
+  FF_HD void gather_pair(int v, double xv, double yv, double sv, int u, std::int64_t& qx, std::int64_t& qy,
+                         VertexPush& out) const {
+    double xu, yu;
+    load_xy(pos, u, xu, yu);
+    gather_pair_at(v, xv, yv, sv, u, xu, yu, qx, qy, out);
+  }
+  // The same with u's position loaded by the caller (the device loads a particle's neighbours
+  // all at once).
+  FF_HD void gather_pair_at(int v, double xv, double yv, double sv, int u, double xu, double yu, std::int64_t& qx,
+                            std::int64_t& qy, VertexPush& out) const {
+    double tx, ty;
+    const double o =
+        pair_term(min_image(xu - xv, 0), min_image(yu - yv, 1), sv, diameter_of(u), factor, v, u, tx, ty);
+    if (o == kNoOverlap) return;
+    qx -= fixed_push(tx);
+    qy -= fixed_push(ty);
+    out.touched = true;
+    if (v < u && o > 0) {
+      ++out.pairs;
+      if (o > tol) ++out.bad;
+    }
   }
 
   // What a gather of v gives when an edge pass has summed its pushes already (pairs are counted
