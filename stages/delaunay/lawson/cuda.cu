@@ -1,11 +1,63 @@
+#include "core/cuda/check.h"
 #include "core/cuda/loop.cuh"
 #include "stages/delaunay/lawson/cuda.cuh"
 
 namespace ff::delaunay {
 
+namespace {
+
+constexpr int kTailThreads = 1024;
+
+// A counter that this block's atomics (in L2) changed: read past L1.
+__device__ unsigned counter(const unsigned* p) { return *static_cast<const volatile unsigned*>(p); }
+
+// LawsonTail's rounds (kernel.h): the grid version's three passes, with block barriers between.
+template <class R>
+__global__ void __launch_bounds__(kTailThreads) tail_kernel(LawsonTail<R> t) {
+  __shared__ unsigned s_len;
+  unsigned* c = t.counters;
+  std::int32_t round = t.round;
+  std::int64_t ran = 0;
+  for (; ran < t.max_rounds; ++ran) {
+    if (threadIdx.x == 0) {
+      s_len = counter(c + kLawsonMarked);
+      c[kLawsonQueued] = 0;  // apply lists the next round's edges
+    }
+    __syncthreads();
+    const unsigned marked = s_len;
+    if (marked == 0 || marked > t.max_marked) break;
+    const DecideMarked decide{t.mesh, t.marked, round, t.marked_list, t.go, c};
+    for (unsigned i = threadIdx.x; i < marked; i += kTailThreads) decide(i);
+    __syncthreads();
+    const ApplyMarked apply{t.mesh, t.marked_list, t.go, t.queued, round + 1, t.list, c};
+    for (unsigned i = threadIdx.x; i < marked; i += kTailThreads) apply(i);
+    __syncthreads();
+    if (threadIdx.x == 0) {
+      s_len = counter(c + kLawsonQueued);
+      c[kLawsonMarked] = 0;
+    }
+    __syncthreads();
+    ++round;
+    const unsigned queued = s_len;
+    const MarkNonDelaunay<R> mark{t.mesh, t.pts, t.tol, t.list, nullptr, t.marked, round, t.marked_list, c, queued};
+    for (unsigned i = threadIdx.x; i < queued; i += kTailThreads) mark(i);
+    __syncthreads();
+  }
+  if (threadIdx.x == 0) c[kLawsonTailRounds] = unsigned(ran);
+}
+
+template <class R>
+void tail(const LawsonTail<R>& t, CUstream_st* stream) {
+  tail_kernel<R><<<1, kTailThreads, 0, stream>>>(t);
+  FF_CUDA_CHECK_LAUNCH("launching delaunay.lawson's tail rounds");
+}
+
+}  // namespace
+
 template <class R>
 LawsonOps<R> lawson_cuda_ops() {
-  return {&cuda_for_each<MarkNonDelaunay<R>>, &cuda_for_each<DecideMarked>, &cuda_for_each<ApplyMarked>, cuda_mem_ops()};
+  return {&cuda_for_each<MarkNonDelaunay<R>>, &cuda_for_each<DecideMarked>, &cuda_for_each<ApplyMarked>, cuda_mem_ops(),
+          &tail<R>};
 }
 template LawsonOps<float> lawson_cuda_ops<float>();
 template LawsonOps<double> lawson_cuda_ops<double>();

@@ -30,6 +30,7 @@ enum LawsonCounter : int {
   kLawsonQueued,      // length of the list of edges to test in the next round
   kLawsonFlips,       // flips in this step so far
   kLawsonRounds,      // rounds in this step that marked (and so flipped) something
+  kLawsonTailRounds,  // rounds the last device tail kernel ran (LawsonTail)
   kLawsonTooLong,     // flips refused: the new edge would exceed half the box
   kLawsonTooLongAt,   //   lowest such edge
   kLawsonCounters
@@ -168,6 +169,28 @@ struct ApplyMarked {
       for (int k = 0; k < n; ++k) next_list[at + unsigned(k)] = out[k];
     }
   }
+};
+
+// The device's later rounds in one kernel of one block (lawson/cuda.cu), each round the three
+// passes above over the device-side list lengths with block barriers between them: from the
+// round whose marks are listed (`round`), while the marked list is not empty and at most
+// `max_marked` long, at most `max_rounds` rounds. The count it ran goes to
+// counters[kLawsonTailRounds]. The same rounds as separate launches, so the same flips; one
+// launch instead of three per round (a round of a few edges is ~2.3 µs of launch each).
+template <class R>
+struct LawsonTail {
+  Mesh mesh;
+  Points<R> pts;
+  double tol;
+  std::int32_t* marked;
+  std::int32_t* queued;
+  std::uint8_t* go;
+  std::int32_t* list;
+  std::int32_t* marked_list;
+  unsigned* counters;
+  std::int32_t round;
+  unsigned max_marked;
+  std::int64_t max_rounds;
 };
 
 }  // namespace ff::delaunay

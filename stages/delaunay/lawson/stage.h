@@ -3,8 +3,8 @@
 // tests every edge, later rounds only the edges whose quad changed. The lowest marked edge id
 // wins both of its triangles, so the result is independent of thread scheduling and backend.
 // The host reads the counters after round 0's marks (on the device not always: see run()) and
-// then after every round on the CPU, every kDeviceRoundsPerRead rounds on the device (each read
-// waits for it). The input must be a valid (all triangles positive) triangulation:
+// then after every round on the CPU; on the device after one grid round and the rounds of a
+// one-block tail kernel that follow it (each read waits for the device). The input must be a valid (all triangles positive) triangulation:
 // run delaunay.flip first.
 #pragma once
 #include <algorithm>
@@ -19,10 +19,14 @@
 
 namespace ff::delaunay {
 
-// Rounds a CUDA Lawson runs between two reads of its counters (one read waits for the device).
+// Grid rounds a CUDA Lawson runs before its tail kernel when the last tail found its list too
+// long (else one).
 inline constexpr std::int64_t kDeviceRoundsPerRead = 3;
 // Round 0 tests at least this many edges: the device does not wait for its count (see run()).
 inline constexpr std::size_t kSkipReadFrom = 64;
+// The device's tail kernel (one block) goes on while a round marks at most this many edges
+// (each then queues at most 4 for the next round's test: a few per thread of the block).
+inline constexpr unsigned kTailMarked = 1024;
 
 struct LawsonParams {
   std::int64_t max_rounds = 1000;
@@ -44,6 +48,8 @@ struct LawsonOps {
   ElementLoop<DecideMarked> decide;
   ElementLoop<ApplyMarked> apply;
   MemOps mem;
+  // The device's later rounds in one kernel (kernel.h, LawsonTail); none on the CPU.
+  void (*tail)(const LawsonTail<R>& t, CUstream_st* stream) = nullptr;
 };
 
 template <class R>
@@ -139,15 +145,20 @@ class Lawson final : public Stage {
     std::int64_t launched = 0;  // decide/apply rounds launched
     // Then rounds of decide, apply, mark. On the device several rounds go between two reads
     // (kernels take the lists' lengths from the backend and launch over upper bounds: each
-    // marked edge queues at most 4 edges), so a step waits for the device ~2 times instead of
-    // once per round; a round after the last marking one finds empty lists and does nothing.
-    const std::int64_t per_read = where_ == Where::device ? kDeviceRoundsPerRead : 1;
+    // marked edge queues at most 4 edges), so a step waits for the device once or twice instead
+    // of once per round: grid launches for one round (kDeviceRoundsPerRead while the tail kernel
+    // finds its lists too long), then the tail kernel, which runs the rounds that follow in one
+    // block until one marks nothing or more than kTailMarked edges (bench-abp at N = 2^20: round
+    // 0 marks ~19,000 edges, the rounds after the first a few hundred and fewer). A round after the
+    // last marking one finds empty lists and does nothing.
+    std::int64_t grid_rounds = 1;
     while (h[kLawsonMarked]) {
       if (launched >= p_.max_rounds)
         throw RunError("delaunay.lawson: the triangulation is still not Delaunay after max_rounds = " +
                        std::to_string(p_.max_rounds) + " rounds (" + std::to_string(h[kLawsonFlips]) + " flips; " +
                        std::to_string(h[kLawsonMarked]) +
                        " edge(s) left). Raise max_rounds, or raise tolerance if points are (nearly) co-circular");
+      const std::int64_t per_read = ops_.tail ? grid_rounds : 1;
       for (std::int64_t j = 0; j < per_read && launched < p_.max_rounds; ++j, ++launched) {
         counters_.zero(kLawsonQueued, 1, st);  // apply lists the next round's edges
         ops_.decide(bound, DecideMarked{m, marked, round, marked_list, go, c, marked_len}, st);
@@ -159,7 +170,19 @@ class Lawson final : public Stage {
                   st);
         marked_len = c + kLawsonMarked;
       }
+      const bool tail = ops_.tail && launched < p_.max_rounds;
+      if (tail)
+        ops_.tail(LawsonTail<R>{m, pts, p_.tolerance, marked, queued, go, list, marked_list, c, round, kTailMarked,
+                                p_.max_rounds - launched},
+                  st);
       h = counters_.read(st);
+      if (tail) {  // its rounds used the next round ids
+        const std::int64_t ran = h[kLawsonTailRounds];
+        launched += ran;
+        round_ += std::int32_t(ran);
+        round = round_;
+        grid_rounds = ran == 0 ? kDeviceRoundsPerRead : 1;
+      }
       throw_if_too_long_flip(s, h[kLawsonTooLong], h[kLawsonTooLongAt], st);
       bound = h[kLawsonMarked];
       marked_len = nullptr;
