@@ -154,21 +154,6 @@ __device__ void mark(std::uint8_t* marks, int u, bool claim, int* cand, u64* cla
 constexpr int kCached = 8;
 constexpr std::uint8_t kWalk = 0xff;
 
-// Iteration 0's source of v's neighbours: its fan, copied to the lists on the way.
-template <class R>
-__device__ auto fan_copied(const Mesh<R>& mesh, int v, int* nb, std::uint8_t* degree) {
-  return [&mesh, v, nb, degree](auto&& g) {
-    int i = 0;
-    const bool closed = mesh.for_each_neighbour(v, [&](int u, int) {
-      if (i < kCached) nb[std::size_t(kCached) * v + i] = u;
-      ++i;
-      g(u);
-    });
-    degree[v] = closed && i <= kCached ? std::uint8_t(i) : kWalk;
-    return closed;
-  };
-}
-
 // v's listed neighbours (d ≤ kCached of them) into ids: one or two 16-byte loads.
 __device__ void load_ids(const int* nb, int v, int d, int (&ids)[kCached]) {
   const int4* p = reinterpret_cast<const int4*>(nb + std::size_t(kCached) * v);
@@ -178,16 +163,12 @@ __device__ void load_ids(const int* nb, int v, int d, int (&ids)[kCached]) {
   ids[4] = hi.x, ids[5] = hi.y, ids[6] = hi.z, ids[7] = hi.w;
 }
 
-// Later iterations' gather of v by one thread: the list, then the neighbours' positions
-// kInFlight at a time (independent loads in flight together, not one after the other), then
-// their pushes. A particle whose list did not fit walks its fan.
+// A gather of v by one thread from its neighbours ids[0 .. d) (d ≤ kCached, from
+// neighbour_ids below): their positions kInFlight at a time (independent loads in flight
+// together, not one after the other), then their pushes.
 constexpr int kInFlight = 4;
 template <class R>
-__device__ VertexPush thread_gather(const Mesh<R>& mesh, int v, const int* nb, const std::uint8_t* degree) {
-  const int d = degree[v];
-  if (d == kWalk) return mesh.gather(v);
-  int ids[kCached];
-  load_ids(nb, v, d, ids);
+__device__ VertexPush gather_ids(const Mesh<R>& mesh, int v, const int (&ids)[kCached], int d) {
   VertexPush out;
   double xv, yv;
   load_xy(mesh.pos, v, xv, yv);
@@ -207,7 +188,40 @@ __device__ VertexPush thread_gather(const Mesh<R>& mesh, int v, const int* nb, c
   return out;
 }
 
-// The check of moved particle v by one thread, loading as thread_gather: calls f(u) for each
+// v's neighbours for a gather by one thread, into ids[0 .. d): from the list (later
+// iterations), or (iteration 0) from a walk around v's fan that only collects them (a chain of
+// half-edge loads and nothing else, checking that the fan closes) and copies them to the list.
+// Walking and gathering at once made every step of the chain wait for a position load too
+// (PERF.md). False: gather by Mesh::gather's walk instead (more than kCached neighbours, or, in
+// iteration 0, a fan that does not close, which that walk reports).
+template <class R>
+__device__ bool neighbour_ids(const Mesh<R>& mesh, int v, bool first, int* nb, std::uint8_t* degree,
+                              int (&ids)[kCached], int& d) {
+  if (!first) {
+    d = degree[v];
+    if (d == kWalk) return false;
+    load_ids(nb, v, d, ids);
+    return true;
+  }
+  d = 0;
+#pragma unroll
+  for (int k = 0; k < kCached; ++k) ids[k] = 0;
+  const bool closed = mesh.for_each_neighbour(v, [&](int u, int) {
+#pragma unroll
+    for (int k = 0; k < kCached; ++k)  // ids[d] = u with a register index
+      if (k == d) ids[k] = u;
+    ++d;
+  });
+  const bool fits = closed && d <= kCached;
+  degree[v] = fits ? std::uint8_t(d) : kWalk;
+  if (!fits) return false;
+  int4* p = reinterpret_cast<int4*>(nb + std::size_t(kCached) * v);
+  p[0] = make_int4(ids[0], ids[1], ids[2], ids[3]);
+  if (d > 4) p[1] = make_int4(ids[4], ids[5], ids[6], ids[7]);
+  return true;
+}
+
+// The check of moved particle v by one thread, loading as gather_ids: calls f(u) for each
 // neighbour u that overlaps v at the new positions (Mesh::overlapping_neighbours' test) and
 // returns whether any did.
 template <class R, class F>
@@ -381,15 +395,13 @@ __global__ void __launch_bounds__(kThreads, MinBlocks) correct_kernel(Args<R> a)
         }
       }
     };
-    if (k == 0) {  // one thread per particle: the walks that copy the lists
-      for (int i = int(threadIdx.x); i < count; i += kThreads)
-        take(t0 + i, mesh.gather_by(t0 + i, fan_copied(mesh, t0 + i, a.nb, a.degree)));
-    } else if (count > kGroupBelow) {  // one thread per particle
+    if (k == 0 || count > kGroupBelow) {  // one thread per particle
       for (int i = int(threadIdx.x); i < count; i += kThreads) {
-        const int v = __ldcg(cand + i);
+        const int v = k == 0 ? t0 + i : __ldcg(cand + i);
         if (tail)  // its claim: cleared for the next check
           atomicAnd(reinterpret_cast<unsigned*>(a.marks) + (v >> 2), ~(1u << (8 * (v & 3))));
-        take(v, thread_gather(mesh, v, a.nb, a.degree));
+        int ids[kCached], d;
+        take(v, neighbour_ids(mesh, v, k == 0, a.nb, a.degree, ids, d) ? gather_ids(mesh, v, ids, d) : mesh.gather(v));
       }
     } else {  // one lane group per particle (the loop is uniform over the block: shuffles)
       const int l = int(threadIdx.x) % kGroup;
