@@ -163,17 +163,12 @@ __device__ void load_ids(const int* nb, int v, int d, int (&ids)[kCached]) {
   ids[4] = hi.x, ids[5] = hi.y, ids[6] = hi.z, ids[7] = hi.w;
 }
 
-// A gather of v by one thread from its neighbours ids[0 .. d) (d ≤ kCached, from
-// neighbour_ids below): their positions kInFlight at a time (independent loads in flight
-// together, not one after the other), then their pushes.
+// Calls f(u, xu, yu) for each neighbour u = ids[0 .. d) (d ≤ kCached) with its position,
+// loading the positions kInFlight at a time: independent loads in flight together, not one
+// after the other (one thread's gathers and checks).
 constexpr int kInFlight = 4;
-template <class R>
-__device__ VertexPush gather_ids(const Mesh<R>& mesh, int v, const int (&ids)[kCached], int d) {
-  VertexPush out;
-  double xv, yv;
-  load_xy(mesh.pos, v, xv, yv);
-  const double sv = mesh.diameter_of(v);
-  std::int64_t qx = 0, qy = 0;
+template <class R, class F>
+__device__ void for_each_loaded(const Mesh<R>& mesh, const int (&ids)[kCached], int d, F&& f) {
 #pragma unroll
   for (int h = 0; h < kCached; h += kInFlight) {
     double xu[kInFlight], yu[kInFlight];
@@ -182,8 +177,20 @@ __device__ VertexPush gather_ids(const Mesh<R>& mesh, int v, const int (&ids)[kC
       if (h + i < d) load_xy(mesh.pos, ids[h + i], xu[i], yu[i]);
 #pragma unroll
     for (int i = 0; i < kInFlight; ++i)
-      if (h + i < d) mesh.gather_pair_at(v, xv, yv, sv, ids[h + i], xu[i], yu[i], qx, qy, out);
+      if (h + i < d) f(ids[h + i], xu[i], yu[i]);
   }
+}
+
+// A gather of v by one thread from its neighbours ids[0 .. d) (from neighbour_ids below).
+template <class R>
+__device__ VertexPush gather_ids(const Mesh<R>& mesh, int v, const int (&ids)[kCached], int d) {
+  VertexPush out;
+  double xv, yv;
+  load_xy(mesh.pos, v, xv, yv);
+  const double sv = mesh.diameter_of(v);
+  std::int64_t qx = 0, qy = 0;
+  for_each_loaded(mesh, ids, d,
+                  [&](int u, double xu, double yu) { mesh.gather_pair_at(v, xv, yv, sv, u, xu, yu, qx, qy, out); });
   mesh.finish(qx, qy, sv, out);
   return out;
 }
@@ -234,19 +241,12 @@ __device__ bool thread_check(const Mesh<R>& mesh, int v, const int* nb, const st
   load_xy(mesh.pos, v, xv, yv);
   const double sv = mesh.diameter_of(v);
   bool any = false;
-#pragma unroll
-  for (int h = 0; h < kCached; h += kInFlight) {
-    double xu[kInFlight], yu[kInFlight];
-#pragma unroll
-    for (int i = 0; i < kInFlight; ++i)
-      if (h + i < d) load_xy(mesh.pos, ids[h + i], xu[i], yu[i]);
-#pragma unroll
-    for (int i = 0; i < kInFlight; ++i)
-      if (h + i < d && mesh.overlaps_after_move_at(xv, yv, sv, ids[h + i], xu[i], yu[i])) {
-        f(ids[h + i]);
-        any = true;
-      }
-  }
+  for_each_loaded(mesh, ids, d, [&](int u, double xu, double yu) {
+    if (mesh.overlaps_after_move_at(xv, yv, sv, u, xu, yu)) {
+      f(u);
+      any = true;
+    }
+  });
   return any;
 }
 
