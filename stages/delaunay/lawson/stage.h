@@ -4,8 +4,8 @@
 // wins both of its triangles, so the result is independent of thread scheduling and backend.
 // The host reads the counters after round 0's marks (on the device not always: see run()) and
 // then after every round on the CPU; on the device after one grid round and the rounds of a
-// one-block tail kernel that follow it (each read waits for the device). The input must be a valid (all triangles positive) triangulation:
-// run delaunay.flip first.
+// one-block tail kernel that follow it (each read waits for the device). The input must be a
+// valid (all triangles positive) triangulation: run delaunay.flip first.
 #pragma once
 #include <algorithm>
 #include <array>

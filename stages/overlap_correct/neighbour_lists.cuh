@@ -1,0 +1,198 @@
+// overlap_correct's per-step neighbour lists on the device, and the gathers and checks of one
+// particle that read them (by one thread, or by a group of kGroup lanes): cuda.cu's persistent
+// kernel calls them. The per-particle math is kernel.h's (Mesh::gather_pair_at,
+// Mesh::overlaps_after_move_at); this file only arranges the loads. Include only from cuda.cu.
+#pragma once
+#include <cuda_runtime.h>
+
+#include <cstdint>
+
+#include "stages/overlap_correct/kernel.h"
+
+namespace ff::overlap {
+
+// Neighbour lists of the step. Iteration 0 walks every particle's fan (checking that it
+// closes) and copies its neighbours, up to kCached, to nb (one 32-byte sector per particle;
+// in a Delaunay triangulation the mean degree is 6); later walks read them from there: one
+// load for the ids instead of a chain of one dependent half-edge load per neighbour, and one
+// sector instead of ~6 (the triangulation does not change during the stage). A particle with
+// more neighbours walks its fan each time.
+constexpr int kCached = 8;
+constexpr std::uint8_t kWalk = 0xff;
+
+// v's listed neighbours (d ≤ kCached of them) into ids: one or two 16-byte loads.
+__device__ inline void load_ids(const int* nb, int v, int d, int (&ids)[kCached]) {
+  const int4* p = reinterpret_cast<const int4*>(nb + std::size_t(kCached) * v);
+  const int4 lo = p[0];
+  const int4 hi = d > 4 ? p[1] : make_int4(0, 0, 0, 0);
+  ids[0] = lo.x, ids[1] = lo.y, ids[2] = lo.z, ids[3] = lo.w;
+  ids[4] = hi.x, ids[5] = hi.y, ids[6] = hi.z, ids[7] = hi.w;
+}
+
+// Calls f(u, xu, yu) for each neighbour u = ids[0 .. d) (d ≤ kCached) with its position,
+// loading the positions kInFlight at a time: independent loads in flight together, not one
+// after the other (one thread's gathers and checks).
+constexpr int kInFlight = 4;
+template <class R, class F>
+__device__ void for_each_loaded(const Mesh<R>& mesh, const int (&ids)[kCached], int d, F&& f) {
+#pragma unroll
+  for (int h = 0; h < kCached; h += kInFlight) {
+    double xu[kInFlight], yu[kInFlight];
+#pragma unroll
+    for (int i = 0; i < kInFlight; ++i)
+      if (h + i < d) load_xy(mesh.pos, ids[h + i], xu[i], yu[i]);
+#pragma unroll
+    for (int i = 0; i < kInFlight; ++i)
+      if (h + i < d) f(ids[h + i], xu[i], yu[i]);
+  }
+}
+
+// A gather of v by one thread from its neighbours ids[0 .. d) (from neighbour_ids below).
+template <class R>
+__device__ VertexPush gather_ids(const Mesh<R>& mesh, int v, const int (&ids)[kCached], int d) {
+  VertexPush out;
+  double xv, yv;
+  load_xy(mesh.pos, v, xv, yv);
+  const double sv = mesh.diameter_of(v);
+  std::int64_t qx = 0, qy = 0;
+  for_each_loaded(mesh, ids, d,
+                  [&](int u, double xu, double yu) { mesh.gather_pair_at(v, xv, yv, sv, u, xu, yu, qx, qy, out); });
+  mesh.finish(qx, qy, sv, out);
+  return out;
+}
+
+// v's neighbours for a gather by one thread, into ids[0 .. d): from the list (later
+// iterations), or (iteration 0) from a walk around v's fan that only collects them (a chain of
+// half-edge loads and nothing else, checking that the fan closes) and copies them to the list.
+// Walking and gathering at once made every step of the chain wait for a position load too
+// (PERF.md). False: gather by Mesh::gather's walk instead (more than kCached neighbours, or, in
+// iteration 0, a fan that does not close, which that walk reports).
+template <class R>
+__device__ bool neighbour_ids(const Mesh<R>& mesh, int v, bool first, int* nb, std::uint8_t* degree,
+                              int (&ids)[kCached], int& d) {
+  if (!first) {
+    d = degree[v];
+    if (d == kWalk) return false;
+    load_ids(nb, v, d, ids);
+    return true;
+  }
+  d = 0;
+#pragma unroll
+  for (int k = 0; k < kCached; ++k) ids[k] = 0;
+  const bool closed = mesh.for_each_neighbour(v, [&](int u, int) {
+#pragma unroll
+    for (int k = 0; k < kCached; ++k)  // ids[d] = u with a register index
+      if (k == d) ids[k] = u;
+    ++d;
+  });
+  const bool fits = closed && d <= kCached;
+  degree[v] = fits ? std::uint8_t(d) : kWalk;
+  if (!fits) return false;
+  int4* p = reinterpret_cast<int4*>(nb + std::size_t(kCached) * v);
+  p[0] = make_int4(ids[0], ids[1], ids[2], ids[3]);
+  if (d > 4) p[1] = make_int4(ids[4], ids[5], ids[6], ids[7]);
+  return true;
+}
+
+// The check of moved particle v by one thread, loading as gather_ids: calls f(u) for each
+// neighbour u that overlaps v at the new positions (Mesh::overlapping_neighbours' test) and
+// returns whether any did.
+template <class R, class F>
+__device__ bool thread_check(const Mesh<R>& mesh, int v, const int* nb, const std::uint8_t* degree, F&& f) {
+  const int d = degree[v];
+  if (d == kWalk) return mesh.overlapping_neighbours(v, f);
+  int ids[kCached];
+  load_ids(nb, v, d, ids);
+  double xv, yv;
+  load_xy(mesh.pos, v, xv, yv);
+  const double sv = mesh.diameter_of(v);
+  bool any = false;
+  for_each_loaded(mesh, ids, d, [&](int u, double xu, double yu) {
+    if (mesh.overlaps_after_move_at(xv, yv, sv, u, xu, yu)) {
+      f(u);
+      any = true;
+    }
+  });
+  return any;
+}
+
+// Later iterations read the lists with a group of kGroup lanes per particle: lane l takes
+// neighbour l, so the group loads all of them at once instead of one after the other (a
+// thread's walk was a chain of dependent loads), and the parts are added across the group.
+// Fixed-point sums do not depend on the order, so the result is the same bits as one thread's
+// walk. A particle whose list did not fit is walked by the group's first lane alone.
+constexpr int kGroup = kCached;
+static_assert(32 % kGroup == 0, "a lane group lies within one warp");
+
+// Sum (int64 / unsigned) or OR across the kGroup lanes of each group; every lane gets the result.
+template <class T>
+__device__ T group_sum(T x) {
+#pragma unroll
+  for (int o = 1; o < kGroup; o <<= 1) x += __shfl_xor_sync(0xffffffffu, x, o);
+  return x;
+}
+__device__ inline unsigned group_or(unsigned x) {
+#pragma unroll
+  for (int o = 1; o < kGroup; o <<= 1) x |= __shfl_xor_sync(0xffffffffu, x, o);
+  return x;
+}
+
+// The gather of particle v by its lane group (lane l of kGroup); `has` false: the group has no
+// particle but its lanes still take part in the shuffles. Every lane of the group returns v's
+// VertexPush (meaningful when `has`).
+template <class R>
+__device__ VertexPush group_gather(const Mesh<R>& mesh, int v, bool has, int l, const int* nb,
+                                   const std::uint8_t* degree) {
+  VertexPush part;
+  std::int64_t qx = 0, qy = 0;
+  double sv = 0;
+  if (has) {
+    double xv, yv;
+    load_xy(mesh.pos, v, xv, yv);
+    sv = mesh.diameter_of(v);
+    const int d = degree[v];
+    if (d == kWalk) {
+      if (l == 0) part.broken = !mesh.fan_of(v)([&](int u) { mesh.gather_pair(v, xv, yv, sv, u, qx, qy, part); });
+    } else if (l < d) {
+      mesh.gather_pair(v, xv, yv, sv, nb[std::size_t(kCached) * v + l], qx, qy, part);
+    }
+  }
+  // pairs and bad are at most kMaxFan each (< 2^16): one word carries both.
+  const unsigned counts = group_sum(part.pairs | (part.bad << 16));
+  const unsigned flags = group_or(unsigned(part.touched) | (unsigned(part.broken) << 1));
+  qx = group_sum(qx);
+  qy = group_sum(qy);
+  VertexPush out;
+  out.pairs = counts & 0xffffu;
+  out.bad = counts >> 16;
+  out.touched = flags & 1u;
+  out.broken = flags & 2u;
+  mesh.finish(qx, qy, sv, out);
+  return out;
+}
+
+// The check of moved particle v by its lane group: calls f(u) for each neighbour u that
+// overlaps v at the new positions (Mesh::overlapping_neighbours_by's test); every lane of the
+// group returns whether any did.
+template <class R, class F>
+__device__ bool group_check(const Mesh<R>& mesh, int v, bool has, int l, const int* nb, const std::uint8_t* degree,
+                            F&& f) {
+  bool any = false;
+  if (has) {
+    const int d = degree[v];
+    if (d == kWalk) {
+      if (l == 0) any = mesh.overlapping_neighbours_by(v, mesh.fan_of(v), f);
+    } else if (l < d) {
+      double xv, yv;
+      load_xy(mesh.pos, v, xv, yv);
+      const int u = nb[std::size_t(kCached) * v + l];
+      if (mesh.overlaps_after_move(xv, yv, mesh.diameter_of(v), u)) {
+        f(u);
+        any = true;
+      }
+    }
+  }
+  return group_or(unsigned(any)) != 0;
+}
+
+}  // namespace ff::overlap
