@@ -101,6 +101,19 @@ void Field::mark_written(Where where) {
   device_valid_ = where == Where::device;
 }
 
+void Field::swap_contents(Field& other) {
+  if (&other == this) return;
+  if (other.dtype_ != dtype_ || other.components_ != components_ || other.count_ != count_)
+    throw std::logic_error("swap_contents: fields '" + name_ + "' and '" + other.name_ + "' differ in shape");
+  std::scoped_lock lock(mutex_, other.mutex_);
+  std::swap(host_, other.host_);
+  std::swap(device_, other.device_);
+  std::swap(host_valid_, other.host_valid_);
+  std::swap(device_valid_, other.device_valid_);
+  ++version_;
+  ++other.version_;
+}
+
 void Field::resize(std::size_t count) {
   if (count == count_) return;
   acquire(Where::host, Mode::readwrite);  // bumps the version

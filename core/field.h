@@ -59,6 +59,12 @@ class Field {
   // Declare that the side `where` was just written outside acquire() (e.g. by a restore).
   void mark_written(Where where);
 
+  // Exchange the contents of two fields of the same element type, components and count (host
+  // and device storage with their coherence), without copying: the rollback snapshot's copy of
+  // a field that a stage is about to overwrite completely (Snapshot::take_before_overwrite).
+  // Device pointers taken before it point into the other field afterwards. Bumps both versions.
+  void swap_contents(Field& other);
+
   // Change the element count. Contents of the first min(old, new) elements are kept on the
   // host side (the field is brought to the host first).
   void resize(std::size_t count);

@@ -33,8 +33,8 @@ void copy_field_contents(Field& dst, Field& src, Where where, CUstream_st* strea
 }
 
 Snapshot::Snapshot(std::vector<std::string> fields, std::vector<std::string> on_demand) {
-  for (auto& f : fields) entries_.push_back(Entry{std::move(f), false, false, Where::host, nullptr});
-  for (auto& f : on_demand) entries_.push_back(Entry{std::move(f), true, false, Where::host, nullptr});
+  for (auto& f : fields) entries_.push_back(Entry{std::move(f), false, false, false, Where::host, nullptr});
+  for (auto& f : on_demand) entries_.push_back(Entry{std::move(f), true, false, false, Where::host, nullptr});
 }
 
 void Snapshot::copy_in(State& state, Entry& e, CUstream_st* stream) {
@@ -52,7 +52,7 @@ void Snapshot::copy_in(State& state, Entry& e, CUstream_st* stream) {
 void Snapshot::take(State& state, CUstream_st* stream) {
   std::lock_guard<std::mutex> lock(mutex_);
   for (Entry& e : entries_) {
-    e.taken = false;
+    e.taken = e.swapped = false;
     if (!e.on_demand) copy_in(state, e, stream);
   }
 }
@@ -66,14 +66,37 @@ void Snapshot::take_before_write(State& state, const std::string& field, CUstrea
     }
 }
 
+
+void Snapshot::take_before_overwrite(State& state, const std::string& field) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  for (Entry& e : entries_)
+    if (e.on_demand && !e.taken && e.name == field) {
+      Field& f = state.field(e.name);
+      if (!e.copy || e.copy->count() != f.count())
+        e.copy = std::make_unique<Field>(e.name, f.dtype(), f.components(), f.count());
+      e.side = f.valid_on(Where::device) ? Where::device : Where::host;
+#ifndef FLIPFLOW_HAVE_CUDA
+      e.side = Where::host;
+#endif
+      f.swap_contents(*e.copy);
+      f.mark_written(e.side);  // (stale contents: the caller writes every element next)
+      e.taken = true;
+      e.swapped = true;
+    }
+}
+
 void Snapshot::restore(State& state, CUstream_st* stream) {
   std::lock_guard<std::mutex> lock(mutex_);
   for (Entry& e : entries_) {
     if (e.on_demand && !e.taken) continue;  // not written in this step
     Field& f = state.field(e.name);
-    copy_field_contents(f, *e.copy, e.side, stream);
+    if (e.swapped)
+      f.swap_contents(*e.copy);  // back: the copy holds what the field held before the step
+    else
+      copy_field_contents(f, *e.copy, e.side, stream);
     f.mark_written(e.side);
     e.taken = false;  // the retried attempt announces its writes again
+    e.swapped = false;
   }
 }
 
@@ -93,6 +116,10 @@ std::vector<std::string> Snapshot::on_demand_fields() const {
 
 void StepContext::will_write(const std::string& field) const {
   if (snapshot) snapshot->take_before_write(state, field, stream);
+}
+
+void StepContext::will_overwrite(const std::string& field) const {
+  if (snapshot) snapshot->take_before_overwrite(state, field);
 }
 
 bool DtController::halve() {

@@ -30,7 +30,12 @@ class Snapshot {
   // Copy `field` now if it is an on-demand field not yet copied in this step; else nothing.
   // Thread-safe (stages on different branches may call it concurrently).
   void take_before_write(State& state, const std::string& field, CUstream_st* stream);
-  // Every-step fields and the on-demand fields copied in this step.
+  // For an on-demand field that the caller is about to overwrite completely, without reading
+  // it: instead of a copy, the snapshot takes the field's storage and gives it its own (whose
+  // contents are stale), at no cost; the field counts as written on the side where it was
+  // current. Once per step, like take_before_write (after either, the other does nothing).
+  void take_before_overwrite(State& state, const std::string& field);
+  // Every-step fields and the on-demand fields copied (or taken) in this step.
   void restore(State& state, CUstream_st* stream);
   std::vector<std::string> fields() const;            // every step
   std::vector<std::string> on_demand_fields() const;  // when announced
@@ -39,7 +44,8 @@ class Snapshot {
   struct Entry {
     std::string name;
     bool on_demand = false;
-    bool taken = false;  // this step (on-demand entries)
+    bool taken = false;    // this step (on-demand entries)
+    bool swapped = false;  // taken by take_before_overwrite: restore swaps back
     Where side = Where::host;
     std::unique_ptr<Field> copy;
   };

@@ -114,6 +114,12 @@ struct StepContext {
   // rollback snapshot takes its copy now (once per step; a no-op when nothing can roll back the
   // write). Stream-ordered on `stream`.
   void will_write(const std::string& field) const;
+  // Instead of will_write, for an on_demand field the stage is about to write completely
+  // without reading it first (detect_inversion's position_prev): the snapshot keeps the field's
+  // storage and hands it other storage with stale contents, so nothing is copied. Pointers to
+  // the field taken before this call point to the snapshot's copy afterwards: take them again.
+  // Not for stages captured into a CUDA graph (the graph would keep the old pointers).
+  void will_overwrite(const std::string& field) const;
 };
 
 class Stage {

@@ -69,6 +69,28 @@ TEST_CASE("snapshot restore is bit-exact", "[rollback]") {
   CHECK(std::memcmp(img.host<std::int32_t>(), i0.data(), i0.size() * sizeof(std::int32_t)) == 0);
 }
 
+TEST_CASE("take_before_overwrite swaps storage instead of copying, and restore swaps it back", "[rollback]") {
+  auto r = test::registry_with({"brownian"}, {"testing"});
+  auto s = test::spec(2, 128, 0.2, 1, 0.01, {entry(*r, "brownian.integrate", {{"D", 1.0}})});
+  Simulation sim(s, *r, dry());
+  Field& f = sim.state().field(fields::position);
+  const auto p0 = positions(sim);
+  const double* storage0 = f.host<double>();
+  Snapshot snap({}, {fields::position});
+  snap.take(sim.state(), nullptr);
+  snap.take_before_overwrite(sim.state(), fields::position);
+  CHECK(f.host<double>() != storage0);  // other storage: nothing was copied
+  CHECK(f.valid_on(Where::host));
+  for (std::size_t i = 0; i < f.size(); ++i) f.host<double>()[i] = -1.0;  // the stage overwrites
+  snap.take_before_overwrite(sim.state(), fields::position);  // once per step: no second swap
+  CHECK(f.host<double>()[0] == -1.0);
+  snap.restore(sim.state(), nullptr);
+  CHECK(f.host<double>() == storage0);
+  CHECK(positions(sim) == p0);
+  Field other("other", f.dtype(), f.components(), f.count() + 1);
+  CHECK_THROWS_WITH(f.swap_contents(other), Catch::Contains("differ in shape"));
+}
+
 TEST_CASE("host_copy copies every byte, in one piece or in parallel chunks", "[rollback]") {
   // Sizes around the parallel threshold (256 KiB) and the chunk (128 KiB), odd tails included.
   for (std::size_t bytes : {std::size_t(0), std::size_t(1), std::size_t(256 * 1024 - 1), std::size_t(256 * 1024),
@@ -154,9 +176,11 @@ TEST_CASE("on-demand writes are copied when announced and restored on a rollback
   auto r = test::registry_with({"brownian"}, {"testing"});
   // count runs before the stage that fails step 2 once: 1, 2, (3, rolled back to 2), 3.
   const bool announce = GENERATE(true, false);
+  // overwrite: announced with will_overwrite (the snapshot swaps storage instead of copying).
+  const bool overwrite = announce && GENERATE(false, true);
   auto s = test::spec(2, 64, 0.2, 3, 0.01,
                       {entry(*r, "brownian.integrate"),
-                       entry(*r, "testing.count", {{"on_demand", true}, {"announce", announce}}),
+                       entry(*r, "testing.count", {{"on_demand", true}, {"announce", announce}, {"overwrite", overwrite}}),
                        entry(*r, "testing.rollback", {{"steps", std::vector<double>{2}}, {"fail_attempts", std::int64_t(1)}})});
   Simulation sim(s, *r, dry());
   CHECK(sim.snapshot_fields() == std::vector<std::string>{"image", "position"});

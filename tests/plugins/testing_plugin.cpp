@@ -5,6 +5,7 @@
 #include <chrono>
 #include <cmath>
 #include <thread>
+#include <vector>
 
 #include "core/plugin_api.h"
 
@@ -100,26 +101,34 @@ class Record final : public Stage {
 
 // testing.count: adds 1 to every element of the field `testing.count` (created here, f64, N)
 // each time it runs. With on_demand it declares the write Access::on_demand and, when
-// `announce` is set, calls ctx.will_write first, as a stage that writes only sometimes must.
-// Metric `snapshot`: 1 when the core handed this run a rollback snapshot (its writes can be
+// `announce` is set, calls ctx.will_write first, as a stage that writes only sometimes must; with
+// `overwrite` as well, it reads the values first, then calls ctx.will_overwrite and writes every
+// element (the snapshot swaps storage instead of copying). Metric `snapshot`: 1 when the core handed this run a rollback snapshot (its writes can be
 // rolled back), else 0.
 class Count final : public Stage {
  public:
-  explicit Count(const ParamValues& v) : on_demand_(v.boolean("on_demand")), announce_(v.boolean("announce")) {}
+  explicit Count(const ParamValues& v)
+      : on_demand_(v.boolean("on_demand")), announce_(v.boolean("announce")), overwrite_(v.boolean("overwrite")) {}
   std::vector<Access> accesses() const override {
     return {{"testing.count", Where::host, Mode::readwrite, on_demand_}};
   }
   void configure(State& s) override { s.add_field("testing.count", DType::f64, 1, s.n()); }
   Outcome run(StepContext& ctx) override {
-    if (on_demand_ && announce_) ctx.will_write("testing.count");
     ctx.metrics.set("snapshot", ctx.snapshot ? 1.0 : 0.0);
     Field& f = ctx.state.field("testing.count");
+    if (on_demand_ && announce_ && overwrite_) {
+      const std::vector<double> old(f.host<double>(), f.host<double>() + f.size());
+      ctx.will_overwrite("testing.count");
+      for (std::size_t i = 0; i < f.size(); ++i) f.host<double>()[i] = old[i] + 1;  // (the pointer again)
+      return Outcome::ok();
+    }
+    if (on_demand_ && announce_) ctx.will_write("testing.count");
     for (std::size_t i = 0; i < f.size(); ++i) f.host<double>()[i] += 1;
     return Outcome::ok();
   }
 
  private:
-  bool on_demand_, announce_;
+  bool on_demand_, announce_, overwrite_;
 };
 
 template <class S>
@@ -149,7 +158,8 @@ void register_testing(Registry& r) {
   r.implement("testing.record", Backend::cpu, factory<Record>());
   r.declare({"testing.count", "adds 1 to the field testing.count (tests only)",
              {ParamSpec::boolean("on_demand", false, "declare the write on_demand"),
-              ParamSpec::boolean("announce", true, "call will_write before writing (with on_demand)")},
+              ParamSpec::boolean("announce", true, "call will_write before writing (with on_demand)"),
+              ParamSpec::boolean("overwrite", false, "announce with will_overwrite instead (with announce)")},
              {2, 3}, false});
   r.implement("testing.count", Backend::cpu, factory<Count>());
   r.implement("testing.count", Backend::cuda, factory<Count>());

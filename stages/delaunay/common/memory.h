@@ -23,6 +23,15 @@ struct MemOps {
   // Every byte of [dst, dst + bytes) to `byte`, stream-ordered. On CUDA a memset node: unlike an
   // upload from pageable host memory it never waits for the stream.
   void (*fill)(void* dst, int byte, std::size_t bytes, CUstream_st* s);
+  // to_host without the wait, and a fence: recorded on a stream after some work, waited for by
+  // the host (CUDA: an event). Lets the host read counters while the stream goes on with later
+  // work (detect_inversion's position_prev copy). On the CPU the copy is done at once and the
+  // fence is nothing.
+  void (*to_host_async)(void* host_dst, const void* src, std::size_t bytes, CUstream_st* s);
+  void* (*fence_create)();
+  void (*fence_destroy)(void* f);
+  void (*fence_record)(void* f, CUstream_st* s);
+  void (*fence_wait)(void* f);
 };
 
 MemOps cpu_mem_ops();
@@ -58,15 +67,23 @@ class Scratch {
   std::size_t count_ = 0;
 };
 
-// K unsigned counters: reset() before a group of loops, read() after them (waits on the stream).
+// K unsigned counters: reset() before a group of loops, read() after them (waits on the stream),
+// or start_read() after them, more work on the stream, then finish_read() (waits for the
+// counters only).
 // Writes are fills (memsets), never uploads: on CUDA an upload from pageable host memory may
 // wait for the stream, which between two rounds of loops stalls the host for a whole round.
 template <int K>
 class Counters {
  public:
   explicit Counters(const MemOps& ops)
-      : ops_(ops), buf_(ops), landing_(static_cast<unsigned*>(ops.alloc_host(sizeof(unsigned) * K))) {}
-  ~Counters() { ops_.release_host(landing_); }
+      : ops_(ops),
+        buf_(ops),
+        landing_(static_cast<unsigned*>(ops.alloc_host(sizeof(unsigned) * K))),
+        fence_(ops.fence_create()) {}
+  ~Counters() {
+    ops_.fence_destroy(fence_);
+    ops_.release_host(landing_);
+  }
   Counters(const Counters&) = delete;
   Counters& operator=(const Counters&) = delete;
 
@@ -89,7 +106,15 @@ class Counters {
     ops_.fill(ptr() + first, 0, sizeof(unsigned) * std::size_t(count), s);
   }
   const std::array<unsigned, K>& read(CUstream_st* s) {
-    ops_.to_host(landing_, ptr(), sizeof(unsigned) * K, s);
+    start_read(s);
+    return finish_read();
+  }
+  void start_read(CUstream_st* s) {
+    ops_.to_host_async(landing_, ptr(), sizeof(unsigned) * K, s);
+    ops_.fence_record(fence_, s);
+  }
+  const std::array<unsigned, K>& finish_read() {
+    ops_.fence_wait(fence_);
     std::copy(landing_, landing_ + K, host_.begin());
     return host_;
   }
@@ -98,6 +123,7 @@ class Counters {
   MemOps ops_;
   Scratch<unsigned> buf_;
   unsigned* landing_;  // alloc_host: where read() copies to
+  void* fence_;        // recorded after the copy into landing_
   std::array<unsigned, K> host_{};
 };
 

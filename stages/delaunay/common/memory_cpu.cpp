@@ -19,10 +19,14 @@ void copy(void* dst, const void* src, std::size_t bytes, CUstream_st*) { ff::hos
 void host_fill(void* dst, int byte, std::size_t bytes, CUstream_st*) {
   if (bytes) std::memset(dst, byte, bytes);
 }
+void* no_fence() { return nullptr; }
+void fence_nothing(void*) {}
+void fence_record_nothing(void*, CUstream_st*) {}
 }  // namespace
 
 MemOps cpu_mem_ops() {
-  return {&host_alloc, &host_release, &host_alloc, &host_release, &copy, &copy, &host_fill};
+  return {&host_alloc, &host_release, &host_alloc, &host_release, &copy,          &copy,
+          &host_fill,  &copy,         &no_fence,   &fence_nothing, &fence_record_nothing, &fence_nothing};
 }
 
 }  // namespace ff::delaunay

@@ -39,10 +39,28 @@ void dev_copy(void* dst, const void* src, std::size_t bytes, CUstream_st* s) {
 void dev_fill(void* dst, int byte, std::size_t bytes, CUstream_st* s) {
   if (bytes) FF_CUDA_CHECK(cudaMemsetAsync(dst, byte, bytes, s), "resetting delaunay counters");
 }
+void dev_download_async(void* dst, const void* src, std::size_t bytes, CUstream_st* s) {
+  if (bytes) FF_CUDA_CHECK(cudaMemcpyAsync(dst, src, bytes, cudaMemcpyDeviceToHost, s), "reading delaunay counters");
+}
+void* event_create() {
+  cudaEvent_t e = nullptr;
+  FF_CUDA_CHECK(cudaEventCreateWithFlags(&e, cudaEventDisableTiming), "creating a delaunay counter fence");
+  return e;
+}
+void event_destroy(void* e) {
+  if (e) cudaEventDestroy(static_cast<cudaEvent_t>(e));
+}
+void event_record(void* e, CUstream_st* s) {
+  FF_CUDA_CHECK(cudaEventRecord(static_cast<cudaEvent_t>(e), s), "recording a delaunay counter fence");
+}
+void event_wait(void* e) {
+  FF_CUDA_CHECK(cudaEventSynchronize(static_cast<cudaEvent_t>(e)), "waiting for delaunay counters");
+}
 }  // namespace
 
 MemOps cuda_mem_ops() {
-  return {&dev_alloc, &dev_release, &pinned_alloc, &pinned_release, &dev_download, &dev_copy, &dev_fill};
+  return {&dev_alloc, &dev_release,        &pinned_alloc, &pinned_release, &dev_download, &dev_copy,
+          &dev_fill,  &dev_download_async, &event_create, &event_destroy,  &event_record, &event_wait};
 }
 
 }  // namespace ff::delaunay

@@ -1,8 +1,9 @@
 // delaunay.detect_inversion: after integration, find inverted triangles and decide whether
 // single edge flips can repair them (marks them in delaunay.flip_mark for delaunay.flip) or the
 // step must be rolled back (particles through each other, an edge crossed from both sides, a
-// vertex across more than one edge). At the end of an accepted detection it copies `position`
-// into `delaunay.position_prev`, the reference for the next step's r⁰·r¹ test.
+// vertex across more than one edge). It copies `position` into `delaunay.position_prev`, the
+// reference for the next step's r⁰·r¹ test, while the host reads its counters (a rollback
+// restores the old position_prev; the copy costs the snapshot nothing: will_overwrite).
 #pragma once
 #include <array>
 
@@ -33,7 +34,8 @@ class DetectInversion final : public Stage {
             {fields::halfedge, where_, Mode::readwrite, true},
             {fields::opposite, where_, Mode::readwrite, true},
             {fields::vertex_edge, where_, Mode::readwrite, true},
-            {fields::position_prev, where_, Mode::readwrite},
+            // Read, then overwritten completely (will_overwrite): no snapshot copy.
+            {fields::position_prev, where_, Mode::readwrite, true},
             {fields::flip_mark, where_, Mode::write, false, /*step_local=*/true},
             {fields::lawson_candidates, where_, Mode::write, false, /*step_local=*/true},
             {fields::status, Where::host, Mode::readwrite}};
@@ -59,7 +61,13 @@ class DetectInversion final : public Stage {
     ops_.mark(E, MarkInversions<R>{m, pts, fresh ? nullptr : prev, mark, c, data<std::int32_t>(cand, where_),
                                    unsigned(cand.count()), int(E)},
               st);
-    auto h = counters_.read(st);
+    counters_.start_read(st);
+    // The next step's reference, copied on the stream while the host waits for the counters
+    // (on CUDA the launches that follow this stage queue behind the copy instead of a gap).
+    // Every outcome below either keeps it or rolls the step back, which restores the old one.
+    ctx.will_overwrite(fields::position_prev);
+    ops_.mem.copy(data<R>(s.field(fields::position_prev), where_), pts.p, s.field(ff::fields::position).bytes(), st);
+    auto h = counters_.finish_read();
     throw_if_too_long(s, where_, ops_.mem, h[kTooLong], h[kTooLongAt], st, "delaunay.detect_inversion");
     if (h[kInverted]) {
       ops_.check(halfedge_count(s.n()), CheckInverted<R>{m, pts, mark, c}, st);
@@ -99,8 +107,6 @@ class DetectInversion final : public Stage {
       status(s)[kCandidates] = std::int32_t(h[kCandidateCount]) + 1;
       set_position_version(status(s), s.field(ff::fields::position).version());
     }
-    const Field& pos = s.field(ff::fields::position);
-    ops_.mem.copy(prev, pts.p, pos.bytes(), st);
     return Outcome::ok();
   }
 
