@@ -26,16 +26,27 @@ struct NoiseCounter {
   std::uint32_t attempt;
 };
 
+// Reads particle i from (position_in, image_in) and writes it to (position, image): the same
+// arrays for an update in place, or the previous step's kept by the rollback snapshot
+// (StepContext::will_overwrite) for one that spares the snapshot its copy.
+template <class R, int D>
+FF_HD void overdamped_move(const R* position_in, const std::int32_t* image_in, R* position, std::int32_t* image,
+                           const PeriodicBox<R>& box, std::size_t i, const R* drift, R amplitude, const double* xi) {
+  for (int k = 0; k < D; ++k) {
+    R x = position_in[i * D + k];
+    std::int32_t n = image_in[i * D + k];
+    if (drift) x += drift[k];
+    x += amplitude * R(xi[k]);
+    box.wrap(x, n, k);
+    position[i * D + k] = x;
+    image[i * D + k] = n;
+  }
+}
+
 template <class R, int D>
 FF_HD void overdamped_move(R* position, std::int32_t* image, const PeriodicBox<R>& box, std::size_t i,
                            const R* drift, R amplitude, const double* xi) {
-  for (int k = 0; k < D; ++k) {
-    R x = position[i * D + k];
-    if (drift) x += drift[k];
-    x += amplitude * R(xi[k]);
-    box.wrap(x, image[i * D + k], k);
-    position[i * D + k] = x;
-  }
+  overdamped_move<R, D>(position, image, position, image, box, i, drift, amplitude, xi);
 }
 
 // One particle's step: its Gaussian pairs, then F::move (the element operation of the GPU loop).

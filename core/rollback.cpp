@@ -67,7 +67,7 @@ void Snapshot::take_before_write(State& state, const std::string& field, CUstrea
 }
 
 
-void Snapshot::take_before_overwrite(State& state, const std::string& field) {
+Field* Snapshot::take_before_overwrite(State& state, const std::string& field) {
   std::lock_guard<std::mutex> lock(mutex_);
   for (Entry& e : entries_)
     if (e.on_demand && !e.taken && e.name == field) {
@@ -82,7 +82,9 @@ void Snapshot::take_before_overwrite(State& state, const std::string& field) {
       f.mark_written(e.side);  // (stale contents: the caller writes every element next)
       e.taken = true;
       e.swapped = true;
+      return e.copy.get();
     }
+  return nullptr;
 }
 
 void Snapshot::restore(State& state, CUstream_st* stream) {
@@ -118,8 +120,9 @@ void StepContext::will_write(const std::string& field) const {
   if (snapshot) snapshot->take_before_write(state, field, stream);
 }
 
-void StepContext::will_overwrite(const std::string& field) const {
-  if (snapshot) snapshot->take_before_overwrite(state, field);
+Field& StepContext::will_overwrite(const std::string& field) const {
+  Field* old = snapshot ? snapshot->take_before_overwrite(state, field) : nullptr;
+  return old ? *old : state.field(field);
 }
 
 bool DtController::halve() {

@@ -34,7 +34,8 @@ class Snapshot {
   // it: instead of a copy, the snapshot takes the field's storage and gives it its own (whose
   // contents are stale), at no cost; the field counts as written on the side where it was
   // current. Once per step, like take_before_write (after either, the other does nothing).
-  void take_before_overwrite(State& state, const std::string& field);
+  // Returns the copy holding the field's contents before the swap; null when it swapped nothing.
+  Field* take_before_overwrite(State& state, const std::string& field);
   // Every-step fields and the on-demand fields copied (or taken) in this step.
   void restore(State& state, CUstream_st* stream);
   std::vector<std::string> fields() const;            // every step

@@ -114,12 +114,15 @@ struct StepContext {
   // rollback snapshot takes its copy now (once per step; a no-op when nothing can roll back the
   // write). Stream-ordered on `stream`.
   void will_write(const std::string& field) const;
-  // Instead of will_write, for an on_demand field the stage is about to write completely
-  // without reading it first (detect_inversion's position_prev): the snapshot keeps the field's
-  // storage and hands it other storage with stale contents, so nothing is copied. Pointers to
-  // the field taken before this call point to the snapshot's copy afterwards: take them again.
-  // Not for stages captured into a CUDA graph (the graph would keep the old pointers).
-  void will_overwrite(const std::string& field) const;
+  // Instead of will_write, for an on_demand field whose every element the stage is about to
+  // write (detect_inversion's position_prev, abp.integrate's position): the snapshot keeps the
+  // field's storage and hands it other storage with stale contents, so nothing is copied.
+  // Returns where the contents before the call are now: the snapshot's copy (read the old
+  // values there, write the field), or the field itself when no snapshot takes this write
+  // (update in place). Pointers to the field taken before the call may point to the copy
+  // afterwards: take them again. Not for stages captured into a CUDA graph (the graph would
+  // keep the old pointers).
+  Field& will_overwrite(const std::string& field) const;
 };
 
 class Stage {

@@ -33,6 +33,11 @@ FF_HD R wrap_angle(R theta) {
 
 template <class R, int D>
 struct AbpStep {
+  // The step reads particle i from the *_in arrays and writes it to the others: the same arrays
+  // (in place) or the previous step's, kept by the rollback snapshot (stage.h).
+  const R* position_in;
+  const std::int32_t* image_in;
+  const R* orientation_in;
   R* position;          // N x D
   std::int32_t* image;  // N x D
   R* orientation;       // N x 1 (θ) in 2D, N x 3 (unit vector) in 3D
@@ -57,17 +62,17 @@ struct AbpStep {
     const double* eta = z + (D == 2 ? 2 : 4);
     R e[3];
     if constexpr (D == 2) {
-      const R th = orientation[i];
+      const R th = orientation_in[i];
       e[0] = std::cos(th);
       e[1] = std::sin(th);
       orientation[i] = wrap_angle(th + rot_amp * R(eta[0]));
     } else {
-      for (int k = 0; k < 3; ++k) e[k] = orientation[i * 3 + k];
+      for (int k = 0; k < 3; ++k) e[k] = orientation_in[i * 3 + k];
       rotate_3d(e, eta, &orientation[i * 3]);
     }
     R drift[D];
     for (int k = 0; k < D; ++k) drift[k] = v0_dt * e[k];  // self-propulsion along e
-    overdamped_move<R, D>(position, image, box, i, drift, trans_amp, xi);
+    overdamped_move<R, D>(position_in, image_in, position, image, box, i, drift, trans_amp, xi);
   }
 
   FF_HD void operator()(std::size_t i) const { overdamped_step(*this, i); }

@@ -41,10 +41,13 @@ class Integrate final : public Stage {
   Integrate(IntegrateParams p, std::uint64_t seed, Where where, IntegrateLoops<R> loops)
       : p_(p), seed_(seed), where_(where), loops_(loops) {}
 
+  // Every element is rewritten each step from the previous values, which the rollback snapshot
+  // keeps instead of copying (on_demand + will_overwrite: the step reads the snapshot's arrays
+  // and writes the field's; in place when no snapshot is taken).
   std::vector<Access> accesses() const override {
-    return {{fields::position, where_, Mode::readwrite},
-            {fields::image, where_, Mode::readwrite},
-            {kOrientation, where_, Mode::readwrite}};
+    return {{fields::position, where_, Mode::readwrite, true},
+            {fields::image, where_, Mode::readwrite, true},
+            {kOrientation, where_, Mode::readwrite, true}};
   }
 
   // Adds the orientation field when no one has, and fills it with uniformly random
@@ -73,21 +76,28 @@ class Integrate final : public Stage {
   Outcome run(StepContext& ctx) override {
     State& s = ctx.state;
     const bool dev = where_ == Where::device;
+    // Where the previous values are now (the snapshot's copy, or the field itself).
+    Field& pos_in = ctx.will_overwrite(fields::position);
+    Field& img_in = ctx.will_overwrite(fields::image);
+    Field& ori_in = ctx.will_overwrite(kOrientation);
     Field& pos = s.field(fields::position);
     Field& img = s.field(fields::image);
     Field& ori = s.field(kOrientation);
     R* x = dev ? pos.device<R>() : pos.host<R>();
     std::int32_t* im = dev ? img.device<std::int32_t>() : img.host<std::int32_t>();
     R* o = dev ? ori.device<R>() : ori.host<R>();
+    const R* x0 = dev ? pos_in.device<R>() : pos_in.host<R>();
+    const std::int32_t* im0 = dev ? img_in.device<std::int32_t>() : img_in.host<std::int32_t>();
+    const R* o0 = dev ? ori_in.device<R>() : ori_in.host<R>();
     const auto box = PeriodicBox<R>::make(s.box.L);
     const R v0_dt = R(p_.v0 * ctx.dt);
     const R trans = R(std::sqrt(2.0 * p_.D * ctx.dt));
     const R rot = R(std::sqrt(2.0 * p_.Dr * ctx.dt));
     if (s.dim() == 2)
-      loops_.loop2(s.n(), AbpStep<R, 2>{x, im, o, box, v0_dt, trans, rot, ctx.rng, ctx.step, ctx.attempt},
+      loops_.loop2(s.n(), AbpStep<R, 2>{x0, im0, o0, x, im, o, box, v0_dt, trans, rot, ctx.rng, ctx.step, ctx.attempt},
                    ctx.stream);
     else
-      loops_.loop3(s.n(), AbpStep<R, 3>{x, im, o, box, v0_dt, trans, rot, ctx.rng, ctx.step, ctx.attempt},
+      loops_.loop3(s.n(), AbpStep<R, 3>{x0, im0, o0, x, im, o, box, v0_dt, trans, rot, ctx.rng, ctx.step, ctx.attempt},
                    ctx.stream);
     return Outcome::ok();
   }
