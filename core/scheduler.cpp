@@ -47,14 +47,15 @@ Scheduler::Scheduler(const StepGraph& graph, std::vector<StageSlot>& slots, Stat
     bool device_requests = false;
     for (int i : impl_->compute) device_requests = device_requests || slots[i].stage->requests_rollback_on_device();
     impl_->streams = std::make_unique<StreamSet>(graph, device_requests);
-    bool any_capturable = false;
+    bool any_reads_params = false;
     impl_->capturable = !impl_->compute.empty();
     for (int i : impl_->compute) {
-      const bool c = slots[i].stage->graph_capturable();
-      any_capturable = any_capturable || c;
-      impl_->capturable = impl_->capturable && c && graph.nodes()[i].every == 1;
+      any_reads_params = any_reads_params || slots[i].stage->reads_step_params();
+      impl_->capturable = impl_->capturable && slots[i].stage->graph_capturable() && graph.nodes()[i].every == 1;
     }
-    if (any_capturable) impl_->device_params = std::make_unique<DeviceStepParams>();
+    // (The upload is on the step's critical path: after the last stage's wait, before the first
+    // launch of the next step.)
+    if (any_reads_params || impl_->capturable) impl_->device_params = std::make_unique<DeviceStepParams>();
   }
 #endif
   // The flow graph is built even for a chain (it is what `graph` prints and what a branch

@@ -150,6 +150,10 @@ class Stage {
   // reads the host, and takes step-dependent values from ctx.params. When every compute stage
   // says so (and none uses `every`), the core captures the step once as a CUDA graph.
   virtual bool graph_capturable() const { return false; }
+  // True if run() passes ctx.params to its kernels. On CUDA the core keeps a device copy of the
+  // step's parameters (one upload per step) only when some stage reads them or the step is
+  // captured. By default every capturable stage is taken to read them.
+  virtual bool reads_step_params() const { return graph_capturable(); }
 };
 
 }  // namespace ff

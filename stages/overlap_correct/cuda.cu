@@ -79,8 +79,9 @@ struct Args {
   double2* disp;           // grid·tile: the displacements of the moved ones
   int* nb;                 // kCached x grid·tile: each particle's neighbours, filled in iteration 0
   std::uint8_t* degree;    // grid·tile: how many (kWalk: more than kCached, walk the fan)
-  u64* slots;              // kBatch x kDevCounters x kShards (sharded counters, zeroed per launch)
-  u64* claims;             // entries of cand claimed for the tail (zeroed per launch)
+  u64* slots;              // kBatch x kDevCounters x kShards (sharded counters, zero at launch)
+  u64* claims;             // entries of cand claimed for the tail (zero at launch)
+  u64* next_slots;         // the other launch's slots and claims (kSlotWords + 1): zeroed here
   u64* result;             // kBatch x kCounters + 1 (block 0 writes the sums and the gather count)
   int tile;                // particles per block, a multiple of 16
   long long k0;
@@ -177,6 +178,10 @@ __global__ void __launch_bounds__(kThreads, MinBlocks) correct_kernel(Args<R> a)
   const int lane = threadIdx.x & 31, warp = threadIdx.x >> 5;
   const int shard = int(blockIdx.x % kShards) * kShardStride;
   bool tail = false;  // block 0 alone runs the iterations
+  // The next launch's counters, zeroed here instead of by a memset before it (a host call on
+  // the step's critical path, between Lawson's wait and this launch). No one reads them now.
+  for (int w = int(blockIdx.x * kThreads + threadIdx.x); w < int(kSlotWords + 1); w += int(gridDim.x) * kThreads)
+    a.next_slots[w] = 0;
 
   for (int j = 0; j < kBatch; ++j) {
     const long long k = a.k0 + j;
@@ -332,7 +337,8 @@ struct DevWorkspace {
   double2* disp = nullptr;
   int* nb = nullptr;
   std::uint8_t* degree = nullptr;
-  u64* slots = nullptr;  // kSlotWords + the claims count
+  u64* slots[2] = {nullptr, nullptr};  // kSlotWords + the claims count, per launch parity
+  int parity = 0;                      // which the next launch uses (zero); it zeroes the other
   u64* result = nullptr;
   u64* host = nullptr;  // pinned copy of result
 };
@@ -389,7 +395,10 @@ void* dev_create(std::size_t n) {
     w->disp = dev_alloc<double2>(w->cap, "allocating overlap_correct displacements");
     w->nb = dev_alloc<int>(kCached * w->cap, "allocating overlap_correct neighbour lists");
     w->degree = dev_alloc<std::uint8_t>(w->cap, "allocating overlap_correct neighbour lists");
-    w->slots = dev_alloc<u64>(kSlotWords + 1, "allocating overlap_correct counters");
+    for (u64*& sl : w->slots) {
+      sl = dev_alloc<u64>(kSlotWords + 1, "allocating overlap_correct counters");
+      FF_CUDA_CHECK(cudaMemset(sl, 0, (kSlotWords + 1) * sizeof(u64)), "clearing overlap_correct counters");
+    }
     w->result = dev_alloc<u64>(kResultWords, "allocating overlap_correct counters");
     FF_CUDA_CHECK(cudaMallocHost(&w->host, kResultWords * sizeof(u64)), "allocating overlap_correct counters");
   } catch (...) {
@@ -407,7 +416,7 @@ void dev_destroy(void* p) {
   cudaFree(w->disp);
   cudaFree(w->nb);
   cudaFree(w->degree);
-  cudaFree(w->slots);
+  for (u64* sl : w->slots) cudaFree(sl);
   cudaFree(w->result);
   cudaFreeHost(w->host);
   delete w;
@@ -425,17 +434,18 @@ void dev_iterate(void* ws, const Problem<R>& p, std::int64_t k0, std::int64_t ma
             w->disp,
             w->nb,
             w->degree,
-            w->slots,
-            w->slots + kSlotWords,
+            w->slots[w->parity],
+            w->slots[w->parity] + kSlotWords,
+            w->slots[1 - w->parity],
             w->result,
             w->tile[r],
             static_cast<long long>(k0),
             static_cast<long long>(max_iterations)};
-  FF_CUDA_CHECK(cudaMemsetAsync(w->slots, 0, (kSlotWords + 1) * sizeof(u64), s), "clearing overlap_correct counters");
   void* args[] = {&a};
   FF_CUDA_CHECK(cudaLaunchCooperativeKernel(kernel_ptr<R>(), dim3(w->grid[r]),
                                             dim3(kThreads), args, 0, s),
                 "launching overlap_correct");
+  w->parity = 1 - w->parity;
   FF_CUDA_CHECK(cudaMemcpyAsync(w->host, w->result, kResultWords * sizeof(u64), cudaMemcpyDeviceToHost, s),
                 "reading overlap_correct counters");
   FF_CUDA_CHECK(cudaStreamSynchronize(s), "waiting for overlap_correct");

@@ -27,6 +27,7 @@ class Sort final : public Stage {
   void configure(State& s) override { sorted_ = sort_particles_hilbert(s); }
   Outcome run(StepContext&) override { return Outcome::ok(); }
   bool graph_capturable() const override { return true; }
+  bool reads_step_params() const override { return false; }
   const std::vector<std::string>& sorted_fields() const { return sorted_; }
 
  private:
