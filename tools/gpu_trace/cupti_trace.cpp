@@ -233,6 +233,19 @@ uint32_t intern(std::unordered_map<std::string, uint32_t>& map, const std::strin
   return idx;
 }
 
+// The fields memcpy and memset records share (CUpti_ActivityMemcpy6, CUpti_ActivityMemset4).
+template <class A>
+void fill_transfer(Record& r, Kind kind, const A& m) {
+  r.kind = kind;
+  r.start = m.start;
+  r.end = m.end;
+  r.stream = m.streamId;
+  r.has_stream = true;
+  r.bytes = m.bytes;
+  r.has_bytes = true;
+  r.correlation = m.correlationId;
+}
+
 // Called with g_tracer->mutex held.
 void take(const CUpti_Activity* a) {
   Tracer& t = *g_tracer;
@@ -258,28 +271,14 @@ void take(const CUpti_Activity* a) {
       const std::string name = std::string(memcpy_kind(m->copyKind)) + "(" +
                                memory_kind(m->srcKind) + "->" + memory_kind(m->dstKind) + ")";
       r.name = intern(t.other_names, "memcpy:" + name, name);
-      r.kind = Kind::memcpy;
-      r.start = m->start;
-      r.end = m->end;
-      r.stream = m->streamId;
-      r.has_stream = true;
-      r.bytes = m->bytes;
-      r.has_bytes = true;
-      r.correlation = m->correlationId;
+      fill_transfer(r, Kind::memcpy, *m);
       break;
     }
     case CUPTI_ACTIVITY_KIND_MEMSET: {
       auto* m = reinterpret_cast<const CUpti_ActivityMemset4*>(a);
       const std::string name = std::string("memset(") + memory_kind(m->memoryKind) + ")";
       r.name = intern(t.other_names, "memset:" + name, name);
-      r.kind = Kind::memset;
-      r.start = m->start;
-      r.end = m->end;
-      r.stream = m->streamId;
-      r.has_stream = true;
-      r.bytes = m->bytes;
-      r.has_bytes = true;
-      r.correlation = m->correlationId;
+      fill_transfer(r, Kind::memset, *m);
       break;
     }
     case CUPTI_ACTIVITY_KIND_RUNTIME: {
