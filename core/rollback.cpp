@@ -32,6 +32,19 @@ void copy_field_contents(Field& dst, Field& src, Where where, CUstream_st* strea
 #endif
 }
 
+namespace {
+// Where a snapshot keeps its copy of f: where the data is current, on the device for a CUDA
+// run, so a snapshot never crosses the bus.
+Where current_side(const Field& f) {
+#ifdef FLIPFLOW_HAVE_CUDA
+  return f.valid_on(Where::device) ? Where::device : Where::host;
+#else
+  (void)f;
+  return Where::host;
+#endif
+}
+}  // namespace
+
 Snapshot::Snapshot(std::vector<std::string> fields, std::vector<std::string> on_demand) {
   for (auto& f : fields) entries_.push_back(Entry{std::move(f), false, false, false, Where::host, nullptr});
   for (auto& f : on_demand) entries_.push_back(Entry{std::move(f), true, false, false, Where::host, nullptr});
@@ -40,12 +53,7 @@ Snapshot::Snapshot(std::vector<std::string> fields, std::vector<std::string> on_
 void Snapshot::copy_in(State& state, Entry& e, CUstream_st* stream) {
   Field& f = state.field(e.name);
   if (!e.copy) e.copy = std::make_unique<Field>(e.name, f.dtype(), f.components(), f.count());
-  // Keep the copy where the data is current: on the device for a CUDA run, so a snapshot
-  // never crosses the bus.
-  e.side = f.valid_on(Where::device) ? Where::device : Where::host;
-#ifndef FLIPFLOW_HAVE_CUDA
-  e.side = Where::host;
-#endif
+  e.side = current_side(f);
   copy_field_contents(*e.copy, f, e.side, stream);
 }
 
@@ -74,10 +82,7 @@ Field* Snapshot::take_before_overwrite(State& state, const std::string& field) {
       Field& f = state.field(e.name);
       if (!e.copy || e.copy->count() != f.count())
         e.copy = std::make_unique<Field>(e.name, f.dtype(), f.components(), f.count());
-      e.side = f.valid_on(Where::device) ? Where::device : Where::host;
-#ifndef FLIPFLOW_HAVE_CUDA
-      e.side = Where::host;
-#endif
+      e.side = current_side(f);
       f.swap_contents(*e.copy);
       f.mark_written(e.side);  // (stale contents: the caller writes every element next)
       e.taken = true;
