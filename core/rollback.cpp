@@ -74,7 +74,6 @@ void Snapshot::take_before_write(State& state, const std::string& field, CUstrea
     }
 }
 
-
 Field* Snapshot::take_before_overwrite(State& state, const std::string& field) {
   std::lock_guard<std::mutex> lock(mutex_);
   for (Entry& e : entries_)
