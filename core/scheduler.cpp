@@ -102,16 +102,7 @@ void Scheduler::run_node(int i, std::uint64_t step, std::uint32_t attempt, doubl
 #endif
     for (auto& a : node.accesses) state_.field(a.field).acquire(a.where, a.mode, stream);
     slot.metrics.clear();
-    DeviceRollbackFlag* flag = nullptr;
-    const StepParams* params = &impl_->params;
-#ifdef FLIPFLOW_HAVE_CUDA
-    if (impl_->streams) {
-      flag = impl_->streams->rollback_flag(i);
-      params = impl_->device_params ? impl_->device_params->device() : nullptr;
-    }
-#endif
-    StepContext ctx{state_, slot.info, stats_, step, attempt, dt, time, backend_, stream, slot.rng, slot.metrics,
-                    flag,   params, snapshot_undone_.size() > std::size_t(i) && snapshot_undone_[i] ? snapshot_ : nullptr};
+    StepContext ctx = context(i, stream, step, attempt, dt, time);
     const auto t0 = std::chrono::steady_clock::now();
     slot.outcome = slot.stage->run(ctx);
 #ifdef FLIPFLOW_HAVE_CUDA
@@ -131,6 +122,21 @@ void Scheduler::run_node(int i, std::uint64_t step, std::uint32_t attempt, doubl
     has_error_.store(true);
     abort_.store(true);
   }
+}
+
+StepContext Scheduler::context(int i, CUstream_st* stream, std::uint64_t step, std::uint32_t attempt, double dt,
+                               double time) {
+  StageSlot& slot = slots_[i];
+  DeviceRollbackFlag* flag = nullptr;
+  const StepParams* params = &impl_->params;
+#ifdef FLIPFLOW_HAVE_CUDA
+  if (impl_->streams) {
+    flag = impl_->streams->rollback_flag(i);
+    params = impl_->device_params ? impl_->device_params->device() : nullptr;
+  }
+#endif
+  return StepContext{state_, slot.info, stats_, step, attempt, dt, time, backend_, stream, slot.rng, slot.metrics,
+                     flag,   params, snapshot_undone_.size() > std::size_t(i) && snapshot_undone_[i] ? snapshot_ : nullptr};
 }
 
 std::optional<RollbackRequest> Scheduler::run_compute(std::uint64_t step, std::uint32_t attempt, double dt,
@@ -170,6 +176,20 @@ std::optional<RollbackRequest> Scheduler::run_compute(std::uint64_t step, std::u
 #endif
   for (int i : impl_->compute)
     if (slots_[i].ran && slots_[i].outcome.rollback) return RollbackRequest{i, slots_[i].outcome};
+#ifdef FLIPFLOW_HAVE_CUDA
+  if (captured) return std::nullopt;
+#endif
+  // The step is accepted: stages that left results on the device read them now (in step order,
+  // which for a chain is the order their work was enqueued).
+  for (int i : impl_->compute) {
+    if (!slots_[i].ran) continue;
+    CUstream_st* stream = nullptr;
+#ifdef FLIPFLOW_HAVE_CUDA
+    if (impl_->streams) stream = impl_->streams->stream(i);
+#endif
+    StepContext ctx = context(i, stream, step, attempt, dt, time);
+    slots_[i].stage->after_step(ctx);
+  }
   return std::nullopt;
 }
 

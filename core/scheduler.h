@@ -73,6 +73,9 @@ class Scheduler {
   Snapshot* snapshot_ = nullptr;
   std::vector<bool> snapshot_undone_;  // per node: its writes are in the snapshot
   void run_node(int node, std::uint64_t step, std::uint32_t attempt, double dt, double time);
+  // The context stage `node` sees in run() and after_step().
+  StepContext context(int node, CUstream_st* stream, std::uint64_t step, std::uint32_t attempt, double dt,
+                      double time);
   void enqueue_compute();  // run every compute stage once (flow graph, or in order for a chain)
   bool run_captured();     // CUDA: replay (capturing first if needed) the step graph
   std::unique_ptr<Impl> impl_;

@@ -135,6 +135,14 @@ class Stage {
   // InputError (bad combination of parameters and system) or RunError.
   virtual void configure(State& state) { (void)state; }
   virtual Outcome run(StepContext& ctx) = 0;
+  // Once per attempt, after every compute stage of the step has run (its device work enqueued),
+  // for each stage that ran, in step order; not when a stage requested a rollback or failed,
+  // and not for a step replayed from a CUDA graph. A CUDA stage that left its results on the
+  // device (so that the stages after it queue behind its kernels instead of waiting for the
+  // host) reads them here: it sets its metrics and throws RunError on what they report. It must
+  // not request a rollback, and must cope with not being called (a later stage's rollback):
+  // its next run() then settles what is pending.
+  virtual void after_step(StepContext& ctx) { (void)ctx; }
   // Once, after the last step or when the run stops early: flush and close outputs.
   virtual void finish(State& state, bool completed) { (void)state; (void)completed; }
   // Files this stage will create (relative to out_dir): checked before anything is written.

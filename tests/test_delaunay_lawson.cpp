@@ -286,9 +286,9 @@ TEST_CASE("lawson: square lattices (co-circular everywhere) terminate", "[delaun
 namespace {
 // A shear x += A sin(2 pi y / L) of a built random triangulation: triangles stay positive, many
 // edges stop being Delaunay, and the flips of one round compete for triangles.
-std::unique_ptr<State> sheared(double amplitude) {
-  const double L = 40;
-  auto s = make_state(random_points(1600, L, L, 21), L, L);
+std::unique_ptr<State> sheared(double amplitude, std::size_t n = 1600) {
+  const double L = 40 * std::sqrt(double(n) / 1600);
+  auto s = make_state(random_points(n, L, L, 21), L, L);
   auto build = make_stage("delaunay.build", Backend::cpu);
   build->configure(*s);
   Runner rb(*s, Backend::cpu);
@@ -328,6 +328,14 @@ TEST_CASE("lawson: errors", "[delaunay][lawson]") {
     Runner r(*s, Backend::cpu);
     CHECK_THROWS_WITH(r.run(*lawson), Catch::Contains("max_rounds = 1"));
   }
+  SECTION("max_rounds reached in CUDA's tail kernel (read after the step)") {
+    if (!ff::test::have_cuda("lawson max_rounds on CUDA")) return;
+    auto s = sheared(1.5);
+    auto lawson = make_stage("delaunay.lawson", Backend::cuda, Precision::f64, {{"max_rounds", std::int64_t(2)}});
+    lawson->configure(*s);
+    Runner r(*s, Backend::cuda);
+    CHECK_THROWS_WITH(r.run(*lawson), Catch::Contains("max_rounds = 2"));
+  }
   SECTION("unrepaired inversions (no delaunay.flip)") {
     auto s = make_state(random_points(200, 12, 12, 4), 12, 12);
     auto lawson = make_stage("delaunay.lawson", Backend::cpu);
@@ -342,6 +350,7 @@ TEST_CASE("lawson: errors", "[delaunay][lawson]") {
 TEST_CASE("lawson: CPU and CUDA give the same triangulation", "[delaunay][lawson][cuda]") {
   if (!ff::test::have_cuda("lawson CPU-vs-CUDA")) return;
   std::vector<std::vector<std::int32_t>> he;
+  std::vector<double> flips, rounds;
   for (Backend b : {Backend::cpu, Backend::cuda}) {
     auto s = initial(0.5, 3000, 5);
     Pipeline p(*s, b);
@@ -357,9 +366,28 @@ TEST_CASE("lawson: CPU and CUDA give the same triangulation", "[delaunay][lawson
     Runner r2(*sh, b);
     REQUIRE_FALSE(r2.run(*lawson).rollback);
     he.push_back(topology(*sh).he);
+    flips.push_back(r2.metric("lawson_flips"));
+    rounds.push_back(r2.metric("lawson_rounds"));
+    // A larger shear: on CUDA the tail kernel's rounds mark more than kTailMarked edges (it runs
+    // them all in its one block when nothing can roll the step back, as here).
+    auto big = sheared(25, 40000);  // ~21,700 flips in 9 rounds
+    auto lawson_big = make_stage("delaunay.lawson", b);
+    lawson_big->configure(*big);
+    Runner r3(*big, b);
+    REQUIRE_FALSE(r3.run(*lawson_big).rollback);
+    he.push_back(topology(*big).he);
+    flips.push_back(r3.metric("lawson_flips"));
+    rounds.push_back(r3.metric("lawson_rounds"));
   }
-  CHECK(he[0] == he[2]);
-  CHECK(he[1] == he[3]);
+  CHECK(he[0] == he[3]);
+  CHECK(he[1] == he[4]);
+  CHECK(he[2] == he[5]);
+  // The metrics come from after_step on CUDA (the counters the tail kernel wrote to the host).
+  CHECK(flips[0] == flips[2]);
+  CHECK(rounds[0] == rounds[2]);
+  CHECK(flips[1] == flips[3]);
+  CHECK(rounds[1] == rounds[3]);
+  CHECK(flips[1] > 10000);
 }
 
 namespace {

@@ -81,7 +81,10 @@ class Runner {
     for (auto& a : st.accesses()) s_.field(a.field).acquire(a.where, a.mode, stream_);
     metrics.clear();
     StepContext ctx{s_, info_, stats_, step, 0, dt, 0.0, b_, stream_, make_rng_key(1, "test"), metrics};
-    return st.run(ctx);
+    // As the core does for a step of this one stage (nothing can roll it back: no snapshot).
+    const Outcome o = st.run(ctx);
+    if (!o.rollback) st.after_step(ctx);
+    return o;
   }
   double metric(const std::string& k) const {
     auto it = metrics.values().find(k);

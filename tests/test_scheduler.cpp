@@ -54,6 +54,31 @@ TEST_CASE("dependent stages run in declared order", "[scheduler]") {
   }
 }
 
+TEST_CASE("after_step follows the whole step, in step order, and skips a rolled-back attempt", "[scheduler]") {
+  auto r = test::registry_with({}, {"testing"});
+  auto s = test::spec(2, 16, 0.1, 4, 0.01,
+                      {entry(*r, "testing.record", {}, {"a"}), entry(*r, "testing.record", {}, {"b"}),
+                       entry(*r, "testing.rollback", {{"steps", std::vector<double>{2}}}, {"fail"}),
+                       entry(*r, "testing.record", {}, {"c"})});
+  Simulation sim(s, *r, dry());
+  double before = -1;
+  for (int k = 0; k < 4; ++k) {
+    sim.advance();
+    // One step: a, b, c run (a, a + 1, a + 2 in one sequence), then after_step for a, b, c.
+    const double a = metric(sim, "a/order");
+    CHECK(metric(sim, "b/order") == a + 1);
+    CHECK(metric(sim, "c/order") == a + 2);
+    CHECK(metric(sim, "a/after") == a + 3);
+    CHECK(metric(sim, "b/after") == a + 4);
+    CHECK(metric(sim, "c/after") == a + 5);
+    // Six a step; step 2's first attempt stops at `fail` after a and b ran, and calls no
+    // after_step (two more, not four).
+    if (k > 0) CHECK(a - before == (k == 2 ? 8 : 6));
+    before = a;
+  }
+  CHECK(sim.stats().rollbacks == 1);
+}
+
 TEST_CASE("`after:` reorders, and a fork joins before its successor", "[scheduler]") {
   tbb::global_control threads(tbb::global_control::max_allowed_parallelism, 2);
   auto r = test::registry_with({}, {"testing"});

@@ -94,6 +94,8 @@ class Record final : public Stage {
     ctx.metrics.set("order", g_order.fetch_add(1));
     return Outcome::ok();
   }
+  // Where in the same sequence the core called after_step (once the whole step ran).
+  void after_step(StepContext& ctx) override { ctx.metrics.set("after", g_order.fetch_add(1)); }
 
  private:
   std::string writes_, reads_;

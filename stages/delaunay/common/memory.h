@@ -72,6 +72,12 @@ class Scratch {
 // counters only).
 // Writes are fills (memsets), never uploads: on CUDA an upload from pageable host memory may
 // wait for the stream, which between two rounds of loops stalls the host for a whole round.
+// Two ways to take host calls off a step's critical path:
+//  - Two banks: ptr() is the current one; a loop may set next() to its start values while it
+//    counts into ptr(), and swap() makes that bank current for the stage's next run (no fills).
+//  - A kernel may write the final counts into landing() itself (pinned host memory, which a
+//    CUDA kernel can write directly); await_published() then records the fence after it, and
+//    finish_read() waits for that kernel and returns what it wrote (no copy on the stream).
 template <int K>
 class Counters {
  public:
@@ -87,7 +93,11 @@ class Counters {
   Counters(const Counters&) = delete;
   Counters& operator=(const Counters&) = delete;
 
-  unsigned* ptr() { return buf_.get(K); }
+  unsigned* ptr() { return buf_.get(2 * K) + bank_ * K; }
+  unsigned* next() { return buf_.get(2 * K) + (1 - bank_) * K; }
+  void swap() { bank_ = 1 - bank_; }
+  unsigned* landing() { return landing_; }
+  void await_published(CUstream_st* s) { ops_.fence_record(fence_, s); }
   // Counts start at 0; slots listed in `min_slots` start at ~0u (they keep a minimum). One fill
   // per run of equal start values: keep the minimum slots together in the enum.
   template <std::size_t M>
@@ -122,7 +132,8 @@ class Counters {
  private:
   MemOps ops_;
   Scratch<unsigned> buf_;
-  unsigned* landing_;  // alloc_host: where read() copies to
+  int bank_ = 0;
+  unsigned* landing_;  // alloc_host: where read() copies to (or a kernel writes)
   void* fence_;        // recorded after the copy into landing_
   std::array<unsigned, K> host_{};
 };

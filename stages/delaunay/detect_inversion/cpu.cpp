@@ -133,6 +133,7 @@ inline int quiet4(const MarkInversions<R>& f, const Box4& box, int e) {
 template <class R>
 void mark(std::size_t n, const MarkInversions<R>& f, CUstream_st*) {
   constexpr std::size_t kGrain = 2048, kBatch = 256;
+  if (f.reset_next) reset_inversion_counters(f.reset_next);  // as the device loop's element 0
   auto run = [&](std::size_t begin, std::size_t end) __attribute__((flatten)) {
     const MarkInversions<R> local = f;  // as cpu_for_each: members stay in registers
     int batch[kBatch];

@@ -40,6 +40,11 @@ enum InversionCounter : int {
   kInversionCounters
 };
 
+// Start values of the counters: counts 0, the *_at slots ~0u (they keep a minimum).
+FF_HD void reset_inversion_counters(unsigned* c) {
+  for (int k = 0; k < kInversionCounters; ++k) c[k] = k >= kThroughAt ? ~0u : 0u;
+}
+
 template <class R>
 struct MarkInversions {
   Mesh mesh;
@@ -53,9 +58,14 @@ struct MarkInversions {
   std::int32_t* candidates = nullptr;
   unsigned capacity = 0;
   int edges = 0;  // 3N: bound for the host's prefetch (0: none)
+  // The counters' other bank (Counters::next), set to its start values for the stage's next
+  // run, or nullptr: instead of fills before that run's loop (one host call and a GPU gap
+  // fewer on the step's critical path). Nothing else touches that bank during this loop.
+  unsigned* reset_next = nullptr;
 
   // The device loop: one edge per thread, each candidate appended on its own.
   FF_HD void operator()(std::size_t i) const {
+    if (i == 0 && reset_next) reset_inversion_counters(reset_next);
     const int e = int(i);
     if (test(e)) append(&e, 1);
   }

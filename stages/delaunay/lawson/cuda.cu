@@ -18,6 +18,7 @@ __global__ void __launch_bounds__(kTailThreads) tail_kernel(LawsonTail<R> t) {
   unsigned* c = t.counters;
   std::int32_t round = t.round;
   std::int64_t ran = 0;
+  unsigned largest = 0;
   for (; ran < t.max_rounds; ++ran) {
     if (threadIdx.x == 0) {
       s_len = counter(c + kLawsonMarked);
@@ -26,6 +27,7 @@ __global__ void __launch_bounds__(kTailThreads) tail_kernel(LawsonTail<R> t) {
     __syncthreads();
     const unsigned marked = s_len;
     if (marked == 0 || marked > t.max_marked) break;
+    largest = max(largest, marked);
     const DecideMarked decide{t.mesh, t.marked, round, t.marked_list, t.go, c};
     for (unsigned i = threadIdx.x; i < marked; i += kTailThreads) decide(i);
     __syncthreads();
@@ -43,7 +45,14 @@ __global__ void __launch_bounds__(kTailThreads) tail_kernel(LawsonTail<R> t) {
     for (unsigned i = threadIdx.x; i < queued; i += kTailThreads) mark(i);
     __syncthreads();
   }
-  if (threadIdx.x == 0) c[kLawsonTailRounds] = unsigned(ran);
+  if (threadIdx.x == 0) {
+    c[kLawsonTailRounds] = unsigned(ran);
+    c[kLawsonTailLargest] = largest;
+    // The block's atomics are done (the loop ends after a barrier) and the grid kernels before
+    // it finished: these are the step's final counts.
+    if (t.publish)
+      for (int k = 0; k < kLawsonCounters; ++k) t.publish[k] = counter(c + k);
+  }
 }
 
 template <class R>

@@ -31,10 +31,16 @@ enum LawsonCounter : int {
   kLawsonFlips,       // flips in this step so far
   kLawsonRounds,      // rounds in this step that marked (and so flipped) something
   kLawsonTailRounds,  // rounds the last device tail kernel ran (LawsonTail)
+  kLawsonTailLargest, // the most edges one of those rounds marked
   kLawsonTooLong,     // flips refused: the new edge would exceed half the box
   kLawsonTooLongAt,   //   lowest such edge
   kLawsonCounters
 };
+
+// Start values of the counters: counts 0, kLawsonTooLongAt ~0u (it keeps a minimum).
+FF_HD void reset_lawson_counters(unsigned* c) {
+  for (int k = 0; k < kLawsonCounters; ++k) c[k] = k == kLawsonTooLongAt ? ~0u : 0u;
+}
 
 
 // Claim edge e for `round` in `stamps`; true for the first claimant only.
@@ -60,6 +66,9 @@ struct MarkNonDelaunay {
   std::int32_t* marked_list;
   unsigned* counters;
   unsigned list_count = 0;
+  // The counters' other bank, set to its start values by element 0 of the device loop (as
+  // MarkInversions::reset_next), or nullptr.
+  unsigned* reset_next = nullptr;
 
   // How many elements the launch really has (the list's length; n for all edges).
   FF_HD std::size_t length(std::size_t n) const { return list ? (list_len ? *list_len : list_count) : n; }
@@ -84,6 +93,7 @@ struct MarkNonDelaunay {
   }
   // The device loop: one element per thread, appended to the shared list.
   FF_HD void operator()(std::size_t i) const {
+    if (i == 0 && reset_next) reset_lawson_counters(reset_next);
     const std::size_t len = length(~std::size_t(0));
     if (i >= len) return;
     const int e = edge_at(i, len);
@@ -175,8 +185,10 @@ struct ApplyMarked {
 // passes above over the device-side list lengths with block barriers between them: from the
 // round whose marks are listed (`round`), while the marked list is not empty and at most
 // `max_marked` long, at most `max_rounds` rounds. The count it ran goes to
-// counters[kLawsonTailRounds]. The same rounds as separate launches, so the same flips; one
-// launch instead of three per round (a round of a few edges is ~2.3 µs of launch each).
+// counters[kLawsonTailRounds], the longest marked list among them to kLawsonTailLargest, and,
+// when `publish` is set, every counter to publish (pinned host memory: Counters::landing) as
+// the kernel ends. The same rounds as separate launches, so the same flips; one launch instead
+// of three per round (a round of a few edges is ~2.3 µs of launch each).
 template <class R>
 struct LawsonTail {
   Mesh mesh;
@@ -191,6 +203,7 @@ struct LawsonTail {
   std::int32_t round;
   unsigned max_marked;
   std::int64_t max_rounds;
+  unsigned* publish = nullptr;
 };
 
 }  // namespace ff::delaunay

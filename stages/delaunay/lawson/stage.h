@@ -4,8 +4,11 @@
 // wins both of its triangles, so the result is independent of thread scheduling and backend.
 // The host reads the counters after round 0's marks (on the device not always: see run()) and
 // then after every round on the CPU; on the device after one grid round and the rounds of a
-// one-block tail kernel that follow it (each read waits for the device). The input must be a
-// valid (all triangles positive) triangulation: run delaunay.flip first.
+// one-block tail kernel that follow it (each read waits for the device), or, when nothing can
+// roll the step back after this stage, not before the step ends: the tail kernel then runs every
+// round left and writes the counters to pinned host memory, and after_step() reads them, so the
+// stages after this one queue behind its kernels instead of behind a wait for the host. The
+// input must be a valid (all triangles positive) triangulation: run delaunay.flip first.
 #pragma once
 #include <algorithm>
 #include <array>
@@ -79,6 +82,7 @@ class Lawson final : public Stage {
   Outcome run(StepContext& ctx) override {
     State& s = ctx.state;
     CUstream_st* st = ctx.stream;
+    settle(s, st, nullptr);  // a step rolled back after this stage ran: after_step was not called
     ensure_topology(ctx, accesses());
     if (status(s)[kPending])
       throw RunError("delaunay.lawson: " + std::to_string(status(s)[kPending]) +
@@ -97,9 +101,13 @@ class Lawson final : public Stage {
     std::uint8_t* go = go_.get(E);
     std::int32_t* list = list_.get(E);
     std::int32_t* marked_list = marked_list_.get(E);
+    // On the device, the last run's round 0 set the other bank's start values (reset_next).
+    if (counters_ready_)
+      counters_.swap();
+    else
+      counters_.reset(std::array<int, 1>{kLawsonTooLongAt}, st);
     unsigned* c = counters_.ptr();
 
-    counters_.reset(std::array<int, 1>{kLawsonTooLongAt}, st);
     std::size_t launch = E;             // round 0 tests every edge ...
     const std::int32_t* test = nullptr;
     // ... or only detect_inversion's candidates (a superset of the edges round 0 would mark),
@@ -126,10 +134,15 @@ class Lawson final : public Stage {
     // empty rounds. Flips that would need an edge longer than half the box are refused by the
     // marking, so reporting them at a later read is safe.
     std::int32_t round = ++round_;
-    ops_.mark(launch,
-              MarkNonDelaunay<R>{m, pts, p_.tolerance, test, nullptr, marked, round, marked_list, c, unsigned(launch)},
-              st);
-    const bool skip_first_read = where_ == Where::device && ctx.snapshot == nullptr && launch >= kSkipReadFrom;
+    MarkNonDelaunay<R> first{m, pts, p_.tolerance, test, nullptr, marked, round, marked_list, c, unsigned(launch)};
+    if (where_ == Where::device) first.reset_next = counters_.next();
+    ops_.mark(launch, first, st);
+    counters_ready_ = where_ == Where::device && launch > 0;
+    // No snapshot to take (every rollback requester ran before this stage): the device may run
+    // every round without the host (`defer`, see the head of this file).
+    const bool no_snapshot = where_ == Where::device && ctx.snapshot == nullptr;
+    const bool defer = no_snapshot && ops_.tail;
+    const bool skip_first_read = no_snapshot && launch >= kSkipReadFrom;
     std::array<unsigned, kLawsonCounters> h{};
     std::size_t bound = launch;            // this round's marked edges (exact, or an upper bound)
     const unsigned* marked_len = c + kLawsonMarked;  // null: `bound` is exact; else their count, on the backend
@@ -150,17 +163,17 @@ class Lawson final : public Stage {
     // finds its lists too long), then the tail kernel, which runs the rounds that follow in one
     // block until one marks nothing or more than kTailMarked edges (bench-abp at N = 2^20: round
     // 0 marks ~19,000 edges, the rounds after the first a few hundred and fewer). A round after the
-    // last marking one finds empty lists and does nothing.
-    std::int64_t grid_rounds = 1;
+    // last marking one finds empty lists and does nothing. When deferring, the tail kernel runs
+    // every round left, however long its lists (a round of many edges is slower in one block:
+    // the next step then runs kDeviceRoundsPerRead grid rounds first, grid_rounds_).
+    std::int64_t grid_rounds = grid_rounds_;
     while (h[kLawsonMarked]) {
-      if (launched >= p_.max_rounds)
-        throw RunError("delaunay.lawson: the triangulation is still not Delaunay after max_rounds = " +
-                       std::to_string(p_.max_rounds) + " rounds (" + std::to_string(h[kLawsonFlips]) + " flips; " +
-                       std::to_string(h[kLawsonMarked]) +
-                       " edge(s) left). Raise max_rounds, or raise tolerance if points are (nearly) co-circular");
+      if (launched >= p_.max_rounds) throw_not_delaunay(h);
       const std::int64_t per_read = ops_.tail ? grid_rounds : 1;
       for (std::int64_t j = 0; j < per_read && launched < p_.max_rounds; ++j, ++launched) {
-        counters_.zero(kLawsonQueued, 1, st);  // apply lists the next round's edges
+        // Apply lists the next round's edges. Before the first round the count is still 0 from
+        // the reset (round 0's marks do not touch it); the device skips that fill.
+        if (launched > 0 || where_ != Where::device) counters_.zero(kLawsonQueued, 1, st);
         ops_.decide(bound, DecideMarked{m, marked, round, marked_list, go, c, marked_len}, st);
         ops_.apply(bound, ApplyMarked{m, marked_list, go, queued, round + 1, list, c, marked_len}, st);
         counters_.zero(kLawsonMarked, 1, st);
@@ -172,9 +185,15 @@ class Lawson final : public Stage {
       }
       const bool tail = ops_.tail && launched < p_.max_rounds;
       if (tail)
-        ops_.tail(LawsonTail<R>{m, pts, p_.tolerance, marked, queued, go, list, marked_list, c, round, kTailMarked,
-                                p_.max_rounds - launched},
+        ops_.tail(LawsonTail<R>{m, pts, p_.tolerance, marked, queued, go, list, marked_list, c, round,
+                                defer ? ~0u : kTailMarked, p_.max_rounds - launched,
+                                defer ? counters_.landing() : nullptr},
                   st);
+      if (tail && defer) {  // the counters are read by after_step (settle)
+        counters_.await_published(st);
+        pending_ = true;
+        return Outcome::ok();
+      }
       h = counters_.read(st);
       if (tail) {  // its rounds used the next round ids
         const std::int64_t ran = h[kLawsonTailRounds];
@@ -187,14 +206,40 @@ class Lawson final : public Stage {
       bound = h[kLawsonMarked];
       marked_len = nullptr;
     }
-    const unsigned flips = h[kLawsonFlips];
-    const std::int64_t rounds = h[kLawsonRounds];  // rounds that flipped something
-    ctx.metrics.set("lawson_rounds", double(rounds));
-    ctx.metrics.set("lawson_flips", flips);
+    report(h, ctx.metrics);
     return Outcome::ok();
   }
 
+  void after_step(StepContext& ctx) override { settle(ctx.state, ctx.stream, &ctx.metrics); }
+
  private:
+  void report(const std::array<unsigned, kLawsonCounters>& h, Metrics& metrics) {
+    metrics.set("lawson_rounds", double(h[kLawsonRounds]));  // rounds that flipped something
+    metrics.set("lawson_flips", h[kLawsonFlips]);
+  }
+
+  // Reads the counters a deferring run left to its tail kernel (waits for it): advances the round
+  // ids past the tail's rounds, throws what the rounds found, and reports the metrics (none when
+  // called from run(): the step they belong to was rolled back).
+  void settle(State& s, CUstream_st* st, Metrics* metrics) {
+    if (!pending_) return;
+    pending_ = false;
+    const std::array<unsigned, kLawsonCounters> h = counters_.finish_read();
+    const std::int64_t ran = h[kLawsonTailRounds];
+    round_ += std::int32_t(ran);
+    grid_rounds_ = h[kLawsonTailLargest] > kTailMarked ? kDeviceRoundsPerRead : 1;
+    throw_if_too_long_flip(s, h[kLawsonTooLong], h[kLawsonTooLongAt], st);
+    if (h[kLawsonMarked]) throw_not_delaunay(h);
+    if (metrics) report(h, *metrics);
+  }
+
+  void throw_not_delaunay(const std::array<unsigned, kLawsonCounters>& h) const {
+    throw RunError("delaunay.lawson: the triangulation is still not Delaunay after max_rounds = " +
+                   std::to_string(p_.max_rounds) + " rounds (" + std::to_string(h[kLawsonFlips]) + " flips; " +
+                   std::to_string(h[kLawsonMarked]) +
+                   " edge(s) left). Raise max_rounds, or raise tolerance if points are (nearly) co-circular");
+  }
+
   void throw_if_too_long_flip(State& s, unsigned count, unsigned at, CUstream_st* st) {
     if (!count) return;
     const auto ids = edge_vertices(s, where_, ops_.mem, int(at), st);
@@ -215,6 +260,9 @@ class Lawson final : public Stage {
   Scratch<std::int32_t> list_;         // edges to test in the next round
   Scratch<std::int32_t> marked_list_;  // edges marked in this round
   std::int32_t round_ = 0;
+  bool counters_ready_ = false;         // the other bank holds start values (device)
+  std::int64_t grid_rounds_ = 1;        // grid rounds before the tail kernel (see run())
+  bool pending_ = false;                // a tail kernel publishes this run's counters (settle)
 };
 
 }  // namespace ff::delaunay
