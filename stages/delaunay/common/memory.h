@@ -23,8 +23,8 @@ struct MemOps {
   // Every byte of [dst, dst + bytes) to `byte`, stream-ordered. On CUDA a memset node: unlike an
   // upload from pageable host memory it never waits for the stream.
   void (*fill)(void* dst, int byte, std::size_t bytes, CUstream_st* s);
-  // to_host without the wait, and a fence: recorded on a stream after some work, waited for by
-  // the host (CUDA: an event). Lets the host read counters while the stream goes on with later
+  // to_host without the wait (host_dst from alloc_host: on CUDA a kernel writes it), and a
+  // fence: recorded on a stream after some work, waited for by the host (CUDA: an event). Lets the host read counters while the stream goes on with later
   // work (detect_inversion's position_prev copy). On the CPU the copy is done at once and the
   // fence is nothing.
   void (*to_host_async)(void* host_dst, const void* src, std::size_t bytes, CUstream_st* s);

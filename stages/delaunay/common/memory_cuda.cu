@@ -1,5 +1,7 @@
 #include <cuda_runtime.h>
 
+#include <algorithm>
+#include <cstdint>
 #include <cstring>
 
 #include "core/cuda/check.h"
@@ -8,6 +10,18 @@
 namespace ff::delaunay {
 
 namespace {
+// Copies by kernels instead of the copy engine: on the H100 a copy-engine copy after a kernel
+// waited ~5 µs (median) to start, and the next kernel ~5 µs after it, against ~1.3 µs between
+// two kernels (CUPTI timeline of bench-abp; PERF.md of overlap_correct, session 8). These sit on
+// the step's critical path: detect_inversion's counter read and its position_prev copy.
+__global__ void copy_words(unsigned* dst, const unsigned* src, std::size_t n) {
+  for (std::size_t i = threadIdx.x; i < n; i += blockDim.x) dst[i] = src[i];
+}
+__global__ void copy_vec4(uint4* dst, const uint4* src, std::size_t n) {
+  for (std::size_t i = std::size_t(blockIdx.x) * blockDim.x + threadIdx.x; i < n; i += std::size_t(gridDim.x) * blockDim.x)
+    dst[i] = __ldcs(src + i);  // streamed: read once
+}
+
 void* dev_alloc(std::size_t bytes) {
   if (bytes == 0) return nullptr;
   void* p = nullptr;
@@ -34,13 +48,31 @@ void dev_download(void* dst, const void* src, std::size_t bytes, CUstream_st* s)
   FF_CUDA_CHECK(cudaStreamSynchronize(s), "waiting for delaunay counters");
 }
 void dev_copy(void* dst, const void* src, std::size_t bytes, CUstream_st* s) {
-  if (bytes) FF_CUDA_CHECK(cudaMemcpyAsync(dst, src, bytes, cudaMemcpyDeviceToDevice, s), "copying a delaunay buffer");
+  if (!bytes) return;
+  const bool vec = bytes % 16 == 0 && reinterpret_cast<std::uintptr_t>(dst) % 16 == 0 &&
+                   reinterpret_cast<std::uintptr_t>(src) % 16 == 0;
+  if (!vec) {
+    FF_CUDA_CHECK(cudaMemcpyAsync(dst, src, bytes, cudaMemcpyDeviceToDevice, s), "copying a delaunay buffer");
+    return;
+  }
+  const std::size_t n = bytes / 16;
+  constexpr unsigned kBlock = 256;
+  const unsigned grid = unsigned(std::min<std::size_t>((n + kBlock - 1) / kBlock, 4096));
+  copy_vec4<<<grid, kBlock, 0, s>>>(static_cast<uint4*>(dst), static_cast<const uint4*>(src), n);
+  FF_CUDA_CHECK_LAUNCH("copying a delaunay buffer");
 }
 void dev_fill(void* dst, int byte, std::size_t bytes, CUstream_st* s) {
   if (bytes) FF_CUDA_CHECK(cudaMemsetAsync(dst, byte, bytes, s), "resetting delaunay counters");
 }
+// dst is pinned (alloc_host), which a kernel writes directly (unified addressing).
 void dev_download_async(void* dst, const void* src, std::size_t bytes, CUstream_st* s) {
-  if (bytes) FF_CUDA_CHECK(cudaMemcpyAsync(dst, src, bytes, cudaMemcpyDeviceToHost, s), "reading delaunay counters");
+  if (!bytes) return;
+  if (bytes % 4 != 0) {
+    FF_CUDA_CHECK(cudaMemcpyAsync(dst, src, bytes, cudaMemcpyDeviceToHost, s), "reading delaunay counters");
+    return;
+  }
+  copy_words<<<1, 32, 0, s>>>(static_cast<unsigned*>(dst), static_cast<const unsigned*>(src), bytes / 4);
+  FF_CUDA_CHECK_LAUNCH("reading delaunay counters");
 }
 void* event_create() {
   cudaEvent_t e = nullptr;
