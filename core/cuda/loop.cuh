@@ -23,4 +23,22 @@ void cuda_for_each(std::size_t n, const F& f, CUstream_st* stream) {
   FF_CUDA_CHECK_LAUNCH("launching an element loop");
 }
 
+// cuda_for_each with __launch_bounds__(256, MinBlocks): registers capped so that MinBlocks
+// blocks fit on an SM. For a memory-bound loop whose occupancy the default allocation limits
+// (measure first: a cap that forces spills usually loses).
+template <class F, int MinBlocks>
+__global__ void __launch_bounds__(256, MinBlocks) for_each_bounded_kernel(std::size_t n, F f) {
+  const std::size_t i = std::size_t(blockIdx.x) * blockDim.x + threadIdx.x;
+  if (i < n) f(i);
+}
+
+template <class F, int MinBlocks>
+void cuda_for_each_bounded(std::size_t n, const F& f, CUstream_st* stream) {
+  if (n == 0) return;
+  constexpr int block = 256;
+  const unsigned grid = unsigned((n + block - 1) / block);
+  for_each_bounded_kernel<F, MinBlocks><<<grid, block, 0, stream>>>(n, f);
+  FF_CUDA_CHECK_LAUNCH("launching an element loop");
+}
+
 }  // namespace ff
