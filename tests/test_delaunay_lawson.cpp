@@ -360,24 +360,20 @@ TEST_CASE("lawson: CPU and CUDA give the same triangulation", "[delaunay][lawson
       p.step(r, std::uint64_t(k));
     }
     he.push_back(topology(*s).he);
-    auto sh = sheared(1.5);
-    auto lawson = make_stage("delaunay.lawson", b);
-    lawson->configure(*sh);
-    Runner r2(*sh, b);
-    REQUIRE_FALSE(r2.run(*lawson).rollback);
-    he.push_back(topology(*sh).he);
-    flips.push_back(r2.metric("lawson_flips"));
-    rounds.push_back(r2.metric("lawson_rounds"));
+    // One Lawson run on a sheared triangulation: its result and metrics.
+    auto flip_back = [&](std::unique_ptr<State> sh) {
+      auto lawson = make_stage("delaunay.lawson", b);
+      lawson->configure(*sh);
+      Runner r2(*sh, b);
+      REQUIRE_FALSE(r2.run(*lawson).rollback);
+      he.push_back(topology(*sh).he);
+      flips.push_back(r2.metric("lawson_flips"));
+      rounds.push_back(r2.metric("lawson_rounds"));
+    };
+    flip_back(sheared(1.5));
     // A larger shear: on CUDA the tail kernel's rounds mark more than kTailMarked edges (it runs
     // them all in its one block when nothing can roll the step back, as here).
-    auto big = sheared(25, 40000);  // ~21,700 flips in 9 rounds
-    auto lawson_big = make_stage("delaunay.lawson", b);
-    lawson_big->configure(*big);
-    Runner r3(*big, b);
-    REQUIRE_FALSE(r3.run(*lawson_big).rollback);
-    he.push_back(topology(*big).he);
-    flips.push_back(r3.metric("lawson_flips"));
-    rounds.push_back(r3.metric("lawson_rounds"));
+    flip_back(sheared(25, 40000));  // ~21,700 flips in 9 rounds
   }
   CHECK(he[0] == he[3]);
   CHECK(he[1] == he[4]);
