@@ -73,8 +73,9 @@ class Scratch {
 // Writes are fills (memsets), never uploads: on CUDA an upload from pageable host memory may
 // wait for the stream, which between two rounds of loops stalls the host for a whole round.
 // Two ways to take host calls off a step's critical path:
-//  - Two banks: ptr() is the current one; a loop may set next() to its start values while it
-//    counts into ptr(), and swap() makes that bank current for the stage's next run (no fills).
+//  - Two banks: begin() starts a run's counting in the bank the last run's loop set to its start
+//    values (next(), then next_was_reset() once that loop is launched), or fills one (no fills
+//    after the first run).
 //  - A kernel may write the final counts into landing() itself (pinned host memory, which a
 //    CUDA kernel can write directly); await_published() then records the fence after it, and
 //    finish_read() waits for that kernel and returns what it wrote (no copy on the stream).
@@ -95,7 +96,18 @@ class Counters {
 
   unsigned* ptr() { return buf_.get(2 * K) + bank_ * K; }
   unsigned* next() { return buf_.get(2 * K) + (1 - bank_) * K; }
-  void swap() { bank_ = 1 - bank_; }
+  // Before a run's loops: the other bank if a loop of the last run reset it, else reset().
+  template <std::size_t M>
+  void begin(const std::array<int, M>& min_slots, CUstream_st* s) {
+    if (next_reset_) {
+      bank_ = 1 - bank_;
+      next_reset_ = false;
+    } else {
+      reset(min_slots, s);
+    }
+  }
+  // A loop that sets next() to the start values was launched in this run.
+  void next_was_reset() { next_reset_ = true; }
   unsigned* landing() { return landing_; }
   void await_published(CUstream_st* s) { ops_.fence_record(fence_, s); }
   // Counts start at 0; slots listed in `min_slots` start at ~0u (they keep a minimum). One fill
@@ -133,6 +145,7 @@ class Counters {
   MemOps ops_;
   Scratch<unsigned> buf_;
   int bank_ = 0;
+  bool next_reset_ = false;
   unsigned* landing_;  // alloc_host: where read() copies to (or a kernel writes)
   void* fence_;        // recorded after the copy into landing_
   std::array<unsigned, K> host_{};

@@ -53,17 +53,15 @@ class DetectInversion final : public Stage {
     R* prev = data<R>(s.field(fields::position_prev), where_);
     std::uint8_t* mark = data<std::uint8_t>(s.field(fields::flip_mark), where_);
     Field& cand = s.field(fields::lawson_candidates);
-    if (counters_ready_) counters_.swap();  // the bank the last run's loop reset
+    counters_.begin(kMinSlots, st);  // the bank the last run's loop reset (reset_next)
     unsigned* c = counters_.ptr();
     const std::size_t E = edge_count(s.n());
 
     status(s)[kCandidates] = 0;
-    // The loop of the run before set this bank's start values (MarkInversions::reset_next).
-    if (!counters_ready_) counters_.reset(kMinSlots, st);
     ops_.mark(E, MarkInversions<R>{m, pts, fresh ? nullptr : prev, mark, c, data<std::int32_t>(cand, where_),
                                    unsigned(cand.count()), int(E), counters_.next()},
               st);
-    counters_ready_ = true;
+    counters_.next_was_reset();
     counters_.start_read(st);
     // The next step's reference, copied on the stream while the host waits for the counters
     // (on CUDA the launches that follow this stage queue behind the copy instead of a gap).
@@ -118,7 +116,6 @@ class DetectInversion final : public Stage {
   Where where_;
   DetectOps<R> ops_;
   Counters<kInversionCounters> counters_;
-  bool counters_ready_ = false;  // the other bank holds start values (a loop ran since the first reset)
 };
 
 }  // namespace ff::delaunay

@@ -102,10 +102,7 @@ class Lawson final : public Stage {
     std::int32_t* list = list_.get(E);
     std::int32_t* marked_list = marked_list_.get(E);
     // On the device, the last run's round 0 set the other bank's start values (reset_next).
-    if (counters_ready_)
-      counters_.swap();
-    else
-      counters_.reset(std::array<int, 1>{kLawsonTooLongAt}, st);
+    counters_.begin(std::array<int, 1>{kLawsonTooLongAt}, st);
     unsigned* c = counters_.ptr();
 
     std::size_t launch = E;             // round 0 tests every edge ...
@@ -137,7 +134,7 @@ class Lawson final : public Stage {
     MarkNonDelaunay<R> first{m, pts, p_.tolerance, test, nullptr, marked, round, marked_list, c, unsigned(launch)};
     if (where_ == Where::device) first.reset_next = counters_.next();
     ops_.mark(launch, first, st);
-    counters_ready_ = where_ == Where::device && launch > 0;
+    if (where_ == Where::device && launch > 0) counters_.next_was_reset();
     // No snapshot to take (every rollback requester ran before this stage): the device may run
     // every round without the host (`defer`, see the head of this file).
     const bool no_snapshot = where_ == Where::device && ctx.snapshot == nullptr;
@@ -260,7 +257,6 @@ class Lawson final : public Stage {
   Scratch<std::int32_t> list_;         // edges to test in the next round
   Scratch<std::int32_t> marked_list_;  // edges marked in this round
   std::int32_t round_ = 0;
-  bool counters_ready_ = false;         // the other bank holds start values (device)
   std::int64_t grid_rounds_ = 1;        // grid rounds before the tail kernel (see run())
   bool pending_ = false;                // a tail kernel publishes this run's counters (settle)
 };
