@@ -91,6 +91,13 @@ Field* Snapshot::take_before_overwrite(State& state, const std::string& field) {
   return nullptr;
 }
 
+Field* Snapshot::contents_at_start(const std::string& field) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  for (Entry& e : entries_)
+    if (e.name == field && (!e.on_demand || e.taken)) return e.copy.get();
+  return nullptr;
+}
+
 void Snapshot::restore(State& state, CUstream_st* stream) {
   std::lock_guard<std::mutex> lock(mutex_);
   for (Entry& e : entries_) {
@@ -127,6 +134,12 @@ void StepContext::will_write(const std::string& field) const {
 Field& StepContext::will_overwrite(const std::string& field) const {
   Field* old = snapshot ? snapshot->take_before_overwrite(state, field) : nullptr;
   return old ? *old : state.field(field);
+}
+
+Field* StepContext::at_step_start(const std::string& field) const {
+  if (!snapshot) return nullptr;
+  Field* start = snapshot->contents_at_start(field);
+  return start ? start : &state.field(field);
 }
 
 bool DtController::halve() {

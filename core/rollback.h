@@ -36,6 +36,10 @@ class Snapshot {
   // current. Once per step, like take_before_write (after either, the other does nothing).
   // Returns the copy holding the field's contents before the swap; null when it swapped nothing.
   Field* take_before_overwrite(State& state, const std::string& field);
+  // What `field` held when take() ran (the start of the step), if a stage of this step has
+  // written it since: the snapshot's copy. Null when the snapshot holds no copy of it for this
+  // step (the field was not written before the caller, or is not one the snapshot covers).
+  Field* contents_at_start(const std::string& field);
   // Every-step fields and the on-demand fields copied (or taken) in this step.
   void restore(State& state, CUstream_st* stream);
   std::vector<std::string> fields() const;            // every step

@@ -123,6 +123,13 @@ struct StepContext {
   // afterwards: take them again. Not for stages captured into a CUDA graph (the graph would
   // keep the old pointers).
   Field& will_overwrite(const std::string& field) const;
+  // The contents `field` had at the start of this step (before any stage of the step wrote it):
+  // the rollback snapshot's copy when a stage before this one wrote it, else the field itself;
+  // null when this stage has no snapshot (nothing can roll it back), so the core cannot tell.
+  // Exact for a stage that may request a rollback (the snapshot then holds every write made
+  // before it in the step); read it, never write it. detect_inversion uses it to tell a
+  // triangulation this step broke from one the step inherited broken.
+  Field* at_step_start(const std::string& field) const;
 };
 
 class Stage {

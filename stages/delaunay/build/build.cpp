@@ -67,9 +67,12 @@ HalfEdges assemble(const std::vector<std::array<int, 3>>& triangles, std::size_t
 }
 
 std::string build_topology(State& s, CUstream_st* stream) {
+  return build_topology(s, s.field(ff::fields::position), stream);
+}
+
+std::string build_topology(State& s, Field& pos, CUstream_st* stream) {
   add_topology_fields(s, "delaunay.build");
   const std::size_t n = s.n();
-  Field& pos = s.field(ff::fields::position);
   pos.acquire(Where::host, Mode::read, stream);
   std::vector<double> xy(2 * n);
   if (pos.dtype() == DType::f32)

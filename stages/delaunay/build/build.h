@@ -28,5 +28,9 @@ HalfEdges assemble(const std::vector<std::array<int, 3>>& triangles, std::size_t
 // position_prev (= position) and status (built, nothing pending). Host side; `stream` is used
 // only to bring positions to the host. Returns how the triangles were obtained.
 std::string build_topology(State& s, CUstream_st* stream);
+// Same for the positions in `positions` (a field like `position`: real x 2, count N), which
+// also become position_prev: detect_inversion rebuilds for the positions a step started from
+// when the triangulation it inherited is not valid for them.
+std::string build_topology(State& s, Field& positions, CUstream_st* stream);
 
 }  // namespace ff::delaunay

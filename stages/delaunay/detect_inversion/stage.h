@@ -10,6 +10,7 @@
 #include "core/error.h"
 #include "core/exec.h"
 #include "core/stage.h"
+#include "stages/delaunay/build/build.h"
 #include "stages/delaunay/common/host.h"
 #include "stages/delaunay/common/memory.h"
 #include "stages/delaunay/detect_inversion/kernel.h"
@@ -48,32 +49,22 @@ class DetectInversion final : public Stage {
     State& s = ctx.state;
     CUstream_st* st = ctx.stream;
     const bool fresh = ensure_topology(ctx, accesses());
-    const Mesh m = mesh_view(s, where_);
-    const Points<R> pts = points_view<R>(s, ff::fields::position, where_);
-    R* prev = data<R>(s.field(fields::position_prev), where_);
-    std::uint8_t* mark = data<std::uint8_t>(s.field(fields::flip_mark), where_);
-    Field& cand = s.field(fields::lawson_candidates);
-    counters_.begin(kMinSlots, st);  // the bank the last run's loop reset (reset_next)
-    unsigned* c = counters_.ptr();
-    const std::size_t E = edge_count(s.n());
-
-    status(s)[kCandidates] = 0;
-    ops_.mark(E, MarkInversions<R>{m, pts, fresh ? nullptr : prev, mark, c, data<std::int32_t>(cand, where_),
-                                   unsigned(cand.count()), int(E), counters_.next()},
-              st);
-    counters_.next_was_reset();
-    counters_.start_read(st);
-    // The next step's reference, copied on the stream while the host waits for the counters
-    // (on CUDA the launches that follow this stage queue behind the copy instead of a gap).
-    // Every outcome below either keeps it or rolls the step back, which restores the old one.
-    ctx.will_overwrite(fields::position_prev);
-    ops_.mem.copy(data<R>(s.field(fields::position_prev), where_), pts.p, s.field(ff::fields::position).bytes(), st);
-    auto h = counters_.finish_read();
-    throw_if_too_long(s, where_, ops_.mem, h[kTooLong], h[kTooLongAt], st, "delaunay.detect_inversion");
-    if (h[kInverted]) {
-      ops_.check(halfedge_count(s.n()), CheckInverted<R>{m, pts, mark, c}, st);
-      h = counters_.read(st);
+    auto h = inspect(ctx, fresh);
+    // A rollback helps only if this step broke the triangulation: retried with a smaller Δt,
+    // the moves shrink toward the positions the step started from. When the triangulation is
+    // already not valid for those (the previous step's overlap correction pushed a particle
+    // across its neighbours' edges after Lawson), no Δt repairs it: rebuild it for the step's
+    // starting positions and judge this step's moves against that.
+    bool rebuilt = false;
+    Field* start = ctx.at_step_start(ff::fields::position);  // null: unknown (no snapshot)
+    if (!fresh && asks_rollback(h) && start && !valid_at(ctx, *start)) {
+      will_flip(ctx);
+      build_topology(s, *start, st);
+      for (const Access& a : accesses()) s.field(a.field).acquire(a.where, a.mode, st);
+      h = inspect(ctx, false);
+      rebuilt = true;
     }
+    ctx.metrics.set("rebuilds", rebuilt ? 1 : 0);
     ctx.metrics.set("inversions", h[kInverted]);
     ctx.metrics.set("repairable", h[kMarked]);
     ctx.metrics.set("lawson_candidates", h[kCandidateCount]);
@@ -104,7 +95,7 @@ class DetectInversion final : public Stage {
     status(s)[kPending] = std::int32_t(h[kMarked]);
     // Lawson's first round may test only the candidates when nothing is left to repair (repair
     // flips change quads) and the list did not overflow.
-    if (h[kMarked] == 0 && h[kInverted] == 0 && h[kCandidateCount] <= cand.count()) {
+    if (h[kMarked] == 0 && h[kInverted] == 0 && h[kCandidateCount] <= s.field(fields::lawson_candidates).count()) {
       status(s)[kCandidates] = std::int32_t(h[kCandidateCount]) + 1;
       set_position_version(status(s), s.field(ff::fields::position).version());
     }
@@ -112,6 +103,61 @@ class DetectInversion final : public Stage {
   }
 
  private:
+  template <class H>
+  static bool asks_rollback(const H& h) {
+    return h[kThrough] || h[kTwice] || h[kUnrepairable];
+  }
+
+  // The marks, counters and Lawson candidates of this step's moves, judged against
+  // position_prev (nothing to judge against when the triangulation was just built). Leaves
+  // position_prev = position (the next step's reference).
+  const std::array<unsigned, kInversionCounters>& inspect(StepContext& ctx, bool fresh) {
+    State& s = ctx.state;
+    CUstream_st* st = ctx.stream;
+    const Mesh m = mesh_view(s, where_);
+    const Points<R> pts = points_view<R>(s, ff::fields::position, where_);
+    R* prev = data<R>(s.field(fields::position_prev), where_);
+    std::uint8_t* mark = data<std::uint8_t>(s.field(fields::flip_mark), where_);
+    Field& cand = s.field(fields::lawson_candidates);
+    counters_.begin(kMinSlots, st);  // the bank the last run's loop reset (reset_next)
+    unsigned* c = counters_.ptr();
+    const std::size_t E = edge_count(s.n());
+
+    status(s)[kCandidates] = 0;
+    ops_.mark(E, MarkInversions<R>{m, pts, fresh ? nullptr : prev, mark, c, data<std::int32_t>(cand, where_),
+                                   unsigned(cand.count()), int(E), counters_.next()},
+              st);
+    counters_.next_was_reset();
+    counters_.start_read(st);
+    // The next step's reference, copied on the stream while the host waits for the counters
+    // (on CUDA the launches that follow this stage queue behind the copy instead of a gap).
+    // Every outcome either keeps it or rolls the step back, which restores the old one.
+    ctx.will_overwrite(fields::position_prev);
+    ops_.mem.copy(data<R>(s.field(fields::position_prev), where_), pts.p, s.field(ff::fields::position).bytes(), st);
+    const auto& h = counters_.finish_read();
+    throw_if_too_long(s, where_, ops_.mem, h[kTooLong], h[kTooLongAt], st, "delaunay.detect_inversion");
+    if (h[kInverted]) {
+      ops_.check(halfedge_count(s.n()), CheckInverted<R>{m, pts, mark, c}, st);
+      return counters_.read(st);
+    }
+    return h;
+  }
+
+  // Whether every triangle is positive at the positions in `start` (where the previous step
+  // left the particles). Only on the way to a rollback: one more pass.
+  bool valid_at(StepContext& ctx, Field& start) {
+    State& s = ctx.state;
+    CUstream_st* st = ctx.stream;
+    start.acquire(where_, Mode::read, st);
+    const Points<R> pts{data<R>(start, where_), PeriodicBox<double>::make(s.box.L)};
+    counters_.reset(kMinSlots, st);
+    ops_.mark(edge_count(s.n()),
+              MarkInversions<R>{mesh_view(s, where_), pts, nullptr,
+                                data<std::uint8_t>(s.field(fields::flip_mark), where_), counters_.ptr()},
+              st);
+    return counters_.read(st)[kInverted] == 0;
+  }
+
   static constexpr std::array<int, 4> kMinSlots{kThroughAt, kTwiceAt, kUnrepairableAt, kTooLongAt};
   Where where_;
   DetectOps<R> ops_;
