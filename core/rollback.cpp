@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cstring>
+#include <sstream>
 
 #ifdef FLIPFLOW_HAVE_CUDA
 #include "core/cuda/check.h"
@@ -140,6 +141,56 @@ Field* StepContext::at_step_start(const std::string& field) const {
   if (!snapshot) return nullptr;
   Field* start = snapshot->contents_at_start(field);
   return start ? start : &state.field(field);
+}
+
+void StateImage::take(State& state, const std::vector<std::string>& skip) {
+  fields_.clear();
+  for (const std::string& name : state.field_names()) {
+    if (std::find(skip.begin(), skip.end(), name) != skip.end()) continue;
+    Field& f = state.field(name);
+    f.acquire(Where::host, Mode::read);
+    const auto* p = static_cast<const unsigned char*>(f.host_raw());
+    fields_.push_back(FieldBytes{name, f.dtype(), f.components(), std::vector<unsigned char>(p, p + f.bytes())});
+  }
+  step_ = state.step;
+  time_ = state.time;
+  for (int k = 0; k < 3; ++k) box_[k] = state.box.L[k];
+}
+
+std::string StateImage::differences(State& state) const {
+  std::ostringstream os;
+  if (state.step != step_ || state.time != time_) os << "the clock (step " << state.step << ", time " << state.time
+                                                     << "; before: step " << step_ << ", time " << time_ << "); ";
+  for (int k = 0; k < 3; ++k)
+    if (state.box.L[k] != box_[k]) os << "the box length " << k << " (" << state.box.L[k] << ", was " << box_[k] << "); ";
+  for (const FieldBytes& b : fields_) {
+    if (!state.has_field(b.name)) {
+      os << "field '" << b.name << "' is gone; ";
+      continue;
+    }
+    Field& f = state.field(b.name);
+    if (f.bytes() != b.bytes.size()) {
+      os << "field '" << b.name << "' has " << f.count() << " elements (" << f.bytes() << " bytes, was "
+         << b.bytes.size() << "); ";
+      continue;
+    }
+    f.acquire(Where::host, Mode::read);
+    const auto* now = static_cast<const unsigned char*>(f.host_raw());
+    if (std::memcmp(now, b.bytes.data(), b.bytes.size()) == 0) continue;
+    const std::size_t scalar = dtype_size(b.dtype);
+    std::size_t first = 0, differing = 0;
+    for (std::size_t k = 0; k < b.bytes.size(); k += scalar)
+      if (std::memcmp(now + k, b.bytes.data() + k, scalar) != 0) {
+        if (!differing) first = k / scalar;
+        ++differing;
+      }
+    os << "field '" << b.name << "' differs in " << differing << " of " << b.bytes.size() / scalar
+       << " values, first at element " << first / std::size_t(b.components) << " component "
+       << first % std::size_t(b.components) << "; ";
+  }
+  std::string out = os.str();
+  if (out.size() >= 2) out.resize(out.size() - 2);
+  return out;
 }
 
 bool DtController::halve() {

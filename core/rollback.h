@@ -59,6 +59,30 @@ class Snapshot {
   std::mutex mutex_;
 };
 
+// The whole state as bytes (every field's host copy, the clock and the box), taken before a step
+// when RunOptions::check_rollbacks is on, to prove that a rollback restored everything, not
+// only what the core planned to snapshot: a stage that writes a field without declaring it, or
+// declares a write step_local / on_demand and breaks the promise, shows up here by name.
+class StateImage {
+ public:
+  // Copies every field but those in `skip` (brings device data to the host: slow, a check).
+  void take(State& state, const std::vector<std::string>& skip);
+  // "" when `state` equals the image bit for bit; else what differs (field, element, values).
+  std::string differences(State& state) const;
+
+ private:
+  struct FieldBytes {
+    std::string name;
+    DType dtype;
+    int components;
+    std::vector<unsigned char> bytes;
+  };
+  std::vector<FieldBytes> fields_;
+  std::uint64_t step_ = 0;
+  double time_ = 0;
+  double box_[3] = {0, 0, 0};
+};
+
 class DtController {
  public:
   DtController(double dt, double dt_min, std::uint64_t grow_after)

@@ -103,6 +103,17 @@ std::vector<std::string> Simulation::snapshot_on_demand_fields() const {
   return snapshot_ ? snapshot_->on_demand_fields() : std::vector<std::string>{};
 }
 
+std::vector<std::string> Simulation::step_local_fields() const {
+  std::set<std::string> local, carried;
+  for (int j : graph_->compute_nodes())
+    for (auto& a : graph_->nodes()[j].accesses)
+      if (writes(a.mode)) (a.step_local ? local : carried).insert(a.field);
+  std::vector<std::string> out;
+  for (auto& f : local)
+    if (!carried.count(f)) out.push_back(f);
+  return out;
+}
+
 void Simulation::prepare_outputs() {
   std::vector<std::string> outputs;
   for (auto& s : slots_)
@@ -148,6 +159,11 @@ void Simulation::advance() {
   }
   const std::uint64_t step = state_->step;
   stats_.step_rollbacks = 0;
+  std::unique_ptr<StateImage> before;
+  if (options_.check_rollbacks && snapshot_) {
+    before = std::make_unique<StateImage>();
+    before->take(*state_, step_local_fields());
+  }
   if (snapshot_) snapshot_->take(*state_, scheduler_->main_stream());
   for (std::uint32_t attempt = 0;; ++attempt) {
     const double dt = dt_->dt();
@@ -162,6 +178,15 @@ void Simulation::advance() {
     ++stats_.rollbacks;
     ++stats_.step_rollbacks;
     snapshot_->restore(*state_, scheduler_->main_stream());
+    if (before) {
+      const std::string missed = before->differences(*state_);
+      if (!missed.empty())
+        throw RunError("step " + std::to_string(step) + ", attempt " + std::to_string(attempt) +
+                       ": the rollback requested by stage '" + graph_->nodes()[req->node].id +
+                       "' did not restore the state (check_rollbacks): " + missed +
+                       ". A stage before it writes a field it does not declare (Stage::accesses), or "
+                       "declares a write on_demand / step_local and breaks that promise.");
+    }
     if (!dt_->halve()) give_up(*req, dt);
   }
   for (int i : graph_->compute_nodes())

@@ -24,6 +24,10 @@ struct RunOptions {
   bool force = false;          // overwrite existing outputs
   std::string pipeline_text;   // the YAML text, recorded in outputs (optional)
   bool dry_run = false;        // validate/graph: build everything, touch no files
+  // After every rollback, compare the whole state with a copy taken before the step (every
+  // field but those only ever written step_local) and stop with a RunError naming what the
+  // restore missed. A debugging aid for stage authors: copies the whole state every step.
+  bool check_rollbacks = false;
 };
 
 class Simulation {
@@ -57,6 +61,9 @@ class Simulation {
   // announces a write (Access::on_demand).
   std::vector<std::string> snapshot_fields() const;
   std::vector<std::string> snapshot_on_demand_fields() const;
+  // Fields every writer declares Access::step_local: a rollback leaves them as the failed
+  // attempt wrote them (they carry nothing into the retry), so check_rollbacks skips them.
+  std::vector<std::string> step_local_fields() const;
 
  private:
   void build(const Registry& registry);

@@ -18,13 +18,16 @@ using namespace ff;
 // With dt_above > 0 it also requests a rollback whenever Δt > dt_above. It always requests from
 // run(); with device_requests it says it may also request from kernels on CUDA (as a stage
 // using StepContext::device_rollback would), so the core snapshots the stages after it there.
+// With scramble_undeclared it also scrambles `type`, which it does not declare: a broken stage
+// that only RunOptions::check_rollbacks can catch.
 class RequestRollback final : public Stage {
  public:
   explicit RequestRollback(const ParamValues& v)
       : steps_(v.reals("steps")),
         fail_attempts_(v.integer("fail_attempts")),
         dt_above_(v.real("dt_above")),
-        device_requests_(v.boolean("device_requests")) {}
+        device_requests_(v.boolean("device_requests")),
+        scramble_undeclared_(v.boolean("scramble_undeclared")) {}
   std::vector<Access> accesses() const override { return {{fields::position, Where::host, Mode::readwrite}}; }
   bool may_request_rollback() const override { return true; }
   bool requests_rollback_on_device() const override { return device_requests_; }
@@ -39,6 +42,11 @@ class RequestRollback final : public Stage {
       double* x = f.host<double>();
       for (std::size_t i = 0; i < f.size(); ++i) x[i] = -1e9 + double(i);
     }
+    if (scramble_undeclared_) {
+      Field& t = ctx.state.field(fields::type);
+      t.acquire(Where::host, Mode::readwrite);
+      for (std::size_t i = 0; i < t.size(); ++i) t.host<std::int32_t>()[i] += 7;
+    }
     return Outcome::request_rollback("testing.rollback asked for it", {3, 1, 4});
   }
 
@@ -47,6 +55,7 @@ class RequestRollback final : public Stage {
   std::int64_t fail_attempts_;
   double dt_above_;
   bool device_requests_;
+  bool scramble_undeclared_;
 };
 
 // testing.barrier: two instances with the same `group` wait (bounded) for each other. Metric
@@ -143,7 +152,8 @@ void register_testing(Registry& r) {
              {ParamSpec{"steps", ParamType::real_list, ParamValue(std::vector<double>{}), {}, {}, false, {}, "steps to fail"},
               ParamSpec::integer("fail_attempts", 1, "attempts that fail on those steps").at_least(0),
               ParamSpec::real("dt_above", 0.0, "also fail whenever dt > this (0: never)").at_least(0),
-              ParamSpec::boolean("device_requests", true, "may also request from kernels on CUDA")},
+              ParamSpec::boolean("device_requests", true, "may also request from kernels on CUDA"),
+              ParamSpec::boolean("scramble_undeclared", false, "also scramble `type` without declaring it")},
              {2, 3}, false});
   // rollback and count act on host fields; on CUDA too (the core keeps host and device coherent).
   r.implement("testing.rollback", Backend::cpu, factory<RequestRollback>());

@@ -28,11 +28,15 @@ int cmd_run(const std::vector<std::string>& args) {
   CommonOptions common;
   std::string out;
   bool force = false;
+  bool check_rollbacks = false;
   int threads = 0;
   po::options_description extra;
   extra.add_options()("out", po::value<std::string>(&out), "output directory (default runs/<file stem>)")(
       "force", po::bool_switch(&force), "overwrite existing outputs")(
-      "threads", po::value<int>(&threads)->default_value(0), "CPU threads (0 = all cores)");
+      "threads", po::value<int>(&threads)->default_value(0), "CPU threads (0 = all cores)")(
+      "check-rollbacks", po::bool_switch(&check_rollbacks),
+      "after every rollback, check that the whole state was restored bit for bit (slow: copies the state every "
+      "step; for stage authors)");
   parse_options(args, extra, common);
   const Backend backend = resolve_backend(common.device);
   Loaded loaded = load(common.file, common.overrides);
@@ -40,7 +44,9 @@ int cmd_run(const std::vector<std::string>& args) {
   std::optional<tbb::global_control> limit;
   if (threads > 0) limit.emplace(tbb::global_control::max_allowed_parallelism, std::size_t(threads));
 
-  Simulation sim(loaded.spec, *loaded.registry, RunOptions{backend, out, force, loaded.text});
+  RunOptions options{backend, out, force, loaded.text};
+  options.check_rollbacks = check_rollbacks;
+  Simulation sim(loaded.spec, *loaded.registry, options);
   const auto& spec = loaded.spec;
   std::cerr << "flipflow: " << common.file << " — " << spec.system.dimensions << "D, N = " << spec.system.N << ", "
             << spec.run.steps << " steps of Δt = " << spec.run.dt << ", " << to_string(spec.run.precision) << " on "

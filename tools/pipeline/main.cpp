@@ -12,7 +12,7 @@ const char* kUsage =
     "usage: pipeline <command> [options]\n"
     "\n"
     "commands:\n"
-    "  run FILE.yaml [--set key.path=value]... [--device auto|cpu|cuda] [--out DIR] [--force] [--threads N]\n"
+    "  run FILE.yaml [--set key.path=value]... [--device auto|cpu|cuda] [--out DIR] [--force] [--threads N] [--check-rollbacks]\n"
     "  validate FILE.yaml [--set ...]   check without running; print the resolved step graph\n"
     "  graph FILE.yaml [--set ...]      the step graph in Graphviz DOT\n"
     "  stages                           every stage the plugins on the search path offer\n"
