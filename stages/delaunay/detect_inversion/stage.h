@@ -5,7 +5,12 @@
 // reference for the next step's r⁰·r¹ test, while the host reads its counters (a rollback
 // restores the old position_prev; the copy costs the snapshot nothing: will_overwrite).
 #pragma once
+#include <algorithm>
 #include <array>
+#include <cmath>
+#include <iomanip>
+#include <sstream>
+#include <string>
 
 #include "core/error.h"
 #include "core/exec.h"
@@ -74,14 +79,14 @@ class DetectInversion final : public Stage {
       auto ids = edge_vertices(s, where_, ops_.mem, int(h[kThroughAt]), st);
       return Outcome::request_rollback("delaunay.detect_inversion: particles " + list_ids(ids) +
                                            " passed through each other (their separation vector reversed, r0.r1 < 0; " +
-                                           std::to_string(h[kThrough]) + " such pair(s))" + retry,
+                                           std::to_string(h[kThrough]) + " such pair(s))" + moved(ctx, ids) + retry,
                                        ids);
     }
     if (h[kTwice]) {
       auto ids = edge_vertices(s, where_, ops_.mem, int(h[kTwiceAt]), st);
       return Outcome::request_rollback("delaunay.detect_inversion: the edge between particles " + list_ids(ids) +
                                            " was crossed from both sides (both its triangles inverted; " +
-                                           std::to_string(h[kTwice]) + " such edge(s))" + retry,
+                                           std::to_string(h[kTwice]) + " such edge(s))" + moved(ctx, ids) + retry,
                                        ids);
     }
     if (h[kUnrepairable]) {
@@ -89,7 +94,7 @@ class DetectInversion final : public Stage {
       return Outcome::request_rollback("delaunay.detect_inversion: the triangle of particles " + list_ids(ids) +
                                            " is inverted and no single edge flip repairs it (a particle crossed "
                                            "more than one edge; " +
-                                           std::to_string(h[kUnrepairable]) + " such triangle(s))" + retry,
+                                           std::to_string(h[kUnrepairable]) + " such triangle(s))" + moved(ctx, ids) + retry,
                                        ids);
     }
     status(s)[kPending] = std::int32_t(h[kMarked]);
@@ -141,6 +146,37 @@ class DetectInversion final : public Stage {
       return counters_.read(st);
     }
     return h;
+  }
+
+  // How far the particles `ids` moved in this attempt (minimum image), for the message: what is
+  // moving too far when the run stops below dt_min. Empty when the start is unknown.
+  std::string moved(StepContext& ctx, const std::vector<std::uint64_t>& ids) {
+    Field* start = ctx.at_step_start(ff::fields::position);
+    if (!start) return "";
+    State& s = ctx.state;
+    const R* now = data<R>(s.field(ff::fields::position), where_);
+    const R* before = data<R>(*start, where_);
+    const auto box = PeriodicBox<double>::make(s.box.L);
+    std::string out = "; in this attempt (Δt = " + format_number(ctx.dt) + ") they moved by";
+    for (std::size_t k = 0; k < ids.size(); ++k) {
+      R a[2], b[2];
+      ops_.mem.to_host(a, now + 2 * ids[k], sizeof a, ctx.stream);
+      ops_.mem.to_host(b, before + 2 * ids[k], sizeof b, ctx.stream);
+      const double dx = box.min_image(double(a[0]) - double(b[0]), 0), dy = box.min_image(double(a[1]) - double(b[1]), 1);
+      out += (k ? (k + 1 == ids.size() ? " and " : ", ") : " ") + format_number(std::sqrt(dx * dx + dy * dy));
+    }
+    Field& d = s.field(ff::fields::diameter);
+    d.acquire(Where::host, Mode::read, ctx.stream);
+    double sigma = 0;
+    for (std::size_t i = 0; i < d.count(); ++i)
+      sigma = std::max(sigma, d.dtype() == DType::f32 ? double(d.host<float>()[i]) : d.host<double>()[i]);
+    return out + " (largest diameter " + format_number(sigma) + ")";
+  }
+
+  static std::string format_number(double x) {
+    std::ostringstream os;
+    os << std::setprecision(3) << x;
+    return os.str();
   }
 
   // Whether every triangle is positive at the positions in `start` (where the previous step
