@@ -10,7 +10,7 @@
 namespace ff {
 
 namespace {
-// Below this a copy is a few tens of µs on one thread, less than starting the others.
+// Below this a copy on one thread is over sooner than the other threads could be started.
 constexpr std::size_t kParallelBytes = 256 * 1024;
 constexpr std::size_t kChunk = 128 * 1024;
 }  // namespace

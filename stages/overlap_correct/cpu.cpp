@@ -43,7 +43,8 @@ namespace ff::overlap {
 namespace {
 
 // Particles per task: small enough that the flagged particles of later iterations (a few % of N,
-// unevenly spread) balance over the threads, large enough that a full pass is ~100 µs a task.
+// unevenly spread) balance over the threads, large enough that a task's share of a full pass
+// outweighs the cost of scheduling it.
 constexpr std::size_t kTile = 2048;
 // An iteration after one that moved at least n / kEdgeMode particles is an edge pass: one pass
 // over the 3N edges costs about as much as the walks of n / 6 moved particles (the check after
@@ -144,8 +145,8 @@ std::size_t compact(std::uint8_t* flags, std::size_t t0, std::size_t t1, int* ca
 }
 
 // Below this many particles moved in the iteration before, the work of a work-list iteration
-// is a few hundred walks: one thread does it, sparing the threads' start-up (a few µs per
-// loop, three loops per iteration, iterations 3+ at η = 0.5).
+// is a few hundred walks: one thread does it, sparing the threads' start-up, which costs more
+// than that work (three loops per iteration, iterations 3+ at η = 0.5).
 constexpr std::size_t kSerial = 2048;
 
 template <class F>

@@ -18,24 +18,26 @@
 // out would have gathered d = 0 and no pairs: the result is the same as gathering everyone, the
 // CPU loop's result (kernel.h: pushes are summed in 64-bit fixed point, so the CPU's edge passes
 // and these walks give the same bits). The rule before (every neighbour of a moved particle)
-// gathered 2.3x as many in iteration 1 at 2^20 (988k against 429k; PERF.md); the check costs a
-// third grid barrier per iteration and walks each moved particle once, as the flagging did.
+// gathered 2.3x as many in iteration 1 at 2^20 (988k against 429k; bench/overlap_correct-PERF.md);
+// the check costs a third grid barrier per iteration and walks each moved particle once, as the
+// flagging did.
 //
 // Marks are one byte per particle. While many particles move, they are plain stores, and after a
 // grid barrier each block compacts the marks of its tile (in index order, clearing them). Once an
 // iteration moves at most kTailMoved particles, the remaining iterations run in block 0 alone with
-// __syncthreads only (an iteration of a few hundred particles took ~20 µs on the grid, ~13 µs in
-// one block, whose time is then the chains of dependent loads of its walks): the check of that
-// iteration (all blocks, then one last grid barrier) and each one after claims a mark with a word
-// atomic and lists the particle that claimed it first in one global list, which block 0 gathers
-// (clearing each mark) without scanning every tile. Block 0's lists then span the whole arrays
-// (grid·tile ≥ N entries; a particle is listed once an iteration).
+// __syncthreads only (an iteration of a few hundred particles is faster in one block, whose time
+// is then the chains of dependent loads of its walks, than on the grid with its barriers): the
+// check of that iteration (all blocks, then one last grid barrier) and each one after claims a
+// mark with a word atomic and lists the particle that claimed it first in one global list, which
+// block 0 gathers (clearing each mark) without scanning every tile. Block 0's lists then span the
+// whole arrays (grid·tile ≥ N entries; a particle is listed once an iteration).
 // The same particles are gathered either way; only who gathers them differs. Iteration 0's walks
 // copy each particle's neighbours to a per-step list that the later gathers and checks read
 // instead of walking the fan again (kCached below): one thread per particle, its neighbours'
 // positions loaded kInFlight at a time, or, when a block has at most kGroupBelow particles to
 // do (the late iterations), a group of 8 lanes per particle, one neighbour each. (Tried and not in,
-// being slower: edge passes, and the check fused with the next gather: experiments/, PERF.md.)
+// being slower: edge passes, and the check fused with the next gather: bench/experiments/README.md,
+// bench/overlap_correct-PERF.md.)
 //
 // Counters: per-thread sums, a block reduction, then one integer atomic per block into one of
 // kShards copies of each counter (spreading same-address atomics); after the barrier every
@@ -65,7 +67,8 @@ constexpr int kShardStride = 4;  // u64 between shards: one 32-byte sector each
 constexpr int kMoved = kCounters, kDevCounters = kCounters + 1;
 constexpr std::size_t kSlotWords = std::size_t(kBatch) * kDevCounters * kShards * kShardStride;
 constexpr std::size_t kResultWords = std::size_t(kBatch) * kCounters + 1;  // + gathers run
-// Iterations after one that moved at most this many particles run in block 0 alone (PERF.md).
+// Iterations after one that moved at most this many particles run in block 0 alone
+// (bench/overlap_correct-PERF.md).
 constexpr int kTailMoved = 512;
 
 using u64 = unsigned long long;
@@ -151,7 +154,7 @@ __device__ void mark(std::uint8_t* marks, int u, bool claim, int* cand, u64* cla
 constexpr int kGroups = kThreads / kGroup;
 // A block's gathers (checks) go to lane groups when it has at most this many particles to do,
 // else one thread each: a group shortens one particle's chain of loads, but puts 8x fewer
-// particles in flight (measured on the H100, PERF.md).
+// particles in flight (measured on the H100, bench/overlap_correct-PERF.md).
 constexpr int kGroupBelow = 128;
 
 __device__ u64 warp_sum(u64 x) {
@@ -352,11 +355,11 @@ T* dev_alloc(std::size_t count, const char* what) {
 
 // Blocks and tile for n particles: at most what fits on the device at once (a cooperative
 // launch needs every block resident), tiles of at least 256 particles, a multiple of 16.
-// 2 blocks of 256 per SM (128 registers), measured on the H100 (bench-abp, overlap ms per step):
-// with the gathers' loads kInFlight at a time, 0.215 at N = 2^16 and 0.835 at 2^20 against 0.235
-// and 0.877 with 3 blocks (80 registers, 536 B of spills), and the same with 8 in flight.
-// Before (one load after the other): 3 blocks, 0.84 at 2^20 against 0.91 with 4 and 0.88 with 2;
-// with fan walks only, 4 blocks took 1.5 ms against 2.2, 3.4 and 3.2 with 1, 6 and 8.
+// 2 blocks of 256 per SM (128 registers), the fastest measured on the H100 (bench-abp) with the
+// gathers' loads kInFlight at a time: 3 blocks get 80 registers and spill, and 8 loads in flight
+// gain nothing. The best count changed with the kernel (3 with one load after the other, 4 with
+// fan walks only), so measure again after changing it (bench/overlap_correct-PERF.md and
+// bench/README.md, "Numbers formerly in source comments").
 constexpr int kMinBlocks = 2;
 template <class R>
 void* kernel_ptr() {
@@ -400,7 +403,7 @@ void* dev_create(std::size_t n) {
       FF_CUDA_CHECK(cudaMemset(sl, 0, (kSlotWords + 1) * sizeof(u64)), "clearing overlap_correct counters");
     }
     // Device-accessible by the same pointer (unified addressing): the kernel writes the counters
-    // there itself, which saves a copy after it (and the GPU's gap before that copy, ~5 µs a step).
+    // there itself, which saves a copy after it (and the GPU's idle gap before that copy starts).
     FF_CUDA_CHECK(cudaMallocHost(&w->result, kResultWords * sizeof(u64)), "allocating overlap_correct counters");
   } catch (...) {
     dev_destroy(w);  // every pointer starts null, so a partial allocation frees cleanly

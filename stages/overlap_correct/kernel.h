@@ -95,9 +95,9 @@ FF_HD double pair_push(double rx, double ry, double sv, double su, double factor
 // GPU scope) invalidates the L1 before anything after it reads, so a plain load sees every write
 // made before the barrier (the tail's __syncthreads does the same within block 0's SM). L1 hits
 // matter: a block's particles are neighbours of each other (Hilbert order), and each position
-// is read by ~6 walks; with ld.global.cg (L2 only) the stage took 1.10 ms per step at N = 2^20
-// in bench-abp on the H100, 0.88 ms with plain loads (PERF.md). The half-edges are read-only
-// for the whole stage (__ldg).
+// is read by ~6 walks; with ld.global.cg (L2 only) every one of those reads went to L2, and at
+// N = 2^20 the stage was bound by that traffic (bench/overlap_correct-PERF.md, session 5). The
+// half-edges are read-only for the whole stage (__ldg).
 template <class R>
 FF_HD void load_xy(const R* pos, int v, double& x, double& y) {
 #if defined(__CUDA_ARCH__)

@@ -65,8 +65,8 @@ __device__ VertexPush gather_ids(const Mesh<R>& mesh, int v, const int (&ids)[kC
 // iterations), or (iteration 0) from a walk around v's fan that only collects them (a chain of
 // half-edge loads and nothing else, checking that the fan closes) and copies them to the list.
 // Walking and gathering at once made every step of the chain wait for a position load too
-// (PERF.md). False: gather by Mesh::gather's walk instead (more than kCached neighbours, or, in
-// iteration 0, a fan that does not close, which that walk reports).
+// (bench/overlap_correct-PERF.md). False: gather by Mesh::gather's walk instead (more than
+// kCached neighbours, or, in iteration 0, a fan that does not close, which that walk reports).
 template <class R>
 __device__ bool neighbour_ids(const Mesh<R>& mesh, int v, bool first, int* nb, std::uint8_t* degree,
                               int (&ids)[kCached], int& d) {

@@ -2,7 +2,7 @@
 # Compare plugin builds on one machine, interleaved: `pipeline bench` of one pipeline with each
 # plugin folder in turn (through FLIPFLOW_PLUGIN_PATH, which the loader searches before the
 # build's own plugins/), for ROUNDS rounds, so that every variant sees the same machine state.
-# This is how the variants in stages/overlap_correct/PERF.md were measured on the GPU node.
+# This is how the variants in bench/overlap_correct-PERF.md were measured on the GPU node.
 #
 #   tools/bench/plugin_ab.sh PIPELINE.yaml DIR [DIR ...]
 #

@@ -15,7 +15,7 @@ struct MemOps {
   void* (*alloc)(std::size_t bytes);  // zeroed
   void (*release)(void* p);
   // Host memory that to_host can copy into directly (pinned on CUDA: a read from pageable
-  // memory goes through a staging buffer, a few µs more on each of a step's counter reads).
+  // memory goes through a staging buffer, an extra copy on each of a step's counter reads).
   void* (*alloc_host)(std::size_t bytes);  // zeroed
   void (*release_host)(void* p);
   void (*to_host)(void* host_dst, const void* src, std::size_t bytes, CUstream_st* s);  // waits

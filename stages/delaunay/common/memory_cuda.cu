@@ -11,9 +11,9 @@ namespace ff::delaunay {
 
 namespace {
 // Copies by kernels instead of the copy engine: on the H100 a copy-engine copy after a kernel
-// waited ~5 µs (median) to start, and the next kernel ~5 µs after it, against ~1.3 µs between
-// two kernels (CUPTI timeline of bench-abp; PERF.md of overlap_correct, session 8). These sit on
-// the step's critical path: detect_inversion's counter read and its position_prev copy.
+// waits longer to start, and delays the next kernel more, than a kernel after a kernel does
+// (CUPTI timeline of bench-abp; bench/overlap_correct-PERF.md, session 8). These sit on the
+// step's critical path: detect_inversion's counter read and its position_prev copy.
 __global__ void copy_words(unsigned* dst, const unsigned* src, std::size_t n) {
   for (std::size_t i = threadIdx.x; i < n; i += blockDim.x) dst[i] = src[i];
 }

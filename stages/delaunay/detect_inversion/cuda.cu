@@ -4,8 +4,9 @@
 namespace ff::delaunay {
 
 // MarkInversions at 6 blocks of 256 per SM (40 registers, no spills) instead of the default
-// allocation's 48 registers and 5 blocks: the stage 0.081-0.084 against 0.087-0.092 ms at 2^20
-// (bench-abp on the H100, interleaved; 8 blocks spill and gain less).
+// allocation's 48 registers and 5 blocks: one block more per SM, measured faster at 2^20
+// (bench-abp on the H100, interleaved; 8 blocks spill and gain less; numbers in bench/README.md,
+// "Numbers formerly in source comments").
 constexpr int kMarkBlocks = 6;
 
 template <class R>

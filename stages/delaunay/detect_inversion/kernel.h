@@ -77,10 +77,10 @@ struct MarkInversions {
 
   // Everything for edge e (marks, counters) but the candidate list: returns whether e is a
   // Lawson candidate (always false without `candidates`). The host loop batches the appends:
-  // one shared counter bumped per candidate from both threads cost ~7 % of the loop. The host
-  // loop also restates this function's "nothing happens" case for four edges at a time
-  // (detect_inversion/cpu.cpp, quiet4): a change here must be mirrored there (the test comparing
-  // the two loops edge by edge fails otherwise).
+  // one shared counter bumped per candidate from both threads moves its cache line between the
+  // cores on every append. The host loop also restates this function's "nothing happens" case
+  // for four edges at a time (detect_inversion/cpu.cpp, quiet4): a change here must be mirrored
+  // there (the test comparing the two loops edge by edge fails otherwise).
   FF_HD bool test(int e) const {
     if (e + kPrefetchAhead < edges) prefetch_quad_points(mesh, pts.p, prev, e + kPrefetchAhead);
     // The common case (nothing inverted) needs only the quad's vertices: two contiguous records

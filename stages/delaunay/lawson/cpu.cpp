@@ -1,8 +1,8 @@
 // CPU loops of delaunay.lawson. The per-edge math is kernel.h's (marks, wins, flip_and_list); what
 // differs from the device is how the lists are filled. Nearly every element of a round appends
 // to a list, and on the host one shared counter bumped from two threads moves its cache line
-// between the cores on every append (Lawson took 2 ms per step at N = 2^16 that way). So each
-// chunk of elements fills its own list, and the chunks' lists are appended in chunk order
+// between the cores on every append (most of Lawson's time went there). So each chunk of
+// elements fills its own list, and the chunks' lists are appended in chunk order
 // afterwards: no shared counter, and the lists' order no longer depends on the thread count.
 #include <oneapi/tbb/blocked_range.h>
 #include <oneapi/tbb/parallel_for.h>
@@ -90,7 +90,7 @@ void apply(std::size_t n, const ApplyMarked& f, CUstream_st*) {
   if (f.len) n = std::min<std::size_t>(n, *f.len);
   // The edges to retest are listed by each flip and kept once each afterwards, on one thread with
   // plain stamps: a locked exchange per edge (the device's claim) waited for the flip's stores
-  // to drain and took two thirds of this loop.
+  // to drain and took most of this loop's time.
   append_by_chunks(
       n, f.next_list, f.counters + kLawsonQueued,
       [&](std::size_t i, std::vector<std::int32_t>& out) {

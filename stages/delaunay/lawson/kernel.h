@@ -188,7 +188,7 @@ struct ApplyMarked {
 // counters[kLawsonTailRounds], the longest marked list among them to kLawsonTailLargest, and,
 // when `publish` is set, every counter to publish (pinned host memory: Counters::landing) as
 // the kernel ends. The same rounds as separate launches, so the same flips; one launch instead
-// of three per round (a round of a few edges is ~2.3 µs of launch each).
+// of three per round (a round of a few edges costs little more than its launches).
 template <class R>
 struct LawsonTail {
   Mesh mesh;

@@ -1,6 +1,8 @@
 #!/usr/bin/env bash
-# Device run for overlap_correct tuning (see PERF.md): tests, bench-abp at three sizes, the
-# hard-disk EOS test. Needs a bundle in bundle-perf (tools/bundle build-perf bundle-perf).
+# Device run for overlap_correct tuning (see bench/overlap_correct-PERF.md): tests, bench-abp at
+# three sizes, the hard-disk EOS test. Needs a bundle in bundle-perf at the repository root
+# (tools/bundle build-perf bundle-perf); run it from anywhere, e.g. bench/overlap_correct-perf_run.sh.
+cd "$(dirname "$0")/.." || exit 1
 B=bundle-perf
 P=$B/pipelines/bench-abp.yaml
 nvidia-smi --query-gpu=name,clocks.sm,clocks.mem,temperature.gpu,utilization.gpu --format=csv
