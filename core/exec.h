@@ -9,6 +9,12 @@
 
 namespace ff {
 
+// The backends a stage template is built for (core/stage_registration.h): CpuExec in
+// core/exec_cpu.h, CudaExec in core/cuda/loop.cuh. Declared here so a stage.h can name the
+// loops it writes by hand for each (`Loops loops(CpuExec)`, defined in its cpu.cpp / cuda.cu).
+struct CpuExec;
+struct CudaExec;
+
 template <class F>
 using ElementLoop = void (*)(std::size_t n, const F& f, CUstream_st* stream);
 

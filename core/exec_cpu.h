@@ -5,13 +5,15 @@
 #include <oneapi/tbb/parallel_for.h>
 
 #include "core/exec.h"
+#include "core/field.h"
+#include "core/overdamped_cpu.h"
 
 namespace ff {
 
 // The element loop on the calling thread only (what cpu_for_each does for short loops).
 // Element functors are inlined into the loops (flatten): called out of line (through the PLT,
 // as a template in a shared library) and reloading the functor's members for every element,
-// detect_inversion's edge loop was 10 % slower (1.45 against 1.31 ms at N = 2^16).
+// the edge loops were measurably slower (bench/README.md, numbers formerly in comments).
 template <class F>
 __attribute__((flatten)) void cpu_serial_for_each(std::size_t n, const F& f, CUstream_st* /*stream*/) {
   const F local = f;  // see cpu_for_each
@@ -32,5 +34,16 @@ void cpu_for_each(std::size_t n, const F& f, CUstream_st* /*stream*/) {
     for (std::size_t i = r.begin(); i != r.end(); ++i) local(i);
   });
 }
+
+// The CPU backend of a stage template (core/stage_registration.h): its element loops.
+struct CpuExec {
+  static constexpr Backend backend = Backend::cpu;
+  static constexpr Where where = Where::host;
+  template <class F>
+  static void for_each(std::size_t n, const F& f, CUstream_st* s) { cpu_for_each(n, f, s); }
+  // The overdamped integrators' loop (core/overdamped.h): noise drawn 16 particles at a time.
+  template <class F>
+  static void overdamped(std::size_t n, const F& f, CUstream_st* s) { cpu_overdamped_for_each(n, f, s); }
+};
 
 }  // namespace ff

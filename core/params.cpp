@@ -13,6 +13,7 @@ const char* to_string(ParamType t) {
     case ParamType::string: return "string";
     case ParamType::string_list: return "list of strings";
     case ParamType::real_list: return "list of reals";
+    case ParamType::per_type: return "real or one per type";
   }
   return "?";
 }
@@ -80,6 +81,7 @@ std::string ParamSpec::expectation() const {
     case ParamType::string: e = "a string"; break;
     case ParamType::string_list: e = "a list of strings"; break;
     case ParamType::real_list: e = "a list of real numbers"; break;
+    case ParamType::per_type: e = "a real number, or a list of them (one per particle type)"; break;
   }
   if (min && max) e += std::string(" in ") + (min_exclusive ? "(" : "[") + number(*min) + ", " + number(*max) + "]";
   else if (min) e += (min_exclusive ? " > " : " >= ") + number(*min);
@@ -121,6 +123,7 @@ std::string check_param(const ParamSpec& s, const ParamValue& v) {
         for (auto& x : std::get<std::vector<std::string>>(v)) ok = ok && allowed(s, x);
       break;
     case ParamType::real_list:
+    case ParamType::per_type:
       ok = std::holds_alternative<std::vector<double>>(v);
       if (ok)
         for (double x : std::get<std::vector<double>>(v)) ok = ok && in_range(s, x);
@@ -145,6 +148,12 @@ std::string format_value(const ParamValue& v) {
   return std::visit(V{}, v);
 }
 
+std::string format_value(const ParamSpec& spec, const ParamValue& v) {
+  if (spec.type == ParamType::per_type)
+    if (auto* l = std::get_if<std::vector<double>>(&v); l && l->size() == 1) return number(l->front());
+  return format_value(v);
+}
+
 const ParamValue& ParamValues::get(const std::string& key) const {
   auto it = values_.find(key);
   if (it == values_.end()) throw std::logic_error("parameter '" + key + "' was not declared");
@@ -157,8 +166,10 @@ const std::string& ParamValues::string(const std::string& key) const { return st
 const std::vector<std::string>& ParamValues::strings(const std::string& key) const {
   return std::get<std::vector<std::string>>(get(key));
 }
-const std::vector<double>& ParamValues::reals(const std::string& key) const {
-  return std::get<std::vector<double>>(get(key));
+std::vector<double> ParamValues::reals(const std::string& key) const {
+  const ParamValue& v = get(key);
+  if (auto* d = std::get_if<double>(&v)) return {*d};
+  return std::get<std::vector<double>>(v);
 }
 
 ParamValues ParamValues::defaults(const std::vector<ParamSpec>& specs) {

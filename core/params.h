@@ -11,7 +11,9 @@
 
 namespace ff {
 
-enum class ParamType : std::uint8_t { real, integer, boolean, string, string_list, real_list };
+// per_type: a real number for every particle type, or one per type (system.types); held as a
+// list of reals (a single number is a list of one). PerType resolves it against the types.
+enum class ParamType : std::uint8_t { real, integer, boolean, string, string_list, real_list, per_type };
 const char* to_string(ParamType t);
 
 using ParamValue =
@@ -36,6 +38,8 @@ struct ParamSpec {
   ParamSpec& above(double v) { min = v; min_exclusive = true; return *this; }
   ParamSpec& at_most(double v) { max = v; return *this; }
   ParamSpec& one_of(std::vector<std::string> c) { choices = std::move(c); return *this; }
+  // No default: the pipeline must give it.
+  ParamSpec& required() { default_value.reset(); return *this; }
 
   // "a real number > 0", "one of [a, b]", ... — used in error messages and `describe`.
   std::string expectation() const;
@@ -44,6 +48,8 @@ struct ParamSpec {
 // Check a value against the spec; returns an empty string when fine, else what was expected.
 std::string check_param(const ParamSpec& spec, const ParamValue& v);
 std::string format_value(const ParamValue& v);
+// As the pipeline file would write it for this spec (a per_type value of one number: the number).
+std::string format_value(const ParamSpec& spec, const ParamValue& v);
 
 class ParamValues {
  public:
@@ -54,7 +60,8 @@ class ParamValues {
   bool boolean(const std::string& key) const;
   const std::string& string(const std::string& key) const;
   const std::vector<std::string>& strings(const std::string& key) const;
-  const std::vector<double>& reals(const std::string& key) const;
+  // A list of reals; a single real (a per_type parameter set from code) is a list of one.
+  std::vector<double> reals(const std::string& key) const;
   const std::map<std::string, ParamValue>& all() const { return values_; }
 
   // Every declared key with its default (what a stage sees when the YAML gives nothing).
@@ -64,5 +71,99 @@ class ParamValues {
   const ParamValue& get(const std::string& key) const;
   std::map<std::string, ParamValue> values_;
 };
+
+// A per_type parameter's values: one for every type, or one per type.
+struct PerType {
+  std::vector<double> values{1.0};
+  double operator[](std::size_t type) const { return values.size() == 1 ? values[0] : values[type]; }
+  bool uniform() const { return values.size() == 1; }
+};
+
+// Parameters described once. A stage's parameter struct holds each parameter as a member
+// initialised to its default, and names it once, with its documentation and bounds, in
+// describe():
+//
+//   struct IntegrateParams {
+//     double v0 = 1.0;
+//     template <class D> void describe(D& d) {
+//       d(v0, "v0", "self-propulsion speed (σ/τ)").at_least(0);
+//     }
+//   };
+//
+// schema_of<P>() is the ParamSpec list (defaults taken from the members); params_from<P>(values)
+// the struct filled from validated values. Member types: double, std::int64_t, bool,
+// std::string, std::vector<std::string>, std::vector<double>, PerType.
+namespace param_detail {
+class Schema {
+ public:
+  ParamSpec& operator()(double& m, const char* name, const char* doc) { return add(ParamSpec::real(name, m, doc)); }
+  ParamSpec& operator()(std::int64_t& m, const char* name, const char* doc) {
+    return add(ParamSpec::integer(name, m, doc));
+  }
+  ParamSpec& operator()(bool& m, const char* name, const char* doc) { return add(ParamSpec::boolean(name, m, doc)); }
+  ParamSpec& operator()(std::string& m, const char* name, const char* doc) {
+    return add(ParamSpec::string(name, m, doc));
+  }
+  ParamSpec& operator()(std::vector<std::string>& m, const char* name, const char* doc) {
+    return add(ParamSpec::strings(name, m, doc));
+  }
+  ParamSpec& operator()(std::vector<double>& m, const char* name, const char* doc) {
+    return add(list(name, ParamType::real_list, m, doc));
+  }
+  ParamSpec& operator()(PerType& m, const char* name, const char* doc) {
+    return add(list(name, ParamType::per_type, m.values, doc));
+  }
+  std::vector<ParamSpec> specs;
+
+ private:
+  static ParamSpec list(const char* name, ParamType t, const std::vector<double>& def, const char* doc) {
+    ParamSpec s;
+    s.name = name;
+    s.type = t;
+    s.default_value = def;
+    s.doc = doc;
+    return s;
+  }
+  ParamSpec& add(ParamSpec s) {
+    specs.push_back(std::move(s));
+    return specs.back();
+  }
+};
+
+class Read {
+ public:
+  explicit Read(const ParamValues& v) : v_(v) {}
+  ParamSpec& operator()(double& m, const char* name, const char*) { m = v_.real(name); return ignored_; }
+  ParamSpec& operator()(std::int64_t& m, const char* name, const char*) { m = v_.integer(name); return ignored_; }
+  ParamSpec& operator()(bool& m, const char* name, const char*) { m = v_.boolean(name); return ignored_; }
+  ParamSpec& operator()(std::string& m, const char* name, const char*) { m = v_.string(name); return ignored_; }
+  ParamSpec& operator()(std::vector<std::string>& m, const char* name, const char*) {
+    m = v_.strings(name);
+    return ignored_;
+  }
+  ParamSpec& operator()(std::vector<double>& m, const char* name, const char*) { m = v_.reals(name); return ignored_; }
+  ParamSpec& operator()(PerType& m, const char* name, const char*) { m.values = v_.reals(name); return ignored_; }
+
+ private:
+  const ParamValues& v_;
+  ParamSpec ignored_;  // the bounds chained after a member only matter to the schema
+};
+}  // namespace param_detail
+
+template <class P>
+std::vector<ParamSpec> schema_of() {
+  P p;
+  param_detail::Schema s;
+  p.describe(s);
+  return s.specs;
+}
+
+template <class P>
+P params_from(const ParamValues& values) {
+  P p;
+  param_detail::Read r(values);
+  p.describe(r);
+  return p;
+}
 
 }  // namespace ff

@@ -80,7 +80,13 @@ const Item* find(const std::vector<Item>& items, const std::string& key) {
 // One value checked against its spec: type, range, choices. List items are checked (and
 // reported) one by one, with the spec of a single item.
 ParamValue read_value(const ParamSpec& spec, const YAML::Node& n, const std::string& path, const Locator& loc) {
-  const bool is_list = spec.type == ParamType::string_list || spec.type == ParamType::real_list;
+  if (spec.type == ParamType::per_type && n.IsScalar()) {  // one value for every type
+    ParamSpec item = spec;
+    item.type = ParamType::real;
+    return ParamValue(std::vector<double>{std::get<double>(read_value(item, n, path, loc))});
+  }
+  const bool is_list = spec.type == ParamType::string_list || spec.type == ParamType::real_list ||
+                       spec.type == ParamType::per_type;
   if (is_list) {
     if (!n.IsSequence()) loc.fail(n, path, "expected " + spec.expectation() + ", got " + found(n));
     ParamSpec item = spec;

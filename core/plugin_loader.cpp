@@ -134,6 +134,7 @@ void load_plugins(const std::vector<std::string>& files, Registry& registry) {
     o.lib.get_alias<RegisterFunction>("flipflow_register")(registry);
     loaded_libraries().push_back(o.lib);
   }
+  registry.resolve_aliases();
   registry.set_current_plugin("(built in)");
 }
 

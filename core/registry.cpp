@@ -24,6 +24,55 @@ void Registry::implement(const std::string& name, Backend backend, StageFactory 
   it->second.factories[backend] = std::move(factory);
 }
 
+void Registry::alias(const std::string& name, const std::string& target, const std::string& summary,
+                     const ParamValues& fixed, const ParamValues& defaults) {
+  pending_aliases_.push_back({name, target, summary, current_plugin_, fixed, defaults});
+}
+
+void Registry::resolve_aliases() {
+  const std::string current = current_plugin_;
+  auto pending = std::move(pending_aliases_);
+  pending_aliases_.clear();
+  for (const PendingAlias& a : pending) {
+    current_plugin_ = a.plugin;
+    add_alias(a);
+  }
+  current_plugin_ = current;
+}
+
+void Registry::add_alias(const PendingAlias& a) {
+  const std::string& name = a.name;
+  const std::string& target = a.target;
+  const std::string& summary = a.summary;
+  const ParamValues& fixed = a.fixed;
+  const ParamValues& defaults = a.defaults;
+  auto t = stages_.find(target);
+  if (t == stages_.end())
+    throw InputError("plugin '" + current_plugin_ + "' declares '" + name + "' as an alias of stage '" + target +
+                     "', which no loaded plugin registers");
+  StageDecl decl = t->second.decl;
+  decl.name = name;
+  std::string with;
+  for (auto& kv : fixed.all()) with += (with.empty() ? "" : ", ") + kv.first + ": " + format_value(kv.second);
+  decl.summary = summary + " (= " + target + (with.empty() ? "" : " with " + with) + ")";
+  std::vector<ParamSpec> params;
+  for (auto& p : decl.params) {
+    if (fixed.has(p.name)) continue;
+    params.push_back(p);
+    if (defaults.has(p.name)) params.back().default_value = defaults.all().at(p.name);
+  }
+  decl.params = params;
+  declare(std::move(decl));
+  for (auto& kv : t->second.factories) {
+    StageFactory make = kv.second;
+    implement(name, kv.first, [make, fixed](const ParamValues& v, const RunInfo& info) {
+      ParamValues all = v;
+      for (auto& f : fixed.all()) all.set(f.first, f.second);
+      return make(all, info);
+    });
+  }
+}
+
 const StageEntryInfo& Registry::get(const std::string& name) const {
   auto it = stages_.find(name);
   if (it == stages_.end()) {

@@ -36,6 +36,15 @@ class Registry {
   // (naming both plugins). `plugin` is filled in by the loader.
   void declare(StageDecl decl);
   void implement(const std::string& name, Backend backend, StageFactory factory);
+  // `name` runs the stage `target` with the parameters in `fixed` set (an older name kept for a
+  // configuration of a newer stage) and the defaults in `defaults` changed; its other
+  // parameters are the target's. Takes effect at resolve_aliases(), so the target may come
+  // from a library loaded later.
+  void alias(const std::string& name, const std::string& target, const std::string& summary,
+             const ParamValues& fixed, const ParamValues& defaults = {});
+  // Registers the aliases declared so far (the plugin loader calls it after registering every
+  // library). InputError naming the plugin if a target is missing.
+  void resolve_aliases();
 
   bool has(const std::string& name) const { return stages_.count(name) != 0; }
   const StageEntryInfo& get(const std::string& name) const;  // InputError if unknown
@@ -47,7 +56,13 @@ class Registry {
   void set_current_plugin(std::string plugin) { current_plugin_ = std::move(plugin); }
 
  private:
+  struct PendingAlias {
+    std::string name, target, summary, plugin;
+    ParamValues fixed, defaults;
+  };
+  void add_alias(const PendingAlias& a);
   std::map<std::string, StageEntryInfo> stages_;
+  std::vector<PendingAlias> pending_aliases_;
   std::string current_plugin_ = "(built in)";
 };
 

@@ -32,8 +32,10 @@ const Registry& registry() {
     const auto path = plugin_search_path();
     std::vector<std::string> libs{find_plugin("phoretic", path)};
     for (auto& f : find_stage_libraries(path))
-      if (f.find("libflipflow_stage_neighbors.so") != std::string::npos) libs.push_back(f);
-    REQUIRE(libs.size() == 2);
+      if (f.find("libflipflow_stage_neighbors.so") != std::string::npos ||
+          f.find("libflipflow_stage_overdamped.so") != std::string::npos)
+        libs.push_back(f);
+    REQUIRE(libs.size() == 3);
     load_plugins(libs, *reg);
     return reg;
   }();

@@ -5,6 +5,7 @@
 
 #include "core/cuda/check.h"
 #include "core/exec.h"
+#include "core/field.h"
 
 namespace ff {
 
@@ -40,5 +41,16 @@ void cuda_for_each_bounded(std::size_t n, const F& f, CUstream_st* stream) {
   for_each_bounded_kernel<F, MinBlocks><<<grid, block, 0, stream>>>(n, f);
   FF_CUDA_CHECK_LAUNCH("launching an element loop");
 }
+
+// The CUDA backend of a stage template (core/stage_registration.h): its element loops.
+struct CudaExec {
+  static constexpr Backend backend = Backend::cuda;
+  static constexpr Where where = Where::device;
+  template <class F>
+  static void for_each(std::size_t n, const F& f, CUstream_st* s) { cuda_for_each(n, f, s); }
+  // The overdamped integrators (core/overdamped.h): one particle per thread (F::operator()).
+  template <class F>
+  static void overdamped(std::size_t n, const F& f, CUstream_st* s) { cuda_for_each(n, f, s); }
+};
 
 }  // namespace ff

@@ -79,7 +79,7 @@ int cmd_describe(const std::vector<std::string>& args) {
   std::cout << (e.decl.observer ? "\n  observer: runs after each accepted step\n" : "\n") << "  parameters:\n";
   for (auto& p : e.decl.params)
     std::cout << "    " << std::left << std::setw(16) << p.name << " "
-              << (p.default_value ? "default " + format_value(*p.default_value) : std::string("required")) << "; "
+              << (p.default_value ? "default " + format_value(p, *p.default_value) : std::string("required")) << "; "
               << p.expectation() << "\n      " << p.doc << "\n";
   // Accesses of a default instance (2D if supported, double, CPU).
   try {

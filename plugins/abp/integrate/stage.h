@@ -8,6 +8,7 @@
 #include "core/exec.h"
 #include "core/params.h"
 #include "core/stage.h"
+#include "core/stage_registration.h"
 #include "plugins/abp/integrate/kernel.h"
 
 namespace ff::abp {
@@ -19,18 +20,12 @@ struct IntegrateParams {
   double Dr = 1.0;  // rotational diffusion coefficient
   double D = 0.0;   // translational diffusion coefficient
 
-  static std::vector<ParamSpec> schema() {
-    return {ParamSpec::real("v0", 1.0, "self-propulsion speed (σ/τ)").at_least(0),
-            ParamSpec::real("Dr", 1.0, "rotational diffusion coefficient (1/τ)").at_least(0),
-            ParamSpec::real("D", 0.0, "translational diffusion coefficient (σ²/τ)").at_least(0)};
+  template <class P>
+  void describe(P& p) {
+    p(v0, "v0", "self-propulsion speed (σ/τ)").at_least(0);
+    p(Dr, "Dr", "rotational diffusion coefficient (1/τ)").at_least(0);
+    p(D, "D", "translational diffusion coefficient (σ²/τ)").at_least(0);
   }
-  static IntegrateParams from(const ParamValues& v) { return {v.real("v0"), v.real("Dr"), v.real("D")}; }
-};
-
-template <class R>
-struct IntegrateLoops {
-  ElementLoop<AbpStep<R, 2>> loop2;
-  ElementLoop<AbpStep<R, 3>> loop3;
 };
 
 inline int orientation_components(int dim) { return dim == 2 ? 1 : 3; }
@@ -38,8 +33,19 @@ inline int orientation_components(int dim) { return dim == 2 ? 1 : 3; }
 template <class R>
 class Integrate final : public Stage {
  public:
-  Integrate(IntegrateParams p, std::uint64_t seed, Where where, IntegrateLoops<R> loops)
-      : p_(p), seed_(seed), where_(where), loops_(loops) {}
+  static StageDecl declaration() {
+    return {"abp.integrate",
+            "active Brownian particles: x += v0 e(θ)Δt + sqrt(2DΔt)ξ, θ += sqrt(2D_rΔt)η (2D; unit vector in 3D)",
+            schema_of<IntegrateParams>(), {2, 3}, false};
+  }
+
+  template <class Exec>
+  Integrate(const ParamValues& v, const RunInfo& info, Exec)
+      : p_(params_from<IntegrateParams>(v)),
+        seed_(info.seed),
+        where_(Exec::where),
+        loop2_(&Exec::template overdamped<AbpStep<R, 2>>),
+        loop3_(&Exec::template overdamped<AbpStep<R, 3>>) {}
 
   // Every element is rewritten each step from the previous values, which the rollback snapshot
   // keeps instead of copying (on_demand + will_overwrite: the step reads the snapshot's arrays
@@ -94,10 +100,10 @@ class Integrate final : public Stage {
     const R trans = R(std::sqrt(2.0 * p_.D * ctx.dt));
     const R rot = R(std::sqrt(2.0 * p_.Dr * ctx.dt));
     if (s.dim() == 2)
-      loops_.loop2(s.n(), AbpStep<R, 2>{x0, im0, o0, x, im, o, box, v0_dt, trans, rot, ctx.rng, ctx.step, ctx.attempt},
+      loop2_(s.n(), AbpStep<R, 2>{x0, im0, o0, x, im, o, box, v0_dt, trans, rot, ctx.rng, ctx.step, ctx.attempt},
                    ctx.stream);
     else
-      loops_.loop3(s.n(), AbpStep<R, 3>{x0, im0, o0, x, im, o, box, v0_dt, trans, rot, ctx.rng, ctx.step, ctx.attempt},
+      loop3_(s.n(), AbpStep<R, 3>{x0, im0, o0, x, im, o, box, v0_dt, trans, rot, ctx.rng, ctx.step, ctx.attempt},
                    ctx.stream);
     return Outcome::ok();
   }
@@ -106,7 +112,10 @@ class Integrate final : public Stage {
   IntegrateParams p_;
   std::uint64_t seed_;
   Where where_;
-  IntegrateLoops<R> loops_;
+  ElementLoop<AbpStep<R, 2>> loop2_;
+  ElementLoop<AbpStep<R, 3>> loop3_;
 };
 
 }  // namespace ff::abp
+
+FLIPFLOW_STAGE(ff::abp::Integrate)

@@ -11,7 +11,7 @@
 #include <vector>
 
 #include "core/exec_cpu.h"
-#include "plugins/phoretic/forces/cpu.h"
+#include "plugins/phoretic/forces/stage.h"
 
 namespace ff::phoretic {
 
@@ -56,11 +56,11 @@ void cpu_long_range(const LongRangeVelocity<R, D>& f, CUstream_st* /*stream*/) {
 }  // namespace
 
 template <class R>
-ForcesLoops<R> cpu_forces_loops() {
+ForcesLoops<R> forces_loops(CpuExec) {
   return {&cpu_long_range<R, 2>, &cpu_long_range<R, 3>, &cpu_for_each<ShortRangeVelocity<R, 2>>,
           &cpu_for_each<ShortRangeVelocity<R, 3>>};
 }
-template ForcesLoops<float> cpu_forces_loops<float>();
-template ForcesLoops<double> cpu_forces_loops<double>();
+template ForcesLoops<float> forces_loops<float>(CpuExec);
+template ForcesLoops<double> forces_loops<double>(CpuExec);
 
 }  // namespace ff::phoretic

@@ -7,13 +7,13 @@
 // Each target adds its sources in ascending order, k = i included (it adds zero), exactly as
 // LongRangeVelocity::operator() and the CPU loop do; the pair term is kernel.h's.
 // Targets past N compute on zeros and store nothing; the last tile's loop stops at N.
-// In float a pair costs 18 instructions (kernel.h: one compare per image, one MUFU.RSQ), and
-// the H100 adds 1.4e12 pairs per second at N = 2^17 (bench/README.md).
+// In float a pair costs 18 instructions (kernel.h: one compare per image, one MUFU.RSQ); the
+// pairs per second measured on the H100 are in bench/README.md.
 // Short range: the element loop over Verlet rows.
 #include <type_traits>
 
 #include "core/cuda/loop.cuh"
-#include "plugins/phoretic/forces/cuda.cuh"
+#include "plugins/phoretic/forces/stage.h"
 
 namespace ff::phoretic {
 
@@ -108,11 +108,11 @@ void cuda_long_range(const LongRangeVelocity<R, D>& f, CUstream_st* stream) {
 }  // namespace
 
 template <class R>
-ForcesLoops<R> cuda_forces_loops() {
+ForcesLoops<R> forces_loops(CudaExec) {
   return {&cuda_long_range<R, 2>, &cuda_long_range<R, 3>, &cuda_for_each<ShortRangeVelocity<R, 2>>,
           &cuda_for_each<ShortRangeVelocity<R, 3>>};
 }
-template ForcesLoops<float> cuda_forces_loops<float>();
-template ForcesLoops<double> cuda_forces_loops<double>();
+template ForcesLoops<float> forces_loops<float>(CudaExec);
+template ForcesLoops<double> forces_loops<double>(CudaExec);
 
 }  // namespace ff::phoretic

@@ -9,6 +9,7 @@
 #include "core/exec.h"
 #include "core/params.h"
 #include "core/stage.h"
+#include "core/stage_registration.h"
 #include "plugins/phoretic/forces/kernel.h"
 #include "stages/neighbors/list.h"
 
@@ -17,30 +18,22 @@ namespace ff::phoretic {
 inline constexpr const char* kVelocity = "velocity";  // real x dim, velocity units
 
 struct ForcesParams {
-  bool long_range = true;
+  std::string range = "long";
   std::vector<double> alpha;  // per type: emitted charge
   std::vector<double> mu;     // per type: response
   double cutoff = 2.5;        // short range only
 
-  static std::vector<ParamSpec> schema() {
-    ParamSpec alpha, mu;
-    alpha.name = "alpha";
-    alpha.type = ParamType::real_list;
-    alpha.doc = "charge α per particle type (creates the field), indexed like system.types";
-    mu.name = "mu";
-    mu.type = ParamType::real_list;
-    mu.doc = "charge μ per particle type (responds to the field), indexed like system.types";
-    return {ParamSpec::string("range", std::string("long"),
-                              "long: f = r/r³ summed over all pairs; short: f = r/r⁷ cut at `cutoff`, "
-                              "through the Verlet list of a neighbors.verlet stage before this one")
-                .one_of({"long", "short"}),
-            alpha, mu,
-            ParamSpec::real("cutoff", 2.5, "short range cutoff (σ); must not exceed neighbors.verlet's cutoff")
-                .above(0)};
+  template <class P>
+  void describe(P& p) {
+    p(range, "range",
+      "long: f = r/r³ summed over all pairs; short: f = r/r⁷ cut at `cutoff`, through the Verlet list of a "
+      "neighbors.verlet stage before this one")
+        .one_of({"long", "short"});
+    p(alpha, "alpha", "charge α per particle type (creates the field), indexed like system.types").required();
+    p(mu, "mu", "charge μ per particle type (responds to the field), indexed like system.types").required();
+    p(cutoff, "cutoff", "short range cutoff (σ); must not exceed neighbors.verlet's cutoff").above(0);
   }
-  static ForcesParams from(const ParamValues& v) {
-    return {v.string("range") == "long", v.reals("alpha"), v.reals("mu"), v.real("cutoff")};
-  }
+  bool long_range() const { return range == "long"; }
 };
 
 template <class R, int D>
@@ -54,10 +47,25 @@ struct ForcesLoops {
   ElementLoop<ShortRangeVelocity<R, 3>> short3;
 };
 
+// The loops of each backend (cpu.cpp, cuda.cu).
+template <class R>
+ForcesLoops<R> forces_loops(CpuExec);
+template <class R>
+ForcesLoops<R> forces_loops(CudaExec);
+
 template <class R>
 class Forces final : public Stage {
  public:
-  Forces(ForcesParams p, Where where, ForcesLoops<R> loops) : p_(std::move(p)), where_(where), loops_(loops) {
+  static StageDecl declaration() {
+    return {"phoretic.forces",
+            "phoretic pair velocities v_i = Σ_k μ_i α_k f(r_ik) into `velocity` (long: r/r³ all pairs; short: "
+            "r/r⁷ via Verlet list)",
+            schema_of<ForcesParams>(), {2, 3}, false};
+  }
+
+  template <class Exec>
+  Forces(const ParamValues& v, const RunInfo&, Exec)
+      : p_(params_from<ForcesParams>(v)), where_(Exec::where), loops_(forces_loops<R>(Exec{})) {
     if (p_.alpha.size() != p_.mu.size())
       throw InputError("phoretic.forces: alpha has " + std::to_string(p_.alpha.size()) + " entries and mu has " +
                        std::to_string(p_.mu.size()) + "; give one of each per particle type");
@@ -74,7 +82,7 @@ class Forces final : public Stage {
     std::vector<Access> a{{fields::position, where_, Mode::read},
                           {fields::type, where_, Mode::read},
                           {kVelocity, where_, Mode::write}};
-    if (!p_.long_range) {
+    if (!p_.long_range()) {
       a.push_back({neighbors::kList, where_, Mode::read});
       a.push_back({neighbors::kCount, where_, Mode::read});
     }
@@ -94,7 +102,7 @@ class Forces final : public Stage {
     if (types > p_.alpha.size())
       throw InputError("phoretic.forces: the system has " + std::to_string(types) + " particle types but alpha/mu give " +
                        std::to_string(p_.alpha.size()) + "; give one α and one μ per type");
-    if (!p_.long_range) {
+    if (!p_.long_range()) {
       if (!s.has_field(neighbors::kList) || !s.has_field(neighbors::kCutoff))
         throw InputError("phoretic.forces: range: short needs a neighbors.verlet stage earlier in the step list");
       Field& c = s.field(neighbors::kCutoff);
@@ -126,7 +134,7 @@ class Forces final : public Stage {
     const std::int32_t* type = ptr<std::int32_t>(s.field(fields::type));
     R* v = ptr<R>(s.field(kVelocity));
     const auto box = PeriodicBox<R>::make(s.box.L);
-    if (p_.long_range) {
+    if (p_.long_range()) {
       const LongRangeVelocity<R, D> f{x, type, v, q_, box, s.n()};
       if constexpr (D == 2) loops_.long2(f, ctx.stream);
       else loops_.long3(f, ctx.stream);
@@ -147,3 +155,5 @@ class Forces final : public Stage {
 };
 
 }  // namespace ff::phoretic
+
+FLIPFLOW_STAGE(ff::phoretic::Forces)

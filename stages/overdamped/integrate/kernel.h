@@ -1,0 +1,58 @@
+// The overdamped (Euler–Maruyama) step with drift, per particle i of type t:
+//   x += (v_i + μ_t F_i) Δt + sqrt(2 D_t Δt) ξ,   then wrapped into the box (image counted),
+// v the `velocity` field and F the `force` field when the stage reads them, ξ truncated unit
+// Gaussians (core/rng.h). Δt, the step and the attempt come from StepParams on the side the loop
+// runs on. nvcc-clean.
+#pragma once
+#include <cmath>
+#include <cstdint>
+
+#include "core/box.h"
+#include "core/hd.h"
+#include "core/overdamped.h"
+#include "core/rng.h"
+#include "core/step_params.h"
+
+namespace ff::overdamped {
+
+inline constexpr int kMaxTypes = 16;
+
+template <class R, int D>
+struct OverdampedStep {
+  R* position;                // N x D
+  std::int32_t* image;        // N x D
+  const R* velocity;          // N x D, or null: no drift velocity
+  const R* force;             // N x D, or null: no force
+  const std::int32_t* type;   // N, or null: every particle uses entry 0 of the tables
+  double two_D[kMaxTypes];    // 2 D_t
+  double mobility[kMaxTypes]; // μ_t
+  PeriodicBox<R> box;
+  RngKey key;
+  const StepParams* params;
+
+  static constexpr int kNoisePairs = (D + 1) / 2;  // pairs 0 (and 1 in 3D)
+  FF_HD std::uint32_t noise_pair(int j) const { return std::uint32_t(j); }
+  FF_HD NoiseCounter noise_counter() const { return {key, params->step, params->attempt}; }
+
+  // z: the particle's Gaussians, z[k] for component k.
+  FF_HD void move(std::size_t i, const double* z) const {
+    const int t = type ? type[i] : 0;
+    const R amplitude = R(std::sqrt(two_D[t] * params->dt));  // sqrt(2 D Δt)
+    if (!velocity && !force) {
+      overdamped_move<R, D>(position, image, box, i, nullptr, amplitude, z);
+      return;
+    }
+    const R dt = R(params->dt);
+    const R mu = R(mobility[t]);
+    R drift[D];
+    for (int k = 0; k < D; ++k) {
+      R v = velocity ? velocity[i * D + k] : R(0);
+      if (force) v = velocity ? v + mu * force[i * D + k] : mu * force[i * D + k];
+      drift[k] = v * dt;
+    }
+    overdamped_move<R, D>(position, image, box, i, drift, amplitude, z);
+  }
+  FF_HD void operator()(std::size_t i) const { overdamped_step(*this, i); }
+};
+
+}  // namespace ff::overdamped

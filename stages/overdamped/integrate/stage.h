@@ -1,0 +1,138 @@
+// overdamped.integrate: overdamped Langevin dynamics (Euler–Maruyama), 2D and 3D:
+//   x += (v + μ_t F) Δt + sqrt(2 D_t Δt) ξ
+// with the drift velocity v from the `velocity` field and the force F from the `force` field,
+// each read when the pipeline has it (stages before this one create them: a force model writes
+// `force`, phoretic.forces writes `velocity`), per-type mobility μ_t and diffusion coefficient D_t
+// (one number for every type, or one per entry of system.types). brownian.integrate and
+// phoretic.integrate are this stage with drift none / velocity.
+#pragma once
+#include <cmath>
+#include <string>
+
+#include "core/error.h"
+#include "core/params.h"
+#include "core/stage.h"
+#include "core/stage_registration.h"
+#include "stages/overdamped/integrate/kernel.h"
+
+namespace ff::overdamped {
+
+inline constexpr const char* kVelocity = "velocity";  // real x dim: drift velocity (σ/τ)
+inline constexpr const char* kForce = "force";        // real x dim: force (k_BT/σ)
+
+struct IntegrateParams {
+  PerType D{{1.0}};
+  PerType mobility{{1.0}};
+  std::string drift = "auto";
+
+  template <class P>
+  void describe(P& p) {
+    p(D, "D", "translational diffusion coefficient D_t (σ²/τ): one for every type, or one per type").at_least(0);
+    p(mobility, "mobility", "mobility μ_t (σ/τ per k_BT/σ) multiplying the `force` field: one, or one per type")
+        .at_least(0);
+    p(drift, "drift",
+      "fields that move particles besides noise: auto (`velocity` and/or `force`, whichever a stage before "
+      "creates), none, velocity, force, or velocity+force (those must exist)")
+        .one_of({"auto", "none", "velocity", "force", "velocity+force"});
+  }
+};
+
+template <class R>
+class Integrate final : public Stage {
+ public:
+  static StageDecl declaration() {
+    return {"overdamped.integrate", "overdamped Langevin step x += (v + μF)Δt + sqrt(2DΔt)·ξ (per-type μ, D)",
+            schema_of<IntegrateParams>(), {2, 3}, false};
+  }
+
+  template <class Exec>
+  Integrate(const ParamValues& v, const RunInfo&, Exec)
+      : p_(params_from<IntegrateParams>(v)),
+        where_(Exec::where),
+        loop2_(&Exec::template overdamped<OverdampedStep<R, 2>>),
+        loop3_(&Exec::template overdamped<OverdampedStep<R, 3>>) {}
+
+  void configure(State& s) override {
+    const bool want_v = p_.drift == "velocity" || p_.drift == "velocity+force";
+    const bool want_f = p_.drift == "force" || p_.drift == "velocity+force";
+    for (const char* f : {kVelocity, kForce}) {
+      const bool wanted = f == kVelocity ? want_v : want_f;
+      if (wanted && !s.has_field(f))
+        throw InputError(std::string("overdamped.integrate: drift: ") + p_.drift + " needs the `" + f +
+                         "` field, which no stage before it creates (put the stage that writes it first)");
+    }
+    reads_velocity_ = want_v || (p_.drift == "auto" && s.has_field(kVelocity));
+    reads_force_ = want_f || (p_.drift == "auto" && s.has_field(kForce));
+    for (const char* f : {kVelocity, kForce})
+      if ((f == kVelocity ? reads_velocity_ : reads_force_) &&
+          (s.field(f).dtype() != s.real() || s.field(f).components() != s.dim() || s.field(f).count() != s.n()))
+        throw InputError(std::string("overdamped.integrate: the field `") + f + "` must hold " + to_string(s.real()) +
+                         " x" + std::to_string(s.dim()) + " per particle");
+    types_ = s.species.empty() ? 1 : s.species.size();
+    check_per_type("D", p_.D);
+    check_per_type("mobility", p_.mobility);
+  }
+
+  std::vector<Access> accesses() const override {
+    std::vector<Access> a{{fields::position, where_, Mode::readwrite}, {fields::image, where_, Mode::readwrite}};
+    if (reads_velocity_) a.push_back({kVelocity, where_, Mode::read});
+    if (reads_force_) a.push_back({kForce, where_, Mode::read});
+    if (per_type()) a.push_back({fields::type, where_, Mode::read});
+    return a;
+  }
+
+  Outcome run(StepContext& ctx) override {
+    State& s = ctx.state;
+    auto ptr = [&](const char* f) { return where_ == Where::device ? s.field(f).device<R>() : s.field(f).host<R>(); };
+    Field& img = s.field(fields::image);
+    Field& type = s.field(fields::type);
+    const std::int32_t* t = !per_type() ? nullptr
+                            : where_ == Where::device ? type.device<std::int32_t>()
+                                                      : type.host<std::int32_t>();
+    auto step = [&](auto f) {
+      f.position = ptr(fields::position);
+      f.image = where_ == Where::device ? img.device<std::int32_t>() : img.host<std::int32_t>();
+      f.velocity = reads_velocity_ ? ptr(kVelocity) : nullptr;
+      f.force = reads_force_ ? ptr(kForce) : nullptr;
+      f.type = t;
+      for (std::size_t k = 0; k < std::size_t(kMaxTypes); ++k) {
+        f.two_D[k] = 2 * p_.D[k < types_ ? k : 0];
+        f.mobility[k] = p_.mobility[k < types_ ? k : 0];
+      }
+      f.box = PeriodicBox<R>::make(s.box.L);
+      f.key = ctx.rng;
+      f.params = ctx.params;
+      return f;
+    };
+    if (s.dim() == 2)
+      loop2_(s.n(), step(OverdampedStep<R, 2>{}), ctx.stream);
+    else
+      loop3_(s.n(), step(OverdampedStep<R, 3>{}), ctx.stream);
+    return Outcome::ok();
+  }
+
+  // Per-step values come from ctx.params, so a CUDA run can replay this stage from a graph.
+  bool graph_capturable() const override { return true; }
+
+ private:
+  bool per_type() const { return !p_.D.uniform() || !p_.mobility.uniform(); }
+  void check_per_type(const char* name, const PerType& v) const {
+    if (!v.uniform() && v.values.size() != types_)
+      throw InputError(std::string("overdamped.integrate: ") + name + " has " + std::to_string(v.values.size()) +
+                       " values; give one for every type, or one per type (system.types has " +
+                       std::to_string(types_) + ")");
+    if (types_ > std::size_t(kMaxTypes))
+      throw InputError("overdamped.integrate: at most " + std::to_string(kMaxTypes) + " particle types");
+  }
+
+  IntegrateParams p_;
+  Where where_;
+  ElementLoop<OverdampedStep<R, 2>> loop2_;
+  ElementLoop<OverdampedStep<R, 3>> loop3_;
+  bool reads_velocity_ = false, reads_force_ = false;
+  std::size_t types_ = 1;
+};
+
+}  // namespace ff::overdamped
+
+FLIPFLOW_STAGE(ff::overdamped::Integrate)
