@@ -1,4 +1,5 @@
-# flipflow_add_plugin(NAME <name> [SOURCES <cpp...>] [CUDA_SOURCES <cu...>] [LIBS <libs...>])
+# flipflow_add_plugin(NAME <name> [SOURCES <cpp...>] [CUDA_SOURCES <cu...>] [LIBS <libs...>]
+#                     [EXCLUDE <files of the folder not to compile into it>])
 #
 # One plugin library = one folder (stages/<lib>, plugins/<model>, or a model's own folder
 # outside this repository). Without SOURCES the folder is read by convention, so a new stage
@@ -13,7 +14,7 @@
 # defines the entry point (FLIPFLOW_PLUGIN). The .cu files see the repository root and
 # Random123, nothing else.
 function(flipflow_add_plugin)
-  cmake_parse_arguments(P "" "NAME" "SOURCES;CUDA_SOURCES;LIBS" ${ARGN})
+  cmake_parse_arguments(P "" "NAME" "SOURCES;CUDA_SOURCES;LIBS;EXCLUDE" ${ARGN})
   set(target flipflow_${P_NAME})
   set(srcs ${P_SOURCES})
   if(FLIPFLOW_HAVE_CUDA)
@@ -21,6 +22,9 @@ function(flipflow_add_plugin)
   endif()
   if(NOT P_SOURCES)
     flipflow_plugin_sources(srcs)
+    foreach(x ${P_EXCLUDE})  # files of the folder built elsewhere (relative paths)
+      list(REMOVE_ITEM srcs ${CMAKE_CURRENT_SOURCE_DIR}/${x})
+    endforeach()
   endif()
   add_library(${target} MODULE ${srcs})
   target_link_libraries(${target} PRIVATE ${FLIPFLOW_CORE_TARGET} ${P_LIBS})
@@ -65,11 +69,18 @@ function(flipflow_plugin_sources out)
   endforeach()
   file(GLOB_RECURSE cpp CONFIGURE_DEPENDS ${CMAKE_CURRENT_SOURCE_DIR}/*.cpp)
   list(FILTER cpp EXCLUDE REGEX "/test_[^/]*\\.cpp$")
-  list(APPEND srcs ${cpp})
   if(FLIPFLOW_HAVE_CUDA)
     file(GLOB_RECURSE cu CONFIGURE_DEPENDS ${CMAKE_CURRENT_SOURCE_DIR}/*.cu)
-    list(APPEND srcs ${cu})
+    list(APPEND cpp ${cu})
   endif()
+  # Never the build tree's own files (the generated sources above, CMake's compiler checks) when
+  # it lies inside the folder: a plugin outside the repository built in <folder>/build.
+  foreach(f ${cpp})
+    string(FIND "${f}" "${CMAKE_BINARY_DIR}/" at)
+    if(NOT at EQUAL 0)
+      list(APPEND srcs ${f})
+    endif()
+  endforeach()
   set(${out} ${srcs} PARENT_SCOPE)
 endfunction()
 

@@ -36,7 +36,8 @@
 #include <cstring>
 #include <vector>
 
-#include "stages/overlap_correct/cpu.h"
+#include "core/exec_cpu.h"
+#include "stages/overlap_correct/stage.h"
 
 namespace ff::overlap {
 
@@ -339,10 +340,10 @@ void host_iterate(void* ws, const Problem<R>& p, std::int64_t k0, std::int64_t m
 }  // namespace
 
 template <class R>
-Ops<R> cpu_ops() {
+Ops<R> overlap_ops(CpuExec) {
   return {&host_create, &host_destroy, &host_iterate<R>};
 }
-template Ops<float> cpu_ops<float>();
-template Ops<double> cpu_ops<double>();
+template Ops<float> overlap_ops<float>(CpuExec);
+template Ops<double> overlap_ops<double>(CpuExec);
 
 }  // namespace ff::overlap

@@ -49,7 +49,8 @@
 #include <algorithm>
 
 #include "core/cuda/check.h"
-#include "stages/overlap_correct/cuda.cuh"
+#include "core/cuda/loop.cuh"
+#include "stages/overlap_correct/stage.h"
 #include "stages/overlap_correct/neighbour_lists.cuh"
 
 namespace cg = cooperative_groups;
@@ -458,10 +459,10 @@ void dev_iterate(void* ws, const Problem<R>& p, std::int64_t k0, std::int64_t ma
 }  // namespace
 
 template <class R>
-Ops<R> cuda_ops() {
+Ops<R> overlap_ops(CudaExec) {
   return {&dev_create, &dev_destroy, &dev_iterate<R>};
 }
-template Ops<float> cuda_ops<float>();
-template Ops<double> cuda_ops<double>();
+template Ops<float> overlap_ops<float>(CudaExec);
+template Ops<double> overlap_ops<double>(CudaExec);
 
 }  // namespace ff::overlap

@@ -17,6 +17,7 @@
 #include "core/exec.h"
 #include "core/params.h"
 #include "core/stage.h"
+#include "core/stage_registration.h"
 #include "stages/delaunay/common/fields.h"
 #include "stages/overlap_correct/kernel.h"
 
@@ -28,23 +29,21 @@ struct Params {
   double tolerance = 1e-6;
   std::int64_t max_iterations = 1000;
 
-  static std::vector<ParamSpec> schema() {
-    return {ParamSpec::string("mode", std::string("reflect"),
-                              "reflect: each particle of an overlapping pair moves by δ = σ_ij − r (the pair bounces "
-                              "off contact, r' = 2σ_ij − r; the paper's choice); contact: each moves by δ/2 (r' = σ_ij)")
-                .one_of({"reflect", "contact"}),
-            ParamSpec::real("cap", 0.25, "largest displacement of a particle per iteration, as a fraction of its "
-                                         "diameter (the paper's σ/4)")
-                .above(0),
-            ParamSpec::real("tolerance", 1e-6,
-                            "converged when no pair overlaps by more than tolerance·σ_ij; in float runs it is raised "
-                            "to the position resolution, 4·ε·L_max/σ_min")
-                .above(0)
-                .at_most(0.5),
-            ParamSpec::integer("max_iterations", 1000, "iterations before the run stops with an error").at_least(1)};
-  }
-  static Params from(const ParamValues& v) {
-    return Params{v.string("mode"), v.real("cap"), v.real("tolerance"), v.integer("max_iterations")};
+  template <class P>
+  void describe(P& p) {
+    p(mode, "mode",
+      "reflect: each particle of an overlapping pair moves by δ = σ_ij − r (the pair bounces off contact, r' = 2σ_ij "
+      "− r; the paper's choice); contact: each moves by δ/2 (r' = σ_ij)")
+        .one_of({"reflect", "contact"});
+    p(cap, "cap",
+      "largest displacement of a particle per iteration, as a fraction of its diameter (the paper's σ/4)")
+        .above(0);
+    p(tolerance, "tolerance",
+      "converged when no pair overlaps by more than tolerance·σ_ij; in float runs it is raised to the position "
+      "resolution, 4·ε·L_max/σ_min")
+        .above(0)
+        .at_most(0.5);
+    p(max_iterations, "max_iterations", "iterations before the run stops with an error").at_least(1);
   }
 };
 
@@ -81,11 +80,24 @@ struct Ops {
                   CUstream_st* s);
 };
 
+// The loops of each backend (cpu.cpp, cuda.cu).
+template <class R>
+Ops<R> overlap_ops(CpuExec);
+template <class R>
+Ops<R> overlap_ops(CudaExec);
+
 template <class R>
 class OverlapCorrect final : public Stage {
  public:
-  OverlapCorrect(Params p, Where where, Ops<R> ops)
-      : p_(std::move(p)), where_(where), ops_(ops) {}
+  static StageDecl declaration() {
+    return {"overlap_correct",
+            "push overlapping pairs apart along Delaunay edges (reflect or contact), iterated until none overlap",
+            schema_of<Params>(), {2}, false};
+  }
+
+  template <class Exec>
+  OverlapCorrect(const ParamValues& v, const RunInfo&, Exec)
+      : p_(params_from<Params>(v)), where_(Exec::where), ops_(overlap_ops<R>(Exec{})) {}
   ~OverlapCorrect() override {
     if (ws_) ops_.destroy(ws_);
   }
@@ -242,3 +254,5 @@ class OverlapCorrect final : public Stage {
 };
 
 }  // namespace ff::overlap
+
+FLIPFLOW_STAGE(ff::overlap::OverlapCorrect)

@@ -4,6 +4,7 @@
 // builds the triangulation once (common/host.h, ensure_topology).
 #pragma once
 #include "core/stage.h"
+#include "core/stage_registration.h"
 #include "stages/delaunay/build/build.h"
 #include "stages/delaunay/common/host.h"
 
@@ -11,6 +12,12 @@ namespace ff::delaunay {
 
 class Build final : public Stage {
  public:
+  // Host work on either backend (the core copies the fields it declares).
+  static StageDecl declaration() {
+    return {"delaunay.build", "Delaunay triangulation of the current positions from scratch (host, CGAL); schedule rebuilds with every: k", {}, {2}, false};
+  }
+  Build(const ParamValues&, const RunInfo&) {}
+
   std::vector<Access> accesses() const override {
     return {{ff::fields::position, Where::host, Mode::read},
             {fields::halfedge, Where::host, Mode::write},
@@ -33,3 +40,5 @@ class Build final : public Stage {
 };
 
 }  // namespace ff::delaunay
+
+FLIPFLOW_HOST_STAGE(ff::delaunay::Build)

@@ -12,6 +12,7 @@
 
 #include "core/error.h"
 #include "core/stage.h"
+#include "core/stage_registration.h"
 #include "stages/delaunay/check/check.h"
 #include "stages/delaunay/common/host.h"
 
@@ -21,23 +22,27 @@ struct CheckParams {
   double tolerance = 1e-9;
   std::string positions = "position";
 
-  static std::vector<ParamSpec> schema() {
-    return {ParamSpec::real("tolerance", 1e-9,
-                            "an edge that differs from CGAL's is a co-circular tie (not a mismatch) when |in-circle| "
-                            "<= tolerance x its permanent; keep it above delaunay.lawson's tolerance (1e-10)")
-                .at_least(0),
-            ParamSpec::string("positions", std::string("position"),
-                              "positions to triangulate with CGAL: 'position', or 'delaunay.position_prev' (the "
-                              "positions Lawson last made the triangulation Delaunay for) when a stage such as "
-                              "overlap_correct moves particles after delaunay.lawson")
-                .one_of({"position", "delaunay.position_prev"})};
+  template <class P>
+  void describe(P& p) {
+    p(tolerance, "tolerance",
+      "an edge that differs from CGAL's is a co-circular tie (not a mismatch) when |in-circle| <= tolerance x its "
+      "permanent; keep it above delaunay.lawson's tolerance (1e-10)")
+        .at_least(0);
+    p(positions, "positions",
+      "positions to triangulate with CGAL: 'position', or 'delaunay.position_prev' (the positions Lawson last made the "
+      "triangulation Delaunay for) when a stage such as overlap_correct moves particles after delaunay.lawson")
+        .one_of({"position", "delaunay.position_prev"});
   }
-  static CheckParams from(const ParamValues& v) { return CheckParams{v.real("tolerance"), v.string("positions")}; }
 };
 
 class Check final : public Stage {
  public:
-  explicit Check(CheckParams p) : p_(std::move(p)) {}
+  // Host work on either backend (the core copies the fields it declares).
+  static StageDecl declaration() {
+    return {"delaunay.check", "observer: compare the maintained triangulation with CGAL's Delaunay triangulation of the current positions (co-circular ties tolerated); RunError naming the step and edges on a mismatch", schema_of<CheckParams>(), {2}, true};
+  }
+
+  Check(const ParamValues& v, const RunInfo&) : p_(params_from<CheckParams>(v)) {}
 
   std::vector<Access> accesses() const override {
     // Reads only; when no triangulation exists yet (an observer at step 0, before any topology
@@ -106,3 +111,5 @@ class Check final : public Stage {
 };
 
 }  // namespace ff::delaunay
+
+FLIPFLOW_HOST_STAGE(ff::delaunay::Check)

@@ -7,7 +7,7 @@
 #endif
 
 #include "core/exec_cpu.h"
-#include "stages/delaunay/detect_inversion/cpu.h"
+#include "stages/delaunay/detect_inversion/stage.h"
 
 namespace ff::delaunay {
 
@@ -178,10 +178,10 @@ void mark(std::size_t n, const MarkInversions<R>& f, CUstream_st*) {
 }  // namespace
 
 template <class R>
-DetectOps<R> detect_cpu_ops() {
+DetectOps<R> detect_ops(CpuExec) {
   return {&mark<R>, &cpu_for_each<CheckInverted<R>>, cpu_mem_ops()};
 }
-template DetectOps<float> detect_cpu_ops<float>();
-template DetectOps<double> detect_cpu_ops<double>();
+template DetectOps<float> detect_ops<float>(CpuExec);
+template DetectOps<double> detect_ops<double>(CpuExec);
 
 }  // namespace ff::delaunay

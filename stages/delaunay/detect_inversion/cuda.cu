@@ -1,5 +1,5 @@
 #include "core/cuda/loop.cuh"
-#include "stages/delaunay/detect_inversion/cuda.cuh"
+#include "stages/delaunay/detect_inversion/stage.h"
 
 namespace ff::delaunay {
 
@@ -10,10 +10,10 @@ namespace ff::delaunay {
 constexpr int kMarkBlocks = 6;
 
 template <class R>
-DetectOps<R> detect_cuda_ops() {
+DetectOps<R> detect_ops(CudaExec) {
   return {&cuda_for_each_bounded<MarkInversions<R>, kMarkBlocks>, &cuda_for_each<CheckInverted<R>>, cuda_mem_ops()};
 }
-template DetectOps<float> detect_cuda_ops<float>();
-template DetectOps<double> detect_cuda_ops<double>();
+template DetectOps<float> detect_ops<float>(CudaExec);
+template DetectOps<double> detect_ops<double>(CudaExec);
 
 }  // namespace ff::delaunay

@@ -15,6 +15,7 @@
 #include "core/error.h"
 #include "core/exec.h"
 #include "core/stage.h"
+#include "core/stage_registration.h"
 #include "stages/delaunay/build/build.h"
 #include "stages/delaunay/common/host.h"
 #include "stages/delaunay/common/memory.h"
@@ -29,10 +30,22 @@ struct DetectOps {
   MemOps mem;
 };
 
+// The loops and memory of each backend (detect_inversion/cpu.cpp, detect_inversion/cuda.cu).
+template <class R>
+DetectOps<R> detect_ops(CpuExec);
+template <class R>
+DetectOps<R> detect_ops(CudaExec);
+
 template <class R>
 class DetectInversion final : public Stage {
  public:
-  DetectInversion(Where where, DetectOps<R> ops) : where_(where), ops_(ops), counters_(ops.mem) {}
+  static StageDecl declaration() {
+    return {"delaunay.detect_inversion", "find inverted triangles after integration; mark single-flip repairs or request a rollback", {}, {2}, false};
+  }
+
+  template <class Exec>
+  DetectInversion(const ParamValues&, const RunInfo&, Exec)
+      : where_(Exec::where), ops_(detect_ops<R>(Exec{})), counters_(ops_.mem) {}
 
   std::vector<Access> accesses() const override {
     // halfedge/vertex_edge are written only when no triangulation exists yet (first step).
@@ -201,3 +214,5 @@ class DetectInversion final : public Stage {
 };
 
 }  // namespace ff::delaunay
+
+FLIPFLOW_STAGE(ff::delaunay::DetectInversion)

@@ -1,13 +1,13 @@
 #include "core/cuda/loop.cuh"
-#include "stages/delaunay/flip/cuda.cuh"
+#include "stages/delaunay/flip/stage.h"
 
 namespace ff::delaunay {
 
 template <class R>
-FlipOps<R> flip_cuda_ops() {
+FlipOps<R> flip_ops(CudaExec) {
   return {&cuda_for_each<DecideFlips>, &cuda_for_each<ApplyFlips>, &cuda_for_each<MarkInversions<R>>, cuda_mem_ops()};
 }
-template FlipOps<float> flip_cuda_ops<float>();
-template FlipOps<double> flip_cuda_ops<double>();
+template FlipOps<float> flip_ops<float>(CudaExec);
+template FlipOps<double> flip_ops<double>(CudaExec);
 
 }  // namespace ff::delaunay

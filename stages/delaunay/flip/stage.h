@@ -9,6 +9,7 @@
 #include "core/error.h"
 #include "core/exec.h"
 #include "core/stage.h"
+#include "core/stage_registration.h"
 #include "stages/delaunay/common/host.h"
 #include "stages/delaunay/common/memory.h"
 #include "stages/delaunay/flip/kernel.h"
@@ -18,10 +19,10 @@ namespace ff::delaunay {
 struct FlipParams {
   std::int64_t max_rounds = 64;
 
-  static std::vector<ParamSpec> schema() {
-    return {ParamSpec::integer("max_rounds", 64, "repair rounds before the step is rolled back").at_least(1)};
+  template <class P>
+  void describe(P& p) {
+    p(max_rounds, "max_rounds", "repair rounds before the step is rolled back").at_least(1);
   }
-  static FlipParams from(const ParamValues& v) { return FlipParams{v.integer("max_rounds")}; }
 };
 
 template <class R>
@@ -32,10 +33,26 @@ struct FlipOps {
   MemOps mem;
 };
 
+// The loops and memory of each backend (flip/cpu.cpp, flip/cuda.cu).
+template <class R>
+FlipOps<R> flip_ops(CpuExec);
+template <class R>
+FlipOps<R> flip_ops(CudaExec);
+
 template <class R>
 class Flip final : public Stage {
  public:
-  Flip(FlipParams p, Where where, FlipOps<R> ops) : p_(p), where_(where), ops_(ops), counters_(ops.mem), go_(ops.mem) {}
+  static StageDecl declaration() {
+    return {"delaunay.flip", "repair the inverted triangles marked by delaunay.detect_inversion by parallel edge flips", schema_of<FlipParams>(), {2}, false};
+  }
+
+  template <class Exec>
+  Flip(const ParamValues& v, const RunInfo&, Exec)
+      : p_(params_from<FlipParams>(v)),
+        where_(Exec::where),
+        ops_(flip_ops<R>(Exec{})),
+        counters_(ops_.mem),
+        go_(ops_.mem) {}
 
   std::vector<Access> accesses() const override {
     return {{ff::fields::position, where_, Mode::read},
@@ -99,3 +116,5 @@ class Flip final : public Stage {
 };
 
 }  // namespace ff::delaunay
+
+FLIPFLOW_STAGE(ff::delaunay::Flip)

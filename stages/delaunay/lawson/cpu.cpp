@@ -13,7 +13,8 @@
 #include <type_traits>
 #include <vector>
 
-#include "stages/delaunay/lawson/cpu.h"
+#include "core/exec_cpu.h"
+#include "stages/delaunay/lawson/stage.h"
 
 namespace ff::delaunay {
 
@@ -108,10 +109,10 @@ void apply(std::size_t n, const ApplyMarked& f, CUstream_st*) {
 }  // namespace
 
 template <class R>
-LawsonOps<R> lawson_cpu_ops() {
+LawsonOps<R> lawson_ops(CpuExec) {
   return {&mark<R>, &decide, &apply, cpu_mem_ops()};
 }
-template LawsonOps<float> lawson_cpu_ops<float>();
-template LawsonOps<double> lawson_cpu_ops<double>();
+template LawsonOps<float> lawson_ops<float>(CpuExec);
+template LawsonOps<double> lawson_ops<double>(CpuExec);
 
 }  // namespace ff::delaunay

@@ -1,6 +1,6 @@
 #include "core/cuda/check.h"
 #include "core/cuda/loop.cuh"
-#include "stages/delaunay/lawson/cuda.cuh"
+#include "stages/delaunay/lawson/stage.h"
 
 namespace ff::delaunay {
 
@@ -64,11 +64,11 @@ void tail(const LawsonTail<R>& t, CUstream_st* stream) {
 }  // namespace
 
 template <class R>
-LawsonOps<R> lawson_cuda_ops() {
+LawsonOps<R> lawson_ops(CudaExec) {
   return {&cuda_for_each<MarkNonDelaunay<R>>, &cuda_for_each<DecideMarked>, &cuda_for_each<ApplyMarked>, cuda_mem_ops(),
           &tail<R>};
 }
-template LawsonOps<float> lawson_cuda_ops<float>();
-template LawsonOps<double> lawson_cuda_ops<double>();
+template LawsonOps<float> lawson_ops<float>(CudaExec);
+template LawsonOps<double> lawson_ops<double>(CudaExec);
 
 }  // namespace ff::delaunay

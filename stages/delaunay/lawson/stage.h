@@ -16,6 +16,7 @@
 #include "core/error.h"
 #include "core/exec.h"
 #include "core/stage.h"
+#include "core/stage_registration.h"
 #include "stages/delaunay/common/host.h"
 #include "stages/delaunay/common/memory.h"
 #include "stages/delaunay/lawson/kernel.h"
@@ -35,14 +36,14 @@ struct LawsonParams {
   std::int64_t max_rounds = 1000;
   double tolerance = 1e-10;
 
-  static std::vector<ParamSpec> schema() {
-    return {ParamSpec::integer("max_rounds", 1000, "flip rounds before the run stops with an error").at_least(1),
-            ParamSpec::real("tolerance", 1e-10,
-                            "in-circle tolerance relative to the determinant's rounding scale (co-circular points "
-                            "within it are left as they are)")
-                .at_least(0)};
+  template <class P>
+  void describe(P& p) {
+    p(max_rounds, "max_rounds", "flip rounds before the run stops with an error").at_least(1);
+    p(tolerance, "tolerance",
+      "in-circle tolerance relative to the determinant's rounding scale (co-circular points within it are left as "
+      "they are)")
+        .at_least(0);
   }
-  static LawsonParams from(const ParamValues& v) { return LawsonParams{v.integer("max_rounds"), v.real("tolerance")}; }
 };
 
 template <class R>
@@ -55,19 +56,30 @@ struct LawsonOps {
   void (*tail)(const LawsonTail<R>& t, CUstream_st* stream) = nullptr;
 };
 
+// The loops and memory of each backend (lawson/cpu.cpp, lawson/cuda.cu).
+template <class R>
+LawsonOps<R> lawson_ops(CpuExec);
+template <class R>
+LawsonOps<R> lawson_ops(CudaExec);
+
 template <class R>
 class Lawson final : public Stage {
  public:
-  Lawson(LawsonParams p, Where where, LawsonOps<R> ops)
-      : p_(p),
-        where_(where),
-        ops_(ops),
-        counters_(ops.mem),
-        marked_(ops.mem),
-        queued_(ops.mem),
-        go_(ops.mem),
-        list_(ops.mem),
-        marked_list_(ops.mem) {}
+  static StageDecl declaration() {
+    return {"delaunay.lawson", "parallel Lawson edge flips until the triangulation is Delaunay", schema_of<LawsonParams>(), {2}, false};
+  }
+
+  template <class Exec>
+  Lawson(const ParamValues& v, const RunInfo&, Exec)
+      : p_(params_from<LawsonParams>(v)),
+        where_(Exec::where),
+        ops_(lawson_ops<R>(Exec{})),
+        counters_(ops_.mem),
+        marked_(ops_.mem),
+        queued_(ops_.mem),
+        go_(ops_.mem),
+        list_(ops_.mem),
+        marked_list_(ops_.mem) {}
 
   std::vector<Access> accesses() const override {
     return {{ff::fields::position, where_, Mode::read},
@@ -262,3 +274,5 @@ class Lawson final : public Stage {
 };
 
 }  // namespace ff::delaunay
+
+FLIPFLOW_STAGE(ff::delaunay::Lawson)

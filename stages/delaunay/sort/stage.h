@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "core/stage.h"
+#include "core/stage_registration.h"
 
 namespace ff::delaunay {
 
@@ -23,6 +24,12 @@ std::vector<std::string> sort_particles_hilbert(State& s);
 
 class Sort final : public Stage {
  public:
+  // Host work on either backend (the core copies the fields it declares).
+  static StageDecl declaration() {
+    return {"delaunay.sort", "renumber the particles along a Hilbert curve once, at configure time (every per-particle field permuted alike), for memory locality; list it first", {}, {2}, false};
+  }
+  Sort(const ParamValues&, const RunInfo&) {}
+
   std::vector<Access> accesses() const override { return {}; }
   void configure(State& s) override { sorted_ = sort_particles_hilbert(s); }
   Outcome run(StepContext&) override { return Outcome::ok(); }
@@ -35,3 +42,5 @@ class Sort final : public Stage {
 };
 
 }  // namespace ff::delaunay
+
+FLIPFLOW_HOST_STAGE(ff::delaunay::Sort)

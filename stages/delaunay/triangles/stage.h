@@ -19,6 +19,7 @@
 
 #include "core/error.h"
 #include "core/stage.h"
+#include "core/stage_registration.h"
 #include "stages/delaunay/common/host.h"
 
 namespace ff::delaunay {
@@ -48,6 +49,12 @@ inline std::size_t fill_triangles(const std::int32_t* he, std::size_t n, std::in
 
 class Triangles final : public Stage {
  public:
+  // Host work on either backend (the core copies the fields it declares).
+  static StageDecl declaration() {
+    return {"delaunay.triangles", "observer: the maintained triangles into the field delaunay.triangles (i32 x 3, 2N, CCW) for observe.h5md's /connectivity; list it before observe.h5md with the same every", {}, {2}, true};
+  }
+  Triangles(const ParamValues&, const RunInfo&) {}
+
   std::vector<Access> accesses() const override {
     return {{fields::halfedge, Where::host, Mode::read},
             {fields::status, Where::host, Mode::read},
@@ -74,3 +81,5 @@ class Triangles final : public Stage {
 };
 
 }  // namespace ff::delaunay
+
+FLIPFLOW_HOST_STAGE(ff::delaunay::Triangles)
