@@ -34,6 +34,15 @@ function(flipflow_add_plugin)
     BUILD_RPATH "$ORIGIN/../lib"
     CUDA_SEPARABLE_COMPILATION OFF)
   set_property(GLOBAL APPEND PROPERTY FLIPFLOW_PLUGINS ${target})
+  # Tests beside the stages (test_*.cpp below the folder): tests/CMakeLists.txt builds each as
+  # test_<folder>_<name> (in-tree builds only).
+  file(GLOB_RECURSE tests CONFIGURE_DEPENDS ${CMAKE_CURRENT_SOURCE_DIR}/test_*.cpp)
+  get_filename_component(folder ${CMAKE_CURRENT_SOURCE_DIR} NAME)
+  foreach(t ${tests})
+    get_filename_component(stem ${t} NAME_WE)
+    string(REGEX REPLACE "^test_" "" stem "${stem}")
+    set_property(GLOBAL APPEND PROPERTY FLIPFLOW_STAGE_TESTS "test_${folder}_${stem}|${t}")
+  endforeach()
 endfunction()
 
 # The sources of a plugin folder read by convention (see flipflow_add_plugin).

@@ -9,7 +9,7 @@
 #pragma once
 #include <cstdint>
 
-#include "stages/delaunay/common/atomics.h"
+#include "core/atomics.h"
 #include "stages/delaunay/common/mesh.h"
 
 namespace ff::delaunay {

@@ -20,7 +20,7 @@
 #include <cmath>
 #include <cstdint>
 
-#include "stages/delaunay/common/atomics.h"
+#include "core/atomics.h"
 #include "stages/delaunay/common/mesh.h"
 
 namespace ff::delaunay {

@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstdint>
 
+#include "core/atomics.h"
 #include "core/box.h"
 #include "core/hd.h"
 #include "core/overdamped.h"
@@ -29,6 +30,10 @@ struct OverdampedStep {
   PeriodicBox<R> box;
   RngKey key;
   const StepParams* params;
+  // With max_step: steps longer than it are counted in too_far[0], the lowest such particle
+  // kept in too_far[1] (the stage then asks for a rollback); null: no check.
+  unsigned* too_far = nullptr;
+  double max_step2 = 0;
 
   static constexpr int kNoisePairs = (D + 1) / 2;  // pairs 0 (and 1 in 3D)
   FF_HD std::uint32_t noise_pair(int j) const { return std::uint32_t(j); }
@@ -39,6 +44,7 @@ struct OverdampedStep {
     const int t = type ? type[i] : 0;
     const R amplitude = R(std::sqrt(two_D[t] * params->dt));  // sqrt(2 D Δt)
     if (!velocity && !force) {
+      if (too_far) check(i, nullptr, amplitude, z);
       overdamped_move<R, D>(position, image, box, i, nullptr, amplitude, z);
       return;
     }
@@ -50,7 +56,21 @@ struct OverdampedStep {
       if (force) v = velocity ? v + mu * force[i * D + k] : mu * force[i * D + k];
       drift[k] = v * dt;
     }
+    if (too_far) check(i, drift, amplitude, z);
     overdamped_move<R, D>(position, image, box, i, drift, amplitude, z);
+  }
+  // The step's length against max_step (the move itself is made regardless: a step that fails
+  // the check is rolled back).
+  FF_HD void check(std::size_t i, const R* drift, R amplitude, const double* z) const {
+    double len2 = 0;
+    for (int k = 0; k < D; ++k) {
+      const double d = (drift ? double(drift[k]) : 0.0) + double(amplitude) * z[k];
+      len2 += d * d;
+    }
+    if (len2 > max_step2) {
+      count_one(too_far);
+      keep_min(too_far + 1, unsigned(i));
+    }
   }
   FF_HD void operator()(std::size_t i) const { overdamped_step(*this, i); }
 };

@@ -24,6 +24,7 @@ struct IntegrateParams {
   PerType D{{1.0}};
   PerType mobility{{1.0}};
   std::string drift = "auto";
+  double max_step = 0;
 
   template <class P>
   void describe(P& p) {
@@ -34,6 +35,10 @@ struct IntegrateParams {
       "fields that move particles besides noise: auto (`velocity` and/or `force`, whichever a stage before "
       "creates), none, velocity, force, or velocity+force (those must exist)")
         .one_of({"auto", "none", "velocity", "force", "velocity+force"});
+    p(max_step, "max_step",
+      "longest step a particle may take (σ); a longer one rolls the step back with a smaller Δt instead of going "
+      "on from a blown-up state (0: no check; with a check the step cannot be replayed from a CUDA graph)")
+        .at_least(0);
   }
 };
 
@@ -46,8 +51,9 @@ class Integrate final : public Stage {
   }
 
   template <class Exec>
-  Integrate(const ParamValues& v, const RunInfo&, Exec)
+  Integrate(const ParamValues& v, const RunInfo& info, Exec)
       : p_(params_from<IntegrateParams>(v)),
+        too_far_field_("overdamped.too_far." + info.stage_id),
         where_(Exec::where),
         loop2_(&Exec::template overdamped<OverdampedStep<R, 2>>),
         loop3_(&Exec::template overdamped<OverdampedStep<R, 3>>) {}
@@ -71,6 +77,7 @@ class Integrate final : public Stage {
     types_ = s.species.empty() ? 1 : s.species.size();
     check_per_type("D", p_.D);
     check_per_type("mobility", p_.mobility);
+    if (p_.max_step > 0) s.add_field(too_far_field_, DType::u32, 2, 1);
   }
 
   std::vector<Access> accesses() const override {
@@ -78,6 +85,7 @@ class Integrate final : public Stage {
     if (reads_velocity_) a.push_back({kVelocity, where_, Mode::read});
     if (reads_force_) a.push_back({kForce, where_, Mode::read});
     if (per_type()) a.push_back({fields::type, where_, Mode::read});
+    if (p_.max_step > 0) a.push_back({too_far_field_, Where::host, Mode::write, false, /*step_local=*/true});
     return a;
   }
 
@@ -102,19 +110,47 @@ class Integrate final : public Stage {
       f.box = PeriodicBox<R>::make(s.box.L);
       f.key = ctx.rng;
       f.params = ctx.params;
+      if (p_.max_step > 0) {
+        f.too_far = where_ == Where::device ? s.field(too_far_field_).device<unsigned>()
+                                            : s.field(too_far_field_).host<unsigned>();
+        f.max_step2 = p_.max_step * p_.max_step;
+      }
       return f;
     };
+    if (p_.max_step > 0) {  // zeroed on the host, then on the loop's side
+      Field& c = s.field(too_far_field_);
+      c.acquire(Where::host, Mode::write);
+      c.host<unsigned>()[0] = 0;
+      c.host<unsigned>()[1] = ~0u;
+      c.acquire(where_, Mode::readwrite, ctx.stream);
+    }
     if (s.dim() == 2)
       loop2_(s.n(), step(OverdampedStep<R, 2>{}), ctx.stream);
     else
       loop3_(s.n(), step(OverdampedStep<R, 3>{}), ctx.stream);
+    if (p_.max_step > 0) return too_far(ctx);
     return Outcome::ok();
   }
 
-  // Per-step values come from ctx.params, so a CUDA run can replay this stage from a graph.
-  bool graph_capturable() const override { return true; }
+  // Per-step values come from ctx.params, so a CUDA run can replay this stage from a graph
+  // (not with max_step, whose check the host reads back).
+  bool graph_capturable() const override { return p_.max_step == 0; }
+  bool may_request_rollback() const override { return p_.max_step > 0; }
+  bool requests_rollback_on_device() const override { return false; }
 
  private:
+  Outcome too_far(StepContext& ctx) {
+    Field& c = ctx.state.field(too_far_field_);
+    c.acquire(Where::host, Mode::read, ctx.stream);
+    const unsigned count = c.host<unsigned>()[0], first = c.host<unsigned>()[1];
+    if (!count) return Outcome::ok();
+    return Outcome::request_rollback("overdamped.integrate: " + std::to_string(count) +
+                                         " particle(s) would move farther than max_step = " +
+                                         std::to_string(p_.max_step) + " in one step (the first is particle " +
+                                         std::to_string(first) + ", at Δt = " + std::to_string(ctx.dt) +
+                                         "); the step is retried with a smaller time step",
+                                     {first});
+  }
   bool per_type() const { return !p_.D.uniform() || !p_.mobility.uniform(); }
   void check_per_type(const char* name, const PerType& v) const {
     if (!v.uniform() && v.values.size() != types_)
@@ -129,6 +165,7 @@ class Integrate final : public Stage {
   Where where_;
   ElementLoop<OverdampedStep<R, 2>> loop2_;
   ElementLoop<OverdampedStep<R, 3>> loop3_;
+  std::string too_far_field_;  // u32 x 2: max_step's count and first particle
   bool reads_velocity_ = false, reads_force_ = false;
   std::size_t types_ = 1;
 };

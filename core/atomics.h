@@ -1,10 +1,11 @@
-// Counters that loops bump when something rare happens (an inverted triangle, a flip). The
+// Counters that loops bump when something rare happens (an inverted triangle, a flip, a step
+// too long). The
 // results are sums and minima, so they do not depend on thread count or launch order.
 // FF_HD; host side uses GCC builtins, device side CUDA atomics. nvcc-clean.
 #pragma once
 #include "core/hd.h"
 
-namespace ff::delaunay {
+namespace ff {
 
 FF_HD void count_one(unsigned* p) {
 #if defined(__CUDA_ARCH__)
@@ -39,4 +40,4 @@ FF_HD void record(unsigned* counters, int count_slot, int where_slot, unsigned i
   keep_min(counters + where_slot, id);
 }
 
-}  // namespace ff::delaunay
+}  // namespace ff

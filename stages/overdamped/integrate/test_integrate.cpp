@@ -1,0 +1,159 @@
+// overdamped.integrate: per-type diffusion (MSD = 2·d·D_t·t per type), drift from `force`
+// (μ_t F Δt per step) and from `velocity` + `force`, the max_step guard, and that the
+// brownian.integrate and phoretic.integrate aliases are this stage.
+#include <catch2/catch.hpp>
+#include <cmath>
+
+#include "core/simulation.h"
+#include "support/backends.h"
+#include "support/spec.h"
+#include "support/stage_driver.h"
+#include "support/test_plugins.h"
+
+using namespace ff;
+
+namespace {
+
+std::vector<double> unwrapped(State& s) {
+  Field& x = s.field(fields::position);
+  Field& im = s.field(fields::image);
+  x.acquire(Where::host, Mode::read);
+  im.acquire(Where::host, Mode::read);
+  std::vector<double> u(x.size());
+  for (std::size_t i = 0; i < x.size(); ++i)
+    u[i] = x.host<double>()[i] + im.host<std::int32_t>()[i] * s.box.L[i % s.dim()];
+  return u;
+}
+
+// A state of n particles spread over a box, two types (even i: type 0, odd: type 1), and a
+// constant field `name` = value per component (the force or velocity a model would write).
+std::unique_ptr<State> state(int dim, std::size_t n, std::vector<std::pair<const char*, double>> constant) {
+  auto s = std::make_unique<State>(dim, Precision::f64, n);
+  for (int k = 0; k < dim; ++k) s->box.L[k] = 100;
+  s->species = {"A", "B"};
+  Field& x = s->field(fields::position);
+  Field& t = s->field(fields::type);
+  x.acquire(Where::host, Mode::write);
+  t.acquire(Where::host, Mode::write);
+  for (std::size_t i = 0; i < n; ++i) {
+    t.host<std::int32_t>()[i] = std::int32_t(i % 2);
+    for (int k = 0; k < dim; ++k) x.host<double>()[i * dim + k] = double((i * 7919 + k * 104729) % 10000) / 100.0;
+  }
+  for (auto& [name, value] : constant) {
+    Field& f = s->add_particle_field(name, DType::f64, dim);
+    f.acquire(Where::host, Mode::write);
+    for (std::size_t i = 0; i < f.size(); ++i) f.host<double>()[i] = value;
+  }
+  return s;
+}
+
+const Registry& registry() {
+  static const auto r = test::registry_with({"brownian", "phoretic"});
+  return *r;
+}
+
+ParamValues params(std::map<std::string, ParamValue> set) {
+  ParamValues v = ParamValues::defaults(registry().get("overdamped.integrate").decl.params);
+  for (auto& kv : set) v.set(kv.first, kv.second);
+  return v;
+}
+
+}  // namespace
+
+TEST_CASE("overdamped.integrate: each type diffuses with its own D (MSD = 2·d·D_t·t within 3 standard errors)",
+          "[overdamped][physics]") {
+  const Backend b = GENERATE(from_range(test::backends()));
+  const int dim = GENERATE(2, 3);
+  INFO(to_string(b) << ", " << dim << "D");
+  const std::size_t n = 1u << 14;
+  const double D[2] = {0.25, 1.0}, dt = 0.01;
+  const int steps = 40;
+  auto s = state(dim, n, {});
+  test::StageDriver drive(registry(), "overdamped.integrate", b, Precision::f64, dim,
+                          params({{"D", std::vector<double>{D[0], D[1]}}}), 11);
+  drive.stage->configure(*s);
+  const auto u0 = unwrapped(*s);
+  for (int k = 0; k < steps; ++k) drive.step(*s, std::uint64_t(k), dt);
+  const auto u1 = unwrapped(*s);
+  for (int type = 0; type < 2; ++type) {
+    double m = 0, m2 = 0;
+    std::size_t count = 0;
+    for (std::size_t i = std::size_t(type); i < n; i += 2, ++count) {
+      double d2 = 0;
+      for (int k = 0; k < dim; ++k) d2 += std::pow(u1[i * dim + k] - u0[i * dim + k], 2);
+      m += d2;
+      m2 += d2 * d2;
+    }
+    m /= double(count);
+    const double se = std::sqrt((m2 / double(count) - m * m) / double(count));
+    const double want = 2 * dim * D[type] * steps * dt;
+    INFO("type " << type << ": MSD " << m << " ± " << se << ", want " << want);
+    CHECK(std::fabs(m - want) < 3 * se);
+  }
+}
+
+TEST_CASE("overdamped.integrate: the drift is (v + μ_t F) Δt per step", "[overdamped]") {
+  const Backend b = GENERATE(from_range(test::backends()));
+  const int dim = 2;
+  const std::size_t n = 1000;
+  const double mu[2] = {0.5, 2.0}, F = 0.3, v = -0.1, dt = 0.01;
+  const int steps = 25;
+  for (const char* drift : {"force", "velocity+force", "auto"}) {
+    INFO(to_string(b) << ", drift: " << drift);
+    const bool with_v = std::string(drift) != "force";
+    auto s = with_v ? state(dim, n, {{"force", F}, {"velocity", v}}) : state(dim, n, {{"force", F}});
+    test::StageDriver drive(registry(), "overdamped.integrate", b, Precision::f64, dim,
+                            params({{"D", 0.0}, {"mobility", std::vector<double>{mu[0], mu[1]}},
+                                    {"drift", std::string(drift)}}),
+                            3);
+    drive.stage->configure(*s);
+    const auto u0 = unwrapped(*s);
+    for (int k = 0; k < steps; ++k) drive.step(*s, std::uint64_t(k), dt);
+    const auto u1 = unwrapped(*s);
+    for (std::size_t i = 0; i < n; ++i)
+      for (int k = 0; k < dim; ++k) {
+        const double want = steps * ((with_v ? v : 0.0) + mu[i % 2] * F) * dt;
+        REQUIRE(u1[i * dim + k] - u0[i * dim + k] == Approx(want).margin(1e-9));
+      }
+  }
+}
+
+TEST_CASE("overdamped.integrate: a step longer than max_step asks for a rollback naming the particle",
+          "[overdamped]") {
+  const Backend b = GENERATE(from_range(test::backends()));
+  auto s = state(2, 500, {{"force", 0.0}});
+  // Particle 0's force is large: it alone moves 2 σ in a step of 0.01.
+  Field& f = s->field("force");
+  f.acquire(Where::host, Mode::write);
+  f.host<double>()[0] = 200.0;
+  test::StageDriver drive(registry(), "overdamped.integrate", b, Precision::f64, 2,
+                          params({{"D", 0.0}, {"max_step", 0.5}}), 3);
+  drive.stage->configure(*s);
+  CHECK(drive.stage->may_request_rollback());
+  CHECK_FALSE(drive.stage->graph_capturable());
+  for (auto& a : drive.stage->accesses()) s->field(a.field).acquire(a.where, a.mode, nullptr);
+  StepParams p{0, 0, 0.01, 0};
+  StepContext ctx{*s, drive.info, drive.stats, 0, 0, 0.01, 0, b, nullptr, make_rng_key(3, "x"), drive.metrics};
+  ctx.params = b == Backend::cpu ? &p : nullptr;
+  if (b == Backend::cuda) return;  // the device StepParams are the core's (test_rollback_restores covers CUDA runs)
+  const Outcome o = drive.stage->run(ctx);
+  REQUIRE(o.rollback);
+  CHECK(o.reason.find("max_step") != std::string::npos);
+  REQUIRE(o.particles.size() == 1);
+  CHECK(o.particles[0] == 0);
+  // At a quarter of the time step particle 0 moves 0.5 σ, which does not exceed max_step.
+  p.dt = 0.0025;
+  ctx.dt = 0.0025;
+  CHECK_FALSE(drive.stage->run(ctx).rollback);
+}
+
+TEST_CASE("brownian.integrate and phoretic.integrate are overdamped.integrate configurations", "[overdamped]") {
+  const auto& r = registry();
+  CHECK(r.get("brownian.integrate").decl.summary.find("= overdamped.integrate with drift: none") != std::string::npos);
+  CHECK(r.get("phoretic.integrate").decl.summary.find("drift: velocity") != std::string::npos);
+  // phoretic.integrate keeps its old default D = 0.01; drift is fixed, not a parameter.
+  for (auto& p : r.get("phoretic.integrate").decl.params) {
+    CHECK(p.name != "drift");
+    if (p.name == "D") CHECK(std::get<std::vector<double>>(*p.default_value) == std::vector<double>{0.01});
+  }
+}
