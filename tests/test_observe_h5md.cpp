@@ -108,7 +108,7 @@ std::unique_ptr<observe::H5mdObserver> make_h5md(const std::string& out_dir, std
   info.stage_id = "observe.h5md";
   info.steps = 20;
   info.dt = 0.01;
-  observe::H5mdParams p = observe::H5mdParams::from(ParamValues::defaults(observe::H5mdParams::schema()));
+  observe::H5mdParams p = params_from<observe::H5mdParams>(ParamValues::defaults(schema_of<observe::H5mdParams>()));
   p.fields = std::move(fields);
   return std::make_unique<observe::H5mdObserver>(p, info);
 }

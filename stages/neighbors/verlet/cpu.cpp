@@ -6,7 +6,7 @@
 #include <vector>
 
 #include "core/exec_cpu.h"
-#include "stages/neighbors/verlet/cpu.h"
+#include "stages/neighbors/verlet/stage.h"
 
 namespace ff::neighbors {
 
@@ -23,16 +23,19 @@ std::uint32_t cpu_max(std::size_t n, const F& f, CUstream_st* /*stream*/) {
       [](std::uint32_t a, std::uint32_t b) { return std::max(a, b); });
 }
 
-// Counting sort: O(N + cells), stable (particles of a cell stay in index order).
+// Counting sort: O(N + cells), stable (particles of a cell stay in index order). An empty cell
+// gets start = end = 0, as on the device (cuda.cu clears both and marks only occupied cells), so
+// the fields hold the same bits on both backends.
 void cpu_sort(std::size_t n, std::uint32_t ncells, const std::uint32_t* cell, std::uint32_t* order,
               std::uint32_t* cell_start, std::uint32_t* cell_end, CUstream_st* /*stream*/) {
   std::fill(cell_end, cell_end + ncells, 0u);
   for (std::size_t i = 0; i < n; ++i) ++cell_end[cell[i]];  // counts
   std::uint32_t sum = 0;
   for (std::uint32_t c = 0; c < ncells; ++c) {
-    cell_start[c] = sum;
-    sum += cell_end[c];
+    const std::uint32_t count = cell_end[c];
+    cell_start[c] = count ? sum : 0u;
     cell_end[c] = cell_start[c];  // fill pointer, ends at the cell's end
+    sum += count;
   }
   for (std::size_t i = 0; i < n; ++i) order[cell_end[cell[i]]++] = std::uint32_t(i);
 }
@@ -40,13 +43,13 @@ void cpu_sort(std::size_t n, std::uint32_t ncells, const std::uint32_t* cell, st
 }  // namespace
 
 template <class R>
-VerletLoops<R> cpu_loops() {
+VerletLoops<R> verlet_loops(CpuExec) {
   return {{&cpu_for_each<AssignCell<R, 2>>, &cpu_for_each<BuildList<R, 2>>, &cpu_max<MovedTooFar<R, 2>>},
           {&cpu_for_each<AssignCell<R, 3>>, &cpu_for_each<BuildList<R, 3>>, &cpu_max<MovedTooFar<R, 3>>},
           &cpu_max<CountOf>,
           &cpu_sort};
 }
-template VerletLoops<float> cpu_loops<float>();
-template VerletLoops<double> cpu_loops<double>();
+template VerletLoops<float> verlet_loops<float>(CpuExec);
+template VerletLoops<double> verlet_loops<double>(CpuExec);
 
 }  // namespace ff::neighbors

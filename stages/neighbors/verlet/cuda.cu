@@ -4,7 +4,7 @@
 #include <cub/device/device_radix_sort.cuh>
 
 #include "core/cuda/loop.cuh"
-#include "stages/neighbors/verlet/cuda.cuh"
+#include "stages/neighbors/verlet/stage.h"
 
 namespace ff::neighbors {
 
@@ -84,13 +84,13 @@ void cuda_sort(std::size_t n, std::uint32_t ncells, const std::uint32_t* cell, s
 }  // namespace
 
 template <class R>
-VerletLoops<R> cuda_loops() {
+VerletLoops<R> verlet_loops(CudaExec) {
   return {{&cuda_for_each<AssignCell<R, 2>>, &cuda_for_each<BuildList<R, 2>>, &cuda_max<MovedTooFar<R, 2>>},
           {&cuda_for_each<AssignCell<R, 3>>, &cuda_for_each<BuildList<R, 3>>, &cuda_max<MovedTooFar<R, 3>>},
           &cuda_max<CountOf>,
           &cuda_sort};
 }
-template VerletLoops<float> cuda_loops<float>();
-template VerletLoops<double> cuda_loops<double>();
+template VerletLoops<float> verlet_loops<float>(CudaExec);
+template VerletLoops<double> verlet_loops<double>(CudaExec);
 
 }  // namespace ff::neighbors

@@ -11,6 +11,7 @@
 #include "core/exec.h"
 #include "core/params.h"
 #include "core/stage.h"
+#include "core/stage_registration.h"
 #include "stages/neighbors/list.h"
 #include "stages/neighbors/verlet/kernel.h"
 
@@ -20,13 +21,14 @@ struct VerletParams {
   double cutoff = 2.5;  // pairs closer than this must be in the list
   double skin = 0.5;    // extra radius: the list stays complete until a particle moves skin/2
 
-  static std::vector<ParamSpec> schema() {
-    return {ParamSpec::real("cutoff", 2.5, "interaction cutoff r_c (σ): every pair closer is listed").above(0),
-            ParamSpec::real("skin", 0.5, "Verlet skin (σ): lists hold pairs within r_c + skin and are rebuilt "
-                                         "when a particle has moved more than skin/2")
-                .above(0)};
+  template <class P>
+  void describe(P& p) {
+    p(cutoff, "cutoff", "interaction cutoff r_c (σ): every pair closer is listed").above(0);
+    p(skin, "skin",
+      "Verlet skin (σ): lists hold pairs within r_c + skin and are rebuilt when a particle has moved more than "
+      "skin/2")
+        .above(0);
   }
-  static VerletParams from(const ParamValues& v) { return {v.real("cutoff"), v.real("skin")}; }
 };
 
 // Max over i of f(i), computed by the backend (deterministic: max is order-independent).
@@ -53,10 +55,24 @@ struct VerletLoops {
   CellSort sort;
 };
 
+// The loops of each backend (cpu.cpp, cuda.cu).
+template <class R>
+VerletLoops<R> verlet_loops(CpuExec);
+template <class R>
+VerletLoops<R> verlet_loops(CudaExec);
+
 template <class R>
 class Verlet final : public Stage {
  public:
-  Verlet(VerletParams p, Where where, VerletLoops<R> loops) : p_(p), where_(where), loops_(loops) {}
+  static StageDecl declaration() {
+    return {"neighbors.verlet",
+            "cell list + Verlet list (fields neighbors.list/count), rebuilt when a particle moved > skin/2",
+            schema_of<VerletParams>(), {2, 3}, false};
+  }
+
+  template <class Exec>
+  Verlet(const ParamValues& v, const RunInfo&, Exec)
+      : p_(params_from<VerletParams>(v)), where_(Exec::where), loops_(verlet_loops<R>(Exec{})) {}
 
   std::vector<Access> accesses() const override {
     std::vector<Access> a{{fields::position, where_, Mode::read}};
@@ -190,3 +206,5 @@ class Verlet final : public Stage {
 };
 
 }  // namespace ff::neighbors
+
+FLIPFLOW_STAGE(ff::neighbors::Verlet)

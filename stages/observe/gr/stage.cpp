@@ -36,20 +36,6 @@ void to_double(const Field& f, std::vector<double>& out) {
 }
 }  // namespace
 
-std::vector<ParamSpec> GrParams::schema() {
-  return {ParamSpec::real("r_max", 3.0, "largest distance histogrammed, in units of σ (the mean diameter)").above(0),
-          ParamSpec::integer("bins", 150, "histogram bins over [0, r_max)").at_least(1),
-          ParamSpec::real("fit_width", 0.1,
-                          "g(σ⁺) is a quadratic fit over the bins in [σ, σ + fit_width·σ] (at least three), in σ")
-              .above(0),
-          ParamSpec::integer("from_step", 0, "ignore calls before this step (equilibration)").at_least(0),
-          ParamSpec::string("file", std::string("gr.csv"), "CSV output, relative to the run's output directory")};
-}
-
-GrParams GrParams::from(const ParamValues& v) {
-  return GrParams{v.real("r_max"), v.integer("bins"), v.real("fit_width"), v.integer("from_step"), v.string("file")};
-}
-
 void count_pairs(const std::vector<double>& xyz, int dim, const double* L, const int* cells, double r_max,
                  std::vector<std::uint64_t>& hist) {
   const std::size_t n = xyz.size() / std::size_t(dim);

@@ -20,6 +20,7 @@
 
 #include "core/params.h"
 #include "core/stage.h"
+#include "core/stage_registration.h"
 
 namespace ff::observe {
 
@@ -30,8 +31,16 @@ struct GrParams {
   std::int64_t from_step = 0;
   std::string file = "gr.csv";
 
-  static std::vector<ParamSpec> schema();
-  static GrParams from(const ParamValues& v);
+  template <class P>
+  void describe(P& p) {
+    p(r_max, "r_max", "largest distance histogrammed, in units of σ (the mean diameter)").above(0);
+    p(bins, "bins", "histogram bins over [0, r_max)").at_least(1);
+    p(fit_width, "fit_width",
+      "g(σ⁺) is a quadratic fit over the bins in [σ, σ + fit_width·σ] (at least three), in σ")
+        .above(0);
+    p(from_step, "from_step", "ignore calls before this step (equilibration)").at_least(0);
+    p(file, "file", "CSV output, relative to the run's output directory");
+  }
 };
 
 // One frame's pair counts: hist[k] += unordered pairs with r in [k·dr, (k+1)·dr), r < r_max.
@@ -46,6 +55,15 @@ double contact_value(const std::vector<double>& g, double dr, double sigma, doub
 
 class Gr final : public Stage {
  public:
+  static StageDecl declaration() {
+    return {"observe.gr",
+            "pair distribution g(r) accumulated over calls (cell list); metrics g_contact = g(σ⁺) and the "
+            "hard-core pressure Z; writes gr.csv",
+            schema_of<GrParams>(), {2, 3}, true};
+  }
+
+  // Host accesses: on the CUDA backend the core brings the fields to the host.
+  Gr(const ParamValues& v, const RunInfo& info) : Gr(params_from<GrParams>(v), info) {}
   Gr(GrParams p, RunInfo info) : p_(std::move(p)), info_(std::move(info)) {}
 
   std::vector<Access> accesses() const override {
@@ -81,3 +99,5 @@ class Gr final : public Stage {
 };
 
 }  // namespace ff::observe
+
+FLIPFLOW_HOST_STAGE(ff::observe::Gr)

@@ -12,6 +12,7 @@
 
 #include "core/params.h"
 #include "core/stage.h"
+#include "core/stage_registration.h"
 #include "stages/observe/h5md/async_writer.h"
 
 namespace ff::observe {
@@ -21,15 +22,11 @@ struct H5mdParams {
   std::vector<std::string> fields{"position", "image"};
   bool observables = true;
 
-  static std::vector<ParamSpec> schema() {
-    return {ParamSpec::string("file", std::string("trajectory.h5"),
-                              "output file, relative to the run's output directory"),
-            ParamSpec::strings("fields", {"position", "image"},
-                               "state fields to write each frame (per-particle fields, or triangle lists)"),
-            ParamSpec::boolean("observables", true, "write Δt, rollbacks and every stage metric under /observables")};
-  }
-  static H5mdParams from(const ParamValues& v) {
-    return H5mdParams{v.string("file"), v.strings("fields"), v.boolean("observables")};
+  template <class P>
+  void describe(P& p) {
+    p(file, "file", "output file, relative to the run's output directory");
+    p(fields, "fields", "state fields to write each frame (per-particle fields, or triangle lists)");
+    p(observables, "observables", "write Δt, rollbacks and every stage metric under /observables");
   }
 };
 
@@ -37,6 +34,13 @@ class H5mdObserver final : public Stage {
  public:
   static constexpr std::size_t queue_depth = 2;  // frames waiting for the writer thread
 
+  static StageDecl declaration() {
+    return {"observe.h5md", "write fields and observables to an H5MD trajectory (written by a background thread)",
+            schema_of<H5mdParams>(), {2, 3}, true};
+  }
+
+  // Host accesses: on the CUDA backend the core brings the fields to the host.
+  H5mdObserver(const ParamValues& v, const RunInfo& info) : H5mdObserver(params_from<H5mdParams>(v), info) {}
   H5mdObserver(H5mdParams p, RunInfo info) : p_(std::move(p)), info_(std::move(info)) {}
 
   std::vector<Access> accesses() const override;
@@ -62,3 +66,5 @@ class H5mdObserver final : public Stage {
 };
 
 }  // namespace ff::observe
+
+FLIPFLOW_HOST_STAGE(ff::observe::H5mdObserver)

@@ -1,4 +1,4 @@
-#include "stages/observe/msd/cpu.h"
+#include "stages/observe/msd/stage.h"
 
 #include <oneapi/tbb/blocked_range.h>
 #include <oneapi/tbb/parallel_for.h>

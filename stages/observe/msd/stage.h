@@ -5,12 +5,27 @@
 #include <vector>
 
 #include "core/stage.h"
-#include "stages/observe/msd/cpu.h"
+#include "core/stage_registration.h"
+#include "core/state.h"
 
 namespace ff::observe {
 
+// Unwrapped positions (position + image·L) of every particle, n x dim doubles (cpu.cpp).
+void unwrapped_positions(const State& s, std::vector<double>& out);
+// Σ_i |unwrapped_i - reference_i|², summed in a fixed order: the same bits for any thread count.
+double sum_squared_displacement(const State& s, const std::vector<double>& reference);
+
 class Msd final : public Stage {
  public:
+  static StageDecl declaration() {
+    return {"observe.msd", "mean-squared displacement of unwrapped positions since the first run (metric `msd`)",
+            {}, {2, 3}, true};
+  }
+
+  Msd() = default;
+  // Host accesses: on the CUDA backend the core brings the fields to the host.
+  Msd(const ParamValues&, const RunInfo&) {}
+
   std::vector<Access> accesses() const override {
     return {{fields::position, Where::host, Mode::read}, {fields::image, Where::host, Mode::read}};
   }
@@ -28,3 +43,5 @@ class Msd final : public Stage {
 };
 
 }  // namespace ff::observe
+
+FLIPFLOW_HOST_STAGE(ff::observe::Msd)

@@ -10,17 +10,17 @@
 
 #include "core/params.h"
 #include "core/stage.h"
+#include "core/stage_registration.h"
 
 namespace ff::observe {
 
 struct ProgressParams {
   double interval = 10;  // seconds between lines when the output is not a terminal
 
-  static std::vector<ParamSpec> schema() {
-    return {ParamSpec::real("interval", 10.0, "seconds between progress lines when stderr is not a terminal")
-                .at_least(0)};
+  template <class P>
+  void describe(P& p) {
+    p(interval, "interval", "seconds between progress lines when stderr is not a terminal").at_least(0);
   }
-  static ProgressParams from(const ParamValues& v) { return ProgressParams{v.real("interval")}; }
 };
 
 struct ProgressLine {
@@ -39,6 +39,13 @@ std::string format_duration(double seconds);
 
 class Progress final : public Stage {
  public:
+  static StageDecl declaration() {
+    return {"observe.progress", "progress on the terminal (steps/s, ETA), a line every `interval` s in logs",
+            schema_of<ProgressParams>(), {2, 3}, true};
+  }
+
+  // Host-only (reads no fields): the same on every backend. Lines go to stderr.
+  Progress(const ParamValues& v, const RunInfo& info) : Progress(params_from<ProgressParams>(v), info) {}
   // `out` is where lines go (stderr in a run; tests pass a file).
   Progress(ProgressParams p, RunInfo info, std::FILE* out = stderr);
 
@@ -60,3 +67,5 @@ class Progress final : public Stage {
 };
 
 }  // namespace ff::observe
+
+FLIPFLOW_HOST_STAGE(ff::observe::Progress)
