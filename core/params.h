@@ -133,18 +133,26 @@ class Schema {
 class Read {
  public:
   explicit Read(const ParamValues& v) : v_(v) {}
-  ParamSpec& operator()(double& m, const char* name, const char*) { m = v_.real(name); return ignored_; }
-  ParamSpec& operator()(std::int64_t& m, const char* name, const char*) { m = v_.integer(name); return ignored_; }
-  ParamSpec& operator()(bool& m, const char* name, const char*) { m = v_.boolean(name); return ignored_; }
-  ParamSpec& operator()(std::string& m, const char* name, const char*) { m = v_.string(name); return ignored_; }
+  // A key the values lack (a stage built from code with only some parameters) keeps the
+  // member's default; the pipeline loader always gives every key.
+  ParamSpec& operator()(double& m, const char* name, const char*) { return get(m, name, &ParamValues::real); }
+  ParamSpec& operator()(std::int64_t& m, const char* name, const char*) { return get(m, name, &ParamValues::integer); }
+  ParamSpec& operator()(bool& m, const char* name, const char*) { return get(m, name, &ParamValues::boolean); }
+  ParamSpec& operator()(std::string& m, const char* name, const char*) { return get(m, name, &ParamValues::string); }
   ParamSpec& operator()(std::vector<std::string>& m, const char* name, const char*) {
-    m = v_.strings(name);
-    return ignored_;
+    return get(m, name, &ParamValues::strings);
   }
-  ParamSpec& operator()(std::vector<double>& m, const char* name, const char*) { m = v_.reals(name); return ignored_; }
-  ParamSpec& operator()(PerType& m, const char* name, const char*) { m.values = v_.reals(name); return ignored_; }
+  ParamSpec& operator()(std::vector<double>& m, const char* name, const char*) {
+    return get(m, name, &ParamValues::reals);
+  }
+  ParamSpec& operator()(PerType& m, const char* name, const char*) { return get(m.values, name, &ParamValues::reals); }
 
  private:
+  template <class T, class Getter>
+  ParamSpec& get(T& m, const char* name, Getter getter) {
+    if (v_.has(name)) m = (v_.*getter)(name);
+    return ignored_;
+  }
   const ParamValues& v_;
   ParamSpec ignored_;  // the bounds chained after a member only matter to the schema
 };
