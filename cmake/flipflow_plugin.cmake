@@ -26,6 +26,14 @@ function(flipflow_add_plugin)
       list(REMOVE_ITEM srcs ${CMAKE_CURRENT_SOURCE_DIR}/${x})
     endforeach()
   endif()
+  # No contracted multiply-adds on the device: the CUDA loops then round exactly as the CPU
+  # loops (built with -ffp-contract=off) do, so CPU and CUDA runs give the same bits. A
+  # compute-bound kernel may set -fmad=true on its own file (and give up that promise).
+  set(cu_srcs ${srcs})
+  list(FILTER cu_srcs INCLUDE REGEX "\\.cu$")
+  if(cu_srcs)
+    set_source_files_properties(${cu_srcs} PROPERTIES COMPILE_OPTIONS "-fmad=false")
+  endif()
   add_library(${target} MODULE ${srcs})
   target_link_libraries(${target} PRIVATE ${FLIPFLOW_CORE_TARGET} ${P_LIBS})
   set_target_properties(${target} PROPERTIES

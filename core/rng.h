@@ -11,12 +11,12 @@
 // [−3, 3], so the numbers have exactly unit variance. Truncation bounds the largest
 // displacement in a step, which keeps the triangulation repairable.
 //
-// Box–Muller's log and sincos are written here (musl's fdlibm polynomials, < 1 ulp), not taken
-// from the platform's libm: branch-free code that a CPU loop vectorizes over particles, the
-// same on both backends, and sincos(2πu) needs no general range reduction because u ∈ (0, 1]
-// reduces exactly to a quadrant. gaussian_pair_lanes (host loops) gives bit-identical numbers
-// to gaussian_pair as long as its translation unit does not contract a·b + c into fma (the
-// CPU loops are built with -ffp-contract=off); on CUDA nvcc may fuse, a difference of ulps.
+// Box–Muller's log and sincos are core/math.h's (musl's fdlibm polynomials, < 1 ulp), not the
+// platform's libm: branch-free code that a CPU loop vectorizes over particles, the same on both
+// backends, and sincos(2πu) needs no general range reduction because u ∈ (0, 1] reduces exactly
+// to a quadrant. The numbers are the same bits on every path (gaussian_pair_lanes in the host
+// loops, gaussian_pair per thread on CUDA) as long as no translation unit contracts a·b + c
+// into fma: the CPU loops are built with -ffp-contract=off, the CUDA loops with -fmad=false.
 #pragma once
 #include <Random123/philox.h>
 
@@ -25,6 +25,7 @@
 #include <cstring>
 
 #include "core/hd.h"
+#include "core/math.h"
 
 // The host's AVX2 Philox lanes (below); never in code nvcc sees.
 #if defined(__AVX2__) && !defined(__CUDACC__) && !defined(FF_RNG_NO_AVX2)
@@ -75,73 +76,18 @@ FF_HD double u01_open0(std::uint32_t hi, std::uint32_t lo) {
   return (h * 2097152.0 + double(std::int32_t(lo >> 11)) + 1.0) * (1.0 / 9007199254740992.0);
 }
 
-FF_HD std::uint64_t bits_of(double x) {
-#if defined(__CUDA_ARCH__)
-  return std::uint64_t(__double_as_longlong(x));
-#else
-  std::uint64_t u;
-  std::memcpy(&u, &x, sizeof u);
-  return u;
-#endif
-}
-
-FF_HD double from_bits(std::uint64_t u) {
-#if defined(__CUDA_ARCH__)
-  return __longlong_as_double(static_cast<long long>(u));
-#else
-  double x;
-  std::memcpy(&x, &u, sizeof x);
-  return x;
-#endif
-}
-
-// log(u) for a normal positive u (musl's fdlibm e_log.c main path, < 1 ulp): u = 2^k (1 + f)
-// with 1 + f in [√2/2, √2), log(1 + f) = f − f²/2 + s (f²/2 + R(s²)), s = f / (2 + f).
-FF_HD double log_positive(double u) {
-  constexpr double ln2_hi = 0x1.62e42fee00000p-1, ln2_lo = 0x1.a39ef35793c76p-33;
-  constexpr double Lg1 = 0x1.5555555555593p-1, Lg2 = 0x1.999999997fa04p-2, Lg3 = 0x1.2492494229359p-2,
-                   Lg4 = 0x1.c71c51d8e78afp-3, Lg5 = 0x1.7466496cb03dep-3, Lg6 = 0x1.39a09d078c69fp-3,
-                   Lg7 = 0x1.2f112df3e5244p-3;
-  const std::uint64_t ix = bits_of(u) + (0x3ff0000000000000ull - 0x3fe6a09e00000000ull);
-  // k + 1023 is ix's exponent field; 2^52 + (k + 1023) − (2^52 + 1023) is k, exactly.
-  const double k = from_bits(0x4330000000000000ull | (ix >> 52)) - 4503599627371519.0;
-  const double f = from_bits((ix & 0x000fffffffffffffull) + 0x3fe6a09e00000000ull) - 1.0;
-  const double hfsq = 0.5 * f * f;
-  const double s = f / (2.0 + f);
-  const double z = s * s;
-  const double w = z * z;
-  const double t1 = w * (Lg2 + w * (Lg4 + w * Lg6));
-  const double t2 = z * (Lg1 + w * (Lg3 + w * (Lg5 + w * Lg7)));
-  const double R = t2 + t1;
-  return s * (hfsq + R) + k * ln2_lo - hfsq + f + k * ln2_hi;
-}
+// The elementary functions are core/math.h's, shared with the physics kernels.
+using math::log_positive;
 
 // cos(2πu) and sin(2πu) for u in [0, 1]: 4u = q + r exactly (q = rint(4u), |r| ≤ 1/2), then
-// musl's __cos/__sin kernels (< 1 ulp on [−π/4, π/4]) at x = r·π/2 and the quadrant q.
+// the sin/cos kernels of core/math.h at x = r·π/2 (exact argument, no general reduction) and
+// the quadrant q.
 FF_HD void sincos_2pi(double u, double& s_out, double& c_out) {
-  constexpr double C1 = 0x1.555555555554cp-5, C2 = -0x1.6c16c16c15177p-10, C3 = 0x1.a01a019cb1590p-16,
-                   C4 = -0x1.27e4f809c52adp-22, C5 = 0x1.1ee9ebdb4b1c4p-29, C6 = -0x1.8fae9be8838d4p-37;
-  constexpr double S1 = -0x1.5555555555549p-3, S2 = 0x1.111111110f8a6p-7, S3 = -0x1.a01a019c161d5p-13,
-                   S4 = 0x1.71de357b1fe7dp-19, S5 = -0x1.ae5e68a2b9cebp-26, S6 = 0x1.5d93a5acfd57cp-33;
   constexpr double kHalfPi = 1.5707963267948966;
   const double t = 4.0 * u;
   const double q = std::rint(t);
   const double x = (t - q) * kHalfPi;
-  const double z = x * x;
-  const double w = z * z;
-  const double rs = S2 + z * (S3 + z * S4) + z * w * (S5 + z * S6);
-  const double sn = x + z * x * (S1 + z * rs);
-  const double rc = z * (C1 + z * (C2 + z * C3)) + w * w * (C4 + z * (C5 + z * C6));
-  const double hz = 0.5 * z;
-  const double one_minus_hz = 1.0 - hz;
-  const double cs = one_minus_hz + (((1.0 - one_minus_hz) - hz) + z * rc);
-  // Quadrant q mod 4: odd ones swap sin and cos; sin is negative in 2 and 3, cos in 1 and 2.
-  // (Arithmetic instead of branches keeps the loops over lanes vectorizable; ×±1 is exact.)
-  const int quadrant = int(q) & 3;
-  const double odd = double(quadrant & 1);
-  const double s_abs = odd * cs + (1.0 - odd) * sn, c_abs = odd * sn + (1.0 - odd) * cs;
-  s_out = s_abs * double(1 - (quadrant & 2));
-  c_out = c_abs * double(1 - ((quadrant + 1) & 2));
+  math::quadrant_sincos(int(q), math::kernel_sin(x), math::kernel_cos(x), s_out, c_out);
 }
 
 // Box–Muller on one Philox output (before truncation and rescaling).

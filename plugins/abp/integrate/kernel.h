@@ -9,6 +9,8 @@
 // so rounding never accumulates. Self-propulsion uses the orientation at the start of the step.
 // The noise is the truncated, variance-corrected Gaussian of core/rng.h; each quantity has its
 // own pair indices (translation: pairs 0-1, rotation: pairs 2-3), so none share numbers.
+// sin and cos are core/math.h's (in double for either precision, then rounded to R): the CPU and
+// CUDA loops give the same bits (with the CUDA loop built without fma contraction, -fmad=false).
 #pragma once
 #include <cmath>
 #include <cstdint>
@@ -16,6 +18,7 @@
 #include "core/box.h"
 #include "core/overdamped.h"
 #include "core/hd.h"
+#include "core/math.h"
 #include "core/rng.h"
 
 namespace ff::abp {
@@ -63,12 +66,10 @@ struct AbpStep {
     R e[3];
     if constexpr (D == 2) {
       const R th = orientation_in[i];
-#if defined(__CUDA_ARCH__)
-      sincos(th, &e[1], &e[0]);  // one argument reduction for both (CUDA's sin and cos, same bits)
-#else
-      e[0] = std::cos(th);
-      e[1] = std::sin(th);
-#endif
+      double s, c;
+      math::sincos(double(th), s, c);  // core/math.h: the same bits on both backends
+      e[0] = R(c);
+      e[1] = R(s);
       orientation[i] = wrap_angle(th + rot_amp * R(eta[0]));
     } else {
       for (int k = 0; k < 3; ++k) e[k] = orientation_in[i * 3 + k];
@@ -88,7 +89,9 @@ struct AbpStep {
     R r[3] = {e[0], e[1], e[2]};
     if (angle > R(0)) {
       for (int k = 0; k < 3; ++k) w[k] /= angle;
-      const R c = std::cos(angle), s = std::sin(angle);
+      double sd, cd;
+      math::sincos(double(angle), sd, cd);
+      const R c = R(cd), s = R(sd);
       const R dot = w[0] * e[0] + w[1] * e[1] + w[2] * e[2];
       const R cross[3] = {w[1] * e[2] - w[2] * e[1], w[2] * e[0] - w[0] * e[2], w[0] * e[1] - w[1] * e[0]};
       for (int k = 0; k < 3; ++k) r[k] = e[k] * c + cross[k] * s + w[k] * dot * (R(1) - c);
@@ -114,8 +117,10 @@ struct RandomOrientation {
       const double z = 2 * u0 - 1;
       const double phi = 2 * kPi * uniform01(key, p, 0, 0, 1);
       const double rho = std::sqrt(std::fmax(0.0, 1 - z * z));
-      orientation[i * 3 + 0] = R(rho * std::cos(phi));
-      orientation[i * 3 + 1] = R(rho * std::sin(phi));
+      double s, c;
+      math::sincos(phi, s, c);
+      orientation[i * 3 + 0] = R(rho * c);
+      orientation[i * 3 + 1] = R(rho * s);
       orientation[i * 3 + 2] = R(z);
     }
   }

@@ -13,6 +13,7 @@
 
 #include "core/box.h"
 #include "core/hd.h"
+#include "core/math.h"
 
 namespace ff::phoretic {
 
@@ -68,20 +69,22 @@ FF_HD void add_long_range(R* acc, const R* xi, const R* xk, R alpha_k, const Per
   for (int c = 0; c < D; ++c) acc[c] += s * d[c];
 }
 
-// acc += α_k d / |d|^7 for 0 < |d| ≤ cutoff.
+// acc += α_k d / |d|^7 for 0 < |d| ≤ cutoff. The same bits on the CPU and CUDA: the products
+// that feed a sum are math::mul_rn, which nvcc cannot fuse into an fma (forces/cuda.cu keeps
+// contraction for the all-pairs kernel; box.min_image needs none: L·rint(d/L) is L·{−1, 0, 1}).
 template <class R, int D>
 FF_HD void add_short_range(R* acc, const R* xi, const R* xk, R alpha_k, const PeriodicBox<R>& box, R cutoff2) {
   R d[D];
   R r2 = 0;
   for (int c = 0; c < D; ++c) {
     d[c] = box.min_image(xi[c] - xk[c], c);
-    r2 += d[c] * d[c];
+    r2 += math::mul_rn(d[c], d[c]);
   }
   if (r2 > R(0) && r2 <= cutoff2) {
     const R inv_r = R(1) / std::sqrt(r2);
     const R inv_r2 = inv_r * inv_r;
     const R s = alpha_k * inv_r2 * inv_r2 * inv_r2 * inv_r;
-    for (int c = 0; c < D; ++c) acc[c] += s * d[c];
+    for (int c = 0; c < D; ++c) acc[c] += math::mul_rn(s, d[c]);
   }
 }
 
