@@ -74,7 +74,10 @@ std::vector<std::string> plugin_search_path() {
     }
   }
   const fs::path exe_dir = boost::dll::program_location().parent_path().string();
-  path.push_back((exe_dir / ".." / "plugins").lexically_normal().string());
+  path.push_back((exe_dir / ".." / "plugins").lexically_normal().string());  // a build tree
+  // An installed tree (cmake --install, cmake/install.cmake): <prefix>/bin/pipeline and
+  // <prefix>/lib/flipflow/plugins.
+  path.push_back((exe_dir / ".." / "lib" / "flipflow" / "plugins").lexically_normal().string());
   return path;
 }
 
@@ -90,7 +93,8 @@ std::string find_plugin(const std::string& name, const std::vector<std::string>&
   std::string dirs;
   for (auto& d : path) dirs += "\n  " + d;
   throw InputError("plugin '" + name + "' not found: no " + kPluginPrefix + name +
-                   ".so in the plugin search path (FLIPFLOW_PLUGIN_PATH, then the build's plugins/):" + dirs);
+                   ".so in the plugin search path (FLIPFLOW_PLUGIN_PATH, then the build's or the install's "
+                   "plugin folder):" + dirs);
 }
 
 std::vector<std::string> find_stage_libraries(const std::vector<std::string>& path) {

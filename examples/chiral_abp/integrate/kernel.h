@@ -1,0 +1,83 @@
+// Chiral active Brownian particles in 2D, "circle swimmers" (van Teeffelen & Löwen, PRE 78,
+// 020101 (2008)): one Euler–Maruyama step per particle,
+//
+//   θ += ω Δt + sqrt(2 D_r Δt) η                e(θ) = (cos θ, sin θ)
+//   x += v0 e(θ) Δt + sqrt(2 D Δt) ξ
+//
+// With D_r = 0 a particle runs around a circle of radius v0/|ω| (counter-clockwise for ω > 0).
+// Self-propulsion uses the orientation at the start of the step. Everything here is flipflow's:
+// the Gaussians (core/rng.h, drawn 16 particles at a time on the CPU by the overdamped loop),
+// the position update with its periodic wrap (core/overdamped.h, core/box.h) and sin/cos
+// (core/math.h: the same bits on the CPU and the GPU). The noise pairs are abp.integrate's:
+// translation pair 0 (ξ = z[0], z[1]), rotation pair 2 (η = z[2]). nvcc-clean.
+#pragma once
+#include <cmath>
+#include <cstdint>
+
+#include "core/box.h"
+#include "core/hd.h"
+#include "core/math.h"
+#include "core/overdamped.h"
+#include "core/rng.h"
+
+namespace chiral_abp {
+
+constexpr std::uint32_t kTranslationPair = 0;
+constexpr std::uint32_t kRotationPair = 2;
+constexpr double kPi = 3.14159265358979323846;
+
+// θ brought into [-π, π) (keeps float angles precise over long runs).
+template <class R>
+FF_HD R wrap_angle(R theta) {
+  const R two_pi = R(2 * kPi);
+  return theta - two_pi * std::floor((theta + R(kPi)) / two_pi);
+}
+
+template <class R>
+struct ChiralStep {
+  // Particle i is read from the *_in arrays and written to the others (the same arrays, or the
+  // previous step's kept by the rollback snapshot: see stage.h).
+  const R* position_in;
+  const std::int32_t* image_in;
+  const R* orientation_in;
+  R* position;          // N x 2
+  std::int32_t* image;  // N x 2
+  R* orientation;       // N x 1: θ
+  ff::PeriodicBox<R> box;
+  R v0_dt;      // v0 Δt
+  R omega_dt;   // ω Δt
+  R trans_amp;  // sqrt(2 D Δt)
+  R rot_amp;    // sqrt(2 D_r Δt)
+  ff::RngKey key;
+  std::uint64_t step;
+  std::uint32_t attempt;
+
+  // What the overdamped loop needs (core/overdamped.h): two Gaussian pairs per particle.
+  static constexpr int kNoisePairs = 2;
+  FF_HD std::uint32_t noise_pair(int j) const { return j == 0 ? kTranslationPair : kRotationPair; }
+  FF_HD ff::NoiseCounter noise_counter() const { return {key, step, attempt}; }
+
+  // z[0], z[1]: ξ; z[2]: η.
+  FF_HD void move(std::size_t i, const double* z) const {
+    const R th = orientation_in[i];
+    double s, c;
+    ff::math::sincos(double(th), s, c);
+    const R drift[2] = {v0_dt * R(c), v0_dt * R(s)};
+    orientation[i] = wrap_angle(th + omega_dt + rot_amp * R(z[2]));
+    ff::overdamped_move<R, 2>(position_in, image_in, position, image, box, i, drift, trans_amp, z);
+  }
+
+  FF_HD void operator()(std::size_t i) const { ff::overdamped_step(*this, i); }
+};
+
+// Uniformly random initial angles in [-π, π), keyed by (seed, "chiral_abp.orientation").
+template <class R>
+struct RandomAngle {
+  R* orientation;
+  ff::RngKey key;
+  FF_HD void operator()(std::size_t i) const {
+    orientation[i] = wrap_angle(R(2 * kPi * ff::uniform01(key, std::uint32_t(i), 0, 0, 0) - kPi));
+  }
+};
+
+}  // namespace chiral_abp

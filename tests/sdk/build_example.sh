@@ -1,0 +1,63 @@
+#!/usr/bin/env bash
+# test_sdk_example (tests/CMakeLists.txt): flipflow as an SDK, the way a user outside the
+# repository meets it. Installs this build into a temporary prefix, configures and builds
+# examples/chiral_abp against that prefix alone (never the build or source tree), runs the
+# example's test, and runs its pipeline with the installed `pipeline` and the example's plugin.
+#
+#   tests/sdk/build_example.sh <flipflow build dir> [<flipflow source dir>] [<cmake>]
+#
+# With CUDA in the build the example compiles its CUDA source too (the package enables CUDA);
+# its test also runs on the GPU when there is one. FLIPFLOW_SDK_KEEP=1 keeps the temporary folder.
+set -euo pipefail
+build=$(cd "$1" && pwd)
+src=$(cd "${2:-$(dirname "$0")/../..}" && pwd)
+cmake=${3:-cmake}
+example=$src/examples/chiral_abp
+
+work=$(mktemp -d "${TMPDIR:-/tmp}/flipflow-sdk.XXXXXX")
+if [[ ${FLIPFLOW_SDK_KEEP:-0} == 1 ]]; then echo "keeping $work"; else trap 'rm -rf "$work"' EXIT; fi
+prefix=$work/prefix
+step() { printf '\n== %s (%ds)\n' "$*" "$SECONDS"; }
+
+step "install $build into $prefix"
+"$cmake" --install "$build" --prefix "$prefix" >"$work/install.log"
+for f in bin/pipeline lib/libflipflow.so lib/cmake/flipflow/flipflowConfig.cmake \
+         share/flipflow/sdk/plugin_entry.cpp include/core/stage_registration.h; do
+  [[ -e $prefix/$f ]] || { echo "FAIL: the install lacks $f"; exit 1; }
+done
+ls "$prefix/lib/flipflow/plugins"
+
+step "configure examples/chiral_abp against $prefix only"
+# Nothing from the environment may point find_package elsewhere, nor the package registry.
+unset CMAKE_PREFIX_PATH flipflow_DIR flipflow_ROOT FLIPFLOW_ROOT FLIPFLOW_PLUGIN_PATH
+"$cmake" -S "$example" -B "$work/example" -DCMAKE_BUILD_TYPE=Release \
+  -DCMAKE_PREFIX_PATH="$prefix" -DCMAKE_FIND_USE_PACKAGE_REGISTRY=OFF \
+  -DCMAKE_FIND_USE_SYSTEM_PACKAGE_REGISTRY=OFF >"$work/configure.log" 2>&1 ||
+  { cat "$work/configure.log"; exit 1; }
+found=$(sed -n 's/^flipflow_DIR:PATH=//p' "$work/example/CMakeCache.txt")
+echo "flipflow_DIR = $found"
+[[ $found == "$prefix/lib/cmake/flipflow" ]] || { echo "FAIL: found flipflow at '$found', not in $prefix"; exit 1; }
+grep -q "CMAKE_CUDA_COMPILER:" "$work/example/CMakeCache.txt" && echo "CUDA enabled by the package"
+
+step "build the example"
+"$cmake" --build "$work/example" -j "${FLIPFLOW_SDK_JOBS:-2}" >"$work/build.log" 2>&1 ||
+  { cat "$work/build.log"; exit 1; }
+plugin=$work/example/plugins/libflipflow_plugin_chiral_abp.so
+[[ -f $plugin ]] || { echo "FAIL: no $plugin"; exit 1; }
+# The example's binaries use the installed core, not the build tree's.
+for bin in "$plugin" "$work/example/test_chiral_abp"; do
+  core=$(ldd "$bin" | awk '/libflipflow\.so/ {print $3}')
+  echo "$(basename "$bin") -> $core"
+  [[ $core == "$prefix/lib/libflipflow.so" ]] || { echo "FAIL: $(basename "$bin") loads '$core'"; exit 1; }
+done
+
+step "the example's test"
+"$work/example/test_chiral_abp"
+
+step "pipeline run chiral.yaml (installed pipeline, FLIPFLOW_PLUGIN_PATH=<example build>/plugins)"
+cd "$work"
+FLIPFLOW_PLUGIN_PATH=$work/example/plugins "$prefix/bin/pipeline" stages | grep chiral_abp.integrate
+FLIPFLOW_PLUGIN_PATH=$work/example/plugins "$prefix/bin/pipeline" run "$example/pipelines/chiral.yaml" \
+  --out "$work/run" 2>&1 | tee "$work/run.log"
+[[ -s $work/run/chiral.h5 ]] || { echo "FAIL: the run wrote no chiral.h5"; exit 1; }
+step "passed"
