@@ -14,6 +14,9 @@
 #include "core/stage.h"
 #include "core/state.h"
 #include "core/step_params.h"
+#ifdef FLIPFLOW_HAVE_CUDA
+#include "core/cuda/graph.h"
+#endif
 
 namespace ff::test {
 
@@ -35,18 +38,29 @@ struct StageDriver {
   }
 
   // Step k (time k·dt, first attempt, default stream); the stage must not ask for a rollback.
-  // ctx.params points to a host StepParams on the CPU. On CUDA it stays null: the core gives
-  // graph-capturable stages a device copy (DeviceStepParams), which this driver does not set up;
-  // none of its users drives a stage that reads params (brownian.integrate does).
-  void step(State& s, std::uint64_t k, double dt) {
+  void step(State& s, std::uint64_t k, double dt) { REQUIRE_FALSE(run(s, k, dt).rollback); }
+
+  // The same, returning the stage's outcome. ctx.params points to the step's StepParams on the
+  // stage's side: a host block on the CPU, a device copy on CUDA (as the core keeps one).
+  Outcome run(State& s, std::uint64_t k, double dt) {
     for (auto& a : stage->accesses()) s.field(a.field).acquire(a.where, a.mode, nullptr);
     metrics.clear();
     params = StepParams{k, 0, dt, k * dt};
     StepContext ctx{s, info, stats, k, 0, dt, k * dt, info.backend, nullptr,
                     make_rng_key(info.seed, info.stage_id.c_str()), metrics};
-    ctx.params = info.backend == Backend::cpu ? &params : nullptr;
-    REQUIRE_FALSE(stage->run(ctx).rollback);
+    ctx.params = &params;
+#ifdef FLIPFLOW_HAVE_CUDA
+    if (info.backend == Backend::cuda) {
+      if (!device_params) device_params = std::make_unique<DeviceStepParams>();
+      device_params->set(params, nullptr);
+      ctx.params = device_params->device();
+    }
+#endif
+    return stage->run(ctx);
   }
+#ifdef FLIPFLOW_HAVE_CUDA
+  std::unique_ptr<DeviceStepParams> device_params;  // on first use (CUDA runs only)
+#endif
 
   double metric(const char* name) const { return metrics.values().at(name); }
 };

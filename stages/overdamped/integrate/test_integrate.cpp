@@ -131,20 +131,13 @@ TEST_CASE("overdamped.integrate: a step longer than max_step asks for a rollback
   drive.stage->configure(*s);
   CHECK(drive.stage->may_request_rollback());
   CHECK_FALSE(drive.stage->graph_capturable());
-  for (auto& a : drive.stage->accesses()) s->field(a.field).acquire(a.where, a.mode, nullptr);
-  StepParams p{0, 0, 0.01, 0};
-  StepContext ctx{*s, drive.info, drive.stats, 0, 0, 0.01, 0, b, nullptr, make_rng_key(3, "x"), drive.metrics};
-  ctx.params = b == Backend::cpu ? &p : nullptr;
-  if (b == Backend::cuda) return;  // the device StepParams are the core's (test_rollback_restores covers CUDA runs)
-  const Outcome o = drive.stage->run(ctx);
+  const Outcome o = drive.run(*s, 0, 0.01);
   REQUIRE(o.rollback);
   CHECK(o.reason.find("max_step") != std::string::npos);
   REQUIRE(o.particles.size() == 1);
   CHECK(o.particles[0] == 0);
   // At a quarter of the time step particle 0 moves 0.5 σ, which does not exceed max_step.
-  p.dt = 0.0025;
-  ctx.dt = 0.0025;
-  CHECK_FALSE(drive.stage->run(ctx).rollback);
+  CHECK_FALSE(drive.run(*s, 0, 0.0025).rollback);
 }
 
 TEST_CASE("brownian.integrate and phoretic.integrate are overdamped.integrate configurations", "[overdamped]") {
