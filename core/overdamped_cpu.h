@@ -22,17 +22,20 @@ void cpu_overdamped_for_each(std::size_t n, const F& f, CUstream_st* /*stream*/)
   constexpr int P = F::kNoisePairs;
   const NoiseCounter c = f.noise_counter();
   auto run = [&](std::size_t b0, std::size_t b1) {
+    // A private copy, as cpu_for_each makes: its members stay in registers across the position
+    // writes, which the compiler must otherwise assume may change anything reachable through f.
+    const F local = f;
     for (std::size_t b = b0; b < b1; ++b) {
       const std::size_t first = b * kLanes;
       double z[2 * P][kLanes];
       for (int j = 0; j < P; ++j)
-        gaussian_pair_lanes<int(kLanes)>(c.key, std::uint32_t(first), c.step, c.attempt, f.noise_pair(j), z[2 * j],
+        gaussian_pair_lanes<int(kLanes)>(c.key, std::uint32_t(first), c.step, c.attempt, local.noise_pair(j), z[2 * j],
                                          z[2 * j + 1]);
       const std::size_t m = std::min(kLanes, n - first);
       for (std::size_t l = 0; l < m; ++l) {
         double zl[2 * P];
         for (int k = 0; k < 2 * P; ++k) zl[k] = z[k][l];
-        f.move(first + l, zl);
+        local.move(first + l, zl);
       }
     }
   };

@@ -18,7 +18,12 @@ namespace ff::overdamped {
 
 inline constexpr int kMaxTypes = 16;
 
-template <class R, int D>
+// General = false: noise only, one D for every type, no max_step check — free Brownian motion,
+// whose CPU loop must stay as lean as the plain step (a per-particle type lookup or branch in
+// the element math keeps it from vectorizing). General = true: everything the members say
+// (type tables when `type` is set, drift when `velocity` or `force` is, the check when
+// `too_far` is).
+template <class R, int D, bool General>
 struct OverdampedStep {
   R* position;                // N x D
   std::int32_t* image;        // N x D
@@ -30,8 +35,8 @@ struct OverdampedStep {
   PeriodicBox<R> box;
   RngKey key;
   const StepParams* params;
-  // With max_step: steps longer than it are counted in too_far[0], the lowest such particle
-  // kept in too_far[1] (the stage then asks for a rollback); null: no check.
+  // With max_step (General only): steps longer than it are counted in too_far[0], the lowest
+  // such particle kept in too_far[1] (the stage then asks for a rollback); null: no check.
   unsigned* too_far = nullptr;
   double max_step2 = 0;
 
@@ -41,8 +46,13 @@ struct OverdampedStep {
 
   // z: the particle's Gaussians, z[k] for component k.
   FF_HD void move(std::size_t i, const double* z) const {
+    if constexpr (!General) {
+      const R amplitude = R(std::sqrt(two_D[0] * params->dt));  // sqrt(2 D Δt)
+      overdamped_move<R, D>(position, image, box, i, nullptr, amplitude, z);
+      return;
+    }
     const int t = type ? type[i] : 0;
-    const R amplitude = R(std::sqrt(two_D[t] * params->dt));  // sqrt(2 D Δt)
+    const R amplitude = R(std::sqrt(two_D[t] * params->dt));
     if (!velocity && !force) {
       if (too_far) check(i, nullptr, amplitude, z);
       overdamped_move<R, D>(position, image, box, i, nullptr, amplitude, z);

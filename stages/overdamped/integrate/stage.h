@@ -53,10 +53,10 @@ class Integrate final : public Stage {
   template <class Exec>
   Integrate(const ParamValues& v, const RunInfo& info, Exec)
       : p_(params_from<IntegrateParams>(v)),
-        too_far_field_("overdamped.too_far." + info.stage_id),
         where_(Exec::where),
-        loop2_(&Exec::template overdamped<OverdampedStep<R, 2>>),
-        loop3_(&Exec::template overdamped<OverdampedStep<R, 3>>) {}
+        loops2_(Loops<2>::template make<Exec>()),
+        loops3_(Loops<3>::template make<Exec>()),
+        too_far_field_("overdamped.too_far." + info.stage_id) {}
 
   void configure(State& s) override {
     const bool want_v = p_.drift == "velocity" || p_.drift == "velocity+force";
@@ -125,9 +125,9 @@ class Integrate final : public Stage {
       c.acquire(where_, Mode::readwrite, ctx.stream);
     }
     if (s.dim() == 2)
-      loop2_(s.n(), step(OverdampedStep<R, 2>{}), ctx.stream);
+      loops2_.launch(s.n(), general(), step, ctx.stream);
     else
-      loop3_(s.n(), step(OverdampedStep<R, 3>{}), ctx.stream);
+      loops3_.launch(s.n(), general(), step, ctx.stream);
     if (p_.max_step > 0) return too_far(ctx);
     return Outcome::ok();
   }
@@ -152,6 +152,7 @@ class Integrate final : public Stage {
                                      {first});
   }
   bool per_type() const { return !p_.D.uniform() || !p_.mobility.uniform(); }
+  bool general() const { return reads_velocity_ || reads_force_ || per_type() || p_.max_step > 0; }
   void check_per_type(const char* name, const PerType& v) const {
     if (!v.uniform() && v.values.size() != types_)
       throw InputError(std::string("overdamped.integrate: ") + name + " has " + std::to_string(v.values.size()) +
@@ -163,8 +164,25 @@ class Integrate final : public Stage {
 
   IntegrateParams p_;
   Where where_;
-  ElementLoop<OverdampedStep<R, 2>> loop2_;
-  ElementLoop<OverdampedStep<R, 3>> loop3_;
+  // The plain Brownian loop and the general one (kernel.h says why two).
+  template <int D>
+  struct Loops {
+    ElementLoop<OverdampedStep<R, D, false>> plain;
+    ElementLoop<OverdampedStep<R, D, true>> general;
+    template <class Exec>
+    static Loops make() {
+      return {&Exec::template overdamped<OverdampedStep<R, D, false>>,
+              &Exec::template overdamped<OverdampedStep<R, D, true>>};
+    }
+    // fill(f) sets the functor's members.
+    template <class Fill>
+    void launch(std::size_t n, bool is_general, const Fill& fill, CUstream_st* stream) const {
+      if (is_general) general(n, fill(OverdampedStep<R, D, true>{}), stream);
+      else plain(n, fill(OverdampedStep<R, D, false>{}), stream);
+    }
+  };
+  Loops<2> loops2_;
+  Loops<3> loops3_;
   std::string too_far_field_;  // u32 x 2: max_step's count and first particle
   bool reads_velocity_ = false, reads_force_ = false;
   std::size_t types_ = 1;
