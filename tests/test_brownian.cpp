@@ -8,6 +8,7 @@
 #include "core/simulation.h"
 #include "support/backends.h"
 #include "support/spec.h"
+#include "support/unwrap.h"
 #include "support/test_plugins.h"
 
 using namespace ff;
@@ -15,17 +16,7 @@ using ff::test::dry;
 using ff::test::entry;
 
 namespace {
-template <class R>
-std::vector<double> unwrapped(State& s) {
-  Field& x = s.field(fields::position);
-  Field& im = s.field(fields::image);
-  x.acquire(Where::host, Mode::read);
-  im.acquire(Where::host, Mode::read);
-  std::vector<double> u(x.size());
-  for (std::size_t i = 0; i < x.size(); ++i) u[i] = double(x.host<R>()[i]) + im.host<std::int32_t>()[i] * s.box.L[i % s.dim()];
-  return u;
-}
-
+using test::unwrapped;
 // MSD after `steps` steps and its standard error over particles.
 template <class R>
 std::pair<double, double> msd(int dim, Backend b, Precision p) {

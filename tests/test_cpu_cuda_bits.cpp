@@ -32,6 +32,7 @@
 #include "core/simulation.h"
 #include "support/backends.h"
 #include "support/cli.h"
+#include "support/pipeline.h"
 #include "support/spec.h"
 #include "support/test_plugins.h"
 
@@ -47,24 +48,14 @@ const std::vector<std::string>& pipelines() {
   return p;
 }
 
-struct Loaded {
-  std::unique_ptr<Registry> registry;
-  PipelineSpec spec;
-};
+using Loaded = test::LoadedPipeline;
 
 // The shipped pipeline with `steps` steps in `precision`, compute stages only.
 Loaded load(const std::string& name, std::uint64_t steps, Precision precision) {
-  const std::string file = test::repo_file("pipelines/" + name).string();
-  auto doc = PipelineDocument::parse(
-      file, {"run.steps=" + std::to_string(steps),
-             std::string("run.precision=") + (precision == Precision::f32 ? "float" : "double")});
-  Loaded l{test::registry_with(doc.plugins()), {}};
-  l.spec = doc.resolve(*l.registry);
-  std::vector<StepEntry> compute;
-  for (auto& e : l.spec.step)
-    if (!l.registry->get(e.stage).decl.observer) compute.push_back(e);
-  l.spec.step = compute;
-  return l;
+  return test::load_compute_steps(
+      test::repo_file("pipelines/" + name).string(),
+      {"run.steps=" + std::to_string(steps),
+       std::string("run.precision=") + (precision == Precision::f32 ? "float" : "double")});
 }
 
 struct FieldBytes {

@@ -16,6 +16,7 @@
 #include "core/simulation.h"
 #include "support/backends.h"
 #include "support/cli.h"
+#include "support/pipeline.h"
 #include "support/spec.h"
 #include "support/test_plugins.h"
 
@@ -31,21 +32,10 @@ std::vector<std::string> shipped_pipelines() {
   return out;
 }
 
-// The pipeline at a test size (N = 512, 10 steps), compute stages only (observers write files
-// and cannot request rollbacks).
-struct Loaded {
-  std::unique_ptr<Registry> registry;
-  PipelineSpec spec;
-};
+// The pipeline at a test size (N = 512, 10 steps), compute stages only.
+using Loaded = test::LoadedPipeline;
 Loaded load_small(const std::string& file) {
-  auto doc = PipelineDocument::parse(file, {"system.N=512", "run.steps=10"});
-  Loaded l{test::registry_with(doc.plugins(), {"testing"}), {}};
-  l.spec = doc.resolve(*l.registry);
-  std::vector<StepEntry> compute;
-  for (auto& e : l.spec.step)
-    if (!l.registry->get(e.stage).decl.observer) compute.push_back(e);
-  l.spec.step = compute;
-  return l;
+  return test::load_compute_steps(file, {"system.N=512", "run.steps=10"}, {"testing"});
 }
 
 // Indices of the step entries that may request a rollback.

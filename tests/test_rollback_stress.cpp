@@ -11,24 +11,20 @@
 #include "core/simulation.h"
 #include "support/backends.h"
 #include "support/cli.h"
+#include "support/pipeline.h"
 #include "support/spec.h"
 #include "support/test_plugins.h"
 
 using namespace ff;
 
 namespace {
-struct Loaded {
-  std::unique_ptr<Registry> registry;
-  PipelineSpec spec;
-};
-// abp.yaml without observers, `steps` steps; without delaunay.sort when !sorted.
+using Loaded = test::LoadedPipeline;
+// abp.yaml without observers; without delaunay.sort when !sorted.
 Loaded abp(const std::vector<std::string>& overrides, bool sorted) {
-  auto doc = PipelineDocument::parse(test::repo_file("pipelines/abp.yaml").string(), overrides);
-  Loaded l{test::registry_with(doc.plugins()), {}};
-  l.spec = doc.resolve(*l.registry);
+  Loaded l = test::load_compute_steps(test::repo_file("pipelines/abp.yaml").string(), overrides);
   std::vector<StepEntry> kept;
   for (auto& e : l.spec.step)
-    if (!l.registry->get(e.stage).decl.observer && (sorted || e.stage != "delaunay.sort")) kept.push_back(e);
+    if (sorted || e.stage != "delaunay.sort") kept.push_back(e);
   l.spec.step = kept;
   return l;
 }

@@ -9,21 +9,11 @@
 #include "support/spec.h"
 #include "support/stage_driver.h"
 #include "support/test_plugins.h"
+#include "support/unwrap.h"
 
 using namespace ff;
 
 namespace {
-
-std::vector<double> unwrapped(State& s) {
-  Field& x = s.field(fields::position);
-  Field& im = s.field(fields::image);
-  x.acquire(Where::host, Mode::read);
-  im.acquire(Where::host, Mode::read);
-  std::vector<double> u(x.size());
-  for (std::size_t i = 0; i < x.size(); ++i)
-    u[i] = x.host<double>()[i] + im.host<std::int32_t>()[i] * s.box.L[i % s.dim()];
-  return u;
-}
 
 // A state of n particles spread over a box, two types (even i: type 0, odd: type 1), and a
 // constant field `name` = value per component (the force or velocity a model would write).
@@ -72,9 +62,9 @@ TEST_CASE("overdamped.integrate: each type diffuses with its own D (MSD = 2·d·
   test::StageDriver drive(registry(), "overdamped.integrate", b, Precision::f64, dim,
                           params({{"D", std::vector<double>{D[0], D[1]}}}), 11);
   drive.stage->configure(*s);
-  const auto u0 = unwrapped(*s);
+  const auto u0 = test::unwrapped<double>(*s);
   for (int k = 0; k < steps; ++k) drive.step(*s, std::uint64_t(k), dt);
-  const auto u1 = unwrapped(*s);
+  const auto u1 = test::unwrapped<double>(*s);
   for (int type = 0; type < 2; ++type) {
     double m = 0, m2 = 0;
     std::size_t count = 0;
@@ -107,9 +97,9 @@ TEST_CASE("overdamped.integrate: the drift is (v + μ_t F) Δt per step", "[over
                                     {"drift", std::string(drift)}}),
                             3);
     drive.stage->configure(*s);
-    const auto u0 = unwrapped(*s);
+    const auto u0 = test::unwrapped<double>(*s);
     for (int k = 0; k < steps; ++k) drive.step(*s, std::uint64_t(k), dt);
-    const auto u1 = unwrapped(*s);
+    const auto u1 = test::unwrapped<double>(*s);
     for (std::size_t i = 0; i < n; ++i)
       for (int k = 0; k < dim; ++k) {
         const double want = steps * ((with_v ? v : 0.0) + mu[i % 2] * F) * dt;
