@@ -135,6 +135,8 @@ class Integrate final : public Stage {
   // Per-step values come from ctx.params, so a CUDA run can replay this stage from a graph
   // (not with max_step, whose check the host reads back).
   bool graph_capturable() const override { return p_.max_step == 0; }
+  // Δt, step and attempt reach the kernels through ctx.params in every configuration.
+  bool reads_step_params() const override { return true; }
   bool may_request_rollback() const override { return p_.max_step > 0; }
   bool requests_rollback_on_device() const override { return false; }
 

@@ -140,3 +140,25 @@ TEST_CASE("brownian.integrate and phoretic.integrate are overdamped.integrate co
     if (p.name == "D") CHECK(std::get<std::vector<double>>(*p.default_value) == std::vector<double>{0.01});
   }
 }
+
+TEST_CASE("overdamped.integrate: max_step in a run rolls steps back until they are short enough",
+          "[overdamped][rollback]") {
+  // Through the core (its StepParams on each backend, the rollback snapshot): sqrt(2 D Δt) = 0.32
+  // per component at Δt = 0.05, so max_step = 0.3 needs a smaller Δt on most steps.
+  const Backend b = GENERATE(from_range(test::backends()));
+  INFO(to_string(b));
+  const auto& r = registry();
+  auto s = test::spec(2, 1024, 0.1, 20, 0.05,
+                      {test::entry(r, "overdamped.integrate", {{"D", 1.0}, {"max_step", 0.3}})}, 5);
+  s.run.dt_min = 1e-6;
+  Simulation sim(s, r, test::dry(b));
+  const auto u0 = test::unwrapped<double>(sim.state());
+  for (int k = 0; k < 20; ++k) sim.advance();
+  const auto u1 = test::unwrapped<double>(sim.state());
+  CHECK(sim.stats().rollbacks > 0);
+  CHECK(sim.state().time < 20 * 0.05);
+  double longest = 0;
+  for (std::size_t i = 0; i + 1 < u0.size(); i += 2)
+    longest = std::max(longest, std::hypot(u1[i] - u0[i], u1[i + 1] - u0[i + 1]));
+  CHECK(longest > 0);
+}
