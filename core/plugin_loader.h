@@ -1,5 +1,6 @@
 // Finds and loads plugin libraries with Boost.DLL. Search path: the directories in
-// FLIPFLOW_PLUGIN_PATH (colon-separated) first, then ../plugins next to the executable.
+// FLIPFLOW_PLUGIN_PATH (colon-separated) first, then ../plugins (a build tree) and
+// ../lib/flipflow/plugins (an installed tree) next to the executable.
 //
 // Standard stage libraries are named libflipflow_stage_<name>.so and are always loaded for a
 // run; model plugins are libflipflow_plugin_<name>.so and are loaded when a pipeline names them

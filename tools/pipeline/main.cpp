@@ -19,7 +19,8 @@ const char* kUsage =
     "  describe STAGE                   one stage: parameters, defaults, reads/writes, backends\n"
     "  bench FILE.yaml [--sizes N,N,...] [--steps S] [--warmup W] [--device ...] [--set ...]\n"
     "\n"
-    "Plugins are searched in $FLIPFLOW_PLUGIN_PATH, then in ../plugins next to this program.\n";
+    "Plugins are searched in $FLIPFLOW_PLUGIN_PATH, then in ../plugins and ../lib/flipflow/plugins next to\n"
+    "this program (a build tree; an installed tree).\n";
 }
 
 int main(int argc, char** argv) {
