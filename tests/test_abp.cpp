@@ -12,6 +12,7 @@
 #include "core/registry.h"
 #include "core/state.h"
 #include "support/backends.h"
+#include "support/fields.h"
 #include "support/stage_driver.h"
 
 using namespace ff;
@@ -54,15 +55,7 @@ std::unique_ptr<State> make_state(int dim, Precision p, std::size_t n, double L)
   return s;
 }
 
-// A real field's contents, as doubles, fetched to the host.
-std::vector<double> values(State& s, const char* name) {
-  Field& f = s.field(name);
-  f.acquire(Where::host, Mode::read);
-  std::vector<double> v(f.size());
-  for (std::size_t i = 0; i < v.size(); ++i)
-    v[i] = s.precision() == Precision::f64 ? f.host<double>()[i] : double(f.host<float>()[i]);
-  return v;
-}
+using test::values;
 
 std::vector<double> unwrapped(State& s) {
   auto u = values(s, fields::position);

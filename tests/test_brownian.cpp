@@ -8,7 +8,7 @@
 #include "core/simulation.h"
 #include "support/backends.h"
 #include "support/spec.h"
-#include "support/unwrap.h"
+#include "support/fields.h"
 #include "support/test_plugins.h"
 
 using namespace ff;

@@ -20,6 +20,7 @@
 #include "plugins/phoretic/forces/kernel.h"
 #include "stages/neighbors/list.h"
 #include "support/backends.h"
+#include "support/fields.h"
 #include "support/stage_driver.h"
 
 using namespace ff;
@@ -93,14 +94,7 @@ std::unique_ptr<State> lattice_state(int dim, Precision p, std::size_t n, double
   return s;
 }
 
-std::vector<double> values(State& s, const char* name) {
-  Field& f = s.field(name);
-  f.acquire(Where::host, Mode::read);
-  std::vector<double> v(f.size());
-  for (std::size_t i = 0; i < v.size(); ++i)
-    v[i] = s.precision() == Precision::f64 ? f.host<double>()[i] : double(f.host<float>()[i]);
-  return v;
-}
+using test::values;
 std::vector<std::int32_t> types(State& s) {
   Field& f = s.field(fields::type);
   f.acquire(Where::host, Mode::read);

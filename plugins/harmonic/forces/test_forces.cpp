@@ -8,6 +8,7 @@
 
 #include "core/error.h"
 #include "support/backends.h"
+#include "support/fields.h"
 #include "support/stage_driver.h"
 #include "support/test_plugins.h"
 
@@ -38,14 +39,7 @@ std::unique_ptr<State> state(int dim, Precision p, double L, const std::vector<d
   return s;
 }
 
-std::vector<double> values(State& s, const char* name) {
-  Field& f = s.field(name);
-  f.acquire(Where::host, Mode::read);
-  std::vector<double> v(f.size());
-  for (std::size_t i = 0; i < v.size(); ++i)
-    v[i] = s.precision() == Precision::f64 ? f.host<double>()[i] : double(f.host<float>()[i]);
-  return v;
-}
+using test::values;
 
 // Runs neighbors.verlet then harmonic.forces once; returns the `pairs` metric.
 double forces(State& s, Backend b, double k, double cutoff = 1.5) {

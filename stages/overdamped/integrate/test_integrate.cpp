@@ -9,7 +9,7 @@
 #include "support/spec.h"
 #include "support/stage_driver.h"
 #include "support/test_plugins.h"
-#include "support/unwrap.h"
+#include "support/fields.h"
 
 using namespace ff;
 

@@ -1,4 +1,5 @@
-// Unwrapped positions x + image·L (host copy), for displacement and MSD checks.
+// Field contents on the host for checks: unwrapped positions x + image·L (displacements, MSD)
+// and any real field as doubles.
 #pragma once
 #include <cstdint>
 #include <vector>
@@ -17,6 +18,16 @@ std::vector<double> unwrapped(State& s) {
   for (std::size_t i = 0; i < x.size(); ++i)
     u[i] = double(x.host<R>()[i]) + im.host<std::int32_t>()[i] * s.box.L[i % s.dim()];
   return u;
+}
+
+// A real field's contents, as doubles, fetched to the host.
+inline std::vector<double> values(State& s, const char* name) {
+  Field& f = s.field(name);
+  f.acquire(Where::host, Mode::read);
+  std::vector<double> v(f.size());
+  for (std::size_t i = 0; i < v.size(); ++i)
+    v[i] = s.precision() == Precision::f64 ? f.host<double>()[i] : double(f.host<float>()[i]);
+  return v;
 }
 
 }  // namespace ff::test
