@@ -24,12 +24,20 @@ struct Access {
   Mode mode = Mode::read;
   // For writes that happen only on some steps (a triangulation that changes only when something
   // flips): the rollback snapshot copies the field only when the stage announces the write with
-  // StepContext::will_write before it, instead of before every step.
+  // StepContext::will_write (or will_overwrite) before it, instead of before every step.
   bool on_demand = false;
   // For scratch fields that carry nothing from one step to the next (every step writes what it
   // reads of them before reading it: detect_inversion's flip marks and Lawson candidates): a
   // retried step rewrites them anyway, so the rollback snapshot never copies this write.
   bool step_local = false;
+
+  // {field, where, mode} for the plain cases; these name the two special kinds of write.
+  static Access on_demand_write(std::string field, Where where, Mode mode = Mode::readwrite) {
+    return Access{std::move(field), where, mode, true, false};
+  }
+  static Access step_local_write(std::string field, Where where, Mode mode = Mode::write) {
+    return Access{std::move(field), where, mode, false, true};
+  }
 };
 
 struct Outcome {

@@ -56,9 +56,9 @@ class Integrate final : public ff::Stage {
   // Every element is rewritten from the previous values each step (on_demand + will_overwrite:
   // a rollback snapshot keeps the old arrays instead of copying them).
   std::vector<ff::Access> accesses() const override {
-    return {{ff::fields::position, where_, ff::Mode::readwrite, true},
-            {ff::fields::image, where_, ff::Mode::readwrite, true},
-            {kOrientation, where_, ff::Mode::readwrite, true}};
+    return {ff::Access::on_demand_write(ff::fields::position, where_),
+            ff::Access::on_demand_write(ff::fields::image, where_),
+            ff::Access::on_demand_write(kOrientation, where_)};
   }
 
   void configure(ff::State& s) override {

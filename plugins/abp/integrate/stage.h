@@ -51,9 +51,9 @@ class Integrate final : public Stage {
   // keeps instead of copying (on_demand + will_overwrite: the step reads the snapshot's arrays
   // and writes the field's; in place when no snapshot is taken).
   std::vector<Access> accesses() const override {
-    return {{fields::position, where_, Mode::readwrite, true},
-            {fields::image, where_, Mode::readwrite, true},
-            {kOrientation, where_, Mode::readwrite, true}};
+    return {Access::on_demand_write(fields::position, where_),
+            Access::on_demand_write(fields::image, where_),
+            Access::on_demand_write(kOrientation, where_)};
   }
 
   // Adds the orientation field when no one has, and fills it with uniformly random

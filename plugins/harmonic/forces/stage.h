@@ -40,9 +40,12 @@ class Forces final : public Stage {
         loop2_(&Exec::template for_each<PairForce<R, 2>>), loop3_(&Exec::template for_each<PairForce<R, 3>>) {}
 
   std::vector<Access> accesses() const override {
-    return {{fields::position, where_, Mode::read},   {fields::diameter, where_, Mode::read},
-            {neighbors::kList, where_, Mode::read},   {neighbors::kCount, where_, Mode::read},
-            {kForce, where_, Mode::write},            {kPairs, Where::host, Mode::write, false, true}};
+    return {{fields::position, where_, Mode::read},
+            {fields::diameter, where_, Mode::read},
+            {neighbors::kList, where_, Mode::read},
+            {neighbors::kCount, where_, Mode::read},
+            {kForce, where_, Mode::write},
+            Access::step_local_write(kPairs, Where::host)};
   }
 
   void configure(State& s) override {

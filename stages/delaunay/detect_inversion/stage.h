@@ -50,13 +50,13 @@ class DetectInversion final : public Stage {
   std::vector<Access> accesses() const override {
     // halfedge/vertex_edge are written only when no triangulation exists yet (first step).
     return {{ff::fields::position, where_, Mode::read},
-            {fields::halfedge, where_, Mode::readwrite, true},
-            {fields::opposite, where_, Mode::readwrite, true},
-            {fields::vertex_edge, where_, Mode::readwrite, true},
+            Access::on_demand_write(fields::halfedge, where_),
+            Access::on_demand_write(fields::opposite, where_),
+            Access::on_demand_write(fields::vertex_edge, where_),
             // Read, then overwritten completely (will_overwrite): no snapshot copy.
-            {fields::position_prev, where_, Mode::readwrite, true},
-            {fields::flip_mark, where_, Mode::write, false, /*step_local=*/true},
-            {fields::lawson_candidates, where_, Mode::write, false, /*step_local=*/true},
+            Access::on_demand_write(fields::position_prev, where_),
+            Access::step_local_write(fields::flip_mark, where_),
+            Access::step_local_write(fields::lawson_candidates, where_),
             {fields::status, Where::host, Mode::readwrite}};
   }
   void configure(State& s) override { add_topology_fields(s, "delaunay.detect_inversion"); }

@@ -56,10 +56,10 @@ class Flip final : public Stage {
 
   std::vector<Access> accesses() const override {
     return {{ff::fields::position, where_, Mode::read},
-            {fields::halfedge, where_, Mode::readwrite, true},
-            {fields::opposite, where_, Mode::readwrite, true},
-            {fields::vertex_edge, where_, Mode::readwrite, true},
-            {fields::flip_mark, where_, Mode::readwrite, false, /*step_local=*/true},
+            Access::on_demand_write(fields::halfedge, where_),
+            Access::on_demand_write(fields::opposite, where_),
+            Access::on_demand_write(fields::vertex_edge, where_),
+            Access::step_local_write(fields::flip_mark, where_, Mode::readwrite),
             {fields::status, Where::host, Mode::readwrite}};
   }
   void configure(State& s) override { add_topology_fields(s, "delaunay.flip"); }

@@ -84,9 +84,9 @@ class Lawson final : public Stage {
   std::vector<Access> accesses() const override {
     return {{ff::fields::position, where_, Mode::read},
             {fields::lawson_candidates, where_, Mode::read},
-            {fields::halfedge, where_, Mode::readwrite, true},
-            {fields::opposite, where_, Mode::readwrite, true},
-            {fields::vertex_edge, where_, Mode::readwrite, true},
+            Access::on_demand_write(fields::halfedge, where_),
+            Access::on_demand_write(fields::opposite, where_),
+            Access::on_demand_write(fields::vertex_edge, where_),
             {fields::status, Where::host, Mode::readwrite}};
   }
   void configure(State& s) override { add_topology_fields(s, "delaunay.lawson"); }

@@ -85,7 +85,7 @@ class Integrate final : public Stage {
     if (reads_velocity_) a.push_back({kVelocity, where_, Mode::read});
     if (reads_force_) a.push_back({kForce, where_, Mode::read});
     if (per_type()) a.push_back({fields::type, where_, Mode::read});
-    if (p_.max_step > 0) a.push_back({too_far_field_, Where::host, Mode::write, false, /*step_local=*/true});
+    if (p_.max_step > 0) a.push_back(Access::step_local_write(too_far_field_, Where::host));
     return a;
   }
 
