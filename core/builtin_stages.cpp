@@ -21,7 +21,7 @@ class Noop final : public Stage {
 #endif
     return Outcome::ok();
   }
-  bool graph_capturable() const override { return true; }
+  Scheduling scheduling() const override { return {false, false, /*graph_capturable=*/true, /*reads_step_params=*/true}; }
 
  private:
   std::vector<Access> accesses_;

@@ -45,13 +45,14 @@ Scheduler::Scheduler(const StepGraph& graph, std::vector<StageSlot>& slots, Stat
 #ifdef FLIPFLOW_HAVE_CUDA
   if (backend == Backend::cuda) {
     bool device_requests = false;
-    for (int i : impl_->compute) device_requests = device_requests || slots[i].stage->requests_rollback_on_device();
+    for (int i : impl_->compute) device_requests = device_requests || slots[i].stage->scheduling().requests_rollback_on_device;
     impl_->streams = std::make_unique<StreamSet>(graph, device_requests);
     bool any_reads_params = false;
     impl_->capturable = !impl_->compute.empty();
     for (int i : impl_->compute) {
-      any_reads_params = any_reads_params || slots[i].stage->reads_step_params();
-      impl_->capturable = impl_->capturable && slots[i].stage->graph_capturable() && graph.nodes()[i].every == 1;
+      const Scheduling h = slots[i].stage->scheduling();
+      any_reads_params = any_reads_params || h.reads_step_params;
+      impl_->capturable = impl_->capturable && h.graph_capturable && graph.nodes()[i].every == 1;
     }
     // (The upload is on the step's critical path: after the last stage's wait, before the first
     // launch of the next step.)

@@ -73,9 +73,9 @@ void Simulation::make_snapshot() {
   std::vector<int> requesters;
   bool device_requests = false;
   for (int i : graph_->compute_nodes())
-    if (slots_[i].stage->may_request_rollback()) {
+    if (slots_[i].stage->scheduling().may_request_rollback) {
       requesters.push_back(i);
-      device_requests = device_requests || slots_[i].stage->requests_rollback_on_device();
+      device_requests = device_requests || slots_[i].stage->scheduling().requests_rollback_on_device;
     }
   if (requesters.empty()) return;
   const bool host_requests_only = options_.backend == Backend::cpu || !device_requests;

@@ -140,6 +140,24 @@ struct StepContext {
   Field* at_step_start(const std::string& field) const;
 };
 
+// What a stage tells the core about how it may be scheduled. Everything defaults to "no".
+struct Scheduling {
+  // run() can return request_rollback: only then does the core snapshot the state.
+  bool may_request_rollback = false;
+  // On CUDA the stage may also ask for a rollback from its kernels (StepContext::device_rollback,
+  // read only at the end of the step, after every later stage ran), so the core snapshots the
+  // writes of the stages after it too. A stage whose requests all come from run() leaves it
+  // false: then, as on the CPU, a request stops the step before the stages after it.
+  bool requests_rollback_on_device = false;
+  // On CUDA, run() only enqueues device work on ctx.stream, never synchronizes or reads the
+  // host, and takes step-dependent values from ctx.params. When every compute stage says so
+  // (and none uses `every`), the core captures the step once as a CUDA graph.
+  bool graph_capturable = false;
+  // run() passes ctx.params to its kernels: on CUDA the core then keeps a device copy of the
+  // step's parameters (one upload per step).
+  bool reads_step_params = false;
+};
+
 class Stage {
  public:
   virtual ~Stage() = default;
@@ -162,21 +180,9 @@ class Stage {
   virtual void finish(State& state, bool completed) { (void)state; (void)completed; }
   // Files this stage will create (relative to out_dir): checked before anything is written.
   virtual std::vector<std::string> outputs() const { return {}; }
-  // True if run() can return request_rollback: only then does the core snapshot the state.
-  virtual bool may_request_rollback() const { return false; }
-  // True if, on CUDA, the stage may also ask for a rollback from its kernels
-  // (StepContext::device_rollback, read only at the end of the step, after every later stage
-  // ran). A stage whose requests all come from run() says false: then on CUDA, as on the CPU, a
-  // request stops the step before the stages after it, and their writes need no snapshot.
-  virtual bool requests_rollback_on_device() const { return may_request_rollback(); }
-  // True if, on CUDA, run() only enqueues device work on ctx.stream, never synchronizes or
-  // reads the host, and takes step-dependent values from ctx.params. When every compute stage
-  // says so (and none uses `every`), the core captures the step once as a CUDA graph.
-  virtual bool graph_capturable() const { return false; }
-  // True if run() passes ctx.params to its kernels. On CUDA the core keeps a device copy of the
-  // step's parameters (one upload per step) only when some stage reads them or the step is
-  // captured. By default every capturable stage is taken to read them.
-  virtual bool reads_step_params() const { return graph_capturable(); }
+  // How the core may schedule this stage (Scheduling above); the defaults suit a stage that never
+  // asks for a rollback and is not replayed from a CUDA graph.
+  virtual Scheduling scheduling() const { return {}; }
 };
 
 }  // namespace ff

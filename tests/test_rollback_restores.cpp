@@ -43,7 +43,7 @@ std::vector<std::size_t> requesters(const Loaded& l, Backend b) {
   Simulation probe(l.spec, *l.registry, test::dry(b));
   std::vector<std::size_t> out;
   for (std::size_t i = 0; i < probe.slots().size(); ++i)
-    if (probe.slots()[i].stage->may_request_rollback()) out.push_back(i);
+    if (probe.slots()[i].stage->scheduling().may_request_rollback) out.push_back(i);
   return out;
 }
 

@@ -29,8 +29,7 @@ class RequestRollback final : public Stage {
         device_requests_(v.boolean("device_requests")),
         scramble_undeclared_(v.boolean("scramble_undeclared")) {}
   std::vector<Access> accesses() const override { return {{fields::position, Where::host, Mode::readwrite}}; }
-  bool may_request_rollback() const override { return true; }
-  bool requests_rollback_on_device() const override { return device_requests_; }
+  Scheduling scheduling() const override { return {true, device_requests_, false, false}; }
   Outcome run(StepContext& ctx) override {
     bool listed = false;
     for (double s : steps_) listed = listed || std::uint64_t(s) == ctx.step;

@@ -63,8 +63,8 @@ class Flip final : public Stage {
             {fields::status, Where::host, Mode::readwrite}};
   }
   void configure(State& s) override { add_topology_fields(s, "delaunay.flip"); }
-  bool may_request_rollback() const override { return true; }
-  bool requests_rollback_on_device() const override { return false; }  // from run(), after reading counters
+  // Requests come from run(), after reading the counters.
+  Scheduling scheduling() const override { return {true, false, false, false}; }
 
   Outcome run(StepContext& ctx) override {
     State& s = ctx.state;

@@ -33,8 +33,7 @@ class Sort final : public Stage {
   std::vector<Access> accesses() const override { return {}; }
   void configure(State& s) override { sorted_ = sort_particles_hilbert(s); }
   Outcome run(StepContext&) override { return Outcome::ok(); }
-  bool graph_capturable() const override { return true; }
-  bool reads_step_params() const override { return false; }
+  Scheduling scheduling() const override { return {false, false, /*graph_capturable=*/true, false}; }
   const std::vector<std::string>& sorted_fields() const { return sorted_; }
 
  private:

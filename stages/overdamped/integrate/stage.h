@@ -134,11 +134,15 @@ class Integrate final : public Stage {
 
   // Per-step values come from ctx.params, so a CUDA run can replay this stage from a graph
   // (not with max_step, whose check the host reads back).
-  bool graph_capturable() const override { return p_.max_step == 0; }
-  // Δt, step and attempt reach the kernels through ctx.params in every configuration.
-  bool reads_step_params() const override { return true; }
-  bool may_request_rollback() const override { return p_.max_step > 0; }
-  bool requests_rollback_on_device() const override { return false; }
+  // Δt, step and attempt reach the kernels through ctx.params in every configuration; max_step's
+  // check is read back by the host (a request from run()).
+  Scheduling scheduling() const override {
+    Scheduling s;
+    s.may_request_rollback = p_.max_step > 0;
+    s.graph_capturable = p_.max_step == 0;
+    s.reads_step_params = true;
+    return s;
+  }
 
  private:
   Outcome too_far(StepContext& ctx) {

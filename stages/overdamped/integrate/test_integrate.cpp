@@ -119,8 +119,8 @@ TEST_CASE("overdamped.integrate: a step longer than max_step asks for a rollback
   test::StageDriver drive(registry(), "overdamped.integrate", b, Precision::f64, 2,
                           params({{"D", 0.0}, {"max_step", 0.5}}), 3);
   drive.stage->configure(*s);
-  CHECK(drive.stage->may_request_rollback());
-  CHECK_FALSE(drive.stage->graph_capturable());
+  CHECK(drive.stage->scheduling().may_request_rollback);
+  CHECK_FALSE(drive.stage->scheduling().graph_capturable);
   const Outcome o = drive.run(*s, 0, 0.01);
   REQUIRE(o.rollback);
   CHECK(o.reason.find("max_step") != std::string::npos);
