@@ -221,7 +221,7 @@ std::size_t vertices_with_degree_above(State& s, int degree) {
   std::size_t count = 0;
   for (std::size_t v = 0; v < n; ++v) {
     int k = 0;
-    REQUIRE(m.for_each_neighbour(int(v), [&](int, int) { ++k; }));
+    REQUIRE(m.for_each_neighbor(int(v), [&](int, int) { ++k; }));
     count += k > degree;
   }
   return count;

@@ -331,7 +331,7 @@ void host_iterate(void* ws, const Problem<R>& p, std::int64_t k0, std::int64_t m
       const Tile& tl = w->tiles[t];
       for (std::size_t i = 0, nm = tl.nmoved; i < nm; ++i) {
         const int v = tl.moved[i];
-        if (mesh.overlapping_neighbours(v, [&](int u) { flag(next, u); })) flag(next, v);
+        if (mesh.overlapping_neighbors(v, [&](int u) { flag(next, u); })) flag(next, v);
       }
     }, serial);
   }

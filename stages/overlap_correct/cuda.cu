@@ -51,7 +51,7 @@
 #include "core/cuda/check.h"
 #include "core/cuda/loop.cuh"
 #include "stages/overlap_correct/stage.h"
-#include "stages/overlap_correct/neighbour_lists.cuh"
+#include "stages/overlap_correct/neighbor_lists.cuh"
 
 namespace cg = cooperative_groups;
 
@@ -229,7 +229,7 @@ __global__ void __launch_bounds__(kThreads, MinBlocks) correct_kernel(Args<R> a)
         if (tail)  // its claim: cleared for the next check
           atomicAnd(reinterpret_cast<unsigned*>(a.marks) + (v >> 2), ~(1u << (8 * (v & 3))));
         int ids[kCached], d;
-        take(v, neighbour_ids(mesh, v, k == 0, a.nb, a.degree, ids, d) ? gather_ids(mesh, v, ids, d) : mesh.gather(v));
+        take(v, neighbor_ids(mesh, v, k == 0, a.nb, a.degree, ids, d) ? gather_ids(mesh, v, ids, d) : mesh.gather(v));
       }
     } else {  // one lane group per particle (the loop is uniform over the block: shuffles)
       const int l = int(threadIdx.x) % kGroup;

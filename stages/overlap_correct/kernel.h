@@ -192,7 +192,7 @@ struct Mesh {
   // false when the fan does not close, an index is out of range (nothing out of range is read)
   // or an edge leads back to v.
   template <class F>
-  FF_HD bool for_each_neighbour(int v, F&& f) const {
+  FF_HD bool for_each_neighbor(int v, F&& f) const {
     const unsigned nh = 6u * unsigned(n);
     const int h0 = vedge[v];
     if (unsigned(h0) >= nh) return false;
@@ -267,24 +267,24 @@ struct Mesh {
   // looser than a gather's (r² < σ²·(1 + 1e-9)), so rounding can only add particles to the
   // next iteration's candidates, never leave one out. Both loops build their work lists with it.
   template <class F>
-  FF_HD bool overlapping_neighbours(int v, F&& f) const {
-    return overlapping_neighbours_by(v, fan_of(v), f);
+  FF_HD bool overlapping_neighbors(int v, F&& f) const {
+    return overlapping_neighbors_by(v, fan_of(v), f);
   }
 
   // The walk around v's fan as a neighbour source: neighbours(g) calls g(u) for each
-  // neighbour u and returns false when the fan does not close (see for_each_neighbour). The
+  // neighbour u and returns false when the fan does not close (see for_each_neighbor). The
   // device loop also has another source of the same neighbours (a per-step copy, cuda.cu).
   FF_HD auto fan_of(int v) const {
-    return [this, v](auto&& g) { return for_each_neighbour(v, [&](int u, int) { g(u); }); };
+    return [this, v](auto&& g) { return for_each_neighbor(v, [&](int u, int) { g(u); }); };
   }
 
   template <class N, class F>
-  FF_HD bool overlapping_neighbours_by(int v, N&& neighbours, F&& f) const {
+  FF_HD bool overlapping_neighbors_by(int v, N&& neighbors, F&& f) const {
     double xv, yv;
     load_xy(pos, v, xv, yv);
     const double sv = diameter_of(v);
     bool any = false;
-    neighbours([&](int u) {
+    neighbors([&](int u) {
       if (overlaps_after_move(xv, yv, sv, u)) {
         f(u);
         any = true;
@@ -329,13 +329,13 @@ struct Mesh {
   // The same from another source of v's neighbours (fan_of's contract; any order: the sums are
   // in fixed point).
   template <class N>
-  FF_HD VertexPush gather_by(int v, N&& neighbours) const {
+  FF_HD VertexPush gather_by(int v, N&& neighbors) const {
     VertexPush out;
     double xv, yv;
     load_xy(pos, v, xv, yv);
     const double sv = diameter_of(v);
     std::int64_t qx = 0, qy = 0;
-    out.broken = !neighbours([&](int u) { gather_pair(v, xv, yv, sv, u, qx, qy, out); });
+    out.broken = !neighbors([&](int u) { gather_pair(v, xv, yv, sv, u, qx, qy, out); });
     finish(qx, qy, sv, out);
     return out;
   }

@@ -47,7 +47,7 @@ __device__ void for_each_loaded(const Mesh<R>& mesh, const int (&ids)[kCached], 
   }
 }
 
-// A gather of v by one thread from its neighbours ids[0 .. d) (from neighbour_ids below).
+// A gather of v by one thread from its neighbours ids[0 .. d) (from neighbor_ids below).
 template <class R>
 __device__ VertexPush gather_ids(const Mesh<R>& mesh, int v, const int (&ids)[kCached], int d) {
   VertexPush out;
@@ -68,7 +68,7 @@ __device__ VertexPush gather_ids(const Mesh<R>& mesh, int v, const int (&ids)[kC
 // (bench/overlap_correct-PERF.md). False: gather by Mesh::gather's walk instead (more than
 // kCached neighbours, or, in iteration 0, a fan that does not close, which that walk reports).
 template <class R>
-__device__ bool neighbour_ids(const Mesh<R>& mesh, int v, bool first, int* nb, std::uint8_t* degree,
+__device__ bool neighbor_ids(const Mesh<R>& mesh, int v, bool first, int* nb, std::uint8_t* degree,
                               int (&ids)[kCached], int& d) {
   if (!first) {
     d = degree[v];
@@ -79,7 +79,7 @@ __device__ bool neighbour_ids(const Mesh<R>& mesh, int v, bool first, int* nb, s
   d = 0;
 #pragma unroll
   for (int k = 0; k < kCached; ++k) ids[k] = 0;
-  const bool closed = mesh.for_each_neighbour(v, [&](int u, int) {
+  const bool closed = mesh.for_each_neighbor(v, [&](int u, int) {
 #pragma unroll
     for (int k = 0; k < kCached; ++k)  // ids[d] = u with a register index
       if (k == d) ids[k] = u;
@@ -95,12 +95,12 @@ __device__ bool neighbour_ids(const Mesh<R>& mesh, int v, bool first, int* nb, s
 }
 
 // The check of moved particle v by one thread, loading as gather_ids: calls f(u) for each
-// neighbour u that overlaps v at the new positions (Mesh::overlapping_neighbours' test) and
+// neighbour u that overlaps v at the new positions (Mesh::overlapping_neighbors' test) and
 // returns whether any did.
 template <class R, class F>
 __device__ bool thread_check(const Mesh<R>& mesh, int v, const int* nb, const std::uint8_t* degree, F&& f) {
   const int d = degree[v];
-  if (d == kWalk) return mesh.overlapping_neighbours(v, f);
+  if (d == kWalk) return mesh.overlapping_neighbors(v, f);
   int ids[kCached];
   load_ids(nb, v, d, ids);
   double xv, yv;
@@ -172,7 +172,7 @@ __device__ VertexPush group_gather(const Mesh<R>& mesh, int v, bool has, int l, 
 }
 
 // The check of moved particle v by its lane group: calls f(u) for each neighbour u that
-// overlaps v at the new positions (Mesh::overlapping_neighbours_by's test); every lane of the
+// overlaps v at the new positions (Mesh::overlapping_neighbors_by's test); every lane of the
 // group returns whether any did.
 template <class R, class F>
 __device__ bool group_check(const Mesh<R>& mesh, int v, bool has, int l, const int* nb, const std::uint8_t* degree,
@@ -181,7 +181,7 @@ __device__ bool group_check(const Mesh<R>& mesh, int v, bool has, int l, const i
   if (has) {
     const int d = degree[v];
     if (d == kWalk) {
-      if (l == 0) any = mesh.overlapping_neighbours_by(v, mesh.fan_of(v), f);
+      if (l == 0) any = mesh.overlapping_neighbors_by(v, mesh.fan_of(v), f);
     } else if (l < d) {
       double xv, yv;
       load_xy(mesh.pos, v, xv, yv);
