@@ -41,11 +41,7 @@ void Registry::resolve_aliases() {
 }
 
 void Registry::add_alias(const PendingAlias& a) {
-  const std::string& name = a.name;
-  const std::string& target = a.target;
-  const std::string& summary = a.summary;
-  const ParamValues& fixed = a.fixed;
-  const ParamValues& defaults = a.defaults;
+  const std::string &name = a.name, &target = a.target;
   auto t = stages_.find(target);
   if (t == stages_.end())
     throw InputError("plugin '" + current_plugin_ + "' declares '" + name + "' as an alias of stage '" + target +
@@ -53,19 +49,19 @@ void Registry::add_alias(const PendingAlias& a) {
   StageDecl decl = t->second.decl;
   decl.name = name;
   std::string with;
-  for (auto& kv : fixed.all()) with += (with.empty() ? "" : ", ") + kv.first + ": " + format_value(kv.second);
-  decl.summary = summary + " (= " + target + (with.empty() ? "" : " with " + with) + ")";
+  for (auto& kv : a.fixed.all()) with += (with.empty() ? "" : ", ") + kv.first + ": " + format_value(kv.second);
+  decl.summary = a.summary + " (= " + target + (with.empty() ? "" : " with " + with) + ")";
   std::vector<ParamSpec> params;
   for (auto& p : decl.params) {
-    if (fixed.has(p.name)) continue;
+    if (a.fixed.has(p.name)) continue;
     params.push_back(p);
-    if (defaults.has(p.name)) params.back().default_value = defaults.all().at(p.name);
+    if (a.defaults.has(p.name)) params.back().default_value = a.defaults.all().at(p.name);
   }
   decl.params = params;
   declare(std::move(decl));
   for (auto& kv : t->second.factories) {
     StageFactory make = kv.second;
-    implement(name, kv.first, [make, fixed](const ParamValues& v, const RunInfo& info) {
+    implement(name, kv.first, [make, fixed = a.fixed](const ParamValues& v, const RunInfo& info) {
       ParamValues all = v;
       for (auto& f : fixed.all()) all.set(f.first, f.second);
       return make(all, info);

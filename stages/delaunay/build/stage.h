@@ -14,7 +14,12 @@ class Build final : public Stage {
  public:
   // Host work on either backend (the core copies the fields it declares).
   static StageDecl declaration() {
-    return {"delaunay.build", "Delaunay triangulation of the current positions from scratch (host, CGAL); schedule rebuilds with every: k", {}, {2}, false};
+    return {"delaunay.build",
+            "Delaunay triangulation of the current positions from scratch (host, CGAL); schedule rebuilds "
+            "with every: k",
+            {},
+            {2},
+            false};
   }
   Build(const ParamValues&, const RunInfo&) {}
 

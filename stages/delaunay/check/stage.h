@@ -39,7 +39,12 @@ class Check final : public Stage {
  public:
   // Host work on either backend (the core copies the fields it declares).
   static StageDecl declaration() {
-    return {"delaunay.check", "observer: compare the maintained triangulation with CGAL's Delaunay triangulation of the current positions (co-circular ties tolerated); RunError naming the step and edges on a mismatch", schema_of<CheckParams>(), {2}, true};
+    return {"delaunay.check",
+            "observer: compare the maintained triangulation with CGAL's Delaunay triangulation of the current "
+            "positions (co-circular ties tolerated); RunError naming the step and edges on a mismatch",
+            schema_of<CheckParams>(),
+            {2},
+            true};
   }
 
   Check(const ParamValues& v, const RunInfo&) : p_(params_from<CheckParams>(v)) {}

@@ -40,7 +40,11 @@ template <class R>
 class DetectInversion final : public Stage {
  public:
   static StageDecl declaration() {
-    return {"delaunay.detect_inversion", "find inverted triangles after integration; mark single-flip repairs or request a rollback", {}, {2}, false};
+    return {"delaunay.detect_inversion",
+            "find inverted triangles after integration; mark single-flip repairs or request a rollback",
+            {},
+            {2},
+            false};
   }
 
   template <class Exec>

@@ -43,7 +43,11 @@ template <class R>
 class Flip final : public Stage {
  public:
   static StageDecl declaration() {
-    return {"delaunay.flip", "repair the inverted triangles marked by delaunay.detect_inversion by parallel edge flips", schema_of<FlipParams>(), {2}, false};
+    return {"delaunay.flip",
+            "repair the inverted triangles marked by delaunay.detect_inversion by parallel edge flips",
+            schema_of<FlipParams>(),
+            {2},
+            false};
   }
 
   template <class Exec>

@@ -66,7 +66,11 @@ template <class R>
 class Lawson final : public Stage {
  public:
   static StageDecl declaration() {
-    return {"delaunay.lawson", "parallel Lawson edge flips until the triangulation is Delaunay", schema_of<LawsonParams>(), {2}, false};
+    return {"delaunay.lawson",
+            "parallel Lawson edge flips until the triangulation is Delaunay",
+            schema_of<LawsonParams>(),
+            {2},
+            false};
   }
 
   template <class Exec>

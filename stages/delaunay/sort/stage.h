@@ -26,7 +26,12 @@ class Sort final : public Stage {
  public:
   // Host work on either backend (the core copies the fields it declares).
   static StageDecl declaration() {
-    return {"delaunay.sort", "renumber the particles along a Hilbert curve once, at configure time (every per-particle field permuted alike), for memory locality; list it first", {}, {2}, false};
+    return {"delaunay.sort",
+            "renumber the particles along a Hilbert curve once, at configure time (every per-particle field "
+            "permuted alike), for memory locality; list it first",
+            {},
+            {2},
+            false};
   }
   Sort(const ParamValues&, const RunInfo&) {}
 

@@ -51,7 +51,12 @@ class Triangles final : public Stage {
  public:
   // Host work on either backend (the core copies the fields it declares).
   static StageDecl declaration() {
-    return {"delaunay.triangles", "observer: the maintained triangles into the field delaunay.triangles (i32 x 3, 2N, CCW) for observe.h5md's /connectivity; list it before observe.h5md with the same every", {}, {2}, true};
+    return {"delaunay.triangles",
+            "observer: the maintained triangles into the field delaunay.triangles (i32 x 3, 2N, CCW) for "
+            "observe.h5md's /connectivity; list it before observe.h5md with the same every",
+            {},
+            {2},
+            true};
   }
   Triangles(const ParamValues&, const RunInfo&) {}
 
