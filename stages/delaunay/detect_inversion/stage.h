@@ -78,8 +78,8 @@ class DetectInversion final : public Stage {
     // across its neighbours' edges after Lawson), no Δt repairs it: rebuild it for the step's
     // starting positions and judge this step's moves against that.
     bool rebuilt = false;
-    Field* start = ctx.at_step_start(ff::fields::position);  // null: unknown (no snapshot)
-    if (!fresh && asks_rollback(h) && start && !valid_at(ctx, *start)) {
+    Field* start = nullptr;  // asked for only on the way to a rollback; null: unknown (no snapshot)
+    if (!fresh && asks_rollback(h) && (start = ctx.at_step_start(ff::fields::position)) && !valid_at(ctx, *start)) {
       will_flip(ctx);
       build_topology(s, *start, st);
       for (const Access& a : accesses()) s.field(a.field).acquire(a.where, a.mode, st);
