@@ -4,7 +4,7 @@
 #   P/bin/pipeline                        the command
 #   P/lib/libflipflow.so                  the core
 #   P/lib/flipflow/plugins/*.so           the standard stages and the model plugins (the installed
-#                                         pipeline looks there: core/plugin_loader.cpp)
+#                                         pipeline looks there: core/run/plugin_loader.cpp)
 #   P/include/core/**.h, *.cuh            every header a plugin may include (same include paths)
 #   P/share/flipflow/sdk/plugin_entry.cpp compiled into every plugin (flipflow_add_plugin)
 #   P/lib/cmake/flipflow/                 find_package(flipflow): flipflowConfig.cmake (the
@@ -28,7 +28,7 @@ install(FILES ${PROJECT_SOURCE_DIR}/core/sdk/plugin_entry.cpp DESTINATION share/
 configure_package_config_file(${PROJECT_SOURCE_DIR}/cmake/flipflowConfig.cmake.in
   ${PROJECT_BINARY_DIR}/package/flipflowConfig.cmake
   INSTALL_DESTINATION ${FLIPFLOW_INSTALL_CMAKE_DIR})
-# 0.x: a plugin needs the same minor version (the ABI number, core/version.h, is checked again
+# 0.x: a plugin needs the same minor version (the ABI number, core/base/version.h, is checked again
 # when the plugin is loaded).
 write_basic_package_version_file(${PROJECT_BINARY_DIR}/package/flipflowConfigVersion.cmake
   VERSION ${PROJECT_VERSION} COMPATIBILITY SameMinorVersion)

@@ -7,10 +7,10 @@
 #include <memory>
 #include <vector>
 
-#include "core/error.h"
-#include "core/plugin_loader.h"
-#include "core/registry.h"
-#include "core/state.h"
+#include "core/base/error.h"
+#include "core/run/plugin_loader.h"
+#include "core/stage/registry.h"
+#include "core/stage/state.h"
 #include "support/backends.h"
 #include "support/fields.h"
 #include "support/stage_driver.h"

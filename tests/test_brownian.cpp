@@ -5,7 +5,7 @@
 #include <cmath>
 #include <cstring>
 
-#include "core/simulation.h"
+#include "core/run/simulation.h"
 #include "support/backends.h"
 #include "support/spec.h"
 #include "support/fields.h"

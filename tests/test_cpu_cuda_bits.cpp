@@ -2,7 +2,7 @@
 // all-pairs sums run 1000 steps on each backend in double (observers removed, N as shipped);
 // every field of the final state must hold the same bytes on both, and every step the same
 // metrics, Δt and rollbacks. Where the bits come from: every FF_HD function is evaluated with
-// the same IEEE operations on both sides: sin/cos/log are core/math.h's own, not libm's or
+// the same IEEE operations on both sides: sin/cos/log are core/physics/math.h's own, not libm's or
 // libdevice's, and no translation unit of a loop contracts a·b + c into an fma (the CPU loops
 // are built with -ffp-contract=off, the CUDA loops with -fmad=false; phoretic.forces, which keeps
 // contraction for its all-pairs kernel, writes its short-range products as math::mul_rn).
@@ -26,10 +26,10 @@
 #include <string>
 #include <vector>
 
-#include "core/math.h"
-#include "core/pipeline_loader.h"
-#include "core/rng.h"
-#include "core/simulation.h"
+#include "core/physics/math.h"
+#include "core/input/pipeline_loader.h"
+#include "core/physics/rng.h"
+#include "core/run/simulation.h"
 #include "support/backends.h"
 #include "support/cli.h"
 #include "support/pipeline.h"

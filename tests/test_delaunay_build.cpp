@@ -7,7 +7,7 @@
 #include <CGAL/Periodic_2_Delaunay_triangulation_traits_2.h>
 #include <CGAL/Triangulation_vertex_base_with_info_2.h>
 
-#include "core/error.h"
+#include "core/base/error.h"
 #include "test_delaunay_support.h"
 
 using namespace ff;

@@ -7,8 +7,8 @@
 // correction too.
 #include <algorithm>
 
-#include "core/error.h"
-#include "core/simulation.h"
+#include "core/base/error.h"
+#include "core/run/simulation.h"
 #include "stages/delaunay/common/mesh.h"
 #include "support/spec.h"
 #include "support/test_plugins.h"

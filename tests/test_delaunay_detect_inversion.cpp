@@ -1,7 +1,7 @@
 // delaunay.detect_inversion alone, on hand-made moves of Carter et al. 2017 figs. 4–6: a vertex
 // across one edge is marked for a flip; across two edges, through another particle, or an edge
 // crossed from both sides requests a rollback naming the particles.
-#include "core/error.h"
+#include "core/base/error.h"
 #include <algorithm>
 
 #include "stages/delaunay/detect_inversion/kernel.h"

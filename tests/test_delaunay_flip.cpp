@@ -2,7 +2,7 @@
 // conflict-free flips; conflicting repairs on one triangle take two rounds; with detection in
 // front, random large moves either end in a valid triangulation or in a rollback, never in an
 // inverted triangle.
-#include "core/error.h"
+#include "core/base/error.h"
 #include "test_delaunay_support.h"
 
 using namespace ff;

@@ -5,8 +5,8 @@
 // round limit is a clear error.
 #include <oneapi/tbb/global_control.h>
 
-#include "core/error.h"
-#include "core/init.h"
+#include "core/base/error.h"
+#include "core/input/init.h"
 #include "test_delaunay_support.h"
 
 using namespace ff;

@@ -5,8 +5,8 @@
 // already built.
 #include <algorithm>
 
-#include "core/error.h"
-#include "core/simulation.h"
+#include "core/base/error.h"
+#include "core/run/simulation.h"
 #include "stages/delaunay/common/hilbert.h"
 #include "support/spec.h"
 #include "support/test_plugins.h"

@@ -13,11 +13,11 @@
 #include <string>
 #include <vector>
 
-#include "core/plugin_loader.h"
-#include "core/registry.h"
-#include "core/rng.h"
-#include "core/stage.h"
-#include "core/state.h"
+#include "core/run/plugin_loader.h"
+#include "core/stage/registry.h"
+#include "core/physics/rng.h"
+#include "core/stage/stage.h"
+#include "core/stage/state.h"
 #include "stages/delaunay/common/fields.h"
 #include "stages/delaunay/common/mesh_check.h"
 #include "support/backends.h"

@@ -11,7 +11,7 @@
 #include <map>
 #include <set>
 
-#include "core/simulation.h"
+#include "core/run/simulation.h"
 #include "stages/delaunay/common/mesh.h"
 #include "support/h5py.h"
 #include "support/spec.h"

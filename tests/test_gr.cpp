@@ -10,7 +10,7 @@
 #include <random>
 #include <sstream>
 
-#include "core/error.h"
+#include "core/base/error.h"
 #include "stages/observe/gr/stage.h"
 
 using namespace ff;

@@ -12,7 +12,7 @@
 #include <catch2/catch.hpp>
 #include <cmath>
 
-#include "core/simulation.h"
+#include "core/run/simulation.h"
 #include "support/backends.h"
 #include "support/spec.h"
 #include "support/test_plugins.h"

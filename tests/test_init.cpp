@@ -1,4 +1,4 @@
-// Initial conditions (core/init.h): box from the packing fraction, species counts, placement
+// Initial conditions (core/input/init.h): box from the packing fraction, species counts, placement
 // without overlaps (checked by brute force over all pairs, minimum image), reproducibility.
 #include <algorithm>
 #include <array>
@@ -8,8 +8,8 @@
 #include <set>
 #include <vector>
 
-#include "core/error.h"
-#include "core/init.h"
+#include "core/base/error.h"
+#include "core/input/init.h"
 
 using namespace ff;
 

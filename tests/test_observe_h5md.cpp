@@ -14,11 +14,11 @@
 #include <filesystem>
 #include <fstream>
 
-#include "core/device.h"
-#include "core/error.h"
-#include "core/h5md_writer.h"
-#include "core/plugin_loader.h"
-#include "core/state.h"
+#include "core/backend/device.h"
+#include "core/base/error.h"
+#include "core/io/h5md_writer.h"
+#include "core/run/plugin_loader.h"
+#include "core/stage/state.h"
 #include "stages/observe/h5md/stage.h"
 #include "stages/observe/msd/stage.h"
 #include "stages/observe/progress/stage.h"

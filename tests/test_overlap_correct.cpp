@@ -10,10 +10,10 @@
 #include <cstring>
 #include <random>
 
-#include "core/error.h"
-#include "core/init.h"
-#include "core/rng.h"
-#include "core/simulation.h"
+#include "core/base/error.h"
+#include "core/input/init.h"
+#include "core/physics/rng.h"
+#include "core/run/simulation.h"
 #include "stages/overlap_correct/kernel.h"
 #include "stages/delaunay/common/fields.h"
 #include "support/backends.h"

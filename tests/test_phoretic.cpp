@@ -13,10 +13,10 @@
 #include <random>
 #include <vector>
 
-#include "core/error.h"
-#include "core/plugin_loader.h"
-#include "core/registry.h"
-#include "core/state.h"
+#include "core/base/error.h"
+#include "core/run/plugin_loader.h"
+#include "core/stage/registry.h"
+#include "core/stage/state.h"
 #include "plugins/phoretic/forces/kernel.h"
 #include "stages/neighbors/list.h"
 #include "support/backends.h"

@@ -9,8 +9,8 @@
 #include <string>
 #include <vector>
 
-#include "core/error.h"
-#include "core/pipeline_loader.h"
+#include "core/base/error.h"
+#include "core/input/pipeline_loader.h"
 
 namespace {
 

@@ -1,8 +1,8 @@
 // Plugin loading failures are loud and precise.
 #include <catch2/catch.hpp>
 
-#include "core/error.h"
-#include "core/plugin_loader.h"
+#include "core/base/error.h"
+#include "core/run/plugin_loader.h"
 #include "support/test_plugins.h"
 
 using namespace ff;

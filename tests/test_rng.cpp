@@ -8,8 +8,8 @@
 
 #include <vector>
 
-#include "core/overdamped_cpu.h"
-#include "core/rng.h"
+#include "core/backend/overdamped_cpu.h"
+#include "core/physics/rng.h"
 
 using namespace ff;
 

@@ -3,9 +3,9 @@
 #include <cstring>
 #include <vector>
 
-#include "core/error.h"
-#include "core/host_copy.h"
-#include "core/simulation.h"
+#include "core/base/error.h"
+#include "core/backend/host_copy.h"
+#include "core/run/simulation.h"
 #include "support/backends.h"
 #include "support/spec.h"
 #include "support/test_plugins.h"

@@ -11,9 +11,9 @@
 #include <string>
 #include <vector>
 
-#include "core/error.h"
-#include "core/pipeline_loader.h"
-#include "core/simulation.h"
+#include "core/base/error.h"
+#include "core/input/pipeline_loader.h"
+#include "core/run/simulation.h"
 #include "support/backends.h"
 #include "support/cli.h"
 #include "support/pipeline.h"

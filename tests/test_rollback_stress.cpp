@@ -6,9 +6,9 @@
 #include <catch2/catch.hpp>
 #include <string>
 
-#include "core/error.h"
-#include "core/pipeline_loader.h"
-#include "core/simulation.h"
+#include "core/base/error.h"
+#include "core/input/pipeline_loader.h"
+#include "core/run/simulation.h"
 #include "support/backends.h"
 #include "support/cli.h"
 #include "support/pipeline.h"

@@ -3,8 +3,8 @@
 
 #include <catch2/catch.hpp>
 
-#include "core/error.h"
-#include "core/simulation.h"
+#include "core/base/error.h"
+#include "core/run/simulation.h"
 #include "support/spec.h"
 #include "support/test_plugins.h"
 

@@ -1,11 +1,11 @@
 // The entry point of every plugin library built with flipflow_add_plugin (compiled into each
-// one; never into the core): the library's list of stages (core/stage_registration.h), filled
+// one; never into the core): the library's list of stages (core/stage/stage_registration.h), filled
 // by its sources as it loads, handed to the registry. Each stage name is declared once and
 // implemented for every backend its sources compiled.
 #include <set>
 
-#include "core/plugin_api.h"
-#include "core/stage_registration.h"
+#include "core/stage/plugin_api.h"
+#include "core/stage/stage_registration.h"
 
 namespace ff {
 

@@ -39,11 +39,11 @@
 #include <string>
 #include <vector>
 
-#include "core/device.h"
-#include "core/plugin_loader.h"
-#include "core/registry.h"
-#include "core/stage.h"
-#include "core/state.h"
+#include "core/backend/device.h"
+#include "core/run/plugin_loader.h"
+#include "core/stage/registry.h"
+#include "core/stage/stage.h"
+#include "core/stage/state.h"
 
 #ifndef CHIRAL_ABP_PLUGIN
 #error "CHIRAL_ABP_PLUGIN: the path of libflipflow_plugin_chiral_abp.so (CMakeLists.txt sets it)"

@@ -8,7 +8,7 @@
 // step; keeping them apart writes the update once, lets other velocity sources feed the same
 // integrator, and makes `velocity` an observable, for one extra read and write of N·d reals per
 // step.
-#include "core/stage_registration.h"
+#include "core/stage/stage_registration.h"
 
 [[maybe_unused]] static const bool registered = ff::add_alias(
     "phoretic.integrate", "overdamped.integrate", "x += v Δt + sqrt(2DΔt)·ξ with v from phoretic.forces",

@@ -14,7 +14,7 @@
 #pragma once
 #include <cstdint>
 
-#include "core/state.h"
+#include "core/stage/state.h"
 
 namespace ff::neighbors {
 

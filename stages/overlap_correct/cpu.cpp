@@ -36,7 +36,7 @@
 #include <cstring>
 #include <vector>
 
-#include "core/exec_cpu.h"
+#include "core/backend/exec_cpu.h"
 #include "stages/overlap_correct/stage.h"
 
 namespace ff::overlap {

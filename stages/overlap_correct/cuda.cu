@@ -48,8 +48,8 @@
 
 #include <algorithm>
 
-#include "core/cuda/check.h"
-#include "core/cuda/loop.cuh"
+#include "core/backend/cuda/check.h"
+#include "core/backend/cuda/loop.cuh"
 #include "stages/overlap_correct/stage.h"
 #include "stages/overlap_correct/neighbor_lists.cuh"
 

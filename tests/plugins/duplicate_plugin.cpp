@@ -1,5 +1,5 @@
 // Declares a stage the testing plugin also declares: loading both must fail, naming both.
-#include "core/plugin_api.h"
+#include "core/stage/plugin_api.h"
 namespace {
 class Nothing final : public ff::Stage {
  public:

@@ -7,7 +7,7 @@
 #include <thread>
 #include <vector>
 
-#include "core/plugin_api.h"
+#include "core/stage/plugin_api.h"
 
 namespace {
 

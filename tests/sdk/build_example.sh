@@ -22,7 +22,7 @@ step() { printf '\n== %s (%ds)\n' "$*" "$SECONDS"; }
 step "install $build into $prefix"
 "$cmake" --install "$build" --prefix "$prefix" >"$work/install.log"
 for f in bin/pipeline lib/libflipflow.so lib/cmake/flipflow/flipflowConfig.cmake \
-         share/flipflow/sdk/plugin_entry.cpp include/core/stage_registration.h; do
+         share/flipflow/sdk/plugin_entry.cpp include/core/stage/stage_registration.h; do
   [[ -e $prefix/$f ]] || { echo "FAIL: the install lacks $f"; exit 1; }
 done
 ls "$prefix/lib/flipflow/plugins"

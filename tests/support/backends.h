@@ -4,7 +4,7 @@
 #include <catch2/catch.hpp>
 #include <vector>
 
-#include "core/device.h"
+#include "core/backend/device.h"
 
 namespace ff::test {
 

@@ -4,7 +4,7 @@
 #include <cstdint>
 #include <vector>
 
-#include "core/state.h"
+#include "core/stage/state.h"
 
 namespace ff::test {
 

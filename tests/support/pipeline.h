@@ -6,8 +6,8 @@
 #include <string>
 #include <vector>
 
-#include "core/pipeline_loader.h"
-#include "core/registry.h"
+#include "core/input/pipeline_loader.h"
+#include "core/stage/registry.h"
 #include "support/test_plugins.h"
 
 namespace ff::test {

@@ -4,9 +4,9 @@
 #include <string>
 #include <vector>
 
-#include "core/pipeline_spec.h"
-#include "core/registry.h"
-#include "core/simulation.h"
+#include "core/input/pipeline_spec.h"
+#include "core/stage/registry.h"
+#include "core/run/simulation.h"
 
 namespace ff::test {
 

@@ -9,13 +9,13 @@
 #include <memory>
 #include <string>
 
-#include "core/registry.h"
-#include "core/rng.h"
-#include "core/stage.h"
-#include "core/state.h"
-#include "core/step_params.h"
+#include "core/stage/registry.h"
+#include "core/physics/rng.h"
+#include "core/stage/stage.h"
+#include "core/stage/state.h"
+#include "core/stage/step_params.h"
 #ifdef FLIPFLOW_HAVE_CUDA
-#include "core/cuda/graph.h"
+#include "core/run/cuda/graph.h"
 #endif
 
 namespace ff::test {

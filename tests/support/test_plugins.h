@@ -4,9 +4,9 @@
 #include <boost/dll/runtime_symbol_info.hpp>
 #include <string>
 
-#include "core/builtin_stages.h"
-#include "core/plugin_loader.h"
-#include "core/registry.h"
+#include "core/run/builtin_stages.h"
+#include "core/run/plugin_loader.h"
+#include "core/stage/registry.h"
 
 namespace ff::test {
 

@@ -16,9 +16,9 @@
 #include <map>
 #include <sstream>
 
-#include "core/device.h"
-#include "core/error.h"
-#include "core/simulation.h"
+#include "core/backend/device.h"
+#include "core/base/error.h"
+#include "core/run/simulation.h"
 #include "tools/pipeline/commands.h"
 #include "tools/pipeline/common.h"
 #include "tools/pipeline/options.h"

@@ -2,10 +2,10 @@
 #include <iomanip>
 #include <iostream>
 
-#include "core/device.h"
-#include "core/error.h"
-#include "core/simulation.h"
-#include "core/state.h"
+#include "core/backend/device.h"
+#include "core/base/error.h"
+#include "core/run/simulation.h"
+#include "core/stage/state.h"
 #include "tools/pipeline/commands.h"
 #include "tools/pipeline/common.h"
 #include "tools/pipeline/options.h"

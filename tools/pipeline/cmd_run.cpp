@@ -8,9 +8,9 @@
 #include <iostream>
 #include <optional>
 
-#include "core/device.h"
-#include "core/error.h"
-#include "core/simulation.h"
+#include "core/backend/device.h"
+#include "core/base/error.h"
+#include "core/run/simulation.h"
 #include "tools/pipeline/commands.h"
 #include "tools/pipeline/common.h"
 #include "tools/pipeline/options.h"

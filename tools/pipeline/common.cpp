@@ -3,8 +3,8 @@
 #include <fstream>
 #include <sstream>
 
-#include "core/builtin_stages.h"
-#include "core/plugin_loader.h"
+#include "core/run/builtin_stages.h"
+#include "core/run/plugin_loader.h"
 
 namespace ff::cli {
 

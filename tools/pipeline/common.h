@@ -5,9 +5,9 @@
 #include <string>
 #include <vector>
 
-#include "core/pipeline_loader.h"
-#include "core/pipeline_spec.h"
-#include "core/registry.h"
+#include "core/input/pipeline_loader.h"
+#include "core/input/pipeline_spec.h"
+#include "core/stage/registry.h"
 
 namespace ff::cli {
 

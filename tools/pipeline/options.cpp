@@ -1,6 +1,6 @@
 #include "tools/pipeline/options.h"
 
-#include "core/error.h"
+#include "core/base/error.h"
 
 namespace po = boost::program_options;
 

@@ -6,19 +6,19 @@
 //
 // With D_r = 0 a particle runs around a circle of radius v0/|ω| (counter-clockwise for ω > 0).
 // Self-propulsion uses the orientation at the start of the step. Everything here is flipflow's:
-// the Gaussians (core/rng.h, drawn 16 particles at a time on the CPU by the overdamped loop),
-// the position update with its periodic wrap (core/overdamped.h, core/box.h) and sin/cos
-// (core/math.h: the same bits on the CPU and the GPU). The noise pairs are abp.integrate's:
+// the Gaussians (core/physics/rng.h, drawn 16 particles at a time on the CPU by the overdamped loop),
+// the position update with its periodic wrap (core/physics/overdamped.h, core/physics/box.h) and sin/cos
+// (core/physics/math.h: the same bits on the CPU and the GPU). The noise pairs are abp.integrate's:
 // translation pair 0 (ξ = z[0], z[1]), rotation pair 2 (η = z[2]). nvcc-clean.
 #pragma once
 #include <cmath>
 #include <cstdint>
 
-#include "core/box.h"
-#include "core/hd.h"
-#include "core/math.h"
-#include "core/overdamped.h"
-#include "core/rng.h"
+#include "core/physics/box.h"
+#include "core/base/hd.h"
+#include "core/physics/math.h"
+#include "core/physics/overdamped.h"
+#include "core/physics/rng.h"
 
 namespace chiral_abp {
 
@@ -52,7 +52,7 @@ struct ChiralStep {
   std::uint64_t step;
   std::uint32_t attempt;
 
-  // What the overdamped loop needs (core/overdamped.h): two Gaussian pairs per particle.
+  // What the overdamped loop needs (core/physics/overdamped.h): two Gaussian pairs per particle.
   static constexpr int kNoisePairs = 2;
   FF_HD std::uint32_t noise_pair(int j) const { return j == 0 ? kTranslationPair : kRotationPair; }
   FF_HD ff::NoiseCounter noise_counter() const { return {key, step, attempt}; }

@@ -1,17 +1,17 @@
 // chiral_abp.integrate: chiral active Brownian particles, "circle swimmers", in 2D (van Teeffelen
 // & Löwen, PRE 78, 020101 (2008)); the step is in kernel.h. Force-free, like abp.integrate, whose
 // `orientation` field (the angle θ) it shares: it adds the field when no stage has, with
-// uniformly random angles. A stage in flipflow's shape (core/stage_registration.h): the plugin's
+// uniformly random angles. A stage in flipflow's shape (core/stage/stage_registration.h): the plugin's
 // build (flipflow_add_plugin) compiles this header once per backend.
 #pragma once
 #include <cmath>
 #include <string>
 
-#include "core/error.h"
-#include "core/exec.h"
-#include "core/params.h"
-#include "core/stage.h"
-#include "core/stage_registration.h"
+#include "core/base/error.h"
+#include "core/backend/exec.h"
+#include "core/stage/params.h"
+#include "core/stage/stage.h"
+#include "core/stage/stage_registration.h"
 #include "kernel.h"
 
 namespace chiral_abp {

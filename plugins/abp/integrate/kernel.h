@@ -7,19 +7,19 @@
 // ω = sqrt(2 D_r Δt) η (η a 3-vector of unit Gaussians) by the angle |ω| (Rodrigues), which
 // keeps |e| = 1 and gives <e(t)·e(0)> = exp(-2 D_r t) to first order in Δt, then renormalised
 // so rounding never accumulates. Self-propulsion uses the orientation at the start of the step.
-// The noise is the truncated, variance-corrected Gaussian of core/rng.h; each quantity has its
+// The noise is the truncated, variance-corrected Gaussian of core/physics/rng.h; each quantity has its
 // own pair indices (translation: pairs 0-1, rotation: pairs 2-3), so none share numbers.
-// sin and cos are core/math.h's (in double for either precision, then rounded to R): the CPU and
+// sin and cos are core/physics/math.h's (in double for either precision, then rounded to R): the CPU and
 // CUDA loops give the same bits (with the CUDA loop built without fma contraction, -fmad=false).
 #pragma once
 #include <cmath>
 #include <cstdint>
 
-#include "core/box.h"
-#include "core/overdamped.h"
-#include "core/hd.h"
-#include "core/math.h"
-#include "core/rng.h"
+#include "core/physics/box.h"
+#include "core/physics/overdamped.h"
+#include "core/base/hd.h"
+#include "core/physics/math.h"
+#include "core/physics/rng.h"
 
 namespace ff::abp {
 
@@ -67,7 +67,7 @@ struct AbpStep {
     if constexpr (D == 2) {
       const R th = orientation_in[i];
       double s, c;
-      math::sincos(double(th), s, c);  // core/math.h: the same bits on both backends
+      math::sincos(double(th), s, c);  // core/physics/math.h: the same bits on both backends
       e[0] = R(c);
       e[1] = R(s);
       orientation[i] = wrap_angle(th + rot_amp * R(eta[0]));

@@ -13,10 +13,10 @@
 #include <cmath>
 #include <cstdint>
 
-#include "core/atomics.h"
-#include "core/box.h"
-#include "core/hd.h"
-#include "core/math.h"
+#include "core/backend/atomics.h"
+#include "core/physics/box.h"
+#include "core/base/hd.h"
+#include "core/physics/math.h"
 
 namespace ff::harmonic {
 

@@ -5,11 +5,11 @@
 #include <algorithm>
 #include <string>
 
-#include "core/error.h"
-#include "core/exec.h"
-#include "core/params.h"
-#include "core/stage.h"
-#include "core/stage_registration.h"
+#include "core/base/error.h"
+#include "core/backend/exec.h"
+#include "core/stage/params.h"
+#include "core/stage/stage.h"
+#include "core/stage/stage_registration.h"
 #include "plugins/harmonic/forces/kernel.h"
 #include "stages/neighbors/list.h"
 

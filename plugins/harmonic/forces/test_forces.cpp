@@ -6,7 +6,7 @@
 #include <cstring>
 #include <random>
 
-#include "core/error.h"
+#include "core/base/error.h"
 #include "support/backends.h"
 #include "support/fields.h"
 #include "support/stage_driver.h"

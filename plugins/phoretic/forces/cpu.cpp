@@ -10,7 +10,7 @@
 #include <algorithm>
 #include <vector>
 
-#include "core/exec_cpu.h"
+#include "core/backend/exec_cpu.h"
 #include "plugins/phoretic/forces/stage.h"
 
 namespace ff::phoretic {

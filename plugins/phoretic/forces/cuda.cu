@@ -12,7 +12,7 @@
 // Short range: the element loop over Verlet rows.
 #include <type_traits>
 
-#include "core/cuda/loop.cuh"
+#include "core/backend/cuda/loop.cuh"
 #include "plugins/phoretic/forces/stage.h"
 
 namespace ff::phoretic {

@@ -11,9 +11,9 @@
 #include <cmath>
 #include <cstdint>
 
-#include "core/box.h"
-#include "core/hd.h"
-#include "core/math.h"
+#include "core/physics/box.h"
+#include "core/base/hd.h"
+#include "core/physics/math.h"
 
 namespace ff::phoretic {
 

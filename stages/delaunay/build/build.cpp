@@ -3,7 +3,7 @@
 #include <algorithm>
 #include <cstring>
 
-#include "core/error.h"
+#include "core/base/error.h"
 #include "stages/delaunay/build/cgal.h"
 #include "stages/delaunay/common/host.h"
 

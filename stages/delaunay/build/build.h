@@ -5,7 +5,7 @@
 #include <string>
 #include <vector>
 
-#include "core/state.h"
+#include "core/stage/state.h"
 #include "stages/delaunay/common/hilbert.h"
 
 namespace ff::delaunay {

@@ -12,7 +12,7 @@
 #include <sstream>
 #include <utility>
 
-#include "core/error.h"
+#include "core/base/error.h"
 
 namespace ff::delaunay {
 

@@ -3,8 +3,8 @@
 // for periodic rebuilds). A pipeline without it is fine: the first topology stage that runs
 // builds the triangulation once (common/host.h, ensure_topology).
 #pragma once
-#include "core/stage.h"
-#include "core/stage_registration.h"
+#include "core/stage/stage.h"
+#include "core/stage/stage_registration.h"
 #include "stages/delaunay/build/build.h"
 #include "stages/delaunay/common/host.h"
 

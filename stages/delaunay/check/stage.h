@@ -10,9 +10,9 @@
 #include <string>
 #include <vector>
 
-#include "core/error.h"
-#include "core/stage.h"
-#include "core/stage_registration.h"
+#include "core/base/error.h"
+#include "core/stage/stage.h"
+#include "core/stage/stage_registration.h"
 #include "stages/delaunay/check/check.h"
 #include "stages/delaunay/common/host.h"
 

@@ -9,7 +9,7 @@
 #pragma once
 #include <cstdint>
 
-#include "core/atomics.h"
+#include "core/backend/atomics.h"
 #include "stages/delaunay/common/mesh.h"
 
 namespace ff::delaunay {

@@ -1,6 +1,6 @@
 #include "stages/delaunay/common/host.h"
 
-#include "core/error.h"
+#include "core/base/error.h"
 #include "stages/delaunay/build/build.h"
 
 namespace ff::delaunay {

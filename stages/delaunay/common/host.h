@@ -6,8 +6,8 @@
 #include <string>
 #include <vector>
 
-#include "core/box.h"
-#include "core/stage.h"
+#include "core/physics/box.h"
+#include "core/stage/stage.h"
 #include "stages/delaunay/common/fields.h"
 #include "stages/delaunay/common/memory.h"
 #include "stages/delaunay/common/mesh.h"

@@ -7,7 +7,7 @@
 #include <array>
 #include <cstddef>
 
-#include "core/types.h"
+#include "core/base/types.h"
 
 namespace ff::delaunay {
 

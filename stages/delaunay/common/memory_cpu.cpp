@@ -1,8 +1,8 @@
 #include <cstdlib>
 #include <cstring>
 
-#include "core/error.h"
-#include "core/host_copy.h"
+#include "core/base/error.h"
+#include "core/backend/host_copy.h"
 #include "stages/delaunay/common/memory.h"
 
 namespace ff::delaunay {

@@ -4,7 +4,7 @@
 #include <cstdint>
 #include <cstring>
 
-#include "core/cuda/check.h"
+#include "core/backend/cuda/check.h"
 #include "stages/delaunay/common/memory.h"
 
 namespace ff::delaunay {

@@ -8,8 +8,8 @@
 #include <cmath>
 #include <cstdint>
 
-#include "core/box.h"
-#include "core/hd.h"
+#include "core/physics/box.h"
+#include "core/base/hd.h"
 
 namespace ff::delaunay {
 

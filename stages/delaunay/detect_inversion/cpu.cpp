@@ -6,7 +6,7 @@
 #include <immintrin.h>
 #endif
 
-#include "core/exec_cpu.h"
+#include "core/backend/exec_cpu.h"
 #include "stages/delaunay/detect_inversion/stage.h"
 
 namespace ff::delaunay {

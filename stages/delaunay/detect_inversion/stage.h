@@ -12,10 +12,10 @@
 #include <sstream>
 #include <string>
 
-#include "core/error.h"
-#include "core/exec.h"
-#include "core/stage.h"
-#include "core/stage_registration.h"
+#include "core/base/error.h"
+#include "core/backend/exec.h"
+#include "core/stage/stage.h"
+#include "core/stage/stage_registration.h"
 #include "stages/delaunay/build/build.h"
 #include "stages/delaunay/common/host.h"
 #include "stages/delaunay/common/memory.h"

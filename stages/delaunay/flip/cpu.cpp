@@ -1,4 +1,4 @@
-#include "core/exec_cpu.h"
+#include "core/backend/exec_cpu.h"
 #include "stages/delaunay/flip/stage.h"
 
 namespace ff::delaunay {

@@ -1,4 +1,4 @@
-#include "core/cuda/loop.cuh"
+#include "core/backend/cuda/loop.cuh"
 #include "stages/delaunay/flip/stage.h"
 
 namespace ff::delaunay {

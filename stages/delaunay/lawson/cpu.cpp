@@ -13,7 +13,7 @@
 #include <type_traits>
 #include <vector>
 
-#include "core/exec_cpu.h"
+#include "core/backend/exec_cpu.h"
 #include "stages/delaunay/lawson/stage.h"
 
 namespace ff::delaunay {

@@ -1,5 +1,5 @@
-#include "core/cuda/check.h"
-#include "core/cuda/loop.cuh"
+#include "core/backend/cuda/check.h"
+#include "core/backend/cuda/loop.cuh"
 #include "stages/delaunay/lawson/stage.h"
 
 namespace ff::delaunay {

@@ -20,7 +20,7 @@
 #include <cmath>
 #include <cstdint>
 
-#include "core/atomics.h"
+#include "core/backend/atomics.h"
 #include "stages/delaunay/common/mesh.h"
 
 namespace ff::delaunay {

@@ -13,10 +13,10 @@
 #include <algorithm>
 #include <array>
 
-#include "core/error.h"
-#include "core/exec.h"
-#include "core/stage.h"
-#include "core/stage_registration.h"
+#include "core/base/error.h"
+#include "core/backend/exec.h"
+#include "core/stage/stage.h"
+#include "core/stage/stage_registration.h"
 #include "stages/delaunay/common/host.h"
 #include "stages/delaunay/common/memory.h"
 #include "stages/delaunay/lawson/kernel.h"

@@ -1,6 +1,6 @@
 #include <cstring>
 
-#include "core/error.h"
+#include "core/base/error.h"
 #include "stages/delaunay/build/build.h"
 #include "stages/delaunay/common/fields.h"
 #include "stages/delaunay/sort/stage.h"

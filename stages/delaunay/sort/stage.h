@@ -13,8 +13,8 @@
 #include <string>
 #include <vector>
 
-#include "core/stage.h"
-#include "core/stage_registration.h"
+#include "core/stage/stage.h"
+#include "core/stage/stage_registration.h"
 
 namespace ff::delaunay {
 

@@ -1,11 +1,11 @@
-// CPU loops of neighbors.verlet: oneTBB element loops from core/exec_cpu.h, a max-reduction
+// CPU loops of neighbors.verlet: oneTBB element loops from core/backend/exec_cpu.h, a max-reduction
 // and a counting sort by cell.
 #include <oneapi/tbb/parallel_reduce.h>
 
 #include <algorithm>
 #include <vector>
 
-#include "core/exec_cpu.h"
+#include "core/backend/exec_cpu.h"
 #include "stages/neighbors/verlet/stage.h"
 
 namespace ff::neighbors {

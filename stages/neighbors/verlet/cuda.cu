@@ -1,9 +1,9 @@
-// CUDA loops of neighbors.verlet: element loops from core/cuda/loop.cuh, a max-reduction that
+// CUDA loops of neighbors.verlet: element loops from core/backend/cuda/loop.cuh, a max-reduction that
 // reads one word back (the rebuild decision and the capacity check need the answer on the
 // host), and a stable radix sort by cell (CUB) followed by a kernel that marks cell ranges.
 #include <cub/device/device_radix_sort.cuh>
 
-#include "core/cuda/loop.cuh"
+#include "core/backend/cuda/loop.cuh"
 #include "stages/neighbors/verlet/stage.h"
 
 namespace ff::neighbors {

@@ -7,11 +7,11 @@
 #include <cmath>
 #include <string>
 
-#include "core/error.h"
-#include "core/exec.h"
-#include "core/params.h"
-#include "core/stage.h"
-#include "core/stage_registration.h"
+#include "core/base/error.h"
+#include "core/backend/exec.h"
+#include "core/stage/params.h"
+#include "core/stage/stage.h"
+#include "core/stage/stage_registration.h"
 #include "stages/neighbors/list.h"
 #include "stages/neighbors/verlet/kernel.h"
 

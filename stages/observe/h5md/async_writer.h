@@ -11,7 +11,7 @@
 #include <thread>
 #include <vector>
 
-#include "core/h5md_writer.h"
+#include "core/io/h5md_writer.h"
 #include "stages/observe/h5md/frame.h"
 
 namespace ff::observe {

@@ -6,8 +6,8 @@
 #include <utility>
 #include <vector>
 
-#include "core/h5md_writer.h"
-#include "core/host_buffer.h"
+#include "core/io/h5md_writer.h"
+#include "core/backend/host_buffer.h"
 
 namespace ff::observe {
 

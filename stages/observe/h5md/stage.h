@@ -1,5 +1,5 @@
 // observe.h5md: writes chosen fields and the run's observables to an H5MD file
-// (core/h5md_writer.h has the layout). run() copies the frame into a recycled host buffer and
+// (core/io/h5md_writer.h has the layout). run() copies the frame into a recycled host buffer and
 // hands it to a writer thread, so the following steps compute while HDF5 writes; finish()
 // drains the queue and closes (renaming the .partial when the run completed).
 //
@@ -10,9 +10,9 @@
 #include <string>
 #include <vector>
 
-#include "core/params.h"
-#include "core/stage.h"
-#include "core/stage_registration.h"
+#include "core/stage/params.h"
+#include "core/stage/stage.h"
+#include "core/stage/stage_registration.h"
 #include "stages/observe/h5md/async_writer.h"
 
 namespace ff::observe {

@@ -4,7 +4,7 @@
 #include <cstddef>
 #include <cstdint>
 
-#include "core/hd.h"
+#include "core/base/hd.h"
 
 namespace ff::observe {
 

@@ -4,9 +4,9 @@
 #pragma once
 #include <vector>
 
-#include "core/stage.h"
-#include "core/stage_registration.h"
-#include "core/state.h"
+#include "core/stage/stage.h"
+#include "core/stage/stage_registration.h"
+#include "core/stage/state.h"
 
 namespace ff::observe {
 

@@ -8,9 +8,9 @@
 #include <cstdio>
 #include <string>
 
-#include "core/params.h"
-#include "core/stage.h"
-#include "core/stage_registration.h"
+#include "core/stage/params.h"
+#include "core/stage/stage.h"
+#include "core/stage/stage_registration.h"
 
 namespace ff::observe {
 

@@ -1,18 +1,18 @@
 // The overdamped (Euler–Maruyama) step with drift, per particle i of type t:
 //   x += (v_i + μ_t F_i) Δt + sqrt(2 D_t Δt) ξ,   then wrapped into the box (image counted),
 // v the `velocity` field and F the `force` field when the stage reads them, ξ truncated unit
-// Gaussians (core/rng.h). Δt, the step and the attempt come from StepParams on the side the loop
+// Gaussians (core/physics/rng.h). Δt, the step and the attempt come from StepParams on the side the loop
 // runs on. nvcc-clean.
 #pragma once
 #include <cmath>
 #include <cstdint>
 
-#include "core/atomics.h"
-#include "core/box.h"
-#include "core/hd.h"
-#include "core/overdamped.h"
-#include "core/rng.h"
-#include "core/step_params.h"
+#include "core/backend/atomics.h"
+#include "core/physics/box.h"
+#include "core/base/hd.h"
+#include "core/physics/overdamped.h"
+#include "core/physics/rng.h"
+#include "core/stage/step_params.h"
 
 namespace ff::overdamped {
 

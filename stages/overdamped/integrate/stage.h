@@ -9,10 +9,10 @@
 #include <cmath>
 #include <string>
 
-#include "core/error.h"
-#include "core/params.h"
-#include "core/stage.h"
-#include "core/stage_registration.h"
+#include "core/base/error.h"
+#include "core/stage/params.h"
+#include "core/stage/stage.h"
+#include "core/stage/stage_registration.h"
 #include "stages/overdamped/integrate/kernel.h"
 
 namespace ff::overdamped {

@@ -1,0 +1,51 @@
+#include "core/backend/cuda/device_buffer.h"
+
+#include "core/backend/cuda/check.h"
+#include "core/base/error.h"
+
+namespace ff {
+
+namespace cuda_detail {
+void throw_cuda_error(cudaError_t err, const char* expr, const char* what, const char* file,
+                      int line) {
+  throw RunError(std::string("CUDA error ") + cudaGetErrorName(err) + " (" +
+                 cudaGetErrorString(err) + ") while " + what + " [" + expr + "] at " + file +
+                 ":" + std::to_string(line));
+}
+}  // namespace cuda_detail
+
+DeviceBuffer::DeviceBuffer(std::size_t bytes) : bytes_(bytes) {
+  if (bytes) FF_CUDA_CHECK(cudaMalloc(&ptr_, bytes), "allocating a device field");
+}
+
+DeviceBuffer::~DeviceBuffer() {
+  if (ptr_) cudaFree(ptr_);
+}
+
+// A null stream means "from outside the step" (tests, set-up, output after the run): the
+// flipflow streams are non-blocking and do not order with the legacy default stream, so such
+// an access must wait for all device work first.
+void DeviceBuffer::upload(const void* host, std::size_t bytes, CUstream_st* stream) {
+  if (!bytes) return;
+  if (!stream) {
+    FF_CUDA_CHECK(cudaDeviceSynchronize(), "waiting for the device before a field copy");
+    FF_CUDA_CHECK(cudaMemcpy(ptr_, host, bytes, cudaMemcpyHostToDevice), "copying a field to the device");
+    return;
+  }
+  FF_CUDA_CHECK(cudaMemcpyAsync(ptr_, host, bytes, cudaMemcpyHostToDevice, stream),
+                "copying a field to the device");
+}
+
+void DeviceBuffer::download(void* host, std::size_t bytes, CUstream_st* stream) {
+  if (!bytes) return;
+  if (!stream) {
+    FF_CUDA_CHECK(cudaDeviceSynchronize(), "waiting for the device before a field copy");
+    FF_CUDA_CHECK(cudaMemcpy(host, ptr_, bytes, cudaMemcpyDeviceToHost), "copying a field to the host");
+    return;
+  }
+  FF_CUDA_CHECK(cudaMemcpyAsync(host, ptr_, bytes, cudaMemcpyDeviceToHost, stream),
+                "copying a field to the host");
+  FF_CUDA_CHECK(cudaStreamSynchronize(stream), "waiting for a field copy to the host");
+}
+
+}  // namespace ff

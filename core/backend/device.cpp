@@ -1,0 +1,59 @@
+#include "core/backend/device.h"
+
+#include "core/base/error.h"
+#ifdef FLIPFLOW_HAVE_CUDA
+#include <cuda_runtime.h>
+#endif
+
+namespace ff {
+
+bool built_with_cuda() {
+#ifdef FLIPFLOW_HAVE_CUDA
+  return true;
+#else
+  return false;
+#endif
+}
+
+bool cuda_device_available() {
+#ifdef FLIPFLOW_HAVE_CUDA
+  int n = 0;
+  if (cudaGetDeviceCount(&n) != cudaSuccess) {
+    cudaGetLastError();  // clear the sticky "no driver" error
+    return false;
+  }
+  return n > 0;
+#else
+  return false;
+#endif
+}
+
+std::string cuda_device_description() {
+#ifdef FLIPFLOW_HAVE_CUDA
+  int n = 0;
+  cudaError_t err = cudaGetDeviceCount(&n);
+  if (err != cudaSuccess) return std::string("no CUDA device (") + cudaGetErrorString(err) + ")";
+  if (n == 0) return "no CUDA device";
+  cudaDeviceProp p{};
+  cudaGetDeviceProperties(&p, 0);
+  return std::string(p.name) + " (sm_" + std::to_string(p.major) + std::to_string(p.minor) + ", " +
+         std::to_string(p.multiProcessorCount) + " SMs)";
+#else
+  return "built without CUDA";
+#endif
+}
+
+Backend resolve_backend(const std::string& choice) {
+  if (choice == "cpu") return Backend::cpu;
+  if (choice == "cuda") {
+    if (!built_with_cuda())
+      throw InputError("--device cuda: this flipflow was built without CUDA (nvcc was not found at configure time)");
+    if (!cuda_device_available())
+      throw InputError("--device cuda: " + cuda_device_description());
+    return Backend::cuda;
+  }
+  if (choice == "auto") return cuda_device_available() ? Backend::cuda : Backend::cpu;
+  throw InputError("--device must be auto, cpu or cuda (got '" + choice + "')");
+}
+
+}  // namespace ff

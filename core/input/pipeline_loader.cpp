@@ -1,0 +1,173 @@
+// YAML pipeline files -> PipelineSpec: the document, --set overrides, parse and resolve.
+// The readers live beside it: core/input/pipeline_sections.cpp (top level, system, run, plugins),
+// core/input/pipeline_steps.cpp (step entries), core/input/pipeline_yaml.cpp (locating nodes, checked
+// values and parameter maps) and core/input/pipeline_words.cpp (messages and scalars, no yaml).
+// Only these files know yaml-cpp.
+//
+// Every error is an InputError "WHERE: PATH: what was expected, got what was found", where
+// WHERE is "file:line:column" (1-based) or "--set key=value" for a node that an override
+// produced, and PATH is the key path ("run.dt", "step[2] (delaunay.lawson).max_rounds").
+#include "core/input/pipeline_loader.h"
+
+#include <algorithm>
+#include <cerrno>
+#include <cstdio>
+#include <cstring>
+
+#include "core/base/error.h"
+#include "core/input/pipeline_yaml.h"
+
+namespace ff {
+
+using namespace pipeline_detail;
+
+std::string Location::str() const {
+  if (line <= 0) return file;
+  return file + ":" + std::to_string(line) + ":" + std::to_string(column);
+}
+
+// ---- the document -------------------------------------------------------------------------
+
+struct PipelineDocument::Impl {
+  std::string file;
+  YAML::Node root;
+  std::vector<Override> overrides;
+
+  Locator locator() const { return Locator(file, overrides); }
+  void apply(const std::string& text);
+
+ private:
+  YAML::Node section(const std::string& name, const std::string& where);
+  YAML::Node entry(const std::string& x, const std::string& where);
+};
+
+namespace {
+[[noreturn]] void bad_override(const std::string& where, const std::string& what) {
+  throw InputError(where + ": " + what);
+}
+}  // namespace
+
+// system / run for an override: created (and attributed to the override) when absent.
+YAML::Node PipelineDocument::Impl::section(const std::string& name, const std::string& where) {
+  const YAML::Node& croot = root;  // const lookups never insert keys
+  const YAML::Node existing = croot[name];  // invalid (not assignable) when absent
+  if (existing.IsDefined() && !existing.IsNull()) {
+    if (!existing.IsMap()) locator().fail(existing, name, "expected a map, got " + found(existing));
+    return existing;
+  }
+  root[name] = YAML::Node(YAML::NodeType::Map);
+  YAML::Node created = croot[name];
+  overrides.push_back({created, where});
+  return created;
+}
+
+// step.<x>: an index, or an entry id (as entry_ids() numbers them).
+YAML::Node PipelineDocument::Impl::entry(const std::string& x, const std::string& where) {
+  const YAML::Node& croot = root;
+  const YAML::Node steps = croot["step"];
+  if (!steps.IsDefined() || !steps.IsSequence()) bad_override(where, "the pipeline has no step list");
+  std::size_t i = 0;
+  if (is_number(x)) {
+    i = std::stoul(x);
+    if (i >= steps.size())
+      bad_override(where, "no step[" + x + "]: the step list has " + std::to_string(steps.size()) + " entries");
+  } else {
+    const std::vector<std::string> ids = entry_ids(steps);
+    auto it = std::find(ids.begin(), ids.end(), x);
+    if (it == ids.end())
+      bad_override(where, "no step entry with id '" + x + "'" + suggestion(x, ids) + " (ids: " + join(ids) + ")");
+    i = std::size_t(it - ids.begin());
+  }
+  YAML::Node e = steps[i];
+  if (!e.IsMap()) locator().fail(e, index("step", i), "expected a map with at least 'stage: <name>', got " + found(e));
+  return e;
+}
+
+void PipelineDocument::Impl::apply(const std::string& text) {
+  const std::string where = "--set " + text;
+  const auto eq = text.find('=');
+  if (eq == std::string::npos || eq == 0)
+    bad_override(where, "expected KEY.PATH=VALUE, e.g. --set run.dt=0.001");
+  const std::string key = text.substr(0, eq);
+  YAML::Node value;
+  try {
+    value = YAML::Load(text.substr(eq + 1));
+  } catch (const YAML::ParserException& e) {
+    bad_override(where, "the value is not valid YAML: " + e.msg);
+  }
+  const auto dot = key.find('.');
+  const std::string head = key.substr(0, dot);
+  const std::string rest = dot == std::string::npos ? "" : key.substr(dot + 1);
+  const std::string forms = "system.<key>, run.<key>, plugins, step.<id or index>.<param>";
+  if (head == "plugins" && rest.empty()) {
+    root["plugins"] = value;
+  } else if ((head == "system" || head == "run") && !rest.empty() && rest.find('.') == std::string::npos) {
+    YAML::Node s = section(head, where);
+    s[rest] = value;
+  } else if (head == "step" && rest.rfind('.') != std::string::npos && rest.rfind('.') != 0 &&
+             rest.rfind('.') + 1 < rest.size()) {
+    const auto last = rest.rfind('.');  // ids contain dots; parameter names do not
+    YAML::Node e = entry(rest.substr(0, last), where);
+    e[rest.substr(last + 1)] = value;
+  } else if (one_of(head, kTopKeys)) {
+    bad_override(where, "expected one of " + forms);
+  } else {
+    bad_override(where, "unknown section '" + head + "'" + suggestion(head, kTopKeys) + " (expected one of " +
+                            forms + ")");
+  }
+  overrides.push_back({value, where});
+}
+
+PipelineDocument::PipelineDocument(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
+PipelineDocument::~PipelineDocument() = default;
+PipelineDocument::PipelineDocument(PipelineDocument&&) noexcept = default;
+PipelineDocument& PipelineDocument::operator=(PipelineDocument&&) noexcept = default;
+
+PipelineDocument PipelineDocument::parse(const std::string& path, const std::vector<std::string>& overrides) {
+  std::FILE* f = std::fopen(path.c_str(), "rb");
+  if (!f) throw InputError("cannot read pipeline file '" + path + "': " + std::strerror(errno));
+  std::string text;
+  char buf[65536];
+  std::size_t n = 0;
+  while ((n = std::fread(buf, 1, sizeof buf, f)) > 0) text.append(buf, n);
+  const int err = std::ferror(f) ? errno : 0;  // e.g. EISDIR: fopen succeeds on a directory
+  std::fclose(f);
+  if (err) throw InputError("cannot read pipeline file '" + path + "': " + std::strerror(err));
+  return parse_string(text, path, overrides);
+}
+
+PipelineDocument PipelineDocument::parse_string(const std::string& yaml, const std::string& name,
+                                                const std::vector<std::string>& overrides) {
+  auto impl = std::make_unique<Impl>();
+  impl->file = name;
+  try {
+    impl->root = YAML::Load(yaml);
+  } catch (const YAML::ParserException& e) {
+    fail(Location{name, e.mark.line + 1, e.mark.column + 1}, "", "invalid YAML: " + e.msg);
+  }
+  // The root must be a map before overrides can write into it; an empty file becomes one.
+  if (impl->root.IsDefined() && !impl->root.IsNull() && !impl->root.IsMap())
+    impl->locator().fail(impl->root, "", "expected a map with keys " + join(kTopKeys) + ", got " + found(impl->root));
+  for (auto& o : overrides) impl->apply(o);
+  top_level(impl->root, impl->locator());
+  return PipelineDocument(std::move(impl));
+}
+
+std::vector<std::string> PipelineDocument::plugins() const {
+  const Locator loc = impl_->locator();
+  return read_plugins(find(top_level(impl_->root, loc), "plugins"), loc);
+}
+
+PipelineSpec PipelineDocument::resolve(const Registry& registry) const {
+  const Locator loc = impl_->locator();
+  const std::vector<Item> top = top_level(impl_->root, loc);
+  PipelineSpec spec;
+  spec.file = impl_->file;
+  spec.system = read_system(find(top, "system")->value, loc);
+  spec.run = read_run(find(top, "run")->value, loc);
+  spec.plugins = read_plugins(find(top, "plugins"), loc);
+  spec.step = read_steps(find(top, "step")->value, spec.system.dimensions, registry, loc);
+  return spec;
+}
+
+}  // namespace ff

@@ -1,0 +1,85 @@
+// A small H5MD 1.1 writer (https://www.nongnu.org/h5md/h5md.html). No HDF5 types here: the
+// core links HDF5 privately, so stages and tools only see this class.
+//
+// Layout written:
+//   /h5md                      attr version = int[2] {1, 1}
+//     author                   attr name
+//     creator                  attrs name = "flipflow", version
+//   /particles/all/box         attrs dimension (int), boundary ("periodic" x dim); dataset edges [dim]
+//   /particles/all/species     int32 [N], time-independent (attr names: the species names)
+//   /particles/all/<element>   time-dependent: step int64 [frames], time double [frames],
+//                              value [frames, N, components] ([frames, N] for one component)
+//   /observables/<name>        time-dependent scalars {step, time, value double [frames]};
+//                              a '/' in the name makes subgroups ("stage_id/metric")
+//   /connectivity/<name>       time-dependent triangles: value int32 [frames, M, 3], rows past a
+//                              frame's own M are -1; attr particles_group -> /particles/all
+//   /parameters                dataset pipeline (the YAML text), attrs for the run settings
+//
+// Nothing half-written: the file is created as `<path>.partial` and flushed after every frame
+// (flush()), so a killed run leaves a readable partial file; close(true) renames it to `path`,
+// close(false) keeps the .partial and says so on stderr.
+//
+// Not thread-safe: one thread at a time (observe.h5md hands its writer to one writer thread).
+#pragma once
+#include <cstddef>
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "core/base/types.h"
+
+namespace ff {
+
+struct H5mdHeader {
+  std::string author;          // /h5md/author name (empty: the login name)
+  int dim = 2;
+  double edges[3] = {0, 0, 0};
+  std::string pipeline_text;   // /parameters/pipeline (omitted when empty)
+  std::vector<std::pair<std::string, std::string>> run_attributes;  // /parameters attributes
+};
+
+class H5mdWriter {
+ public:
+  // Creates `<path>.partial` (replacing a stale one) and writes /h5md, the box and /parameters.
+  // RunError if the file cannot be created.
+  H5mdWriter(std::string path, const H5mdHeader& header);
+  // A writer destroyed without close() closes as not completed (keeps the .partial).
+  ~H5mdWriter();
+  H5mdWriter(const H5mdWriter&) = delete;
+  H5mdWriter& operator=(const H5mdWriter&) = delete;
+
+  const std::string& path() const { return path_; }
+  std::string partial_path() const { return path_ + ".partial"; }
+  bool is_open() const { return impl_ != nullptr; }
+
+  // /particles/all/species, once. `names` are stored as an attribute (index -> name).
+  void write_species(const std::int32_t* species, std::size_t n, const std::vector<std::string>& names);
+
+  // Declare the time-dependent element /particles/all/<name> holding n x components values of
+  // `dtype` per frame, then append frames to it (`data`: n*components values of that dtype).
+  void add_particle_element(const std::string& name, DType dtype, std::size_t n, int components);
+  void append_particle_element(const std::string& name, std::int64_t step, double time, const void* data);
+
+  // /observables/<name>: created on first use.
+  void append_observable(const std::string& name, std::int64_t step, double time, double value);
+
+  // /connectivity/<name>: m triangles (3 particle indices each); created on first use.
+  void append_connectivity(const std::string& name, std::int64_t step, double time,
+                           const std::int32_t* triangles, std::size_t m);
+
+  // Make everything appended so far durable and readable by another process.
+  void flush();
+
+  // Close the file. completed: rename the .partial to path() (RunError if that fails, the
+  // .partial is kept). Not completed: keep the .partial and print where it is on stderr.
+  void close(bool completed);
+
+ private:
+  struct Impl;
+  std::string path_;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace ff

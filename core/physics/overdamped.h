@@ -1,0 +1,62 @@
+// The overdamped (Euler–Maruyama) position update every integrator shares, written once:
+//   x_k += drift_k + amplitude · ξ_k,  then wrapped into the periodic box with the crossing
+// counted in `image`. drift is the deterministic displacement of the step (v Δt, or none),
+// amplitude = sqrt(2 D Δt), ξ truncated unit Gaussians (core/physics/rng.h). nvcc-clean.
+//
+// An integrator's functor F splits its step into the noise and the move, so the CPU loop can
+// draw the noise of several particles at once (core/backend/overdamped_cpu.h) while the GPU draws it
+// per thread (overdamped_step); both call the same F::move:
+//   static constexpr int kNoisePairs;              Gaussian pairs per particle
+//   FF_HD std::uint32_t noise_pair(int j) const;   the pair index (core/physics/rng.h) of the j-th pair
+//   FF_HD NoiseCounter noise_counter() const;      key, step, attempt
+//   FF_HD void move(std::size_t i, const double* z) const;  z[2j], z[2j + 1]: pair j
+#pragma once
+#include <cstddef>
+#include <cstdint>
+
+#include "core/physics/box.h"
+#include "core/base/hd.h"
+#include "core/physics/rng.h"
+
+namespace ff {
+
+struct NoiseCounter {
+  RngKey key;
+  std::uint64_t step;
+  std::uint32_t attempt;
+};
+
+// Reads particle i from (position_in, image_in) and writes it to (position, image): the same
+// arrays for an update in place, or the previous step's kept by the rollback snapshot
+// (StepContext::will_overwrite) for one that spares the snapshot its copy.
+template <class R, int D>
+FF_HD void overdamped_move(const R* position_in, const std::int32_t* image_in, R* position, std::int32_t* image,
+                           const PeriodicBox<R>& box, std::size_t i, const R* drift, R amplitude, const double* xi) {
+  for (int k = 0; k < D; ++k) {
+    R x = position_in[i * D + k];
+    std::int32_t n = image_in[i * D + k];
+    if (drift) x += drift[k];
+    x += amplitude * R(xi[k]);
+    box.wrap(x, n, k);
+    position[i * D + k] = x;
+    image[i * D + k] = n;
+  }
+}
+
+template <class R, int D>
+FF_HD void overdamped_move(R* position, std::int32_t* image, const PeriodicBox<R>& box, std::size_t i,
+                           const R* drift, R amplitude, const double* xi) {
+  overdamped_move<R, D>(position, image, position, image, box, i, drift, amplitude, xi);
+}
+
+// One particle's step: its Gaussian pairs, then F::move (the element operation of the GPU loop).
+template <class F>
+FF_HD void overdamped_step(const F& f, std::size_t i) {
+  const NoiseCounter c = f.noise_counter();
+  double z[2 * F::kNoisePairs];
+  for (int j = 0; j < F::kNoisePairs; ++j)
+    gaussian_pair(c.key, std::uint32_t(i), c.step, c.attempt, f.noise_pair(j), z[2 * j], z[2 * j + 1]);
+  f.move(i, z);
+}
+
+}  // namespace ff

@@ -1,0 +1,145 @@
+#include "core/run/plugin_loader.h"
+
+#include <algorithm>
+#include <boost/dll/runtime_symbol_info.hpp>
+#include <boost/dll/shared_library.hpp>
+#include <cstdlib>
+#include <filesystem>
+#include <map>
+#include <mutex>
+#include <set>
+
+#include "core/base/error.h"
+#include "core/stage/plugin_api.h"
+
+namespace fs = std::filesystem;
+
+namespace ff {
+
+namespace {
+const char* kStagePrefix = "libflipflow_stage_";
+const char* kPluginPrefix = "libflipflow_plugin_";
+
+// Libraries are kept open until exit (see header).
+std::vector<boost::dll::shared_library>& loaded_libraries() {
+  static std::vector<boost::dll::shared_library> libs;
+  return libs;
+}
+
+std::vector<std::string> find_with_prefix(const std::vector<std::string>& path, const std::string& prefix) {
+  std::vector<std::string> out;
+  std::set<std::string> seen;
+  for (auto& dir : path) {
+    std::error_code ec;
+    if (!fs::is_directory(dir, ec)) continue;
+    std::vector<fs::path> here;
+    for (auto& e : fs::directory_iterator(dir, ec)) {
+      const std::string fn = e.path().filename().string();
+      if (fn.rfind(prefix, 0) == 0 && e.path().extension() == ".so") here.push_back(e.path());
+    }
+    std::sort(here.begin(), here.end());
+    for (auto& p : here)
+      if (seen.insert(p.filename().string()).second) out.push_back(p.string());
+  }
+  return out;
+}
+
+// The plugins' hot CPU loops are built for x86-64-v3 (FLIPFLOW_X86_64_V3, CMakeLists.txt): on an
+// older CPU they would stop at the first AVX2 instruction with SIGILL; say why instead.
+void require_cpu_features() {
+#if defined(FLIPFLOW_X86_64_V3)
+  __builtin_cpu_init();
+  const char* missing = !__builtin_cpu_supports("avx2")   ? "avx2"
+                        : !__builtin_cpu_supports("fma")  ? "fma"
+                        : !__builtin_cpu_supports("bmi2") ? "bmi2"
+                                                          : nullptr;
+  if (missing)
+    throw RunError(std::string("this CPU lacks ") + missing +
+                   ": this flipflow build's CPU loops need an x86-64-v3 CPU (AVX2, FMA, BMI2). Rebuild with "
+                   "cmake -DFLIPFLOW_X86_64_V3=OFF");
+#endif
+}
+}  // namespace
+
+std::vector<std::string> plugin_search_path() {
+  std::vector<std::string> path;
+  if (const char* env = std::getenv("FLIPFLOW_PLUGIN_PATH")) {
+    std::string s = env;
+    std::size_t start = 0;
+    while (start <= s.size()) {
+      std::size_t end = s.find(':', start);
+      if (end == std::string::npos) end = s.size();
+      if (end > start) path.push_back(s.substr(start, end - start));
+      start = end + 1;
+    }
+  }
+  const fs::path exe_dir = boost::dll::program_location().parent_path().string();
+  path.push_back((exe_dir / ".." / "plugins").lexically_normal().string());  // a build tree
+  // An installed tree (cmake --install, cmake/install.cmake): <prefix>/bin/pipeline and
+  // <prefix>/lib/flipflow/plugins.
+  path.push_back((exe_dir / ".." / "lib" / "flipflow" / "plugins").lexically_normal().string());
+  return path;
+}
+
+std::string find_plugin(const std::string& name, const std::vector<std::string>& path) {
+  if (name.find('/') != std::string::npos) {
+    if (!fs::exists(name)) throw InputError("plugin library '" + name + "' does not exist");
+    return name;
+  }
+  for (auto& dir : path) {
+    fs::path p = fs::path(dir) / (kPluginPrefix + name + ".so");
+    if (fs::exists(p)) return p.string();
+  }
+  std::string dirs;
+  for (auto& d : path) dirs += "\n  " + d;
+  throw InputError("plugin '" + name + "' not found: no " + kPluginPrefix + name +
+                   ".so in the plugin search path (FLIPFLOW_PLUGIN_PATH, then the build's or the install's "
+                   "plugin folder):" + dirs);
+}
+
+std::vector<std::string> find_stage_libraries(const std::vector<std::string>& path) {
+  return find_with_prefix(path, kStagePrefix);
+}
+
+std::vector<std::string> find_model_plugins(const std::vector<std::string>& path) {
+  return find_with_prefix(path, kPluginPrefix);
+}
+
+void load_plugins(const std::vector<std::string>& files, Registry& registry) {
+  static std::mutex mutex;
+  std::lock_guard<std::mutex> lock(mutex);
+  if (!files.empty()) require_cpu_features();
+  struct Opened {
+    std::string file;
+    boost::dll::shared_library lib;
+  };
+  std::vector<Opened> opened;
+  // 1. open and check everything
+  for (auto& file : files) {
+    boost::dll::shared_library lib;
+    try {
+      lib.load(file, boost::dll::load_mode::rtld_now | boost::dll::load_mode::rtld_local);
+    } catch (const std::exception& e) {
+      throw InputError("cannot load plugin '" + file + "': " + e.what());
+    }
+    if (!lib.has("flipflow_abi_version") || !lib.has("flipflow_register"))
+      throw InputError("'" + file + "' is not a flipflow plugin: it does not export " +
+                       (lib.has("flipflow_abi_version") ? "flipflow_register" : "flipflow_abi_version") +
+                       " (use FLIPFLOW_PLUGIN(...) from core/stage/plugin_api.h)");
+    const int version = lib.get_alias<AbiVersionFunction>("flipflow_abi_version")();
+    if (version != FF_ABI_VERSION)
+      throw InputError("plugin '" + file + "' was built for flipflow ABI version " + std::to_string(version) +
+                       ", this flipflow has version " + std::to_string(FF_ABI_VERSION) + ": rebuild the plugin");
+    opened.push_back({file, std::move(lib)});
+  }
+  // 2. register
+  for (auto& o : opened) {
+    registry.set_current_plugin(fs::path(o.file).filename().string());
+    o.lib.get_alias<RegisterFunction>("flipflow_register")(registry);
+    loaded_libraries().push_back(o.lib);
+  }
+  registry.resolve_aliases();
+  registry.set_current_plugin("(built in)");
+}
+
+}  // namespace ff

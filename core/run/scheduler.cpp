@@ -1,0 +1,274 @@
+#include "core/run/scheduler.h"
+
+#include <oneapi/tbb/flow_graph.h>
+
+#include <chrono>
+#include <mutex>
+
+#ifdef FLIPFLOW_HAVE_CUDA
+#include "core/run/cuda/graph.h"
+#include "core/run/cuda/streams.h"
+#endif
+
+namespace ff {
+
+namespace flow = tbb::flow;
+
+struct Scheduler::Impl {
+  flow::graph graph;
+  flow::broadcast_node<flow::continue_msg> start{graph};
+  std::vector<std::unique_ptr<flow::continue_node<flow::continue_msg>>> nodes;
+  bool chain = false;
+  std::vector<int> compute;
+  std::mutex error_mutex;
+#ifdef FLIPFLOW_HAVE_CUDA
+  std::unique_ptr<StreamSet> streams;
+  std::unique_ptr<DeviceStepParams> device_params;  // when some stage reads ctx.params on CUDA
+  CapturedStep captured;
+  bool capturable = false;       // every compute stage graph_capturable, none uses `every`
+  bool capture_failed = false;
+  std::uint64_t steps_run = 0;  // the first runs without the graph, settling every field
+#endif
+  // Per-attempt parameters read by the node bodies; `params` is their host copy (ctx.params
+  // on the CPU).
+  std::uint64_t step = 0;
+  std::uint32_t attempt = 0;
+  double dt = 0, time = 0;
+  StepParams params{};
+};
+
+Scheduler::Scheduler(const StepGraph& graph, std::vector<StageSlot>& slots, State& state, const RunStats& stats,
+                     Backend backend)
+    : impl_(std::make_unique<Impl>()), graph_(graph), slots_(slots), state_(state), stats_(stats), backend_(backend) {
+  impl_->compute = graph.compute_nodes();
+  impl_->chain = graph.is_chain();
+#ifdef FLIPFLOW_HAVE_CUDA
+  if (backend == Backend::cuda) {
+    bool device_requests = false;
+    for (int i : impl_->compute) device_requests = device_requests || slots[i].stage->scheduling().requests_rollback_on_device;
+    impl_->streams = std::make_unique<StreamSet>(graph, device_requests);
+    bool any_reads_params = false;
+    impl_->capturable = !impl_->compute.empty();
+    for (int i : impl_->compute) {
+      const Scheduling h = slots[i].stage->scheduling();
+      any_reads_params = any_reads_params || h.reads_step_params;
+      impl_->capturable = impl_->capturable && h.graph_capturable && graph.nodes()[i].every == 1;
+    }
+    // (The upload is on the step's critical path: after the last stage's wait, before the first
+    // launch of the next step.)
+    if (any_reads_params || impl_->capturable) impl_->device_params = std::make_unique<DeviceStepParams>();
+  }
+#endif
+  // The flow graph is built even for a chain (it is what `graph` prints and what a branch
+  // needs); a chain is simply run in order on the calling thread, which is the same schedule
+  // without a task hand-off per stage.
+  auto& g = impl_->graph;
+  impl_->nodes.resize(graph.nodes().size());
+  for (int i : impl_->compute) {
+    // make_edge registers each predecessor, so the node fires once all of them have.
+    impl_->nodes[i] = std::make_unique<flow::continue_node<flow::continue_msg>>(
+        g, [this, i](const flow::continue_msg&) {
+          run_node(i, impl_->step, impl_->attempt, impl_->dt, impl_->time);
+          return flow::continue_msg();
+        });
+  }
+  for (int i : impl_->compute) {
+    const auto& preds = graph.nodes()[i].preds;
+    if (preds.empty()) flow::make_edge(impl_->start, *impl_->nodes[i]);
+    for (int p : preds) flow::make_edge(*impl_->nodes[p], *impl_->nodes[i]);
+  }
+}
+
+Scheduler::~Scheduler() = default;
+
+CUstream_st* Scheduler::main_stream() const {
+#ifdef FLIPFLOW_HAVE_CUDA
+  if (impl_->streams) return impl_->streams->main();
+#endif
+  return nullptr;
+}
+
+void Scheduler::run_node(int i, std::uint64_t step, std::uint32_t attempt, double dt, double time) {
+  StageSlot& slot = slots_[i];
+  const GraphNode& node = graph_.nodes()[i];
+  slot.ran = false;
+  if (step % node.every != 0 || abort_.load(std::memory_order_relaxed)) return;
+  try {
+    CUstream_st* stream = nullptr;
+#ifdef FLIPFLOW_HAVE_CUDA
+    if (impl_->streams) {
+      impl_->streams->before(i);
+      stream = impl_->streams->stream(i);
+    }
+#endif
+    for (auto& a : node.accesses) state_.field(a.field).acquire(a.where, a.mode, stream);
+    slot.metrics.clear();
+    StepContext ctx = context(i, stream, step, attempt, dt, time);
+    const auto t0 = std::chrono::steady_clock::now();
+    slot.outcome = slot.stage->run(ctx);
+#ifdef FLIPFLOW_HAVE_CUDA
+    if (profiling_ && stream) impl_->streams->synchronize();
+#endif
+    const auto t1 = std::chrono::steady_clock::now();
+    slot.seconds += std::chrono::duration<double>(t1 - t0).count();
+    ++slot.calls;
+    slot.ran = true;
+#ifdef FLIPFLOW_HAVE_CUDA
+    if (impl_->streams) impl_->streams->after(i);
+#endif
+    if (slot.outcome.rollback) abort_.store(true);
+  } catch (...) {
+    std::lock_guard<std::mutex> lock(impl_->error_mutex);
+    if (!error_) error_ = std::current_exception();
+    has_error_.store(true);
+    abort_.store(true);
+  }
+}
+
+StepContext Scheduler::context(int i, CUstream_st* stream, std::uint64_t step, std::uint32_t attempt, double dt,
+                               double time) {
+  StageSlot& slot = slots_[i];
+  DeviceRollbackFlag* flag = nullptr;
+  const StepParams* params = &impl_->params;
+#ifdef FLIPFLOW_HAVE_CUDA
+  if (impl_->streams) {
+    flag = impl_->streams->rollback_flag(i);
+    params = impl_->device_params ? impl_->device_params->device() : nullptr;
+  }
+#endif
+  return StepContext{state_, slot.info, stats_, step, attempt, dt, time, backend_, stream, slot.rng, slot.metrics,
+                     flag,   params, snapshot_undone_.size() > std::size_t(i) && snapshot_undone_[i] ? snapshot_ : nullptr};
+}
+
+std::optional<RollbackRequest> Scheduler::run_compute(std::uint64_t step, std::uint32_t attempt, double dt,
+                                                      double time) {
+  abort_.store(false);
+  error_ = nullptr;
+  has_error_.store(false);
+  impl_->step = step;
+  impl_->attempt = attempt;
+  impl_->dt = dt;
+  impl_->time = time;
+  impl_->params = StepParams{step, attempt, dt, time};
+#ifdef FLIPFLOW_HAVE_CUDA
+  if (impl_->device_params) impl_->device_params->set(impl_->params, main_stream());
+  const bool captured = run_captured();
+  if (captured) {
+    ++impl_->steps_run;
+  } else
+#endif
+  {
+#ifdef FLIPFLOW_HAVE_CUDA
+    if (impl_->streams) impl_->streams->begin_attempt();
+#endif
+    enqueue_compute();
+#ifdef FLIPFLOW_HAVE_CUDA
+    if (impl_->streams) ++impl_->steps_run;
+#endif
+  }
+  if (error_) std::rethrow_exception(error_);
+#ifdef FLIPFLOW_HAVE_CUDA
+  if (impl_->streams) {
+    // Stages that may request a rollback on the device report through flags read once here.
+    // A replayed graph joined its own forks (its events exist only inside the graph).
+    if (!captured) impl_->streams->join_all();
+    if (auto req = impl_->streams->read_rollback_flags(graph_, slots_)) return req;
+  }
+#endif
+  for (int i : impl_->compute)
+    if (slots_[i].ran && slots_[i].outcome.rollback) return RollbackRequest{i, slots_[i].outcome};
+#ifdef FLIPFLOW_HAVE_CUDA
+  if (captured) return std::nullopt;
+#endif
+  // The step is accepted: stages that left results on the device read them now (in step order,
+  // which for a chain is the order their work was enqueued).
+  for (int i : impl_->compute) {
+    if (!slots_[i].ran) continue;
+    CUstream_st* stream = nullptr;
+#ifdef FLIPFLOW_HAVE_CUDA
+    if (impl_->streams) stream = impl_->streams->stream(i);
+#endif
+    StepContext ctx = context(i, stream, step, attempt, dt, time);
+    slots_[i].stage->after_step(ctx);
+  }
+  return std::nullopt;
+}
+
+void Scheduler::enqueue_compute() {
+  if (impl_->chain) {
+    for (int i : impl_->compute) run_node(i, impl_->step, impl_->attempt, impl_->dt, impl_->time);
+  } else {
+    impl_->start.try_put(flow::continue_msg());
+    impl_->graph.wait_for_all();
+  }
+}
+
+bool Scheduler::run_captured() {
+#ifdef FLIPFLOW_HAVE_CUDA
+  auto& im = *impl_;
+  // The first step runs directly so every field is settled on the device before capture;
+  // profiling needs each stage's own launches.
+  if (!im.capturable || im.capture_failed || profiling_ || im.steps_run == 0) return false;
+  if (!im.captured.ready()) {
+    std::string why;
+    const bool ok = im.captured.capture(main_stream(), [&] {
+      im.streams->begin_attempt();
+      enqueue_compute();
+      if (error_) std::rethrow_exception(error_);
+      im.streams->join_all();
+      launch_advance_step(im.device_params->device(), main_stream());
+    }, why);
+    if (!ok) {
+      // Not fatal: the step runs with direct launches from now on.
+      im.capture_failed = true;
+      error_ = nullptr;
+      abort_.store(false);
+      return false;
+    }
+  }
+  im.captured.launch(main_stream());
+  im.device_params->advanced_by_graph();
+  // The graph wrote what the stages declared: keep host/device coherence flags true.
+  for (int i : im.compute) {
+    for (auto& a : graph_.nodes()[i].accesses) state_.field(a.field).acquire(a.where, a.mode, main_stream());
+    slots_[i].ran = true;
+    slots_[i].outcome = Outcome::ok();
+    slots_[i].metrics.clear();
+  }
+  return true;
+#else
+  return false;
+#endif
+}
+
+bool Scheduler::step_is_captured() const {
+#ifdef FLIPFLOW_HAVE_CUDA
+  return impl_->captured.ready() && !profiling_;
+#else
+  return false;
+#endif
+}
+
+void Scheduler::run_observers(std::uint64_t step, double dt, double time,
+                              const std::function<void(int)>& after_each) {
+  for (int i : graph_.observer_nodes()) {
+    run_node(i, step, 0, dt, time);
+    if (error_) std::rethrow_exception(error_);
+    if (slots_[i].ran) after_each(i);
+  }
+}
+
+void Scheduler::reset_timers() {
+  for (auto& s : slots_) {
+    s.seconds = 0;
+    s.calls = 0;
+  }
+}
+
+void Scheduler::synchronize() {
+#ifdef FLIPFLOW_HAVE_CUDA
+  if (impl_->streams) impl_->streams->synchronize();
+#endif
+}
+
+}  // namespace ff

@@ -1,0 +1,93 @@
+// Runs the compute phase of one step attempt over a oneTBB flow graph built once per run:
+// one continue_node per stage, edges from the step graph, independent stages concurrently.
+// Observer stages run afterwards, in order, on the calling thread.
+//
+// On CUDA every stage gets a stream (a chain shares one; a branch gets its own) and an event:
+// a stage waits for its predecessors' events on other streams and records its own, so the
+// host only enqueues work and never blocks a oneTBB worker on the GPU. See core/run/cuda/streams.h.
+#pragma once
+#include <atomic>
+#include <cstdint>
+#include <exception>
+#include <functional>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "core/stage/stage.h"
+#include "core/run/step_graph.h"
+
+namespace ff {
+
+class StreamSet;  // core/run/cuda/streams.h (CUDA builds)
+
+// One stage instance in a run, with what the core keeps about it.
+struct StageSlot {
+  std::unique_ptr<Stage> stage;
+  RunInfo info;
+  RngKey rng;
+  Metrics metrics;
+  Outcome outcome;
+  bool ran = false;          // ran in the current attempt
+  double seconds = 0;        // wall time spent in run(), whole run
+  std::uint64_t calls = 0;
+};
+
+struct RollbackRequest {
+  int node = -1;
+  Outcome outcome;
+};
+
+class Scheduler {
+ public:
+  Scheduler(const StepGraph& graph, std::vector<StageSlot>& slots, State& state, const RunStats& stats,
+            Backend backend);
+  ~Scheduler();
+
+  // Runs the compute stages due at `step`. Returns the first rollback request (lowest node
+  // index among those that asked), or nothing. Exceptions from stages are rethrown here.
+  std::optional<RollbackRequest> run_compute(std::uint64_t step, std::uint32_t attempt, double dt, double time);
+  // Runs the observer stages due at `step` (the step is accepted; state.step/time updated),
+  // calling after_each(node) after each one that ran (so a later observer sees its metrics).
+  void run_observers(std::uint64_t step, double dt, double time, const std::function<void(int)>& after_each);
+  // Wait for all device work of the step (CUDA); a no-op on the CPU.
+  void synchronize();
+  CUstream_st* main_stream() const;
+  // Profiling: wait for each stage's device work before stopping its clock, so per-stage
+  // times are real on CUDA (serializes streams; `pipeline bench` reports both ways).
+  void set_profiling(bool on) { profiling_ = on; }
+  // The rollback snapshot stages reach through StepContext::will_write (null: none), for the
+  // nodes whose writes a rollback must undo (`undone[node]`); the others see no snapshot, so
+  // their announced writes cost no copy.
+  void set_snapshot(Snapshot* snapshot, std::vector<bool> undone) {
+    snapshot_ = snapshot;
+    snapshot_undone_ = std::move(undone);
+  }
+  void reset_timers();
+  // True once the steady-state step replays a captured CUDA graph.
+  bool step_is_captured() const;
+
+ private:
+  struct Impl;
+  Snapshot* snapshot_ = nullptr;
+  std::vector<bool> snapshot_undone_;  // per node: its writes are in the snapshot
+  void run_node(int node, std::uint64_t step, std::uint32_t attempt, double dt, double time);
+  // The context stage `node` sees in run() and after_step().
+  StepContext context(int node, CUstream_st* stream, std::uint64_t step, std::uint32_t attempt, double dt,
+                      double time);
+  void enqueue_compute();  // run every compute stage once (flow graph, or in order for a chain)
+  bool run_captured();     // CUDA: replay (capturing first if needed) the step graph
+  std::unique_ptr<Impl> impl_;
+  const StepGraph& graph_;
+  std::vector<StageSlot>& slots_;
+  State& state_;
+  const RunStats& stats_;
+  Backend backend_;
+  bool profiling_ = false;
+  std::atomic<bool> abort_{false};
+  std::exception_ptr error_;
+  std::atomic<bool> has_error_{false};
+};
+
+}  // namespace ff

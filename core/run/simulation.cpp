@@ -1,0 +1,230 @@
+#include "core/run/simulation.h"
+
+#include <filesystem>
+#include <set>
+#include <sstream>
+
+#include "core/base/error.h"
+#include "core/input/init.h"
+
+namespace fs = std::filesystem;
+
+namespace ff {
+
+Simulation::Simulation(const PipelineSpec& spec, const Registry& registry, RunOptions options)
+    : Simulation(spec, registry, std::move(options), make_initial_state(spec.system, spec.run.precision, spec.run.seed)) {}
+
+Simulation::Simulation(const PipelineSpec& spec, const Registry& registry, RunOptions options,
+                       std::unique_ptr<State> state)
+    : spec_(spec), options_(std::move(options)), state_(std::move(state)) {
+  build(registry);
+  if (!options_.dry_run) prepare_outputs();
+}
+
+Simulation::~Simulation() {
+  if (!finished_) {
+    try {
+      finish(false);
+    } catch (...) {
+      // Destructors must not throw; the run already failed if we get here.
+    }
+  }
+}
+
+void Simulation::build(const Registry& registry) {
+  std::vector<std::vector<Access>> accesses;
+  std::vector<bool> observer;
+  slots_.resize(spec_.step.size());
+  for (std::size_t i = 0; i < spec_.step.size(); ++i) {
+    const StepEntry& e = spec_.step[i];
+    StageSlot& slot = slots_[i];
+    slot.info = RunInfo{state_->dim(), spec_.run.precision, options_.backend, spec_.run.seed, spec_.run.steps,
+                        spec_.run.dt,  options_.out_dir,    spec_.file,       e.id};
+    slot.rng = make_rng_key(spec_.run.seed, e.id.c_str());
+    try {
+      slot.stage = registry.create(e.stage, options_.backend, e.params, slot.info);
+      slot.stage->configure(*state_);
+    } catch (const InputError& err) {
+      throw InputError(e.where.str() + ": step '" + e.id + "': " + err.what());
+    }
+    accesses.push_back(slot.stage->accesses());
+    for (auto& a : accesses.back())
+      if (!state_->has_field(a.field))
+        throw InputError(e.where.str() + ": step '" + e.id + "' uses field '" + a.field +
+                         "', which no stage before it created");
+    observer.push_back(registry.get(e.stage).decl.observer);
+  }
+  graph_ = std::make_unique<StepGraph>(spec_, std::move(accesses), observer);
+  scheduler_ = std::make_unique<Scheduler>(*graph_, slots_, *state_, stats_, options_.backend);
+  dt_ = std::make_unique<DtController>(spec_.run.dt, spec_.run.dt_min, spec_.run.dt_grow_after);
+  stats_.dt = spec_.run.dt;
+
+  make_snapshot();
+}
+
+// What a rollback must restore: the writes of every stage that can run before a rollback
+// request is seen. A request returned by run() stops the step at once (the scheduler skips what
+// has not started), so the writes of a stage that runs after every stage that may request one —
+// Lawson flips and the overlap correction after detect_inversion and flip — need no copy. On
+// CUDA a stage may also request from its kernels (device flags read at the end of the step);
+// when one may, every stage counts. Writes declared on_demand are copied only when the stage
+// announces them.
+void Simulation::make_snapshot() {
+  std::vector<int> requesters;
+  bool device_requests = false;
+  for (int i : graph_->compute_nodes())
+    if (slots_[i].stage->scheduling().may_request_rollback) {
+      requesters.push_back(i);
+      device_requests = device_requests || slots_[i].stage->scheduling().requests_rollback_on_device;
+    }
+  if (requesters.empty()) return;
+  const bool host_requests_only = options_.backend == Backend::cpu || !device_requests;
+  std::set<std::string> every_step, on_demand;
+  std::vector<bool> undone(graph_->nodes().size(), false);
+  for (int j : graph_->compute_nodes()) {
+    bool before_a_request = !host_requests_only;
+    for (int k : requesters) before_a_request = before_a_request || k == j || !graph_->ordered(k, j);
+    if (!before_a_request) continue;
+    undone[j] = true;
+    for (auto& a : graph_->nodes()[j].accesses)
+      if (writes(a.mode) && !a.step_local) (a.on_demand ? on_demand : every_step).insert(a.field);
+  }
+  for (auto& f : every_step) on_demand.erase(f);
+  snapshot_ = std::make_unique<Snapshot>(std::vector<std::string>(every_step.begin(), every_step.end()),
+                                         std::vector<std::string>(on_demand.begin(), on_demand.end()));
+  scheduler_->set_snapshot(snapshot_.get(), std::move(undone));
+}
+
+std::vector<std::string> Simulation::snapshot_fields() const {
+  return snapshot_ ? snapshot_->fields() : std::vector<std::string>{};
+}
+
+std::vector<std::string> Simulation::snapshot_on_demand_fields() const {
+  return snapshot_ ? snapshot_->on_demand_fields() : std::vector<std::string>{};
+}
+
+std::vector<std::string> Simulation::step_local_fields() const {
+  std::set<std::string> local, carried;
+  for (int j : graph_->compute_nodes())
+    for (auto& a : graph_->nodes()[j].accesses)
+      if (writes(a.mode)) (a.step_local ? local : carried).insert(a.field);
+  std::vector<std::string> out;
+  for (auto& f : local)
+    if (!carried.count(f)) out.push_back(f);
+  return out;
+}
+
+void Simulation::prepare_outputs() {
+  std::vector<std::string> outputs;
+  for (auto& s : slots_)
+    for (auto& o : s.stage->outputs()) outputs.push_back(o);
+  if (outputs.empty()) return;
+  if (options_.out_dir.empty()) throw InputError("this pipeline writes files but no output directory was given (--out)");
+  for (auto& o : outputs) {
+    const fs::path p = fs::path(options_.out_dir) / o;
+    if (fs::exists(p) && !options_.force)
+      throw InputError("output '" + p.string() + "' exists; use --force to overwrite it or --out to write elsewhere");
+  }
+  std::error_code ec;
+  fs::create_directories(options_.out_dir, ec);
+  if (ec) throw InputError("cannot create output directory '" + options_.out_dir + "': " + ec.message());
+}
+
+void Simulation::collect_metrics(int node) {
+  for (auto& kv : slots_[node].metrics.values()) stats_.metrics[slots_[node].info.stage_id + "/" + kv.first] = kv.second;
+}
+
+void Simulation::observe(double dt) {
+  scheduler_->run_observers(state_->step, dt, state_->time, [this](int node) { collect_metrics(node); });
+}
+
+void Simulation::give_up(const RollbackRequest& req, double dt) {
+  std::ostringstream os;
+  os << "step " << state_->step << ": stage '" << graph_->nodes()[req.node].id << "' requested a rollback ("
+     << req.outcome.reason << ") and Δt = " << dt << " cannot be halved again without going below dt_min = "
+     << dt_->min();
+  if (!req.outcome.particles.empty()) {
+    os << "; particles involved:";
+    for (std::size_t k = 0; k < req.outcome.particles.size() && k < 8; ++k) os << " " << req.outcome.particles[k];
+  }
+  os << ". Lower run.dt, or check the model's forces for a blow-up.";
+  throw RunError(os.str());
+}
+
+void Simulation::advance() {
+  if (!observed_initial_) {
+    // Frame 0: observers see the initial configuration.
+    observe(dt_->dt());
+    observed_initial_ = true;
+  }
+  const std::uint64_t step = state_->step;
+  stats_.step_rollbacks = 0;
+  std::unique_ptr<StateImage> before;
+  if (options_.check_rollbacks && snapshot_) {
+    before = std::make_unique<StateImage>();
+    before->take(*state_, step_local_fields());
+  }
+  if (snapshot_) snapshot_->take(*state_, scheduler_->main_stream());
+  for (std::uint32_t attempt = 0;; ++attempt) {
+    const double dt = dt_->dt();
+    auto req = scheduler_->run_compute(step, attempt, dt, state_->time);
+    if (!req) {
+      stats_.dt = dt;
+      state_->time += dt;
+      state_->step = step + 1;
+      if (attempt == 0) dt_->accepted();
+      break;
+    }
+    ++stats_.rollbacks;
+    ++stats_.step_rollbacks;
+    snapshot_->restore(*state_, scheduler_->main_stream());
+    if (before) {
+      const std::string missed = before->differences(*state_);
+      if (!missed.empty())
+        throw RunError("step " + std::to_string(step) + ", attempt " + std::to_string(attempt) +
+                       ": the rollback requested by stage '" + graph_->nodes()[req->node].id +
+                       "' did not restore the state (check_rollbacks): " + missed +
+                       ". A stage before it writes a field it does not declare (Stage::accesses), or "
+                       "declares a write on_demand / step_local and breaks that promise.");
+    }
+    if (!dt_->halve()) give_up(*req, dt);
+  }
+  for (int i : graph_->compute_nodes())
+    if (slots_[i].ran) collect_metrics(i);
+  observe(stats_.dt);
+}
+
+void Simulation::run() {
+  try {
+    while (state_->step < spec_.run.steps) advance();
+    if (!observed_initial_) {
+      observe(dt_->dt());
+      observed_initial_ = true;
+    }
+    scheduler_->synchronize();
+  } catch (...) {
+    try {
+      finish(false);
+    } catch (...) {
+    }
+    throw;
+  }
+  finish(true);
+}
+
+void Simulation::finish(bool completed) {
+  if (finished_) return;
+  finished_ = true;
+  if (completed) scheduler_->synchronize();
+  std::exception_ptr first;
+  for (auto& s : slots_) {
+    try {
+      s.stage->finish(*state_, completed);
+    } catch (...) {
+      if (!first) first = std::current_exception();
+    }
+  }
+  if (first) std::rethrow_exception(first);
+}
+
+}  // namespace ff

@@ -1,0 +1,89 @@
+// A run: the state, the stage instances, the step graph and its scheduler, rollback and Δt.
+// Built from a validated PipelineSpec; `pipeline run`, `pipeline bench` and the integration
+// tests all drive this class.
+#pragma once
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "core/input/pipeline_spec.h"
+#include "core/stage/registry.h"
+#include "core/run/rollback.h"
+#include "core/run/scheduler.h"
+#include "core/stage/state.h"
+#include "core/run/step_graph.h"
+
+namespace ff {
+
+struct RunOptions {
+  Backend backend = Backend::cpu;
+  std::string out_dir;         // created if missing; empty = no outputs allowed
+  bool force = false;          // overwrite existing outputs
+  std::string pipeline_text;   // the YAML text, recorded in outputs (optional)
+  bool dry_run = false;        // validate/graph: build everything, touch no files
+  // After every rollback, compare the whole state with a copy taken before the step (every
+  // field but those only ever written step_local) and stop with a RunError naming what the
+  // restore missed. A debugging aid for stage authors: copies the whole state every step.
+  bool check_rollbacks = false;
+};
+
+class Simulation {
+ public:
+  // Creates and configures every stage, builds the graph, checks outputs (InputError if an
+  // output exists and !force) — nothing is written before all of this has succeeded.
+  Simulation(const PipelineSpec& spec, const Registry& registry, RunOptions options);
+  // Same, starting from a given state (tests, restarts).
+  Simulation(const PipelineSpec& spec, const Registry& registry, RunOptions options, std::unique_ptr<State> state);
+  ~Simulation();
+
+  // All remaining steps, then finish(). On an exception, stages are finished with
+  // completed=false (outputs are kept as .partial) and the exception propagates.
+  void run();
+  // One accepted step (with as many rollbacks as it takes). Runs the observers.
+  void advance();
+  // Flush and close outputs. Called by run(); call it yourself when driving advance().
+  void finish(bool completed);
+
+  State& state() { return *state_; }
+  const RunStats& stats() const { return stats_; }
+  const StepGraph& graph() const { return *graph_; }
+  const std::vector<StageSlot>& slots() const { return slots_; }
+  const PipelineSpec& spec() const { return spec_; }
+  const DtController& dt() const { return *dt_; }
+  std::uint64_t steps_total() const { return spec_.run.steps; }
+  void synchronize() { scheduler_->synchronize(); }
+  Scheduler& scheduler() { return *scheduler_; }
+  // Fields the rollback snapshot holds (empty when no stage may request a rollback).
+  // Fields the rollback snapshot copies before every step, and those it copies only when a stage
+  // announces a write (Access::on_demand).
+  std::vector<std::string> snapshot_fields() const;
+  std::vector<std::string> snapshot_on_demand_fields() const;
+  // Fields every writer declares Access::step_local: a rollback leaves them as the failed
+  // attempt wrote them (they carry nothing into the retry), so check_rollbacks skips them.
+  std::vector<std::string> step_local_fields() const;
+
+ private:
+  void build(const Registry& registry);
+  void make_snapshot();
+  void prepare_outputs();
+  void collect_metrics(int node);
+  void observe(double dt);
+  [[noreturn]] void give_up(const RollbackRequest& req, double dt);
+
+  PipelineSpec spec_;
+  RunOptions options_;
+  std::unique_ptr<State> state_;
+  std::vector<StageSlot> slots_;
+  std::unique_ptr<StepGraph> graph_;
+  std::unique_ptr<Scheduler> scheduler_;
+  std::unique_ptr<Snapshot> snapshot_;
+  std::unique_ptr<DtController> dt_;
+  RunStats stats_;
+  bool observed_initial_ = false;
+  bool finished_ = false;
+};
+
+}  // namespace ff

@@ -1,0 +1,147 @@
+#include "core/run/step_graph.h"
+
+#include <map>
+#include <sstream>
+
+#include "core/base/error.h"
+
+namespace ff {
+
+StepGraph::StepGraph(const PipelineSpec& spec, std::vector<std::vector<Access>> accesses,
+                     const std::vector<bool>& observer) {
+  std::map<std::string, int> index;
+  int previous_compute = -1;
+  for (std::size_t i = 0; i < spec.step.size(); ++i) {
+    const StepEntry& e = spec.step[i];
+    GraphNode n;
+    n.id = e.id;
+    n.stage = e.stage;
+    n.every = e.every;
+    n.observer = observer[i];
+    n.accesses = std::move(accesses[i]);
+    n.where = e.where;
+    if (!n.observer) {
+      if (e.after_given) {
+        for (auto& a : e.after) {
+          auto it = index.find(a);
+          if (it == index.end())
+            throw InputError(e.where.str() + ": step '" + e.id + "': after: unknown id '" + a + "'");
+          if (!nodes_[it->second].observer) n.preds.push_back(it->second);
+        }
+      } else if (previous_compute >= 0) {
+        n.preds.push_back(previous_compute);
+      }
+      previous_compute = int(i);
+    }
+    index[e.id] = int(i);
+    nodes_.push_back(std::move(n));
+  }
+  // Transitive closure; nodes only point backwards, so one pass in order suffices.
+  const std::size_t n = nodes_.size();
+  reach_.assign(n, std::vector<bool>(n, false));
+  for (std::size_t b = 0; b < n; ++b)
+    for (int p : nodes_[b].preds) {
+      reach_[p][b] = true;
+      for (std::size_t a = 0; a < n; ++a)
+        if (reach_[a][p]) reach_[a][b] = true;
+    }
+  check_conflicts();
+}
+
+void StepGraph::check_conflicts() const {
+  for (std::size_t b = 0; b < nodes_.size(); ++b) {
+    if (nodes_[b].observer) continue;
+    for (std::size_t a = 0; a < b; ++a) {
+      if (nodes_[a].observer || reach_[a][b] || reach_[b][a]) continue;
+      for (auto& x : nodes_[a].accesses)
+        for (auto& y : nodes_[b].accesses) {
+          if (x.field != y.field || (!writes(x.mode) && !writes(y.mode))) continue;
+          throw InputError(nodes_[b].where.str() + ": step '" + nodes_[b].id + "' and step '" + nodes_[a].id +
+                           "' both use field '" + x.field + "' (" + (writes(y.mode) ? nodes_[b].id : nodes_[a].id) +
+                           " writes it) but neither runs after the other; add `after: [" + nodes_[a].id +
+                           "]` to '" + nodes_[b].id + "'");
+        }
+    }
+  }
+}
+
+std::vector<int> StepGraph::compute_nodes() const {
+  std::vector<int> v;
+  for (std::size_t i = 0; i < nodes_.size(); ++i)
+    if (!nodes_[i].observer) v.push_back(int(i));
+  return v;
+}
+
+std::vector<int> StepGraph::observer_nodes() const {
+  std::vector<int> v;
+  for (std::size_t i = 0; i < nodes_.size(); ++i)
+    if (nodes_[i].observer) v.push_back(int(i));
+  return v;
+}
+
+bool StepGraph::is_chain() const {
+  const auto c = compute_nodes();
+  for (std::size_t k = 1; k < c.size(); ++k)
+    if (!reach_[c[k - 1]][c[k]]) return false;
+  return true;
+}
+
+namespace {
+std::string access_list(const GraphNode& n, bool want_write) {
+  std::string s;
+  for (auto& a : n.accesses)
+    if (writes(a.mode) == want_write || (want_write == false && reads(a.mode)))
+      s += (s.empty() ? "" : ", ") + a.field;
+  return s.empty() ? "-" : s;
+}
+}  // namespace
+
+std::string StepGraph::dot() const {
+  std::ostringstream os;
+  os << "digraph step {\n  rankdir=TB;\n  node [shape=box, fontname=\"Helvetica\"];\n";
+  for (std::size_t i = 0; i < nodes_.size(); ++i) {
+    const auto& n = nodes_[i];
+    os << "  n" << i << " [label=\"" << n.id;
+    if (n.id != n.stage) os << "\\n(" << n.stage << ")";
+    if (n.every > 1) os << "\\nevery " << n.every;
+    os << "\"" << (n.observer ? ", style=dashed" : "") << "];\n";
+  }
+  for (std::size_t i = 0; i < nodes_.size(); ++i)
+    for (int p : nodes_[i].preds) os << "  n" << p << " -> n" << i << ";\n";
+  // Observers run after the whole compute phase: draw them hanging off the compute sinks.
+  const auto obs = observer_nodes();
+  const auto comp = compute_nodes();
+  int last = -1;
+  for (int c : comp) {
+    bool sink = true;
+    for (int d : comp) sink = sink && !reach_[c][d];
+    if (sink && !obs.empty()) os << "  n" << c << " -> n" << obs.front() << " [style=dashed];\n";
+  }
+  for (int o : obs) {
+    if (last >= 0) os << "  n" << last << " -> n" << o << " [style=dashed];\n";
+    last = o;
+  }
+  os << "}\n";
+  return os.str();
+}
+
+std::string StepGraph::summary() const {
+  std::ostringstream os;
+  os << "compute phase (runs each step, rolled back together):\n";
+  for (int i : compute_nodes()) {
+    const auto& n = nodes_[i];
+    os << "  " << n.id << (n.id != n.stage ? " [" + n.stage + "]" : "") << (n.every > 1 ? " every " + std::to_string(n.every) : "")
+       << "\n    after: ";
+    if (n.preds.empty()) os << "(start)";
+    for (std::size_t k = 0; k < n.preds.size(); ++k) os << (k ? ", " : "") << nodes_[n.preds[k]].id;
+    os << "\n    reads: " << access_list(n, false) << "\n    writes: " << access_list(n, true) << "\n";
+  }
+  os << "observe phase (after each accepted step, in order):\n";
+  for (int i : observer_nodes()) {
+    const auto& n = nodes_[i];
+    os << "  " << n.id << (n.every > 1 ? " every " + std::to_string(n.every) : "") << "\n";
+  }
+  return os.str();
+}
+
+}  // namespace ff

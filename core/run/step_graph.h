@@ -1,0 +1,50 @@
+// The step graph: which stage runs after which. Built once per run from the pipeline's order
+// (each entry after the previous one unless it says `after:`) and checked against the fields
+// each stage declares: two stages with no path between them must not touch the same field
+// when either writes it, or the result would depend on thread timing.
+//
+// Observer stages (StageDecl::observer) form a second phase that runs, in file order, after
+// the step is accepted (so a rolled-back attempt never reaches an output file).
+#pragma once
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "core/input/pipeline_spec.h"
+#include "core/stage/stage.h"
+
+namespace ff {
+
+struct GraphNode {
+  std::string id;
+  std::string stage;
+  std::uint64_t every = 1;
+  bool observer = false;
+  std::vector<int> preds;  // indices of nodes this one runs after (compute phase only)
+  std::vector<Access> accesses;
+  Location where;
+};
+
+class StepGraph {
+ public:
+  // accesses[i] and observer[i] describe spec.step[i]. Throws InputError on a conflict.
+  StepGraph(const PipelineSpec& spec, std::vector<std::vector<Access>> accesses, const std::vector<bool>& observer);
+
+  const std::vector<GraphNode>& nodes() const { return nodes_; }
+  // True when a runs before b on every schedule (a path a -> ... -> b).
+  bool ordered(int a, int b) const { return reach_[a][b]; }
+  std::vector<int> compute_nodes() const;
+  std::vector<int> observer_nodes() const;
+  // True when the compute phase is a single chain (no two stages can run concurrently).
+  bool is_chain() const;
+
+  std::string dot() const;      // Graphviz
+  std::string summary() const;  // the resolved graph in words, for `pipeline validate`
+
+ private:
+  void check_conflicts() const;
+  std::vector<GraphNode> nodes_;
+  std::vector<std::vector<bool>> reach_;
+};
+
+}  // namespace ff

@@ -1,0 +1,188 @@
+// The stage interface: what every integrate / topology / correction / observe step implements.
+// A stage declares the fields it touches (where and how), is configured once, and runs once
+// per step on the backend it was built for. It returns continue or request-rollback; it never
+// wires graph edges or synchronizes with other stages. nvcc-clean: CUDA stages include it.
+#pragma once
+#include <cstdint>
+#include <map>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "core/backend/field.h"
+#include "core/stage/params.h"
+#include "core/physics/rng.h"
+#include "core/stage/state.h"
+#include "core/stage/step_params.h"
+#include "core/base/types.h"
+
+namespace ff {
+
+struct Access {
+  std::string field;
+  Where where = Where::host;
+  Mode mode = Mode::read;
+  // For writes that happen only on some steps (a triangulation that changes only when something
+  // flips): the rollback snapshot copies the field only when the stage announces the write with
+  // StepContext::will_write (or will_overwrite) before it, instead of before every step.
+  bool on_demand = false;
+  // For scratch fields that carry nothing from one step to the next (every step writes what it
+  // reads of them before reading it: detect_inversion's flip marks and Lawson candidates): a
+  // retried step rewrites them anyway, so the rollback snapshot never copies this write.
+  bool step_local = false;
+
+  // {field, where, mode} for the plain cases; these name the two special kinds of write.
+  static Access on_demand_write(std::string field, Where where, Mode mode = Mode::readwrite) {
+    return Access{std::move(field), where, mode, true, false};
+  }
+  static Access step_local_write(std::string field, Where where, Mode mode = Mode::write) {
+    return Access{std::move(field), where, mode, false, true};
+  }
+};
+
+struct Outcome {
+  bool rollback = false;
+  std::string reason;                   // why, in words a user can act on
+  std::vector<std::uint64_t> particles; // particles involved (first few are reported)
+
+  static Outcome ok() { return {}; }
+  static Outcome request_rollback(std::string why, std::vector<std::uint64_t> who = {}) {
+    return Outcome{true, std::move(why), std::move(who)};
+  }
+};
+
+// Per-step numbers a stage reports (flips, overlap iterations, ...). Written by one stage only.
+class Metrics {
+ public:
+  void set(const std::string& name, double value) { values_[name] = value; }
+  const std::map<std::string, double>& values() const { return values_; }
+  void clear() { values_.clear(); }
+
+ private:
+  std::map<std::string, double> values_;
+};
+
+// What the core knows about the run as a whole; given to factories and to every step.
+struct RunInfo {
+  int dim = 2;
+  Precision precision = Precision::f64;
+  Backend backend = Backend::cpu;
+  std::uint64_t seed = 0;
+  std::uint64_t steps = 0;       // steps the run will take
+  double dt = 0;                 // configured (nominal) time step
+  std::string out_dir;           // where outputs go (created by the core before the run)
+  std::string pipeline_file;     // the YAML the run came from (recorded in outputs)
+  std::string stage_id;          // this stage's id in the step graph
+};
+
+// Whole-run observables the core keeps (observe stages write them out).
+struct RunStats {
+  std::uint64_t rollbacks = 0;        // since the start of the run
+  std::uint64_t step_rollbacks = 0;   // in the last accepted step
+  double dt = 0;                      // Δt of the last accepted step
+  // Last reported metrics, keyed "stage_id/metric".
+  std::map<std::string, double> metrics;
+};
+
+class Snapshot;  // core/run/rollback.h
+
+// A CUDA stage that finds a reason to roll back sets `requested` (non-zero: a stage-defined
+// code) and `particle` from its kernel; the core reads all flags once per step, so no stage
+// waits for the GPU to decide. Zeroed by the core before every attempt.
+struct DeviceRollbackFlag {
+  unsigned int requested;
+  unsigned int particle;
+};
+
+// StepParams (core/stage/step_params.h): the per-step values a kernel may need, readable on the
+// stage's side: StepContext::params points to host memory on the CPU and to device memory on CUDA. A stage that takes these
+// values from here (not by value from StepContext) can be captured once into a CUDA graph
+// and replayed every step: the core keeps the device copy current (a kernel at the end of a
+// captured step advances it; the host rewrites it after a rollback or a Δt change).
+struct StepContext {
+  State& state;
+  const RunInfo& run;
+  const RunStats& stats;
+  std::uint64_t step;      // the step being computed (state.step before it is accepted)
+  std::uint32_t attempt;   // 0 for the first try, +1 for each rollback of this step
+  double dt;               // Δt of this attempt
+  double time;             // simulated time at the start of the step
+  Backend backend;
+  CUstream_st* stream;     // the CUDA stream the core assigned (nullptr on the CPU)
+  RngKey rng;              // (seed, this stage)
+  Metrics& metrics;
+  DeviceRollbackFlag* device_rollback = nullptr;  // device memory; CUDA runs only
+  const StepParams* params = nullptr;              // on the stage's side (see StepParams)
+  // The core's rollback snapshot; null when nothing can roll back this stage's writes (no
+  // stage may request a rollback, or every one that may runs before this stage and requests
+  // only from run(): always so on the CPU).
+  Snapshot* snapshot = nullptr;
+
+  // Call before first writing a field declared with Access::on_demand in this step: the
+  // rollback snapshot takes its copy now (once per step; a no-op when nothing can roll back the
+  // write). Stream-ordered on `stream`.
+  void will_write(const std::string& field) const;
+  // Instead of will_write, for an on_demand field whose every element the stage is about to
+  // write (detect_inversion's position_prev, abp.integrate's position): the snapshot keeps the
+  // field's storage and hands it other storage with stale contents, so nothing is copied.
+  // Returns where the contents before the call are now: the snapshot's copy (read the old
+  // values there, write the field), or the field itself when no snapshot takes this write
+  // (update in place). Pointers to the field taken before the call may point to the copy
+  // afterwards: take them again. Not for stages captured into a CUDA graph (the graph would
+  // keep the old pointers).
+  Field& will_overwrite(const std::string& field) const;
+  // The contents `field` had at the start of this step (before any stage of the step wrote it):
+  // the rollback snapshot's copy when a stage before this one wrote it, else the field itself;
+  // null when this stage has no snapshot (nothing can roll it back), so the core cannot tell.
+  // Exact for a stage that may request a rollback (the snapshot then holds every write made
+  // before it in the step); read it, never write it. detect_inversion uses it to tell a
+  // triangulation this step broke from one the step inherited broken.
+  Field* at_step_start(const std::string& field) const;
+};
+
+// What a stage tells the core about how it may be scheduled. Everything defaults to "no".
+struct Scheduling {
+  // run() can return request_rollback: only then does the core snapshot the state.
+  bool may_request_rollback = false;
+  // On CUDA the stage may also ask for a rollback from its kernels (StepContext::device_rollback,
+  // read only at the end of the step, after every later stage ran), so the core snapshots the
+  // writes of the stages after it too. A stage whose requests all come from run() leaves it
+  // false: then, as on the CPU, a request stops the step before the stages after it.
+  bool requests_rollback_on_device = false;
+  // On CUDA, run() only enqueues device work on ctx.stream, never synchronizes or reads the
+  // host, and takes step-dependent values from ctx.params. When every compute stage says so
+  // (and none uses `every`), the core captures the step once as a CUDA graph.
+  bool graph_capturable = false;
+  // run() passes ctx.params to its kernels: on CUDA the core then keeps a device copy of the
+  // step's parameters (one upload per step).
+  bool reads_step_params = false;
+};
+
+class Stage {
+ public:
+  virtual ~Stage() = default;
+  // Fields read and written, and on which side. The core derives graph checks, host/device
+  // copies and the rollback snapshot from this list. Called after configure().
+  virtual std::vector<Access> accesses() const = 0;
+  // Once, before the first step: add fields this stage owns, check preconditions. May throw
+  // InputError (bad combination of parameters and system) or RunError.
+  virtual void configure(State& state) { (void)state; }
+  virtual Outcome run(StepContext& ctx) = 0;
+  // Once per attempt, after every compute stage of the step has run (its device work enqueued),
+  // for each stage that ran, in step order; not when a stage requested a rollback or failed,
+  // and not for a step replayed from a CUDA graph. A CUDA stage that left its results on the
+  // device (so that the stages after it queue behind its kernels instead of waiting for the
+  // host) reads them here: it sets its metrics and throws RunError on what they report. It must
+  // not request a rollback, and must cope with not being called (a later stage's rollback):
+  // its next run() then settles what is pending.
+  virtual void after_step(StepContext& ctx) { (void)ctx; }
+  // Once, after the last step or when the run stops early: flush and close outputs.
+  virtual void finish(State& state, bool completed) { (void)state; (void)completed; }
+  // Files this stage will create (relative to out_dir): checked before anything is written.
+  virtual std::vector<std::string> outputs() const { return {}; }
+  // How the core may schedule this stage (Scheduling above); the defaults suit a stage that never
+  // asks for a rollback and is not replayed from a CUDA graph.
+  virtual Scheduling scheduling() const { return {}; }
+};
+
+}  // namespace ff

@@ -1,0 +1,49 @@
+#include "core/stage/state.h"
+
+#include <stdexcept>
+
+namespace ff {
+
+State::State(int dim, Precision precision, std::size_t n) : dim_(dim), precision_(precision), n_(n) {
+  if (dim != 2 && dim != 3) throw std::invalid_argument("dimensions must be 2 or 3");
+  box.dim = dim;
+  add_particle_field(fields::position, real(), dim);
+  add_particle_field(fields::image, DType::i32, dim);
+  add_particle_field(fields::type, DType::i32, 1);
+  add_particle_field(fields::diameter, real(), 1);
+}
+
+Field& State::add_field(const std::string& name, DType dtype, int components, std::size_t count) {
+  auto it = fields_.find(name);
+  if (it != fields_.end()) {
+    Field& f = *it->second;
+    if (f.dtype() != dtype || f.components() != components || f.count() != count)
+      throw std::logic_error("field '" + name + "' already exists with another shape (" +
+                             to_string(f.dtype()) + " x" + std::to_string(f.components()) +
+                             ", count " + std::to_string(f.count()) + ")");
+    return f;
+  }
+  auto& slot = fields_[name];
+  slot = std::make_unique<Field>(name, dtype, components, count);
+  return *slot;
+}
+
+Field& State::field(const std::string& name) {
+  auto it = fields_.find(name);
+  if (it == fields_.end()) throw std::out_of_range("no field named '" + name + "'");
+  return *it->second;
+}
+
+const Field& State::field(const std::string& name) const {
+  auto it = fields_.find(name);
+  if (it == fields_.end()) throw std::out_of_range("no field named '" + name + "'");
+  return *it->second;
+}
+
+std::vector<std::string> State::field_names() const {
+  std::vector<std::string> names;
+  for (auto& kv : fields_) names.push_back(kv.first);
+  return names;
+}
+
+}  // namespace ff
