@@ -135,8 +135,8 @@ TEST_CASE("a valid pipeline resolves with every default filled", "[pipeline_load
   CHECK(s[5].params.strings("fields") == std::vector<std::string>{"position", "orientation"});
   CHECK(s[5].params.reals("weights") == std::vector<double>{1, 0.5});
   for (auto& e : s) CHECK(e.params.all().size() == registry().get(e.stage).decl.params.size());
-  CHECK(s[5].every == 100);
-  CHECK(s[0].every == 1);
+  CHECK(s[5].schedule.every == 100);
+  CHECK(s[0].schedule.every == 1);
   CHECK(s[4].where.str() == path_of("good") + ":17:5");
 }
 
@@ -170,7 +170,7 @@ TEST_CASE("malformed pipelines fail with file:line:column then the key and the e
       {"bad_unknown_stage", "5:13", "step[1].stage: unknown stage 'fake.lawsen'; did you mean 'fake.lawson'? "
                                     "(loaded stages: fake.force, fake.integrate, fake.lawson, fake.observe)"},
       {"bad_stage_param", "5:5", "step[0] (fake.lawson).max_round: unknown parameter; did you mean 'max_rounds'? "
-                                 "(parameters of fake.lawson: max_rounds, verbose; entry keys: stage, id, after, every)"},
+                                 "(parameters of fake.lawson: max_rounds, verbose; entry keys: stage, id, after, every, at)"},
       {"bad_wrong_type", "5:14", "step[0] (fake.lawson).verbose: expected true or false, got 'maybe'"},
       {"bad_list_for_number", "2:6", "system.N: expected an integer >= 1, got a list"},
       {"bad_out_of_range", "4:7", "run.dt: expected a real number > 0, got '-0.1'"},
@@ -178,6 +178,10 @@ TEST_CASE("malformed pipelines fail with file:line:column then the key and the e
       {"bad_missing_step", "1:1", "missing required top-level key 'step'"},
       {"bad_missing_param", "5:5", "step[1] (fake.force): missing required parameter 'k' (a real number > 0)"},
       {"bad_every", "5:34", "step[1] (fake.observe).every: expected an integer >= 1, got '0'"},
+      {"bad_every_and_at", "5:37", "step[1] (fake.observe).at: give 'every' or 'at', not both"},
+      {"bad_at_factor", "5:56", "step[1] (fake.observe).at.log.factor: expected a real number > 1, got '1'"},
+      {"bad_at_kind", "5:32", "step[1] (fake.observe).at: expected one schedule, 'log' ({log: {first: 1, "
+                              "factor: 1.2}}), got 'linear'"},
       {"bad_after_unknown", "6:50", "step[2] (fake.lawson).after: unknown id 'fake.forse'; did you mean 'fake.force'? "
                                     "(ids declared before: fake.integrate, fake.force)"},
       {"bad_after_self", "5:43", "step[1] (fake.lawson).after: an entry cannot run after itself ('flip')"},

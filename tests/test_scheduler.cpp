@@ -1,7 +1,9 @@
-// The step graph and its scheduler: order, concurrency, conflicts, `every`, errors from stages.
+// The step graph and its scheduler: order, concurrency, conflicts, `every` and `at`, errors from stages.
 #include <oneapi/tbb/global_control.h>
 
 #include <catch2/catch.hpp>
+
+#include <set>
 
 #include "core/base/error.h"
 #include "core/run/simulation.h"
@@ -122,6 +124,32 @@ TEST_CASE("`every: k` runs a stage only on multiples of k", "[scheduler]") {
     CHECK(sim.slots()[1].ran == (k % 3 == 0));
   }
   CHECK(ran_third == 3);  // steps 0, 3, 6
+}
+
+TEST_CASE("`at: {log: ...}` runs a stage on round(first*factor^k) and on the last step", "[scheduler]") {
+  // Tran et al.'s kinetics span decades: first = 1, factor = 1.2 over 10^5 steps.
+  constexpr std::uint64_t steps = 100000;
+  std::set<std::uint64_t> expected;
+  for (double s = 1; s < steps; s *= 1.2) expected.insert(std::uint64_t(s + 0.5));
+  expected.insert(steps - 1);
+  CHECK(expected.size() > 55);
+  CHECK(expected.size() < 65);
+
+  auto r = test::registry_with({}, {"testing"});
+  StepEntry logged = entry(*r, "testing.record", {}, {"logged"});
+  logged.schedule.log = true;
+  logged.schedule.first = 1;
+  logged.schedule.factor = 1.2;
+  auto s = test::spec(2, 4, 0.1, steps, 0.01, {entry(*r, "testing.record", {}, {"always"}), logged});
+  Simulation sim(s, *r, dry());
+  std::set<std::uint64_t> ran;
+  for (std::uint64_t k = 0; k < steps; ++k) {
+    sim.advance();
+    if (sim.slots()[1].ran) ran.insert(k);
+  }
+  CHECK(ran == expected);
+  CHECK(ran.count(1) == 1);
+  CHECK(ran.count(0) == 0);
 }
 
 TEST_CASE("a stage that uses a field nobody created is an input error", "[scheduler]") {

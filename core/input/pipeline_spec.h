@@ -1,7 +1,9 @@
 // A pipeline file after validation: plain data, no YAML. Produced by core/input/pipeline_loader.h,
 // consumed by the step graph and the simulation.
 #pragma once
+#include <cmath>
 #include <cstdint>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -43,13 +45,46 @@ struct RunSpec {
   Precision precision = Precision::f64;
 };
 
+// When a step entry runs. `every: k`: the steps where step % k == 0. `at: {log: {first, factor}}`:
+// the steps round(first·factor^k), k = 0, 1, ..., de-duplicated, and the run's last step: a
+// logarithmic time axis, for observables followed over decades (Tran et al.'s aggregation
+// kinetics, 10^-6 ... 10 s) that `every` would sample either too coarsely early or too often late.
+struct Schedule {
+  std::uint64_t every = 1;
+  bool log = false;
+  std::uint64_t first = 1;  // log: the first step (>= 1)
+  double factor = 1.2;      // log: the ratio of successive steps (> 1)
+
+  bool every_step() const { return !log && every == 1; }
+  // The steps of a run of `steps` steps (0 ... steps - 1) this schedule runs on, ascending.
+  std::vector<std::uint64_t> log_steps(std::uint64_t steps) const {
+    std::vector<std::uint64_t> out;
+    for (int k = 0;; ++k) {
+      const double s = std::round(double(first) * std::pow(factor, k));
+      if (!(s < double(steps))) break;
+      if (out.empty() || out.back() != std::uint64_t(s)) out.push_back(std::uint64_t(s));
+    }
+    if (steps > 0 && (out.empty() || out.back() != steps - 1)) out.push_back(steps - 1);
+    return out;
+  }
+  // "every 10", "at log(first 1, factor 1.2)"; empty for every step.
+  std::string text() const {
+    if (log) {
+      std::ostringstream os;
+      os << "at log(first " << first << ", factor " << factor << ")";
+      return os.str();
+    }
+    return every > 1 ? "every " + std::to_string(every) : "";
+  }
+};
+
 struct StepEntry {
   std::string id;                 // unique in the pipeline; default: the stage name (name#2 ...)
   std::string stage;              // registry name
   ParamValues params;             // validated, every declared key present (defaults filled)
   std::vector<std::string> after; // ids this entry runs after
   bool after_given = false;       // false: runs after the previous entry
-  std::uint64_t every = 1;        // run on steps where step % every == 0
+  Schedule schedule;              // `every` or `at`
   Location where;
 };
 

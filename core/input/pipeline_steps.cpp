@@ -1,5 +1,5 @@
 // The pipeline file's `step` list: entry heads (stage, dimensions, id), unique ids, `after`
-// references, `every`, and each entry's stage parameters checked against its declaration.
+// references, `every` or `at` (the schedule), and each entry's stage parameters checked against its declaration.
 #include <algorithm>
 #include <cstdint>
 #include <map>
@@ -14,7 +14,7 @@ namespace ff::pipeline_detail {
 
 namespace {
 
-const std::vector<std::string> kEntryKeys = {"stage", "id", "after", "every"};
+const std::vector<std::string> kEntryKeys = {"stage", "id", "after", "every", "at"};
 
 // A const lookup of a missing key gives an invalid node, on which Type() throws.
 bool scalar_in(const YAML::Node& map, const char* key) {
@@ -130,6 +130,36 @@ std::vector<std::string> read_after(const Item& item, std::size_t i, const std::
   return after;
 }
 
+// `every: k` or `at: {log: {first: F, factor: X}}` (one of them; neither: every step).
+Schedule read_schedule(const Head& h, const Locator& loc) {
+  Schedule s;
+  const Item* every = find(h.items, "every");
+  const Item* at = find(h.items, "at");
+  if (every && at)
+    loc.fail(at->key_node, h.label + ".at", "give 'every' or 'at', not both (every: k runs on every k-th step; "
+                                            "at: {log: {first: 1, factor: 1.2}} on a logarithmic time axis)");
+  if (every)
+    s.every = std::uint64_t(std::get<std::int64_t>(read_value(
+        ParamSpec::integer("every", 1, "").at_least(1), every->value, h.label + ".every", loc)));
+  if (!at) return s;
+  const std::string path = h.label + ".at";
+  const std::vector<Item> kinds = items_of(at->value, path, "a map {log: {first: 1, factor: 1.2}}", loc);
+  if (kinds.size() != 1 || kinds[0].key != "log")
+    loc.fail(kinds.empty() ? at->value : kinds[0].key_node, path,
+             "expected one schedule, 'log' ({log: {first: 1, factor: 1.2}}), got " +
+                 (kinds.empty() ? std::string("an empty map") : "'" + kinds[0].key + "'"));
+  const std::vector<ParamSpec> params = {
+      ParamSpec::integer("first", 1, "the first step").at_least(1),
+      ParamSpec::real("factor", 1.2, "the ratio of successive steps").above(1)};
+  const std::string log_path = path + ".log";
+  const std::vector<Item> items = items_of(kinds[0].value, log_path, "a map {first: 1, factor: 1.2}", loc);
+  const ParamValues v = read_params(kinds[0].value, items, log_path, Schema{params, {}, {}, "key", known_keys(params, {})}, loc);
+  s.log = true;
+  s.first = std::uint64_t(v.integer("first"));
+  s.factor = v.real("factor");
+  return s;
+}
+
 StepEntry read_entry(std::size_t i, const std::vector<Head>& heads, const std::vector<std::string>& ids,
                      const Registry& reg, const Locator& loc) {
   const Head& h = heads[i];
@@ -142,9 +172,7 @@ StepEntry read_entry(std::size_t i, const std::vector<Head>& heads, const std::v
     e.after = read_after(*after, i, heads, ids, loc);
     e.after_given = true;
   }
-  if (const Item* every = find(h.items, "every"))
-    e.every = std::uint64_t(std::get<std::int64_t>(read_value(
-        ParamSpec::integer("every", 1, "").at_least(1), every->value, h.label + ".every", loc)));
+  e.schedule = read_schedule(h, loc);
   std::vector<std::string> names;
   for (auto& p : decl.params) names.push_back(p.name);
   const std::string known = (names.empty() ? "stage '" + h.stage + "' has no parameters"

@@ -52,7 +52,7 @@ Scheduler::Scheduler(const StepGraph& graph, std::vector<StageSlot>& slots, Stat
     for (int i : impl_->compute) {
       const Scheduling h = slots[i].stage->scheduling();
       any_reads_params = any_reads_params || h.reads_step_params;
-      impl_->capturable = impl_->capturable && h.graph_capturable && graph.nodes()[i].every == 1;
+      impl_->capturable = impl_->capturable && h.graph_capturable && graph.nodes()[i].schedule.every_step();
     }
     // (The upload is on the step's critical path: after the last stage's wait, before the first
     // launch of the next step.)
@@ -92,7 +92,7 @@ void Scheduler::run_node(int i, std::uint64_t step, std::uint32_t attempt, doubl
   StageSlot& slot = slots_[i];
   const GraphNode& node = graph_.nodes()[i];
   slot.ran = false;
-  if (step % node.every != 0 || abort_.load(std::memory_order_relaxed)) return;
+  if (!node.runs_at(step) || abort_.load(std::memory_order_relaxed)) return;
   try {
     CUstream_st* stream = nullptr;
 #ifdef FLIPFLOW_HAVE_CUDA

@@ -16,7 +16,8 @@ StepGraph::StepGraph(const PipelineSpec& spec, std::vector<std::vector<Access>> 
     GraphNode n;
     n.id = e.id;
     n.stage = e.stage;
-    n.every = e.every;
+    n.schedule = e.schedule;
+    if (e.schedule.log) n.steps = e.schedule.log_steps(spec.run.steps);
     n.observer = observer[i];
     n.accesses = std::move(accesses[i]);
     n.where = e.where;
@@ -103,7 +104,7 @@ std::string StepGraph::dot() const {
     const auto& n = nodes_[i];
     os << "  n" << i << " [label=\"" << n.id;
     if (n.id != n.stage) os << "\\n(" << n.stage << ")";
-    if (n.every > 1) os << "\\nevery " << n.every;
+    if (!n.schedule.every_step()) os << "\\n" << n.schedule.text();
     os << "\"" << (n.observer ? ", style=dashed" : "") << "];\n";
   }
   for (std::size_t i = 0; i < nodes_.size(); ++i)
@@ -130,7 +131,7 @@ std::string StepGraph::summary() const {
   os << "compute phase (runs each step, rolled back together):\n";
   for (int i : compute_nodes()) {
     const auto& n = nodes_[i];
-    os << "  " << n.id << (n.id != n.stage ? " [" + n.stage + "]" : "") << (n.every > 1 ? " every " + std::to_string(n.every) : "")
+    os << "  " << n.id << (n.id != n.stage ? " [" + n.stage + "]" : "") << (n.schedule.every_step() ? "" : " " + n.schedule.text())
        << "\n    after: ";
     if (n.preds.empty()) os << "(start)";
     for (std::size_t k = 0; k < n.preds.size(); ++k) os << (k ? ", " : "") << nodes_[n.preds[k]].id;
@@ -139,7 +140,7 @@ std::string StepGraph::summary() const {
   os << "observe phase (after each accepted step, in order):\n";
   for (int i : observer_nodes()) {
     const auto& n = nodes_[i];
-    os << "  " << n.id << (n.every > 1 ? " every " + std::to_string(n.every) : "") << "\n";
+    os << "  " << n.id << (n.schedule.every_step() ? "" : " " + n.schedule.text()) << "\n";
   }
   return os.str();
 }

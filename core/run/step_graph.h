@@ -6,6 +6,7 @@
 // Observer stages (StageDecl::observer) form a second phase that runs, in file order, after
 // the step is accepted (so a rolled-back attempt never reaches an output file).
 #pragma once
+#include <algorithm>
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -18,7 +19,12 @@ namespace ff {
 struct GraphNode {
   std::string id;
   std::string stage;
-  std::uint64_t every = 1;
+  Schedule schedule;                // `every` or `at` (core/input/pipeline_spec.h)
+  std::vector<std::uint64_t> steps; // a log schedule's steps of this run, ascending
+  bool runs_at(std::uint64_t step) const {
+    if (schedule.log) return std::binary_search(steps.begin(), steps.end(), step);
+    return step % schedule.every == 0;
+  }
   bool observer = false;
   std::vector<int> preds;  // indices of nodes this one runs after (compute phase only)
   std::vector<Access> accesses;

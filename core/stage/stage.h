@@ -151,7 +151,7 @@ struct Scheduling {
   bool requests_rollback_on_device = false;
   // On CUDA, run() only enqueues device work on ctx.stream, never synchronizes or reads the
   // host, and takes step-dependent values from ctx.params. When every compute stage says so
-  // (and none uses `every`), the core captures the step once as a CUDA graph.
+  // (and none uses `every` or `at`), the core captures the step once as a CUDA graph.
   bool graph_capturable = false;
   // run() passes ctx.params to its kernels: on CUDA the core then keeps a device copy of the
   // step's parameters (one upload per step).

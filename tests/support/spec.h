@@ -34,7 +34,7 @@ inline StepEntry entry(const Registry& r, const std::string& stage, const std::m
   for (auto& kv : params) e.params.set(kv.first, kv.second);
   e.after = o.after;
   e.after_given = o.after_given;
-  e.every = o.every;
+  e.schedule.every = o.every;
   e.where = Location{"test", 1, 1};
   return e;
 }
