@@ -21,6 +21,8 @@ enum class Mode : std::uint8_t { read, write, readwrite };
 inline bool writes(Mode m) { return m != Mode::read; }
 inline bool reads(Mode m) { return m != Mode::write; }
 const char* to_string(Where w);
+// Where a backend's stages keep their data: the host for the CPU, the device for CUDA.
+inline Where side_of(Backend b) { return b == Backend::cuda ? Where::device : Where::host; }
 const char* to_string(Mode m);
 
 class DeviceBuffer;  // core/backend/cuda/device_buffer.h (CUDA builds only)
@@ -48,6 +50,13 @@ class Field {
   // Device mirror, allocated on first use. Throws in a build without CUDA.
   template <class T> T* device() { check_type(dtype_of<T>()); return static_cast<T*>(device_raw()); }
   void* device_raw();
+
+  // The data on side `where`: host<T>() or device<T>() (no synchronization either).
+  template <class T> T* data(Where where) { return where == Where::device ? device<T>() : host<T>(); }
+  // The data on the side of the stage running in `ctx` (a StepContext, core/stage/stage.h): the
+  // device for a CUDA stage, the host for a CPU one (a host-only stage that runs in a CUDA run
+  // asks host<T>()).
+  template <class T, class Context> T* data(const Context& ctx) { return data<T>(side_of(ctx.backend)); }
 
   // Make the `where` side current for `mode`, copying on `stream` if that side is stale
   // (stream-ordered: later work on `stream` sees the data). A write marks the other side stale.

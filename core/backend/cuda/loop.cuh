@@ -1,11 +1,15 @@
-// The CUDA element loop. Include only from .cu files. Launches on the stream the core gave the
-// stage (never the default stream) and checks the launch (FF_CUDA_CHECK_LAUNCH).
+// The CUDA element loops and reductions, and CudaExec, the backend object of CUDA stages.
+// Include only from .cu files. Launches on the stream the core gave the stage (never the default
+// stream) and checks the launch (FF_CUDA_CHECK_LAUNCH).
 #pragma once
 #include <cuda_runtime.h>
+
+#include <cstdint>
 
 #include "core/backend/cuda/check.h"
 #include "core/backend/exec.h"
 #include "core/backend/field.h"
+#include "core/backend/memory.h"
 
 namespace ff {
 
@@ -42,15 +46,71 @@ void cuda_for_each_bounded(std::size_t n, const F& f, CUstream_st* stream) {
   FF_CUDA_CHECK_LAUNCH("launching an element loop");
 }
 
-// The CUDA backend of a stage template (core/stage/stage_registration.h): its element loops.
+// Reductions (CudaExec::max, sum, count): each warp combines its lanes' values, and one lane
+// per warp combines them into the result word with an integer atomic, which the host reads
+// back. Integer max and sum do not depend on the order of the atomics.
+template <class F>
+__global__ void reduce_max_kernel(std::size_t n, F f, std::uint32_t* out) {
+  const std::size_t i = std::size_t(blockIdx.x) * blockDim.x + threadIdx.x;
+  std::uint32_t v = i < n ? std::uint32_t(f(i)) : 0u;
+  for (int o = 16; o > 0; o >>= 1) v = max(v, __shfl_down_sync(0xffffffffu, v, o));
+  if ((threadIdx.x & 31) == 0 && v) atomicMax(out, v);
+}
+
+template <class F, bool Count>
+__global__ void reduce_sum_kernel(std::size_t n, F f, std::uint64_t* out) {
+  const std::size_t i = std::size_t(blockIdx.x) * blockDim.x + threadIdx.x;
+  unsigned long long v = 0;
+  if (i < n) v = Count ? (f(i) ? 1ull : 0ull) : static_cast<unsigned long long>(f(i));
+  for (int o = 16; o > 0; o >>= 1) v += __shfl_down_sync(0xffffffffu, v, o);
+  if ((threadIdx.x & 31) == 0 && v) atomicAdd(reinterpret_cast<unsigned long long*>(out), v);
+}
+
+template <class F>
+std::uint32_t cuda_max(std::size_t n, const F& f, Reduction<std::uint32_t>& r, CUstream_st* stream) {
+  if (n == 0) return 0;
+  std::uint32_t* word = r.clear(0, stream);
+  constexpr int block = 256;
+  reduce_max_kernel<F><<<unsigned((n + block - 1) / block), block, 0, stream>>>(n, f, word);
+  FF_CUDA_CHECK_LAUNCH("launching a max-reduction");
+  return r.read(stream);
+}
+
+template <class F, bool Count>
+std::uint64_t cuda_sum(std::size_t n, const F& f, Reduction<std::uint64_t>& r, CUstream_st* stream) {
+  if (n == 0) return 0;
+  std::uint64_t* word = r.clear(0, stream);
+  constexpr int block = 256;
+  reduce_sum_kernel<F, Count><<<unsigned((n + block - 1) / block), block, 0, stream>>>(n, f, word);
+  FF_CUDA_CHECK_LAUNCH(Count ? "launching a count-reduction" : "launching a sum-reduction");
+  return r.read(stream);
+}
+
+// The CUDA backend object a stage template's constructor receives (core/stage/stage_registration.h);
+// the members are CpuExec's (core/backend/exec_cpu.h), which says what each does.
 struct CudaExec {
   static constexpr Backend backend = Backend::cuda;
   static constexpr Where where = Where::device;
+  static const MemoryOps& memory() { return cuda_memory(); }
   template <class F>
   static void for_each(std::size_t n, const F& f, CUstream_st* s) { cuda_for_each(n, f, s); }
+  template <class F, int MinBlocks>
+  static void for_each_bounded(std::size_t n, const F& f, CUstream_st* s) { cuda_for_each_bounded<F, MinBlocks>(n, f, s); }
   // The overdamped integrators (core/physics/overdamped.h): one particle per thread (F::operator()).
   template <class F>
   static void overdamped(std::size_t n, const F& f, CUstream_st* s) { cuda_for_each(n, f, s); }
+  template <class F>
+  static std::uint32_t max(std::size_t n, const F& f, Reduction<std::uint32_t>& r, CUstream_st* s) {
+    return cuda_max(n, f, r, s);
+  }
+  template <class F>
+  static std::uint64_t sum(std::size_t n, const F& f, Reduction<std::uint64_t>& r, CUstream_st* s) {
+    return cuda_sum<F, false>(n, f, r, s);
+  }
+  template <class F>
+  static std::uint64_t count(std::size_t n, const F& f, Reduction<std::uint64_t>& r, CUstream_st* s) {
+    return cuda_sum<F, true>(n, f, r, s);
+  }
 };
 
 }  // namespace ff
