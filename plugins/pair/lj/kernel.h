@@ -1,0 +1,116 @@
+// The generalized Lennard-Jones 2n–n pair force, per particle i (Tran et al. 2015, Annex 1,
+// eq. 8, where n = 18, ε = 14 k_BT and σ = d_A):
+//
+//   U(r) = 4 ε_ij [ (σ_ij/r)^{2n} − (σ_ij/r)^n ]   for r < r_cut σ_ij,  0 beyond,
+//   F_i  = Σ_j (4 n ε_ij / r²) [ 2 (σ_ij/r)^{2n} − (σ_ij/r)^n ] d_ij,
+//
+// d_ij = minimum image of x_i − x_j, r = |d_ij|: F_i = −∇_i U summed over the row of i in
+// the Verlet list. The prefactor 4 makes the minimum −ε_ij at r_m = 2^{1/n} σ_ij for every n
+// (there (σ/r)^n = 1/2), as in eq. 8; n = 6 is the usual 12–6 potential. With `shift` the
+// energy is U(r) − U(r_cut σ_ij), where U(r_cut σ_ij) = 4 ε_ij (r_cut^{−2n} − r_cut^{−n}) does
+// not depend on σ_ij; the force is unchanged.
+//
+// Powers: s = σ²/r², (σ/r)^n = s^{n/2} by squaring and multiplying (times √s for odd n), never
+// pow(), so the two backends do the same operations. s is capped at kMaxS = 4 (r < σ_ij/2):
+// below that the force magnitude falls linearly to 0 at r = 0 instead of overflowing (a float
+// q² overflows near r = 0.1 σ for n = 18, and ∞·0 would give NaN). No usable Δt brings two
+// particles there (U(σ/2) = 3.8·10¹² k_BT at Tran's n and ε); with max_step, overdamped.integrate
+// turns a step that tries into a rollback.
+//
+// Each particle sums its own row in list order (ascending j, stages/neighbors/list.h), writing
+// only its own entries: no atomics, and CPU and CUDA add the same terms in the same order. The
+// products feeding a sum are math::mul_rn (never fused into an fma), so the bits agree.
+// Optional observables (energy: true): ½ Σ_j U_ij and ½ Σ_j r_ij·F_ij per particle. nvcc-clean.
+#pragma once
+#include <cmath>
+#include <cstdint>
+
+#include "core/base/hd.h"
+#include "core/physics/box.h"
+#include "core/physics/math.h"
+
+namespace ff::pair {
+
+inline constexpr int kMaxTypes = 8;  // per-type-pair tables travel in the functor (kernel argument)
+inline constexpr double kMaxS = 4;   // cap on σ²/r² (r ≥ σ_ij/2), see above
+
+// Per type pair (a, b) at [a * kMaxTypes + b], symmetric; with one type only entry 0 is used.
+template <class R>
+struct LJTable {
+  R epsilon[kMaxTypes * kMaxTypes];  // ε_ab (k_BT)
+  R sigma2[kMaxTypes * kMaxTypes];   // σ_ab² (σ²); unused when σ comes from the diameters
+};
+
+// x^k for k ≥ 0 by squaring and multiplying: the same products, in the same order, everywhere.
+template <class R>
+FF_HD R power(R x, int k) {
+  R result = R(1);
+  while (k > 0) {
+    if (k & 1) result = math::mul_rn(result, x);
+    x = math::mul_rn(x, x);
+    k >>= 1;
+  }
+  return result;
+}
+
+template <class R, int D>
+struct LJForce {
+  const R* position;             // N x D
+  const std::int32_t* type;      // N, or null: every pair uses table entry 0
+  const R* diameter;             // N, or null: σ_ij from the table
+  R* force;                      // N x D (written)
+  R* energy;                     // N, or null: ½ Σ_j U_ij (written)
+  R* virial;                     // N, or null: ½ Σ_j r_ij·F_ij (written)
+  const std::uint32_t* list;     // N x capacity: row i = neighbours of i, ascending
+  const std::uint32_t* count;    // N: entries set in row i
+  std::uint32_t capacity;
+  PeriodicBox<R> box;
+  LJTable<R> table;
+  int n;                         // the exponent n of the 2n–n form
+  bool geometric;                // σ_ij from diameters: √(d_i d_j) instead of (d_i + d_j)/2
+  R r_cut2;                      // (r_cut)², r_cut in units of σ_ij
+  R shift;                       // U(r_cut σ_ij)/ε_ij, or 0 without `shift`
+
+  // σ_ij² of the pair (i, j) and the table entry of its types.
+  FF_HD R sigma2(std::size_t i, std::size_t j, int ab) const {
+    if (!diameter) return table.sigma2[ab];
+    const R s = geometric ? std::sqrt(math::mul_rn(diameter[i], diameter[j])) : R(0.5) * (diameter[i] + diameter[j]);
+    return math::mul_rn(s, s);
+  }
+
+  FF_HD void operator()(std::size_t i) const {
+    R f[D] = {};
+    R u = 0, w = 0;
+    const int ti = type ? type[i] : 0;
+    for (std::uint32_t a = 0; a < count[i]; ++a) {
+      const std::uint32_t j = list[i * capacity + a];
+      R d[D], r2 = 0;
+      for (int c = 0; c < D; ++c) {
+        d[c] = box.min_image(position[i * D + c] - position[std::size_t(j) * D + c], c);
+        r2 += math::mul_rn(d[c], d[c]);
+      }
+      const int ab = type ? ti * kMaxTypes + type[j] : 0;
+      const R sig2 = sigma2(i, j, ab);
+      if (r2 >= math::mul_rn(r_cut2, sig2) || r2 == R(0)) continue;  // beyond the cutoff (or coincident)
+      R s = sig2 / r2;
+      if (s > R(kMaxS)) s = R(kMaxS);
+      const R q = n & 1 ? math::mul_rn(power(s, n / 2), std::sqrt(s)) : power(s, n / 2);  // (σ/r)^n
+      const R q2 = math::mul_rn(q, q);                                                      // (σ/r)^{2n}
+      const R eps = table.epsilon[ab];
+      // 4 n ε (2q² − q) / r², with 1/r² = s/σ² (so the cap above holds here too)
+      const R magnitude = math::mul_rn(R(4 * n) * eps, (R(2) * q2 - q)) * (s / sig2);
+      for (int c = 0; c < D; ++c) f[c] += math::mul_rn(magnitude, d[c]);
+      if (energy) {
+        u += math::mul_rn(R(4) * eps, q2 - q) - math::mul_rn(eps, shift);
+        w += math::mul_rn(magnitude, r2);
+      }
+    }
+    for (int c = 0; c < D; ++c) force[i * D + c] = f[c];
+    if (energy) {
+      energy[i] = R(0.5) * u;
+      virial[i] = R(0.5) * w;
+    }
+  }
+};
+
+}  // namespace ff::pair
