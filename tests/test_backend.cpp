@@ -1,0 +1,63 @@
+// The backend object (core/backend: CpuExec, CudaExec, memory.h): reductions equal a serial
+// loop (and so each other, bit for bit: they are integer), a reused Reduction starts from its
+// identity, fresh scratch memory reads zero and keeps its contents, counters read the same
+// synchronously and deferred.
+#include <oneapi/tbb/global_control.h>
+
+#include <catch2/catch.hpp>
+
+#include "backend/results.h"
+#include "core/backend/exec_cpu.h"
+#include "support/backends.h"
+
+using namespace ff;
+using namespace ff::test;
+
+namespace ff::test {
+BackendResults cpu_backend_results(std::size_t n) { return backend_results<CpuExec>(n, nullptr); }
+}  // namespace ff::test
+
+namespace {
+BackendResults serial(std::size_t n) {
+  BackendResults r;
+  for (std::size_t i = 0; i < n; ++i) {
+    r.max = std::max(r.max, Scrambled{}(i));
+    r.sum += Square{}(i);
+    r.count += MultipleOf7{}(i) ? 1 : 0;
+    if (i < n / 2) r.max_again = std::max(r.max_again, Scrambled{}(i));
+    r.odd_sync += ((unsigned(i) + 3) & 1u) ? 1 : 0;
+  }
+  r.odd_deferred = r.odd_sync;
+  r.first_scratch = 0;
+  r.kept = 5 + 4;
+  return r;
+}
+
+void check_equal(const BackendResults& a, const BackendResults& b) {
+  CHECK(a.max == b.max);
+  CHECK(a.sum == b.sum);
+  CHECK(a.count == b.count);
+  CHECK(a.max_again == b.max_again);
+  CHECK(a.odd_sync == b.odd_sync);
+  CHECK(a.odd_deferred == b.odd_deferred);
+  CHECK(a.first_scratch == b.first_scratch);
+  CHECK(a.kept == b.kept);
+}
+}  // namespace
+
+TEST_CASE("backend reductions, scratch and counters equal a serial loop on every backend", "[backend]") {
+  // 3 sizes: below one TBB grain / CUDA block, a few blocks, and many (2^22 + 5: the sum of
+  // squares passes 2^64 and wraps, which the closed form below checks exactly).
+  const std::size_t n = GENERATE(std::size_t(100), std::size_t(70001), std::size_t((1u << 22) + 5));
+  CAPTURE(n);
+  const BackendResults expected = serial(n);
+  const unsigned __int128 m = n;
+  CHECK(expected.sum == std::uint64_t((m - 1) * m * (2 * m - 1) / 6));  // the serial loop: Σ i² mod 2^64
+  for (int threads : {1, 2}) {
+    tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
+    check_equal(cpu_backend_results(n), expected);
+  }
+#ifdef FLIPFLOW_HAVE_CUDA
+  if (have_cuda("CudaExec reductions, scratch and counters")) check_equal(cuda_backend_results(n), expected);
+#endif
+}
