@@ -46,7 +46,8 @@ struct RunSpec {
 };
 
 // When a step entry runs. `every: k`: the steps where step % k == 0. `at: {log: {first, factor}}`:
-// the steps round(first·factor^k), k = 0, 1, ..., de-duplicated, and the run's last step: a
+// the steps round(first·factor^k), k = 0, 1, ..., de-duplicated, and the run's last step (for an
+// observer, the step count after the last step: its final state): a
 // logarithmic time axis, for observables followed over decades (Tran et al.'s aggregation
 // kinetics, 10^-6 ... 10 s) that `every` would sample either too coarsely early or too often late.
 struct Schedule {

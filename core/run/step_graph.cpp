@@ -17,7 +17,9 @@ StepGraph::StepGraph(const PipelineSpec& spec, std::vector<std::vector<Access>> 
     n.id = e.id;
     n.stage = e.stage;
     n.schedule = e.schedule;
-    if (e.schedule.log) n.steps = e.schedule.log_steps(spec.run.steps);
+    // Compute stages run on steps 0 ... steps - 1; observers see the state after 0 ... steps
+    // steps (frame 0 is the initial configuration), so their last step is `steps`.
+    if (e.schedule.log) n.steps = e.schedule.log_steps(observer[i] ? spec.run.steps + 1 : spec.run.steps);
     n.observer = observer[i];
     n.accesses = std::move(accesses[i]);
     n.where = e.where;
