@@ -1,0 +1,579 @@
+#include "stages/observe/clusters/stage.h"
+
+#include <oneapi/tbb/blocked_range.h>
+#include <oneapi/tbb/parallel_for.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <numeric>
+#include <sstream>
+
+#include "core/base/error.h"
+#include "stages/delaunay/common/fields.h"
+#include "stages/delaunay/common/mesh_check.h"
+#include "stages/neighbors/list.h"
+
+namespace ff::observe {
+
+namespace {
+
+const char* const axis_name[3] = {"x", "y", "z"};
+
+template <class R>
+void to_double(const Field& f, std::vector<double>& out) {
+  const R* p = f.host<R>();
+  out.assign(p, p + f.size());
+}
+
+void read_real(const Field& f, std::vector<double>& out) {
+  if (f.dtype() == DType::f32)
+    to_double<float>(f, out);
+  else
+    to_double<double>(f, out);
+}
+
+// The distinct cells c−1, c, c+1 along an axis of `nc` cells (all of them when nc < 3).
+int neighbor_cells(int c, int nc, int out[3]) {
+  if (nc < 3) {
+    for (int k = 0; k < nc; ++k) out[k] = k;
+    return nc;
+  }
+  out[0] = (c + nc - 1) % nc;
+  out[1] = c;
+  out[2] = (c + 1) % nc;
+  return 3;
+}
+
+// Rows from per-particle counts (start[i + 1] = count of row i) filled by `fill(i, row)`.
+template <class Count, class Fill>
+PairRows make_rows(std::size_t n, Count count, Fill fill) {
+  PairRows rows;
+  rows.start.assign(n + 1, 0);
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 256), [&](const tbb::blocked_range<std::size_t>& r) {
+    for (std::size_t i = r.begin(); i != r.end(); ++i) rows.start[i + 1] = count(i);
+  });
+  for (std::size_t i = 0; i < n; ++i) rows.start[i + 1] += rows.start[i];
+  rows.index.resize(rows.start[n]);
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 256), [&](const tbb::blocked_range<std::size_t>& r) {
+    for (std::size_t i = r.begin(); i != r.end(); ++i) fill(i, &rows.index[rows.start[i]]);
+  });
+  return rows;
+}
+
+// Minimum-image squared distance, and the integer box shift s (per axis) that takes j's wrapped
+// position to its image nearest i: x_j + s·L − x_i is the minimum-image vector.
+inline double distance2(const ClusterFrame& f, std::size_t i, std::size_t j, int* shift = nullptr) {
+  double r2 = 0;
+  for (int k = 0; k < f.dim; ++k) {
+    const double d = f.x[j * f.dim + k] - f.x[i * f.dim + k];
+    const double s = -std::rint(d / f.L[k]);
+    if (shift) shift[k] = int(s);
+    const double m = d + s * f.L[k];
+    r2 += m * m;
+  }
+  return r2;
+}
+
+int find(std::vector<std::int32_t>& parent, std::int32_t a) {
+  while (parent[a] != a) {
+    parent[a] = parent[parent[a]];
+    a = parent[a];
+  }
+  return a;
+}
+
+}  // namespace
+
+PairRows cell_pairs(const ClusterFrame& f, double r) {
+  const std::size_t n = f.n();
+  const int dim = f.dim;
+  int nc[3] = {1, 1, 1};
+  for (int k = 0; k < dim; ++k) nc[k] = std::max(1, int(std::floor(f.L[k] / r)));
+  // Not more cells than ~4 per particle: empty cells cost a visit each.
+  const double limit = 4.0 * double(n) + 64;
+  double total = double(nc[0]) * nc[1] * nc[2];
+  if (total > limit) {
+    const double shrink = std::pow(total / limit, 1.0 / dim);
+    for (int k = 0; k < dim; ++k) nc[k] = std::max(1, int(std::floor(nc[k] / shrink)));
+  }
+  const std::size_t ncells = std::size_t(nc[0]) * nc[1] * nc[2];
+  std::vector<int> cell_of(n * 3, 0);
+  std::vector<std::uint32_t> start(ncells + 1, 0), order(n);
+  std::vector<std::size_t> lin(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    std::size_t l = 0;
+    for (int k = dim - 1; k >= 0; --k) {
+      int c = int(f.x[i * dim + k] / f.L[k] * nc[k]);
+      c = std::min(std::max(c, 0), nc[k] - 1);
+      cell_of[i * 3 + k] = c;
+      l = l * std::size_t(nc[k]) + std::size_t(c);
+    }
+    lin[i] = l;
+    ++start[l + 1];
+  }
+  for (std::size_t c = 0; c < ncells; ++c) start[c + 1] += start[c];
+  {
+    std::vector<std::uint32_t> fill(start.begin(), start.end() - 1);
+    for (std::size_t i = 0; i < n; ++i) order[fill[lin[i]]++] = std::uint32_t(i);
+  }
+  const double r2 = r * r;
+  // Visits the particles of the 3^dim cells around i closer than r (minimum image), i excluded.
+  auto each = [&](std::size_t i, auto&& emit) {
+    if (!f.takes_part[i]) return;
+    int cx[3], cy[3], cz[3] = {0, 0, 0};
+    const int nx = neighbor_cells(cell_of[i * 3], nc[0], cx);
+    const int ny = neighbor_cells(cell_of[i * 3 + 1], nc[1], cy);
+    const int nz = dim == 3 ? neighbor_cells(cell_of[i * 3 + 2], nc[2], cz) : 1;
+    for (int a = 0; a < nz; ++a)
+      for (int b = 0; b < ny; ++b)
+        for (int c = 0; c < nx; ++c) {
+          const std::size_t cell = (std::size_t(cz[a]) * nc[1] + std::size_t(cy[b])) * nc[0] + std::size_t(cx[c]);
+          for (std::uint32_t p = start[cell]; p < start[cell + 1]; ++p) {
+            const std::size_t j = order[p];
+            if (j != i && f.takes_part[j] && distance2(f, i, j) < r2) emit(std::uint32_t(j));
+          }
+        }
+  };
+  return make_rows(
+      n,
+      [&](std::size_t i) {
+        std::uint32_t k = 0;
+        each(i, [&](std::uint32_t) { ++k; });
+        return k;
+      },
+      [&](std::size_t i, std::uint32_t* row) {
+        std::uint32_t k = 0;
+        each(i, [&](std::uint32_t j) { row[k++] = j; });
+      });
+}
+
+PairRows list_pairs(std::size_t n, const std::uint32_t* list, const std::uint32_t* count, std::uint32_t capacity) {
+  return make_rows(
+      n, [&](std::size_t i) { return std::min(count[i], capacity); },
+      [&](std::size_t i, std::uint32_t* row) {
+        const std::uint32_t* src = list + i * std::size_t(capacity);
+        std::copy(src, src + std::min(count[i], capacity), row);
+      });
+}
+
+PairRows edge_pairs(std::size_t n, const std::int32_t* he) {
+  // Edge e joins the origins of half-edges 2e and 2e + 1 (he[4e] and he[4e + 2]).
+  PairRows rows;
+  rows.start.assign(n + 1, 0);
+  const std::size_t edges = delaunay::edge_count(n);
+  for (std::size_t e = 0; e < edges; ++e) {
+    ++rows.start[std::size_t(he[4 * e]) + 1];
+    ++rows.start[std::size_t(he[4 * e + 2]) + 1];
+  }
+  for (std::size_t i = 0; i < n; ++i) rows.start[i + 1] += rows.start[i];
+  rows.index.resize(rows.start[n]);
+  std::vector<std::uint32_t> fill(rows.start.begin(), rows.start.end() - 1);
+  for (std::size_t e = 0; e < edges; ++e) {
+    const std::uint32_t a = std::uint32_t(he[4 * e]), b = std::uint32_t(he[4 * e + 2]);
+    rows.index[fill[a]++] = b;
+    rows.index[fill[b]++] = a;
+  }
+  return rows;
+}
+
+ClusterResult analyse_clusters(const ClusterFrame& f, const PairRows& rows, double bond, double neighbor,
+                               std::int64_t min_size, int types) {
+  const std::size_t n = f.n();
+  const int dim = f.dim;
+  auto sigma = [&](std::size_t i, std::size_t j) { return 0.5 * (f.diameter[i] + f.diameter[j]); };
+  // Per particle: its bonded partners (ascending) and how many particles lie within the
+  // coordination radius.
+  std::vector<std::uint32_t> coordination(n, 0);
+  const PairRows bonds = make_rows(
+      n,
+      [&](std::size_t i) {
+        std::uint32_t k = 0, c = 0;
+        if (!f.takes_part[i]) return k;
+        for (std::uint32_t p = rows.start[i]; p < rows.start[i + 1]; ++p) {
+          const std::size_t j = rows.index[p];
+          if (j == i || !f.takes_part[j]) continue;
+          const double r2 = distance2(f, i, j), s = sigma(i, j);
+          if (r2 < bond * bond * s * s) ++k;
+          if (r2 < neighbor * neighbor * s * s) ++c;
+        }
+        coordination[i] = c;
+        return k;
+      },
+      [&](std::size_t i, std::uint32_t* row) {
+        if (!f.takes_part[i]) return;
+        std::uint32_t k = 0;
+        for (std::uint32_t p = rows.start[i]; p < rows.start[i + 1]; ++p) {
+          const std::size_t j = rows.index[p];
+          if (j == i || !f.takes_part[j]) continue;
+          const double s = sigma(i, j);
+          if (distance2(f, i, j) < bond * bond * s * s) row[k++] = std::uint32_t(j);
+        }
+        std::sort(row, row + k);
+      });
+
+  ClusterResult res;
+  res.bonds_by_pair.assign(std::size_t(types) * types, 0);
+  // Union–find hooking the larger root under the smaller: every root is its component's
+  // smallest index, whatever the order of the unions.
+  std::vector<std::int32_t> parent(n);
+  std::iota(parent.begin(), parent.end(), 0);
+  for (std::size_t i = 0; i < n; ++i) {
+    if (f.takes_part[i]) ++res.taking_part;
+    for (std::uint32_t p = bonds.start[i]; p < bonds.start[i + 1]; ++p) {
+      const std::size_t j = bonds.index[p];
+      if (j < i) continue;  // each bond once, from its lower end
+      ++res.bonds;
+      int a = f.type[i], b = f.type[j];
+      if (a != b) ++res.unlike_bonds;
+      if (a > b) std::swap(a, b);
+      ++res.bonds_by_pair[std::size_t(a) * types + b];
+      const int ra = find(parent, std::int32_t(i)), rb = find(parent, std::int32_t(j));
+      if (ra < rb)
+        parent[rb] = ra;
+      else if (rb < ra)
+        parent[ra] = rb;
+    }
+  }
+  res.label.assign(n, -1);
+  std::vector<std::uint32_t> size(n, 0);
+  for (std::size_t i = 0; i < n; ++i) {
+    if (!f.takes_part[i]) continue;
+    res.label[i] = find(parent, std::int32_t(i));
+    ++size[res.label[i]];
+  }
+  for (std::size_t i = 0; i < n; ++i) {
+    if (!f.takes_part[i] || res.label[i] != std::int32_t(i)) continue;
+    const std::uint32_t sz = size[i];
+    res.sizes.push_back(sz);
+    res.largest = std::max<std::uint64_t>(res.largest, sz);
+    if (sz == 1) ++res.monomers;
+    if (std::int64_t(sz) >= min_size) {
+      ++res.aggregates;
+      res.in_aggregates += sz;
+    }
+  }
+  for (std::size_t i = 0; i < n; ++i)
+    if (f.takes_part[i] && std::int64_t(size[res.label[i]]) >= min_size) res.coordination_sum += coordination[i];
+
+  // Percolation: walk each cluster from its label over the bonds, giving every member the
+  // integer box offset of its image reached along the walk; a bond to a member already reached
+  // with another offset closes a path that wraps the box.
+  std::vector<std::array<int, 3>> offset(n);
+  std::vector<std::uint8_t> seen(n, 0);
+  std::vector<std::uint32_t> queue;
+  for (std::size_t root = 0; root < n; ++root) {
+    if (!f.takes_part[root] || res.label[root] != std::int32_t(root) || size[root] < 2) continue;
+    queue.assign(1, std::uint32_t(root));
+    seen[root] = 1;
+    offset[root] = {0, 0, 0};
+    for (std::size_t q = 0; q < queue.size(); ++q) {
+      const std::size_t i = queue[q];
+      for (std::uint32_t p = bonds.start[i]; p < bonds.start[i + 1]; ++p) {
+        const std::size_t j = bonds.index[p];
+        int shift[3] = {0, 0, 0};
+        distance2(f, i, j, shift);
+        std::array<int, 3> o = offset[i];
+        for (int k = 0; k < dim; ++k) o[k] += shift[k];
+        if (!seen[j]) {
+          seen[j] = 1;
+          offset[j] = o;
+          queue.push_back(std::uint32_t(j));
+        } else {
+          for (int k = 0; k < dim; ++k)
+            if (offset[j][k] != o[k]) res.percolates[k] = 1;
+        }
+      }
+    }
+  }
+  return res;
+}
+
+double gabriel_ratio2(double b, const std::vector<double>& pair_diameters, const std::vector<double>& all_diameters) {
+  double worst = 0;
+  for (double si : pair_diameters)
+    for (double sj : pair_diameters)
+      for (double sk : all_diameters) {
+        const double sij = 0.5 * (si + sj), sik = 0.5 * (si + sk), sjk = 0.5 * (sj + sk);
+        worst = std::max(worst, b * b * sij * sij / (sik * sik + sjk * sjk));
+      }
+  return worst;
+}
+
+Clusters::Clusters(ClustersParams p, RunInfo info) : p_(std::move(p)), info_(std::move(info)) {
+  source_ = p_.pairs == "verlet" ? Source::verlet : p_.pairs == "delaunay" ? Source::delaunay : Source::cells;
+  neighbor_ = p_.neighbor_radius > 0 ? p_.neighbor_radius : p_.bond;
+  reach_ = std::max(p_.bond, neighbor_);
+}
+
+std::vector<Access> Clusters::accesses() const {
+  std::vector<Access> a{{fields::position, Where::host, Mode::read},
+                        {fields::diameter, Where::host, Mode::read},
+                        {fields::type, Where::host, Mode::read}};
+  if (source_ == Source::verlet)
+    for (const char* f : {neighbors::kList, neighbors::kCount, neighbors::kPositionAtBuild})
+      a.push_back({f, Where::host, Mode::read});
+  if (source_ == Source::delaunay)
+    for (const char* f : {delaunay::fields::halfedge, delaunay::fields::status}) a.push_back({f, Where::host, Mode::read});
+  if (p_.label_field) a.push_back({cluster_label_field, Where::host, Mode::write});
+  return a;
+}
+
+void Clusters::configure(State& s) {
+  const std::string me = "observe.clusters: ";
+  const std::size_t n = s.n();
+  const int dim = s.dim();
+  types_ = std::max<int>(1, int(s.species.size()));
+  species_ = s.species;
+  for (int t = int(species_.size()); t < types_; ++t) species_.push_back(std::to_string(t));
+
+  // Which species take part.
+  std::vector<std::uint8_t> selected(types_, p_.types.empty() ? 1 : 0);
+  for (const auto& name : p_.types) {
+    const auto it = std::find(species_.begin(), species_.end(), name);
+    if (it == species_.end()) {
+      std::string known;
+      for (const auto& sp : species_) known += (known.empty() ? "" : ", ") + sp;
+      throw InputError(me + "types: no species '" + name + "' (system.types has: " + known + ")");
+    }
+    selected[std::size_t(it - species_.begin())] = 1;
+  }
+  for (const char* f : {fields::position, fields::diameter, fields::type}) s.field(f).acquire(Where::host, Mode::read);
+  read_frame(s);
+  for (std::size_t i = 0; i < n; ++i) {
+    const int t = frame_.type[i];
+    if (t < 0 || t >= types_) throw InputError(me + "particle " + std::to_string(i) + " has type " + std::to_string(t) +
+                                               ", outside system.types");
+    frame_.takes_part[i] = selected[std::size_t(t)];
+  }
+  // Diameters: the largest among the particles taking part bounds every σ_ij of interest.
+  std::vector<double> pair_d, all_d;
+  sigma_max_ = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    all_d.push_back(frame_.diameter[i]);
+    if (frame_.takes_part[i]) {
+      pair_d.push_back(frame_.diameter[i]);
+      sigma_max_ = std::max(sigma_max_, frame_.diameter[i]);
+    }
+  }
+  for (auto* d : {&pair_d, &all_d}) {
+    std::sort(d->begin(), d->end());
+    d->erase(std::unique(d->begin(), d->end()), d->end());
+  }
+  if (sigma_max_ <= 0) sigma_max_ = 1;
+  search_ = reach_ * sigma_max_;
+  double lmin = s.box.L[0];
+  for (int k = 0; k < dim; ++k) lmin = std::min(lmin, s.box.L[k]);
+  // (A box of no size is `pipeline describe`'s probe, never a run's: the loader checks the box.)
+  if (lmin > 0 && 2 * search_ >= lmin)
+    throw InputError(me + "max(bond, neighbor_radius)·σ_max = " + std::to_string(search_) +
+                     " is at least half the smallest box edge (" + std::to_string(lmin) +
+                     "); the minimum image would be ambiguous: lower bond or use a larger box");
+
+  if (source_ == Source::verlet) {
+    if (!s.has_field(neighbors::kList))
+      throw InputError(me + "pairs: verlet needs neighbors.verlet in the step (listed before this observer)");
+    Field& cut = s.field(neighbors::kCutoff);
+    cut.acquire(Where::host, Mode::read);
+    verlet_cutoff_ = cut.dtype() == DType::f32 ? double(cut.host<float>()[0]) : cut.host<double>()[0];
+    if (verlet_cutoff_ < search_)
+      throw InputError(me + "pairs: verlet: the Verlet cutoff " + std::to_string(verlet_cutoff_) +
+                       " is shorter than max(bond, neighbor_radius)·σ_max = " + std::to_string(search_) +
+                       ", so the list would miss bonds: raise neighbors.verlet's cutoff (with a margin for the "
+                       "moves since a build) or use pairs: cells");
+  }
+  if (source_ == Source::delaunay) {
+    if (dim != 2) throw InputError(me + "pairs: delaunay needs a 2D system (the triangulation is 2D): use cells or verlet");
+    if (!s.has_field(delaunay::fields::halfedge))
+      throw InputError(me + "pairs: delaunay needs the maintained triangulation (delaunay.detect_inversion, "
+                            "delaunay.flip, delaunay.lawson in the step, listed before this observer)");
+    gabriel_s2_ = gabriel_ratio2(reach_, pair_d, all_d);
+    if (gabriel_s2_ > 1) {
+      std::ostringstream os;
+      os << me << "pairs: delaunay: max(bond, neighbor_radius) = " << reach_
+         << " breaks the Gabriel bound b²σ_ij² ≤ σ_ik² + σ_jk² for these diameters (worst triple: b²σ_ij²/(σ_ik² + "
+            "σ_jk²) = "
+         << gabriel_s2_ << " > 1; equal diameters allow b ≤ √2), so a bond need not be a Delaunay edge: lower bond or "
+         << "neighbor_radius, or use pairs: cells or verlet";
+      throw InputError(os.str());
+    }
+  }
+  if (p_.label_field) {
+    Field& f = s.add_particle_field(cluster_label_field, DType::i32, 1);
+    f.acquire(Where::host, Mode::write);
+    std::fill(f.host<std::int32_t>(), f.host<std::int32_t>() + n, -1);
+  }
+  columns_ = {"step", "time", "clusters", "aggregates", "monomers", "largest", "largest_fraction",
+              "mean_aggregate_size", "coordination", "bonds", "unlike_fraction", "percolating"};
+  for (int k = 0; k < dim; ++k) columns_.push_back(std::string("percolating_") + axis_name[k]);
+  for (int a = 0; a < types_; ++a)
+    for (int b = a; b < types_; ++b)
+      if (selected[a] && selected[b]) columns_.push_back("bonds_" + species_[a] + "_" + species_[b]);
+  columns_.push_back("fallback");
+}
+
+void Clusters::read_frame(const State& s) {
+  frame_.dim = s.dim();
+  for (int k = 0; k < 3; ++k) frame_.L[k] = s.box.L[k];
+  read_real(s.field(fields::position), frame_.x);
+  read_real(s.field(fields::diameter), frame_.diameter);
+  const Field& t = s.field(fields::type);
+  frame_.type.assign(t.host<std::int32_t>(), t.host<std::int32_t>() + s.n());
+  frame_.takes_part.resize(s.n(), 1);
+}
+
+bool Clusters::verlet_usable(const State& s) const {
+  const std::size_t n = s.n();
+  std::vector<double> at_build;
+  read_real(s.field(neighbors::kPositionAtBuild), at_build);
+  double moved2 = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    double r2 = 0;
+    for (int k = 0; k < frame_.dim; ++k) {
+      double d = frame_.x[i * frame_.dim + k] - at_build[i * frame_.dim + k];
+      d -= frame_.L[k] * std::rint(d / frame_.L[k]);
+      r2 += d * d;
+    }
+    moved2 = std::max(moved2, r2);
+  }
+  return search_ + 2 * std::sqrt(moved2) <= verlet_cutoff_;
+}
+
+std::string Clusters::delaunay_unusable(const State& s) const {
+  const std::int32_t* status = s.field(delaunay::fields::status).host<std::int32_t>();
+  if (!status[delaunay::kBuilt]) return "no triangulation yet";  // step 0, before any topology stage ran
+  const std::size_t n = s.n();
+  const std::int32_t* he = s.field(delaunay::fields::halfedge).host<std::int32_t>();
+  const double* xy = frame_.x.data();
+  if (const std::size_t bad = delaunay::count_bad_triangles(he, n, xy, frame_.L[0], frame_.L[1]))
+    return std::to_string(bad) + " triangles not positive";
+  if (const std::size_t bad = delaunay::count_non_delaunay(he, n, xy, frame_.L[0], frame_.L[1], 1e-10))
+    return std::to_string(bad) + " edges not locally Delaunay";
+  // No two disks closer than the bound tolerates (the shortest Delaunay edges).
+  std::size_t close = 0;
+  for (std::size_t e = 0; e < delaunay::edge_count(n); ++e) {
+    const std::size_t a = std::size_t(he[4 * e]), b = std::size_t(he[4 * e + 2]);
+    const double sab = 0.5 * (frame_.diameter[a] + frame_.diameter[b]);
+    if (distance2(frame_, a, b) < gabriel_s2_ * sab * sab) ++close;
+  }
+  if (close) return std::to_string(close) + " pairs overlapping more than the Gabriel bound tolerates";
+  return {};
+}
+
+Outcome Clusters::run(StepContext& ctx) {
+  State& s = ctx.state;
+  const std::size_t n = s.n();
+  read_real(s.field(fields::position), frame_.x);
+  bool fallback = false;
+  std::string why = "particles moved too far since the list was built for its cutoff";
+  PairRows rows;
+  if (source_ == Source::verlet && verlet_usable(s)) {
+    rows = list_pairs(n, s.field(neighbors::kList).host<std::uint32_t>(), s.field(neighbors::kCount).host<std::uint32_t>(),
+                      neighbors::list_capacity(s));
+  } else if (source_ == Source::delaunay && (why = delaunay_unusable(s)).empty()) {
+    rows = edge_pairs(n, s.field(delaunay::fields::halfedge).host<std::int32_t>());
+  } else {
+    fallback = source_ != Source::cells;
+    rows = cell_pairs(frame_, search_);
+  }
+  // Step 0 (observers see the initial state before any topology or list stage ran) is expected.
+  if (fallback && ctx.host_params.step > 0) {
+    ++fallbacks_;
+    if (!warned_) {
+      warned_ = true;
+      std::fprintf(stderr,
+                   "flipflow: observe.clusters: step %llu: the %s pairs could not be trusted for this frame (%s); "
+                   "its own cell list was used (column `fallback` of %s; not repeated)\n",
+                   static_cast<unsigned long long>(ctx.host_params.step), p_.pairs.c_str(), why.c_str(),
+                   p_.file.c_str());
+    }
+  }
+  last_ = analyse_clusters(frame_, rows, p_.bond, neighbor_, p_.min_size, types_);
+  const ClusterResult& r = last_;
+  if (p_.label_field) {
+    Field& f = s.field(cluster_label_field);
+    std::copy(r.label.begin(), r.label.end(), f.host<std::int32_t>());
+  }
+
+  const double part = double(r.taking_part);
+  int percolating = 0;
+  for (int k = 0; k < s.dim(); ++k) percolating += r.percolates[k];
+  std::vector<double> row{double(ctx.host_params.step),
+                          ctx.host_params.time,
+                          double(r.sizes.size()),
+                          double(r.aggregates),
+                          double(r.monomers),
+                          double(r.largest),
+                          part > 0 ? double(r.largest) / part : 0.0,
+                          r.aggregates ? double(r.in_aggregates) / double(r.aggregates) : 0.0,
+                          r.in_aggregates ? double(r.coordination_sum) / double(r.in_aggregates) : 0.0,
+                          double(r.bonds),
+                          r.bonds ? double(r.unlike_bonds) / double(r.bonds) : 0.0,
+                          double(percolating)};
+  for (int k = 0; k < s.dim(); ++k) row.push_back(double(r.percolates[k]));
+  std::size_t c = row.size();
+  for (int a = 0; a < types_; ++a)
+    for (int b = a; b < types_; ++b)
+      if (c < columns_.size() - 1 && columns_[c] == "bonds_" + species_[a] + "_" + species_[b]) {
+        row.push_back(double(r.bonds_by_pair[std::size_t(a) * types_ + b]));
+        ++c;
+      }
+  row.push_back(fallback ? 1.0 : 0.0);
+  // Every column but step, time and fallback is a metric.
+  for (std::size_t k = 2; k + 1 < columns_.size(); ++k) ctx.metrics.set(columns_[k], row[k]);
+  rows_.push_back(std::move(row));
+
+  std::vector<double> sizes(2 + kSizeBins, 0.0);
+  sizes[0] = double(ctx.host_params.step);
+  sizes[1] = ctx.host_params.time;
+  for (std::uint32_t sz : r.sizes) sizes[2 + std::min<std::size_t>(sz, kSizeBins) - 1] += 1;
+  size_rows_.push_back(std::move(sizes));
+  return Outcome::ok();
+}
+
+void Clusters::write_csv(const std::string& name, const std::string& header,
+                         const std::vector<std::vector<double>>& rows, bool completed) const {
+  const std::filesystem::path path = std::filesystem::path(info_.out_dir) / name;
+  const std::string partial = path.string() + ".partial";
+  std::ofstream out(partial);
+  if (!out) throw RunError("observe.clusters: cannot write '" + partial + "'");
+  out << "# observe.clusters: " << frame_.dim << "D, N = " << frame_.n() << ", bond = " << p_.bond
+      << ", neighbor_radius = " << neighbor_ << ", min_size = " << p_.min_size << ", pairs = " << p_.pairs;
+  if (!p_.types.empty()) {
+    out << ", types =";
+    for (auto& t : p_.types) out << " " << t;
+  }
+  out << ", frames = " << rows.size() << ", fallbacks = " << fallbacks_ << "\n" << header << "\n";
+  out.precision(17);
+  for (const auto& row : rows) {
+    for (std::size_t k = 0; k < row.size(); ++k) out << (k ? "," : "") << row[k];
+    out << "\n";
+  }
+  out.close();
+  if (!out) throw RunError("observe.clusters: writing '" + partial + "' failed");
+  if (!completed) {
+    std::fprintf(stderr, "flipflow: the run did not complete; observe.clusters kept what it had at '%s'\n",
+                 partial.c_str());
+    return;
+  }
+  std::error_code ec;
+  std::filesystem::rename(partial, path, ec);
+  if (ec)
+    throw RunError("observe.clusters: cannot rename '" + partial + "' to '" + path.string() + "': " + ec.message());
+}
+
+void Clusters::finish(State&, bool completed) {
+  if (finished_ || info_.out_dir.empty()) return;
+  finished_ = true;
+  std::string header;
+  for (auto& c : columns_) header += (header.empty() ? "" : ",") + c;
+  write_csv(p_.file, header, rows_, completed);
+  std::string sizes = "step,time";
+  for (int k = 1; k < kSizeBins; ++k) sizes += ",n" + std::to_string(k);
+  sizes += ",n" + std::to_string(kSizeBins) + "plus";
+  write_csv(p_.sizes_file, sizes, size_rows_, completed);
+}
+
+}  // namespace ff::observe

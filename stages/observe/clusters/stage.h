@@ -1,0 +1,204 @@
+// observe.clusters: bonds, clusters, aggregates, coordination and percolation (seed-gaps G1;
+// Tran 2015 §2.1 and Fig. 3: "an aggregate is an assembly of at least two colloids"), 2D and 3D.
+//
+//   bond       i and j (both taking part, see `types`) with r_ij < bond·σ_ij, σ_ij = (σ_i + σ_j)/2,
+//              minimum image; strict <
+//   cluster    a connected component of the bond graph (a monomer is a cluster of one)
+//   aggregate  a cluster of at least `min_size` particles
+//   label      the smallest particle index of the cluster: canonical, whatever the pair source,
+//              the particle order of the pairs or the thread count
+//
+// Metrics after each call (observe.h5md writes them under /observables/<stage id>/<metric>):
+//   clusters, aggregates, monomers, largest (particles in the largest cluster), largest_fraction
+//   (largest / particles taking part), mean_aggregate_size (particles in aggregates / aggregates;
+//   0 without aggregates), coordination (mean number of particles within neighbor_radius·σ_ij,
+//   over the particles in aggregates), bonds, bonds_<a>_<b> per type pair a ≤ b (species names),
+//   unlike_fraction (bonds between unlike types / bonds; 0 without bonds), percolating (axes
+//   along which some cluster wraps the periodic box, 0..dim) and percolating_x/_y/_z (1 when
+//   some cluster wraps along that axis). A cluster wraps along axis k when a closed path of its
+//   bonds, each taken as its minimum-image vector, sums to a non-zero multiple of L_k: each
+//   member gets an integer image offset by a walk from the label over the bonds, and a bond
+//   that reaches a member with a different offset than it has along k wraps.
+//
+// Pairs (`pairs`), all giving the same bonds when they may be used:
+//   cells     its own cell list (cells of edge ≥ max(bond, neighbor_radius)·σ_max); needs nothing
+//   verlet    the rows of neighbors.list (stages/neighbors/list.h), distances tested here. At
+//             configure neighbors.cutoff must be ≥ max(bond, neighbor_radius)·σ_max. The list is
+//             complete for the pairs within `cutoff` of each other when it was built; positions have
+//             moved since (at most skin/2 plus the step's move), so a call uses it only when
+//             max(bond, neighbor_radius)·σ_max + 2·(largest move since the build) ≤ cutoff, else
+//             its own cell list (column `fallback` = 1). Give the list a margin (T2: cutoff 1.5σ
+//             for bond 1.1).
+//   delaunay  (2D) the edges of the maintained triangulation (stages/delaunay/common/fields.h).
+//             A pair within b·σ_ij whose diametral disk holds another disk's centre k means
+//             |ki|² + |kj|² < b²σ_ij²; with b²σ_ij² ≤ σ_ik² + σ_jk² for every type triple, k
+//             would overlap i or j. So for non-overlapping disks every pair within
+//             b = max(bond, neighbor_radius) is a Gabriel edge, hence a Delaunay edge. Configure
+//             refuses b and diameters that break this bound (monodisperse: b ≤ √2). A call uses
+//             the triangulation only when it is built, every triangle is positive, every edge is
+//             locally Delaunay for the current positions (in-circle ≤ 1e-10 × its permanent:
+//             overlap_correct may move disks after delaunay.lawson) and no Delaunay edge is
+//             shorter than s·σ_ij, s² = max over the triples of b²σ_ij²/(σ_ik² + σ_jk²) (the
+//             overlap the bound tolerates; for equal diameters this covers every pair, since a
+//             disk's nearest neighbour is a Delaunay edge); otherwise its own cell list
+//             (`fallback` = 1).
+//
+// Files written at finish() in the output directory:
+//   clusters.csv (`file`): one row per call: step, time, clusters, aggregates, monomers, largest,
+//     largest_fraction, mean_aggregate_size, coordination, bonds, unlike_fraction, percolating,
+//     percolating_x, percolating_y[, percolating_z], bonds_<a>_<b>... (type pairs in order),
+//     fallback; after '#' lines with N, the parameters and the pair source.
+//   cluster_sizes.csv (`sizes_file`): one row per call: step, time, n1 ... n63, n64plus (the
+//     number of clusters of each size; the last column counts those of 64 particles or more).
+// With `label_field: true` the stage writes the per-particle field `cluster.label` (i32, the
+// cluster's label; -1 for particles that take no part), which observe.h5md can write (list
+// observe.clusters before observe.h5md, with the same schedule).
+//
+// Host-only: positions, diameters and types are read on the host (the core copies them from the
+// device on CUDA runs). Pair search and bond tests run in parallel (oneTBB) into per-particle
+// rows; the union-find, the labels and every metric are integer work in a fixed order, so the
+// results are the same for any thread count.
+#pragma once
+#include <array>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "core/stage/params.h"
+#include "core/stage/stage.h"
+#include "core/stage/stage_registration.h"
+
+namespace ff::observe {
+
+struct ClustersParams {
+  double bond = 1.1;            // bond length in units of σ_ij
+  std::int64_t min_size = 2;    // smallest aggregate
+  double neighbor_radius = 0;   // coordination radius in units of σ_ij; 0 = bond
+  std::string pairs = "cells";
+  std::vector<std::string> types;  // empty: every type
+  bool label_field = false;
+  std::string file = "clusters.csv";
+  std::string sizes_file = "cluster_sizes.csv";
+
+  template <class P>
+  void describe(P& p) {
+    p(bond, "bond", "i and j are bonded when r_ij < bond·σ_ij (σ_ij = (σ_i + σ_j)/2, minimum image)").above(0);
+    p(min_size, "min_size", "an aggregate is a cluster of at least this many particles").at_least(1);
+    p(neighbor_radius, "neighbor_radius",
+      "metric `coordination` counts the particles within neighbor_radius·σ_ij (0: the bond length)")
+        .at_least(0);
+    p(pairs, "pairs",
+      "where candidate pairs come from: cells (own cell list), verlet (neighbors.list; cutoff ≥ bond·σ_max), "
+      "delaunay (2D triangulation; only where the Gabriel bound bond²σ_ij² ≤ σ_ik² + σ_jk² holds)")
+        .one_of({"cells", "verlet", "delaunay"});
+    p(types, "types", "only particles of these species take part (names from system.types); empty: all");
+    p(label_field, "label_field",
+      "write the per-particle field cluster.label (i32: the smallest index of the particle's cluster, -1 if it "
+      "takes no part)");
+    p(file, "file", "CSV of the metrics, one row per call, relative to the run's output directory");
+    p(sizes_file, "sizes_file", "CSV of the cluster-size histogram (1 ... 63, ≥ 64), one row per call");
+  }
+};
+
+inline constexpr const char* cluster_label_field = "cluster.label";
+inline constexpr int kSizeBins = 64;  // sizes 1 ... 63, then ≥ 64
+
+// One frame on the host, in double.
+struct ClusterFrame {
+  int dim = 2;
+  double L[3] = {0, 0, 0};
+  std::vector<double> x;          // n x dim, wrapped into the box
+  std::vector<double> diameter;   // n
+  std::vector<std::int32_t> type; // n
+  std::vector<std::uint8_t> takes_part;  // n: 1 when the particle's type is selected
+  std::size_t n() const { return diameter.size(); }
+};
+
+// Candidate pairs of every particle as rows (CSR): row i is index[start[i] .. start[i+1]); each
+// pair appears in both rows, at most once per row. What a source hands the bond test.
+struct PairRows {
+  std::vector<std::uint32_t> start;  // n + 1
+  std::vector<std::uint32_t> index;
+};
+
+// What one call measures (also what the tests read).
+struct ClusterResult {
+  std::vector<std::int32_t> label;   // n: smallest index of the cluster; -1: takes no part
+  std::vector<std::uint32_t> sizes;  // sizes of the clusters, in order of their labels
+  std::uint64_t bonds = 0, unlike_bonds = 0;
+  std::vector<std::uint64_t> bonds_by_pair;  // types t x t, [a * t + b] with a ≤ b
+  std::uint64_t coordination_sum = 0;        // Σ over particles in aggregates of their neighbours
+  std::uint64_t in_aggregates = 0;           // particles in aggregates
+  std::uint64_t aggregates = 0, monomers = 0, largest = 0, taking_part = 0;
+  std::array<int, 3> percolates{0, 0, 0};    // per axis
+};
+
+// Candidate rows from the cells of a grid of edge ≥ r (every pair closer than r is a candidate).
+PairRows cell_pairs(const ClusterFrame& f, double r);
+// Candidate rows from a Verlet list (N x capacity rows, count per row).
+PairRows list_pairs(std::size_t n, const std::uint32_t* list, const std::uint32_t* count, std::uint32_t capacity);
+// Candidate rows from the edges of a half-edge triangulation (he: 2 x 6n, {origin, next}).
+PairRows edge_pairs(std::size_t n, const std::int32_t* he);
+
+// Bonds (r < bond·σ_ij), clusters, labels, coordination (r < neighbor·σ_ij), percolation and
+// type-pair counts from the candidate rows; `types` = number of species.
+ClusterResult analyse_clusters(const ClusterFrame& f, const PairRows& rows, double bond, double neighbor,
+                               std::int64_t min_size, int types);
+
+// s² of the Gabriel bound for reach b (in σ_ij) over the diameters in `pair_diameters` (the
+// species taking part: i, j) and `all_diameters` (any k): max b²σ_ij²/(σ_ik² + σ_jk²). The
+// triangulation holds every pair within b·σ_ij when it is ≤ 1 and no two disks are closer than
+// √(s²)·σ_kl.
+double gabriel_ratio2(double b, const std::vector<double>& pair_diameters, const std::vector<double>& all_diameters);
+
+class Clusters final : public Stage {
+ public:
+  static StageDecl declaration() {
+    return {"observe.clusters",
+            "bonds (r < bond·σ_ij), clusters, aggregates, coordination, like/unlike bonds and percolation; metrics "
+            "per call, clusters.csv and cluster_sizes.csv; optional field cluster.label",
+            schema_of<ClustersParams>(), {2, 3}, true};
+  }
+
+  // Host accesses: on the CUDA backend the core brings the fields to the host.
+  Clusters(const ParamValues& v, const RunInfo& info) : Clusters(params_from<ClustersParams>(v), info) {}
+  Clusters(ClustersParams p, RunInfo info);
+
+  std::vector<Access> accesses() const override;
+  void configure(State& s) override;
+  Outcome run(StepContext& ctx) override;
+  void finish(State& s, bool completed) override;
+  std::vector<std::string> outputs() const override { return {p_.file, p_.sizes_file}; }
+
+  const ClusterResult& last() const { return last_; }
+
+ private:
+  enum class Source { cells, verlet, delaunay };
+  void read_frame(const State& s);
+  bool verlet_usable(const State& s) const;
+  std::string delaunay_unusable(const State& s) const;  // why not, or empty
+  void write_csv(const std::string& name, const std::string& header,
+                 const std::vector<std::vector<double>>& rows, bool completed) const;
+
+  ClustersParams p_;
+  RunInfo info_;
+  Source source_ = Source::cells;
+  double reach_ = 1.1;       // max(bond, neighbor_radius), in σ_ij
+  double neighbor_ = 1.1;    // neighbor_radius resolved
+  double sigma_max_ = 1;     // largest diameter taking part
+  double search_ = 1.1;      // reach_·σ_max_: every pair of interest is closer than this
+  double gabriel_s2_ = 0;    // delaunay: the tolerated contact ratio, squared
+  double verlet_cutoff_ = 0;
+  int types_ = 1;
+  std::vector<std::string> species_;
+  ClusterFrame frame_;
+  ClusterResult last_;
+  std::vector<std::string> columns_;
+  std::vector<std::vector<double>> rows_, size_rows_;
+  std::uint64_t fallbacks_ = 0;
+  bool warned_ = false, finished_ = false;
+};
+
+}  // namespace ff::observe
+
+FLIPFLOW_HOST_STAGE(ff::observe::Clusters)
