@@ -9,7 +9,12 @@
 #     generated source that sets FLIPFLOW_STAGE_EXEC (CpuExec, and CudaExec when CUDA is on);
 #   - every other .cpp below it (not test_*.cpp) and, with CUDA, every .cu is compiled too (the
 #     loops a stage writes by hand);
-#   - the library's entry point (core/sdk/plugin_entry.cpp) registers what they declare.
+#   - the library's entry point (core/sdk/plugin_entry.cpp) registers what they declare;
+#   - every test_<name>.cpp below it is a test beside its stage: tests/CMakeLists.txt builds it
+#     (in-tree builds only) as the CTest test and executable test_<folder>_<name>, or
+#     test_<folder> when <name> is the folder's own name (stages/overlap_correct/
+#     test_overlap_correct.cpp), linked with the core and Catch2 and built after every plugin.
+#     What one of them links besides: flipflow_stage_test_libs below.
 # With SOURCES (libraries not yet in this shape) exactly those files are compiled and one of them
 # defines the entry point (FLIPFLOW_PLUGIN). The .cu files see the repository root and
 # Random123, nothing else.
@@ -43,14 +48,32 @@ function(flipflow_add_plugin)
     CUDA_SEPARABLE_COMPILATION OFF)
   set_property(GLOBAL APPEND PROPERTY FLIPFLOW_PLUGINS ${target})
   # Tests beside the stages (test_*.cpp below the folder): tests/CMakeLists.txt builds each as
-  # test_<folder>_<name> (in-tree builds only).
+  # test_<folder>_<name>, or test_<folder> for test_<folder>.cpp (in-tree builds only).
   file(GLOB_RECURSE tests CONFIGURE_DEPENDS ${CMAKE_CURRENT_SOURCE_DIR}/test_*.cpp)
   get_filename_component(folder ${CMAKE_CURRENT_SOURCE_DIR} NAME)
   foreach(t ${tests})
     get_filename_component(stem ${t} NAME_WE)
     string(REGEX REPLACE "^test_" "" stem "${stem}")
-    set_property(GLOBAL APPEND PROPERTY FLIPFLOW_STAGE_TESTS "test_${folder}_${stem}|${t}")
+    if(stem STREQUAL folder)
+      set(name test_${folder})
+    else()
+      set(name test_${folder}_${stem})
+    endif()
+    set_property(GLOBAL APPEND PROPERTY FLIPFLOW_STAGE_TESTS "${name}|${t}")
   endforeach()
+endfunction()
+
+# flipflow_stage_test_libs(<test_*.cpp, relative to the folder> <libs...>)
+#
+# What one test beside the stages links besides the core and Catch2: CGAL for the test that
+# compares with CGAL's triangulation, an interface library of a stage's sources for a test that
+# drives the stage's classes directly. Call from the plugin's CMakeLists.txt.
+function(flipflow_stage_test_libs test)
+  get_filename_component(file ${test} ABSOLUTE BASE_DIR ${CMAKE_CURRENT_SOURCE_DIR})
+  if(NOT EXISTS ${file})
+    message(FATAL_ERROR "flipflow_stage_test_libs: no test ${file}")
+  endif()
+  set_property(GLOBAL APPEND PROPERTY "FLIPFLOW_STAGE_TEST_LIBS:${file}" ${ARGN})
 endfunction()
 
 # The sources of a plugin folder read by convention (see flipflow_add_plugin).

@@ -94,3 +94,55 @@ TEST_CASE("tools/render draws an H5MD frame and an observable to PNG; bad input 
   }
   fs::remove_all(dir);
 }
+
+TEST_CASE("tools/render plots a 3D run's aggregates on a log time axis and draws 3D frames", "[cli][render]") {
+  if (!have_plotting()) {
+    WARN("SKIPPED (no numpy/h5py/matplotlib in /usr/bin/python3): tools/render");
+    return;
+  }
+  const fs::path dir = fs::temp_directory_path() / ("ff_render3d_" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  const std::string render = "/usr/bin/python3 " + repo_file("tools/render").string();
+
+  // Tran's aggregation (pipelines/tran-homo-phi0.20-short.yaml), cut to 300 spheres and 500 steps.
+  auto run = sh(pipeline_exe() + " run " + repo_file("pipelines/tran-homo-phi0.20-short.yaml").string() +
+                    " --device cpu --set run.steps=500 --set system.N=300 --out " + (dir / "run").string(),
+                dir);
+  INFO(run.out);
+  REQUIRE(run.code == 0);
+  const fs::path h5 = dir / "run" / "tran-homo-phi0.20-short.h5", csv = dir / "run" / "clusters.csv",
+                 frames = dir / "run" / "tran-homo-phi0.20-short-frames.h5";
+
+  SECTION("N_agg(t) from the H5MD file and clusters.csv on one plot, as Tran's Fig. 3") {
+    auto r = sh(render + " " + h5.string() + " " + csv.string() +
+                    " --plot-observable observe.clusters/aggregates --log --out " + (dir / "fig3.png").string() +
+                    " --dpi 40",
+                dir);
+    INFO(r.out);
+    CHECK(r.code == 0);
+    CHECK_THAT(r.out, Catch::Contains("from 2 file(s)") && Catch::Contains("log time axis"));
+    CHECK(is_png(dir / "fig3.png"));
+    auto m = sh(render + " " + csv.string() + " --plot-observable observe.clusters/nosuch --out " +
+                    (dir / "x.png").string(),
+                dir);
+    CHECK(m.code == 2);
+    CHECK_THAT(m.out, Catch::Contains("clusters.csv: no column 'nosuch'") && Catch::Contains("aggregates"));
+  }
+  SECTION("3D frames: the projection along z, or a slab") {
+    auto p = sh(render + " " + frames.string() + " --out " + (dir / "p.png").string() + " --dpi 40", dir);
+    INFO(p.out);
+    CHECK(p.code == 0);
+    CHECK_THAT(p.out, Catch::Contains("projection along z: 300 spheres drawn"));
+    CHECK(is_png(dir / "p.png"));
+    auto s = sh(render + " " + frames.string() + " --slice 4 --out " + (dir / "s.png").string() + " --dpi 40", dir);
+    INFO(s.out);
+    CHECK(s.code == 0);
+    CHECK_THAT(s.out, Catch::Contains("slice z ∈"));
+    CHECK(is_png(dir / "s.png"));
+    auto two = sh(render + " " + frames.string() + " " + h5.string() + " --out " + (dir / "x.png").string(), dir);
+    CHECK(two.code == 2);
+    CHECK_THAT(two.out, Catch::Contains("only for --plot-observable"));
+  }
+  fs::remove_all(dir);
+}

@@ -10,6 +10,10 @@
 //   FF_HD std::uint32_t noise_pair(int j) const;   the pair index (core/physics/rng.h) of the j-th pair
 //   FF_HD NoiseCounter noise_counter() const;      key, step, attempt
 //   FF_HD void move(std::size_t i, const double* z) const;  z[2j], z[2j + 1]: pair j
+// The standard integrator's functor (OverdampedStep, stages/overdamped/integrate/kernel.h) is
+// this step for every model whose particles diffuse and drift; a model adds its deterministic
+// displacement, and any degree of freedom that moves with it, as a drift functor (abp.integrate's
+// self-propulsion and orientation), the extension point below.
 #pragma once
 #include <cstddef>
 #include <cstdint>
@@ -48,6 +52,24 @@ FF_HD void overdamped_move(R* position, std::int32_t* image, const PeriodicBox<R
                            const R* drift, R amplitude, const double* xi) {
   overdamped_move<R, D>(position, image, position, image, box, i, drift, amplitude, xi);
 }
+
+// The drift extension point of the standard step: a functor G with
+//   static constexpr int kNoisePairs;              Gaussian pairs of its own, drawn after the
+//                                                  translation's (pairs 0, and 1 in 3D)
+//   FF_HD std::uint32_t noise_pair(int j) const;   the pair index of its j-th pair
+//   template <class R> FF_HD bool operator()(std::size_t i, int type, double dt, const double* z,
+//                                            R* drift) const;
+// which writes particle i's (of type `type`) deterministic displacement over Δt = dt into
+// drift[0 .. D-1] and returns true, or returns false when it has none (the step then adds
+// nothing: not even a zero, which would turn -0 into +0). z holds its own pairs (z[2j],
+// z[2j + 1]: pair j). It may also update fields of its own from their values at the start of the
+// step (abp.integrate turns the orientation it propels along).
+struct NoDrift {
+  static constexpr int kNoisePairs = 0;
+  FF_HD std::uint32_t noise_pair(int) const { return 0; }
+  template <class R>
+  FF_HD bool operator()(std::size_t, int, double, const double*, R*) const { return false; }
+};
 
 // One particle's step: its Gaussian pairs, then F::move (the element operation of the GPU loop).
 template <class F>

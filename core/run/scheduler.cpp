@@ -207,8 +207,11 @@ bool Scheduler::run_captured() {
 #ifdef FLIPFLOW_HAVE_CUDA
   auto& im = *impl_;
   // The first step runs directly so every field is settled on the device before capture;
-  // profiling needs each stage's own launches.
-  if (!im.capturable || im.capture_failed || profiling_ || im.steps_run == 0) return false;
+  // profiling needs each stage's own launches. A run with a rollback snapshot is never captured:
+  // the snapshot's on-demand copies and storage swaps (will_write, will_overwrite) are decided
+  // on the host in each step, which a replayed graph would skip.
+  if (!im.capturable || snapshot_ || !graph_capture_ || im.capture_failed || profiling_ || im.steps_run == 0)
+    return false;
   if (!im.captured.ready()) {
     std::string why;
     const bool ok = im.captured.capture(main_stream(), [&] {
@@ -243,7 +246,7 @@ bool Scheduler::run_captured() {
 
 bool Scheduler::step_is_captured() const {
 #ifdef FLIPFLOW_HAVE_CUDA
-  return impl_->captured.ready() && !profiling_;
+  return impl_->captured.ready() && !profiling_ && graph_capture_;
 #else
   return false;
 #endif

@@ -57,6 +57,10 @@ class Scheduler {
   // Profiling: wait for each stage's device work before stopping its clock, so per-stage
   // times are real on CUDA (serializes streams; `pipeline bench` reports both ways).
   void set_profiling(bool on) { profiling_ = on; }
+  // Off: every step launches the stages' work directly, never from a captured CUDA graph (tests
+  // compare the two); on (the default): steady-state steps are captured when the pipeline
+  // allows it (Scheduling::graph_capturable).
+  void set_graph_capture(bool on) { graph_capture_ = on; }
   // The rollback snapshot stages reach through StepContext::will_write (null: none), for the
   // nodes whose writes a rollback must undo (`undone[node]`); the others see no snapshot, so
   // their announced writes cost no copy.
@@ -65,7 +69,7 @@ class Scheduler {
     snapshot_undone_ = std::move(undone);
   }
   void reset_timers();
-  // True once the steady-state step replays a captured CUDA graph.
+  // True once the steady-state step replays a captured CUDA graph (the last step did).
   bool step_is_captured() const;
 
  private:
@@ -85,6 +89,7 @@ class Scheduler {
   const RunStats& stats_;
   Backend backend_;
   bool profiling_ = false;
+  bool graph_capture_ = true;
   std::atomic<bool> abort_{false};
   std::exception_ptr error_;
   std::atomic<bool> has_error_{false};

@@ -94,29 +94,47 @@ struct DeviceRollbackFlag {
   unsigned int particle;
 };
 
-// StepParams (core/stage/step_params.h): the per-step values a kernel may need, readable on the
-// stage's side: StepContext::params points to host memory on the CPU and to device memory on CUDA. A stage that takes these
-// values from here (not by value from StepContext) can be captured once into a CUDA graph
-// and replayed every step: the core keeps the device copy current (a kernel at the end of a
-// captured step advances it; the host rewrites it after a rollback or a Δt change).
+// The step's clock (step, attempt, Δt, time) reaches a stage on two sides, for two uses:
+//  - `params` (StepParams, core/stage/step_params.h) on the stage's side, for kernels: host
+//    memory on the CPU, a device copy on CUDA that the core keeps current (a kernel at the end
+//    of a captured step advances it; the host rewrites it after a rollback or a Δt change). It
+//    is the one way per-step values reach kernels: a stage whose kernels read them there can be
+//    captured once into a CUDA graph and replayed every step (Scheduling::graph_capturable).
+//  - `host_params`, the same values on the host, for host logic only: messages, observers, what
+//    run() decides on the host. Never pass them to a kernel: a captured graph would replay the
+//    values of the step it was captured in.
 struct StepContext {
+  // step, attempt, dt and time fill host_params; the rest are the members of the same names.
+  StepContext(State& s, const RunInfo& info, const RunStats& st, std::uint64_t step, std::uint32_t attempt, double dt,
+              double time, Backend b, CUstream_st* str, RngKey key, Metrics& m, DeviceRollbackFlag* flag = nullptr,
+              const StepParams* p = nullptr, Snapshot* snap = nullptr)
+      : state(s), run(info), stats(st), host_params{step, attempt, dt, time}, backend(b), stream(str), rng(key),
+        metrics(m), device_rollback(flag), params(p), snapshot(snap) {}
+
   State& state;
   const RunInfo& run;
   const RunStats& stats;
-  std::uint64_t step;      // the step being computed (state.step before it is accepted)
-  std::uint32_t attempt;   // 0 for the first try, +1 for each rollback of this step
-  double dt;               // Δt of this attempt
-  double time;             // simulated time at the start of the step
+  // On the host, for host logic (above): step is the step being computed (state.step before it
+  // is accepted; for an observer, the steps done), attempt 0 for the first try and +1 for each
+  // rollback of this step, dt the Δt of this attempt, time the simulated time at its start.
+  StepParams host_params;
   Backend backend;
   CUstream_st* stream;     // the CUDA stream the core assigned (nullptr on the CPU)
   RngKey rng;              // (seed, this stage)
   Metrics& metrics;
-  DeviceRollbackFlag* device_rollback = nullptr;  // device memory; CUDA runs only
-  const StepParams* params = nullptr;              // on the stage's side (see StepParams)
+  DeviceRollbackFlag* device_rollback;  // device memory; CUDA runs only
+  const StepParams* params;             // for kernels, on the stage's side (above)
   // The core's rollback snapshot; null when nothing can roll back this stage's writes (no
   // stage may request a rollback, or every one that may runs before this stage and requests
   // only from run(): always so on the CPU).
-  Snapshot* snapshot = nullptr;
+  Snapshot* snapshot;
+
+  // Whether the stage may leave reading its results back (and announcing the on-demand writes
+  // that depend on them) to after_step, so that the stages after it queue behind its kernels
+  // instead of waiting for the host: true when no rollback can undo its writes in this attempt
+  // (no snapshot covers them). When false, a rollback may restore what it writes, so it must
+  // announce an on-demand write (will_write) before making it, which needs its results now.
+  bool may_defer_read_back() const { return snapshot == nullptr; }
 
   // Call before first writing a field declared with Access::on_demand in this step: the
   // rollback snapshot takes its copy now (once per step; a no-op when nothing can roll back the
@@ -128,8 +146,8 @@ struct StepContext {
   // Returns where the contents before the call are now: the snapshot's copy (read the old
   // values there, write the field), or the field itself when no snapshot takes this write
   // (update in place). Pointers to the field taken before the call may point to the copy
-  // afterwards: take them again. Not for stages captured into a CUDA graph (the graph would
-  // keep the old pointers).
+  // afterwards: take them again. A graph-capturable stage may call it: the core captures no step
+  // that has a rollback snapshot, so in a captured step it returns the field itself.
   Field& will_overwrite(const std::string& field) const;
   // The contents `field` had at the start of this step (before any stage of the step wrote it):
   // the rollback snapshot's copy when a stage before this one wrote it, else the field itself;
@@ -150,12 +168,17 @@ struct Scheduling {
   // false: then, as on the CPU, a request stops the step before the stages after it.
   bool requests_rollback_on_device = false;
   // On CUDA, run() only enqueues device work on ctx.stream, never synchronizes or reads the
-  // host, and takes step-dependent values from ctx.params. When every compute stage says so
-  // (and none uses `every` or `at`), the core captures the step once as a CUDA graph.
+  // host, and its kernels take step-dependent values from ctx.params (never from
+  // ctx.host_params). When every compute stage says so, none uses `every` or `at` and no stage
+  // may request a rollback (a step with a snapshot is never captured, so will_write and
+  // will_overwrite are free to swap storage or copy), the core captures the step once as a CUDA
+  // graph and replays it.
   bool graph_capturable = false;
   // run() passes ctx.params to its kernels: on CUDA the core then keeps a device copy of the
-  // step's parameters (one upload per step).
+  // step's parameters (one upload per step, none while a captured graph advances it).
   bool reads_step_params = false;
+  // Not a hint but the core's answer, per attempt: whether a stage may defer reading its results
+  // back to after_step is StepContext::may_defer_read_back().
 };
 
 class Stage {

@@ -1,4 +1,6 @@
-// The per-step values a kernel may need (see StepContext::params in core/stage/stage.h). nvcc-clean.
+// The per-step values a kernel may need: kernels read them only through StepContext::params, on
+// the stage's side (core/stage/stage.h says why); StepContext::host_params holds them for host
+// logic. nvcc-clean.
 #pragma once
 #include <cstdint>
 

@@ -44,6 +44,10 @@
 #include "core/stage/registry.h"
 #include "core/stage/stage.h"
 #include "core/stage/state.h"
+#include "core/stage/step_params.h"
+#ifdef FLIPFLOW_HAVE_CUDA
+#include "core/run/cuda/graph.h"
+#endif
 
 #ifndef CHIRAL_ABP_PLUGIN
 #error "CHIRAL_ABP_PLUGIN: the path of libflipflow_plugin_chiral_abp.so (CMakeLists.txt sets it)"
@@ -111,6 +115,10 @@ struct Run {
   Metrics metrics;
   std::unique_ptr<Stage> stage;
   std::unique_ptr<State> state;
+  StepParams params{};
+#ifdef FLIPFLOW_HAVE_CUDA
+  std::unique_ptr<DeviceStepParams> device_params;  // on first use (CUDA runs only)
+#endif
 
   Run(Backend b, Precision p, const Model& m, std::size_t n, double L, std::uint64_t seed) {
     info.dim = 2;
@@ -136,11 +144,22 @@ struct Run {
     stage->configure(*state);
   }
 
+  // The kernel reads Δt, the step and the attempt through ctx.params, on its own side: a host
+  // block on the CPU, a device copy on CUDA (the core keeps one the same way).
   void step(std::uint64_t k, double dt) {
     State& s = *state;
     for (auto& a : stage->accesses()) s.field(a.field).acquire(a.where, a.mode, nullptr);
+    params = StepParams{k, 0, dt, double(k) * dt};
     StepContext ctx{s, info, stats, k, 0, dt, double(k) * dt, info.backend, nullptr,
                     make_rng_key(info.seed, info.stage_id.c_str()), metrics};
+    ctx.params = &params;
+#ifdef FLIPFLOW_HAVE_CUDA
+    if (info.backend == Backend::cuda) {
+      if (!device_params) device_params = std::make_unique<DeviceStepParams>();
+      device_params->set(params, nullptr);
+      ctx.params = device_params->device();
+    }
+#endif
     if (stage->run(ctx).rollback) throw std::runtime_error("chiral_abp.integrate asked for a rollback");
   }
 

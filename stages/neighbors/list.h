@@ -6,6 +6,10 @@
 //   neighbors.count   u32, N: how many entries of row i are set (≤ capacity)
 //   neighbors.cutoff  real, 1 value: every pair closer than this is in the list (the stage's
 //                     `cutoff`; pairs up to cutoff + skin may be there too, so test distances)
+//   neighbors.build_params  f64, 2 values: the stage's `cutoff` and `skin` as given, in every
+//                     precision. The list is complete for pairs closer than the cutoff while no
+//                     particle has moved skin/2 since the build; a stage that moves particles
+//                     after the build checks that and rebuilds the same list (verlet/build.h)
 //
 // Because each row is sorted by particle index, a stage that sums over a row in list order,
 // skipping pairs beyond its cutoff, adds the same terms in the same order whenever the list was
@@ -21,6 +25,7 @@ namespace ff::neighbors {
 inline constexpr const char* kList = "neighbors.list";
 inline constexpr const char* kCount = "neighbors.count";
 inline constexpr const char* kCutoff = "neighbors.cutoff";
+inline constexpr const char* kBuildParams = "neighbors.build_params";
 inline constexpr const char* kPositionAtBuild = "neighbors.position_at_build";  // real x dim
 inline constexpr const char* kOrder = "neighbors.order";            // u32: particles sorted by cell
 inline constexpr const char* kCell = "neighbors.cell";              // u32: cell of each particle at build

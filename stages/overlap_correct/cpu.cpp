@@ -10,7 +10,7 @@
 //     tile before or after (taken by that tile when it finishes), or for any other (one thread
 //     adds those; ~7 % of them). No atomics: a locked add per push cost more than the edge test.
 //     Each tile lists its touched particles once, with their sums. When the counts say to go
-//     on, each tile finishes its touched particles (Mesh::from_sum) and moves them at once
+//     on, each tile finishes its touched particles (Overlaps::from_sum) and moves them at once
 //     (nothing reads positions then). Iteration 0's pass also checks the mesh (indices in
 //     range, no loops, next pointers a permutation).
 //   - work list (otherwise): gather only the flagged particles of each tile (in index order,
@@ -26,7 +26,8 @@
 // touches only the moved particles.
 //
 // Counters: each tile sums its own (plain integers), the host adds the tiles up; integer sums
-// do not depend on the order. No allocation after the workspace is made.
+// do not depend on the order. No allocation after the workspace is made (once, and again when N
+// changes).
 #include <oneapi/tbb/blocked_range.h>
 #include <oneapi/tbb/parallel_for.h>
 #include <oneapi/tbb/partitioner.h>
@@ -88,17 +89,18 @@ struct HostWorkspace {
   std::size_t last_moved = 0;           // particles the last iteration moved
 };
 
-void* host_create(std::size_t n) {
-  auto* w = new HostWorkspace;
-  w->n = n;
-  w->next_hash = mix_sum(6 * std::uint64_t(n));
+// The workspace for n particles (from scratch).
+void prepare(HostWorkspace& w, std::size_t n) {
+  w = HostWorkspace{};
+  w.n = n;
+  w.next_hash = mix_sum(6 * std::uint64_t(n));
   const std::size_t padded = (n + 7) / 8 * 8;
-  for (auto& f : w->flags) f.assign(padded, 0);
-  w->slot.assign(n, -1);
+  for (auto& f : w.flags) f.assign(padded, 0);
+  w.slot.assign(n, -1);
   const std::size_t nt = (n + kTile - 1) / kTile;
-  w->tiles.resize(nt);
+  w.tiles.resize(nt);
   for (std::size_t t = 0; t < nt; ++t) {
-    Tile& tl = w->tiles[t];
+    Tile& tl = w.tiles[t];
     tl.t0 = t * kTile;
     tl.t1 = std::min(n, tl.t0 + kTile);
     const std::size_t m = tl.t1 - tl.t0;
@@ -108,9 +110,7 @@ void* host_create(std::size_t n) {
     tl.touched.resize(m);
     for (auto& r : tl.remote) r.resize(6 * m);
   }
-  return w;
 }
-void host_destroy(void* p) { delete static_cast<HostWorkspace*>(p); }
 
 inline void flag(std::uint8_t* f, int v) { __atomic_store_n(f + v, std::uint8_t(1), __ATOMIC_RELAXED); }
 
@@ -171,8 +171,8 @@ void for_each_tile(std::size_t nt, const F& f, bool serial = false) {
 // One tile's share of an edge pass (Check: iteration 0, with the mesh checks): adds the pushes
 // of its overlapping edges to its own particles and lists the others', counts pairs into tl.c.
 template <bool Check, class R>
-void edge_pass(const Mesh<R>& mesh, Tile& tl, std::int32_t* slot) {
-  const Mesh<R> m = mesh;  // a local copy: the stores below cannot alias its fields
+void edge_pass(const Overlaps<R>& ov, Tile& tl, std::int32_t* slot) {
+  const Overlaps<R> m = ov;  // a local copy: the stores below cannot alias its fields
   std::uint64_t pairs = 0, bad = 0, broken = 0, hash = 0;
   const unsigned t0 = unsigned(tl.t0), size = unsigned(tl.t1 - tl.t0);
   tl.ntouched = 0;
@@ -211,10 +211,8 @@ void edge_pass(const Mesh<R>& mesh, Tile& tl, std::int32_t* slot) {
 }
 
 template <class R>
-void host_iterate(void* ws, const Problem<R>& p, std::int64_t k0, std::int64_t max_iterations, Batch& out,
-                  CUstream_st*) {
-  auto* w = static_cast<HostWorkspace*>(ws);
-  const Mesh<R>& mesh = p.mesh;
+void host_iterate(HostWorkspace* w, const Problem<R>& p, std::int64_t k0, std::int64_t max_iterations, Batch& out) {
+  const Overlaps<R>& ov = p.overlaps;
   const std::size_t nt = w->tiles.size();
   // A step starts from clean flags (cheap; also covers a step that ended in an error).
   if (k0 == 0) {
@@ -235,9 +233,9 @@ void host_iterate(void* ws, const Problem<R>& p, std::int64_t k0, std::int64_t m
     if (edge) {
       for_each_tile(nt, [&](std::size_t t) {
         if (k == 0)
-          edge_pass<true>(mesh, w->tiles[t], w->slot.data());
+          edge_pass<true>(ov, w->tiles[t], w->slot.data());
         else
-          edge_pass<false>(mesh, w->tiles[t], w->slot.data());
+          edge_pass<false>(ov, w->tiles[t], w->slot.data());
       });
       std::uint64_t hash = 0;
       for (const Tile& tl : w->tiles) {
@@ -268,8 +266,8 @@ void host_iterate(void* ws, const Problem<R>& p, std::int64_t k0, std::int64_t m
           const Touched& tp = tl.touched[i];
           w->slot[std::size_t(tp.v)] = -1;
           if (!go) continue;
-          const VertexPush q = mesh.from_sum(tp.v, tp.qx, tp.qy);
-          corr += mesh.fixed_len(q.len);
+          const VertexPush q = ov.from_sum(tp.v, tp.qx, tp.qy);
+          corr += ov.fixed_len(q.len);
           if (q.dx != 0 || q.dy != 0) {
             apply_one(p.pos, p.image, p.box, std::size_t(tp.v), q.dx, q.dy);
             tl.moved[nm++] = tp.v;
@@ -292,12 +290,12 @@ void host_iterate(void* ws, const Problem<R>& p, std::int64_t k0, std::int64_t m
         const std::size_t count = compact(cur, tl.t0, tl.t1, tl.cand.data());
         for (std::size_t i = 0; i < count; ++i) {
           const int v = tl.cand[i];
-          const VertexPush q = mesh.gather(v);
+          const VertexPush q = ov.gather(v);
           tc[kBad] += q.bad;
           tc[kPairs] += q.pairs;
           tc[kBroken] += q.broken;
           if (!q.touched) continue;  // d = 0, len = 0
-          tc[kCorrection] += mesh.fixed_len(q.len);
+          tc[kCorrection] += ov.fixed_len(q.len);
           if (q.dx != 0 || q.dy != 0) {
             tl.moved[nm] = v;
             tl.disp[2 * nm] = q.dx;
@@ -331,19 +329,36 @@ void host_iterate(void* ws, const Problem<R>& p, std::int64_t k0, std::int64_t m
       const Tile& tl = w->tiles[t];
       for (std::size_t i = 0, nm = tl.nmoved; i < nm; ++i) {
         const int v = tl.moved[i];
-        if (mesh.overlapping_neighbors(v, [&](int u) { flag(next, u); })) flag(next, v);
+        if (ov.overlapping_neighbors(v, [&](int u) { flag(next, u); })) flag(next, v);
       }
     }, serial);
   }
 }
 
+template <class R>
+class HostLoops final : public OverlapCorrectLoops<R> {
+ public:
+  void iterate(const Problem<R>& p, std::int64_t k0, std::int64_t max_iterations, Batch& out,
+               CUstream_st*) override {
+    if (!made_ || ws_.n != p.n) {
+      prepare(ws_, p.n);
+      made_ = true;
+    }
+    host_iterate(&ws_, p, k0, max_iterations, out);
+  }
+
+ private:
+  HostWorkspace ws_;
+  bool made_ = false;
+};
+
 }  // namespace
 
 template <class R>
-Ops<R> overlap_ops(CpuExec) {
-  return {&host_create, &host_destroy, &host_iterate<R>};
+std::unique_ptr<OverlapCorrectLoops<R>> overlap_correct_loops(CpuExec) {
+  return std::make_unique<HostLoops<R>>();
 }
-template Ops<float> overlap_ops<float>(CpuExec);
-template Ops<double> overlap_ops<double>(CpuExec);
+template std::unique_ptr<OverlapCorrectLoops<float>> overlap_correct_loops<float>(CpuExec);
+template std::unique_ptr<OverlapCorrectLoops<double>> overlap_correct_loops<double>(CpuExec);
 
 }  // namespace ff::overlap

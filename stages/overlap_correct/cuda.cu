@@ -172,7 +172,7 @@ __global__ void __launch_bounds__(kThreads, MinBlocks) correct_kernel(Args<R> a)
   __shared__ u64 s_red[kCounters][kWarps];
   __shared__ u64 s_tot[kDevCounters];
 
-  const Mesh<R>& mesh = a.p.mesh;
+  const Overlaps<R>& ov = a.p.overlaps;
   const int n = int(a.p.n);
   const int t0 = int(blockIdx.x) * a.tile;
   const int t1 = min(n, t0 + a.tile);
@@ -211,7 +211,7 @@ __global__ void __launch_bounds__(kThreads, MinBlocks) correct_kernel(Args<R> a)
     auto take = [&](int v, const VertexPush& q) {
       c[kBad] += q.bad;
       c[kPairs] += q.pairs;
-      c[kCorrection] += mesh.fixed_len(q.len);
+      c[kCorrection] += ov.fixed_len(q.len);
       c[kBroken] += q.broken;
       if (q.touched) {
         const bool moves = q.dx != 0 || q.dy != 0;
@@ -229,7 +229,7 @@ __global__ void __launch_bounds__(kThreads, MinBlocks) correct_kernel(Args<R> a)
         if (tail)  // its claim: cleared for the next check
           atomicAnd(reinterpret_cast<unsigned*>(a.marks) + (v >> 2), ~(1u << (8 * (v & 3))));
         int ids[kCached], d;
-        take(v, neighbor_ids(mesh, v, k == 0, a.nb, a.degree, ids, d) ? gather_ids(mesh, v, ids, d) : mesh.gather(v));
+        take(v, neighbor_ids(ov, v, k == 0, a.nb, a.degree, ids, d) ? gather_ids(ov, v, ids, d) : ov.gather(v));
       }
     } else {  // one lane group per particle (the loop is uniform over the block: shuffles)
       const int l = int(threadIdx.x) % kGroup;
@@ -239,7 +239,7 @@ __global__ void __launch_bounds__(kThreads, MinBlocks) correct_kernel(Args<R> a)
         const int v = has ? __ldcg(cand + i) : 0;
         if (tail && has && l == 0)  // its claim: cleared for the next check
           atomicAnd(reinterpret_cast<unsigned*>(a.marks) + (v >> 2), ~(1u << (8 * (v & 3))));
-        const VertexPush q = group_gather(mesh, v, has, l, a.nb, a.degree);
+        const VertexPush q = group_gather(ov, v, has, l, a.nb, a.degree);
         if (has && l == 0) take(v, q);
       }
     }
@@ -305,7 +305,7 @@ __global__ void __launch_bounds__(kThreads, MinBlocks) correct_kernel(Args<R> a)
         const int v = seed[i];
         if (v < 0)
           mark_it(~v);
-        else if (thread_check(mesh, v, a.nb, a.degree, mark_it))  // (the fan closed in iteration 0)
+        else if (thread_check(ov, v, a.nb, a.degree, mark_it))  // (the fan closed in iteration 0)
           mark_it(v);
       }
     } else {
@@ -315,7 +315,7 @@ __global__ void __launch_bounds__(kThreads, MinBlocks) correct_kernel(Args<R> a)
         const int v = i < ns ? seed[i] : ~0;
         if (i < ns && v < 0 && l == 0) mark_it(~v);
         // The fan closed in iteration 0 (else the step ended there), and the walk is range-checked.
-        if (group_check(mesh, v, i < ns && v >= 0, l, a.nb, a.degree, mark_it) && l == 0) mark_it(v);
+        if (group_check(ov, v, i < ns && v >= 0, l, a.nb, a.degree, mark_it) && l == 0) mark_it(v);
       }
     }
     if (last) return;  // the host launches the next batch
@@ -329,29 +329,6 @@ __global__ void __launch_bounds__(kThreads, MinBlocks) correct_kernel(Args<R> a)
       }
     }
   }
-}
-
-struct DevWorkspace {
-  std::size_t n = 0;
-  int grid[2] = {0, 0};  // per precision (float, double): co-resident blocks used
-  int tile[2] = {0, 0};
-  std::size_t cap = 0;   // grid·tile of the allocation (≥ both)
-  std::uint8_t* marks = nullptr;
-  int* cand = nullptr;
-  int* seed = nullptr;
-  double2* disp = nullptr;
-  int* nb = nullptr;
-  std::uint8_t* degree = nullptr;
-  u64* slots[2] = {nullptr, nullptr};  // kSlotWords + the claims count, per launch parity
-  int parity = 0;                      // which the next launch uses (zero); it zeroes the other
-  u64* result = nullptr;  // pinned host memory the kernel writes its counters to
-};
-
-template <class T>
-T* dev_alloc(std::size_t count, const char* what) {
-  void* p = nullptr;
-  FF_CUDA_CHECK(cudaMalloc(&p, std::max<std::size_t>(count, 1) * sizeof(T)), what);
-  return static_cast<T*>(p);
 }
 
 // Blocks and tile for n particles: at most what fits on the device at once (a cooperative
@@ -383,86 +360,82 @@ void shape(std::size_t n, int& grid, int& tile) {
   tile = int(std::max<std::size_t>(16, (t + 15) / 16 * 16));
 }
 
-void dev_destroy(void* p);
-
-void* dev_create(std::size_t n) {
-  auto* w = new DevWorkspace;
-  try {
-    w->n = n;
-    shape<float>(n, w->grid[0], w->tile[0]);
-    shape<double>(n, w->grid[1], w->tile[1]);
-    w->cap = std::max(std::size_t(w->grid[0]) * w->tile[0], std::size_t(w->grid[1]) * w->tile[1]);
-    w->marks = dev_alloc<std::uint8_t>(w->cap, "allocating overlap_correct marks");
-    FF_CUDA_CHECK(cudaMemset(w->marks, 0, w->cap), "clearing overlap_correct marks");
-    w->cand = dev_alloc<int>(w->cap, "allocating overlap_correct work lists");
-    w->seed = dev_alloc<int>(w->cap, "allocating overlap_correct work lists");
-    w->disp = dev_alloc<double2>(w->cap, "allocating overlap_correct displacements");
-    w->nb = dev_alloc<int>(kCached * w->cap, "allocating overlap_correct neighbour lists");
-    w->degree = dev_alloc<std::uint8_t>(w->cap, "allocating overlap_correct neighbour lists");
-    for (u64*& sl : w->slots) {
-      sl = dev_alloc<u64>(kSlotWords + 1, "allocating overlap_correct counters");
-      FF_CUDA_CHECK(cudaMemset(sl, 0, (kSlotWords + 1) * sizeof(u64)), "clearing overlap_correct counters");
-    }
-    // Device-accessible by the same pointer (unified addressing): the kernel writes the counters
-    // there itself, which saves a copy after it (and the GPU's idle gap before that copy starts).
-    FF_CUDA_CHECK(cudaMallocHost(&w->result, kResultWords * sizeof(u64)), "allocating overlap_correct counters");
-  } catch (...) {
-    dev_destroy(w);  // every pointer starts null, so a partial allocation frees cleanly
-    throw;
-  }
-  return w;
-}
-
-void dev_destroy(void* p) {
-  auto* w = static_cast<DevWorkspace*>(p);
-  cudaFree(w->marks);
-  cudaFree(w->cand);
-  cudaFree(w->seed);
-  cudaFree(w->disp);
-  cudaFree(w->nb);
-  cudaFree(w->degree);
-  for (u64* sl : w->slots) cudaFree(sl);
-  cudaFreeHost(w->result);
-  delete w;
-}
-
+// The device's loop and its scratch (device arrays, the counters' landing in pinned host memory),
+// sized for n particles on the first iteration and again when n changes.
 template <class R>
-void dev_iterate(void* ws, const Problem<R>& p, std::int64_t k0, std::int64_t max_iterations, Batch& out,
-                 CUstream_st* s) {
-  auto* w = static_cast<DevWorkspace*>(ws);
-  const int r = sizeof(R) == 8 ? 1 : 0;
-  Args<R> a{p,
-            w->marks,
-            w->cand,
-            w->seed,
-            w->disp,
-            w->nb,
-            w->degree,
-            w->slots[w->parity],
-            w->slots[w->parity] + kSlotWords,
-            w->slots[1 - w->parity],
-            w->result,
-            w->tile[r],
-            static_cast<long long>(k0),
-            static_cast<long long>(max_iterations)};
-  void* args[] = {&a};
-  FF_CUDA_CHECK(cudaLaunchCooperativeKernel(kernel_ptr<R>(), dim3(w->grid[r]),
-                                            dim3(kThreads), args, 0, s),
-                "launching overlap_correct");
-  w->parity = 1 - w->parity;
-  FF_CUDA_CHECK(cudaStreamSynchronize(s), "waiting for overlap_correct");
-  out.gathers = int(w->result[std::size_t(kBatch) * kCounters]);
-  for (int j = 0; j < out.gathers; ++j)
-    for (int c = 0; c < kCounters; ++c) out.counters[j][c] = w->result[std::size_t(j) * kCounters + c];
-}
+class DeviceLoops final : public OverlapCorrectLoops<R> {
+ public:
+  explicit DeviceLoops(CudaExec exec)
+      : marks_(exec),
+        cand_(exec),
+        seed_(exec),
+        disp_(exec),
+        nb_(exec),
+        degree_(exec),
+        slots_{Scratch<u64>(exec), Scratch<u64>(exec)},
+        result_(exec) {}
+
+  void iterate(const Problem<R>& p, std::int64_t k0, std::int64_t max_iterations, Batch& out,
+               CUstream_st* s) override {
+    if (!made_ || n_ != p.n) prepare(p.n);
+    Args<R> a{p,
+              marks_.get(cap_),
+              cand_.get(cap_),
+              seed_.get(cap_),
+              disp_.get(cap_),
+              nb_.get(kCached * cap_),
+              degree_.get(cap_),
+              slots_[parity_].get(kSlotWords + 1),
+              slots_[parity_].get(kSlotWords + 1) + kSlotWords,
+              slots_[1 - parity_].get(kSlotWords + 1),
+              result_.get(kResultWords),
+              tile_,
+              static_cast<long long>(k0),
+              static_cast<long long>(max_iterations)};
+    void* args[] = {&a};
+    FF_CUDA_CHECK(cudaLaunchCooperativeKernel(kernel_ptr<R>(), dim3(grid_), dim3(kThreads), args, 0, s),
+                  "launching overlap_correct");
+    parity_ = 1 - parity_;
+    FF_CUDA_CHECK(cudaStreamSynchronize(s), "waiting for overlap_correct");
+    const u64* result = result_.get(kResultWords);
+    out.gathers = int(result[std::size_t(kBatch) * kCounters]);
+    for (int j = 0; j < out.gathers; ++j)
+      for (int c = 0; c < kCounters; ++c) out.counters[j][c] = result[std::size_t(j) * kCounters + c];
+  }
+
+ private:
+  // Every array zeroed (the marks and the counters must start so).
+  void prepare(std::size_t n) {
+    shape<R>(n, grid_, tile_);
+    cap_ = std::size_t(grid_) * std::size_t(tile_);
+    for (Scratch<u64>& sl : slots_) sl.reset();
+    marks_.reset();  // fresh zeroed arrays even where the size did not change
+    parity_ = 0;
+    n_ = n;
+    made_ = true;
+  }
+
+  Scratch<std::uint8_t> marks_;  // grid·tile bytes, one per particle: the next candidates
+  Scratch<int> cand_;            // grid·tile: the candidates (Args)
+  Scratch<int> seed_;            // grid·tile: the touched particles
+  Scratch<double2> disp_;        // grid·tile: their displacements
+  Scratch<int> nb_;              // kCached x grid·tile: each particle's neighbours
+  Scratch<std::uint8_t> degree_; // grid·tile: how many
+  Scratch<u64> slots_[2];        // kSlotWords + the claims count, per launch parity
+  HostScratch<u64> result_;      // pinned: the kernel writes its counters there (no copy after it)
+  std::size_t n_ = 0, cap_ = 0;
+  int grid_ = 0, tile_ = 0;
+  int parity_ = 0;  // which slots the next launch uses (zero); it zeroes the other
+  bool made_ = false;
+};
 
 }  // namespace
 
 template <class R>
-Ops<R> overlap_ops(CudaExec) {
-  return {&dev_create, &dev_destroy, &dev_iterate<R>};
+std::unique_ptr<OverlapCorrectLoops<R>> overlap_correct_loops(CudaExec exec) {
+  return std::make_unique<DeviceLoops<R>>(exec);
 }
-template Ops<float> overlap_ops<float>(CudaExec);
-template Ops<double> overlap_ops<double>(CudaExec);
+template std::unique_ptr<OverlapCorrectLoops<float>> overlap_correct_loops<float>(CudaExec);
+template std::unique_ptr<OverlapCorrectLoops<double>> overlap_correct_loops<double>(CudaExec);
 
 }  // namespace ff::overlap

@@ -9,7 +9,7 @@
 // rounded to a multiple of 2^-50·unit (unit: the largest diameter at configure), and v's pushes
 // are summed as 64-bit integers: a sum that does not depend on the order, so an edge pass (each
 // pair once, Carter's Algorithm 2, adding each push to both ends) and a walk around v's fan
-// (Mesh::gather) give the same bits, for any thread count and on either backend (cuda.cu is
+// (Overlaps::gather) give the same bits, for any thread count and on either backend (cuda.cu is
 // compiled without FMA contraction). The sum is capped at `cap`·σ_v in length (the paper's σ/4
 // against runaway corrections) and applied: x_v += d_v, wrapped into the box (apply_one).
 // Counters (pairs found, pairs beyond the tolerance, summed |d_v| in 64-bit fixed point) are
@@ -40,7 +40,7 @@ inline constexpr int kMaxFan = 4096;
 inline constexpr double kFixedOne = 4294967296.0;  // 2^32
 // pair_push's answer for a pair that does not overlap.
 inline constexpr double kNoOverlap = -1.0;
-// Mesh::edge's answers.
+// Overlaps::edge's answers.
 inline constexpr int kEdgeApart = 0, kEdgeOverlap = 1, kEdgeCorrupt = -1;
 // Pushes are summed in units of 2^-50·unit: |d| up to 8192 units, resolution 8.9e-16 units.
 inline constexpr double kPushOne = 1125899906842624.0;  // 2^50
@@ -53,26 +53,66 @@ FF_HD void add_u64(std::uint64_t* p, std::uint64_t v) {
 #endif
 }
 
-// The push on particle v from neighbour u at minimum-image offset (rx, ry) = x_u − x_v: the
-// term t that v's displacement loses (d_v −= t). Returns the relative overlap (σ_vu − r)/σ_vu
-// when r² < σ_vu², else kNoOverlap (−1; an overlapping pair cannot return it, since r < 2σ_vu)
-// and leaves t alone. The term on u from v is −t, bit for bit: (rx, ry) negates exactly, and so
-// does the coincident-centres rule.
+// The push on particle v from neighbour u at minimum-image offset r = x_u − x_v (D components):
+// the term t that v's displacement loses (d_v −= t). Returns the relative overlap
+// (σ_vu − r)/σ_vu when |r|² < σ_vu², else kNoOverlap (−1; an overlapping pair cannot return it,
+// since |r| < 2σ_vu) and leaves t alone. The term on u from v is −t, bit for bit: r negates
+// exactly, and so does the coincident-centres rule. One rule for the Delaunay variant (2D) and
+// the Verlet-list variant (2D and 3D, verlet/kernel.h), so both push a pair by the same bits.
+template <int D>
+FF_HD double pair_term_d(const double* r, double sv, double su, double factor, int v, int u, double* t) {
+  const double s = 0.5 * (sv + su);
+  double r2 = r[0] * r[0];
+  for (int k = 1; k < D; ++k) r2 += r[k] * r[k];
+  if (!(r2 < s * s)) return kNoOverlap;
+  const double len = std::sqrt(r2);
+  const double delta = factor * (s - len);
+  if (len > 0) {
+    for (int k = 0; k < D; ++k) t[k] = delta * (r[k] / len);
+  } else {  // coincident centres: separate along x, the lower index towards −x
+    t[0] = v < u ? delta : -delta;
+    for (int k = 1; k < D; ++k) t[k] = 0;
+  }
+  return (s - len) / s;
+}
+
+// pair_term_d in 2D, at offset (rx, ry), into (tx, ty).
 FF_HD double pair_term(double rx, double ry, double sv, double su, double factor, int v, int u, double& tx,
                        double& ty) {
-  const double s = 0.5 * (sv + su);
-  const double r2 = rx * rx + ry * ry;
-  if (!(r2 < s * s)) return kNoOverlap;
-  const double r = std::sqrt(r2);
-  const double delta = factor * (s - r);
-  if (r > 0) {
-    tx = delta * (rx / r);
-    ty = delta * (ry / r);
-  } else {  // coincident centres: separate along x, the lower index towards −x
-    tx = v < u ? delta : -delta;
-    ty = 0;
+  const double r[2] = {rx, ry};
+  double t[2];
+  const double o = pair_term_d<2>(r, sv, su, factor, v, u, t);
+  if (o != kNoOverlap) {
+    tx = t[0];
+    ty = t[1];
   }
-  return (s - r) / s;
+  return o;
+}
+
+// A push in the sums' fixed point, 2^-50·unit (rint is odd: the push of −t is −(that of t)).
+FF_HD std::int64_t fixed_push(double t, double inv_unit) { return std::int64_t(std::rint(t * (inv_unit * kPushOne))); }
+
+// A particle's displacement from its summed pushes q (D components, fixed point), capped at
+// cap·σ_v in length, into d; returns its length.
+template <int D>
+FF_HD double finish_d(const std::int64_t* q, double sv, double cap, double inv_unit, double* d) {
+  const double to_length = 1.0 / (inv_unit * kPushOne);
+  for (int k = 0; k < D; ++k) d[k] = double(q[k]) * to_length;
+  double len2 = d[0] * d[0];
+  for (int k = 1; k < D; ++k) len2 += d[k] * d[k];
+  double len = std::sqrt(len2);
+  const double limit = cap * sv;
+  if (len > limit) {
+    const double s = limit / len;
+    for (int k = 0; k < D; ++k) d[k] *= s;
+    len = limit;
+  }
+  return len;
+}
+
+// |d_v| in the correction counter's fixed point, 2^-32·unit.
+FF_HD std::uint64_t fixed_len(double len, double inv_unit) {
+  return len > 0 ? std::uint64_t(std::llround(len * inv_unit * kFixedOne)) : 0;
 }
 
 // pair_term added to (dx, dy). (A displacement sum starts at +0 and never becomes −0, since
@@ -168,8 +208,11 @@ struct VertexPush {
   bool broken = false;    // the fan did not close within kMaxFan steps
 };
 
+// The overlap problem on the triangulation: the particles (positions, diameters), their Delaunay
+// edges (half-edges), and the push rule; finds the overlapping pairs along the edges and the
+// pushes they give (delaunay::Mesh is the triangulation alone).
 template <class R>
-struct Mesh {
+struct Overlaps {
   const R* pos;                // N x 2
   const R* diameter;           // N
   const std::int32_t* he;      // 2 x 6N: {origin, next}
@@ -220,7 +263,7 @@ struct Mesh {
   }
 
   // A push in the sums' fixed point (rint is odd: the push of −t is −(that of t)).
-  FF_HD std::int64_t fixed_push(double t) const { return std::int64_t(std::rint(t * (inv_unit * kPushOne))); }
+  FF_HD std::int64_t fixed_push(double t) const { return overlap::fixed_push(t, inv_unit); }
 
   // Edge e of an edge pass: its ends a, b; whether they overlap, and then the push on a in fixed
   // point (qx, qy; the push on b is −q) and the relative overlap o. With Check (the first pass of
@@ -308,19 +351,11 @@ struct Mesh {
 
   // v's displacement from its summed pushes (qx, qy), capped at cap·σ_v, into out.
   FF_HD void finish(std::int64_t qx, std::int64_t qy, double sv, VertexPush& out) const {
-    const double to_length = 1.0 / (inv_unit * kPushOne);
-    double dx = double(qx) * to_length, dy = double(qy) * to_length;
-    double len = std::sqrt(dx * dx + dy * dy);
-    const double limit = cap * sv;
-    if (len > limit) {
-      const double s = limit / len;
-      dx *= s;
-      dy *= s;
-      len = limit;
-    }
-    out.dx = dx;
-    out.dy = dy;
-    out.len = len;
+    const std::int64_t q[2] = {qx, qy};
+    double d[2];
+    out.len = finish_d<2>(q, sv, cap, inv_unit, d);
+    out.dx = d[0];
+    out.dy = d[1];
   }
 
   // Particle v's walk around its fan: every edge, its pushes summed, its pairs counted.
@@ -376,21 +411,26 @@ struct Mesh {
   }
 
   // |d_v| in the correction counter's fixed point.
-  FF_HD std::uint64_t fixed_len(double len) const {
-    return len > 0 ? std::uint64_t(std::llround(len * inv_unit * kFixedOne)) : 0;
-  }
+  FF_HD std::uint64_t fixed_len(double len) const { return overlap::fixed_len(len, inv_unit); }
 };
 
-// x_v += d_v, each coordinate wrapped into the box; a zero component leaves its coordinate alone.
+// x_v += d_v (D components), each coordinate wrapped into the box; a zero component leaves its
+// coordinate alone.
+template <int D, class R>
+FF_HD void apply_d(R* pos, std::int32_t* image, const PeriodicBox<R>& box, std::size_t i, const double* d) {
+  for (int k = 0; k < D; ++k) {
+    if (d[k] == 0) continue;
+    R x = R(double(pos[D * i + k]) + d[k]);
+    box.wrap(x, image[D * i + k], k);
+    pos[D * i + k] = x;
+  }
+}
+
+// apply_d in 2D.
 template <class R>
 FF_HD void apply_one(R* pos, std::int32_t* image, const PeriodicBox<R>& box, std::size_t i, double dx, double dy) {
   const double d[2] = {dx, dy};
-  for (int k = 0; k < 2; ++k) {
-    if (d[k] == 0) continue;
-    R x = R(double(pos[2 * i + k]) + d[k]);
-    box.wrap(x, image[2 * i + k], k);
-    pos[2 * i + k] = x;
-  }
+  apply_d<2>(pos, image, box, i, d);
 }
 
 }  // namespace ff::overlap

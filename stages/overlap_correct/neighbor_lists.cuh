@@ -1,7 +1,7 @@
 // overlap_correct's per-step neighbour lists on the device, and the gathers and checks of one
 // particle that read them (by one thread, or by a group of kGroup lanes): cuda.cu's persistent
-// kernel calls them. The per-particle math is kernel.h's (Mesh::gather_pair_at,
-// Mesh::overlaps_after_move_at); this file only arranges the loads. Include only from cuda.cu.
+// kernel calls them. The per-particle math is kernel.h's (Overlaps::gather_pair_at,
+// Overlaps::overlaps_after_move_at); this file only arranges the loads. Include only from cuda.cu.
 #pragma once
 #include <cuda_runtime.h>
 
@@ -34,13 +34,13 @@ __device__ inline void load_ids(const int* nb, int v, int d, int (&ids)[kCached]
 // after the other (one thread's gathers and checks).
 constexpr int kInFlight = 4;
 template <class R, class F>
-__device__ void for_each_loaded(const Mesh<R>& mesh, const int (&ids)[kCached], int d, F&& f) {
+__device__ void for_each_loaded(const Overlaps<R>& ov, const int (&ids)[kCached], int d, F&& f) {
 #pragma unroll
   for (int h = 0; h < kCached; h += kInFlight) {
     double xu[kInFlight], yu[kInFlight];
 #pragma unroll
     for (int i = 0; i < kInFlight; ++i)
-      if (h + i < d) load_xy(mesh.pos, ids[h + i], xu[i], yu[i]);
+      if (h + i < d) load_xy(ov.pos, ids[h + i], xu[i], yu[i]);
 #pragma unroll
     for (int i = 0; i < kInFlight; ++i)
       if (h + i < d) f(ids[h + i], xu[i], yu[i]);
@@ -49,15 +49,15 @@ __device__ void for_each_loaded(const Mesh<R>& mesh, const int (&ids)[kCached], 
 
 // A gather of v by one thread from its neighbours ids[0 .. d) (from neighbor_ids below).
 template <class R>
-__device__ VertexPush gather_ids(const Mesh<R>& mesh, int v, const int (&ids)[kCached], int d) {
+__device__ VertexPush gather_ids(const Overlaps<R>& ov, int v, const int (&ids)[kCached], int d) {
   VertexPush out;
   double xv, yv;
-  load_xy(mesh.pos, v, xv, yv);
-  const double sv = mesh.diameter_of(v);
+  load_xy(ov.pos, v, xv, yv);
+  const double sv = ov.diameter_of(v);
   std::int64_t qx = 0, qy = 0;
-  for_each_loaded(mesh, ids, d,
-                  [&](int u, double xu, double yu) { mesh.gather_pair_at(v, xv, yv, sv, u, xu, yu, qx, qy, out); });
-  mesh.finish(qx, qy, sv, out);
+  for_each_loaded(ov, ids, d,
+                  [&](int u, double xu, double yu) { ov.gather_pair_at(v, xv, yv, sv, u, xu, yu, qx, qy, out); });
+  ov.finish(qx, qy, sv, out);
   return out;
 }
 
@@ -65,10 +65,10 @@ __device__ VertexPush gather_ids(const Mesh<R>& mesh, int v, const int (&ids)[kC
 // iterations), or (iteration 0) from a walk around v's fan that only collects them (a chain of
 // half-edge loads and nothing else, checking that the fan closes) and copies them to the list.
 // Walking and gathering at once made every step of the chain wait for a position load too
-// (bench/overlap_correct-PERF.md). False: gather by Mesh::gather's walk instead (more than
+// (bench/overlap_correct-PERF.md). False: gather by Overlaps::gather's walk instead (more than
 // kCached neighbours, or, in iteration 0, a fan that does not close, which that walk reports).
 template <class R>
-__device__ bool neighbor_ids(const Mesh<R>& mesh, int v, bool first, int* nb, std::uint8_t* degree,
+__device__ bool neighbor_ids(const Overlaps<R>& ov, int v, bool first, int* nb, std::uint8_t* degree,
                               int (&ids)[kCached], int& d) {
   if (!first) {
     d = degree[v];
@@ -79,7 +79,7 @@ __device__ bool neighbor_ids(const Mesh<R>& mesh, int v, bool first, int* nb, st
   d = 0;
 #pragma unroll
   for (int k = 0; k < kCached; ++k) ids[k] = 0;
-  const bool closed = mesh.for_each_neighbor(v, [&](int u, int) {
+  const bool closed = ov.for_each_neighbor(v, [&](int u, int) {
 #pragma unroll
     for (int k = 0; k < kCached; ++k)  // ids[d] = u with a register index
       if (k == d) ids[k] = u;
@@ -95,20 +95,20 @@ __device__ bool neighbor_ids(const Mesh<R>& mesh, int v, bool first, int* nb, st
 }
 
 // The check of moved particle v by one thread, loading as gather_ids: calls f(u) for each
-// neighbour u that overlaps v at the new positions (Mesh::overlapping_neighbors' test) and
+// neighbour u that overlaps v at the new positions (Overlaps::overlapping_neighbors' test) and
 // returns whether any did.
 template <class R, class F>
-__device__ bool thread_check(const Mesh<R>& mesh, int v, const int* nb, const std::uint8_t* degree, F&& f) {
+__device__ bool thread_check(const Overlaps<R>& ov, int v, const int* nb, const std::uint8_t* degree, F&& f) {
   const int d = degree[v];
-  if (d == kWalk) return mesh.overlapping_neighbors(v, f);
+  if (d == kWalk) return ov.overlapping_neighbors(v, f);
   int ids[kCached];
   load_ids(nb, v, d, ids);
   double xv, yv;
-  load_xy(mesh.pos, v, xv, yv);
-  const double sv = mesh.diameter_of(v);
+  load_xy(ov.pos, v, xv, yv);
+  const double sv = ov.diameter_of(v);
   bool any = false;
-  for_each_loaded(mesh, ids, d, [&](int u, double xu, double yu) {
-    if (mesh.overlaps_after_move_at(xv, yv, sv, u, xu, yu)) {
+  for_each_loaded(ov, ids, d, [&](int u, double xu, double yu) {
+    if (ov.overlaps_after_move_at(xv, yv, sv, u, xu, yu)) {
       f(u);
       any = true;
     }
@@ -141,20 +141,20 @@ __device__ inline unsigned group_or(unsigned x) {
 // particle but its lanes still take part in the shuffles. Every lane of the group returns v's
 // VertexPush (meaningful when `has`).
 template <class R>
-__device__ VertexPush group_gather(const Mesh<R>& mesh, int v, bool has, int l, const int* nb,
+__device__ VertexPush group_gather(const Overlaps<R>& ov, int v, bool has, int l, const int* nb,
                                    const std::uint8_t* degree) {
   VertexPush part;
   std::int64_t qx = 0, qy = 0;
   double sv = 0;
   if (has) {
     double xv, yv;
-    load_xy(mesh.pos, v, xv, yv);
-    sv = mesh.diameter_of(v);
+    load_xy(ov.pos, v, xv, yv);
+    sv = ov.diameter_of(v);
     const int d = degree[v];
     if (d == kWalk) {
-      if (l == 0) part.broken = !mesh.fan_of(v)([&](int u) { mesh.gather_pair(v, xv, yv, sv, u, qx, qy, part); });
+      if (l == 0) part.broken = !ov.fan_of(v)([&](int u) { ov.gather_pair(v, xv, yv, sv, u, qx, qy, part); });
     } else if (l < d) {
-      mesh.gather_pair(v, xv, yv, sv, nb[std::size_t(kCached) * v + l], qx, qy, part);
+      ov.gather_pair(v, xv, yv, sv, nb[std::size_t(kCached) * v + l], qx, qy, part);
     }
   }
   // pairs and bad are at most kMaxFan each (< 2^16): one word carries both.
@@ -167,26 +167,26 @@ __device__ VertexPush group_gather(const Mesh<R>& mesh, int v, bool has, int l, 
   out.bad = counts >> 16;
   out.touched = flags & 1u;
   out.broken = flags & 2u;
-  mesh.finish(qx, qy, sv, out);
+  ov.finish(qx, qy, sv, out);
   return out;
 }
 
 // The check of moved particle v by its lane group: calls f(u) for each neighbour u that
-// overlaps v at the new positions (Mesh::overlapping_neighbors_by's test); every lane of the
+// overlaps v at the new positions (Overlaps::overlapping_neighbors_by's test); every lane of the
 // group returns whether any did.
 template <class R, class F>
-__device__ bool group_check(const Mesh<R>& mesh, int v, bool has, int l, const int* nb, const std::uint8_t* degree,
+__device__ bool group_check(const Overlaps<R>& ov, int v, bool has, int l, const int* nb, const std::uint8_t* degree,
                             F&& f) {
   bool any = false;
   if (has) {
     const int d = degree[v];
     if (d == kWalk) {
-      if (l == 0) any = mesh.overlapping_neighbors_by(v, mesh.fan_of(v), f);
+      if (l == 0) any = ov.overlapping_neighbors_by(v, ov.fan_of(v), f);
     } else if (l < d) {
       double xv, yv;
-      load_xy(mesh.pos, v, xv, yv);
+      load_xy(ov.pos, v, xv, yv);
       const int u = nb[std::size_t(kCached) * v + l];
-      if (mesh.overlaps_after_move(xv, yv, mesh.diameter_of(v), u)) {
+      if (ov.overlaps_after_move(xv, yv, ov.diameter_of(v), u)) {
         f(u);
         any = true;
       }

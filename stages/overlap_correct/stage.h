@@ -10,6 +10,7 @@
 #include <cfloat>
 #include <cmath>
 #include <cstring>
+#include <memory>
 #include <sstream>
 #include <string>
 
@@ -20,32 +21,9 @@
 #include "core/stage/stage_registration.h"
 #include "stages/delaunay/common/fields.h"
 #include "stages/overlap_correct/kernel.h"
+#include "stages/overlap_correct/params.h"
 
 namespace ff::overlap {
-
-struct Params {
-  std::string mode = "reflect";
-  double cap = 0.25;
-  double tolerance = 1e-6;
-  std::int64_t max_iterations = 1000;
-
-  template <class P>
-  void describe(P& p) {
-    p(mode, "mode",
-      "reflect: each particle of an overlapping pair moves by δ = σ_ij − r (the pair bounces off contact, r' = 2σ_ij "
-      "− r; the paper's choice); contact: each moves by δ/2 (r' = σ_ij)")
-        .one_of({"reflect", "contact"});
-    p(cap, "cap",
-      "largest displacement of a particle per iteration, as a fraction of its diameter (the paper's σ/4)")
-        .above(0);
-    p(tolerance, "tolerance",
-      "converged when no pair overlaps by more than tolerance·σ_ij; in float runs it is raised to the position "
-      "resolution, 4·ε·L_max/σ_min")
-        .above(0)
-        .at_most(0.5);
-    p(max_iterations, "max_iterations", "iterations before the run stops with an error").at_least(1);
-  }
-};
 
 // One call of a backend's iteration loop: the counters of each gather it ran, in order.
 inline constexpr int kBatch = 64;
@@ -62,29 +40,29 @@ FF_HD bool keeps_going(const std::uint64_t* c, std::int64_t k, std::int64_t max_
 
 template <class R>
 struct Problem {
-  Mesh<R> mesh;
-  R* pos;                // == mesh.pos
+  Overlaps<R> overlaps;
+  R* pos;                // == overlaps.pos
   std::int32_t* image;
   PeriodicBox<R> box;
   std::size_t n;
 };
 
-// A backend's loop: runs gathers k0, k0 + 1, ..., applying the displacements after each one
-// that keeps_going(), until one does not or kBatch gathers were run; fills `out`. The workspace
-// (create/destroy) holds the backend's scratch memory for n particles.
+// A backend's iteration loop and the scratch memory it keeps across steps (cpu.cpp: host work
+// lists per tile; cuda.cu: device arrays from the backend object, Scratch in core/backend/memory.h).
 template <class R>
-struct Ops {
-  void* (*create)(std::size_t n);
-  void (*destroy)(void* ws);
-  void (*iterate)(void* ws, const Problem<R>& p, std::int64_t k0, std::int64_t max_iterations, Batch& out,
-                  CUstream_st* s);
+struct OverlapCorrectLoops {
+  virtual ~OverlapCorrectLoops() = default;
+  // Runs gathers k0, k0 + 1, ..., applying the displacements after each one that keeps_going(),
+  // until one does not or kBatch gathers were run; fills `out`. Sizes the scratch for p.n.
+  virtual void iterate(const Problem<R>& p, std::int64_t k0, std::int64_t max_iterations, Batch& out,
+                       CUstream_st* s) = 0;
 };
 
 // The loops of each backend (cpu.cpp, cuda.cu).
 template <class R>
-Ops<R> overlap_ops(CpuExec);
+std::unique_ptr<OverlapCorrectLoops<R>> overlap_correct_loops(CpuExec);
 template <class R>
-Ops<R> overlap_ops(CudaExec);
+std::unique_ptr<OverlapCorrectLoops<R>> overlap_correct_loops(CudaExec);
 
 template <class R>
 class OverlapCorrect final : public Stage {
@@ -96,11 +74,8 @@ class OverlapCorrect final : public Stage {
   }
 
   template <class Exec>
-  OverlapCorrect(const ParamValues& v, const RunInfo&, Exec)
-      : p_(params_from<Params>(v)), where_(Exec::where), ops_(overlap_ops<R>(Exec{})) {}
-  ~OverlapCorrect() override {
-    if (ws_) ops_.destroy(ws_);
-  }
+  OverlapCorrect(const ParamValues& v, const RunInfo&, Exec exec)
+      : p_(params_from<Params>(v)), where_(Exec::where), loops_(overlap_correct_loops<R>(exec)) {}
 
   std::vector<Access> accesses() const override {
     return {{fields::position, where_, Mode::readwrite},
@@ -124,52 +99,42 @@ class OverlapCorrect final : public Stage {
     measure_diameters(s, nullptr);
     if (!(dmin_ > 0)) throw InputError("overlap_correct: every particle needs a positive diameter");
     unit_ = dmax_;
-    tol_ = p_.tolerance;
-    if (s.precision() == Precision::f32) {
-      const double lmax = std::max(s.box.L[0], s.box.L[1]);
-      tol_ = std::max(tol_, 4.0 * double(FLT_EPSILON) * lmax / dmin_);
-    }
+    tol_ = tolerance_for(p_, s, dmin_);
   }
 
   Outcome run(StepContext& ctx) override {
     State& s = ctx.state;
     CUstream_st* st = ctx.stream;
     if (!s.field(delaunay::fields::status).host<std::int32_t>()[delaunay::kBuilt])
-      throw RunError("overlap_correct: step " + std::to_string(ctx.step) +
+      throw RunError("overlap_correct: step " + std::to_string(ctx.host_params.step) +
                      ": no Delaunay triangulation has been built yet; put delaunay.build (or "
                      "delaunay.detect_inversion) before overlap_correct");
     const std::size_t n = s.n();
-    R* x = ptr<R>(s.field(fields::position));
-    std::int32_t* img = ptr<std::int32_t>(s.field(fields::image));
-    const R* diam = ptr<R>(s.field(fields::diameter));
-    const std::int32_t* he = ptr<std::int32_t>(s.field(delaunay::fields::halfedge));
-    const std::int32_t* ve = ptr<std::int32_t>(s.field(delaunay::fields::vertex_edge));
+    R* x = s.field(fields::position).data<R>(ctx);
+    std::int32_t* img = s.field(fields::image).data<std::int32_t>(ctx);
+    const R* diam = s.field(fields::diameter).data<R>(ctx);
+    const std::int32_t* he = s.field(delaunay::fields::halfedge).data<std::int32_t>(ctx);
+    const std::int32_t* ve = s.field(delaunay::fields::vertex_edge).data<std::int32_t>(ctx);
     if (s.field(fields::diameter).version() != diameter_version_)  // written since: measure again
       measure_diameters(s, st);
-    if (!ws_ || ws_n_ != n) {
-      if (ws_) ops_.destroy(ws_);
-      ws_ = nullptr;
-      ws_ = ops_.create(n);
-      ws_n_ = n;
-    }
     const double uniform = dmin_ == dmax_ ? dmax_ : 0.0;  // all diameters equal: none is read
-    const Mesh<R> mesh{x, diam, he, ve, std::int32_t(n), dmax_ * dmax_, PeriodicBox<double>::make(s.box.L),
+    const Overlaps<R> overlaps{x, diam, he, ve, std::int32_t(n), dmax_ * dmax_, PeriodicBox<double>::make(s.box.L),
                        p_.mode == "contact" ? 0.5 : 1.0, p_.cap, tol_, 1.0 / unit_, uniform};
-    const Problem<R> prob{mesh, x, img, PeriodicBox<R>::make(s.box.L), n};
+    const Problem<R> prob{overlaps, x, img, PeriodicBox<R>::make(s.box.L), n};
 
     // Replays the loop's rule on each gather's counters: error, converged, or apply and go on.
     std::int64_t iterations = 0;
     std::uint64_t pairs = 0;
     double correction = 0;
     for (bool done = false; !done;) {
-      ops_.iterate(ws_, prob, iterations, p_.max_iterations, batch_, st);
+      loops_->iterate(prob, iterations, p_.max_iterations, batch_, st);
       if (batch_.gathers < 1 || batch_.gathers > kBatch)
-        throw RunError("overlap_correct: step " + std::to_string(ctx.step) + ": the iteration loop reported " +
+        throw RunError("overlap_correct: step " + std::to_string(ctx.host_params.step) + ": the iteration loop reported " +
                        std::to_string(batch_.gathers) + " gathers");
       for (int j = 0; j < batch_.gathers && !done; ++j) {
         const std::uint64_t* h = batch_.counters[j];
         if (h[kBroken])
-          throw RunError("overlap_correct: step " + std::to_string(ctx.step) + ": the triangulation is corrupt (" +
+          throw RunError("overlap_correct: step " + std::to_string(ctx.host_params.step) + ": the triangulation is corrupt (" +
                          std::to_string(h[kBroken]) + " failed check(s): half-edge indices out of range, next "
                          "pointers that are not a permutation, or the half-edges around a particle that do not "
                          "form a closed fan); a delaunay stage before overlap_correct failed to keep it valid");
@@ -192,9 +157,6 @@ class OverlapCorrect final : public Stage {
   double effective_tolerance() const { return tol_; }
 
  private:
-  template <class T>
-  T* ptr(Field& f) const { return where_ == Where::device ? f.device<T>() : f.host<T>(); }
-
   // The largest diameter (the edge passes' reach) and the smallest, from the host copy.
   void measure_diameters(State& s, CUstream_st* st) {
     Field& d = s.field(fields::diameter);
@@ -232,7 +194,7 @@ class OverlapCorrect final : public Stage {
       }
     }
     std::ostringstream os;
-    os << "overlap_correct: step " << ctx.step << ": " << bad << " pair(s) still overlap by more than tolerance = "
+    os << "overlap_correct: step " << ctx.host_params.step << ": " << bad << " pair(s) still overlap by more than tolerance = "
        << tol_ << " after max_iterations = " << p_.max_iterations << " iterations; the worst is particles " << wa
        << " and " << wb << " at r = " << wr << " with σ_ij = " << ws << " (overlap " << worst
        << "·σ_ij). Lower run.dt (smaller moves make fewer, shallower overlaps), raise max_iterations, or lower "
@@ -242,9 +204,7 @@ class OverlapCorrect final : public Stage {
 
   Params p_;
   Where where_;
-  Ops<R> ops_;
-  void* ws_ = nullptr;
-  std::size_t ws_n_ = 0;
+  std::unique_ptr<OverlapCorrectLoops<R>> loops_;
   Batch batch_;
   double unit_ = 1;  // length unit of the fixed-point correction counter (largest diameter)
   double dmax_ = 1;  // largest diameter now

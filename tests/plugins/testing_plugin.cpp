@@ -32,9 +32,10 @@ class RequestRollback final : public Stage {
   Scheduling scheduling() const override { return {true, device_requests_, false, false}; }
   Outcome run(StepContext& ctx) override {
     bool listed = false;
-    for (double s : steps_) listed = listed || std::uint64_t(s) == ctx.step;
-    const bool fail = (listed && ctx.attempt < std::uint32_t(fail_attempts_)) || (dt_above_ > 0 && ctx.dt > dt_above_);
-    ctx.metrics.set("attempt", ctx.attempt);
+    for (double s : steps_) listed = listed || std::uint64_t(s) == ctx.host_params.step;
+    const bool fail = (listed && ctx.host_params.attempt < std::uint32_t(fail_attempts_)) ||
+                      (dt_above_ > 0 && ctx.host_params.dt > dt_above_);
+    ctx.metrics.set("attempt", ctx.host_params.attempt);
     if (!fail) return Outcome::ok();
     Field& f = ctx.state.field(fields::position);
     if (f.dtype() == DType::f64) {

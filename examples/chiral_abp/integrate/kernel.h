@@ -19,6 +19,7 @@
 #include "core/physics/math.h"
 #include "core/physics/overdamped.h"
 #include "core/physics/rng.h"
+#include "core/stage/step_params.h"
 
 namespace chiral_abp {
 
@@ -44,21 +45,25 @@ struct ChiralStep {
   std::int32_t* image;  // N x 2
   R* orientation;       // N x 1: θ
   ff::PeriodicBox<R> box;
-  R v0_dt;      // v0 Δt
-  R omega_dt;   // ω Δt
-  R trans_amp;  // sqrt(2 D Δt)
-  R rot_amp;    // sqrt(2 D_r Δt)
+  double v0;      // self-propulsion speed
+  double omega;   // angular velocity
+  double two_D;   // 2 D
+  double two_Dr;  // 2 D_r
   ff::RngKey key;
-  std::uint64_t step;
-  std::uint32_t attempt;
+  // Δt, the step and the attempt, on the loop's side (ff::StepContext::params): read here, never
+  // passed by value, so a CUDA run can replay the step from a captured graph.
+  const ff::StepParams* params;
 
   // What the overdamped loop needs (core/physics/overdamped.h): two Gaussian pairs per particle.
   static constexpr int kNoisePairs = 2;
   FF_HD std::uint32_t noise_pair(int j) const { return j == 0 ? kTranslationPair : kRotationPair; }
-  FF_HD ff::NoiseCounter noise_counter() const { return {key, step, attempt}; }
+  FF_HD ff::NoiseCounter noise_counter() const { return {key, params->step, params->attempt}; }
 
   // z[0], z[1]: ξ; z[2]: η.
   FF_HD void move(std::size_t i, const double* z) const {
+    const double dt = params->dt;
+    const R v0_dt = R(v0 * dt), omega_dt = R(omega * dt);
+    const R trans_amp = R(std::sqrt(two_D * dt)), rot_amp = R(std::sqrt(two_Dr * dt));
     const R th = orientation_in[i];
     double s, c;
     ff::math::sincos(double(th), s, c);

@@ -4,7 +4,6 @@
 // uniformly random angles. A stage in flipflow's shape (core/stage/stage_registration.h): the plugin's
 // build (flipflow_add_plugin) compiles this header once per backend.
 #pragma once
-#include <cmath>
 #include <string>
 
 #include "core/base/error.h"
@@ -88,11 +87,19 @@ class Integrate final : public ff::Stage {
     const ChiralStep<R> step{data<R>(pos_in), data<std::int32_t>(img_in), data<R>(ori_in),
                              data<R>(pos), data<std::int32_t>(img), data<R>(ori),
                              ff::PeriodicBox<R>::make(s.box.L),
-                             R(p_.v0 * ctx.dt), R(p_.omega * ctx.dt),
-                             R(std::sqrt(2.0 * p_.D * ctx.dt)), R(std::sqrt(2.0 * p_.Dr * ctx.dt)),
-                             ctx.rng, ctx.step, ctx.attempt};
+                             p_.v0, p_.omega, 2.0 * p_.D, 2.0 * p_.Dr,
+                             ctx.rng, ctx.params};
     loop_(s.n(), step, ctx.stream);
     return ff::Outcome::ok();
+  }
+
+  // The kernel takes Δt, the step and the attempt from ctx.params (never ctx.host_params), so
+  // on CUDA the core keeps a device copy of them and may replay the step from a captured graph.
+  ff::Scheduling scheduling() const override {
+    ff::Scheduling s;
+    s.graph_capturable = true;
+    s.reads_step_params = true;
+    return s;
   }
 
  private:

@@ -11,20 +11,21 @@
 // own pair indices (translation: pairs 0-1, rotation: pairs 2-3), so none share numbers.
 // sin and cos are core/physics/math.h's (in double for either precision, then rounded to R): the CPU and
 // CUDA loops give the same bits (with the CUDA loop built without fma contraction, -fmad=false).
+// The translation is overdamped.integrate's step (stages/overdamped/integrate/kernel.h), fed the
+// self-propulsion as its drift; this file holds only that drift and the orientation's step.
 #pragma once
 #include <cmath>
 #include <cstdint>
 
-#include "core/physics/box.h"
-#include "core/physics/overdamped.h"
 #include "core/base/hd.h"
 #include "core/physics/math.h"
+#include "core/physics/overdamped.h"
 #include "core/physics/rng.h"
+#include "stages/overdamped/integrate/kernel.h"
 
 namespace ff::abp {
 
-constexpr std::uint32_t kTranslationPair = 0;  // pairs 0 (and 1 in 3D)
-constexpr std::uint32_t kRotationPair = 2;     // pairs 2 (and 3 in 3D)
+constexpr std::uint32_t kRotationPair = 2;  // pairs 2 (and 3 in 3D); translation: 0 (and 1)
 constexpr double kPi = 3.14159265358979323846;
 
 // θ brought into [-π, π) (keeps float angles precise over long runs).
@@ -34,35 +35,25 @@ FF_HD R wrap_angle(R theta) {
   return theta - two_pi * std::floor((theta + R(kPi)) / two_pi);
 }
 
+// abp.integrate's drift functor (core/physics/overdamped.h): the self-propulsion v0 e Δt along
+// the orientation at the start of the step, and the orientation's own step. The rest of the step
+// (translation noise, wrap, image) is the standard one: AbpStep below.
 template <class R, int D>
-struct AbpStep {
-  // The step reads particle i from the *_in arrays and writes it to the others: the same arrays
-  // (in place) or the previous step's, kept by the rollback snapshot (stage.h).
-  const R* position_in;
-  const std::int32_t* image_in;
+struct SelfPropulsion {
+  // Read from orientation_in, written to orientation: the same array (in place) or the previous
+  // step's, kept by the rollback snapshot (stage.h).
   const R* orientation_in;
-  R* position;          // N x D
-  std::int32_t* image;  // N x D
-  R* orientation;       // N x 1 (θ) in 2D, N x 3 (unit vector) in 3D
-  PeriodicBox<R> box;
-  R v0_dt;              // v0 Δt
-  R trans_amp;          // sqrt(2 D Δt)
-  R rot_amp;            // sqrt(2 D_r Δt)
-  RngKey key;
-  std::uint64_t step;
-  std::uint32_t attempt;
+  R* orientation;  // N x 1 (θ) in 2D, N x 3 (unit vector) in 3D
+  double v0;       // self-propulsion speed
+  double two_Dr;   // 2 D_r
 
-  // 2D: translation pair 0, rotation pair 2; 3D: translation pairs 0-1, rotation pairs 2-3.
-  static constexpr int kNoisePairs = D == 2 ? 2 : 4;
-  FF_HD std::uint32_t noise_pair(int j) const {
-    return D == 2 ? (j == 0 ? kTranslationPair : kRotationPair) : std::uint32_t(j);
-  }
-  FF_HD NoiseCounter noise_counter() const { return {key, step, attempt}; }
+  // The rotation's pairs: 2 in 2D, 2-3 in 3D (after the translation's 0, and 1 in 3D).
+  static constexpr int kNoisePairs = D == 2 ? 1 : 2;
+  FF_HD std::uint32_t noise_pair(int j) const { return kRotationPair + std::uint32_t(j); }
 
-  // z: pair j in z[2j], z[2j + 1]; ξ is z[0 .. D-1], η starts at the first rotation pair.
-  FF_HD void move(std::size_t i, const double* z) const {
-    const double* xi = z;
-    const double* eta = z + (D == 2 ? 2 : 4);
+  // eta: the rotation's Gaussians η.
+  FF_HD bool operator()(std::size_t i, int, double dt, const double* eta, R* drift) const {
+    const R rot_amp = R(std::sqrt(two_Dr * dt));  // sqrt(2 D_r Δt)
     R e[3];
     if constexpr (D == 2) {
       const R th = orientation_in[i];
@@ -73,17 +64,15 @@ struct AbpStep {
       orientation[i] = wrap_angle(th + rot_amp * R(eta[0]));
     } else {
       for (int k = 0; k < 3; ++k) e[k] = orientation_in[i * 3 + k];
-      rotate_3d(e, eta, &orientation[i * 3]);
+      rotate_3d(e, rot_amp, eta, &orientation[i * 3]);
     }
-    R drift[D];
+    const R v0_dt = R(v0 * dt);
     for (int k = 0; k < D; ++k) drift[k] = v0_dt * e[k];  // self-propulsion along e
-    overdamped_move<R, D>(position_in, image_in, position, image, box, i, drift, trans_amp, xi);
+    return true;
   }
 
-  FF_HD void operator()(std::size_t i) const { overdamped_step(*this, i); }
-
   // out = e rotated about ω = rot_amp·η by |ω|, renormalised.
-  FF_HD void rotate_3d(const R e[3], const double eta[3], R* out) const {
+  FF_HD static void rotate_3d(const R e[3], R rot_amp, const double eta[3], R* out) {
     R w[3] = {rot_amp * R(eta[0]), rot_amp * R(eta[1]), rot_amp * R(eta[2])};
     const R angle = std::sqrt(w[0] * w[0] + w[1] * w[1] + w[2] * w[2]);
     R r[3] = {e[0], e[1], e[2]};
@@ -100,6 +89,11 @@ struct AbpStep {
     for (int k = 0; k < 3; ++k) out[k] = r[k] * inv;
   }
 };
+
+// The whole step: the standard overdamped one (one D for every particle, no max_step check)
+// driven by the self-propulsion, reading the previous step where will_overwrite says (stage.h).
+template <class R, int D>
+using AbpStep = overdamped::OverdampedStep<R, D, false, SelfPropulsion<R, D>, false>;
 
 // Uniformly random initial orientations: θ uniform in [-π, π) in 2D, e uniform on the unit
 // sphere in 3D (z uniform in [-1, 1], azimuth uniform). Keyed by (seed, "abp.orientation").

@@ -1,5 +1,7 @@
-// abp.integrate: Active Brownian Particles (Carter et al. 2017, eq. 10-11), 2D and 3D.
-// Force-free: a `force` or `velocity` field written by other stages is not read.
+// abp.integrate: Active Brownian Particles (Carter et al. 2017, eq. 10-11), 2D and 3D: the
+// standard overdamped step (stages/overdamped/integrate/kernel.h) driven by the self-propulsion,
+// and the orientation's rotational diffusion (kernel.h). Force-free: a `force` or `velocity`
+// field written by other stages is not read.
 #pragma once
 #include <cmath>
 #include <string>
@@ -96,16 +98,32 @@ class Integrate final : public Stage {
     const std::int32_t* im0 = dev ? img_in.device<std::int32_t>() : img_in.host<std::int32_t>();
     const R* o0 = dev ? ori_in.device<R>() : ori_in.host<R>();
     const auto box = PeriodicBox<R>::make(s.box.L);
-    const R v0_dt = R(p_.v0 * ctx.dt);
-    const R trans = R(std::sqrt(2.0 * p_.D * ctx.dt));
-    const R rot = R(std::sqrt(2.0 * p_.Dr * ctx.dt));
-    if (s.dim() == 2)
-      loop2_(s.n(), AbpStep<R, 2>{x0, im0, o0, x, im, o, box, v0_dt, trans, rot, ctx.rng, ctx.step, ctx.attempt},
-                   ctx.stream);
-    else
-      loop3_(s.n(), AbpStep<R, 3>{x0, im0, o0, x, im, o, box, v0_dt, trans, rot, ctx.rng, ctx.step, ctx.attempt},
-                   ctx.stream);
+    // Δt, the step and the attempt from ctx.params (the kernels' only way): capturable.
+    auto step = [&](auto f) {
+      f.position_in = x0;
+      f.image_in = im0;
+      f.position = x;
+      f.image = im;
+      f.type = nullptr;
+      f.two_D[0] = 2.0 * p_.D;
+      f.box = box;
+      f.key = ctx.rng;
+      f.params = ctx.params;
+      f.drift = {o0, o, p_.v0, 2.0 * p_.Dr};
+      return f;
+    };
+    if (s.dim() == 2) loop2_(s.n(), step(AbpStep<R, 2>{}), ctx.stream);
+    else loop3_(s.n(), step(AbpStep<R, 3>{}), ctx.stream);
     return Outcome::ok();
+  }
+
+  // Its kernels take Δt, the step and the attempt from ctx.params, and will_overwrite swaps
+  // nothing in a step the core captures (no snapshot then): a CUDA run can replay it from a graph.
+  Scheduling scheduling() const override {
+    Scheduling s;
+    s.graph_capturable = true;
+    s.reads_step_params = true;
+    return s;
   }
 
  private:

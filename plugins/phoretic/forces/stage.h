@@ -124,15 +124,12 @@ class Forces final : public Stage {
   }
 
  private:
-  template <class T>
-  T* ptr(Field& f) const { return where_ == Where::device ? f.device<T>() : f.host<T>(); }
-
   template <int D>
   void run_d(StepContext& ctx) {
     State& s = ctx.state;
-    const R* x = ptr<R>(s.field(fields::position));
-    const std::int32_t* type = ptr<std::int32_t>(s.field(fields::type));
-    R* v = ptr<R>(s.field(kVelocity));
+    const R* x = s.field(fields::position).data<R>(ctx);
+    const std::int32_t* type = s.field(fields::type).data<std::int32_t>(ctx);
+    R* v = s.field(kVelocity).data<R>(ctx);
     const auto box = PeriodicBox<R>::make(s.box.L);
     if (p_.long_range()) {
       const LongRangeVelocity<R, D> f{x, type, v, q_, box, s.n()};
@@ -140,8 +137,8 @@ class Forces final : public Stage {
       else loops_.long3(f, ctx.stream);
     } else {
       const ShortRangeVelocity<R, D> f{x, type, v, q_, box,
-                                       ptr<std::uint32_t>(s.field(neighbors::kList)),
-                                       ptr<std::uint32_t>(s.field(neighbors::kCount)),
+                                       s.field(neighbors::kList).data<std::uint32_t>(ctx),
+                                       s.field(neighbors::kCount).data<std::uint32_t>(ctx),
                                        neighbors::list_capacity(s), R(p_.cutoff * p_.cutoff)};
       if constexpr (D == 2) loops_.short2(s.n(), f, ctx.stream);
       else loops_.short3(s.n(), f, ctx.stream);

@@ -71,7 +71,7 @@ class Check final : public Stage {
       std::copy(pos.host<float>(), pos.host<float>() + 2 * n, xy.begin());
     else
       std::copy(pos.host<double>(), pos.host<double>() + 2 * n, xy.begin());
-    const std::string where = "delaunay.check: step " + std::to_string(ctx.step) + ": ";
+    const std::string where = "delaunay.check: step " + std::to_string(ctx.host_params.step) + ": ";
     CheckReport r;
     try {
       r = compare_with_cgal(s.field(fields::halfedge).host<std::int32_t>(),

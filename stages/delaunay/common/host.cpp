@@ -39,34 +39,34 @@ bool ensure_topology(const StepContext& ctx, const std::vector<Access>& acc) {
 }
 
 namespace {
-std::int32_t read_int(Field& f, Where w, const MemOps& ops, std::size_t index, CUstream_st* stream) {
+std::int32_t read_int(Field& f, Where w, const MemoryOps& mem, std::size_t index, CUstream_st* stream) {
   std::int32_t v = 0;
-  const std::int32_t* base = data<std::int32_t>(f, w);
-  ops.to_host(&v, base + index, sizeof v, stream);
+  const std::int32_t* base = f.data<std::int32_t>(w);
+  mem.to_host(&v, base + index, sizeof v, stream);
   return v;
 }
 }  // namespace
 
-std::vector<std::uint64_t> triangle_vertices(State& s, Where w, const MemOps& ops, int h, CUstream_st* stream) {
+std::vector<std::uint64_t> triangle_vertices(State& s, Where w, const MemoryOps& mem, int h, CUstream_st* stream) {
   Field& he = s.field(fields::halfedge);
   std::vector<std::uint64_t> v;
   for (int k = 0; k < 3; ++k) {
-    v.push_back(std::uint64_t(read_int(he, w, ops, 2 * std::size_t(h), stream)));
-    h = read_int(he, w, ops, 2 * std::size_t(h) + 1, stream);
+    v.push_back(std::uint64_t(read_int(he, w, mem, 2 * std::size_t(h), stream)));
+    h = read_int(he, w, mem, 2 * std::size_t(h) + 1, stream);
   }
   return v;
 }
 
-std::vector<std::uint64_t> edge_vertices(State& s, Where w, const MemOps& ops, int e, CUstream_st* stream) {
+std::vector<std::uint64_t> edge_vertices(State& s, Where w, const MemoryOps& mem, int e, CUstream_st* stream) {
   Field& he = s.field(fields::halfedge);
-  return {std::uint64_t(read_int(he, w, ops, 4 * std::size_t(e), stream)),
-          std::uint64_t(read_int(he, w, ops, 4 * std::size_t(e) + 2, stream))};
+  return {std::uint64_t(read_int(he, w, mem, 4 * std::size_t(e), stream)),
+          std::uint64_t(read_int(he, w, mem, 4 * std::size_t(e) + 2, stream))};
 }
 
-void throw_if_too_long(State& s, Where w, const MemOps& ops, unsigned count, unsigned at, CUstream_st* stream,
+void throw_if_too_long(State& s, Where w, const MemoryOps& mem, unsigned count, unsigned at, CUstream_st* stream,
                        const char* stage) {
   if (!count) return;
-  const auto ids = edge_vertices(s, w, ops, int(at), stream);
+  const auto ids = edge_vertices(s, w, mem, int(at), stream);
   throw RunError(std::string(stage) + ": a triangle at the edge between particles " + list_ids(ids) +
                  " no longer closes under minimum image (" + std::to_string(count) +
                  " edge(s)): an edge has grown longer than half the box, which the periodic triangulation cannot "

@@ -6,10 +6,10 @@
 #include <string>
 #include <vector>
 
+#include "core/backend/memory.h"
 #include "core/physics/box.h"
 #include "core/stage/stage.h"
 #include "stages/delaunay/common/fields.h"
-#include "stages/delaunay/common/memory.h"
 #include "stages/delaunay/common/mesh.h"
 
 namespace ff::delaunay {
@@ -31,30 +31,22 @@ bool ensure_topology(const StepContext& ctx, const std::vector<Access>& acc);
 void will_flip(const StepContext& ctx);
 
 inline Mesh mesh_view(State& s, Where w) {
-  Field& he = s.field(fields::halfedge);
-  Field& ve = s.field(fields::vertex_edge);
-  Field& op = s.field(fields::opposite);
-  if (w == Where::device) return {he.device<std::int32_t>(), ve.device<std::int32_t>(), op.device<std::int32_t>()};
-  return {he.host<std::int32_t>(), ve.host<std::int32_t>(), op.host<std::int32_t>()};
-}
-
-template <class T>
-T* data(Field& f, Where w) {
-  return w == Where::device ? f.device<T>() : f.host<T>();
+  return {s.field(fields::halfedge).data<std::int32_t>(w), s.field(fields::vertex_edge).data<std::int32_t>(w),
+          s.field(fields::opposite).data<std::int32_t>(w)};
 }
 
 template <class R>
 Points<R> points_view(State& s, const char* field, Where w) {
-  return {data<R>(s.field(field), w), PeriodicBox<double>::make(s.box.L)};
+  return {s.field(field).data<R>(w), PeriodicBox<double>::make(s.box.L)};
 }
 
 // The vertices of the triangle left of half-edge h, read from the stage's side (small copies
 // on the device; used only for messages).
-std::vector<std::uint64_t> triangle_vertices(State& s, Where w, const MemOps& ops, int h, CUstream_st* stream);
+std::vector<std::uint64_t> triangle_vertices(State& s, Where w, const MemoryOps& mem, int h, CUstream_st* stream);
 // The endpoints of edge e.
-std::vector<std::uint64_t> edge_vertices(State& s, Where w, const MemOps& ops, int e, CUstream_st* stream);
+std::vector<std::uint64_t> edge_vertices(State& s, Where w, const MemoryOps& mem, int e, CUstream_st* stream);
 // RunError when `count` triangles (lowest at edge `at`) do not close under minimum image.
-void throw_if_too_long(State& s, Where w, const MemOps& ops, unsigned count, unsigned at, CUstream_st* stream,
+void throw_if_too_long(State& s, Where w, const MemoryOps& mem, unsigned count, unsigned at, CUstream_st* stream,
                        const char* stage);
 // "12, 57 and 60"
 std::string list_ids(const std::vector<std::uint64_t>& ids);

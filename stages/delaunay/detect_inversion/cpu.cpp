@@ -21,7 +21,7 @@ namespace {
 // what MarkInversions::test does for it; any other edge goes through test() itself. Every value
 // compared is computed with the same operations in the same order as test()'s scalar code (no
 // fma in this file), so the two agree bit for bit: quiet here <=> test() would find nothing
-// (tests/test_delaunay_detect_inversion.cpp compares both loops on configurations full of rare
+// (stages/delaunay/detect_inversion/test_detect_inversion.cpp compares both loops on configurations full of rare
 // events, in both precisions).
 struct Xy {
   __m256d x, y;
@@ -178,10 +178,10 @@ void mark(std::size_t n, const MarkInversions<R>& f, CUstream_st*) {
 }  // namespace
 
 template <class R>
-DetectOps<R> detect_ops(CpuExec) {
-  return {&mark<R>, &cpu_for_each<CheckInverted<R>>, cpu_mem_ops()};
+DetectInversionLoops<R> detect_inversion_loops(CpuExec) {
+  return {&mark<R>, &CpuExec::for_each<CheckInverted<R>>};
 }
-template DetectOps<float> detect_ops<float>(CpuExec);
-template DetectOps<double> detect_ops<double>(CpuExec);
+template DetectInversionLoops<float> detect_inversion_loops<float>(CpuExec);
+template DetectInversionLoops<double> detect_inversion_loops<double>(CpuExec);
 
 }  // namespace ff::delaunay

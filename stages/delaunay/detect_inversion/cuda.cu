@@ -10,10 +10,10 @@ namespace ff::delaunay {
 constexpr int kMarkBlocks = 6;
 
 template <class R>
-DetectOps<R> detect_ops(CudaExec) {
-  return {&cuda_for_each_bounded<MarkInversions<R>, kMarkBlocks>, &cuda_for_each<CheckInverted<R>>, cuda_mem_ops()};
+DetectInversionLoops<R> detect_inversion_loops(CudaExec) {
+  return {&CudaExec::for_each_bounded<MarkInversions<R>, kMarkBlocks>, &CudaExec::for_each<CheckInverted<R>>};
 }
-template DetectOps<float> detect_ops<float>(CudaExec);
-template DetectOps<double> detect_ops<double>(CudaExec);
+template DetectInversionLoops<float> detect_inversion_loops<float>(CudaExec);
+template DetectInversionLoops<double> detect_inversion_loops<double>(CudaExec);
 
 }  // namespace ff::delaunay

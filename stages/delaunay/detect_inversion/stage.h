@@ -18,23 +18,21 @@
 #include "core/stage/stage_registration.h"
 #include "stages/delaunay/build/build.h"
 #include "stages/delaunay/common/host.h"
-#include "stages/delaunay/common/memory.h"
 #include "stages/delaunay/detect_inversion/kernel.h"
 
 namespace ff::delaunay {
 
 template <class R>
-struct DetectOps {
+struct DetectInversionLoops {
   ElementLoop<MarkInversions<R>> mark;
   ElementLoop<CheckInverted<R>> check;
-  MemOps mem;
 };
 
-// The loops and memory of each backend (detect_inversion/cpu.cpp, detect_inversion/cuda.cu).
+// The loops of each backend (detect_inversion/cpu.cpp, detect_inversion/cuda.cu).
 template <class R>
-DetectOps<R> detect_ops(CpuExec);
+DetectInversionLoops<R> detect_inversion_loops(CpuExec);
 template <class R>
-DetectOps<R> detect_ops(CudaExec);
+DetectInversionLoops<R> detect_inversion_loops(CudaExec);
 
 template <class R>
 class DetectInversion final : public Stage {
@@ -48,8 +46,8 @@ class DetectInversion final : public Stage {
   }
 
   template <class Exec>
-  DetectInversion(const ParamValues&, const RunInfo&, Exec)
-      : where_(Exec::where), ops_(detect_ops<R>(Exec{})), counters_(ops_.mem) {}
+  DetectInversion(const ParamValues&, const RunInfo&, Exec exec)
+      : where_(Exec::where), loops_(detect_inversion_loops<R>(exec)), mem_(exec.memory()), counters_(exec) {}
 
   std::vector<Access> accesses() const override {
     // halfedge/vertex_edge are written only when no triangulation exists yet (first step).
@@ -93,21 +91,21 @@ class DetectInversion final : public Stage {
 
     const char* retry = "; the step is retried with a smaller time step";
     if (h[kThrough]) {
-      auto ids = edge_vertices(s, where_, ops_.mem, int(h[kThroughAt]), st);
+      auto ids = edge_vertices(s, where_, mem_, int(h[kThroughAt]), st);
       return Outcome::request_rollback("delaunay.detect_inversion: particles " + list_ids(ids) +
                                            " passed through each other (their separation vector reversed, r0.r1 < 0; " +
                                            std::to_string(h[kThrough]) + " such pair(s))" + moved(ctx, ids) + retry,
                                        ids);
     }
     if (h[kTwice]) {
-      auto ids = edge_vertices(s, where_, ops_.mem, int(h[kTwiceAt]), st);
+      auto ids = edge_vertices(s, where_, mem_, int(h[kTwiceAt]), st);
       return Outcome::request_rollback("delaunay.detect_inversion: the edge between particles " + list_ids(ids) +
                                            " was crossed from both sides (both its triangles inverted; " +
                                            std::to_string(h[kTwice]) + " such edge(s))" + moved(ctx, ids) + retry,
                                        ids);
     }
     if (h[kUnrepairable]) {
-      auto ids = triangle_vertices(s, where_, ops_.mem, int(h[kUnrepairableAt]), st);
+      auto ids = triangle_vertices(s, where_, mem_, int(h[kUnrepairableAt]), st);
       return Outcome::request_rollback("delaunay.detect_inversion: the triangle of particles " + list_ids(ids) +
                                            " is inverted and no single edge flip repairs it (a particle crossed "
                                            "more than one edge; " +
@@ -138,15 +136,15 @@ class DetectInversion final : public Stage {
     CUstream_st* st = ctx.stream;
     const Mesh m = mesh_view(s, where_);
     const Points<R> pts = points_view<R>(s, ff::fields::position, where_);
-    R* prev = data<R>(s.field(fields::position_prev), where_);
-    std::uint8_t* mark = data<std::uint8_t>(s.field(fields::flip_mark), where_);
+    R* prev = s.field(fields::position_prev).data<R>(ctx);
+    std::uint8_t* mark = s.field(fields::flip_mark).data<std::uint8_t>(ctx);
     Field& cand = s.field(fields::lawson_candidates);
     counters_.begin(kMinSlots, st);  // the bank the last run's loop reset (reset_next)
     unsigned* c = counters_.ptr();
     const std::size_t E = edge_count(s.n());
 
     status(s)[kCandidates] = 0;
-    ops_.mark(E, MarkInversions<R>{m, pts, fresh ? nullptr : prev, mark, c, data<std::int32_t>(cand, where_),
+    loops_.mark(E, MarkInversions<R>{m, pts, fresh ? nullptr : prev, mark, c, cand.data<std::int32_t>(ctx),
                                    unsigned(cand.count()), int(E), counters_.next()},
               st);
     counters_.next_was_reset();
@@ -155,11 +153,11 @@ class DetectInversion final : public Stage {
     // (on CUDA the launches that follow this stage queue behind the copy instead of a gap).
     // Every outcome either keeps it or rolls the step back, which restores the old one.
     ctx.will_overwrite(fields::position_prev);
-    ops_.mem.copy(data<R>(s.field(fields::position_prev), where_), pts.p, s.field(ff::fields::position).bytes(), st);
+    mem_.copy(s.field(fields::position_prev).data<R>(ctx), pts.p, s.field(ff::fields::position).bytes(), st);
     const auto& h = counters_.finish_read();
-    throw_if_too_long(s, where_, ops_.mem, h[kTooLong], h[kTooLongAt], st, "delaunay.detect_inversion");
+    throw_if_too_long(s, where_, mem_, h[kTooLong], h[kTooLongAt], st, "delaunay.detect_inversion");
     if (h[kInverted]) {
-      ops_.check(halfedge_count(s.n()), CheckInverted<R>{m, pts, mark, c}, st);
+      loops_.check(halfedge_count(s.n()), CheckInverted<R>{m, pts, mark, c}, st);
       return counters_.read(st);
     }
     return h;
@@ -171,14 +169,14 @@ class DetectInversion final : public Stage {
     Field* start = ctx.at_step_start(ff::fields::position);
     if (!start) return "";
     State& s = ctx.state;
-    const R* now = data<R>(s.field(ff::fields::position), where_);
-    const R* before = data<R>(*start, where_);
+    const R* now = s.field(ff::fields::position).data<R>(ctx);
+    const R* before = start->data<R>(ctx);
     const auto box = PeriodicBox<double>::make(s.box.L);
-    std::string out = "; in this attempt (Δt = " + format_number(ctx.dt) + ") they moved by";
+    std::string out = "; in this attempt (Δt = " + format_number(ctx.host_params.dt) + ") they moved by";
     for (std::size_t k = 0; k < ids.size(); ++k) {
       R a[2], b[2];
-      ops_.mem.to_host(a, now + 2 * ids[k], sizeof a, ctx.stream);
-      ops_.mem.to_host(b, before + 2 * ids[k], sizeof b, ctx.stream);
+      mem_.to_host(a, now + 2 * ids[k], sizeof a, ctx.stream);
+      mem_.to_host(b, before + 2 * ids[k], sizeof b, ctx.stream);
       const double dx = box.min_image(double(a[0]) - double(b[0]), 0), dy = box.min_image(double(a[1]) - double(b[1]), 1);
       out += (k ? (k + 1 == ids.size() ? " and " : ", ") : " ") + format_number(std::sqrt(dx * dx + dy * dy));
     }
@@ -202,18 +200,19 @@ class DetectInversion final : public Stage {
     State& s = ctx.state;
     CUstream_st* st = ctx.stream;
     start.acquire(where_, Mode::read, st);
-    const Points<R> pts{data<R>(start, where_), PeriodicBox<double>::make(s.box.L)};
+    const Points<R> pts{start.data<R>(ctx), PeriodicBox<double>::make(s.box.L)};
     counters_.reset(kMinSlots, st);
-    ops_.mark(edge_count(s.n()),
+    loops_.mark(edge_count(s.n()),
               MarkInversions<R>{mesh_view(s, where_), pts, nullptr,
-                                data<std::uint8_t>(s.field(fields::flip_mark), where_), counters_.ptr()},
+                                s.field(fields::flip_mark).data<std::uint8_t>(ctx), counters_.ptr()},
               st);
     return counters_.read(st)[kInverted] == 0;
   }
 
   static constexpr std::array<int, 4> kMinSlots{kThroughAt, kTwiceAt, kUnrepairableAt, kTooLongAt};
   Where where_;
-  DetectOps<R> ops_;
+  DetectInversionLoops<R> loops_;
+  const MemoryOps& mem_;
   Counters<kInversionCounters> counters_;
 };
 

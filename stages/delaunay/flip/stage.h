@@ -11,7 +11,6 @@
 #include "core/stage/stage.h"
 #include "core/stage/stage_registration.h"
 #include "stages/delaunay/common/host.h"
-#include "stages/delaunay/common/memory.h"
 #include "stages/delaunay/flip/kernel.h"
 
 namespace ff::delaunay {
@@ -26,18 +25,19 @@ struct FlipParams {
 };
 
 template <class R>
-struct FlipOps {
+struct FlipLoops {
   ElementLoop<DecideFlips> decide;
   ElementLoop<ApplyFlips> apply;
   ElementLoop<MarkInversions<R>> mark;
-  MemOps mem;
 };
 
-// The loops and memory of each backend (flip/cpu.cpp, flip/cuda.cu).
-template <class R>
-FlipOps<R> flip_ops(CpuExec);
-template <class R>
-FlipOps<R> flip_ops(CudaExec);
+// The plain element loops of the backend object (CpuExec or CudaExec) this stage.h is compiled
+// for (core/stage/stage_registration.h).
+template <class R, class Exec>
+FlipLoops<R> flip_loops(Exec) {
+  return {&Exec::template for_each<DecideFlips>, &Exec::template for_each<ApplyFlips>,
+          &Exec::template for_each<MarkInversions<R>>};
+}
 
 template <class R>
 class Flip final : public Stage {
@@ -51,12 +51,13 @@ class Flip final : public Stage {
   }
 
   template <class Exec>
-  Flip(const ParamValues& v, const RunInfo&, Exec)
+  Flip(const ParamValues& v, const RunInfo&, Exec exec)
       : p_(params_from<FlipParams>(v)),
         where_(Exec::where),
-        ops_(flip_ops<R>(Exec{})),
-        counters_(ops_.mem),
-        go_(ops_.mem) {}
+        loops_(flip_loops<R>(exec)),
+        mem_(exec.memory()),
+        counters_(exec),
+        go_(exec) {}
 
   std::vector<Access> accesses() const override {
     return {{ff::fields::position, where_, Mode::read},
@@ -81,7 +82,7 @@ class Flip final : public Stage {
 
     const Mesh m = mesh_view(s, where_);
     const Points<R> pts = points_view<R>(s, ff::fields::position, where_);
-    std::uint8_t* mark = data<std::uint8_t>(s.field(fields::flip_mark), where_);
+    std::uint8_t* mark = s.field(fields::flip_mark).data<std::uint8_t>(ctx);
     const std::size_t E = edge_count(s.n());
     std::uint8_t* go = go_.get(E);
     unsigned* c = counters_.ptr();
@@ -91,13 +92,13 @@ class Flip final : public Stage {
     std::array<unsigned, kInversionCounters> h{};
     do {
       counters_.reset(kMinSlots, st);
-      ops_.decide(E, DecideFlips{m, mark, go, c, kRepairFlips}, st);
-      ops_.apply(E, ApplyFlips{m, go}, st);
-      ops_.mark(E, MarkInversions<R>{m, pts, nullptr, mark, c}, st);
+      loops_.decide(E, DecideFlips{m, mark, go, c, kRepairFlips}, st);
+      loops_.apply(E, ApplyFlips{m, go}, st);
+      loops_.mark(E, MarkInversions<R>{m, pts, nullptr, mark, c}, st);
       h = counters_.read(st);
       flips += h[kRepairFlips];
       ++rounds;
-      throw_if_too_long(s, where_, ops_.mem, h[kTooLong], h[kTooLongAt], st, "delaunay.flip");
+      throw_if_too_long(s, where_, mem_, h[kTooLong], h[kTooLongAt], st, "delaunay.flip");
     } while (h[kMarked] && rounds < p_.max_rounds);
     status(s)[kPending] = 0;
     if (flips) status(s)[kCandidates] = 0;  // quads changed: Lawson tests every edge
@@ -114,7 +115,8 @@ class Flip final : public Stage {
   static constexpr std::array<int, 4> kMinSlots{kThroughAt, kTwiceAt, kUnrepairableAt, kTooLongAt};
   FlipParams p_;
   Where where_;
-  FlipOps<R> ops_;
+  FlipLoops<R> loops_;
+  const MemoryOps& mem_;
   Counters<kInversionCounters> counters_;
   Scratch<std::uint8_t> go_;
 };

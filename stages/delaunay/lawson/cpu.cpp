@@ -109,10 +109,10 @@ void apply(std::size_t n, const ApplyMarked& f, CUstream_st*) {
 }  // namespace
 
 template <class R>
-LawsonOps<R> lawson_ops(CpuExec) {
-  return {&mark<R>, &decide, &apply, cpu_mem_ops()};
+LawsonLoops<R> lawson_loops(CpuExec) {
+  return {&mark<R>, &decide, &apply};
 }
-template LawsonOps<float> lawson_ops<float>(CpuExec);
-template LawsonOps<double> lawson_ops<double>(CpuExec);
+template LawsonLoops<float> lawson_loops<float>(CpuExec);
+template LawsonLoops<double> lawson_loops<double>(CpuExec);
 
 }  // namespace ff::delaunay

@@ -64,11 +64,11 @@ void tail(const LawsonTail<R>& t, CUstream_st* stream) {
 }  // namespace
 
 template <class R>
-LawsonOps<R> lawson_ops(CudaExec) {
-  return {&cuda_for_each<MarkNonDelaunay<R>>, &cuda_for_each<DecideMarked>, &cuda_for_each<ApplyMarked>, cuda_mem_ops(),
+LawsonLoops<R> lawson_loops(CudaExec) {
+  return {&CudaExec::for_each<MarkNonDelaunay<R>>, &CudaExec::for_each<DecideMarked>, &CudaExec::for_each<ApplyMarked>,
           &tail<R>};
 }
-template LawsonOps<float> lawson_ops<float>(CudaExec);
-template LawsonOps<double> lawson_ops<double>(CudaExec);
+template LawsonLoops<float> lawson_loops<float>(CudaExec);
+template LawsonLoops<double> lawson_loops<double>(CudaExec);
 
 }  // namespace ff::delaunay

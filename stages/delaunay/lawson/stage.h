@@ -18,7 +18,6 @@
 #include "core/stage/stage.h"
 #include "core/stage/stage_registration.h"
 #include "stages/delaunay/common/host.h"
-#include "stages/delaunay/common/memory.h"
 #include "stages/delaunay/lawson/kernel.h"
 
 namespace ff::delaunay {
@@ -47,20 +46,19 @@ struct LawsonParams {
 };
 
 template <class R>
-struct LawsonOps {
+struct LawsonLoops {
   ElementLoop<MarkNonDelaunay<R>> mark;
   ElementLoop<DecideMarked> decide;
   ElementLoop<ApplyMarked> apply;
-  MemOps mem;
   // The device's later rounds in one kernel (kernel.h, LawsonTail); none on the CPU.
   void (*tail)(const LawsonTail<R>& t, CUstream_st* stream) = nullptr;
 };
 
-// The loops and memory of each backend (lawson/cpu.cpp, lawson/cuda.cu).
+// The loops of each backend (lawson/cpu.cpp, lawson/cuda.cu).
 template <class R>
-LawsonOps<R> lawson_ops(CpuExec);
+LawsonLoops<R> lawson_loops(CpuExec);
 template <class R>
-LawsonOps<R> lawson_ops(CudaExec);
+LawsonLoops<R> lawson_loops(CudaExec);
 
 template <class R>
 class Lawson final : public Stage {
@@ -74,16 +72,17 @@ class Lawson final : public Stage {
   }
 
   template <class Exec>
-  Lawson(const ParamValues& v, const RunInfo&, Exec)
+  Lawson(const ParamValues& v, const RunInfo&, Exec exec)
       : p_(params_from<LawsonParams>(v)),
         where_(Exec::where),
-        ops_(lawson_ops<R>(Exec{})),
-        counters_(ops_.mem),
-        marked_(ops_.mem),
-        queued_(ops_.mem),
-        go_(ops_.mem),
-        list_(ops_.mem),
-        marked_list_(ops_.mem) {}
+        loops_(lawson_loops<R>(exec)),
+        mem_(exec.memory()),
+        counters_(exec),
+        marked_(exec),
+        queued_(exec),
+        go_(exec),
+        list_(exec),
+        marked_list_(exec) {}
 
   std::vector<Access> accesses() const override {
     return {{ff::fields::position, where_, Mode::read},
@@ -134,7 +133,7 @@ class Lawson final : public Stage {
     if (hint > 0 && p_.tolerance >= 1e-13 &&
         position_version(status(s)) == s.field(ff::fields::position).version()) {
       launch = unsigned(hint - 1);  // the list's length: the launch's own size
-      test = data<std::int32_t>(s.field(fields::lawson_candidates), where_);
+      test = s.field(fields::lawson_candidates).data<std::int32_t>(ctx);
     }
     // Round 0's marks, read back: when none is needed nothing is announced to the rollback
     // snapshot (no copy of the topology), and the rounds launch over the exact count. On the
@@ -149,12 +148,12 @@ class Lawson final : public Stage {
     std::int32_t round = ++round_;
     MarkNonDelaunay<R> first{m, pts, p_.tolerance, test, nullptr, marked, round, marked_list, c, unsigned(launch)};
     if (where_ == Where::device) first.reset_next = counters_.next();
-    ops_.mark(launch, first, st);
+    loops_.mark(launch, first, st);
     if (where_ == Where::device && launch > 0) counters_.next_was_reset();
     // No snapshot to take (every rollback requester ran before this stage): the device may run
     // every round without the host (`defer`, see the head of this file).
-    const bool no_snapshot = where_ == Where::device && ctx.snapshot == nullptr;
-    const bool defer = no_snapshot && ops_.tail;
+    const bool no_snapshot = where_ == Where::device && ctx.may_defer_read_back();
+    const bool defer = no_snapshot && loops_.tail;
     const bool skip_first_read = no_snapshot && launch >= kSkipReadFrom;
     std::array<unsigned, kLawsonCounters> h{};
     std::size_t bound = launch;            // this round's marked edges (exact, or an upper bound)
@@ -182,23 +181,23 @@ class Lawson final : public Stage {
     std::int64_t grid_rounds = grid_rounds_;
     while (h[kLawsonMarked]) {
       if (launched >= p_.max_rounds) throw_not_delaunay(h);
-      const std::int64_t per_read = ops_.tail ? grid_rounds : 1;
+      const std::int64_t per_read = loops_.tail ? grid_rounds : 1;
       for (std::int64_t j = 0; j < per_read && launched < p_.max_rounds; ++j, ++launched) {
         // Apply lists the next round's edges. Before the first round the count is still 0 from
         // the reset (round 0's marks do not touch it); the device skips that fill.
         if (launched > 0 || where_ != Where::device) counters_.zero(kLawsonQueued, 1, st);
-        ops_.decide(bound, DecideMarked{m, marked, round, marked_list, go, c, marked_len}, st);
-        ops_.apply(bound, ApplyMarked{m, marked_list, go, queued, round + 1, list, c, marked_len}, st);
+        loops_.decide(bound, DecideMarked{m, marked, round, marked_list, go, c, marked_len}, st);
+        loops_.apply(bound, ApplyMarked{m, marked_list, go, queued, round + 1, list, c, marked_len}, st);
         counters_.zero(kLawsonMarked, 1, st);
         round = ++round_;
         bound = std::min<std::size_t>(4 * bound, E);
-        ops_.mark(bound, MarkNonDelaunay<R>{m, pts, p_.tolerance, list, c + kLawsonQueued, marked, round, marked_list, c},
+        loops_.mark(bound, MarkNonDelaunay<R>{m, pts, p_.tolerance, list, c + kLawsonQueued, marked, round, marked_list, c},
                   st);
         marked_len = c + kLawsonMarked;
       }
-      const bool tail = ops_.tail && launched < p_.max_rounds;
+      const bool tail = loops_.tail && launched < p_.max_rounds;
       if (tail)
-        ops_.tail(LawsonTail<R>{m, pts, p_.tolerance, marked, queued, go, list, marked_list, c, round,
+        loops_.tail(LawsonTail<R>{m, pts, p_.tolerance, marked, queued, go, list, marked_list, c, round,
                                 defer ? ~0u : kTailMarked, p_.max_rounds - launched,
                                 defer ? counters_.landing() : nullptr},
                   st);
@@ -255,7 +254,7 @@ class Lawson final : public Stage {
 
   void throw_if_too_long_flip(State& s, unsigned count, unsigned at, CUstream_st* st) {
     if (!count) return;
-    const auto ids = edge_vertices(s, where_, ops_.mem, int(at), st);
+    const auto ids = edge_vertices(s, where_, mem_, int(at), st);
     throw RunError("delaunay.lawson: restoring the Delaunay property needs an edge longer than half the box (next to "
                    "the edge between particles " +
                    list_ids(ids) + "; " + std::to_string(count) +
@@ -265,7 +264,8 @@ class Lawson final : public Stage {
 
   LawsonParams p_;
   Where where_;
-  LawsonOps<R> ops_;
+  LawsonLoops<R> loops_;
+  const MemoryOps& mem_;
   Counters<kLawsonCounters> counters_;
   Scratch<std::int32_t> marked_;  // round stamps: marked in that round
   Scratch<std::int32_t> queued_;  // round stamps: queued for that round

@@ -77,7 +77,7 @@ class Triangles final : public Stage {
     const std::size_t found = fill_triangles(s.field(fields::halfedge).host<std::int32_t>(), n,
                                              s.field(fields::triangles).host<std::int32_t>(), 2 * n);
     if (found != 2 * n)
-      throw RunError("delaunay.triangles: step " + std::to_string(ctx.step) + ": the half-edges hold " +
+      throw RunError("delaunay.triangles: step " + std::to_string(ctx.host_params.step) + ": the half-edges hold " +
                      std::to_string(found) + " triangles for " + std::to_string(n) +
                      " particles (a triangulation of the torus has 2N)");
     ctx.metrics.set("triangles", double(found));

@@ -181,7 +181,7 @@ std::vector<double> Gr::g() const {
 }
 
 Outcome Gr::run(StepContext& ctx) {
-  if (ctx.step >= std::uint64_t(p_.from_step)) {
+  if (ctx.host_params.step >= std::uint64_t(p_.from_step)) {
     const Field& x = ctx.state.field(fields::position);
     if (x.dtype() == DType::f32)
       to_double<float>(x, xyz_);

@@ -99,9 +99,9 @@ void H5mdObserver::open(const State& state) {
 }
 
 void H5mdObserver::copy_frame(StepContext& ctx, Frame& frame) const {
-  // Observers run on an accepted state: ctx.step and ctx.time are its clock (0 = the start).
-  frame.step = std::int64_t(ctx.step);
-  frame.time = ctx.time;
+  // Observers run on an accepted state: host_params.step and .time are its clock (0 = the start).
+  frame.step = std::int64_t(ctx.host_params.step);
+  frame.time = ctx.host_params.time;
   frame.fields.resize(p_.fields.size());
   for (std::size_t i = 0; i < p_.fields.size(); ++i) {
     Field& f = ctx.state.field(p_.fields[i]);

@@ -38,12 +38,12 @@ Outcome Progress::run(StepContext& ctx) {
   if (!started_) {
     started_ = true;
     start_ = last_print_ = now;
-    first_step_ = ctx.step;
+    first_step_ = ctx.host_params.step;
   }
   const double elapsed = std::chrono::duration<double>(now - start_).count();
-  last_.step = ctx.step;  // observers see the accepted state: steps done
+  last_.step = ctx.host_params.step;  // observers see the accepted state: steps done
   last_.steps = info_.steps;
-  last_.time = ctx.time;
+  last_.time = ctx.host_params.time;
   last_.dt = ctx.stats.dt;
   last_.rollbacks = ctx.stats.rollbacks;
   last_.rate = elapsed > 0 ? double(last_.step - first_step_) / elapsed : 0.0;

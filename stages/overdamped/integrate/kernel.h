@@ -1,8 +1,9 @@
 // The overdamped (Euler–Maruyama) step with drift, per particle i of type t:
 //   x += (v_i + μ_t F_i) Δt + sqrt(2 D_t Δt) ξ,   then wrapped into the box (image counted),
 // v the `velocity` field and F the `force` field when the stage reads them, ξ truncated unit
-// Gaussians (core/physics/rng.h). Δt, the step and the attempt come from StepParams on the side the loop
-// runs on. nvcc-clean.
+// Gaussians (core/physics/rng.h). Δt, the step and the attempt come from StepParams on the side
+// the loop runs on (never by value: a captured CUDA graph replays the step). OverdampedStep is
+// the step other integrators reuse with a drift of their own (abp.integrate). nvcc-clean.
 #pragma once
 #include <cmath>
 #include <cstdint>
@@ -18,69 +19,96 @@ namespace ff::overdamped {
 
 inline constexpr int kMaxTypes = 16;
 
-// General = false: noise only, one D for every type, no max_step check — free Brownian motion,
-// whose CPU loop must stay as lean as the plain step (a per-particle type lookup or branch in
-// the element math keeps it from vectorizing). General = true: everything the members say
-// (type tables when `type` is set, drift when `velocity` or `force` is, the check when
-// `too_far` is).
-template <class R, int D, bool General>
-struct OverdampedStep {
-  R* position;                // N x D
-  std::int32_t* image;        // N x D
-  const R* velocity;          // N x D, or null: no drift velocity
-  const R* force;             // N x D, or null: no force
-  const std::int32_t* type;   // N, or null: every particle uses entry 0 of the tables
-  double two_D[kMaxTypes];    // 2 D_t
-  double mobility[kMaxTypes]; // μ_t
-  PeriodicBox<R> box;
-  RngKey key;
-  const StepParams* params;
-  // With max_step (General only): steps longer than it are counted in too_far[0], the lowest
-  // such particle kept in too_far[1] (the stage then asks for a rollback); null: no check.
-  unsigned* too_far = nullptr;
-  double max_step2 = 0;
+// The drift of overdamped.integrate (a drift functor, core/physics/overdamped.h): (v + μ_t F) Δt
+// from the `velocity` and `force` fields, each when set; none when neither is.
+template <class R, int D>
+struct FieldDrift {
+  const R* velocity;           // N x D, or null: no drift velocity
+  const R* force;              // N x D, or null: no force
+  double mobility[kMaxTypes];  // μ_t
 
-  static constexpr int kNoisePairs = (D + 1) / 2;  // pairs 0 (and 1 in 3D)
-  FF_HD std::uint32_t noise_pair(int j) const { return std::uint32_t(j); }
-  FF_HD NoiseCounter noise_counter() const { return {key, params->step, params->attempt}; }
-
-  // z: the particle's Gaussians, z[k] for component k.
-  FF_HD void move(std::size_t i, const double* z) const {
-    if constexpr (!General) {
-      const R amplitude = R(std::sqrt(two_D[0] * params->dt));  // sqrt(2 D Δt)
-      overdamped_move<R, D>(position, image, box, i, nullptr, amplitude, z);
-      return;
-    }
-    const int t = type ? type[i] : 0;
-    const R amplitude = R(std::sqrt(two_D[t] * params->dt));
-    if (!velocity && !force) {
-      if (too_far) check(i, nullptr, amplitude, z);
-      overdamped_move<R, D>(position, image, box, i, nullptr, amplitude, z);
-      return;
-    }
-    const R dt = R(params->dt);
+  static constexpr int kNoisePairs = 0;
+  FF_HD std::uint32_t noise_pair(int) const { return 0; }
+  FF_HD bool operator()(std::size_t i, int t, double dt, const double*, R* drift) const {
+    if (!velocity && !force) return false;
+    const R h = R(dt);
     const R mu = R(mobility[t]);
-    R drift[D];
     for (int k = 0; k < D; ++k) {
       R v = velocity ? velocity[i * D + k] : R(0);
       if (force) v = velocity ? v + mu * force[i * D + k] : mu * force[i * D + k];
-      drift[k] = v * dt;
+      drift[k] = v * h;
     }
-    if (too_far) check(i, drift, amplitude, z);
-    overdamped_move<R, D>(position, image, box, i, drift, amplitude, z);
+    return true;
+  }
+};
+
+// The overdamped step every integrator shares, per particle i of type t:
+//   x += drift + sqrt(2 D_t Δt) ξ,   then wrapped into the box (image counted),
+// the drift from the functor G (core/physics/overdamped.h): FieldDrift for overdamped.integrate,
+// abp.integrate's self-propulsion, none (NoDrift) for free diffusion.
+//
+// General = false: one D for every type, no max_step check: free Brownian motion, whose CPU loop
+// must stay as lean as the plain step (a per-particle type lookup or branch in the element math
+// keeps it from vectorizing), and models that bring their own drift. General = true: the type
+// tables when `type` is set, the check when `too_far` is. InPlace = false: particle i is read
+// from (position_in, image_in), for a stage that hands the snapshot the field's storage
+// (StepContext::will_overwrite); in place, reads and writes go through the same pointers, so the
+// compiler knows they do not overlap and vectorizes the CPU loop's moves across particles.
+template <class R, int D, bool General, class G = NoDrift, bool InPlace = true>
+struct OverdampedStep {
+  // InPlace = false: the step reads particle i from (position_in, image_in) and writes it to
+  // (position, image): the previous step's arrays kept by the rollback snapshot, or the same ones.
+  const R* position_in;                // N x D (InPlace = false)
+  const std::int32_t* image_in;        // N x D (InPlace = false)
+  R* position;                         // N x D
+  std::int32_t* image;                 // N x D
+  const std::int32_t* type;            // N, or null: every particle uses entry 0 (General only)
+  double two_D[General ? kMaxTypes : 1];  // 2 D_t
+  PeriodicBox<R> box;
+  RngKey key;
+  const StepParams* params;
+  G drift;
+  // With max_step (General only): steps longer than it are counted in too_far[0], the lowest
+  // such particle kept in too_far[1] (the stage then asks for a rollback); particles whose
+  // position at the start of the step or whose step is not finite in too_far[2] and [3] (the
+  // stage then stops the run: a smaller Δt cannot mend a NaN force); null: no check.
+  unsigned* too_far = nullptr;
+  double max_step2 = 0;
+
+  static constexpr int kTranslationPairs = (D + 1) / 2;  // pairs 0 (and 1 in 3D); G's follow
+  static constexpr int kNoisePairs = kTranslationPairs + G::kNoisePairs;
+  FF_HD std::uint32_t noise_pair(int j) const {
+    return j < kTranslationPairs ? std::uint32_t(j) : drift.noise_pair(j - kTranslationPairs);
+  }
+  FF_HD NoiseCounter noise_counter() const { return {key, params->step, params->attempt}; }
+
+  // z: the particle's Gaussians, z[k] for component k, then the drift's pairs.
+  FF_HD void move(std::size_t i, const double* z) const {
+    const int t = General && type ? type[i] : 0;
+    const double dt = params->dt;
+    const R amplitude = R(std::sqrt(two_D[t] * dt));  // sqrt(2 D_t Δt)
+    R d[D];
+    const R* by = drift(i, t, dt, z + 2 * kTranslationPairs, d) ? d : nullptr;
+    if constexpr (General) {
+      if (too_far) check(i, by, amplitude, z);
+    }
+    if constexpr (InPlace) overdamped_move<R, D>(position, image, box, i, by, amplitude, z);
+    else overdamped_move<R, D>(position_in, image_in, position, image, box, i, by, amplitude, z);
   }
   // The step's length against max_step (the move itself is made regardless: a step that fails
-  // the check is rolled back).
-  FF_HD void check(std::size_t i, const R* drift, R amplitude, const double* z) const {
-    double len2 = 0;
+  // the check is rolled back or stops the run). Written so that NaN, which compares false with
+  // everything, fails it: !(len2 <= max) and x − x == 0 (false for NaN and ±inf).
+  FF_HD void check(std::size_t i, const R* by, R amplitude, const double* z) const {
+    double len2 = 0, start = 0;
     for (int k = 0; k < D; ++k) {
-      const double d = (drift ? double(drift[k]) : 0.0) + double(amplitude) * z[k];
+      const double d = (by ? double(by[k]) : 0.0) + double(amplitude) * z[k];
       len2 += d * d;
+      start += double(position_in[i * D + k]);
     }
-    if (len2 > max_step2) {
-      count_one(too_far);
-      keep_min(too_far + 1, unsigned(i));
-    }
+    if (len2 <= max_step2 && start - start == 0) return;
+    unsigned* slot = len2 - len2 == 0 && start - start == 0 ? too_far : too_far + 2;
+    count_one(slot);
+    keep_min(slot + 1, unsigned(i));
   }
   FF_HD void operator()(std::size_t i) const { overdamped_step(*this, i); }
 };

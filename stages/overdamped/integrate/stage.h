@@ -37,10 +37,30 @@ struct IntegrateParams {
         .one_of({"auto", "none", "velocity", "force", "velocity+force"});
     p(max_step, "max_step",
       "longest step a particle may take (σ); a longer one rolls the step back with a smaller Δt instead of going "
-      "on from a blown-up state (0: no check; with a check the step cannot be replayed from a CUDA graph)")
+      "on from a blown-up state, and a non-finite position, force or velocity stops the run naming the particle "
+      "(0: no check; with a check the step cannot be replayed from a CUDA graph)")
         .at_least(0);
   }
 };
+
+// The plain Brownian loop and the general one (kernel.h says why two), in 2D and 3D.
+template <class R>
+struct IntegrateLoops {
+  ElementLoop<OverdampedStep<R, 2, false>> plain2;
+  ElementLoop<OverdampedStep<R, 2, true, FieldDrift<R, 2>>> general2;
+  ElementLoop<OverdampedStep<R, 3, false>> plain3;
+  ElementLoop<OverdampedStep<R, 3, true, FieldDrift<R, 3>>> general3;
+};
+
+// The overdamped loops of the backend object (CpuExec or CudaExec) this stage.h is compiled for
+// (core/stage/stage_registration.h).
+template <class R, class Exec>
+IntegrateLoops<R> integrate_loops(Exec) {
+  return {&Exec::template overdamped<OverdampedStep<R, 2, false>>,
+          &Exec::template overdamped<OverdampedStep<R, 2, true, FieldDrift<R, 2>>>,
+          &Exec::template overdamped<OverdampedStep<R, 3, false>>,
+          &Exec::template overdamped<OverdampedStep<R, 3, true, FieldDrift<R, 3>>>};
+}
 
 template <class R>
 class Integrate final : public Stage {
@@ -54,8 +74,8 @@ class Integrate final : public Stage {
   Integrate(const ParamValues& v, const RunInfo& info, Exec)
       : p_(params_from<IntegrateParams>(v)),
         where_(Exec::where),
-        loops2_(Loops<2>::template make<Exec>()),
-        loops3_(Loops<3>::template make<Exec>()),
+        loops_(integrate_loops<R>(Exec{})),
+        id_(info.stage_id),
         too_far_field_("overdamped.too_far." + info.stage_id) {}
 
   void configure(State& s) override {
@@ -77,7 +97,7 @@ class Integrate final : public Stage {
     types_ = s.species.empty() ? 1 : s.species.size();
     check_per_type("D", p_.D);
     check_per_type("mobility", p_.mobility);
-    if (p_.max_step > 0) s.add_field(too_far_field_, DType::u32, 2, 1);
+    if (p_.max_step > 0) s.add_field(too_far_field_, DType::u32, 4, 1);
   }
 
   std::vector<Access> accesses() const override {
@@ -97,19 +117,28 @@ class Integrate final : public Stage {
     const std::int32_t* t = !per_type() ? nullptr
                             : where_ == Where::device ? type.device<std::int32_t>()
                                                       : type.host<std::int32_t>();
-    auto step = [&](auto f) {
+    // The members every configuration sets (in place: position_in and image_in are not read).
+    auto common = [&](auto f) {
       f.position = ptr(fields::position);
       f.image = where_ == Where::device ? img.device<std::int32_t>() : img.host<std::int32_t>();
-      f.velocity = reads_velocity_ ? ptr(kVelocity) : nullptr;
-      f.force = reads_force_ ? ptr(kForce) : nullptr;
-      f.type = t;
-      for (std::size_t k = 0; k < std::size_t(kMaxTypes); ++k) {
-        f.two_D[k] = 2 * p_.D[k < types_ ? k : 0];
-        f.mobility[k] = p_.mobility[k < types_ ? k : 0];
-      }
+      f.position_in = nullptr;
+      f.image_in = nullptr;
+      f.type = nullptr;
+      f.two_D[0] = 2 * p_.D[0];
       f.box = PeriodicBox<R>::make(s.box.L);
       f.key = ctx.rng;
       f.params = ctx.params;
+      return f;
+    };
+    auto general = [&](auto f) {
+      f = common(f);
+      f.type = t;
+      for (std::size_t k = 0; k < std::size_t(kMaxTypes); ++k) {
+        f.two_D[k] = 2 * p_.D[k < types_ ? k : 0];
+        f.drift.mobility[k] = p_.mobility[k < types_ ? k : 0];
+      }
+      f.drift.velocity = reads_velocity_ ? ptr(kVelocity) : nullptr;
+      f.drift.force = reads_force_ ? ptr(kForce) : nullptr;
       if (p_.max_step > 0) {
         f.too_far = where_ == Where::device ? s.field(too_far_field_).device<unsigned>()
                                             : s.field(too_far_field_).host<unsigned>();
@@ -120,22 +149,27 @@ class Integrate final : public Stage {
     if (p_.max_step > 0) {  // zeroed on the host, then on the loop's side
       Field& c = s.field(too_far_field_);
       c.acquire(Where::host, Mode::write);
-      c.host<unsigned>()[0] = 0;
-      c.host<unsigned>()[1] = ~0u;
+      for (int k : {0, 2}) {
+        c.host<unsigned>()[k] = 0;
+        c.host<unsigned>()[k + 1] = ~0u;
+      }
       c.acquire(where_, Mode::readwrite, ctx.stream);
     }
-    if (s.dim() == 2)
-      loops2_.launch(s.n(), general(), step, ctx.stream);
-    else
-      loops3_.launch(s.n(), general(), step, ctx.stream);
+    const std::size_t n = s.n();
+    if (s.dim() == 2) {
+      if (is_general()) loops_.general2(n, general(OverdampedStep<R, 2, true, FieldDrift<R, 2>>{}), ctx.stream);
+      else loops_.plain2(n, common(OverdampedStep<R, 2, false>{}), ctx.stream);
+    } else {
+      if (is_general()) loops_.general3(n, general(OverdampedStep<R, 3, true, FieldDrift<R, 3>>{}), ctx.stream);
+      else loops_.plain3(n, common(OverdampedStep<R, 3, false>{}), ctx.stream);
+    }
     if (p_.max_step > 0) return too_far(ctx);
     return Outcome::ok();
   }
 
-  // Per-step values come from ctx.params, so a CUDA run can replay this stage from a graph
-  // (not with max_step, whose check the host reads back).
-  // Δt, step and attempt reach the kernels through ctx.params in every configuration; max_step's
-  // check is read back by the host (a request from run()).
+  // Δt, step and attempt reach the kernels through ctx.params in every configuration, so a CUDA
+  // run can replay this stage from a graph; not with max_step, whose check the host reads back
+  // (a request from run()).
   Scheduling scheduling() const override {
     Scheduling s;
     s.may_request_rollback = p_.max_step > 0;
@@ -148,17 +182,44 @@ class Integrate final : public Stage {
   Outcome too_far(StepContext& ctx) {
     Field& c = ctx.state.field(too_far_field_);
     c.acquire(Where::host, Mode::read, ctx.stream);
+    if (c.host<unsigned>()[2]) not_finite(ctx, c.host<unsigned>()[2], c.host<unsigned>()[3]);
     const unsigned count = c.host<unsigned>()[0], first = c.host<unsigned>()[1];
     if (!count) return Outcome::ok();
     return Outcome::request_rollback("overdamped.integrate: " + std::to_string(count) +
                                          " particle(s) would move farther than max_step = " +
                                          std::to_string(p_.max_step) + " in one step (the first is particle " +
-                                         std::to_string(first) + ", at Δt = " + std::to_string(ctx.dt) +
+                                         std::to_string(first) + ", at Δt = " + std::to_string(ctx.host_params.dt) +
                                          "); the step is retried with a smaller time step",
                                      {first});
   }
+  // Stops the run: `count` particles, the lowest `first`, had a non-finite position or step. Names
+  // the first input of particle `first` that is not finite (force, velocity; else the position it
+  // entered the step with), read back on the host.
+  [[noreturn]] void not_finite(StepContext& ctx, unsigned count, unsigned first) {
+    State& s = ctx.state;
+    std::string what = "position (at the start of the step, or after adding its step)", values;
+    for (const char* f : {kForce, kVelocity}) {
+      if (!(f == kForce ? reads_force_ : reads_velocity_)) continue;
+      Field& field = s.field(f);
+      field.acquire(Where::host, Mode::read, ctx.stream);
+      const R* v = field.host<R>() + std::size_t(first) * s.dim();
+      bool bad = false;
+      for (int k = 0; k < s.dim(); ++k) bad |= !std::isfinite(double(v[k]));
+      if (!bad) continue;
+      what = std::string("`") + f + "` field (written by a stage before this one)";
+      values = " = (";
+      for (int k = 0; k < s.dim(); ++k) values += (k ? ", " : "") + std::to_string(double(v[k]));
+      values += ")";
+      break;
+    }
+    throw RunError("stage '" + id_ + "' (overdamped.integrate), step " + std::to_string(ctx.host_params.step) +
+                   ": particle " + std::to_string(first) + " has a non-finite " + what + values +
+                   (count > 1 ? " (" + std::to_string(count - 1) + " other particle(s) too)" : std::string()) +
+                   "; a smaller time step cannot mend this, so the run stops. Look for particles that met closer "
+                   "than the force model allows in the steps before (a lower run.dt or max_step helps then)");
+  }
   bool per_type() const { return !p_.D.uniform() || !p_.mobility.uniform(); }
-  bool general() const { return reads_velocity_ || reads_force_ || per_type() || p_.max_step > 0; }
+  bool is_general() const { return reads_velocity_ || reads_force_ || per_type() || p_.max_step > 0; }
   void check_per_type(const char* name, const PerType& v) const {
     if (!v.uniform() && v.values.size() != types_)
       throw InputError(std::string("overdamped.integrate: ") + name + " has " + std::to_string(v.values.size()) +
@@ -170,26 +231,9 @@ class Integrate final : public Stage {
 
   IntegrateParams p_;
   Where where_;
-  // The plain Brownian loop and the general one (kernel.h says why two).
-  template <int D>
-  struct Loops {
-    ElementLoop<OverdampedStep<R, D, false>> plain;
-    ElementLoop<OverdampedStep<R, D, true>> general;
-    template <class Exec>
-    static Loops make() {
-      return {&Exec::template overdamped<OverdampedStep<R, D, false>>,
-              &Exec::template overdamped<OverdampedStep<R, D, true>>};
-    }
-    // fill(f) sets the functor's members.
-    template <class Fill>
-    void launch(std::size_t n, bool is_general, const Fill& fill, CUstream_st* stream) const {
-      if (is_general) general(n, fill(OverdampedStep<R, D, true>{}), stream);
-      else plain(n, fill(OverdampedStep<R, D, false>{}), stream);
-    }
-  };
-  Loops<2> loops2_;
-  Loops<3> loops3_;
-  std::string too_far_field_;  // u32 x 2: max_step's count and first particle
+  IntegrateLoops<R> loops_;
+  std::string id_;             // the stage's id, for messages
+  std::string too_far_field_;  // u32 x 4: max_step's count and first particle; non-finite ones'
   bool reads_velocity_ = false, reads_force_ = false;
   std::size_t types_ = 1;
 };

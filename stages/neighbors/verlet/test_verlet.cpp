@@ -9,27 +9,19 @@
 #include <vector>
 
 #include "core/base/error.h"
-#include "core/run/plugin_loader.h"
 #include "core/stage/registry.h"
 #include "core/stage/state.h"
 #include "stages/neighbors/list.h"
 #include "support/backends.h"
 #include "support/stage_driver.h"
+#include "support/test_plugins.h"
 
 using namespace ff;
 
 namespace {
 
 const Registry& registry() {
-  static const std::unique_ptr<Registry> r = [] {
-    auto reg = std::make_unique<Registry>();
-    std::vector<std::string> libs;
-    for (auto& f : find_stage_libraries(plugin_search_path()))
-      if (f.find("libflipflow_stage_neighbors.so") != std::string::npos) libs.push_back(f);
-    REQUIRE(libs.size() == 1);
-    load_plugins(libs, *reg);
-    return reg;
-  }();
+  static const std::unique_ptr<Registry> r = test::registry_of({"neighbors"});
   return *r;
 }
 

@@ -5,7 +5,7 @@
 #include <algorithm>
 
 #include "stages/delaunay/detect_inversion/kernel.h"
-#include "test_delaunay_support.h"
+#include "stages/delaunay/test_support.h"
 
 using namespace ff;
 using namespace ff::test::dl;

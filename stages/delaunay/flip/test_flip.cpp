@@ -3,7 +3,7 @@
 // front, random large moves either end in a valid triangulation or in a rollback, never in an
 // inverted triangle.
 #include "core/base/error.h"
-#include "test_delaunay_support.h"
+#include "stages/delaunay/test_support.h"
 
 using namespace ff;
 using namespace ff::test::dl;

@@ -143,16 +143,7 @@ test::StageDriver corrector(State& s, Backend b, const std::map<std::string, Par
   return d;
 }
 
-// One run of the driver's stage that may throw (StageDriver::step reports a throw as a failure).
-void run_throwing(test::StageDriver& d, State& s) {
-  for (auto& a : d.stage->accesses()) s.field(a.field).acquire(a.where, a.mode, nullptr);
-  StepContext ctx{s, d.info, d.stats, 0, 0, 0.01, 0.0, d.info.backend, nullptr,
-                  make_rng_key(d.info.seed, d.info.stage_id.c_str()), d.metrics};
-  ctx.params = d.info.backend == Backend::cpu ? &d.params : nullptr;
-  d.stage->run(ctx);
-}
-
-// The stage's definition, naively: every iteration gathers every particle (Mesh::gather, the
+// The stage's definition, naively: every iteration gathers every particle (Overlaps::gather, the
 // fan walk in fan order), then applies every displacement, until no pair overlaps beyond the
 // tolerance. The stage's loops (edge passes, work lists, GPU) must give these bits.
 struct Reference {
@@ -171,7 +162,7 @@ Reference reference(State& s, double factor, double cap, double tol, double unit
   const auto diam = diameters(s);
   const double dmax = *std::max_element(diam.begin(), diam.end());
   if (unit == 0) unit = dmax;
-  const overlap::Mesh<double> m{out.xy.data(),
+  const overlap::Overlaps<double> m{out.xy.data(),
                                 s.field(fields::diameter).host<double>(),
                                 s.field(delaunay::fields::halfedge).host<std::int32_t>(),
                                 s.field(delaunay::fields::vertex_edge).host<std::int32_t>(),
@@ -207,7 +198,7 @@ std::size_t vertices_with_degree_above(State& s, int degree) {
   for (const char* f : {fields::position, fields::diameter, delaunay::fields::halfedge, delaunay::fields::vertex_edge})
     s.field(f).acquire(Where::host, Mode::read);
   const std::size_t n = s.n();
-  const overlap::Mesh<double> m{s.field(fields::position).host<double>(),
+  const overlap::Overlaps<double> m{s.field(fields::position).host<double>(),
                                 s.field(fields::diameter).host<double>(),
                                 s.field(delaunay::fields::halfedge).host<std::int32_t>(),
                                 s.field(delaunay::fields::vertex_edge).host<std::int32_t>(),
@@ -340,7 +331,7 @@ TEST_CASE("overlap_correct: a corrupt triangulation is an error, also away from 
     State& s = sim->state();
     auto d = corrector(s, backend);
     try {
-      run_throwing(d, s);
+      d.run(s, 0, 0.01);  // returns the outcome; a throw propagates (step() would report it)
       FAIL("expected a RunError");
     } catch (const RunError& e) {
       const std::string m = e.what();

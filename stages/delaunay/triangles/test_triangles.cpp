@@ -16,7 +16,7 @@
 #include "support/h5py.h"
 #include "support/spec.h"
 #include "support/test_plugins.h"
-#include "test_delaunay_support.h"
+#include "stages/delaunay/test_support.h"
 
 using namespace ff;
 using namespace ff::test::dl;

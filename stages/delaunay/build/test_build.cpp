@@ -8,7 +8,7 @@
 #include <CGAL/Triangulation_vertex_base_with_info_2.h>
 
 #include "core/base/error.h"
-#include "test_delaunay_support.h"
+#include "stages/delaunay/test_support.h"
 
 using namespace ff;
 using namespace ff::test::dl;

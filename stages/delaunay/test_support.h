@@ -1,6 +1,7 @@
-// Shared helpers of the delaunay stage tests: load the delaunay stage library alone, drive one
-// stage on a hand-made State (acquiring its declared fields like the scheduler does), and read
-// positions and topology back on the host.
+// The delaunay stage tests' helpers: their registry (the delaunay stage library alone), stages
+// made and driven as every stage test drives them (tests/support/stage_driver.h), and meshes:
+// hand-made 2D states, positions and topology read back on the host, checks against CGAL, point
+// sets and a perturbed lattice to move particles across edges in.
 #pragma once
 #include <catch2/catch.hpp>
 
@@ -13,93 +14,39 @@
 #include <string>
 #include <vector>
 
-#include "core/run/plugin_loader.h"
-#include "core/stage/registry.h"
 #include "core/physics/rng.h"
+#include "core/stage/registry.h"
 #include "core/stage/stage.h"
 #include "core/stage/state.h"
 #include "stages/delaunay/common/fields.h"
 #include "stages/delaunay/common/mesh_check.h"
 #include "support/backends.h"
-#ifdef FLIPFLOW_HAVE_CUDA
-#include <cuda_runtime.h>
-#endif
+#include "support/fields.h"
+#include "support/stage_driver.h"
+#include "support/test_plugins.h"
 
 namespace ff::test::dl {
 
 namespace dfields = ff::delaunay::fields;
 
 inline const Registry& registry() {
-  static const Registry r = [] {
-    Registry reg;
-    std::vector<std::string> libs;
-    for (auto& f : find_stage_libraries(plugin_search_path()))
-      if (f.find("libflipflow_stage_delaunay.so") != std::string::npos) libs.push_back(f);
-    if (libs.empty()) throw std::runtime_error("libflipflow_stage_delaunay.so not found in the plugin path");
-    load_plugins(libs, reg);
-    return reg;
-  }();
-  return r;
+  static const std::unique_ptr<Registry> r = registry_of({"delaunay"});
+  return *r;
 }
 
 inline std::unique_ptr<Stage> make_stage(const std::string& name, Backend b, Precision p = Precision::f64,
-                                         const std::vector<std::pair<std::string, ParamValue>>& set = {}) {
-  const auto& entry = registry().get(name);
-  ParamValues v = ParamValues::defaults(entry.decl.params);
-  for (auto& kv : set) v.set(kv.first, kv.second);
-  RunInfo info;
-  info.dim = 2;
-  info.precision = p;
-  info.backend = b;
-  info.stage_id = name;
-  return registry().create(name, b, v, info);
+                                         const ParamSettings& set = {}) {
+  return test::make_stage(registry(), name, b, p, 2, set);
 }
 
-// One backend's stream and the per-run records a StepContext points to.
-class Runner {
+// Runs stages on one State: a StageDriver (stage_driver.h) bound to it.
+class Runner : public StageDriver {
  public:
-  Runner(State& s, Backend b) : s_(s), b_(b) {
-    info_.dim = 2;
-    info_.precision = s.precision();
-    info_.backend = b;
-#ifdef FLIPFLOW_HAVE_CUDA
-    if (b == Backend::cuda) cudaStreamCreateWithFlags(reinterpret_cast<cudaStream_t*>(&stream_), cudaStreamNonBlocking);
-#endif
-  }
-  ~Runner() {
-#ifdef FLIPFLOW_HAVE_CUDA
-    if (stream_) {
-      cudaStreamSynchronize(reinterpret_cast<cudaStream_t>(stream_));
-      cudaStreamDestroy(reinterpret_cast<cudaStream_t>(stream_));
-    }
-#endif
-  }
-  Runner(const Runner&) = delete;
-  Runner& operator=(const Runner&) = delete;
-
-  Outcome run(Stage& st, std::uint64_t step = 0, double dt = 0.01) {
-    for (auto& a : st.accesses()) s_.field(a.field).acquire(a.where, a.mode, stream_);
-    metrics.clear();
-    StepContext ctx{s_, info_, stats_, step, 0, dt, 0.0, b_, stream_, make_rng_key(1, "test"), metrics};
-    // As the core does for a step of this one stage (nothing can roll it back: no snapshot).
-    const Outcome o = st.run(ctx);
-    if (!o.rollback) st.after_step(ctx);
-    return o;
-  }
-  double metric(const std::string& k) const {
-    auto it = metrics.values().find(k);
-    return it == metrics.values().end() ? -1 : it->second;
-  }
-  CUstream_st* stream() const { return stream_; }
-
-  Metrics metrics;
+  Runner(State& s, Backend b) : StageDriver(b, s.precision(), 2), s_(s) {}
+  Outcome run(Stage& st, std::uint64_t step = 0, double dt = 0.01) { return StageDriver::run(st, s_, step, dt); }
 
  private:
   State& s_;
-  Backend b_;
-  RunInfo info_;
-  RunStats stats_;
-  CUstream_st* stream_ = nullptr;
 };
 
 inline std::unique_ptr<State> make_state(const std::vector<double>& xy, double Lx, double Ly,
@@ -119,14 +66,7 @@ inline std::unique_ptr<State> make_state(const std::vector<double>& xy, double L
   return s;
 }
 
-inline std::vector<double> positions(State& s) {
-  Field& f = s.field(fields::position);
-  f.acquire(Where::host, Mode::read);
-  std::vector<double> xy(2 * s.n());
-  for (std::size_t i = 0; i < xy.size(); ++i)
-    xy[i] = s.precision() == Precision::f64 ? f.host<double>()[i] : double(f.host<float>()[i]);
-  return xy;
-}
+inline std::vector<double> positions(State& s) { return values(s, fields::position); }
 
 inline void set_positions(State& s, const std::vector<double>& xy) {
   Field& f = s.field(fields::position);

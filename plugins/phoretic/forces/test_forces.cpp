@@ -14,7 +14,6 @@
 #include <vector>
 
 #include "core/base/error.h"
-#include "core/run/plugin_loader.h"
 #include "core/stage/registry.h"
 #include "core/stage/state.h"
 #include "plugins/phoretic/forces/kernel.h"
@@ -22,24 +21,14 @@
 #include "support/backends.h"
 #include "support/fields.h"
 #include "support/stage_driver.h"
+#include "support/test_plugins.h"
 
 using namespace ff;
 
 namespace {
 
 const Registry& registry() {
-  static const std::unique_ptr<Registry> r = [] {
-    auto reg = std::make_unique<Registry>();
-    const auto path = plugin_search_path();
-    std::vector<std::string> libs{find_plugin("phoretic", path)};
-    for (auto& f : find_stage_libraries(path))
-      if (f.find("libflipflow_stage_neighbors.so") != std::string::npos ||
-          f.find("libflipflow_stage_overdamped.so") != std::string::npos)
-        libs.push_back(f);
-    REQUIRE(libs.size() == 3);
-    load_plugins(libs, *reg);
-    return reg;
-  }();
+  static const std::unique_ptr<Registry> r = test::registry_of({"neighbors", "overdamped"}, {"phoretic"});
   return *r;
 }
 

@@ -8,23 +8,19 @@
 #include <vector>
 
 #include "core/base/error.h"
-#include "core/run/plugin_loader.h"
 #include "core/stage/registry.h"
 #include "core/stage/state.h"
 #include "support/backends.h"
 #include "support/fields.h"
 #include "support/stage_driver.h"
+#include "support/test_plugins.h"
 
 using namespace ff;
 
 namespace {
 
 const Registry& registry() {
-  static const std::unique_ptr<Registry> r = [] {
-    auto reg = std::make_unique<Registry>();
-    load_plugins({find_plugin("abp", plugin_search_path())}, *reg);
-    return reg;
-  }();
+  static const std::unique_ptr<Registry> r = test::registry_of({}, {"abp"});
   return *r;
 }
 

@@ -12,7 +12,7 @@
 #include "stages/delaunay/common/mesh.h"
 #include "support/spec.h"
 #include "support/test_plugins.h"
-#include "test_delaunay_support.h"
+#include "stages/delaunay/test_support.h"
 
 using namespace ff;
 using namespace ff::test::dl;

@@ -10,7 +10,7 @@
 #include "stages/delaunay/common/hilbert.h"
 #include "support/spec.h"
 #include "support/test_plugins.h"
-#include "test_delaunay_support.h"
+#include "stages/delaunay/test_support.h"
 
 using namespace ff;
 using namespace ff::test::dl;

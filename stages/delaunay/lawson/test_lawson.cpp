@@ -7,7 +7,7 @@
 
 #include "core/base/error.h"
 #include "core/input/init.h"
-#include "test_delaunay_support.h"
+#include "stages/delaunay/test_support.h"
 
 using namespace ff;
 using namespace ff::test::dl;

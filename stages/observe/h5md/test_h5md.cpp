@@ -17,11 +17,11 @@
 #include "core/backend/device.h"
 #include "core/base/error.h"
 #include "core/io/h5md_writer.h"
-#include "core/run/plugin_loader.h"
 #include "core/stage/state.h"
 #include "stages/observe/h5md/stage.h"
 #include "stages/observe/msd/stage.h"
 #include "stages/observe/progress/stage.h"
+#include "support/test_plugins.h"
 
 using namespace ff;
 namespace fs = std::filesystem;
@@ -429,12 +429,8 @@ TEST_CASE("observe.progress: a line per interval in logs", "[observe][progress]"
 }
 
 TEST_CASE("stage_observe registers three observers, for CUDA runs too", "[observe][plugin]") {
-  std::vector<std::string> lib;
-  for (auto& f : find_stage_libraries(plugin_search_path()))
-    if (fs::path(f).filename() == "libflipflow_stage_observe.so") lib.push_back(f);
-  REQUIRE(lib.size() == 1);
-  Registry r;
-  load_plugins(lib, r);
+  const auto registry = test::registry_of({"observe"});
+  const Registry& r = *registry;
   for (const char* name : {"observe.h5md", "observe.progress", "observe.msd"}) {
     INFO(name);
     const auto& e = r.get(name);

@@ -1,0 +1,86 @@
+// overlap_correct.verlet per-particle math, for both backends: one iteration is a gather over
+// every particle (Gather, the backend's sum: it returns the pair counts) and then, unless it
+// converged, an apply (Apply, the backend's sum: it returns |d_v| in fixed point).
+//
+// Particle v's gather reads its own row of neighbors.list (a full list: the pair (v, u) is in
+// both rows) and sums the push of each listed u closer than σ_vu with ../kernel.h's rule
+// (pair_term_d, fixed_push, finish_d): the pushes and sums of overlap_correct's walks around the
+// Delaunay fans. So for the same set of overlapping pairs the two variants give the same
+// displacements, bit for bit; a pair beyond σ_vu adds nothing, so the list's extra pairs (up to
+// cutoff + skin) change nothing either. Every displacement of an iteration is computed from the
+// positions before it (Jacobi), as in the Delaunay variant, then applied.
+// nvcc-clean.
+#pragma once
+#include <cstdint>
+
+#include "core/base/hd.h"
+#include "core/physics/box.h"
+#include "stages/overlap_correct/kernel.h"
+
+namespace ff::overlap {
+
+// A gather's return value: pairs in the low 32 bits, pairs beyond the tolerance above them (the
+// stage checks that a step's pairs fit 32 bits: at most N·capacity/2).
+inline constexpr int kBadShift = 32;
+
+template <class R, int D>
+struct Gather {
+  const R* pos;                  // N x D
+  const R* diameter;             // N
+  const std::uint32_t* list;     // N x capacity, rows in ascending index order
+  const std::uint32_t* count;    // N
+  std::uint32_t capacity;
+  PeriodicBox<double> box;
+  double factor;                 // 1 = reflect, 0.5 = contact
+  double cap;                    // fraction of σ_v
+  double tol;                    // relative overlap that still counts as converged
+  double inv_unit;               // 1 / length unit (the largest diameter at configure)
+  double uniform;                // every diameter when all are equal (none is read then), else 0
+  double* disp;                  // N x (D + 1): v's capped displacement and its length
+
+  FF_HD double diameter_of(std::size_t v) const { return uniform > 0 ? uniform : double(diameter[v]); }
+
+  FF_HD std::uint64_t operator()(std::size_t i) const {
+    const int v = int(i);
+    double xv[D];
+    for (int k = 0; k < D; ++k) xv[k] = double(pos[D * i + k]);
+    const double sv = diameter_of(i);
+    std::int64_t q[D];
+    for (int k = 0; k < D; ++k) q[k] = 0;
+    std::uint64_t pairs = 0, bad = 0;
+    const std::uint32_t m = count[i] < capacity ? count[i] : capacity;
+    const std::uint32_t* row = list + i * capacity;
+    for (std::uint32_t j = 0; j < m; ++j) {
+      const std::uint32_t u = row[j];
+      double r[D], t[D];
+      for (int k = 0; k < D; ++k) r[k] = box.min_image(double(pos[D * std::size_t(u) + k]) - xv[k], k);
+      const double o = pair_term_d<D>(r, sv, diameter_of(u), factor, v, int(u), t);
+      if (o == kNoOverlap) continue;
+      for (int k = 0; k < D; ++k) q[k] -= fixed_push(t[k], inv_unit);
+      if (v < int(u) && o > 0) {
+        ++pairs;
+        if (o > tol) ++bad;
+      }
+    }
+    double* d = disp + (D + 1) * i;
+    d[D] = finish_d<D>(q, sv, cap, inv_unit, d);
+    return pairs | (bad << kBadShift);
+  }
+};
+
+template <class R, int D>
+struct Apply {
+  R* pos;
+  std::int32_t* image;
+  PeriodicBox<R> box;
+  const double* disp;  // Gather's
+  double inv_unit;
+
+  FF_HD std::uint64_t operator()(std::size_t i) const {
+    const double* d = disp + (D + 1) * i;
+    apply_d<D>(pos, image, box, i, d);  // zero components leave their coordinate alone
+    return fixed_len(d[D], inv_unit);
+  }
+};
+
+}  // namespace ff::overlap

@@ -1,0 +1,242 @@
+// overlap_correct.verlet: hard-core exclusion on the Verlet list, 2D and 3D (Carter et al. 2017's
+// short-range runs correct overlaps with Verlet lists, Fig. 10b; seed-gaps G4). Every listed pair
+// closer than σ_ij = (σ_i + σ_j)/2 is pushed apart along its line of centres with
+// overlap_correct's rule (../kernel.h: reflect or contact, the same cap, tolerance,
+// max_iterations and fixed-point sums); the pass repeats until no pair overlaps by more than
+// `tolerance`·σ_ij. Needs neighbors.verlet before it in the step (after the integrator), with
+// a cutoff of at least the largest diameter.
+//
+// The list holds every pair closer than the cutoff only while no particle has moved skin/2 since
+// it was built, and the corrections move particles. So after the loop the stage takes the
+// largest displacement since the build (neighbors.verlet's test, verlet/build.h); beyond skin/2
+// it rebuilds the list (the same build) and runs the loop again on it (metric `list_rebuilds`).
+// The test also covers moves made between neighbors.verlet and this stage.
+//
+// In 2D the pushes are overlap_correct's bit for bit, so on the same overlapping pairs the two
+// give the same trajectory (test_verlet.cpp checks it for brownian hard disks).
+#pragma once
+#include <algorithm>
+#include <cmath>
+#include <memory>
+#include <sstream>
+#include <string>
+
+#include "core/backend/exec.h"
+#include "core/base/error.h"
+#include "core/stage/params.h"
+#include "core/stage/stage.h"
+#include "core/stage/stage_registration.h"
+#include "stages/neighbors/list.h"
+#include "stages/neighbors/verlet/build.h"
+#include "stages/overlap_correct/kernel.h"
+#include "stages/overlap_correct/params.h"
+#include "stages/overlap_correct/verlet/kernel.h"
+
+namespace ff::overlap {
+
+template <class R, int D>
+struct VerletCorrectLoops {
+  ReduceLoop<Gather<R, D>, std::uint64_t> gather;
+  ReduceLoop<Apply<R, D>, std::uint64_t> apply;
+};
+
+template <class R>
+class OverlapCorrectVerlet final : public Stage {
+ public:
+  static StageDecl declaration() {
+    return {"overlap_correct.verlet",
+            "push overlapping pairs of the Verlet list apart (reflect or contact), iterated until none overlap; "
+            "rebuilds the list when the pushes moved a particle past skin/2",
+            schema_of<Params>(), {2, 3}, false};
+  }
+
+  template <class Exec>
+  OverlapCorrectVerlet(const ParamValues& v, const RunInfo&, Exec exec)
+      : p_(params_from<Params>(v)),
+        where_(Exec::where),
+        d2_{&Exec::template sum<Gather<R, 2>>, &Exec::template sum<Apply<R, 2>>},
+        d3_{&Exec::template sum<Gather<R, 3>>, &Exec::template sum<Apply<R, 3>>},
+        builder_(exec),
+        sum_(exec),
+        disp_(exec) {}
+
+  std::vector<Access> accesses() const override {
+    using namespace neighbors;
+    std::vector<Access> a{{fields::position, where_, Mode::readwrite},
+                          {fields::image, where_, Mode::readwrite},
+                          {fields::diameter, where_, Mode::read}};
+    // Read each step; written when the stage rebuilds the list.
+    for (const char* f : {kList, kCount, kPositionAtBuild, kOrder, kCell, kCellStart, kCellEnd})
+      a.push_back({f, where_, Mode::readwrite});
+    a.push_back({kBuildParams, Where::host, Mode::read});
+    return a;
+  }
+
+  void configure(State& s) override {
+    using namespace neighbors;
+    for (const char* f : {kList, kCount, kPositionAtBuild, kOrder, kCell, kCellStart, kCellEnd, kBuildParams})
+      if (!s.has_field(f))
+        throw InputError(std::string("overlap_correct.verlet needs the Verlet list (field '") + f +
+                         "'), which no stage before it provides: put neighbors.verlet before it in `step:` "
+                         "(after the integrator), with a cutoff of at least the largest diameter");
+    Field& bp = s.field(kBuildParams);
+    bp.acquire(Where::host, Mode::read);
+    cutoff_ = bp.host<double>()[0];
+    skin_ = bp.host<double>()[1];
+    measure_diameters(s, nullptr);
+    if (!(dmin_ > 0)) throw InputError("overlap_correct.verlet: every particle needs a positive diameter");
+    check_cutoff(false);
+    unit_ = dmax_;
+    tol_ = tolerance_for(p_, s, dmin_);
+    if (builder_.set_grid(s, cutoff_ + skin_) != s.field(kCellStart).count())
+      throw InputError("overlap_correct.verlet: the cell grid of neighbors.verlet's list is not the one its cutoff "
+                       "and skin give; the list was made by another stage than neighbors.verlet");
+  }
+
+  Outcome run(StepContext& ctx) override {
+    if (ctx.state.dim() == 2) return run_d<2>(ctx, d2_);
+    return run_d<3>(ctx, d3_);
+  }
+
+ private:
+  template <int D>
+  Outcome run_d(StepContext& ctx, const VerletCorrectLoops<R, D>& loops) {
+    using namespace neighbors;
+    State& s = ctx.state;
+    CUstream_st* st = ctx.stream;
+    const std::size_t n = s.n();
+    if (s.field(fields::diameter).version() != diameter_version_) {  // written since: measure again
+      measure_diameters(s, st);
+      check_cutoff(true, ctx.host_params.step);
+    }
+    const double uniform = dmin_ == dmax_ ? dmax_ : 0.0;  // all diameters equal: none is read
+    double* disp = disp_.get((D + 1) * n);
+    std::int64_t iterations = 0, rebuilds = 0;
+    std::uint64_t pairs = 0;
+    double correction = 0;
+    for (;;) {
+      const std::uint32_t capacity = list_capacity(s);
+      // The gathers' pair counts are summed in 32 bits: each pair is in two rows.
+      if (std::uint64_t(n) * capacity / 2 >= (std::uint64_t(1) << kBadShift))
+        throw RunError("overlap_correct.verlet: step " + std::to_string(ctx.host_params.step) + ": " +
+                       std::to_string(n) + " particles with rows of " + std::to_string(capacity) +
+                       " neighbours may hold more pairs than the pair counter holds (2^32); lower the cutoff "
+                       "or skin of neighbors.verlet");
+      R* x = s.field(fields::position).data<R>(ctx);
+      const Gather<R, D> gather{x,
+                                s.field(fields::diameter).data<R>(ctx),
+                                s.field(kList).data<std::uint32_t>(ctx),
+                                s.field(kCount).data<std::uint32_t>(ctx),
+                                capacity,
+                                PeriodicBox<double>::make(s.box.L),
+                                p_.mode == "contact" ? 0.5 : 1.0,
+                                p_.cap,
+                                tol_,
+                                1.0 / unit_,
+                                uniform,
+                                disp};
+      const Apply<R, D> apply{x, s.field(fields::image).data<std::int32_t>(ctx), PeriodicBox<R>::make(s.box.L), disp,
+                              1.0 / unit_};
+      for (;;) {  // the correction loop on this list
+        const std::uint64_t c = loops.gather(n, gather, sum_, st);
+        const std::uint64_t bad = c >> kBadShift;
+        if (!bad) break;
+        if (iterations == p_.max_iterations) give_up<D>(ctx, bad);
+        pairs += c & ((std::uint64_t(1) << kBadShift) - 1);
+        correction += double(loops.apply(n, apply, sum_, st)) / kFixedOne * unit_;
+        ++iterations;
+      }
+      if (!builder_.template moved_too_far<D>(ctx, skin_)) break;
+      // A pair the list leaves out may overlap now: rebuild from the positions now, correct again.
+      builder_.template build<D>(ctx, cutoff_ + skin_, where_);
+      ++rebuilds;
+    }
+    ctx.metrics.set("iterations", double(iterations));
+    ctx.metrics.set("pairs", double(pairs));
+    ctx.metrics.set("correction", correction);
+    ctx.metrics.set("list_rebuilds", double(rebuilds));
+    return Outcome::ok();
+  }
+
+  // Every overlapping pair must be in the list: σ_ij ≤ the largest diameter ≤ the cutoff.
+  void check_cutoff(bool running, std::uint64_t step = 0) const {
+    if (cutoff_ >= dmax_) return;
+    const std::string what = "overlap_correct.verlet: neighbors.verlet's cutoff = " + std::to_string(cutoff_) +
+                             " is below the largest diameter " + std::to_string(dmax_) +
+                             ", so overlapping pairs may be missing from the list; set its cutoff to at least " +
+                             std::to_string(dmax_);
+    if (running) throw RunError("step " + std::to_string(step) + ": " + what);
+    throw InputError(what);
+  }
+
+  // The largest and smallest diameter, from the host copy.
+  void measure_diameters(State& s, CUstream_st* st) {
+    Field& d = s.field(fields::diameter);
+    d.acquire(Where::host, Mode::read, st);
+    dmax_ = 0;
+    dmin_ = HUGE_VAL;
+    for (std::size_t i = 0; i < s.n(); ++i) {
+      dmin_ = std::min(dmin_, double(d.host<R>()[i]));
+      dmax_ = std::max(dmax_, double(d.host<R>()[i]));
+    }
+    diameter_version_ = d.version();
+  }
+
+  // The error path: find the worst listed pair on the host (fields are copied there) and stop.
+  template <int D>
+  [[noreturn]] void give_up(StepContext& ctx, std::uint64_t bad) {
+    using namespace neighbors;
+    State& s = ctx.state;
+    for (const Access& a : accesses()) s.field(a.field).acquire(Where::host, Mode::read, ctx.stream);
+    const R* x = s.field(fields::position).host<R>();
+    const R* d = s.field(fields::diameter).host<R>();
+    const std::uint32_t* list = s.field(kList).host<std::uint32_t>();
+    const std::uint32_t* count = s.field(kCount).host<std::uint32_t>();
+    const std::uint32_t capacity = list_capacity(s);
+    const auto box = PeriodicBox<double>::make(s.box.L);
+    std::size_t wa = 0, wb = 0;
+    double worst = -1, wr = 0, ws = 0;
+    for (std::size_t a = 0; a < s.n(); ++a)
+      for (std::uint32_t j = 0; j < std::min(count[a], capacity); ++j) {
+        const std::size_t b = list[a * capacity + j];
+        double r2 = 0;
+        for (int k = 0; k < D; ++k) {
+          const double dk = box.min_image(double(x[D * b + k]) - double(x[D * a + k]), k);
+          r2 += dk * dk;
+        }
+        const double sab = 0.5 * (double(d[a]) + double(d[b])), r = std::sqrt(r2);
+        if (a < b && (sab - r) / sab > worst) {
+          worst = (sab - r) / sab;
+          wa = a;
+          wb = b;
+          wr = r;
+          ws = sab;
+        }
+      }
+    std::ostringstream os;
+    os << "overlap_correct.verlet: step " << ctx.host_params.step << ": " << bad
+       << " pair(s) still overlap by more than tolerance = " << tol_ << " after max_iterations = " << p_.max_iterations
+       << " iterations; the worst is particles " << wa << " and " << wb << " at r = " << wr << " with σ_ij = " << ws
+       << " (overlap " << worst
+       << "·σ_ij). Lower run.dt (smaller moves make fewer, shallower overlaps), raise max_iterations, or lower "
+          "the packing fraction";
+    throw RunError(os.str());
+  }
+
+  Params p_;
+  Where where_;
+  VerletCorrectLoops<R, 2> d2_;
+  VerletCorrectLoops<R, 3> d3_;
+  neighbors::ListBuild<R> builder_;  // the list's rebuild when the pushes moved a particle past skin/2
+  Reduction<std::uint64_t> sum_;     // the word of the backend's sums
+  Scratch<double> disp_;             // N x (D + 1): each iteration's displacements and their lengths
+  double cutoff_ = 0, skin_ = 0;     // neighbors.verlet's, as given (neighbors.build_params)
+  double unit_ = 1;                  // length unit of the fixed-point sums (largest diameter at configure)
+  double dmax_ = 1, dmin_ = 1;       // largest and smallest diameter now
+  std::uint64_t diameter_version_ = 0;
+  double tol_ = 1e-6;
+};
+
+}  // namespace ff::overlap
+
+FLIPFLOW_STAGE(ff::overlap::OverlapCorrectVerlet)
