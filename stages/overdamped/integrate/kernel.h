@@ -103,7 +103,7 @@ struct OverdampedStep {
     for (int k = 0; k < D; ++k) {
       const double d = (by ? double(by[k]) : 0.0) + double(amplitude) * z[k];
       len2 += d * d;
-      start += double(position_in[i * D + k]);
+      start += double((InPlace ? position : position_in)[i * D + k]);  // check runs before the move
     }
     if (len2 <= max_step2 && start - start == 0) return;
     unsigned* slot = len2 - len2 == 0 && start - start == 0 ? too_far : too_far + 2;
