@@ -137,8 +137,8 @@ class Lawson final : public Stage {
     }
     // Round 0's marks, read back: when none is needed nothing is announced to the rollback
     // snapshot (no copy of the topology), and the rounds launch over the exact count. On the
-    // device, when there is no snapshot to take (ctx.snapshot null: every rollback requester ran
-    // before this stage) and round 0 tests at least kSkipReadFrom edges, the read is skipped and
+    // device, when the core says the read-back may wait (ctx.may_defer_read_back(): every
+    // rollback requester ran before this stage, so no snapshot covers its writes) and round 0 tests at least kSkipReadFrom edges, the read is skipped and
     // round 1 launches over round 0's list length, an upper bound of its marks: one wait for the
     // device fewer per step. detect_inversion's candidates fail the in-circle test, so nearly all
     // of them flip (bench-abp: 1171 candidates and 1182 flips a step at N = 2^16, 18,790 and
@@ -150,8 +150,8 @@ class Lawson final : public Stage {
     if (where_ == Where::device) first.reset_next = counters_.next();
     loops_.mark(launch, first, st);
     if (where_ == Where::device && launch > 0) counters_.next_was_reset();
-    // No snapshot to take (every rollback requester ran before this stage): the device may run
-    // every round without the host (`defer`, see the head of this file).
+    // Nothing can roll back this stage's writes (the core's answer): the device may run every
+    // round without the host (`defer`, see the head of this file).
     const bool no_snapshot = where_ == Where::device && ctx.may_defer_read_back();
     const bool defer = no_snapshot && loops_.tail;
     const bool skip_first_read = no_snapshot && launch >= kSkipReadFrom;
