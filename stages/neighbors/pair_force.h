@@ -139,7 +139,7 @@ class PairForceStage final : public Stage {
   template <class T>
   T* data(State& s, const std::string& name) const {
     Field& f = s.field(name);
-    return where_ == Where::device ? f.device<T>() : f.host<T>();
+    return f.data<T>(where_);
   }
 
   Model model_;

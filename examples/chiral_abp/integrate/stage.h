@@ -35,7 +35,7 @@ struct IntegrateParams {
 };
 
 template <class R>
-class Integrate final : public ff::Stage {
+class ChiralAbpIntegrate final : public ff::Stage {
  public:
   static ff::StageDecl declaration() {
     return {"chiral_abp.integrate",
@@ -46,7 +46,7 @@ class Integrate final : public ff::Stage {
 
   // Exec: ff::CpuExec or ff::CudaExec; its overdamped loop draws the noise and calls move().
   template <class Exec>
-  Integrate(const ff::ParamValues& v, const ff::RunInfo& info, Exec)
+  ChiralAbpIntegrate(const ff::ParamValues& v, const ff::RunInfo& info, Exec)
       : p_(ff::params_from<IntegrateParams>(v)),
         seed_(info.seed),
         where_(Exec::where),
@@ -114,4 +114,4 @@ class Integrate final : public ff::Stage {
 
 }  // namespace chiral_abp
 
-FLIPFLOW_STAGE(chiral_abp::Integrate)
+FLIPFLOW_STAGE(chiral_abp::ChiralAbpIntegrate)

@@ -33,7 +33,7 @@ struct IntegrateParams {
 inline int orientation_components(int dim) { return dim == 2 ? 1 : 3; }
 
 template <class R>
-class Integrate final : public Stage {
+class AbpIntegrate final : public Stage {
  public:
   static StageDecl declaration() {
     return {"abp.integrate",
@@ -42,7 +42,7 @@ class Integrate final : public Stage {
   }
 
   template <class Exec>
-  Integrate(const ParamValues& v, const RunInfo& info, Exec)
+  AbpIntegrate(const ParamValues& v, const RunInfo& info, Exec)
       : p_(params_from<IntegrateParams>(v)),
         seed_(info.seed),
         where_(Exec::where),
@@ -83,7 +83,6 @@ class Integrate final : public Stage {
 
   Outcome run(StepContext& ctx) override {
     State& s = ctx.state;
-    const bool dev = where_ == Where::device;
     // Where the previous values are now (the snapshot's copy, or the field itself).
     Field& pos_in = ctx.will_overwrite(fields::position);
     Field& img_in = ctx.will_overwrite(fields::image);
@@ -91,12 +90,12 @@ class Integrate final : public Stage {
     Field& pos = s.field(fields::position);
     Field& img = s.field(fields::image);
     Field& ori = s.field(kOrientation);
-    R* x = dev ? pos.device<R>() : pos.host<R>();
-    std::int32_t* im = dev ? img.device<std::int32_t>() : img.host<std::int32_t>();
-    R* o = dev ? ori.device<R>() : ori.host<R>();
-    const R* x0 = dev ? pos_in.device<R>() : pos_in.host<R>();
-    const std::int32_t* im0 = dev ? img_in.device<std::int32_t>() : img_in.host<std::int32_t>();
-    const R* o0 = dev ? ori_in.device<R>() : ori_in.host<R>();
+    R* x = pos.data<R>(where_);
+    std::int32_t* im = img.data<std::int32_t>(where_);
+    R* o = ori.data<R>(where_);
+    const R* x0 = pos_in.data<R>(where_);
+    const std::int32_t* im0 = img_in.data<std::int32_t>(where_);
+    const R* o0 = ori_in.data<R>(where_);
     const auto box = PeriodicBox<R>::make(s.box.L);
     // Δt, the step and the attempt from ctx.params (the kernels' only way): capturable.
     auto step = [&](auto f) {
@@ -136,4 +135,4 @@ class Integrate final : public Stage {
 
 }  // namespace ff::abp
 
-FLIPFLOW_STAGE(ff::abp::Integrate)
+FLIPFLOW_STAGE(ff::abp::AbpIntegrate)

@@ -63,7 +63,7 @@ IntegrateLoops<R> integrate_loops(Exec) {
 }
 
 template <class R>
-class Integrate final : public Stage {
+class OverdampedIntegrate final : public Stage {
  public:
   static StageDecl declaration() {
     return {"overdamped.integrate", "overdamped Langevin step x += (v + μF)Δt + sqrt(2DΔt)·ξ (per-type μ, D)",
@@ -71,7 +71,7 @@ class Integrate final : public Stage {
   }
 
   template <class Exec>
-  Integrate(const ParamValues& v, const RunInfo& info, Exec)
+  OverdampedIntegrate(const ParamValues& v, const RunInfo& info, Exec)
       : p_(params_from<IntegrateParams>(v)),
         where_(Exec::where),
         loops_(integrate_loops<R>(Exec{})),
@@ -111,16 +111,14 @@ class Integrate final : public Stage {
 
   Outcome run(StepContext& ctx) override {
     State& s = ctx.state;
-    auto ptr = [&](const char* f) { return where_ == Where::device ? s.field(f).device<R>() : s.field(f).host<R>(); };
+    auto ptr = [&](const char* f) { return s.field(f).data<R>(where_); };
     Field& img = s.field(fields::image);
     Field& type = s.field(fields::type);
-    const std::int32_t* t = !per_type() ? nullptr
-                            : where_ == Where::device ? type.device<std::int32_t>()
-                                                      : type.host<std::int32_t>();
+    const std::int32_t* t = per_type() ? type.data<std::int32_t>(where_) : nullptr;
     // The members every configuration sets (in place: position_in and image_in are not read).
     auto common = [&](auto f) {
       f.position = ptr(fields::position);
-      f.image = where_ == Where::device ? img.device<std::int32_t>() : img.host<std::int32_t>();
+      f.image = img.data<std::int32_t>(where_);
       f.position_in = nullptr;
       f.image_in = nullptr;
       f.type = nullptr;
@@ -140,8 +138,7 @@ class Integrate final : public Stage {
       f.drift.velocity = reads_velocity_ ? ptr(kVelocity) : nullptr;
       f.drift.force = reads_force_ ? ptr(kForce) : nullptr;
       if (p_.max_step > 0) {
-        f.too_far = where_ == Where::device ? s.field(too_far_field_).device<unsigned>()
-                                            : s.field(too_far_field_).host<unsigned>();
+        f.too_far = s.field(too_far_field_).data<unsigned>(where_);
         f.max_step2 = p_.max_step * p_.max_step;
       }
       return f;
@@ -240,4 +237,4 @@ class Integrate final : public Stage {
 
 }  // namespace ff::overdamped
 
-FLIPFLOW_STAGE(ff::overdamped::Integrate)
+FLIPFLOW_STAGE(ff::overdamped::OverdampedIntegrate)
