@@ -112,6 +112,25 @@ TEST_CASE("two unordered stages writing the same field are refused", "[scheduler
   CHECK_NOTHROW(Simulation(s, *r, dry()));
 }
 
+TEST_CASE("a stage that overwrites what an earlier stage wrote, unread, is refused", "[scheduler]") {
+  // Two force stages each writing `force` would not add up: only the last would count.
+  auto r = test::registry_with({}, {"testing"});
+  auto s = test::spec(2, 16, 0.1, 1, 0.01,
+                      {entry(*r, "testing.record", {{"writes", std::string("position")}}, {"first"}),
+                       entry(*r, "testing.record", {{"overwrites", std::string("position")}}, {"second"})});
+  CHECK_THROWS_WITH(Simulation(s, *r, dry()),
+                    Catch::Contains("step 'second' overwrites field 'position', which step 'first' wrote") &&
+                        Catch::Contains("only the last one counts"));
+  // A stage in between that reads it (an integrator reading the force) makes both writes count.
+  s.step.insert(s.step.begin() + 1, entry(*r, "testing.record", {{"reads", std::string("position")}}, {"reader"}));
+  CHECK_NOTHROW(Simulation(s, *r, dry()));
+  // So does a second writer that adds to it (reads it too: Mode::readwrite).
+  s.step.erase(s.step.begin() + 1);
+  s.step[1].params.set("overwrites", std::string());
+  s.step[1].params.set("writes", std::string("position"));
+  CHECK_NOTHROW(Simulation(s, *r, dry()));
+}
+
 TEST_CASE("`every: k` runs a stage only on multiples of k", "[scheduler]") {
   auto r = test::registry_with({}, {"testing"});
   auto s = test::spec(2, 16, 0.1, 7, 0.01,

@@ -49,6 +49,35 @@ StepGraph::StepGraph(const PipelineSpec& spec, std::vector<std::vector<Access>> 
         if (reach_[a][p]) reach_[a][b] = true;
     }
   check_conflicts();
+  check_overwrites();
+}
+
+// A stage that overwrites a field (Mode::write) another stage wrote earlier in the step, with
+// nothing reading it in between, throws the first stage's work away: two force stages that each
+// write `force` would not add up, only the last would count. Refused, naming both.
+void StepGraph::check_overwrites() const {
+  auto touches = [](const GraphNode& n, const std::string& f, bool reading) {
+    for (auto& x : n.accesses)
+      if (x.field == f && (reading ? reads(x.mode) : writes(x.mode)) && !x.step_local) return true;
+    return false;
+  };
+  for (std::size_t b = 0; b < nodes_.size(); ++b) {
+    if (nodes_[b].observer) continue;
+    for (auto& y : nodes_[b].accesses) {
+      if (y.mode != Mode::write || y.step_local || touches(nodes_[b], y.field, true)) continue;
+      for (std::size_t a = 0; a < nodes_.size(); ++a) {
+        if (nodes_[a].observer || !reach_[a][b] || !touches(nodes_[a], y.field, false)) continue;
+        bool read_between = false;
+        for (std::size_t c = 0; c < nodes_.size() && !read_between; ++c)
+          read_between = !nodes_[c].observer && reach_[a][c] && reach_[c][b] && touches(nodes_[c], y.field, true);
+        if (read_between) continue;
+        throw InputError(nodes_[b].where.str() + ": step '" + nodes_[b].id + "' overwrites field '" + y.field +
+                         "', which step '" + nodes_[a].id + "' wrote earlier in the step and no stage in between reads: '" +
+                         nodes_[a].id + "' would do nothing (two stages writing '" + y.field +
+                         "' do not add up; only the last one counts)");
+      }
+    }
+  }
 }
 
 void StepGraph::check_conflicts() const {

@@ -49,6 +49,7 @@ class StepGraph {
 
  private:
   void check_conflicts() const;
+  void check_overwrites() const;
   std::vector<GraphNode> nodes_;
   std::vector<std::vector<bool>> reach_;
 };

@@ -91,10 +91,12 @@ class Barrier final : public Stage {
 std::atomic<int> g_order{0};
 class Record final : public Stage {
  public:
-  explicit Record(const ParamValues& v) : writes_(v.string("writes")), reads_(v.string("reads")) {}
+  explicit Record(const ParamValues& v)
+      : writes_(v.string("writes")), overwrites_(v.string("overwrites")), reads_(v.string("reads")) {}
   std::vector<Access> accesses() const override {
     std::vector<Access> a;
     if (!writes_.empty()) a.push_back({writes_, Where::host, Mode::readwrite});
+    if (!overwrites_.empty()) a.push_back({overwrites_, Where::host, Mode::write});
     if (!reads_.empty()) a.push_back({reads_, Where::host, Mode::read});
     return a;
   }
@@ -107,7 +109,7 @@ class Record final : public Stage {
   void after_step(StepContext& ctx) override { ctx.metrics.set("after", g_order.fetch_add(1)); }
 
  private:
-  std::string writes_, reads_;
+  std::string writes_, overwrites_, reads_;
 };
 
 // testing.count: adds 1 to every element of the field `testing.count` (created here, f64, N)
@@ -165,6 +167,7 @@ void register_testing(Registry& r) {
   r.implement("testing.barrier", Backend::cpu, factory<Barrier>());
   r.declare({"testing.record", "records the order stages ran in (tests only)",
              {ParamSpec::string("writes", std::string(), "field to declare as written"),
+              ParamSpec::string("overwrites", std::string(), "field to declare as written whole (Mode::write)"),
               ParamSpec::string("reads", std::string(), "field to declare as read")},
              {2, 3}, false});
   r.implement("testing.record", Backend::cpu, factory<Record>());
