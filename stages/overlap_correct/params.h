@@ -4,6 +4,7 @@
 #pragma once
 #include <algorithm>
 #include <cfloat>
+#include <cmath>
 #include <cstdint>
 #include <string>
 
@@ -47,5 +48,27 @@ inline double tolerance_for(const Params& p, const State& s, double dmin) {
   }
   return tol;
 }
+
+// The smallest and largest particle diameter, read from the host copy, and the diameter field's
+// version when read: both corrections re-read them only when something wrote the field since.
+struct DiameterRange {
+  double min = 1, max = 1;
+  std::uint64_t version = 0;
+
+  template <class R>
+  void measure(State& s, CUstream_st* stream) {
+    Field& d = s.field(fields::diameter);
+    d.acquire(Where::host, Mode::read, stream);
+    const R* x = d.host<R>();
+    max = 0;
+    min = HUGE_VAL;
+    for (std::size_t i = 0; i < s.n(); ++i) {
+      min = std::min(min, double(x[i]));
+      max = std::max(max, double(x[i]));
+    }
+    version = d.version();
+  }
+  bool stale(State& s) const { return s.field(fields::diameter).version() != version; }
+};
 
 }  // namespace ff::overlap

@@ -96,10 +96,10 @@ class OverlapCorrect final : public Stage {
                          "'), which no stage before it provides: put the delaunay stages before it in `step:` "
                          "(delaunay.detect_inversion, delaunay.flip, delaunay.lawson after the integrator, or "
                          "delaunay.build)");
-    measure_diameters(s, nullptr);
-    if (!(dmin_ > 0)) throw InputError("overlap_correct: every particle needs a positive diameter");
-    unit_ = dmax_;
-    tol_ = tolerance_for(p_, s, dmin_);
+    diam_.template measure<R>(s, nullptr);
+    if (!(diam_.min > 0)) throw InputError("overlap_correct: every particle needs a positive diameter");
+    unit_ = diam_.max;
+    tol_ = tolerance_for(p_, s, diam_.min);
   }
 
   Outcome run(StepContext& ctx) override {
@@ -115,10 +115,10 @@ class OverlapCorrect final : public Stage {
     const R* diam = s.field(fields::diameter).data<R>(ctx);
     const std::int32_t* he = s.field(delaunay::fields::halfedge).data<std::int32_t>(ctx);
     const std::int32_t* ve = s.field(delaunay::fields::vertex_edge).data<std::int32_t>(ctx);
-    if (s.field(fields::diameter).version() != diameter_version_)  // written since: measure again
-      measure_diameters(s, st);
-    const double uniform = dmin_ == dmax_ ? dmax_ : 0.0;  // all diameters equal: none is read
-    const Overlaps<R> overlaps{x, diam, he, ve, std::int32_t(n), dmax_ * dmax_, PeriodicBox<double>::make(s.box.L),
+    if (diam_.stale(s))  // written since: measure again
+      diam_.template measure<R>(s, st);
+    const double uniform = diam_.min == diam_.max ? diam_.max : 0.0;  // all diameters equal: none is read
+    const Overlaps<R> overlaps{x, diam, he, ve, std::int32_t(n), diam_.max * diam_.max, PeriodicBox<double>::make(s.box.L),
                        p_.mode == "contact" ? 0.5 : 1.0, p_.cap, tol_, 1.0 / unit_, uniform};
     const Problem<R> prob{overlaps, x, img, PeriodicBox<R>::make(s.box.L), n};
 
@@ -157,19 +157,6 @@ class OverlapCorrect final : public Stage {
   double effective_tolerance() const { return tol_; }
 
  private:
-  // The largest diameter (the edge passes' reach) and the smallest, from the host copy.
-  void measure_diameters(State& s, CUstream_st* st) {
-    Field& d = s.field(fields::diameter);
-    d.acquire(Where::host, Mode::read, st);
-    dmax_ = 0;
-    dmin_ = HUGE_VAL;
-    for (std::size_t i = 0; i < s.n(); ++i) {
-      dmin_ = std::min(dmin_, double(d.host<R>()[i]));
-      dmax_ = std::max(dmax_, double(d.host<R>()[i]));
-    }
-    diameter_version_ = d.version();
-  }
-
   // The error path: find the worst pair on the host (fields are copied there) and stop.
   [[noreturn]] void give_up(StepContext& ctx, std::uint64_t bad) {
     State& s = ctx.state;
@@ -207,9 +194,7 @@ class OverlapCorrect final : public Stage {
   std::unique_ptr<OverlapCorrectLoops<R>> loops_;
   Batch batch_;
   double unit_ = 1;  // length unit of the fixed-point correction counter (largest diameter)
-  double dmax_ = 1;  // largest diameter now
-  double dmin_ = 1;  // smallest diameter now (equal to dmax_: the walks read no diameters)
-  std::uint64_t diameter_version_ = 0;
+  DiameterRange diam_;  // min equal to max: the walks read no diameters
   double tol_ = 1e-6;
 };
 

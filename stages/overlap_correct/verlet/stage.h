@@ -83,11 +83,11 @@ class OverlapCorrectVerlet final : public Stage {
     bp.acquire(Where::host, Mode::read);
     cutoff_ = bp.host<double>()[0];
     skin_ = bp.host<double>()[1];
-    measure_diameters(s, nullptr);
-    if (!(dmin_ > 0)) throw InputError("overlap_correct.verlet: every particle needs a positive diameter");
+    diam_.template measure<R>(s, nullptr);
+    if (!(diam_.min > 0)) throw InputError("overlap_correct.verlet: every particle needs a positive diameter");
     check_cutoff(false);
-    unit_ = dmax_;
-    tol_ = tolerance_for(p_, s, dmin_);
+    unit_ = diam_.max;
+    tol_ = tolerance_for(p_, s, diam_.min);
     if (builder_.set_grid(s, cutoff_ + skin_) != s.field(kCellStart).count())
       throw InputError("overlap_correct.verlet: the cell grid of neighbors.verlet's list is not the one its cutoff "
                        "and skin give; the list was made by another stage than neighbors.verlet");
@@ -105,11 +105,11 @@ class OverlapCorrectVerlet final : public Stage {
     State& s = ctx.state;
     CUstream_st* st = ctx.stream;
     const std::size_t n = s.n();
-    if (s.field(fields::diameter).version() != diameter_version_) {  // written since: measure again
-      measure_diameters(s, st);
+    if (diam_.stale(s)) {  // written since: measure again
+      diam_.template measure<R>(s, st);
       check_cutoff(true, ctx.host_params.step);
     }
-    const double uniform = dmin_ == dmax_ ? dmax_ : 0.0;  // all diameters equal: none is read
+    const double uniform = diam_.min == diam_.max ? diam_.max : 0.0;  // all diameters equal: none is read
     double* disp = disp_.get((D + 1) * n);
     std::int64_t iterations = 0, rebuilds = 0;
     std::uint64_t pairs = 0;
@@ -160,26 +160,13 @@ class OverlapCorrectVerlet final : public Stage {
 
   // Every overlapping pair must be in the list: σ_ij ≤ the largest diameter ≤ the cutoff.
   void check_cutoff(bool running, std::uint64_t step = 0) const {
-    if (cutoff_ >= dmax_) return;
+    if (cutoff_ >= diam_.max) return;
     const std::string what = "overlap_correct.verlet: neighbors.verlet's cutoff = " + std::to_string(cutoff_) +
-                             " is below the largest diameter " + std::to_string(dmax_) +
+                             " is below the largest diameter " + std::to_string(diam_.max) +
                              ", so overlapping pairs may be missing from the list; set its cutoff to at least " +
-                             std::to_string(dmax_);
+                             std::to_string(diam_.max);
     if (running) throw RunError("step " + std::to_string(step) + ": " + what);
     throw InputError(what);
-  }
-
-  // The largest and smallest diameter, from the host copy.
-  void measure_diameters(State& s, CUstream_st* st) {
-    Field& d = s.field(fields::diameter);
-    d.acquire(Where::host, Mode::read, st);
-    dmax_ = 0;
-    dmin_ = HUGE_VAL;
-    for (std::size_t i = 0; i < s.n(); ++i) {
-      dmin_ = std::min(dmin_, double(d.host<R>()[i]));
-      dmax_ = std::max(dmax_, double(d.host<R>()[i]));
-    }
-    diameter_version_ = d.version();
   }
 
   // The error path: find the worst listed pair on the host (fields are copied there) and stop.
@@ -232,8 +219,7 @@ class OverlapCorrectVerlet final : public Stage {
   Scratch<double> disp_;             // N x (D + 1): each iteration's displacements and their lengths
   double cutoff_ = 0, skin_ = 0;     // neighbors.verlet's, as given (neighbors.build_params)
   double unit_ = 1;                  // length unit of the fixed-point sums (largest diameter at configure)
-  double dmax_ = 1, dmin_ = 1;       // largest and smallest diameter now
-  std::uint64_t diameter_version_ = 0;
+  DiameterRange diam_;  // largest and smallest diameter now
   double tol_ = 1e-6;
 };
 
