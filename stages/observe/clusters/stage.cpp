@@ -12,6 +12,7 @@
 #include <sstream>
 
 #include "core/base/error.h"
+#include "stages/observe/cell_grid.h"
 #include "stages/delaunay/common/fields.h"
 #include "stages/delaunay/common/mesh_check.h"
 #include "stages/neighbors/list.h"
@@ -33,18 +34,6 @@ void read_real(const Field& f, std::vector<double>& out) {
     to_double<float>(f, out);
   else
     to_double<double>(f, out);
-}
-
-// The distinct cells c−1, c, c+1 along an axis of `nc` cells (all of them when nc < 3).
-int neighbor_cells(int c, int nc, int out[3]) {
-  if (nc < 3) {
-    for (int k = 0; k < nc; ++k) out[k] = k;
-    return nc;
-  }
-  out[0] = (c + nc - 1) % nc;
-  out[1] = c;
-  out[2] = (c + 1) % nc;
-  return 3;
 }
 
 // Rows from per-particle counts (start[i + 1] = count of row i) filled by `fill(i, row)`.
@@ -99,43 +88,14 @@ PairRows cell_pairs(const ClusterFrame& f, double r) {
     const double shrink = std::pow(total / limit, 1.0 / dim);
     for (int k = 0; k < dim; ++k) nc[k] = std::max(1, int(std::floor(nc[k] / shrink)));
   }
-  const std::size_t ncells = std::size_t(nc[0]) * nc[1] * nc[2];
-  std::vector<int> cell_of(n * 3, 0);
-  std::vector<std::uint32_t> start(ncells + 1, 0), order(n);
-  std::vector<std::size_t> lin(n);
-  for (std::size_t i = 0; i < n; ++i) {
-    std::size_t l = 0;
-    for (int k = dim - 1; k >= 0; --k) {
-      int c = int(f.x[i * dim + k] / f.L[k] * nc[k]);
-      c = std::min(std::max(c, 0), nc[k] - 1);
-      cell_of[i * 3 + k] = c;
-      l = l * std::size_t(nc[k]) + std::size_t(c);
-    }
-    lin[i] = l;
-    ++start[l + 1];
-  }
-  for (std::size_t c = 0; c < ncells; ++c) start[c + 1] += start[c];
-  {
-    std::vector<std::uint32_t> fill(start.begin(), start.end() - 1);
-    for (std::size_t i = 0; i < n; ++i) order[fill[lin[i]]++] = std::uint32_t(i);
-  }
+  const CellGrid grid(f.x.data(), n, dim, f.L, nc);
   const double r2 = r * r;
   // Visits the particles of the 3^dim cells around i closer than r (minimum image), i excluded.
   auto each = [&](std::size_t i, auto&& emit) {
     if (!f.takes_part[i]) return;
-    int cx[3], cy[3], cz[3] = {0, 0, 0};
-    const int nx = neighbor_cells(cell_of[i * 3], nc[0], cx);
-    const int ny = neighbor_cells(cell_of[i * 3 + 1], nc[1], cy);
-    const int nz = dim == 3 ? neighbor_cells(cell_of[i * 3 + 2], nc[2], cz) : 1;
-    for (int a = 0; a < nz; ++a)
-      for (int b = 0; b < ny; ++b)
-        for (int c = 0; c < nx; ++c) {
-          const std::size_t cell = (std::size_t(cz[a]) * nc[1] + std::size_t(cy[b])) * nc[0] + std::size_t(cx[c]);
-          for (std::uint32_t p = start[cell]; p < start[cell + 1]; ++p) {
-            const std::size_t j = order[p];
-            if (j != i && f.takes_part[j] && distance2(f, i, j) < r2) emit(std::uint32_t(j));
-          }
-        }
+    grid.for_each_candidate(i, [&](std::size_t j) {
+      if (j != i && f.takes_part[j] && distance2(f, i, j) < r2) emit(std::uint32_t(j));
+    });
   };
   return make_rows(
       n,

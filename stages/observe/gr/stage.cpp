@@ -11,23 +11,12 @@
 #include <sstream>
 
 #include "core/base/error.h"
+#include "stages/observe/cell_grid.h"
 
 namespace ff::observe {
 
 namespace {
 constexpr double pi = 3.14159265358979323846;
-
-// The distinct cells c−1, c, c+1 along an axis of `nc` cells (all of them when nc < 3).
-int neighbor_cells(int c, int nc, int out[3]) {
-  if (nc < 3) {
-    for (int k = 0; k < nc; ++k) out[k] = k;
-    return nc;
-  }
-  out[0] = (c + nc - 1) % nc;
-  out[1] = c;
-  out[2] = (c + 1) % nc;
-  return 3;
-}
 
 template <class R>
 void to_double(const Field& f, std::vector<double>& out) {
@@ -41,55 +30,24 @@ void count_pairs(const std::vector<double>& xyz, int dim, const double* L, const
   const std::size_t n = xyz.size() / std::size_t(dim);
   const std::size_t bins = hist.size();
   const double dr = r_max / double(bins), inv_dr = 1.0 / dr, r2max = r_max * r_max;
-  const int nc[3] = {cells[0], cells[1], dim == 3 ? cells[2] : 1};
-  const std::size_t ncells = std::size_t(nc[0]) * nc[1] * nc[2];
-  // Cell of each particle, then a counting sort: particles of cell c are order[start[c] .. start[c+1]).
-  std::vector<int> cell_of(n * 3);
-  std::vector<std::uint32_t> start(ncells + 1, 0), order(n);
-  std::vector<std::size_t> lin(n);
-  for (std::size_t i = 0; i < n; ++i) {
-    std::size_t l = 0;
-    for (int k = dim - 1; k >= 0; --k) {
-      int c = int(xyz[i * dim + k] / L[k] * nc[k]);
-      c = std::min(std::max(c, 0), nc[k] - 1);
-      cell_of[i * 3 + k] = c;
-      l = l * std::size_t(nc[k]) + std::size_t(c);
-    }
-    lin[i] = l;
-    ++start[l + 1];
-  }
-  for (std::size_t c = 0; c < ncells; ++c) start[c + 1] += start[c];
-  {
-    std::vector<std::uint32_t> fill(start.begin(), start.end() - 1);
-    for (std::size_t i = 0; i < n; ++i) order[fill[lin[i]]++] = std::uint32_t(i);
-  }
+  const CellGrid grid(xyz.data(), n, dim, L, cells);
   using Hist = std::vector<std::uint64_t>;
   const Hist frame = tbb::parallel_reduce(
       tbb::blocked_range<std::size_t>(0, n, 512), Hist(bins, 0),
       [&](const tbb::blocked_range<std::size_t>& r, Hist h) {
         for (std::size_t i = r.begin(); i != r.end(); ++i) {
-          int cx[3], cy[3], cz[3] = {0, 0, 0};
-          const int nx = neighbor_cells(cell_of[i * 3], nc[0], cx);
-          const int ny = neighbor_cells(cell_of[i * 3 + 1], nc[1], cy);
-          const int nz = dim == 3 ? neighbor_cells(cell_of[i * 3 + 2], nc[2], cz) : 1;
-          for (int a = 0; a < nz; ++a)
-            for (int b = 0; b < ny; ++b)
-              for (int c = 0; c < nx; ++c) {
-                const std::size_t cell = (std::size_t(cz[a]) * nc[1] + std::size_t(cy[b])) * nc[0] + std::size_t(cx[c]);
-                for (std::uint32_t p = start[cell]; p < start[cell + 1]; ++p) {
-                  const std::size_t j = order[p];
-                  if (j <= i) continue;
-                  double r2 = 0;
-                  for (int k = 0; k < dim; ++k) {
-                    double d = xyz[j * dim + k] - xyz[i * dim + k];
-                    d -= L[k] * std::rint(d / L[k]);
-                    r2 += d * d;
-                  }
-                  if (r2 >= r2max) continue;
-                  const std::size_t bin = std::size_t(std::sqrt(r2) * inv_dr);
-                  if (bin < bins) ++h[bin];
-                }
-              }
+          grid.for_each_candidate(i, [&](std::size_t j) {
+            if (j <= i) return;
+            double r2 = 0;
+            for (int k = 0; k < dim; ++k) {
+              double d = xyz[j * dim + k] - xyz[i * dim + k];
+              d -= L[k] * std::rint(d / L[k]);
+              r2 += d * d;
+            }
+            if (r2 >= r2max) return;
+            const std::size_t bin = std::size_t(std::sqrt(r2) * inv_dr);
+            if (bin < bins) ++h[bin];
+          });
         }
         return h;
       },
