@@ -22,6 +22,7 @@
 // plugins/harmonic/forces is the worked example (docs/writing-a-model.md). nvcc-clean.
 #pragma once
 #include <algorithm>
+#include <array>
 #include <cstdint>
 #include <string>
 #include <utility>
@@ -29,6 +30,7 @@
 
 #include "core/backend/atomics.h"
 #include "core/backend/exec.h"
+#include "core/backend/memory.h"
 #include "core/base/error.h"
 #include "core/base/hd.h"
 #include "core/physics/box.h"
@@ -81,13 +83,13 @@ class PairForceStage final : public Stage {
 
   template <class Exec>
   PairForceStage(const ParamValues& v, const RunInfo&, Exec)
-      : model_(params_from<Model>(v)), where_(Exec::where), pairs_(std::string(Model::name) + ".pairs"),
+      : model_(params_from<Model>(v)), where_(Exec::where), pairs_(Exec{}),
         loop2_(&Exec::template for_each<Kernel<2>>), loop3_(&Exec::template for_each<Kernel<3>>) {}
 
   std::vector<Access> accesses() const override {
     return {{fields::position, where_, Mode::read}, {fields::diameter, where_, Mode::read},
             {kList, where_, Mode::read},            {kCount, where_, Mode::read},
-            {kForce, where_, Mode::write},          Access::step_local_write(pairs_, Where::host)};
+            {kForce, where_, Mode::write}};
   }
 
   void configure(State& s) override {
@@ -108,24 +110,22 @@ class PairForceStage final : public Stage {
                        " of the force between the largest particles; raise neighbors.verlet's `cutoff` to at "
                        "least it (or shrink system.sigma)");
     if (!s.has_field(kForce)) s.add_particle_field(kForce, s.real(), s.dim());  // overdamped.integrate checks its shape
-    s.add_field(pairs_, DType::u32, 1, 1);
   }
 
+  // The pair count is read back after the step (after_step), so the stages after this one queue
+  // behind its kernel instead of waiting for the host.
   Outcome run(StepContext& ctx) override {
-    Field& pairs = ctx.state.field(pairs_);
-    pairs.acquire(Where::host, Mode::write);
-    pairs.host<unsigned>()[0] = 0;
-    pairs.acquire(where_, Mode::readwrite, ctx.stream);
+    pairs_.reset(std::array<int, 0>{}, ctx.stream);
     if (ctx.state.dim() == 2) launch<2>(ctx, loop2_);
     else launch<3>(ctx, loop3_);
-    pairs.acquire(Where::host, Mode::read, ctx.stream);
-    ctx.metrics.set("pairs", pairs.host<unsigned>()[0]);
+    pairs_.start_read(ctx.stream);
     return Outcome::ok();
   }
+  void after_step(StepContext& ctx) override { ctx.metrics.set("pairs", pairs_.finish_read()[0]); }
 
  private:
   template <int D>
-  void launch(StepContext& ctx, ElementLoop<Kernel<D>> loop) const {
+  void launch(StepContext& ctx, ElementLoop<Kernel<D>> loop) {
     State& s = ctx.state;
     Kernel<D> f = model_.template kernel<R, D>();
     f.sys = {data<R>(s, fields::position),
@@ -133,7 +133,7 @@ class PairForceStage final : public Stage {
              data<R>(s, kForce),
              {data<std::uint32_t>(s, kList), data<std::uint32_t>(s, kCount), list_capacity(s)},
              PeriodicBox<R>::make(s.box.L),
-             data<unsigned>(s, pairs_)};
+             pairs_.ptr()};
     loop(s.n(), f, ctx.stream);
   }
   template <class T>
@@ -144,7 +144,7 @@ class PairForceStage final : public Stage {
 
   Model model_;
   Where where_;
-  std::string pairs_;  // the field behind the `pairs` metric: <name>.pairs
+  Counters<1> pairs_;  // the `pairs` metric, on the stage's side
   ElementLoop<Kernel<2>> loop2_;
   ElementLoop<Kernel<3>> loop3_;
 };
