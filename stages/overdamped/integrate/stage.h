@@ -6,9 +6,11 @@
 // (one number for every type, or one per entry of system.types). brownian.integrate and
 // phoretic.integrate are this stage with drift none / velocity.
 #pragma once
+#include <array>
 #include <cmath>
 #include <string>
 
+#include "core/backend/memory.h"
 #include "core/base/error.h"
 #include "core/stage/params.h"
 #include "core/stage/stage.h"
@@ -76,7 +78,7 @@ class OverdampedIntegrate final : public Stage {
         where_(Exec::where),
         loops_(integrate_loops<R>(Exec{})),
         id_(info.stage_id),
-        too_far_field_("overdamped.too_far." + info.stage_id) {}
+        too_far_(Exec{}) {}
 
   void configure(State& s) override {
     const bool want_v = p_.drift == "velocity" || p_.drift == "velocity+force";
@@ -97,7 +99,6 @@ class OverdampedIntegrate final : public Stage {
     types_ = s.species.empty() ? 1 : s.species.size();
     check_per_type("D", p_.D);
     check_per_type("mobility", p_.mobility);
-    if (p_.max_step > 0) s.add_field(too_far_field_, DType::u32, 4, 1);
   }
 
   std::vector<Access> accesses() const override {
@@ -105,7 +106,6 @@ class OverdampedIntegrate final : public Stage {
     if (reads_velocity_) a.push_back({kVelocity, where_, Mode::read});
     if (reads_force_) a.push_back({kForce, where_, Mode::read});
     if (per_type()) a.push_back({fields::type, where_, Mode::read});
-    if (p_.max_step > 0) a.push_back(Access::step_local_write(too_far_field_, Where::host));
     return a;
   }
 
@@ -138,20 +138,13 @@ class OverdampedIntegrate final : public Stage {
       f.drift.velocity = reads_velocity_ ? ptr(kVelocity) : nullptr;
       f.drift.force = reads_force_ ? ptr(kForce) : nullptr;
       if (p_.max_step > 0) {
-        f.too_far = s.field(too_far_field_).data<unsigned>(where_);
+        f.too_far = too_far_.ptr();
         f.max_step2 = p_.max_step * p_.max_step;
       }
       return f;
     };
-    if (p_.max_step > 0) {  // zeroed on the host, then on the loop's side
-      Field& c = s.field(too_far_field_);
-      c.acquire(Where::host, Mode::write);
-      for (int k : {0, 2}) {
-        c.host<unsigned>()[k] = 0;
-        c.host<unsigned>()[k + 1] = ~0u;
-      }
-      c.acquire(where_, Mode::readwrite, ctx.stream);
-    }
+    // Counts start at 0, first particles at ~0u (they keep a minimum): fills on the loop's side.
+    if (p_.max_step > 0) too_far_.reset(std::array<int, 2>{1, 3}, ctx.stream);
     const std::size_t n = s.n();
     if (s.dim() == 2) {
       if (is_general()) loops_.general2(n, general(OverdampedStep<R, 2, true, FieldDrift<R, 2>>{}), ctx.stream);
@@ -177,10 +170,9 @@ class OverdampedIntegrate final : public Stage {
 
  private:
   Outcome too_far(StepContext& ctx) {
-    Field& c = ctx.state.field(too_far_field_);
-    c.acquire(Where::host, Mode::read, ctx.stream);
-    if (c.host<unsigned>()[2]) not_finite(ctx, c.host<unsigned>()[2], c.host<unsigned>()[3]);
-    const unsigned count = c.host<unsigned>()[0], first = c.host<unsigned>()[1];
+    const std::array<unsigned, 4>& c = too_far_.read(ctx.stream);
+    if (c[2]) not_finite(ctx, c[2], c[3]);
+    const unsigned count = c[0], first = c[1];
     if (!count) return Outcome::ok();
     return Outcome::request_rollback("overdamped.integrate: " + std::to_string(count) +
                                          " particle(s) would move farther than max_step = " +
@@ -230,7 +222,7 @@ class OverdampedIntegrate final : public Stage {
   Where where_;
   IntegrateLoops<R> loops_;
   std::string id_;             // the stage's id, for messages
-  std::string too_far_field_;  // u32 x 4: max_step's count and first particle; non-finite ones'
+  Counters<4> too_far_;        // max_step's count and first particle; non-finite ones'
   bool reads_velocity_ = false, reads_force_ = false;
   std::size_t types_ = 1;
 };
