@@ -30,6 +30,9 @@ void DeviceBuffer::upload(const void* host, std::size_t bytes, CUstream_st* stre
   if (!stream) {
     FF_CUDA_CHECK(cudaDeviceSynchronize(), "waiting for the device before a field copy");
     FF_CUDA_CHECK(cudaMemcpy(ptr_, host, bytes, cudaMemcpyHostToDevice), "copying a field to the device");
+    // From pageable memory cudaMemcpy may return once the data is staged, before it lands: wait,
+    // so that work queued next on a non-blocking stream reads the new values.
+    FF_CUDA_CHECK(cudaDeviceSynchronize(), "copying a field to the device");
     return;
   }
   FF_CUDA_CHECK(cudaMemcpyAsync(ptr_, host, bytes, cudaMemcpyHostToDevice, stream),

@@ -29,6 +29,12 @@ void* dev_alloc(std::size_t bytes) {
   void* p = nullptr;
   FF_CUDA_CHECK(cudaMalloc(&p, bytes), "allocating stage scratch memory");
   FF_CUDA_CHECK(cudaMemset(p, 0, bytes), "clearing stage scratch memory");
+  // cudaMemset runs on the legacy default stream, which the flipflow streams (non-blocking) do
+  // not order with, and may return before it is done: without this wait a fill or kernel queued
+  // next on a step stream can run first and have its values zeroed under it. That happened on a
+  // GPU shared with other processes (detect_inversion's minimum slots, set to ~0u by reset(),
+  // cleared to 0 afterwards). Allocations are rare (first use, growth), so the wait is cheap.
+  FF_CUDA_CHECK(cudaDeviceSynchronize(), "clearing stage scratch memory");
   return p;
 }
 void dev_release(void* p) {
