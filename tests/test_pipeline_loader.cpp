@@ -11,6 +11,7 @@
 
 #include "core/base/error.h"
 #include "core/input/pipeline_loader.h"
+#include "core/run/plugin_loader.h"
 
 namespace {
 
@@ -316,4 +317,32 @@ TEST_CASE("malformed overrides are input errors", "[pipeline_loader]") {
   const auto spec = ff::PipelineDocument::parse_string(kMinimal, "m.yaml", {"step.lawson.a.max_rounds=4"})
                         .resolve(registry());
   CHECK(spec.step[1].params.integer("max_rounds") == 4);
+}
+
+// Issue 19, item 6: a plugin that is not found is reported where the file names it, so the
+// user knows which entry to fix (PipelineDocument::plugin_location, find_plugins).
+TEST_CASE("a missing plugin is reported at its place in the file", "[pipeline_loader]") {
+  const std::string text =
+      "system: {dimensions: 2, N: 10, packing_fraction: 0.1}\n"
+      "run: {steps: 1, dt: 0.01}\n"
+      "plugins:\n"
+      "  - first\n"
+      "  - no_such_model\n"
+      "step:\n"
+      "  - {stage: fake.integrate}\n";
+  auto doc = ff::PipelineDocument::parse_string(text, "p.yaml");
+  CHECK(doc.plugin_location(0) == "p.yaml:4:5: plugins[0]");
+  CHECK(doc.plugin_location(1) == "p.yaml:5:5: plugins[1]");
+  // The flow form, and a name that --set put there.
+  auto flow = ff::PipelineDocument::parse_string("system: {N: 10}\nrun: {steps: 1}\nplugins: [a, bb]\nstep: []\n", "f.yaml");
+  CHECK(flow.plugin_location(1) == "f.yaml:3:14: plugins[1]");
+  auto set = ff::PipelineDocument::parse_string(text, "p.yaml", {"plugins=[zz]"});
+  CHECK_THAT(set.plugin_location(0), StartsWith("--set plugins=[zz]: plugins[0]"));
+  // find_plugins puts the location before find_plugin's message (which lists the search path).
+  const std::vector<std::string> path = {"/nonexistent-plugin-dir"};
+  CHECK_THROWS_WITH(ff::find_plugins({"no_such_model"}, path, [&](std::size_t) { return doc.plugin_location(1); }),
+                    StartsWith("p.yaml:5:5: plugins[1]: plugin 'no_such_model' not found") &&
+                        Contains("/nonexistent-plugin-dir"));
+  // Without a location (a caller that has none) the message is find_plugin's own.
+  CHECK_THROWS_WITH(ff::find_plugins({"no_such_model"}, path, {}), StartsWith("plugin 'no_such_model' not found"));
 }

@@ -146,3 +146,39 @@ TEST_CASE("tools/render plots a 3D run's aggregates on a log time axis and draws
   }
   fs::remove_all(dir);
 }
+
+TEST_CASE("tools/render colours by a per-particle field (voronoi.area, voronoi.sides) and draws Voronoi cells",
+          "[cli][render][voronoi]") {
+  if (!have_plotting() || std::system("/usr/bin/python3 -c 'import scipy' >/dev/null 2>&1") != 0) {
+    WARN("SKIPPED (no numpy/h5py/matplotlib/scipy in /usr/bin/python3): tools/render --voronoi");
+    return;
+  }
+  const fs::path dir = fs::temp_directory_path() / ("ff_render_vor_" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  const std::string render = "/usr/bin/python3 " + repo_file("tools/render").string();
+  auto run = sh(pipeline_exe() + " run " + repo_file("pipelines/voronoi-hard-disks.yaml").string() +
+                    " --device cpu --set run.steps=100 --set system.N=400 --out " + (dir / "run").string(),
+                dir);
+  INFO(run.out);
+  REQUIRE(run.code == 0);
+  const fs::path h5 = dir / "run" / "trajectory.h5";
+
+  auto a = sh(render + " " + h5.string() + " --voronoi --color-by voronoi.area --out " + (dir / "a.png").string() +
+                  " --dpi 40",
+              dir);
+  INFO(a.out);
+  CHECK(a.code == 0);
+  CHECK_THAT(a.out, Catch::Contains("colour by voronoi.area") && Catch::Contains("Voronoi cells of 400 points"));
+  CHECK(is_png(dir / "a.png"));
+  auto s = sh(render + " " + h5.string() + " --color-by voronoi.sides --out " + (dir / "s.png").string() + " --dpi 40",
+              dir);
+  INFO(s.out);
+  CHECK(s.code == 0);
+  CHECK(is_png(dir / "s.png"));
+  auto bad = sh(render + " " + h5.string() + " --color-by voronoi.nosuch --out " + (dir / "x.png").string(), dir);
+  CHECK(bad.code == 2);
+  CHECK_THAT(bad.out, Catch::Contains("/particles/all/voronoi.nosuch/value") && Catch::Contains("voronoi.area"));
+  CHECK_FALSE(fs::exists(dir / "x.png"));
+  fs::remove_all(dir);
+}

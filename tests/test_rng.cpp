@@ -112,6 +112,41 @@ TEST_CASE("the lanes of gaussian_pair_lanes equal gaussian_pair, redraws include
   CHECK(redrawn > 1000);  // ≈ 0.5 % of the 2^18 pairs took the redraw path
 }
 
+TEST_CASE("clamped Gaussians (Carter's variant): ±3 point masses, variance 0.99501, lanes = scalar", "[rng]") {
+  // GaussianTail::clamped: Box–Muller's numbers clamped to ±3, not redrawn, not rescaled. Where
+  // the first draw is inside ±3 it is the rescaled variant's number before its scaling.
+  const RngKey key = make_rng_key(99, "phoretic.integrate");
+  const std::uint32_t pairs = 1u << 21;  // 2^22 numbers
+  double sum = 0, sum2 = 0;
+  std::size_t at_edge = 0, mismatches = 0, unscaled = 0, beyond = 0;
+  for (std::uint32_t first = 0; first < pairs; first += 16) {
+    double z0[16], z1[16];
+    gaussian_pair_lanes<16>(key, first, 5, 0, 1, z0, z1, GaussianTail::clamped);
+    for (std::uint32_t l = 0; l < 16; ++l) {
+      double a0, a1, r0, r1;
+      gaussian_pair(key, first + l, 5, 0, 1, a0, a1, GaussianTail::clamped);
+      mismatches += (a0 != z0[l]) || (a1 != z1[l]);
+      gaussian_pair(key, first + l, 5, 0, 1, r0, r1);
+      if (std::fabs(a0) < 3 && std::fabs(a1) < 3)
+        unscaled += (r0 != a0 * rng_detail::kTruncatedVarianceScale) || (r1 != a1 * rng_detail::kTruncatedVarianceScale);
+      for (double z : {a0, a1}) {
+        sum += z;
+        sum2 += z * z;
+        at_edge += std::fabs(z) == 3.0;
+        beyond += std::fabs(z) > 3.0;
+      }
+    }
+  }
+  const double n = 2.0 * pairs, var = sum2 / n - (sum / n) * (sum / n);
+  CHECK(mismatches == 0);
+  CHECK(unscaled == 0);
+  CHECK(beyond == 0);
+  // P(|z| > 3) = 0.0026998: the point masses at ±3 (standard error sqrt(p/n) relative ≈ 1 %).
+  CHECK(at_edge / n == Approx(0.0026998).epsilon(0.05));
+  // (1 − p) − 6φ(3) + 9p = 0.995007, p = P(|z| > 3); standard error sqrt(1.9/n) = 0.0007: 1 is 7 errors away.
+  CHECK(std::fabs(var - 0.995007) < 5.0 * std::sqrt(1.9 / n));
+}
+
 TEST_CASE("Box–Muller's own log and sincos(2πu) agree with libm to an ulp or two", "[rng]") {
   // rng_detail::log_positive and sincos_2pi replace std::log / std::sincos so the lanes
   // vectorize; check them on the uniforms they actually get and at the ends of (0, 1].

@@ -58,10 +58,17 @@ void Field::check_type(DType asked) const {
 
 void* Field::host_raw() { return host_; }
 
+// How an out-of-memory error names this field: its name, its element count (N for a
+// per-particle field) and layout.
+std::string Field::device_label() const {
+  return "field '" + name_ + "' (" + std::to_string(count_) + " elements, N for a per-particle field, x " +
+         std::to_string(components_) + " x " + to_string(dtype_) + ")";
+}
+
 #ifdef FLIPFLOW_HAVE_CUDA
 
 void* Field::device_raw() {
-  if (!device_) device_ = std::make_unique<DeviceBuffer>(bytes());
+  if (!device_) device_ = std::make_unique<DeviceBuffer>(bytes(), device_label());
   return device_->data();
 }
 
@@ -69,7 +76,7 @@ void Field::acquire(Where where, Mode mode, CUstream_st* stream) {
   std::lock_guard<std::mutex> lock(mutex_);
   if (writes(mode)) ++version_;
   if (where == Where::device) {
-    if (!device_) device_ = std::make_unique<DeviceBuffer>(bytes());
+    if (!device_) device_ = std::make_unique<DeviceBuffer>(bytes(), device_label());
     if (reads(mode) && !device_valid_) device_->upload(host_, bytes(), stream);
     device_valid_ = true;
     if (writes(mode)) host_valid_ = false;

@@ -30,7 +30,7 @@ void cpu_overdamped_for_each(std::size_t n, const F& f, CUstream_st* /*stream*/)
       double z[2 * P][kLanes];
       for (int j = 0; j < P; ++j)
         gaussian_pair_lanes<int(kLanes)>(c.key, std::uint32_t(first), c.step, c.attempt, local.noise_pair(j), z[2 * j],
-                                         z[2 * j + 1]);
+                                         z[2 * j + 1], c.tail);
       const std::size_t m = std::min(kLanes, n - first);
       for (std::size_t l = 0; l < m; ++l) {
         double zl[2 * P];

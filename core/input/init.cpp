@@ -10,6 +10,7 @@
 #include <string>
 
 #include "core/base/error.h"
+#include "core/io/h5md_reader.h"
 #include "core/physics/rng.h"
 
 namespace ff {
@@ -478,7 +479,69 @@ std::vector<std::array<double, 3>> lattice_sites(const Box& box, std::uint64_t n
   return generate(box, plan);
 }
 
+namespace {
+
+// system.init: {from: FILE.h5, frame: k}: the box, positions, images, species and (when the
+// file has them) orientations of one frame; diameters from system.types as for any run.
+std::unique_ptr<State> state_from_h5md(const SystemSpec& s, Precision precision) {
+  validate(s);
+  const H5mdFrame fr = read_h5md_frame(s.init_from, s.init_frame);
+  const std::string what = "system.init.from: '" + s.init_from + "' frame " + std::to_string(fr.frame) + " (step " +
+                           std::to_string(fr.step) + ")";
+  if (fr.dim != s.dimensions)
+    throw InputError(what + " is " + std::to_string(fr.dim) + "D; system.dimensions is " +
+                     std::to_string(s.dimensions));
+  if (fr.n != s.N)
+    throw InputError(what + " has " + std::to_string(fr.n) + " particles; system.N is " + std::to_string(s.N) +
+                     ": set N: " + std::to_string(fr.n));
+  if (!s.box.empty() || s.packing_fraction > 0) {
+    const Box want = make_box(s);
+    for (int k = 0; k < s.dimensions; ++k)
+      if (std::abs(want.L[k] - fr.edges[k]) > 1e-9 * fr.edges[k])
+        throw InputError(what + " has box edge " + num(fr.edges[k]) + " along axis " + std::to_string(k) +
+                         "; system." + (s.box.empty() ? "packing_fraction" : "box") + " gives " + num(want.L[k]) +
+                         ": remove it (the file's box is used)");
+  }
+  if (!fr.species_names.empty()) {
+    for (std::size_t k = 0; k < fr.species_names.size() && k < s.types.size(); ++k)
+      if (fr.species_names[k] != s.types[k].name)
+        throw InputError(what + ": its species " + std::to_string(k) + " is '" + fr.species_names[k] +
+                         "', system.types names '" + s.types[k].name + "' there: list the same species in order");
+  }
+  for (std::size_t i = 0; i < fr.n; ++i)
+    if (fr.species[i] < 0 || std::size_t(fr.species[i]) >= s.types.size())
+      throw InputError(what + ": particle " + std::to_string(i) + " has species " + std::to_string(fr.species[i]) +
+                       ", but system.types lists " + std::to_string(s.types.size()));
+  const Rounding round{precision == Precision::f32};
+  auto state = std::make_unique<State>(s.dimensions, precision, std::size_t(s.N));
+  state->box.dim = s.dimensions;
+  for (int k = 0; k < s.dimensions; ++k) state->box.L[k] = round.value(fr.edges[k]);
+  for (auto& t : s.types) {
+    state->species.push_back(t.name);
+    state->species_diameter.push_back(s.sigma * t.diameter);
+  }
+  std::vector<double> diam(fr.n);
+  for (std::size_t i = 0; i < fr.n; ++i) diam[i] = state->species_diameter[std::size_t(fr.species[i])];
+  if (precision == Precision::f32) write_fields<float>(*state, fr.position, fr.species, diam);
+  else write_fields<double>(*state, fr.position, fr.species, diam);
+  Field& img = state->field(fields::image);
+  std::copy(fr.image.begin(), fr.image.end(), img.host<std::int32_t>());
+  if (!fr.orientation.empty()) {
+    // abp.integrate keeps an orientation field that exists (and checks its shape).
+    Field& o = state->add_particle_field("orientation", state->real(), fr.orientation_components);
+    o.acquire(Where::host, Mode::write);
+    for (std::size_t k = 0; k < fr.orientation.size(); ++k) {
+      if (precision == Precision::f32) o.host<float>()[k] = float(fr.orientation[k]);
+      else o.host<double>()[k] = fr.orientation[k];
+    }
+  }
+  return state;
+}
+
+}  // namespace
+
 std::unique_ptr<State> make_initial_state(const SystemSpec& s, Precision precision, std::uint64_t seed) {
+  if (s.init == "from") return state_from_h5md(s, precision);
   const Box box = make_box(s);  // validates s
   const Placement how = placement(s);
   const auto counts = species_counts(s);

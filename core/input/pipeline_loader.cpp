@@ -32,6 +32,7 @@ struct PipelineDocument::Impl {
   std::string file;
   YAML::Node root;
   std::vector<Override> overrides;
+  std::vector<std::string> applied;  // the --set arguments, in order
 
   Locator locator() const { return Locator(file, overrides); }
   void apply(const std::string& text);
@@ -116,6 +117,7 @@ void PipelineDocument::Impl::apply(const std::string& text) {
                             forms + ")");
   }
   overrides.push_back({value, where});
+  applied.push_back(text);
 }
 
 PipelineDocument::PipelineDocument(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
@@ -153,9 +155,28 @@ PipelineDocument PipelineDocument::parse_string(const std::string& yaml, const s
   return PipelineDocument(std::move(impl));
 }
 
+std::string PipelineDocument::effective_text() const {
+  YAML::Emitter out;
+  out << impl_->root;
+  return std::string(out.c_str()) + "\n";
+}
+
+std::vector<std::string> PipelineDocument::overrides() const {
+  return impl_->applied;
+}
+
 std::vector<std::string> PipelineDocument::plugins() const {
   const Locator loc = impl_->locator();
   return read_plugins(find(top_level(impl_->root, loc), "plugins"), loc);
+}
+
+std::string PipelineDocument::plugin_location(std::size_t i) const {
+  const Locator loc = impl_->locator();
+  const Item* item = find(top_level(impl_->root, loc), "plugins");
+  if (!item) return impl_->file + ": plugins[" + std::to_string(i) + "]";
+  const bool in_list = item->value.IsSequence() && i < item->value.size();
+  const Location at = in_list ? loc.at(item->value[i]) : loc.at(*item);
+  return at.str() + ": " + index("plugins", i);
 }
 
 PipelineSpec PipelineDocument::resolve(const Registry& registry) const {

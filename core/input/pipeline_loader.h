@@ -24,8 +24,16 @@ class PipelineDocument {
   PipelineDocument(PipelineDocument&&) noexcept;
   PipelineDocument& operator=(PipelineDocument&&) noexcept;
 
+  // The document after --set, as YAML (what outputs record as the effective pipeline).
+  std::string effective_text() const;
+  // The --set arguments applied, in order.
+  std::vector<std::string> overrides() const;
+
   // The `plugins:` list (validated as a list of strings).
   std::vector<std::string> plugins() const;
+  // Where the i-th plugin is named: "FILE:line:column: plugins[i]" (or "--set ...: plugins[i]"),
+  // the prefix of an error about that plugin (not found, not loadable).
+  std::string plugin_location(std::size_t i) const;
   // Full validation against the registry: system, run, and every step entry's keys, types and
   // ranges, stage names, `after` ids, `every`, dimensions supported by each stage.
   PipelineSpec resolve(const Registry& registry) const;

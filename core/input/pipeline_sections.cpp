@@ -40,8 +40,20 @@ const std::vector<ParamSpec>& system_schema() {
       ParamSpec::real("packing_fraction", std::nullopt, "area/volume fraction; sets the box").above(0),
       real_list("box", "edge lengths, one per dimension").above(0),
       ParamSpec::real("sigma", 1.0, "reference diameter").above(0),
-      ParamSpec::string("init", "random", "initial positions")
-          .one_of({"random", "triangular_lattice_sample", "lattice_sample"}),
+  };
+  return s;
+}
+
+const ParamSpec& init_placement() {
+  static const ParamSpec s = ParamSpec::string("init", "random", "initial positions")
+                                 .one_of({"random", "triangular_lattice_sample", "lattice_sample"});
+  return s;
+}
+
+const std::vector<ParamSpec>& init_from_schema() {
+  static const std::vector<ParamSpec> s = {
+      ParamSpec::string("from", std::nullopt, "an H5MD file (observe.h5md's output) to start from"),
+      ParamSpec::integer("frame", -1, "its frame: 0 the first, -1 the last"),
   };
   return s;
 }
@@ -94,7 +106,8 @@ void check_box(SystemSpec& s, const YAML::Node& map, const std::vector<Item>& it
     const bool blame_box = b.line == 0 || (p.line != 0 && box_second);
     fail(blame_box ? b : p, "system", "give either 'box' or 'packing_fraction', not both");
   }
-  if (!box && !pf) loc.fail(map, "system", "missing 'packing_fraction' or 'box' (one of them sets the box)");
+  if (!box && !pf && s.init != "from")
+    loc.fail(map, "system", "missing 'packing_fraction' or 'box' (one of them sets the box)");
   if (pf && s.packing_fraction >= 1)
     loc.fail(pf->value, "system.packing_fraction", "expected a real number > 0 and < 1, got " + found(pf->value));
   if (box && s.box.size() != std::size_t(s.dimensions))
@@ -107,8 +120,8 @@ void check_box(SystemSpec& s, const YAML::Node& map, const std::vector<Item>& it
 
 SystemSpec read_system(const YAML::Node& n, const Locator& loc) {
   auto items = items_of(n, "system", "a map of system settings", loc);
-  const Schema schema{system_schema(), {"types"}, {"packing_fraction", "box"}, "key",
-                      known_keys(system_schema(), {"types"})};
+  const Schema schema{system_schema(), {"types", "init"}, {"packing_fraction", "box"}, "key",
+                      known_keys(system_schema(), {"types", "init"})};
   ParamValues v = read_params(n, items, "system", schema, loc);
   SystemSpec s;
   s.dimensions = int(v.integer("dimensions"));
@@ -116,15 +129,35 @@ SystemSpec read_system(const YAML::Node& n, const Locator& loc) {
   if (v.has("packing_fraction")) s.packing_fraction = v.real("packing_fraction");
   if (v.has("box")) s.box = v.reals("box");
   s.sigma = v.real("sigma");
-  s.init = v.string("init");
+  if (const Item* init = find(items, "init")) {
+    if (init->value.IsMap()) {
+      const std::string path = "system.init";
+      const Schema is{init_from_schema(), {}, {}, "key", known_keys(init_from_schema(), {})};
+      ParamValues iv = read_params(init->value, items_of(init->value, path, "a map {from, frame}", loc), path, is, loc);
+      s.init = "from";
+      s.init_from = iv.string("from");
+      s.init_frame = iv.integer("frame");
+    } else {
+      s.init = std::get<std::string>(read_value(init_placement(), init->value, "system.init", loc));
+    }
+  }
   if (const Item* t = find(items, "types")) s.types = read_types(t->value, loc);
   check_box(s, n, items, loc);
   return s;
 }
 
+const std::vector<ParamSpec>& checkpoint_schema() {
+  static const std::vector<ParamSpec> s = {
+      ParamSpec::integer("every", 0, "steps between checkpoints (0: only at the end and on SIGINT/SIGTERM)")
+          .at_least(0),
+      ParamSpec::integer("keep", 2, "newest checkpoint files kept").at_least(1),
+  };
+  return s;
+}
+
 RunSpec read_run(const YAML::Node& n, const Locator& loc) {
   auto items = items_of(n, "run", "a map of run settings", loc);
-  const Schema schema{run_schema(), {}, {"dt_min"}, "key", known_keys(run_schema(), {})};
+  const Schema schema{run_schema(), {"checkpoint"}, {"dt_min"}, "key", known_keys(run_schema(), {"checkpoint"})};
   ParamValues v = read_params(n, items, "run", schema, loc);
   RunSpec r;
   r.steps = std::uint64_t(v.integer("steps"));
@@ -138,6 +171,14 @@ RunSpec read_run(const YAML::Node& n, const Locator& loc) {
   r.dt_grow_after = std::uint64_t(v.integer("dt_grow_after"));
   r.seed = std::uint64_t(v.integer("seed"));
   r.precision = v.string("precision") == "float" ? Precision::f32 : Precision::f64;
+  if (const Item* c = find(items, "checkpoint")) {
+    const std::string path = "run.checkpoint";
+    const Schema cs{checkpoint_schema(), {}, {}, "key", known_keys(checkpoint_schema(), {})};
+    ParamValues cv = read_params(c->value, items_of(c->value, path, "a map {every, keep}", loc), path, cs, loc);
+    r.checkpoint = true;
+    r.checkpoint_every = std::uint64_t(cv.integer("every"));
+    r.checkpoint_keep = std::uint64_t(cv.integer("keep"));
+  }
   return r;
 }
 

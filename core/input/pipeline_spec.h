@@ -33,7 +33,10 @@ struct SystemSpec {
   std::vector<double> box;      // explicit edge lengths (dimensions entries), optional
   double sigma = 1.0;           // reference diameter
   std::vector<SpeciesSpec> types{SpeciesSpec{}};
-  std::string init = "random";  // random | triangular_lattice_sample | lattice_sample
+  std::string init = "random";  // random | triangular_lattice_sample | lattice_sample | from
+  // init: {from: FILE.h5, frame: k}: start from frame k of an H5MD file (negative: from the end).
+  std::string init_from;
+  std::int64_t init_frame = -1;
 };
 
 struct RunSpec {
@@ -43,6 +46,11 @@ struct RunSpec {
   std::uint64_t dt_grow_after = 100;  // good steps before Δt doubles back toward dt
   std::uint64_t seed = 0;
   Precision precision = Precision::f64;
+  // run.checkpoint: {every: K, keep: k}. A checkpoint every K steps (0: none) and at the end of
+  // the run; the newest `keep` files are kept (core/run/checkpoint.h).
+  std::uint64_t checkpoint_every = 0;
+  std::uint64_t checkpoint_keep = 2;
+  bool checkpoint = false;  // run.checkpoint given (end-of-run checkpoint even with every = 0)
 };
 
 // When a step entry runs. `every: k`: the steps where step % k == 0. `at: {log: {first, factor}}`:

@@ -7,7 +7,9 @@
 #include <algorithm>
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <filesystem>
+#include <limits>
 #include <map>
 #include <stdexcept>
 
@@ -124,7 +126,11 @@ struct Series {
   std::vector<hsize_t> frame;  // shape of one frame; frame[0] grows for variable row counts
   bool variable_rows = false;
   hsize_t frames = 0;
+  int padded_from = 0;  // components in the caller's data when the file pads them (0: none)
 };
+
+// The nominal box height of a 2-D run written for 3-D-only readers (docs in the header).
+constexpr double kNominalLz = 1.0;
 
 }  // namespace
 
@@ -134,6 +140,26 @@ struct H5mdWriter::Impl {
   std::string partial;
   Hid file, particles, observables, connectivity;
   std::map<std::string, Series> elements, scalars, topologies;
+  bool readers_layout = false;  // the 3-D-only readers' layout (header)
+  bool pad_to_3d = false;       // ... of a 2-D run
+  Series box_edges;             // time-dependent box/edges (that layout only)
+  double edges[9] = {0, 0, 0, 0, 0, 0, 0, 0, 0};  // the box matrix (diagonal) of its rows
+  std::vector<std::int64_t> frame_steps;  // step and time of every box/edges row (that layout)
+  std::vector<double> frame_times;
+
+  // The readers' layout: one box row per frame, written with the frame's first element.
+  void append_box_row(std::int64_t step, double time) {
+    append(box_edges, step, time, edges, 0);
+    frame_steps.push_back(step);
+    frame_times.push_back(time);
+  }
+  // The readers' layout: an observable that skipped frames (a stage metric that appears after
+  // the first frame) gets NaN rows there, so its row k is the frame k of the particles.
+  void pad_observable(Series& s) const {
+    const double nan = std::numeric_limits<double>::quiet_NaN();
+    while (s.frames + 1 < frame_steps.size())
+      append(s, frame_steps[s.frames], frame_times[s.frames], &nan, 0);
+  }
 
   void check(bool ok, const std::string& what) const {
     if (!ok) throw RunError("H5MD file '" + partial + "': " + what + " failed: " + hdf5_error());
@@ -241,6 +267,15 @@ struct H5mdWriter::Impl {
     s.frames = f + 1;
     for (hsize_t c : count)
       if (c == 0) return;  // an empty frame: the fill value stands
+    std::vector<unsigned char> padded;
+    if (s.padded_from) {  // rows of padded_from values -> rows of frame[1] values, zeros after
+      const std::size_t size = dtype_size(s.dtype), rows = s.frame[0];
+      const std::size_t in_row = size * std::size_t(s.padded_from), out_row = size * std::size_t(s.frame[1]);
+      padded.assign(rows * out_row, 0);
+      for (std::size_t i = 0; i < rows; ++i)
+        std::memcpy(padded.data() + i * out_row, static_cast<const unsigned char*>(data) + i * in_row, in_row);
+      data = padded.data();
+    }
     Hid fs(H5Dget_space(s.value.get()), H5Sclose);
     Hid ms(H5Screate_simple(int(count.size()), count.data(), nullptr), H5Sclose);
     check(H5Sselect_hyperslab(fs.get(), H5S_SELECT_SET, start.data(), nullptr, count.data(), nullptr) >= 0 &&
@@ -258,10 +293,20 @@ struct H5mdWriter::Impl {
     attr_strings(creator.get(), "version", {FF_VERSION_STRING}, true);
 
     Hid box = group(particles.get(), "box");
-    attr_int(box.get(), "dimension", {h.dim}, true);
-    attr_strings(box.get(), "boundary", std::vector<std::string>(std::size_t(h.dim), "periodic"), false);
-    Hid edges = dataset(box.get(), "edges", H5T_IEEE_F64LE, {hsize_t(h.dim)}, {}, {}, nullptr);
-    check(H5Dwrite(edges.get(), H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, h.edges) >= 0, "writing box edges");
+    if (pad_to_3d) {
+      attr_int(box.get(), "dimension", {3}, true);
+      attr_strings(box.get(), "boundary", {"periodic", "periodic", "none"}, false);
+      attr_int(box.get(), "flipflow_dimension", {2}, true);
+    } else if (readers_layout) {
+      attr_int(box.get(), "dimension", {h.dim}, true);
+      attr_strings(box.get(), "boundary", std::vector<std::string>(std::size_t(h.dim), "periodic"), false);
+    } else {
+      attr_int(box.get(), "dimension", {h.dim}, true);
+      attr_strings(box.get(), "boundary", std::vector<std::string>(std::size_t(h.dim), "periodic"), false);
+      Hid edges = dataset(box.get(), "edges", H5T_IEEE_F64LE, {hsize_t(h.dim)}, {}, {}, nullptr);
+      check(H5Dwrite(edges.get(), H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, h.edges) >= 0,
+            "writing box edges");
+    }
 
     Hid params = group(file.get(), "parameters");
     for (auto& kv : h.run_attributes) attr_strings(params.get(), kv.first, {kv.second}, true);
@@ -273,6 +318,97 @@ struct H5mdWriter::Impl {
       check(d.get() >= 0 && H5Dwrite(d.get(), t.get(), H5S_ALL, H5S_ALL, H5P_DEFAULT, h.pipeline_text.data()) >= 0,
             "writing /parameters/pipeline");
     }
+    for (auto& [name, text] : h.texts) write_text(params.get(), name, text);
+  }
+
+  void write_text(hid_t parent, const std::string& name, const std::string& text) const {
+    Hid t = string_type(std::max<std::size_t>(text.size(), 1));
+    Hid space(H5Screate(H5S_SCALAR), H5Sclose);
+    Hid d(H5Dcreate2(parent, name.c_str(), t.get(), space.get(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Dclose);
+    std::string buf = text.empty() ? std::string(1, '\0') : text;
+    check(d.get() >= 0 && H5Dwrite(d.get(), t.get(), H5S_ALL, H5S_ALL, H5P_DEFAULT, buf.data()) >= 0,
+          "writing /parameters/" + name);
+  }
+
+  // ---- continuing a file (reopen) ----
+
+  // The names of the links in `g` that are groups.
+  std::vector<std::string> subgroups(hid_t g) const {
+    std::vector<std::string> names;
+    auto collect = [](hid_t, const char* name, const H5L_info_t*, void* op) -> herr_t {
+      static_cast<std::vector<std::string>*>(op)->push_back(name);
+      return 0;
+    };
+    check(H5Literate(g, H5_INDEX_NAME, H5_ITER_INC, nullptr, collect, &names) >= 0, "listing a group");
+    std::vector<std::string> out;
+    for (auto& n : names) {
+      // H5Oopen + H5Iget_type: one signature across HDF5 versions (H5Oget_info's changed).
+      Hid obj(H5Oopen(g, n.c_str(), H5P_DEFAULT), H5Oclose);
+      if (obj.get() >= 0 && H5Iget_type(obj.get()) == H5I_GROUP) out.push_back(n);
+    }
+    return out;
+  }
+
+  static bool has_link(hid_t g, const std::string& name) { return H5Lexists(g, name.c_str(), H5P_DEFAULT) > 0; }
+
+  // Opens the series at g/name and keeps its frames with step <= last_step.
+  Series open_series(hid_t g, const std::string& name, bool variable_rows, std::int64_t last_step) const {
+    Series s;
+    s.group = Hid(H5Gopen2(g, name.c_str(), H5P_DEFAULT), H5Gclose);
+    check(s.group.get() >= 0, "opening '" + name + "'");
+    s.step = Hid(H5Dopen2(s.group.get(), "step", H5P_DEFAULT), H5Dclose);
+    s.time = Hid(H5Dopen2(s.group.get(), "time", H5P_DEFAULT), H5Dclose);
+    s.value = Hid(H5Dopen2(s.group.get(), "value", H5P_DEFAULT), H5Dclose);
+    check(s.step.get() >= 0 && s.time.get() >= 0 && s.value.get() >= 0, "opening the datasets of '" + name + "'");
+    s.variable_rows = variable_rows;
+    {
+      Hid t(H5Dget_type(s.value.get()), H5Tclose);
+      const H5T_class_t c = H5Tget_class(t.get());
+      const std::size_t size = H5Tget_size(t.get());
+      const bool sgn = c == H5T_INTEGER && H5Tget_sign(t.get()) == H5T_SGN_2;
+      if (c == H5T_FLOAT) s.dtype = size == 4 ? DType::f32 : DType::f64;
+      else if (size == 1) s.dtype = DType::u8;
+      else if (size == 4) s.dtype = sgn ? DType::i32 : DType::u32;
+      else s.dtype = sgn ? DType::i64 : DType::u64;
+    }
+    Hid vs(H5Dget_space(s.value.get()), H5Sclose);
+    const int rank = H5Sget_simple_extent_ndims(vs.get());
+    std::vector<hsize_t> dims(std::size_t(std::max(rank, 1)));
+    H5Sget_simple_extent_dims(vs.get(), dims.data(), nullptr);
+    s.frame.assign(dims.begin() + 1, dims.end());
+    if (H5Aexists(s.value.get(), "flipflow_padded_from") > 0) {
+      Hid a(H5Aopen(s.value.get(), "flipflow_padded_from", H5P_DEFAULT), H5Aclose);
+      check(a.get() >= 0 && H5Aread(a.get(), H5T_NATIVE_INT, &s.padded_from) >= 0,
+            "reading flipflow_padded_from of '" + name + "'");
+    }
+    Hid ss(H5Dget_space(s.step.get()), H5Sclose);
+    hsize_t n = 0;
+    H5Sget_simple_extent_dims(ss.get(), &n, nullptr);
+    std::vector<std::int64_t> steps(n);
+    if (n) check(H5Dread(s.step.get(), H5T_NATIVE_INT64, H5S_ALL, H5S_ALL, H5P_DEFAULT, steps.data()) >= 0,
+                 "reading the steps of '" + name + "'");
+    hsize_t keep = 0;
+    while (keep < n && steps[keep] <= last_step) ++keep;  // frames are appended in step order
+    if (keep < n) {
+      check(H5Dset_extent(s.step.get(), &keep) >= 0 && H5Dset_extent(s.time.get(), &keep) >= 0,
+            "dropping frames of '" + name + "'");
+      dims[0] = keep;
+      check(H5Dset_extent(s.value.get(), dims.data()) >= 0, "dropping frames of '" + name + "'");
+    }
+    s.frames = keep;
+    return s;
+  }
+
+  // Every series under /observables (names "a/b" for nested groups).
+  void open_observables(hid_t g, const std::string& prefix, std::int64_t last_step) {
+    for (auto& name : subgroups(g)) {
+      Hid sub(H5Gopen2(g, name.c_str(), H5P_DEFAULT), H5Gclose);
+      if (has_link(sub.get(), "step") && has_link(sub.get(), "value")) {
+        scalars[prefix + name] = open_series(g, name, false, last_step);
+      } else {
+        open_observables(sub.get(), prefix + name + "/", last_step);
+      }
+    }
   }
 };
 
@@ -281,6 +417,10 @@ H5mdWriter::H5mdWriter(std::string path, const H5mdHeader& header) : path_(std::
   QuietErrors quiet;
   auto impl = std::make_unique<Impl>();
   impl->partial = partial_path();
+  impl->readers_layout = header.readers_layout;
+  impl->pad_to_3d = header.readers_layout && header.dim == 2;
+  for (int k = 0; k < 3; ++k) impl->edges[4 * k] = header.edges[k];
+  if (impl->pad_to_3d) impl->edges[8] = kNominalLz;
   Hid fapl(H5Pcreate(H5P_FILE_ACCESS), H5Pclose);
   H5Pset_fclose_degree(fapl.get(), H5F_CLOSE_STRONG);
   impl->file = Hid(H5Fcreate(impl->partial.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, fapl.get()), H5Fclose);
@@ -290,9 +430,90 @@ H5mdWriter::H5mdWriter(std::string path, const H5mdHeader& header) : path_(std::
   impl->particles = impl->group(impl->file.get(), "particles/all");
   impl->observables = impl->group(impl->file.get(), "observables");
   impl->write_header(header);
+  if (impl->readers_layout) {
+    Hid box(H5Gopen2(impl->particles.get(), "box", H5P_DEFAULT), H5Gclose);
+    impl->box_edges = impl->series(box.get(), "edges", DType::f64, {3, 3}, false, nullptr);
+  }
   impl_ = std::move(impl);
   flush();
 }
+
+std::unique_ptr<H5mdWriter> H5mdWriter::reopen(std::string path, std::int64_t last_step,
+                                               const std::vector<std::pair<std::string, std::string>>& history) {
+  namespace fs = std::filesystem;
+  QuietErrors quiet;
+  const std::string partial = path + ".partial";
+  if (!fs::exists(partial)) {
+    if (!fs::exists(path)) return nullptr;
+    std::error_code ec;
+    fs::rename(path, partial, ec);
+    if (ec) throw RunError("cannot rename '" + path + "' to '" + partial + "' to continue it: " + ec.message());
+  }
+  std::unique_ptr<H5mdWriter> w(new H5mdWriter());
+  w->path_ = std::move(path);
+  auto impl = std::make_unique<Impl>();
+  impl->partial = partial;
+  Hid fapl(H5Pcreate(H5P_FILE_ACCESS), H5Pclose);
+  H5Pset_fclose_degree(fapl.get(), H5F_CLOSE_STRONG);
+  impl->file = Hid(H5Fopen(partial.c_str(), H5F_ACC_RDWR, fapl.get()), H5Fclose);
+  if (impl->file.get() < 0)
+    throw RunError("cannot open the H5MD file '" + partial + "' to continue it: " + hdf5_error() +
+                   " (damaged by the crash? move it away to start the file afresh from the checkpoint)");
+  const hid_t f = impl->file.get();
+  if (!Impl::has_link(f, "particles") || !Impl::has_link(f, "observables"))
+    throw RunError("'" + partial + "' is not an H5MD file flipflow wrote (no /particles or /observables)");
+  impl->particles = Hid(H5Gopen2(f, "particles/all", H5P_DEFAULT), H5Gclose);
+  impl->observables = Hid(H5Gopen2(f, "observables", H5P_DEFAULT), H5Gclose);
+  impl->check(impl->particles.get() >= 0 && impl->observables.get() >= 0, "opening /particles/all");
+  for (auto& name : impl->subgroups(impl->particles.get()))
+    if (name != "box") impl->elements[name] = impl->open_series(impl->particles.get(), name, false, last_step);
+  {
+    Hid box(H5Gopen2(impl->particles.get(), "box", H5P_DEFAULT), H5Gclose);
+    impl->check(box.get() >= 0, "opening /particles/all/box");
+    if (impl->subgroups(box.get()) == std::vector<std::string>{"edges"}) {  // the 3-D-only readers' layout
+      impl->readers_layout = true;
+      impl->pad_to_3d = H5Aexists(box.get(), "flipflow_dimension") > 0;
+      Series& e = impl->box_edges = impl->open_series(box.get(), "edges", false, last_step);
+      const std::size_t rows = std::size_t(e.frames);
+      std::vector<double> values(rows * 9);
+      impl->frame_steps.resize(rows);
+      impl->frame_times.resize(rows);
+      if (rows) {
+        const hsize_t start = 0, count = rows;
+        Hid ss(H5Dget_space(e.step.get()), H5Sclose), ts(H5Dget_space(e.time.get()), H5Sclose);
+        Hid ms(H5Screate_simple(1, &count, nullptr), H5Sclose);
+        impl->check(H5Sselect_hyperslab(ss.get(), H5S_SELECT_SET, &start, nullptr, &count, nullptr) >= 0 &&
+                        H5Sselect_hyperslab(ts.get(), H5S_SELECT_SET, &start, nullptr, &count, nullptr) >= 0 &&
+                        H5Dread(e.step.get(), H5T_NATIVE_INT64, ms.get(), ss.get(), H5P_DEFAULT,
+                                impl->frame_steps.data()) >= 0 &&
+                        H5Dread(e.time.get(), H5T_NATIVE_DOUBLE, ms.get(), ts.get(), H5P_DEFAULT,
+                                impl->frame_times.data()) >= 0 &&
+                        H5Dread(e.value.get(), H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, values.data()) >= 0,
+                    "reading box/edges");
+        std::copy(values.begin(), values.begin() + 9, impl->edges);
+      }
+    }
+  }
+  impl->open_observables(impl->observables.get(), "", last_step);
+  if (Impl::has_link(f, "connectivity")) {
+    impl->connectivity = Hid(H5Gopen2(f, "connectivity", H5P_DEFAULT), H5Gclose);
+    for (auto& name : impl->subgroups(impl->connectivity.get()))
+      impl->topologies[name] = impl->open_series(impl->connectivity.get(), name, true, last_step);
+  }
+  {
+    Hid params = Impl::has_link(f, "parameters") ? Hid(H5Gopen2(f, "parameters", H5P_DEFAULT), H5Gclose)
+                                                  : impl->group(f, "parameters");
+    Hid hist = Impl::has_link(params.get(), "history") ? Hid(H5Gopen2(params.get(), "history", H5P_DEFAULT), H5Gclose)
+                                                        : impl->group(params.get(), "history");
+    Hid entry = impl->group(hist.get(), std::to_string(impl->subgroups(hist.get()).size()));
+    for (auto& [k, v] : history) impl->attr_strings(entry.get(), k, {v}, true);
+  }
+  w->impl_ = std::move(impl);
+  w->flush();
+  return w;
+}
+
+bool H5mdWriter::has_particle_element(const std::string& name) const { return impl_->elements.count(name) != 0; }
 
 H5mdWriter::~H5mdWriter() {
   if (!impl_) return;
@@ -316,23 +537,34 @@ void H5mdWriter::add_particle_element(const std::string& name, DType dtype, std:
   if (impl_->elements.count(name)) throw std::logic_error("H5MD element '" + name + "' declared twice");
   QuietErrors quiet;
   std::vector<hsize_t> frame{hsize_t(n)};
-  if (components != 1) frame.push_back(hsize_t(components));
-  impl_->elements[name] = impl_->series(impl_->particles.get(), name, dtype, frame, false, nullptr);
+  const bool pad = impl_->pad_to_3d && components == 2;
+  if (components != 1) frame.push_back(hsize_t(pad ? 3 : components));
+  Series s = impl_->series(impl_->particles.get(), name, dtype, frame, false, nullptr);
+  if (pad) {
+    s.padded_from = 2;
+    impl_->attr_int(s.value.get(), "flipflow_padded_from", {2}, true);
+  }
+  impl_->elements[name] = std::move(s);
 }
 
 void H5mdWriter::append_particle_element(const std::string& name, std::int64_t step, double time, const void* data) {
   auto it = impl_->elements.find(name);
   if (it == impl_->elements.end()) throw std::logic_error("H5MD element '" + name + "' was not declared");
   QuietErrors quiet;
+  // The box row of this frame, with the frame's first element (the 3-D-only readers' layout).
+  if (impl_->readers_layout && impl_->box_edges.frames == it->second.frames) impl_->append_box_row(step, time);
   impl_->append(it->second, step, time, data, 0);
 }
 
-void H5mdWriter::append_observable(const std::string& name, std::int64_t step, double time, double value) {
+void H5mdWriter::append_observable(const std::string& given, std::int64_t step, double time, double value) {
   QuietErrors quiet;
+  std::string name = given;
+  if (impl_->readers_layout) std::replace(name.begin(), name.end(), '/', '.');
   auto it = impl_->scalars.find(name);
   if (it == impl_->scalars.end())
     it = impl_->scalars.emplace(name, impl_->series(impl_->observables.get(), name, DType::f64, {}, false, nullptr))
              .first;
+  if (impl_->readers_layout) impl_->pad_observable(it->second);
   impl_->append(it->second, step, time, &value, 0);
 }
 
@@ -366,6 +598,7 @@ void H5mdWriter::close(bool completed) {
   impl->elements.clear();
   impl->scalars.clear();
   impl->topologies.clear();
+  impl->box_edges = Series();
   impl->particles.reset();
   impl->observables.reset();
   impl->connectivity.reset();

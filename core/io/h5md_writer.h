@@ -13,7 +13,22 @@
 //                              a '/' in the name makes subgroups ("stage_id/metric")
 //   /connectivity/<name>       time-dependent triangles: value int32 [frames, M, 3], rows past a
 //                              frame's own M are -1; attr particles_group -> /particles/all
-//   /parameters                dataset pipeline (the YAML text), attrs for the run settings
+//   /parameters                dataset pipeline (the YAML text), attrs for the run settings,
+//                              further text datasets (effective_pipeline, resolved, ...) and,
+//                              for a run continued from a checkpoint, history/<k>: one group
+//                              per continuation (attrs: step, checkpoint, changes, ...)
+//
+// Layout for 3-D-only readers (H5mdHeader::readers_layout, observe.h5md `layout: mdanalysis`):
+// MDAnalysis refuses boxes whose dimension is not 3, reads the box only from a time-dependent
+// box/edges/value of box matrices, and reads row k of every /observables/<name>/value for
+// frame k. So box/edges is a time-dependent element {step, time, value [frames, 3, 3]} (the
+// diagonal box matrix) with one row per frame of the first particle element; observables are
+// flat (a '/' in a name becomes '.') and one that starts after the first frame (a stage
+// metric) has NaN in the frames before, so its rows line up with the frames. A 2-D run is
+// written as a 3-D one: box dimension 3, boundary {periodic, periodic, none}, a nominal
+// Lz = 1 (so N / volume is the area density) and attr flipflow_dimension = 2; every
+// per-particle element of 2 components (position, image, velocity, ...) gets a zero third
+// component (attr flipflow_padded_from = 2 on its value dataset).
 //
 // Nothing half-written: the file is created as `<path>.partial` and flushed after every frame
 // (flush()), so a killed run leaves a readable partial file; close(true) renames it to `path`,
@@ -36,8 +51,10 @@ struct H5mdHeader {
   std::string author;          // /h5md/author name (empty: the login name)
   int dim = 2;
   double edges[3] = {0, 0, 0};
+  bool readers_layout = false; // the 3-D-only readers' layout above
   std::string pipeline_text;   // /parameters/pipeline (omitted when empty)
   std::vector<std::pair<std::string, std::string>> run_attributes;  // /parameters attributes
+  std::vector<std::pair<std::string, std::string>> texts;           // /parameters/<name> datasets
 };
 
 class H5mdWriter {
@@ -45,6 +62,15 @@ class H5mdWriter {
   // Creates `<path>.partial` (replacing a stale one) and writes /h5md, the box and /parameters.
   // RunError if the file cannot be created.
   H5mdWriter(std::string path, const H5mdHeader& header);
+  // Continue the file of a run resumed from a checkpoint at `last_step`: opens `<path>.partial`
+  // (a run that stopped early), else `path` (a finished run being extended), renamed to the
+  // .partial; drops every frame after `last_step` in every element, observable and
+  // connectivity (frames written after the checkpoint, before a crash), so appending continues
+  // the file exactly as an uninterrupted run would have written it; records `history` as
+  // /parameters/history/<k> (attributes). Null when neither file exists. RunError when the file
+  // cannot be opened or is not one this writer made.
+  static std::unique_ptr<H5mdWriter> reopen(std::string path, std::int64_t last_step,
+                                            const std::vector<std::pair<std::string, std::string>>& history);
   // A writer destroyed without close() closes as not completed (keeps the .partial).
   ~H5mdWriter();
   H5mdWriter(const H5mdWriter&) = delete;
@@ -59,6 +85,8 @@ class H5mdWriter {
 
   // Declare the time-dependent element /particles/all/<name> holding n x components values of
   // `dtype` per frame, then append frames to it (`data`: n*components values of that dtype).
+  // has_particle_element: declared, or found by reopen().
+  bool has_particle_element(const std::string& name) const;
   void add_particle_element(const std::string& name, DType dtype, std::size_t n, int components);
   void append_particle_element(const std::string& name, std::int64_t step, double time, const void* data);
 
@@ -78,6 +106,7 @@ class H5mdWriter {
 
  private:
   struct Impl;
+  H5mdWriter() = default;
   std::string path_;
   std::unique_ptr<Impl> impl_;
 };

@@ -8,7 +8,7 @@
 // per thread (overdamped_step); both call the same F::move:
 //   static constexpr int kNoisePairs;              Gaussian pairs per particle
 //   FF_HD std::uint32_t noise_pair(int j) const;   the pair index (core/physics/rng.h) of the j-th pair
-//   FF_HD NoiseCounter noise_counter() const;      key, step, attempt
+//   FF_HD NoiseCounter noise_counter() const;      key, step, attempt, Gaussian tail
 //   FF_HD void move(std::size_t i, const double* z) const;  z[2j], z[2j + 1]: pair j
 // The standard integrator's functor (OverdampedStep, stages/overdamped/integrate/kernel.h) is
 // this step for every model whose particles diffuse and drift; a model adds its deterministic
@@ -28,6 +28,7 @@ struct NoiseCounter {
   RngKey key;
   std::uint64_t step;
   std::uint32_t attempt;
+  GaussianTail tail = GaussianTail::rescaled;  // how the Gaussians are kept within ±3 (rng.h)
 };
 
 // Reads particle i from (position_in, image_in) and writes it to (position, image): the same
@@ -77,7 +78,7 @@ FF_HD void overdamped_step(const F& f, std::size_t i) {
   const NoiseCounter c = f.noise_counter();
   double z[2 * F::kNoisePairs];
   for (int j = 0; j < F::kNoisePairs; ++j)
-    gaussian_pair(c.key, std::uint32_t(i), c.step, c.attempt, f.noise_pair(j), z[2 * j], z[2 * j + 1]);
+    gaussian_pair(c.key, std::uint32_t(i), c.step, c.attempt, f.noise_pair(j), z[2 * j], z[2 * j + 1], c.tail);
   f.move(i, z);
 }
 

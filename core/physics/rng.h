@@ -9,7 +9,9 @@
 // a member outside is redrawn with the next draw index) and rescaled by 1/sqrt(var_3), where
 // var_3 = 1 − 6φ(3)/(2Φ(3) − 1) = 0.97333692 is the variance of a unit normal truncated to
 // [−3, 3], so the numbers have exactly unit variance. Truncation bounds the largest
-// displacement in a step, which keeps the triangulation repairable.
+// displacement in a step, which keeps the triangulation repairable. GaussianTail::clamped is
+// Carter et al. 2017's variant instead (§2.4, seed-gaps C2): each number clamped to ±3, no redraw
+// and no rescaling (variance 0.99501: the tails become point masses at ±3).
 //
 // Box–Muller's log and sincos are core/physics/math.h's (musl's fdlibm polynomials, < 1 ulp), not the
 // platform's libm: branch-free code that a CPU loop vectorizes over particles, the same on both
@@ -104,6 +106,9 @@ FF_HD bool inside_truncation(double z0, double z1) {
   return (std::fabs(z0) <= kTruncation) & (std::fabs(z1) <= kTruncation);
 }
 
+// z clamped to [−3, 3] (comparisons and selects only: the same bits everywhere).
+FF_HD double clamp_to_truncation(double z) { return z < -kTruncation ? -kTruncation : (z > kTruncation ? kTruncation : z); }
+
 // The redraws of a pair whose first draw (z0, z1) fell outside ±3: draw index
 // kRedrawBase + pair·64 + t for t = 0, 1, ... (a region no first draw uses), at most 64.
 FF_HD void redraw_pair(RngKey key, std::uint32_t particle, std::uint64_t step, std::uint32_t attempt,
@@ -115,6 +120,12 @@ FF_HD void redraw_pair(RngKey key, std::uint32_t particle, std::uint64_t step, s
 }
 }  // namespace rng_detail
 
+// How a Gaussian pair is kept within ±3: rescaled (flipflow's default): a pair with a member
+// outside is redrawn, then both are scaled to unit variance; clamped (Carter et al. 2017 §2.4,
+// their "method b"): each member clamped to ±3, neither redrawn nor rescaled, variance
+// (1 − p) − 6φ(3) + 9p = 0.99501, p = P(|z| > 3) = 0.0027. Either way |z| ≤ kLargestGaussian.
+enum class GaussianTail : std::uint8_t { rescaled, clamped };
+
 // Uniform in (0, 1] (double), draw index `draw` (0 .. 0x7fff), two per Philox call.
 FF_HD double uniform01(RngKey key, std::uint32_t particle, std::uint64_t step,
                        std::uint32_t attempt, std::uint32_t draw) {
@@ -122,12 +133,23 @@ FF_HD double uniform01(RngKey key, std::uint32_t particle, std::uint64_t step,
   return (draw & 1) ? rng_detail::u01_open0(r[2], r[3]) : rng_detail::u01_open0(r[0], r[1]);
 }
 
-// Pair number `pair` (0 .. 0x3fff) of truncated, variance-corrected unit Gaussians.
+// The largest magnitude a Gaussian of gaussian_pair can have (the truncation times the variance
+// correction, 3.0408...): what bounds a step's displacement (delaunay.dt_bound).
+constexpr double kLargestGaussian = rng_detail::kTruncation * rng_detail::kTruncatedVarianceScale;
+
+// Pair number `pair` (0 .. 0x3fff) of truncated, variance-corrected unit Gaussians (or, with
+// GaussianTail::clamped, of unit Gaussians clamped to ±3).
 FF_HD void gaussian_pair(RngKey key, std::uint32_t particle, std::uint64_t step,
-                         std::uint32_t attempt, std::uint32_t pair, double& z0, double& z1) {
+                         std::uint32_t attempt, std::uint32_t pair, double& z0, double& z1,
+                         GaussianTail tail = GaussianTail::rescaled) {
   using namespace rng_detail;
   const auto r = raw(key, particle, step, attempt, pair);
   box_muller(r[0], r[1], r[2], r[3], z0, z1);
+  if (tail == GaussianTail::clamped) {
+    z0 = clamp_to_truncation(z0);
+    z1 = clamp_to_truncation(z1);
+    return;
+  }
   if (!inside_truncation(z0, z1)) redraw_pair(key, particle, step, attempt, pair, z0, z1);
   z0 *= kTruncatedVarianceScale;
   z1 *= kTruncatedVarianceScale;
@@ -214,12 +236,20 @@ inline void philox_lanes<16>(RngKey key, std::uint32_t first, std::uint64_t step
 // gaussian_pair (checked in tests/test_rng.cpp).
 template <int W>
 inline void gaussian_pair_lanes(RngKey key, std::uint32_t first, std::uint64_t step, std::uint32_t attempt,
-                                std::uint32_t pair, double* z0, double* z1) {
+                                std::uint32_t pair, double* z0, double* z1,
+                                GaussianTail tail = GaussianTail::rescaled) {
   using namespace rng_detail;
   std::uint32_t c[4][W];
   philox_lanes<W>(key, first, step, attempt, pair, c);
   double a0[W], a1[W];
   for (int l = 0; l < W; ++l) box_muller(c[0][l], c[1][l], c[2][l], c[3][l], a0[l], a1[l]);
+  if (tail == GaussianTail::clamped) {
+    for (int l = 0; l < W; ++l) {
+      z0[l] = clamp_to_truncation(a0[l]);
+      z1[l] = clamp_to_truncation(a1[l]);
+    }
+    return;
+  }
   int outside = 0;
   for (int l = 0; l < W; ++l) outside |= int(!inside_truncation(a0[l], a1[l]));
   if (outside)

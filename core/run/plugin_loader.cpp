@@ -97,6 +97,21 @@ std::string find_plugin(const std::string& name, const std::vector<std::string>&
                    "plugin folder):" + dirs);
 }
 
+std::vector<std::string> find_plugins(const std::vector<std::string>& names, const std::vector<std::string>& path,
+                                      const std::function<std::string(std::size_t)>& where) {
+  std::vector<std::string> files;
+  for (std::size_t i = 0; i < names.size(); ++i) {
+    try {
+      files.push_back(find_plugin(names[i], path));
+    } catch (const InputError& e) {
+      const std::string at = where ? where(i) : std::string();
+      if (at.empty()) throw;
+      throw InputError(at + ": " + e.what());
+    }
+  }
+  return files;
+}
+
 std::vector<std::string> find_stage_libraries(const std::vector<std::string>& path) {
   return find_with_prefix(path, kStagePrefix);
 }

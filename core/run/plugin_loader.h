@@ -9,6 +9,8 @@
 // never leaves a half-filled registry). Loaded libraries stay loaded for the life of the
 // process: stages created from them may live until exit.
 #pragma once
+#include <cstddef>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -20,6 +22,11 @@ std::vector<std::string> plugin_search_path();
 
 // Resolve a plugin name to a library file; InputError listing the searched directories if absent.
 std::string find_plugin(const std::string& name, const std::vector<std::string>& path);
+
+// find_plugin for each name; a name not found is reported at where(i) (the pipeline file's
+// "FILE:line:column: plugins[i]", PipelineDocument::plugin_location), where the user fixes it.
+std::vector<std::string> find_plugins(const std::vector<std::string>& names, const std::vector<std::string>& path,
+                                      const std::function<std::string(std::size_t)>& where);
 
 // Every standard stage library (libflipflow_stage_*.so) found on the path, first hit per name.
 std::vector<std::string> find_stage_libraries(const std::vector<std::string>& path);

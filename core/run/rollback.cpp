@@ -193,15 +193,30 @@ std::string StateImage::differences(State& state) const {
   return out;
 }
 
+double DtController::dt() const {
+  double d = current_;
+  // Halving is exact in binary floating point, so d stays run.dt/2^k. Stop below dt_min: the
+  // caller gives up there (and a limit of 0 must not loop forever).
+  while (d > limit_ && d >= min_ * (1 - 1e-12)) d /= 2;
+  return d;
+}
+
 bool DtController::halve() {
   streak_ = 0;
-  if (current_ / 2 < min_ * (1 - 1e-12)) return false;
-  current_ /= 2;
+  const double failed = dt();
+  if (failed / 2 < min_ * (1 - 1e-12)) return false;
+  current_ = failed / 2;
   return true;
 }
 
-void DtController::accepted() {
-  if (current_ >= nominal_) return;
+bool DtController::limit_to(double dt_max) {
+  limit_ = std::min(limit_, dt_max);
+  return dt() >= min_ * (1 - 1e-12);
+}
+
+void DtController::accepted(double dt_taken, double limit, bool rolled_back) {
+  limit_ = limit;
+  if (rolled_back || dt_taken < current_ || current_ >= nominal_) return;
   if (++streak_ >= grow_after_) {
     current_ = std::min(current_ * 2, nominal_);
     streak_ = 0;

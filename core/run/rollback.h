@@ -3,9 +3,11 @@
 // Before each step the core snapshots every field the compute stages write (only when some
 // stage may request a rollback). A rollback restores the snapshot bit for bit, halves Δt and
 // re-runs the step with attempt + 1 (fresh random numbers). After `grow_after` accepted steps
-// in a row Δt doubles back toward its configured value. Below dt_min the run stops.
+// in a row Δt doubles back toward its configured value. Below dt_min the run stops. A stage may
+// also limit a step's Δt (Outcome::limit_dt): DtController below.
 #pragma once
 #include <cstdint>
+#include <limits>
 #include <memory>
 #include <mutex>
 #include <string>
@@ -83,28 +85,53 @@ class StateImage {
   double box_[3] = {0, 0, 0};
 };
 
+// The Δt of each attempt. Two things set it:
+//  - the rollback policy: `current` starts at run.dt, halves on a rollback and doubles back
+//    toward run.dt after `grow_after` accepted steps in a row (the streak);
+//  - a limit a stage reported (Outcome::limit_dt): the step runs at the largest
+//    current/2^k <= limit, so Δt stays run.dt/2^k (step counts and `every` keep their meaning).
+//    The limit a step reported is the first guess for the next step: Δt regrows as soon as, and
+//    only as far as, the reported limit allows.
+// Everything a checkpoint must store to continue bit for bit: current(), streak(), limit().
 class DtController {
  public:
   DtController(double dt, double dt_min, std::uint64_t grow_after)
       : nominal_(dt), min_(dt_min), grow_after_(grow_after), current_(dt) {}
-  double dt() const { return current_; }
+  // The Δt of the next attempt: current() reduced by powers of two to within limit().
+  double dt() const;
   double nominal() const { return nominal_; }
   double min() const { return min_; }
+  // The rollback policy's Δt, before any limit.
+  double current() const { return current_; }
+  // The limit in force (infinity: none).
+  double limit() const { return limit_; }
   // Halve Δt for a retry; false when the halved Δt would be below dt_min (give up).
   bool halve();
-  // An accepted step: count it and regrow Δt after `grow_after` good steps in a row.
-  void accepted();
+  // A stage limited this attempt's Δt to dt_max: the retry runs at dt() <= dt_max. False when
+  // that is below dt_min (give up).
+  bool limit_to(double dt_max);
+  // An accepted step taken at Δt = dt_taken that reported `limit` (infinity: none): keep the
+  // limit as the next step's first guess, and count the step toward regrowth unless it needed a
+  // rollback (halve() reset the streak then) or was limited below the policy's Δt (it proves
+  // nothing about that Δt: the streak stays as it was).
+  void accepted(double dt_taken, double limit = kNoLimit, bool rolled_back = false);
   // A step that needed a rollback resets the streak.
   void rolled_back() { streak_ = 0; }
   // Restore after a checkpoint/restart.
-  void set(double current, std::uint64_t streak) { current_ = current; streak_ = streak; }
+  void set(double current, std::uint64_t streak, double limit = kNoLimit) {
+    current_ = current;
+    streak_ = streak;
+    limit_ = limit;
+  }
   std::uint64_t streak() const { return streak_; }
+  static constexpr double kNoLimit = std::numeric_limits<double>::infinity();
 
  private:
   double nominal_, min_;
   std::uint64_t grow_after_;
   double current_;
   std::uint64_t streak_ = 0;
+  double limit_ = kNoLimit;
 };
 
 }  // namespace ff

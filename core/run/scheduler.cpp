@@ -2,7 +2,9 @@
 
 #include <oneapi/tbb/flow_graph.h>
 
+#include <algorithm>
 #include <chrono>
+#include <limits>
 #include <mutex>
 
 #ifdef FLIPFLOW_HAVE_CUDA
@@ -116,7 +118,8 @@ void Scheduler::run_node(int i, std::uint64_t step, std::uint32_t attempt, doubl
 #ifdef FLIPFLOW_HAVE_CUDA
     if (impl_->streams) impl_->streams->after(i);
 #endif
-    if (slot.outcome.rollback) abort_.store(true);
+    // A rollback request, or a Δt limit below this attempt's Δt: the stages not yet started skip.
+    if (slot.outcome.rollback || slot.outcome.dt_limit < dt) abort_.store(true);
   } catch (...) {
     std::lock_guard<std::mutex> lock(impl_->error_mutex);
     if (!error_) error_ = std::current_exception();
@@ -177,6 +180,7 @@ std::optional<RollbackRequest> Scheduler::run_compute(std::uint64_t step, std::u
 #endif
   for (int i : impl_->compute)
     if (slots_[i].ran && slots_[i].outcome.rollback) return RollbackRequest{i, slots_[i].outcome};
+  if (auto limit = exceeded_dt_limit(dt)) return limit;
 #ifdef FLIPFLOW_HAVE_CUDA
   if (captured) return std::nullopt;
 #endif
@@ -192,6 +196,19 @@ std::optional<RollbackRequest> Scheduler::run_compute(std::uint64_t step, std::u
     slots_[i].stage->after_step(ctx);
   }
   return std::nullopt;
+}
+
+std::optional<RollbackRequest> Scheduler::exceeded_dt_limit(double dt) const {
+  for (int i : impl_->compute)
+    if (slots_[i].ran && slots_[i].outcome.dt_limit < dt) return RollbackRequest{i, slots_[i].outcome};
+  return std::nullopt;
+}
+
+double Scheduler::reported_dt_limit() const {
+  double limit = std::numeric_limits<double>::infinity();
+  for (int i : impl_->compute)
+    if (slots_[i].ran) limit = std::min(limit, slots_[i].outcome.dt_limit);
+  return limit;
 }
 
 void Scheduler::enqueue_compute() {

@@ -34,9 +34,12 @@ struct StageSlot {
   std::uint64_t calls = 0;
 };
 
+// A stage's request to run the step again: a rollback (outcome.rollback), or a Δt limit below
+// the attempt's Δt (outcome.dt_limit, Outcome::limit_dt).
 struct RollbackRequest {
   int node = -1;
   Outcome outcome;
+  bool limits_dt() const { return !outcome.rollback; }
 };
 
 class Scheduler {
@@ -46,8 +49,12 @@ class Scheduler {
   ~Scheduler();
 
   // Runs the compute stages due at `step`. Returns the first rollback request (lowest node
-  // index among those that asked), or nothing. Exceptions from stages are rethrown here.
+  // index among those that asked), else the first Δt limit below `dt`, or nothing. Exceptions
+  // from stages are rethrown here.
   std::optional<RollbackRequest> run_compute(std::uint64_t step, std::uint32_t attempt, double dt, double time);
+  // The smallest Δt limit (Outcome::limit_dt) the stages that ran in the last attempt reported;
+  // infinity when none did.
+  double reported_dt_limit() const;
   // Runs the observer stages due at `step` (the step is accepted; state.step/time updated),
   // calling after_each(node) after each one that ran (so a later observer sees its metrics).
   void run_observers(std::uint64_t step, double dt, double time, const std::function<void(int)>& after_each);
@@ -81,6 +88,8 @@ class Scheduler {
   StepContext context(int node, CUstream_st* stream, std::uint64_t step, std::uint32_t attempt, double dt,
                       double time);
   void enqueue_compute();  // run every compute stage once (flow graph, or in order for a chain)
+  // The first stage that ran and limited Δt below `dt` (Outcome::limit_dt), if any.
+  std::optional<RollbackRequest> exceeded_dt_limit(double dt) const;
   bool run_captured();     // CUDA: replay (capturing first if needed) the step graph
   std::unique_ptr<Impl> impl_;
   const StepGraph& graph_;

@@ -39,7 +39,7 @@ void Simulation::build(const Registry& registry) {
     const StepEntry& e = spec_.step[i];
     StageSlot& slot = slots_[i];
     slot.info = RunInfo{state_->dim(), spec_.run.precision, options_.backend, spec_.run.seed, spec_.run.steps,
-                        spec_.run.dt,  options_.out_dir,    spec_.file,       e.id};
+                        spec_.run.dt,  options_.out_dir,    spec_.file,       e.id,  options_.record};
     slot.rng = make_rng_key(spec_.run.seed, e.id.c_str());
     try {
       slot.stage = registry.create(e.stage, options_.backend, e.params, slot.info);
@@ -68,12 +68,15 @@ void Simulation::build(const Registry& registry) {
 // Lawson flips and the overlap correction after detect_inversion and flip — need no copy. On
 // CUDA a stage may also request from its kernels (device flags read at the end of the step);
 // when one may, every stage counts. Writes declared on_demand are copied only when the stage
-// announces them.
+// announces them. A stage that may limit Δt (Outcome::limit_dt) counts as a requester from run():
+// the step runs again at the limited Δt from the state it started with, so what the stages
+// before it wrote (having used the old Δt, or read what another wrote) is restored; a limiter
+// placed first in the step, as delaunay.dt_bound is, adds nothing to the snapshot.
 void Simulation::make_snapshot() {
   std::vector<int> requesters;
   bool device_requests = false;
   for (int i : graph_->compute_nodes())
-    if (slots_[i].stage->scheduling().may_request_rollback) {
+    if (slots_[i].stage->scheduling().may_request_rollback || slots_[i].stage->scheduling().may_limit_dt) {
       requesters.push_back(i);
       device_requests = device_requests || slots_[i].stage->scheduling().requests_rollback_on_device;
     }
@@ -87,7 +90,8 @@ void Simulation::make_snapshot() {
     if (!before_a_request) continue;
     undone[j] = true;
     for (auto& a : graph_->nodes()[j].accesses)
-      if (writes(a.mode) && !a.step_local) (a.on_demand ? on_demand : every_step).insert(a.field);
+      if (writes(a.mode) && !(a.step_local && graph_->written_before_read(j, a.field)))
+        (a.on_demand ? on_demand : every_step).insert(a.field);
   }
   for (auto& f : every_step) on_demand.erase(f);
   snapshot_ = std::make_unique<Snapshot>(std::vector<std::string>(every_step.begin(), every_step.end()),
@@ -122,7 +126,7 @@ void Simulation::prepare_outputs() {
   if (options_.out_dir.empty()) throw InputError("this pipeline writes files but no output directory was given (--out)");
   for (auto& o : outputs) {
     const fs::path p = fs::path(options_.out_dir) / o;
-    if (fs::exists(p) && !options_.force)
+    if (fs::exists(p) && !options_.force && !options_.resume)
       throw InputError("output '" + p.string() + "' exists; use --force to overwrite it or --out to write elsewhere");
   }
   std::error_code ec;
@@ -151,6 +155,44 @@ void Simulation::give_up(const RollbackRequest& req, double dt) {
   throw RunError(os.str());
 }
 
+void Simulation::restore_for_retry(const RollbackRequest& req, const StateImage* before, std::uint64_t step,
+                                   std::uint32_t attempt) {
+  const std::string& id = graph_->nodes()[req.node].id;
+  if (!snapshot_)  // (only a limit can get here: a stage that did not declare it may limit Δt)
+    throw RunError("step " + std::to_string(step) + ": stage '" + id +
+                   "' limited Δt (Outcome::limit_dt) but its Stage::scheduling() does not set may_limit_dt, so "
+                   "the core kept no snapshot to run the step again from; set it in the stage");
+  snapshot_->restore(*state_, scheduler_->main_stream());
+  if (!before) return;
+  const std::string missed = before->differences(*state_);
+  if (!missed.empty())
+    throw RunError("step " + std::to_string(step) + ", attempt " + std::to_string(attempt) + ": the " +
+                   (req.limits_dt() ? "Δt limit" : "rollback") + " requested by stage '" + id +
+                   "' did not restore the state (check_rollbacks): " + missed +
+                   ". A stage before it writes a field it does not declare (Stage::accesses), or "
+                   "declares a write on_demand / step_local and breaks that promise.");
+}
+
+// A Δt limit is not a failed trial of the noise: the step runs again with the same attempt
+// number, so the stages draw the numbers they would have drawn had the step been taken at the
+// limited Δt from the start (the same bits as a run whose Δt was already that small), and the
+// limiter's own answer depends only on the state, so the retry is reproducible bit for bit.
+void Simulation::retry_limited(const RollbackRequest& req, double dt) {
+  ++stats_.dt_limits;
+  ++stats_.step_dt_limits;
+  if (dt_->limit_to(req.outcome.dt_limit)) return;
+  std::ostringstream os;
+  os << "step " << state_->step << ": stage '" << graph_->nodes()[req.node].id << "' limits Δt to "
+     << req.outcome.dt_limit << " (" << req.outcome.reason << "), below dt_min = " << dt_->min()
+     << " (the step was tried at Δt = " << dt << ")";
+  if (!req.outcome.particles.empty()) {
+    os << "; particles involved:";
+    for (std::size_t k = 0; k < req.outcome.particles.size() && k < 8; ++k) os << " " << req.outcome.particles[k];
+  }
+  os << ". Lower run.dt_min, or look for particles that came (nearly) on top of each other.";
+  throw RunError(os.str());
+}
+
 void Simulation::advance() {
   if (!observed_initial_) {
     // Frame 0: observers see the initial configuration.
@@ -159,35 +201,33 @@ void Simulation::advance() {
   }
   const std::uint64_t step = state_->step;
   stats_.step_rollbacks = 0;
+  stats_.step_dt_limits = 0;
   std::unique_ptr<StateImage> before;
   if (options_.check_rollbacks && snapshot_) {
     before = std::make_unique<StateImage>();
     before->take(*state_, step_local_fields());
   }
   if (snapshot_) snapshot_->take(*state_, scheduler_->main_stream());
-  for (std::uint32_t attempt = 0;; ++attempt) {
+  for (std::uint32_t attempt = 0;;) {
     const double dt = dt_->dt();
     auto req = scheduler_->run_compute(step, attempt, dt, state_->time);
     if (!req) {
       stats_.dt = dt;
+      stats_.dt_limit = scheduler_->reported_dt_limit();
       state_->time += dt;
       state_->step = step + 1;
-      if (attempt == 0) dt_->accepted();
+      dt_->accepted(dt, stats_.dt_limit, attempt > 0);
       break;
     }
-    ++stats_.rollbacks;
-    ++stats_.step_rollbacks;
-    snapshot_->restore(*state_, scheduler_->main_stream());
-    if (before) {
-      const std::string missed = before->differences(*state_);
-      if (!missed.empty())
-        throw RunError("step " + std::to_string(step) + ", attempt " + std::to_string(attempt) +
-                       ": the rollback requested by stage '" + graph_->nodes()[req->node].id +
-                       "' did not restore the state (check_rollbacks): " + missed +
-                       ". A stage before it writes a field it does not declare (Stage::accesses), or "
-                       "declares a write on_demand / step_local and breaks that promise.");
+    restore_for_retry(*req, before.get(), step, attempt);
+    if (req->limits_dt()) {
+      retry_limited(*req, dt);  // the same attempt: see retry_limited
+    } else {
+      ++stats_.rollbacks;
+      ++stats_.step_rollbacks;
+      if (!dt_->halve()) give_up(*req, dt);
+      ++attempt;
     }
-    if (!dt_->halve()) give_up(*req, dt);
   }
   for (int i : graph_->compute_nodes())
     if (slots_[i].ran) collect_metrics(i);

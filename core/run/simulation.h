@@ -28,6 +28,11 @@ struct RunOptions {
   // field but those only ever written step_local) and stop with a RunError naming what the
   // restore missed. A debugging aid for stage authors: copies the whole state every step.
   bool check_rollbacks = false;
+  // A continued run (--resume): outputs that exist are appended to, not refused; the caller
+  // restores the checkpoint (core/run/checkpoint.h) before the first step.
+  bool resume = false;
+  // What produced the run, handed to every stage (RunInfo::record) for outputs to record.
+  RunRecord record;
 };
 
 class Simulation {
@@ -65,6 +70,12 @@ class Simulation {
   // attempt wrote them (they carry nothing into the retry), so check_rollbacks skips them.
   std::vector<std::string> step_local_fields() const;
 
+  // For checkpoints (core/run/checkpoint.h): the loop's own state besides the fields.
+  DtController& dt_controller() { return *dt_; }
+  RunStats& run_stats() { return stats_; }
+  // A continued run: its first frame was observed by the run that wrote the checkpoint.
+  void set_observed_initial() { observed_initial_ = true; }
+
  private:
   void build(const Registry& registry);
   void make_snapshot();
@@ -72,6 +83,13 @@ class Simulation {
   void collect_metrics(int node);
   void observe(double dt);
   [[noreturn]] void give_up(const RollbackRequest& req, double dt);
+  // Before running a step again (a rollback or a Δt limit): restore the snapshot, and with
+  // check_rollbacks prove the restore complete against `before`.
+  void restore_for_retry(const RollbackRequest& req, const StateImage* before, std::uint64_t step,
+                         std::uint32_t attempt);
+  // A stage limited Δt below the attempt's (Outcome::limit_dt): count it and lower Δt, or stop
+  // (RunError naming the stage) below dt_min.
+  void retry_limited(const RollbackRequest& req, double dt);
 
   PipelineSpec spec_;
   RunOptions options_;

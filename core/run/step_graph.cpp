@@ -58,13 +58,13 @@ StepGraph::StepGraph(const PipelineSpec& spec, std::vector<std::vector<Access>> 
 void StepGraph::check_overwrites() const {
   auto touches = [](const GraphNode& n, const std::string& f, bool reading) {
     for (auto& x : n.accesses)
-      if (x.field == f && (reading ? reads(x.mode) : writes(x.mode)) && !x.step_local) return true;
+      if (x.field == f && (reading ? reads(x.mode) : writes(x.mode))) return true;
     return false;
   };
   for (std::size_t b = 0; b < nodes_.size(); ++b) {
     if (nodes_[b].observer) continue;
     for (auto& y : nodes_[b].accesses) {
-      if (y.mode != Mode::write || y.step_local || touches(nodes_[b], y.field, true)) continue;
+      if (y.mode != Mode::write || touches(nodes_[b], y.field, true)) continue;
       for (std::size_t a = 0; a < nodes_.size(); ++a) {
         if (nodes_[a].observer || !reach_[a][b] || !touches(nodes_[a], y.field, false)) continue;
         bool read_between = false;
@@ -102,6 +102,16 @@ std::vector<int> StepGraph::compute_nodes() const {
   for (std::size_t i = 0; i < nodes_.size(); ++i)
     if (!nodes_[i].observer) v.push_back(int(i));
   return v;
+}
+
+bool StepGraph::written_before_read(int w, const std::string& field) const {
+  if (nodes_[w].schedule.log || nodes_[w].schedule.every != 1) return false;
+  for (int k : compute_nodes()) {
+    if (k == w || ordered(w, k)) continue;
+    for (const Access& a : nodes_[k].accesses)
+      if (a.field == field && a.mode != Mode::write) return false;
+  }
+  return true;
 }
 
 std::vector<int> StepGraph::observer_nodes() const {

@@ -43,6 +43,10 @@ class StepGraph {
   std::vector<int> observer_nodes() const;
   // True when the compute phase is a single chain (no two stages can run concurrently).
   bool is_chain() const;
+  // Whether node w's write of `field` is remade every step before anything else in the compute
+  // phase reads it: w runs every step and every other compute stage that reads the field runs
+  // after it. Only then can a retried step skip restoring it (Access::step_local).
+  bool written_before_read(int w, const std::string& field) const;
 
   std::string dot() const;      // Graphviz
   std::string summary() const;  // the resolved graph in words, for `pipeline validate`

@@ -1,17 +1,21 @@
 // The stage interface: what every integrate / topology / correction / observe step implements.
 // A stage declares the fields it touches (where and how), is configured once, and runs once
-// per step on the backend it was built for. It returns continue or request-rollback; it never
-// wires graph edges or synchronizes with other stages. nvcc-clean: CUDA stages include it.
+// per step on the backend it was built for. It returns continue, request-rollback or a limit on
+// the step's Δt; it never wires graph edges or synchronizes with other stages. nvcc-clean: CUDA
+// stages include it.
 #pragma once
 #include <cstdint>
+#include <limits>
 #include <map>
 #include <memory>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "core/backend/field.h"
 #include "core/stage/params.h"
 #include "core/physics/rng.h"
+#include "core/stage/stage_state.h"
 #include "core/stage/state.h"
 #include "core/stage/step_params.h"
 #include "core/base/types.h"
@@ -27,8 +31,11 @@ struct Access {
   // StepContext::will_write (or will_overwrite) before it, instead of before every step.
   bool on_demand = false;
   // For scratch fields that carry nothing from one step to the next (every step writes what it
-  // reads of them before reading it: detect_inversion's flip marks and Lawson candidates): a
-  // retried step rewrites them anyway, so the rollback snapshot never copies this write.
+  // reads of them before reading it: detect_inversion's flip marks and Lawson candidates, a pair
+  // force's `force`): a retried step rewrites them anyway, so the rollback snapshot does not copy
+  // this write. The core checks the promise against the pipeline: where the stage does not run
+  // every step, or a stage that reads the field is not ordered after it (a force read before the
+  // stage that computes it, i.e. from the previous step), the write is copied like any other.
   bool step_local = false;
 
   // {field, where, mode} for the plain cases; these name the two special kinds of write.
@@ -44,11 +51,22 @@ struct Outcome {
   bool rollback = false;
   std::string reason;                   // why, in words a user can act on
   std::vector<std::uint64_t> particles; // particles involved (first few are reported)
+  // The largest Δt this step may take (limit_dt); infinity: no limit.
+  double dt_limit = std::numeric_limits<double>::infinity();
 
   static Outcome ok() { return {}; }
   static Outcome request_rollback(std::string why, std::vector<std::uint64_t> who = {}) {
     return Outcome{true, std::move(why), std::move(who)};
   }
+  // "Δt must not exceed dt_max in this step" (a stage that needs Scheduling::may_limit_dt). Not a
+  // failure: return it every step, also when the attempt's Δt is within it, so the core knows the
+  // limit when it regrows Δt. When the attempt's Δt exceeds dt_max the core stops the attempt
+  // and runs the step again, with the same attempt number (the same noise), at the largest
+  // run.dt/2^k <= dt_max (DtController), counted in RunStats::dt_limits, not as a rollback.
+  static Outcome limit_dt(double dt_max, std::string why, std::vector<std::uint64_t> who = {}) {
+    return Outcome{false, std::move(why), std::move(who), dt_max};
+  }
+  bool limits_dt() const { return dt_limit < std::numeric_limits<double>::infinity(); }
 };
 
 // Per-step numbers a stage reports (flips, overlap iterations, ...). Written by one stage only.
@@ -62,6 +80,22 @@ class Metrics {
   std::map<std::string, double> values_;
 };
 
+// What produced a run, for outputs to record (observe.h5md writes it under /parameters): the
+// effective pipeline after --set, the overrides, the software and the machine, and for a
+// continued run (--resume) what it changed.
+struct RunRecord {
+  std::string pipeline_text;       // the pipeline file as given (empty: read pipeline_file)
+  std::string effective_pipeline;  // the resolved pipeline, --set applied (YAML)
+  std::string resolved;            // every parameter after defaults and --set, "key = value" lines
+  std::vector<std::string> overrides;                               // the --set arguments
+  std::vector<std::pair<std::string, std::string>> attributes;      // version, commit, device, ...
+  // A continued run: the step it continues from and what changed ("" when nothing); empty
+  // resumed_from for a fresh run.
+  std::string resumed_from;        // the checkpoint file
+  std::uint64_t resume_step = 0;
+  std::string changes;
+};
+
 // What the core knows about the run as a whole; given to factories and to every step.
 struct RunInfo {
   int dim = 2;
@@ -73,12 +107,19 @@ struct RunInfo {
   std::string out_dir;           // where outputs go (created by the core before the run)
   std::string pipeline_file;     // the YAML the run came from (recorded in outputs)
   std::string stage_id;          // this stage's id in the step graph
+  RunRecord record;              // what produced the run (outputs record it)
 };
 
 // Whole-run observables the core keeps (observe stages write them out).
 struct RunStats {
   std::uint64_t rollbacks = 0;        // since the start of the run
   std::uint64_t step_rollbacks = 0;   // in the last accepted step
+  // Attempts stopped because a stage limited Δt below the attempt's (Outcome::limit_dt) and run
+  // again at the limited Δt: since the start of the run, and in the last accepted step.
+  std::uint64_t dt_limits = 0;
+  std::uint64_t step_dt_limits = 0;
+  // The smallest limit the stages reported in the last accepted step (infinity: none).
+  double dt_limit = std::numeric_limits<double>::infinity();
   double dt = 0;                      // Δt of the last accepted step
   // Last reported metrics, keyed "stage_id/metric".
   std::map<std::string, double> metrics;
@@ -177,6 +218,10 @@ struct Scheduling {
   // run() passes ctx.params to its kernels: on CUDA the core then keeps a device copy of the
   // step's parameters (one upload per step, none while a captured graph advances it).
   bool reads_step_params = false;
+  // run() may return Outcome::limit_dt. The core then snapshots (and restores before running
+  // the step again at the limited Δt) what the stages that can run before this one write, as it
+  // does for a rollback request from run(); placed first in the step, the stage costs no copy.
+  bool may_limit_dt = false;
   // Not a hint but the core's answer, per attempt: whether a stage may defer reading its results
   // back to after_step is StepContext::may_defer_read_back().
 };
@@ -206,6 +251,16 @@ class Stage {
   // How the core may schedule this stage (Scheduling above); the defaults suit a stage that never
   // asks for a rollback and is not replayed from a CUDA graph.
   virtual Scheduling scheduling() const { return {}; }
+  // Checkpoints (core/run/checkpoint.h). save_state: between steps, after the observers, store
+  // what this stage keeps outside the state's fields that a continued run needs to give the same
+  // bits (the default: nothing; fields are the core's). An observer also makes what it has
+  // written so far durable here, so the checkpoint never runs ahead of its files.
+  // restore_state: in a continued run, after configure() and after the core restored every
+  // field and the clock (state.step is the checkpoint's step), before the first step; `saved`
+  // is what save_state stored (empty if it stored nothing). An observer reopens its files here,
+  // dropping what was written after state.step.
+  virtual void save_state(StageState& out) { (void)out; }
+  virtual void restore_state(const StageState& saved, State& state) { (void)saved; (void)state; }
 };
 
 }  // namespace ff

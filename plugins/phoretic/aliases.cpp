@@ -1,6 +1,8 @@
-// phoretic.integrate: Carter et al. 2017, eq. 1, x += v Δt + sqrt(2DΔt) ξ with v from
-// phoretic.forces: the standard overdamped integrator reading `velocity`, under the name
-// pipelines have always used (and its old default D = 0.01).
+// phoretic.integrate: Carter et al. 2017, eq. 1, in flipflow's convention x += v Δt + sqrt(2DΔt) ξ
+// with v from phoretic.forces: the standard overdamped integrator reading `velocity`, under the
+// name pipelines have always used (and its old default D = 0.01). Carter writes ξ √(DΔt)
+// (per-component variance DΔt), so his D is twice ours: pipelines/phoretic-c*.yaml set D = 0.005
+// for his D = 0.01.
 //
 // Two stages rather than one fused kernel: phoretic.forces writes the pair velocity into the
 // `velocity` field, the integrator moves the particles. The pair sum has two very different loop

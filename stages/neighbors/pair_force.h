@@ -89,7 +89,7 @@ class PairForceStage final : public Stage {
   std::vector<Access> accesses() const override {
     return {{fields::position, where_, Mode::read}, {fields::diameter, where_, Mode::read},
             {kList, where_, Mode::read},            {kCount, where_, Mode::read},
-            {kForce, where_, Mode::write}};
+            Access::step_local_write(kForce, where_)};  // remade before it is read: no snapshot copy
   }
 
   void configure(State& s) override {

@@ -12,12 +12,14 @@
 //     Each tile lists its touched particles once, with their sums. When the counts say to go
 //     on, each tile finishes its touched particles (Overlaps::from_sum) and moves them at once
 //     (nothing reads positions then). Iteration 0's pass also checks the mesh (indices in
-//     range, no loops, next pointers a permutation).
+//     range, no loops, next pointers a permutation). With walls each tile also adds the wall
+//     terms of its own particles (a pass over them, after its edges).
 //   - work list (otherwise): gather only the flagged particles of each tile (in index order,
 //     the flags cleared as they are read), flagged for iteration k + 1 by iteration k:
 //       - each particle that had an overlapping edge but did not move (d = 0);
 //       - after the apply, both ends of each edge of a moved particle that overlaps at the new
-//         positions (tested with r² < σ²·(1 + 1e-9), so rounding can only add particles).
+//         positions (tested with r² < σ²·(1 + 1e-9), so rounding can only add particles), and
+//         a moved particle that overlaps a wall.
 //     An edge that overlaps at k + 1 either has a moved end (then it is tested after the apply)
 //     or had both ends fixed, so it overlapped at k already and both ends were flagged.
 // Either way every particle left out would have gathered d = 0 and no pairs, and the sums are
@@ -145,6 +147,13 @@ std::size_t compact(std::uint8_t* flags, std::size_t t0, std::size_t t1, int* ca
   return count;
 }
 
+// Marks v as touched in this step (the touched field, when there is one); returns 1 when it was not yet.
+inline std::uint64_t touch(std::uint8_t* touched, int v) {
+  if (!touched || touched[v]) return 0;
+  touched[v] = 1;
+  return 1;
+}
+
 // Below this many particles moved in the iteration before, the work of a work-list iteration
 // is a few hundred walks: one thread does it, sparing the threads' start-up, which costs more
 // than that work (three loops per iteration, iterations 3+ at η = 0.5).
@@ -202,11 +211,24 @@ void edge_pass(const Overlaps<R>& ov, Tile& tl, std::int32_t* slot) {
     add(a, qx, qy);
     add(b, -qx, -qy);
   }
+  if (m.wall_axis >= 0)  // the walls: a term per particle of the tile, deposited like an edge's
+    for (std::size_t v = tl.t0; v < tl.t1; ++v) {
+      double x, y;
+      load_xy(m.pos, int(v), x, y);
+      VertexPush w;
+      std::int64_t qx = 0, qy = 0;
+      m.gather_wall(int(v), x, y, m.diameter_of(int(v)), qx, qy, w);
+      if (!w.touched) continue;
+      pairs += w.pairs;
+      bad += w.bad;
+      deposit(slot, tl, int(v), qx, qy);
+    }
   for (int q = 0; q < 3; ++q) tl.nremote[q] = nremote[q];
   tl.c[kBad] = bad;
   tl.c[kPairs] = pairs;
   tl.c[kCorrection] = 0;
   tl.c[kBroken] = broken;
+  tl.c[kTouched] = 0;
   tl.next_hash = hash;
 }
 
@@ -217,6 +239,7 @@ void host_iterate(HostWorkspace* w, const Problem<R>& p, std::int64_t k0, std::i
   // A step starts from clean flags (cheap; also covers a step that ended in an error).
   if (k0 == 0) {
     for (auto& f : w->flags) std::memset(f.data(), 0, f.size());
+    if (p.touched) std::memset(p.touched, 0, p.n);
     w->edge_pass = true;
     w->last_moved = w->n;
   }
@@ -260,11 +283,12 @@ void host_iterate(HostWorkspace* w, const Problem<R>& p, std::int64_t k0, std::i
           for (std::size_t i = 0; i < o.nremote[side]; ++i)
             deposit(w->slot.data(), tl, o.remote[side][i].v, o.remote[side][i].qx, o.remote[side][i].qy);
         }
-        std::uint64_t corr = 0;
+        std::uint64_t corr = 0, first = 0;
         std::size_t nm = 0;
         for (std::size_t i = 0; i < tl.ntouched; ++i) {
           const Touched& tp = tl.touched[i];
           w->slot[std::size_t(tp.v)] = -1;
+          first += touch(p.touched, tp.v);
           if (!go) continue;
           const VertexPush q = ov.from_sum(tp.v, tp.qx, tp.qy);
           corr += ov.fixed_len(q.len);
@@ -276,16 +300,18 @@ void host_iterate(HostWorkspace* w, const Problem<R>& p, std::int64_t k0, std::i
           }
         }
         tl.c[kCorrection] = corr;
+        tl.c[kTouched] = first;
         tl.nmoved = nm;
         std::memset(cur + tl.t0, 0, tl.t1 - tl.t0);  // an edge pass finds every candidate itself
       });
+      for (const Tile& tl : w->tiles) c[kTouched] += tl.c[kTouched];
       if (!go) return;
       for (const Tile& tl : w->tiles) c[kCorrection] += tl.c[kCorrection];
     } else {
       const bool serial = w->last_moved < kSerial;
       for_each_tile(nt, [&](std::size_t t) {
         Tile& tl = w->tiles[t];
-        std::uint64_t tc[kCounters] = {0, 0, 0, 0};
+        std::uint64_t tc[kCounters] = {};
         std::size_t nm = 0;
         const std::size_t count = compact(cur, tl.t0, tl.t1, tl.cand.data());
         for (std::size_t i = 0; i < count; ++i) {
@@ -295,6 +321,7 @@ void host_iterate(HostWorkspace* w, const Problem<R>& p, std::int64_t k0, std::i
           tc[kPairs] += q.pairs;
           tc[kBroken] += q.broken;
           if (!q.touched) continue;  // d = 0, len = 0
+          tc[kTouched] += touch(p.touched, v);
           tc[kCorrection] += ov.fixed_len(q.len);
           if (q.dx != 0 || q.dy != 0) {
             tl.moved[nm] = v;

@@ -11,7 +11,8 @@
 //   - each touched particle that did not move;
 //   - both ends of each edge of a moved particle that overlaps at the new positions (tested
 //     with r² < σ²·(1 + 1e-9), a superset of the gather's own test r² < σ², whose r² is the same
-//     bits from either end, so rounding can only add particles).
+//     bits from either end, so rounding can only add particles), and a moved particle that
+//     overlaps a wall (walls: kernel.h's wall_term, a term of the particle's own gather).
 // An edge that overlaps at k + 1 either has a moved end (then the check of that end marks both)
 // or had both ends fixed, so it overlapped at k already, both ends were touched, and an end
 // that did not move is marked as such (an end that moved was checked). So every particle left
@@ -206,13 +207,19 @@ __global__ void __launch_bounds__(kThreads, MinBlocks) correct_kernel(Args<R> a)
     if (threadIdx.x == 0) s_seeds = s_moved = 0;
     __syncthreads();
 
-    u64 c[kCounters] = {0, 0, 0, 0};
-    // What a gather found: counted, and the particle listed when it touched an overlap.
+    u64 c[kCounters] = {};
+    // What a gather found: counted, and the particle listed when it touched an overlap. The
+    // touched field (when there is one): iteration 0 gathers every particle and writes each entry,
+    // later ones set those they touch (only v's gatherer writes v's entry in an iteration).
     auto take = [&](int v, const VertexPush& q) {
       c[kBad] += q.bad;
       c[kPairs] += q.pairs;
       c[kCorrection] += ov.fixed_len(q.len);
       c[kBroken] += q.broken;
+      if (a.p.touched) {
+        if (q.touched && (k == 0 || !a.p.touched[v])) ++c[kTouched];
+        if (q.touched || k == 0) a.p.touched[v] = std::uint8_t(q.touched);
+      }
       if (q.touched) {
         const bool moves = q.dx != 0 || q.dy != 0;
         const int m = atomicAdd(&s_seeds, 1);
@@ -276,7 +283,9 @@ __global__ void __launch_bounds__(kThreads, MinBlocks) correct_kernel(Args<R> a)
     if (blockIdx.x == 0 && threadIdx.x < kCounters)
       a.result[std::size_t(j) * kCounters + threadIdx.x] = s_tot[threadIdx.x];
     if (blockIdx.x == 0 && threadIdx.x == 0) a.result[std::size_t(kBatch) * kCounters] = u64(j + 1);
-    const std::uint64_t tot[kCounters] = {s_tot[0], s_tot[1], s_tot[2], s_tot[3]};
+    std::uint64_t tot[kCounters];
+#pragma unroll
+    for (int q = 0; q < kCounters; ++q) tot[q] = s_tot[q];
     // The step ends here. Every mark is clear: the compaction or the gather cleared each one,
     // and none is set before the check that follows an apply.
     if (!keeps_going(tot, k, a.max_iterations)) return;

@@ -16,8 +16,10 @@
 // integer sums, hence order-independent too.
 //
 // A particle's d_v depends only on its own position and its neighbours', and is zero with no
-// pairs unless it has an overlapping edge; the loops use that to visit only particles that can
-// have one (cpu.cpp, cuda.cu): the same values as visiting every particle.
+// pairs unless it has an overlapping edge or (with walls, wall_term) overlaps a wall; the loops
+// use that to visit only particles that can have one (cpu.cpp, cuda.cu): the same values as
+// visiting every particle. A wall contact is one more pair of the particle's own sum (with its
+// mirror image), in the same fixed point, so it changes none of these arguments.
 #pragma once
 #include <cmath>
 #include <cstdint>
@@ -32,6 +34,7 @@ enum Counter : int {
   kPairs,       // pairs with r < σ_ij (each pair once)
   kCorrection,  // Σ_v |d_v| in units of 2^-32 · length_unit
   kBroken,      // vertices whose fan of half-edges does not close (corrupt triangulation)
+  kTouched,     // particles touched for the first time in the step (counted only with a touched field)
   kCounters
 };
 
@@ -74,6 +77,44 @@ FF_HD double pair_term_d(const double* r, double sv, double su, double factor, i
     for (int k = 1; k < D; ++k) t[k] = 0;
   }
   return (s - len) / s;
+}
+
+// Hard planar walls at 0 and L along one axis (seed-gaps D2, W1). A particle of diameter sv at
+// distance h < sv/2 from a wall overlaps its mirror image (at 2h, σ = sv), and the pair rule
+// above moves it by factor·(sv − 2h) away from the wall: reflect gives h' = sv − h, the reflection
+// about the contact plane h = sv/2; contact gives h' = sv/2. h is taken on the unwrapped coordinate
+// u = x + L·image: with walls a particle between them has image 0, and one that an integrator
+// carried through a wall (wrapped to the far side, image ±1) has h < 0 and is reflected back
+// (u' = sv − u), which brings its image count back to 0 when the move is applied. (The mirror
+// pair's own formula would push such a particle outwards: the wall's normal is used instead.)
+// Returns the relative overlap (sv − 2h)/sv (> 0; above 1 for a particle beyond the wall) and the
+// signed displacement along the axis in push, or kNoOverlap.
+FF_HD double wall_term(double x, std::int32_t image, double L, double sv, double factor, double& push) {
+  const double u = x + L * double(image);
+  const double half = 0.5 * sv;
+  double h, dir;
+  if (u < half) {
+    h = u;
+    dir = 1;
+  } else if (L - u < half) {
+    h = L - u;
+    dir = -1;
+  } else {
+    return kNoOverlap;
+  }
+  const double excess = sv - 2 * h;
+  push = dir * (factor * excess);
+  return excess / sv;
+}
+
+// Whether a particle at x (image count `image`) overlaps a wall, a little more loosely than
+// wall_term (as Overlaps::overlaps_after_move is looser than a gather): rounding can only add
+// particles to the next iteration's candidates.
+FF_HD bool near_wall(double x, std::int32_t image, double L, double sv) {
+  constexpr double kLoose = 1 + 1e-9;
+  const double u = x + L * double(image);
+  const double half = 0.5 * sv * kLoose;
+  return u < half || L - u < half;
 }
 
 // pair_term_d in 2D, at offset (rx, ry), into (tx, ty).
@@ -228,8 +269,32 @@ struct Overlaps {
   // At N = 2^20 a gather's three loads per neighbour (half-edge, position, diameter) do not fit
   // in the GPU's L2, so one load fewer is traffic saved; the value is the same bits.
   double uniform = 0;
+  // Walls (wall_term): the axis they cut (0: x, 1: y; -1: none) and the image counts they read.
+  // Along that axis a pair's offset is the plain difference of the coordinates, not the minimum
+  // image: no pair interacts across a wall.
+  int wall_axis = -1;
+  const std::int32_t* image = nullptr;  // N x 2
 
   FF_HD double diameter_of(int v) const { return uniform > 0 ? uniform : double(diameter[v]); }
+
+  // The wall term of v (at xv, yv with diameter sv) added to its fixed-point sum and counted in
+  // out as a pair (v and its mirror image); nothing without walls. The image count is a plain
+  // load: on the device, applies change it during the stage (see load_xy).
+  FF_HD void gather_wall(int v, double xv, double yv, double sv, std::int64_t& qx, std::int64_t& qy,
+                         VertexPush& out) const {
+    if (wall_axis < 0) return;
+    double push;
+    const double o = wall_term(wall_axis == 0 ? xv : yv, image[2 * v + wall_axis], box.L[wall_axis], sv, factor, push);
+    if (o == kNoOverlap) return;
+    (wall_axis == 0 ? qx : qy) += fixed_push(push);
+    out.touched = true;
+    ++out.pairs;
+    if (o > tol) ++out.bad;
+  }
+  // Whether v (at xv, yv with diameter sv) overlaps a wall at its new position (near_wall).
+  FF_HD bool wall_after_move(int v, double xv, double yv, double sv) const {
+    return wall_axis >= 0 && near_wall(wall_axis == 0 ? xv : yv, image[2 * v + wall_axis], box.L[wall_axis], sv);
+  }
 
   // Calls f(u, h) for each neighbour u of v in fan order (h = the half-edge v -> u); returns
   // false when the fan does not close, an index is out of range (nothing out of range is read)
@@ -256,6 +321,7 @@ struct Overlaps {
   // box.min_image(d, k), bit for bit; on the host without the rounding when |d| ≤ L/4 (then
   // rint(d/L) = ±0 and the minimum image is d + 0: d, or +0 for d = −0).
   FF_HD double min_image(double d, int k) const {
+    if (k == wall_axis) return d + 0.0;  // no pair across a wall
 #if !defined(__CUDA_ARCH__)
     if (std::fabs(d) <= 0.25 * box.L[k]) return d + 0.0;
 #endif
@@ -293,8 +359,8 @@ struct Overlaps {
     } else
 #endif
     {
-      rx = box.min_image(rx, 0);
-      ry = box.min_image(ry, 1);
+      rx = wall_axis == 0 ? rx + 0.0 : box.min_image(rx, 0);
+      ry = wall_axis == 1 ? ry + 0.0 : box.min_image(ry, 1);
     }
     if (!(rx * rx + ry * ry < reach2)) return kEdgeApart;  // σ_ab ≤ largest diameter
     double tx, ty;
@@ -333,7 +399,7 @@ struct Overlaps {
         any = true;
       }
     });
-    return any;
+    return wall_after_move(v, xv, yv, sv) || any;
   }
 
   // The check's test for one neighbour u of v (at xv, yv with diameter sv); see above.
@@ -371,6 +437,7 @@ struct Overlaps {
     const double sv = diameter_of(v);
     std::int64_t qx = 0, qy = 0;
     out.broken = !neighbors([&](int u) { gather_pair(v, xv, yv, sv, u, qx, qy, out); });
+    gather_wall(v, xv, yv, sv, qx, qy, out);
     finish(qx, qy, sv, out);
     return out;
   }

@@ -57,6 +57,7 @@ __device__ VertexPush gather_ids(const Overlaps<R>& ov, int v, const int (&ids)[
   std::int64_t qx = 0, qy = 0;
   for_each_loaded(ov, ids, d,
                   [&](int u, double xu, double yu) { ov.gather_pair_at(v, xv, yv, sv, u, xu, yu, qx, qy, out); });
+  ov.gather_wall(v, xv, yv, sv, qx, qy, out);
   ov.finish(qx, qy, sv, out);
   return out;
 }
@@ -113,7 +114,7 @@ __device__ bool thread_check(const Overlaps<R>& ov, int v, const int* nb, const 
       any = true;
     }
   });
-  return any;
+  return ov.wall_after_move(v, xv, yv, sv) || any;
 }
 
 // Later iterations read the lists with a group of kGroup lanes per particle: lane l takes
@@ -156,6 +157,7 @@ __device__ VertexPush group_gather(const Overlaps<R>& ov, int v, bool has, int l
     } else if (l < d) {
       ov.gather_pair(v, xv, yv, sv, nb[std::size_t(kCached) * v + l], qx, qy, part);
     }
+    if (l == 0) ov.gather_wall(v, xv, yv, sv, qx, qy, part);  // one lane adds v's wall term
   }
   // pairs and bad are at most kMaxFan each (< 2^16): one word carries both.
   const unsigned counts = group_sum(part.pairs | (part.bad << 16));
@@ -190,6 +192,7 @@ __device__ bool group_check(const Overlaps<R>& ov, int v, bool has, int l, const
         f(u);
         any = true;
       }
+      if (l == 0 && ov.wall_after_move(v, xv, yv, ov.diameter_of(v))) any = true;  // lane 0 (d ≥ 1) tests the walls
     }
   }
   return group_or(unsigned(any)) != 0;

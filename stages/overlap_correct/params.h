@@ -8,6 +8,7 @@
 #include <cstdint>
 #include <string>
 
+#include "core/base/error.h"
 #include "core/stage/state.h"
 
 namespace ff::overlap {
@@ -17,6 +18,8 @@ struct Params {
   double cap = 0.25;
   double tolerance = 1e-6;
   std::int64_t max_iterations = 1000;
+  std::string walls = "none";
+  bool mark = false;
 
   template <class P>
   void describe(P& p) {
@@ -33,8 +36,50 @@ struct Params {
         .above(0)
         .at_most(0.5);
     p(max_iterations, "max_iterations", "iterations before the run stops with an error").at_least(1);
+    p(walls, "walls",
+      "hard planar walls at 0 and L along this axis (none: periodic in every direction): a particle closer than "
+      "σ_i/2 to a wall is pushed back by the rule of `mode` for the pair it makes with its mirror image (reflect: "
+      "about the contact plane), within the same iterations; the axis stays periodic for the bookkeeping, but no "
+      "pair interacts across it and its image counts stay 0")
+        .one_of({"none", "x", "y", "z"});
+    p(mark, "mark",
+      "write the field overlap_correct.touched (u8: 1 for every particle that overlapped a neighbour or a wall in "
+      "any iteration of the step) and the metrics touched and touched_fraction (Carter et al. 2017, Fig. 13)");
   }
 };
+
+// The field `mark: true` writes (both corrections).
+inline constexpr const char* touched_field = "overlap_correct.touched";
+
+// The axis `walls` names (-1: none).
+inline int wall_axis_of(const std::string& walls) {
+  return walls == "x" ? 0 : walls == "y" ? 1 : walls == "z" ? 2 : -1;
+}
+
+// With walls: the axis must exist, be at least two largest diameters long, and every particle must start
+// between the walls as far as the image counts tell (image 0 along the axis: the correction reflects a particle
+// that an integrator carried through a wall back by its unwrapped coordinate, which needs the count to start at
+// 0). `who`: the stage's name for the errors (InputError).
+inline void check_walls(State& s, int axis, double dmax, const char* who) {
+  if (axis < 0) return;
+  const char* name[3] = {"x", "y", "z"};
+  if (axis >= s.dim())
+    throw InputError(std::string(who) + ": walls: " + name[axis] + " needs a 3D system (system.dimensions is " +
+         std::to_string(s.dim()) + "): use walls: x or y");
+  if (!(s.box.L[axis] >= 2 * dmax))
+    throw InputError(std::string(who) + ": walls: " + name[axis] + ": the box is " + std::to_string(s.box.L[axis]) +
+         " long between the walls, less than two of the largest diameter (" + std::to_string(dmax) +
+         "): make the box longer along " + name[axis]);
+  Field& img = s.field(fields::image);
+  img.acquire(Where::host, Mode::read);
+  const std::int32_t* m = img.host<std::int32_t>();
+  for (std::size_t i = 0; i < s.n(); ++i)
+    if (m[std::size_t(s.dim()) * i + std::size_t(axis)] != 0)
+      throw InputError(std::string(who) + ": walls: " + name[axis] + ": particle " + std::to_string(i) + " has image count " +
+           std::to_string(m[std::size_t(s.dim()) * i + std::size_t(axis)]) + " along " + name[axis] +
+           ", but with walls every particle lies between them (count 0); start from a state without box "
+           "crossings along " + name[axis]);
+}
 
 // The tolerance a run uses: `tolerance`, raised in float runs to the position resolution
 // 4·ε·L_max/σ_min (dmin: the smallest diameter), below which a float position cannot resolve

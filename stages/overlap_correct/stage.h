@@ -2,9 +2,28 @@
 // 2017, sec. 2.3 and 4.4). Every pair joined by a Delaunay edge and closer than
 // σ_ij = (σ_i + σ_j)/2 is pushed apart along its line of centres (kernel.h); the displacements
 // are summed per particle, capped, applied, and the pass repeats until no pair overlaps by more
-// than `tolerance`·σ_ij. The closest overlapping pair of any configuration is a Delaunay edge (a
-// point inside its diametral circle would be closer still), so when no edge overlaps no pair
-// does. Needs the triangulation: delaunay stages must come before it in the step.
+// than `tolerance`·σ_ij. Needs the triangulation: delaunay stages must come before it in the step.
+//
+// When no edge overlaps, no pair does, but only for diameters that do not differ too much
+// (seed-gaps C5): if σ_ik² + σ_jk² ≥ σ_ij² for every triple of diameters, the overlapping pair with
+// the smallest r_ij/σ_ij is a Gabriel edge (a point k inside its diametral circle has
+// r_ik² + r_jk² < r_ij², so r_ik/σ_ik or r_jk/σ_jk would be smaller still), hence a Delaunay edge.
+// For additive diameters the worst triple is (largest, largest, smallest), and the condition is
+// σ_min/σ_max ≥ √2 − 1 ≈ 0.414. Below that a small disk can sit inside the diametral circle of
+// two overlapping large ones, their edge need not exist, and the step can end with the overlap
+// left: configure() refuses such diameters (check_diameter_ratio), pointing to
+// overlap_correct.verlet, which sees every pair within its cutoff. (Also, the triangulation is
+// Delaunay for the positions before the correction, not during it: pushes larger than the
+// margins of the Gabriel argument can meet pairs that are not edges; the next step's
+// triangulation finds them.)
+//
+// Walls (`walls: x | y`, kernel.h's wall_term): the triangulation stays that of the torus. Its
+// edges across the seam join particles facing each other across the walls; along the wall axis a
+// pair's offset is the plain difference of the coordinates, so those edges never overlap and
+// never push. A particle that an integrator carried through a wall is wrapped to the far side
+// and triangulated there; its wall term (on the unwrapped coordinate) reflects it back within
+// the step, and its overlaps at the new place with particles that were not its neighbours are
+// left to the next step's triangulation (a crossing needs a single move of more than σ/2).
 #pragma once
 #include <algorithm>
 #include <cfloat>
@@ -45,7 +64,25 @@ struct Problem {
   std::int32_t* image;
   PeriodicBox<R> box;
   std::size_t n;
+  std::uint8_t* touched = nullptr;  // the touched field (mark: true), else null
 };
+
+// overlap_correct's parameters: the corrections' (params.h) and the diameter-ratio check.
+struct DelaunayParams : Params {
+  bool check_diameter_ratio = true;
+
+  template <class P>
+  void describe(P& p) {
+    Params::describe(p);
+    p(check_diameter_ratio, "check_diameter_ratio",
+      "refuse diameters with σ_min/σ_max < √2 − 1, for which an overlapping pair need not be a Delaunay edge and "
+      "overlaps can survive the correction (seed-gaps C5); false runs anyway (use overlap_correct.verlet instead "
+      "where you can)");
+  }
+};
+
+// The smallest σ_min/σ_max for which every triple of additive diameters has σ_ik² + σ_jk² ≥ σ_ij².
+inline constexpr double kMinDiameterRatio = 0.41421356237309503;  // √2 − 1
 
 // A backend's iteration loop and the scratch memory it keeps across steps (cpu.cpp: host work
 // lists per tile; cuda.cu: device arrays from the backend object, Scratch in core/backend/memory.h).
@@ -70,20 +107,25 @@ class OverlapCorrect final : public Stage {
   static StageDecl declaration() {
     return {"overlap_correct",
             "push overlapping pairs apart along Delaunay edges (reflect or contact), iterated until none overlap",
-            schema_of<Params>(), {2}, false};
+            schema_of<DelaunayParams>(), {2}, false};
   }
 
   template <class Exec>
   OverlapCorrect(const ParamValues& v, const RunInfo&, Exec exec)
-      : p_(params_from<Params>(v)), where_(Exec::where), loops_(overlap_correct_loops<R>(exec)) {}
+      : p_(params_from<DelaunayParams>(v)),
+        where_(Exec::where),
+        wall_axis_(wall_axis_of(p_.walls)),
+        loops_(overlap_correct_loops<R>(exec)) {}
 
   std::vector<Access> accesses() const override {
-    return {{fields::position, where_, Mode::readwrite},
-            {fields::image, where_, Mode::readwrite},
-            {fields::diameter, where_, Mode::read},
-            {delaunay::fields::halfedge, where_, Mode::read},
-            {delaunay::fields::vertex_edge, where_, Mode::read},
-            {delaunay::fields::status, Where::host, Mode::read}};
+    std::vector<Access> a{{fields::position, where_, Mode::readwrite},
+                          {fields::image, where_, Mode::readwrite},
+                          {fields::diameter, where_, Mode::read},
+                          {delaunay::fields::halfedge, where_, Mode::read},
+                          {delaunay::fields::vertex_edge, where_, Mode::read},
+                          {delaunay::fields::status, Where::host, Mode::read}};
+    if (p_.mark) a.push_back({touched_field, where_, Mode::write});  // every entry written each step
+    return a;
   }
 
   void configure(State& s) override {
@@ -98,8 +140,17 @@ class OverlapCorrect final : public Stage {
                          "delaunay.build)");
     diam_.template measure<R>(s, nullptr);
     if (!(diam_.min > 0)) throw InputError("overlap_correct: every particle needs a positive diameter");
+    if (const std::string e = ratio_problem(s); !e.empty()) throw InputError(e);
+    if (wall_axis_ > 1)
+      throw InputError("overlap_correct: walls: z: the triangulation is 2D; use walls: x or y");
+    check_walls(s, wall_axis_, diam_.max, "overlap_correct");
     unit_ = diam_.max;
     tol_ = tolerance_for(p_, s, diam_.min);
+    if (p_.mark) {
+      Field& f = s.add_particle_field(touched_field, DType::u8, 1);
+      f.acquire(Where::host, Mode::write);
+      std::memset(f.host<std::uint8_t>(), 0, s.n());
+    }
   }
 
   Outcome run(StepContext& ctx) override {
@@ -115,16 +166,35 @@ class OverlapCorrect final : public Stage {
     const R* diam = s.field(fields::diameter).data<R>(ctx);
     const std::int32_t* he = s.field(delaunay::fields::halfedge).data<std::int32_t>(ctx);
     const std::int32_t* ve = s.field(delaunay::fields::vertex_edge).data<std::int32_t>(ctx);
-    if (diam_.stale(s))  // written since: measure again
+    if (diam_.stale(s)) {  // written since: measure again
       diam_.template measure<R>(s, st);
+      if (const std::string e = ratio_problem(s); !e.empty())
+        throw RunError("overlap_correct: step " + std::to_string(ctx.host_params.step) + ": the diameters changed; " + e);
+      if (wall_axis_ >= 0 && !(s.box.L[wall_axis_] >= 2 * diam_.max))
+        throw RunError("overlap_correct: step " + std::to_string(ctx.host_params.step) +
+                       ": the diameters changed; the largest is now more than half the distance between the walls");
+    }
     const double uniform = diam_.min == diam_.max ? diam_.max : 0.0;  // all diameters equal: none is read
-    const Overlaps<R> overlaps{x, diam, he, ve, std::int32_t(n), diam_.max * diam_.max, PeriodicBox<double>::make(s.box.L),
-                       p_.mode == "contact" ? 0.5 : 1.0, p_.cap, tol_, 1.0 / unit_, uniform};
-    const Problem<R> prob{overlaps, x, img, PeriodicBox<R>::make(s.box.L), n};
+    const Overlaps<R> overlaps{x,
+                               diam,
+                               he,
+                               ve,
+                               std::int32_t(n),
+                               diam_.max * diam_.max,
+                               PeriodicBox<double>::make(s.box.L),
+                               p_.mode == "contact" ? 0.5 : 1.0,
+                               p_.cap,
+                               tol_,
+                               1.0 / unit_,
+                               uniform,
+                               wall_axis_,
+                               wall_axis_ >= 0 ? img : nullptr};
+    std::uint8_t* touched = p_.mark ? s.field(touched_field).data<std::uint8_t>(ctx) : nullptr;
+    const Problem<R> prob{overlaps, x, img, PeriodicBox<R>::make(s.box.L), n, touched};
 
     // Replays the loop's rule on each gather's counters: error, converged, or apply and go on.
     std::int64_t iterations = 0;
-    std::uint64_t pairs = 0;
+    std::uint64_t pairs = 0, first_touches = 0;
     double correction = 0;
     for (bool done = false; !done;) {
       loops_->iterate(prob, iterations, p_.max_iterations, batch_, st);
@@ -138,6 +208,7 @@ class OverlapCorrect final : public Stage {
                          std::to_string(h[kBroken]) + " failed check(s): half-edge indices out of range, next "
                          "pointers that are not a permutation, or the half-edges around a particle that do not "
                          "form a closed fan); a delaunay stage before overlap_correct failed to keep it valid");
+        first_touches += h[kTouched];
         if (!h[kBad]) {
           done = true;
           break;
@@ -151,10 +222,31 @@ class OverlapCorrect final : public Stage {
     ctx.metrics.set("iterations", double(iterations));
     ctx.metrics.set("pairs", double(pairs));
     ctx.metrics.set("correction", correction);
+    if (p_.mark) {
+      ctx.metrics.set("touched", double(first_touches));
+      ctx.metrics.set("touched_fraction", double(first_touches) / double(n));
+    }
     return Outcome::ok();
   }
 
   double effective_tolerance() const { return tol_; }
+
+  // Why these diameters break the Delaunay-edge argument (see the top of this file), or "".
+  std::string ratio_problem(const State& s) const {
+    if (!p_.check_diameter_ratio || diam_.min >= kMinDiameterRatio * diam_.max) return "";
+    std::string small, large;
+    for (std::size_t t = 0; t < s.species_diameter.size() && t < s.species.size(); ++t) {
+      if (s.species_diameter[t] == diam_.min) small = " (type " + s.species[t] + ")";
+      if (s.species_diameter[t] == diam_.max) large = " (type " + s.species[t] + ")";
+    }
+    std::ostringstream os;
+    os << "overlap_correct: the smallest diameter " << diam_.min << small << " is less than √2 − 1 = 0.4142 times the "
+       << "largest " << diam_.max << large << " (ratio " << diam_.min / diam_.max
+       << "): then σ_ik² + σ_jk² < σ_ij² for two large disks i, j and a small one k, an overlapping pair need not be a "
+          "Delaunay edge, and overlaps can survive the correction. Use overlap_correct.verlet (with neighbors.verlet), "
+          "which sees every pair within its cutoff, or set check_diameter_ratio: false to run anyway";
+    return os.str();
+  }
 
  private:
   // The error path: find the worst pair on the host (fields are copied there) and stop.
@@ -169,8 +261,8 @@ class OverlapCorrect final : public Stage {
     double worst = -1, wr = 0, ws = 0;
     for (std::size_t e = 0; e < 3 * s.n(); ++e) {
       const int a = he[4 * e], b = he[4 * e + 2];
-      const double rx = box.min_image(double(x[2 * b]) - double(x[2 * a]), 0);
-      const double ry = box.min_image(double(x[2 * b + 1]) - double(x[2 * a + 1]), 1);
+      const double dx = double(x[2 * b]) - double(x[2 * a]), dy = double(x[2 * b + 1]) - double(x[2 * a + 1]);
+      const double rx = wall_axis_ == 0 ? dx : box.min_image(dx, 0), ry = wall_axis_ == 1 ? dy : box.min_image(dy, 1);
       const double sab = 0.5 * (double(d[a]) + double(d[b])), r = std::sqrt(rx * rx + ry * ry);
       if ((sab - r) / sab > worst) {
         worst = (sab - r) / sab;
@@ -184,13 +276,15 @@ class OverlapCorrect final : public Stage {
     os << "overlap_correct: step " << ctx.host_params.step << ": " << bad << " pair(s) still overlap by more than tolerance = "
        << tol_ << " after max_iterations = " << p_.max_iterations << " iterations; the worst is particles " << wa
        << " and " << wb << " at r = " << wr << " with σ_ij = " << ws << " (overlap " << worst
-       << "·σ_ij). Lower run.dt (smaller moves make fewer, shallower overlaps), raise max_iterations, or lower "
+       << "·σ_ij)" << (wall_axis_ >= 0 ? " or a particle and a wall" : "")
+       << ". Lower run.dt (smaller moves make fewer, shallower overlaps), raise max_iterations, or lower "
           "the packing fraction";
     throw RunError(os.str());
   }
 
-  Params p_;
+  DelaunayParams p_;
   Where where_;
+  int wall_axis_;  // walls: 0 (x) or 1 (y); -1: none
   std::unique_ptr<OverlapCorrectLoops<R>> loops_;
   Batch batch_;
   double unit_ = 1;  // length unit of the fixed-point correction counter (largest diameter)

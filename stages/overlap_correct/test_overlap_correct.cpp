@@ -15,6 +15,7 @@
 #include "core/physics/rng.h"
 #include "core/run/simulation.h"
 #include "stages/overlap_correct/kernel.h"
+#include "stages/overlap_correct/params.h"
 #include "stages/delaunay/common/fields.h"
 #include "support/backends.h"
 #include "support/spec.h"
@@ -584,5 +585,126 @@ TEST_CASE("overlap_correct: errors name what to change", "[overlap][errors]") {
       CHECK(m.find("max_iterations = 2") != std::string::npos);
       CHECK(m.find("worst is particles") != std::string::npos);
     }
+  }
+}
+
+namespace {
+
+// 64 disks (σ = 1) on a square grid of spacing 4 in a 32 x 32 box: rows and columns at 2, 6, ..., 30.
+std::vector<double> grid64() {
+  std::vector<double> xy(2 * 64);
+  for (std::size_t i = 0; i < 64; ++i) {
+    xy[2 * i] = 2 + 4.0 * double(i % 8);
+    xy[2 * i + 1] = 2 + 4.0 * double(i / 8);
+  }
+  return xy;
+}
+
+// One step of `steps` on the 64 disks at xy with the given diameters (1 where not listed).
+std::unique_ptr<Simulation> hand_made(const std::vector<StepEntry>& steps, const std::vector<double>& xy,
+                                      const std::map<std::size_t, double>& diameter, Backend b = Backend::cpu) {
+  auto spec = test::spec(2, 64, 0.05, 1, 0.01, steps, 3);
+  spec.system.box = {32.0, 32.0};
+  auto state = make_initial_state(spec.system, spec.run.precision, spec.run.seed);
+  set_positions(*state, xy);
+  Field& d = state->field(fields::diameter);
+  d.acquire(Where::host, Mode::readwrite);
+  for (auto& kv : diameter) d.host<double>()[kv.first] = kv.second;
+  return std::make_unique<Simulation>(spec, registry(), dry(b), std::move(state));
+}
+
+std::vector<StepEntry> variant_steps(const std::string& variant, const std::map<std::string, ParamValue>& params) {
+  const Registry& r = registry();
+  if (variant == "delaunay") return {entry(r, "delaunay.build"), entry(r, "overlap_correct", params)};
+  return {entry(r, "neighbors.verlet", {{"cutoff", 1.0}, {"skin", 0.3}}), entry(r, "overlap_correct.verlet", params)};
+}
+
+}  // namespace
+
+TEST_CASE("overlap_correct: the diameter-ratio limit σ_min/σ_max ≥ √2 − 1 (seed-gaps C5)", "[overlap][errors]") {
+  // The motif: two large disks (σ = 1) overlapping at r = 0.99 about (16, 16), and two small ones
+  // just inside the top and the bottom of their diametral circle (0.495·(1 − 10⁻³) from its
+  // centre). Every circle through the two large centres holds a small one, so the large pair is no
+  // Delaunay edge. Small disks of 0.3 overlap nothing (0.6997 from each large centre > 0.65): the
+  // correction on Delaunay edges sees no overlap and leaves the large pair as it is. Small disks of
+  // 0.42 do overlap the large ones (0.6997 < 0.71), and the correction leaves no overlap at all.
+  auto motif = [] {
+    auto xy = grid64();
+    const double h = 0.495 * (1 - 1e-3);
+    const double at[4][2] = {{16 - 0.495, 16}, {16 + 0.495, 16}, {16, 16 + h}, {16, 16 - h}};
+    for (int i = 0; i < 4; ++i) {
+      xy[2 * i] = at[i][0];
+      xy[2 * i + 1] = at[i][1];
+    }
+    return xy;
+  };
+  auto pair_gap = [](Simulation& sim) {
+    const auto xy = positions(sim.state());
+    return std::hypot(xy[2] - xy[0], xy[3] - xy[1]);
+  };
+  SECTION("ratio 0.3 is refused, naming the bound, the Verlet variant and the opt-out") {
+    for (double small : {0.3, 0.41}) {
+      INFO("small " << small);
+      try {
+        hand_made(variant_steps("delaunay", {}), motif(), {{2, small}, {3, small}});
+        FAIL("expected an InputError");
+      } catch (const InputError& e) {
+        const std::string m = e.what();
+        INFO(m);
+        CHECK(m.find("√2 − 1") != std::string::npos);
+        CHECK(m.find("overlap_correct.verlet") != std::string::npos);
+        CHECK(m.find("check_diameter_ratio: false") != std::string::npos);
+      }
+    }
+  }
+  SECTION("ratio 0.3 with the check off: the overlap survives; overlap_correct.verlet removes it") {
+    auto sim = hand_made(variant_steps("delaunay", {{"check_diameter_ratio", false}}), motif(), {{2, 0.3}, {3, 0.3}});
+    REQUIRE(min_gap(sim->state()) == Approx(0.99).epsilon(1e-12));
+    sim->advance();
+    CHECK(metric(*sim, "iterations") == 0);
+    CHECK(pair_gap(*sim) == Approx(0.99).epsilon(1e-12));
+    CHECK(min_gap(sim->state()) < 1 - 1e-6);
+    auto verlet = hand_made(variant_steps("verlet", {}), motif(), {{2, 0.3}, {3, 0.3}});
+    verlet->advance();
+    CHECK(min_gap(verlet->state()) >= 1 - 1e-6);
+  }
+  SECTION("ratio 0.42 is accepted and leaves no overlap") {
+    auto sim = hand_made(variant_steps("delaunay", {}), motif(), {{2, 0.42}, {3, 0.42}});
+    REQUIRE(min_gap(sim->state()) < 0.99);
+    sim->advance();
+    INFO("iterations " << metric(*sim, "iterations") << ", large pair at " << pair_gap(*sim));
+    CHECK(metric(*sim, "iterations") >= 1);
+    CHECK(min_gap(sim->state()) >= 1 - 1e-6);
+  }
+}
+
+TEST_CASE("overlap_correct: mark: true marks exactly the particles of overlapping pairs (both variants)",
+          "[overlap][verlet][mark]") {
+  // Two overlapping pairs on the grid (9 at 0.75 from 10, 20 at 0.9 from 21): the step marks those
+  // four and no other; the next step (nothing overlaps any more) clears every mark.
+  const Backend backend = GENERATE(from_range(test::backends()));
+  for (const char* variant : {"delaunay", "verlet"}) {
+    INFO(to_string(backend) << ": " << variant);
+    auto xy = grid64();
+    xy[2 * 9] = 9.25;
+    xy[2 * 20] = 21.1;
+    auto sim = hand_made(variant_steps(variant, {{"mark", true}}), xy, {}, backend);
+    const std::string name = variant == std::string("delaunay") ? "overlap_correct/" : "overlap_correct.verlet/";
+    auto marked = [&] {
+      Field& f = sim->state().field(overlap::touched_field);
+      f.acquire(Where::host, Mode::read);
+      std::vector<std::size_t> who;
+      for (std::size_t i = 0; i < 64; ++i)
+        if (f.host<std::uint8_t>()[i]) who.push_back(i);
+      return who;
+    };
+    sim->advance();
+    CHECK(marked() == std::vector<std::size_t>{9, 10, 20, 21});
+    CHECK(sim->stats().metrics.at(name + "touched") == 4);
+    CHECK(sim->stats().metrics.at(name + "touched_fraction") == 4.0 / 64);
+    CHECK(sim->stats().metrics.at(name + "iterations") == 1);
+    sim->advance();
+    CHECK(marked().empty());
+    CHECK(sim->stats().metrics.at(name + "touched") == 0);
   }
 }

@@ -1,5 +1,5 @@
-// Stages that exist only to test the core: they request rollbacks on cue, prove that two
-// stages ran at the same time, and record the order stages ran in. Built into test-plugins/,
+// Stages that exist only to test the core: they request rollbacks or limit Δt on cue, prove that
+// two stages ran at the same time, and record the order stages ran in. Built into test-plugins/,
 // never into the plugins users see.
 #include <atomic>
 #include <chrono>
@@ -144,6 +144,33 @@ class Count final : public Stage {
   bool on_demand_, announce_, overwrite_;
 };
 
+// testing.limit_dt: reports Outcome::limit_dt(dt_max) on the listed steps (every step when the
+// list is empty), writes nothing. Metrics: `attempt` and `dt` of each run, `runs` counts them.
+class LimitDt final : public Stage {
+ public:
+  explicit LimitDt(const ParamValues& v) : steps_(v.reals("steps")), dt_max_(v.real("dt_max")) {}
+  std::vector<Access> accesses() const override { return {{fields::position, Where::host, Mode::read}}; }
+  Scheduling scheduling() const override {
+    Scheduling s;
+    s.may_limit_dt = true;
+    return s;
+  }
+  Outcome run(StepContext& ctx) override {
+    ctx.metrics.set("attempt", ctx.host_params.attempt);
+    ctx.metrics.set("dt", ctx.host_params.dt);
+    ctx.metrics.set("runs", double(++runs_));
+    bool listed = steps_.empty();
+    for (double s : steps_) listed = listed || std::uint64_t(s) == ctx.host_params.step;
+    if (!listed) return Outcome::ok();
+    return Outcome::limit_dt(dt_max_, "testing.limit_dt asked for it", {2, 7});
+  }
+
+ private:
+  std::vector<double> steps_;
+  double dt_max_;
+  std::uint64_t runs_ = 0;
+};
+
 template <class S>
 StageFactory factory() {
   return [](const ParamValues& v, const RunInfo&) { return std::make_unique<S>(v); };
@@ -177,6 +204,13 @@ void register_testing(Registry& r) {
               ParamSpec::boolean("overwrite", false, "announce with will_overwrite instead (with announce)")},
              {2, 3}, false});
   r.implement("testing.count", Backend::cpu, factory<Count>());
+  r.declare({"testing.limit_dt", "limits Δt on cue (tests only)",
+             {ParamSpec{"steps", ParamType::real_list, ParamValue(std::vector<double>{}), {}, {}, false, {},
+                        "steps to limit (empty: every step)"},
+              ParamSpec::real("dt_max", 1.0, "the limit reported").at_least(0)},
+             {2, 3}, false});
+  r.implement("testing.limit_dt", Backend::cpu, factory<LimitDt>());
+  r.implement("testing.limit_dt", Backend::cuda, factory<LimitDt>());
   r.implement("testing.count", Backend::cuda, factory<Count>());
 }
 

@@ -58,6 +58,7 @@ struct Result {
   std::map<std::string, double> stage_ms;       // per stage, profiled pass
   std::map<std::string, double> metrics_mean;   // per step
   double rollbacks_per_step = 0;
+  double dt_limits_per_step = 0;  // steps run again at a Δt a stage limited (Outcome::limit_dt)
 };
 
 Result bench_one(const Loaded& loaded, std::uint64_t n, Backend backend, std::uint64_t steps, std::uint64_t warmup) {
@@ -86,6 +87,7 @@ Result bench_one(const Loaded& loaded, std::uint64_t n, Backend backend, std::ui
   }
   std::vector<double> ms;
   const auto rollbacks0 = sim.stats().rollbacks;
+  const auto dt_limits0 = sim.stats().dt_limits;
   std::map<std::string, double> metric_sum;
   for (std::uint64_t i = 0; i < steps; ++i) {
     const auto t0 = std::chrono::steady_clock::now();
@@ -99,6 +101,7 @@ Result bench_one(const Loaded& loaded, std::uint64_t n, Backend backend, std::ui
   for (double x : ms) total += x;
   r.mean_ms = total / double(ms.size());
   r.rollbacks_per_step = double(sim.stats().rollbacks - rollbacks0) / double(steps);
+  r.dt_limits_per_step = double(sim.stats().dt_limits - dt_limits0) / double(steps);
   for (auto& kv : metric_sum) r.metrics_mean[kv.first] = kv.second / double(steps);
 
   sim.scheduler().set_profiling(true);
@@ -163,7 +166,8 @@ int cmd_bench(const std::vector<std::string>& args) {
           << to_string(backend) << "\",\"device\":\"" << json_escape(device) << "\",\"N\":" << n
           << ",\"steps\":" << steps << ",\"median_ms\":" << r.median_ms << ",\"mean_ms\":" << r.mean_ms
           << ",\"steps_per_s\":" << r.throughput << ",\"particle_steps_per_s\":" << double(n) * r.throughput
-          << ",\"rollbacks_per_step\":" << r.rollbacks_per_step << ",\"stage_ms\":{";
+          << ",\"rollbacks_per_step\":" << r.rollbacks_per_step
+          << ",\"dt_limits_per_step\":" << r.dt_limits_per_step << ",\"stage_ms\":{";
     bool first = true;
     for (auto& kv : r.stage_ms) {
       jsonl << (first ? "" : ",") << "\"" << json_escape(kv.first) << "\":" << kv.second;

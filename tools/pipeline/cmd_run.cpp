@@ -1,77 +1,209 @@
-// `pipeline run`: the main job.
+// `pipeline run`: the main job, with checkpoints and --resume (core/run/checkpoint.h).
+//
+// Exit codes: 0 done, 1 the run failed, 2 bad input (including a refused --resume),
+// 3 stopped by SIGINT or SIGTERM after finishing the step under way and writing a checkpoint
+// (continue with `pipeline run FILE --resume`).
 #include <oneapi/tbb/global_control.h>
 
 #include <atomic>
 #include <chrono>
 #include <csignal>
+#include <ctime>
 #include <filesystem>
+#include <fstream>
 #include <iostream>
+#include <memory>
 #include <optional>
+#include <thread>
 
 #include "core/backend/device.h"
 #include "core/base/error.h"
+#include "core/base/version.h"
+#include "core/run/checkpoint.h"
 #include "core/run/simulation.h"
 #include "tools/pipeline/commands.h"
 #include "tools/pipeline/common.h"
 #include "tools/pipeline/options.h"
 
+#ifndef FLIPFLOW_GIT_COMMIT
+#define FLIPFLOW_GIT_COMMIT "unknown"
+#endif
+
 namespace po = boost::program_options;
+namespace fs = std::filesystem;
 
 namespace ff::cli {
 
 namespace {
-std::atomic<bool> g_interrupted{false};
-extern "C" void on_interrupt(int) { g_interrupted.store(true); }
+constexpr int kExitInterrupted = 3;
+
+std::atomic<int> g_signal{0};
+extern "C" void on_signal(int sig) { g_signal.store(sig); }
+
+// The CPU's model name (/proc/cpuinfo), for the record of what produced a run.
+std::string cpu_description() {
+  std::ifstream in("/proc/cpuinfo");
+  for (std::string line; std::getline(in, line);)
+    if (line.rfind("model name", 0) == 0) {
+      const auto colon = line.find(':');
+      if (colon != std::string::npos) return line.substr(line.find_first_not_of(' ', colon + 1));
+    }
+  return "unknown CPU";
+}
+
+std::string utc_now() {
+  const std::time_t t = std::time(nullptr);
+  char buf[32];
+  std::strftime(buf, sizeof buf, "%Y-%m-%dT%H:%M:%SZ", std::gmtime(&t));
+  return buf;
+}
+
+// `--resume` takes an optional value (a directory or a checkpoint file), which Boost's parser
+// cannot tell from the positional FILE: take it out of the arguments first.
+bool take_resume(std::vector<std::string>& args, std::string& where) {
+  for (std::size_t i = 0; i < args.size(); ++i) {
+    if (args[i].rfind("--resume=", 0) == 0) {
+      where = args[i].substr(9);
+      args.erase(args.begin() + std::ptrdiff_t(i));
+      return true;
+    }
+    if (args[i] == "--resume") {
+      const bool has_value = i + 1 < args.size() && args[i + 1].rfind("-", 0) != 0 &&
+                             fs::path(args[i + 1]).extension() != ".yaml" && fs::path(args[i + 1]).extension() != ".yml";
+      if (has_value) where = args[i + 1];
+      args.erase(args.begin() + std::ptrdiff_t(i), args.begin() + std::ptrdiff_t(i + (has_value ? 2 : 1)));
+      return true;
+    }
+  }
+  return false;
+}
+
+std::string lines(const std::vector<std::string>& v) {
+  std::string out;
+  for (auto& s : v) out += "\n  " + s;
+  return out;
+}
 }  // namespace
 
-int cmd_run(const std::vector<std::string>& args) {
+int cmd_run(const std::vector<std::string>& raw_args) {
+  std::vector<std::string> args = raw_args;
+  std::string resume_where;
+  const bool resuming = take_resume(args, resume_where);
   CommonOptions common;
   std::string out;
   bool force = false;
   bool check_rollbacks = false;
+  bool allow_changes = false;
   int threads = 0;
   po::options_description extra;
   extra.add_options()("out", po::value<std::string>(&out), "output directory (default runs/<file stem>)")(
       "force", po::bool_switch(&force), "overwrite existing outputs")(
       "threads", po::value<int>(&threads)->default_value(0), "CPU threads (0 = all cores)")(
+      "allow-changes", po::bool_switch(&allow_changes),
+      "with --resume: continue with changed parameters (recorded in the H5MD file's /parameters/history)")(
       "check-rollbacks", po::bool_switch(&check_rollbacks),
       "after every rollback, check that the whole state was restored bit for bit (slow: copies the state every "
       "step; for stage authors)");
   parse_options(args, extra, common);
+  if (resuming && force) throw InputError("--resume continues the outputs of a run; --force would overwrite them");
   const Backend backend = resolve_backend(common.device);
   Loaded loaded = load(common.file, common.overrides);
-  if (out.empty()) out = "runs/" + std::filesystem::path(common.file).stem().string();
+  if (out.empty()) {
+    if (resuming && !resume_where.empty())
+      out = fs::is_regular_file(resume_where) ? fs::path(resume_where).parent_path().string() : resume_where;
+    else
+      out = "runs/" + fs::path(common.file).stem().string();
+  }
   std::optional<tbb::global_control> limit;
   if (threads > 0) limit.emplace(tbb::global_control::max_allowed_parallelism, std::size_t(threads));
+  const auto& spec = loaded.spec;
+
+  // What produced this run, recorded in the H5MD file and in checkpoints.
+  RunRecord record;
+  record.pipeline_text = loaded.text;
+  record.effective_pipeline = loaded.effective;
+  record.overrides = loaded.overrides;
+  for (auto& line : resolved_parameters(spec)) record.resolved += line + "\n";
+  const std::string device = backend == Backend::cuda ? cuda_device_description() : cpu_description();
+  record.attributes = {{"flipflow_version", FF_VERSION_STRING},
+                       {"commit", FLIPFLOW_GIT_COMMIT},
+                       {"device", device},
+                       {"threads", std::to_string(threads > 0 ? threads : int(std::thread::hardware_concurrency()))},
+                       {"started", utc_now()}};
 
   RunOptions options{backend, out, force, loaded.text};
   options.check_rollbacks = check_rollbacks;
-  Simulation sim(loaded.spec, *loaded.registry, options);
-  const auto& spec = loaded.spec;
+  std::unique_ptr<Simulation> sim;
+  std::string history;
+  if (resuming) {
+    ResumePoint rp = find_resume_point(resume_where.empty() ? out : resume_where);
+    const PipelineChanges changes = compare_with_checkpoint(rp.data, spec);
+    if (!changes.structure.empty())
+      throw InputError("cannot resume from '" + rp.path + "': the pipeline's structure differs from the run's:" +
+                       lines(changes.structure) +
+                       "\nA continuation must have the same N, dimensions, precision, species and stages; start a "
+                       "new run from a frame of this one instead (system: {init: {from: FILE.h5, frame: -1}})");
+    if (!changes.parameters.empty() && !allow_changes)
+      throw InputError("cannot resume from '" + rp.path + "': parameters changed since the checkpoint:" +
+                       lines(changes.parameters) +
+                       "\nPass --allow-changes to continue with them (they are recorded in the H5MD file under "
+                       "/parameters/history), or undo them");
+    const std::uint64_t step = rp.data.u64("clock/step");
+    record.resumed_from = rp.path;
+    record.resume_step = step;
+    for (auto& c : changes.parameters) record.changes += c + "\n";
+    options.resume = true;
+    options.record = record;
+    sim = std::make_unique<Simulation>(spec, *loaded.registry, options, state_from_checkpoint(rp.data));
+    restore_checkpoint(*sim, rp.data);
+    history = checkpoint_history(rp.data) + "step " + std::to_string(step) + ": resumed from " + rp.path + " at " +
+              utc_now() + (changes.parameters.empty() ? "" : "; changes:" + lines(changes.parameters)) + "\n";
+    std::cerr << "flipflow: resuming " << common.file << " at step " << step << " from " << rp.path << "\n";
+    if (step >= spec.run.steps)
+      std::cerr << "flipflow: the checkpoint is at step " << step << " and run.steps is " << spec.run.steps
+                << ": nothing to run (extend the run with --set run.steps=...)\n";
+  } else {
+    options.record = record;
+    sim = std::make_unique<Simulation>(spec, *loaded.registry, options);
+  }
   std::cerr << "flipflow: " << common.file << " — " << spec.system.dimensions << "D, N = " << spec.system.N << ", "
             << spec.run.steps << " steps of Δt = " << spec.run.dt << ", " << to_string(spec.run.precision) << " on "
-            << to_string(backend) << (backend == Backend::cuda ? " (" + cuda_device_description() + ")" : "")
-            << ", output in " << out << "/\n";
+            << to_string(backend) << (backend == Backend::cuda ? " (" + device + ")" : "") << ", output in " << out
+            << "/\n";
 
-  std::signal(SIGINT, on_interrupt);
-  std::signal(SIGTERM, on_interrupt);
+  Checkpointer checkpoints(*sim, out, spec.run.checkpoint_every, spec.run.checkpoint_keep, record, history);
+  std::signal(SIGINT, on_signal);
+  std::signal(SIGTERM, on_signal);
+  const std::uint64_t first = sim->state().step;
   const auto t0 = std::chrono::steady_clock::now();
   try {
-    while (sim.state().step < spec.run.steps) {
-      if (g_interrupted.load())
-        throw RunError("interrupted at step " + std::to_string(sim.state().step) +
-                       "; outputs so far are kept as .partial files");
-      sim.advance();
+    while (sim->state().step < spec.run.steps) {
+      if (const int sig = g_signal.load()) {
+        // The step under way was finished: keep it in a checkpoint and stop.
+        const std::string path = checkpoints.write();
+        sim->finish(false);
+        std::cerr << "flipflow: stopped by " << (sig == SIGINT ? "SIGINT" : "SIGTERM") << " after step "
+                  << sim->state().step << "; checkpoint " << path << "; continue with: pipeline run " << common.file
+                  << " --resume " << out << "\n";
+        return kExitInterrupted;
+      }
+      sim->advance();
+      checkpoints.after_step();
     }
-    sim.synchronize();
+    sim->synchronize();
+    if (spec.run.checkpoint) checkpoints.write();
   } catch (...) {
-    sim.finish(false);
+    sim->finish(false);
     throw;
   }
-  sim.finish(true);
+  sim->finish(true);
   const double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  std::cerr << "done: " << sim.state().step << " steps in " << secs << " s (" << double(sim.state().step) / secs
-            << " steps/s), simulated time " << sim.state().time << ", rollbacks " << sim.stats().rollbacks << "\n";
+  const double steps = double(sim->state().step - first);
+  std::cerr << "done: " << steps << " steps in " << secs << " s (" << steps / secs
+            << " steps/s), simulated time " << sim->state().time << ", rollbacks " << sim->stats().rollbacks;
+  // Attempts run again at a smaller Δt because a stage limited it (Outcome::limit_dt).
+  if (sim->stats().dt_limits) std::cerr << ", Δt limited " << sim->stats().dt_limits;
+  std::cerr << "\n";
   return 0;
 }
 

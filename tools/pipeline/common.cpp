@@ -8,12 +8,13 @@
 
 namespace ff::cli {
 
-std::unique_ptr<Registry> make_registry(const std::vector<std::string>& plugins) {
+std::unique_ptr<Registry> make_registry(const std::vector<std::string>& plugins,
+                                        const std::function<std::string(std::size_t)>& where) {
   auto r = std::make_unique<Registry>();
   register_builtin_stages(*r);
   const auto path = plugin_search_path();
   std::vector<std::string> files = find_stage_libraries(path);
-  for (auto& p : plugins) files.push_back(find_plugin(p, path));
+  for (auto& f : find_plugins(plugins, path, where)) files.push_back(f);
   load_plugins(files, *r);
   return r;
 }
@@ -31,8 +32,10 @@ std::unique_ptr<Registry> make_full_registry() {
 Loaded load(const std::string& file, const std::vector<std::string>& overrides) {
   auto doc = PipelineDocument::parse(file, overrides);
   Loaded l;
-  l.registry = make_registry(doc.plugins());
+  l.registry = make_registry(doc.plugins(), [&doc](std::size_t i) { return doc.plugin_location(i); });
   l.spec = doc.resolve(*l.registry);
+  l.effective = doc.effective_text();
+  l.overrides = doc.overrides();
   std::ifstream in(file);
   std::stringstream ss;
   ss << in.rdbuf();

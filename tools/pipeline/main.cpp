@@ -1,5 +1,6 @@
 // `pipeline`: run, check and inspect flipflow pipelines. Exit codes: 0 ok, 1 the run failed,
-// 2 bad input (file, flags, plugins).
+// 2 bad input (file, flags, plugins, a refused --resume), 3 `run` stopped by SIGINT/SIGTERM
+// after writing a checkpoint.
 #include <iostream>
 #include <string>
 #include <vector>
@@ -13,11 +14,14 @@ const char* kUsage =
     "\n"
     "commands:\n"
     "  run FILE.yaml [--set key.path=value]... [--device auto|cpu|cuda] [--out DIR] [--force] [--threads N] [--check-rollbacks]\n"
+    "      [--resume [DIR|CHECKPOINT.h5] [--allow-changes]]   continue from the newest valid checkpoint\n"
     "  validate FILE.yaml [--set ...]   check without running; print the resolved step graph\n"
     "  graph FILE.yaml [--set ...]      the step graph in Graphviz DOT\n"
     "  stages                           every stage the plugins on the search path offer\n"
     "  describe STAGE                   one stage: parameters, defaults, reads/writes, backends\n"
     "  bench FILE.yaml [--sizes N,N,...] [--steps S] [--warmup W] [--device ...] [--set ...]\n"
+    "\n"
+    "Exit codes: 0 done, 1 the run failed, 2 bad input, 3 stopped by SIGINT/SIGTERM after writing a checkpoint.\n"
     "\n"
     "Plugins are searched in $FLIPFLOW_PLUGIN_PATH, then in ../plugins and ../lib/flipflow/plugins next to\n"
     "this program (a build tree; an installed tree).\n";

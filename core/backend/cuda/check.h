@@ -5,12 +5,25 @@
 #pragma once
 #include <cuda_runtime.h>
 
+#include <cstddef>
 #include <string>
 
 namespace ff::cuda_detail {
 [[noreturn]] void throw_cuda_error(cudaError_t err, const char* expr, const char* what,
                                    const char* file, int line);
+// For an allocation that failed with `err`: a RunError "out of GPU memory: BYTES bytes for
+// WHAT; the device has FREE of TOTAL MiB free" (and what to do) when err is
+// cudaErrorMemoryAllocation, else the plain CUDA error. `what` names the field or the array.
+[[noreturn]] void throw_allocation_error(cudaError_t err, std::size_t bytes, const std::string& what,
+                                         const char* file, int line);
 }
+
+// cudaMalloc(&ptr, bytes), or throw_allocation_error naming `what`.
+#define FF_CUDA_ALLOC(ptr, bytes, what)                                                            \
+  do {                                                                                             \
+    cudaError_t ff_err_ = cudaMalloc(&(ptr), (bytes));                                             \
+    if (ff_err_ != cudaSuccess) ::ff::cuda_detail::throw_allocation_error(ff_err_, (bytes), (what), __FILE__, __LINE__); \
+  } while (0)
 
 #define FF_CUDA_CHECK(expr, what)                                                   \
   do {                                                                              \

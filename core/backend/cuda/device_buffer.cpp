@@ -12,10 +12,24 @@ void throw_cuda_error(cudaError_t err, const char* expr, const char* what, const
                  cudaGetErrorString(err) + ") while " + what + " [" + expr + "] at " + file +
                  ":" + std::to_string(line));
 }
+void throw_allocation_error(cudaError_t err, std::size_t bytes, const std::string& what, const char* file,
+                            int line) {
+  if (err != cudaErrorMemoryAllocation)
+    throw_cuda_error(err, "cudaMalloc", ("allocating " + what).c_str(), file, line);
+  cudaGetLastError();  // not sticky: clear it, so the run can end cleanly (finish, output)
+  std::size_t free = 0, total = 0;
+  std::string device;
+  if (cudaMemGetInfo(&free, &total) == cudaSuccess)
+    device = "; the device has " + std::to_string(free >> 20) + " MiB free of " + std::to_string(total >> 20) +
+             " MiB";
+  throw RunError("out of GPU memory: " + std::to_string(bytes) + " bytes (" + std::to_string(bytes >> 20) +
+                 " MiB) for " + what + device +
+                 " (other processes on the GPU count too); lower system.N, or run with --device cpu");
+}
 }  // namespace cuda_detail
 
-DeviceBuffer::DeviceBuffer(std::size_t bytes) : bytes_(bytes) {
-  if (bytes) FF_CUDA_CHECK(cudaMalloc(&ptr_, bytes), "allocating a device field");
+DeviceBuffer::DeviceBuffer(std::size_t bytes, const std::string& what) : bytes_(bytes) {
+  if (bytes) FF_CUDA_ALLOC(ptr_, bytes, what);
 }
 
 DeviceBuffer::~DeviceBuffer() {

@@ -1,6 +1,7 @@
 // RAII device allocation plus the two stream-ordered copies a Field needs.
 #pragma once
 #include <cstddef>
+#include <string>
 
 struct CUstream_st;
 
@@ -8,7 +9,8 @@ namespace ff {
 
 class DeviceBuffer {
  public:
-  explicit DeviceBuffer(std::size_t bytes);
+  // `what` names the allocation in an out-of-memory error ("field 'position' (N = ...)").
+  DeviceBuffer(std::size_t bytes, const std::string& what);
   ~DeviceBuffer();
   DeviceBuffer(const DeviceBuffer&) = delete;
   DeviceBuffer& operator=(const DeviceBuffer&) = delete;

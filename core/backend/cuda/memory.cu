@@ -27,7 +27,7 @@ __global__ void copy_vec4(uint4* dst, const uint4* src, std::size_t n) {
 void* dev_alloc(std::size_t bytes) {
   if (bytes == 0) return nullptr;
   void* p = nullptr;
-  FF_CUDA_CHECK(cudaMalloc(&p, bytes), "allocating stage scratch memory");
+  FF_CUDA_ALLOC(p, bytes, std::string("a stage's scratch array (Scratch)"));
   FF_CUDA_CHECK(cudaMemset(p, 0, bytes), "clearing stage scratch memory");
   // cudaMemset runs on the legacy default stream, which the flipflow streams (non-blocking) do
   // not order with, and may return before it is done: without this wait a fill or kernel queued

@@ -18,7 +18,11 @@
 // turns a step that tries into a rollback.
 //
 // Each particle sums its own row in list order (ascending j, stages/neighbors/list.h), writing
-// only its own entries: no atomics, and CPU and CUDA add the same terms in the same order. The
+// only its own entries: no atomics, and CPU and CUDA add the same terms in the same order.
+// Element p of the loop is particle order[p], the list build's cell order when there is one:
+// neighbouring threads then read neighbouring particles, whose neighbours are mostly the same
+// (the sums do not depend on which thread computes them). 1/r² is one division; the cap on s
+// below computes it again from the capped s (rare). The
 // products feeding a sum are math::mul_rn (never fused into an fma), so the bits agree.
 // Optional observables (energy: true): ½ Σ_j U_ij and ½ Σ_j r_ij·F_ij per particle. nvcc-clean.
 #pragma once
@@ -63,6 +67,7 @@ struct LJForce {
   R* virial;                     // N, or null: ½ Σ_j r_ij·F_ij (written)
   const std::uint32_t* list;     // N x capacity: row i = neighbours of i, ascending
   const std::uint32_t* count;    // N: entries set in row i
+  const std::uint32_t* order;    // N: the particle of loop element p (a permutation), or null: p
   std::uint32_t capacity;
   PeriodicBox<R> box;
   LJTable<R> table;
@@ -78,7 +83,8 @@ struct LJForce {
     return math::mul_rn(s, s);
   }
 
-  FF_HD void operator()(std::size_t i) const {
+  FF_HD void operator()(std::size_t p) const {
+    const std::size_t i = order ? order[p] : p;
     R f[D] = {};
     R u = 0, w = 0;
     const int ti = type ? type[i] : 0;
@@ -92,13 +98,17 @@ struct LJForce {
       const int ab = type ? ti * kMaxTypes + type[j] : 0;
       const R sig2 = sigma2(i, j, ab);
       if (r2 >= math::mul_rn(r_cut2, sig2) || r2 == R(0)) continue;  // beyond the cutoff (or coincident)
-      R s = sig2 / r2;
-      if (s > R(kMaxS)) s = R(kMaxS);
+      R inv_r2 = R(1) / r2;
+      R s = math::mul_rn(sig2, inv_r2);
+      if (s > R(kMaxS)) {  // (the cap holds for 1/r² = s/σ² too)
+        s = R(kMaxS);
+        inv_r2 = s / sig2;
+      }
       const R q = n & 1 ? math::mul_rn(power(s, n / 2), std::sqrt(s)) : power(s, n / 2);  // (σ/r)^n
       const R q2 = math::mul_rn(q, q);                                                      // (σ/r)^{2n}
       const R eps = table.epsilon[ab];
-      // 4 n ε (2q² − q) / r², with 1/r² = s/σ² (so the cap above holds here too)
-      const R magnitude = math::mul_rn(R(4 * n) * eps, (R(2) * q2 - q)) * (s / sig2);
+      // 4 n ε (2q² − q) / r²
+      const R magnitude = math::mul_rn(math::mul_rn(R(4 * n) * eps, (R(2) * q2 - q)), inv_r2);
       for (int c = 0; c < D; ++c) f[c] += math::mul_rn(magnitude, d[c]);
       if (energy) {
         u += math::mul_rn(R(4) * eps, q2 - q) - math::mul_rn(eps, shift);

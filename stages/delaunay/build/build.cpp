@@ -104,6 +104,7 @@ std::string build_topology(State& s, Field& pos, CUstream_st* stream) {
   st.host<std::int32_t>()[kBuilt] = 1;
   st.host<std::int32_t>()[kPending] = 0;
   st.host<std::int32_t>()[kCandidates] = 0;
+  st.host<std::int32_t>()[kPrevKept] = 0;  // valid at position_prev = these positions
   return tri.method;
 }
 

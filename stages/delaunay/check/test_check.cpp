@@ -228,11 +228,12 @@ TEST_CASE("check: in pipelines, every k accepted steps, on every backend", "[del
     o.dry_run = true;
     o.backend = backend;
     Simulation sim(spec, *reg, o);
-    // The rollback snapshot: positions every step, detection's reference (swapped, not copied)
-    // and the triangulation when a stage announces a write; never the per-step scratch (flip
-    // marks, Lawson candidates).
+    // The rollback snapshot: positions and detection's reference (swapped, not copied) and the
+    // triangulation when a stage announces a write; never the per-step scratch (flip marks,
+    // Lawson candidates).
     const auto every = sim.snapshot_fields(), on_demand = sim.snapshot_on_demand_fields();
-    CHECK(std::count(every.begin(), every.end(), "position") == 1);
+    CHECK(std::count(every.begin(), every.end(), "position") == 0);
+    CHECK(std::count(on_demand.begin(), on_demand.end(), "position") == 1);
     CHECK(std::count(on_demand.begin(), on_demand.end(), "delaunay.position_prev") == 1);
     CHECK(std::count(on_demand.begin(), on_demand.end(), "delaunay.halfedge") == 1);
     for (const char* scratch : {"delaunay.flip_mark", "delaunay.lawson_candidates"}) {

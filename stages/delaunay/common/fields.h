@@ -45,7 +45,16 @@ enum Status : int {
   // bits): delaunay.lawson uses the list only if nothing has written the positions since.
   kPositionVersionLo = 3,
   kPositionVersionHi = 4,
-  kStatusSize = 5
+  // 1 when delaunay.flip has `on_unrepairable: substep` (set by its configure): then
+  // detect_inversion leaves triangles no single flip repairs to delaunay.flip instead of
+  // requesting a rollback (particles through each other still roll back).
+  kSubstep = 5,
+  // 1 when, in that mode, detect_inversion found inverted triangles this step and left
+  // position_prev at the positions where the triangulation was valid (delaunay.flip's
+  // reference for the intermediate positions); delaunay.flip writes it once the triangulation
+  // is valid at the new positions.
+  kPrevKept = 6,
+  kStatusSize = 7
 };
 
 inline void set_position_version(std::int32_t* status, std::uint64_t v) {

@@ -4,6 +4,9 @@
 // vertex across more than one edge). It copies `position` into `delaunay.position_prev`, the
 // reference for the next step's r⁰·r¹ test, while the host reads its counters (a rollback
 // restores the old position_prev; the copy costs the snapshot nothing: will_overwrite).
+// When delaunay.flip has `on_unrepairable: substep` (status kSubstep), inverted triangles that
+// single flips cannot repair are left to it instead, together with position_prev (not yet
+// overwritten, status kPrevKept); only particles through each other still roll back here.
 #pragma once
 #include <algorithm>
 #include <array>
@@ -69,7 +72,12 @@ class DetectInversion final : public Stage {
     State& s = ctx.state;
     CUstream_st* st = ctx.stream;
     const bool fresh = ensure_topology(ctx, accesses());
-    auto h = inspect(ctx, fresh);
+    // delaunay.flip's `on_unrepairable: substep` needs the positions at which the triangulation
+    // was valid when something is inverted: position_prev is then written after the counters
+    // are read (by this stage when nothing is inverted, else by delaunay.flip).
+    const bool substep = status(s)[kSubstep] != 0;
+    status(s)[kPrevKept] = 0;
+    auto h = inspect(ctx, fresh, !substep);
     // A rollback helps only if this step broke the triangulation: retried with a smaller Δt,
     // the moves shrink toward the positions the step started from. When the triangulation is
     // already not valid for those (the previous step's overlap correction pushed a particle
@@ -81,7 +89,7 @@ class DetectInversion final : public Stage {
       will_flip(ctx);
       build_topology(s, *start, st);
       for (const Access& a : accesses()) s.field(a.field).acquire(a.where, a.mode, st);
-      h = inspect(ctx, false);
+      h = inspect(ctx, false, !substep);
       rebuilt = true;
     }
     ctx.metrics.set("rebuilds", rebuilt ? 1 : 0);
@@ -96,6 +104,15 @@ class DetectInversion final : public Stage {
                                            " passed through each other (their separation vector reversed, r0.r1 < 0; " +
                                            std::to_string(h[kThrough]) + " such pair(s))" + moved(ctx, ids) + retry,
                                        ids);
+    }
+    // Substep mode: an edge crossed from both sides or a vertex across several edges is left
+    // to delaunay.flip, which moves the particles of the triangles that stay inverted part of
+    // the way back (Porro et al. §3). Particles through each other (above) still roll back.
+    if (substep && h[kInverted]) {
+      status(s)[kPending] = std::int32_t(h[kMarked]);
+      status(s)[kPrevKept] = 1;
+      ctx.metrics.set("unrepairable", h[kUnrepairable] + h[kTwice]);
+      return Outcome::ok();
     }
     if (h[kTwice]) {
       auto ids = edge_vertices(s, where_, mem_, int(h[kTwiceAt]), st);
@@ -113,6 +130,10 @@ class DetectInversion final : public Stage {
                                        ids);
     }
     status(s)[kPending] = std::int32_t(h[kMarked]);
+    if (substep) {
+      ctx.metrics.set("unrepairable", 0);
+      copy_prev(ctx);
+    }
     // Lawson's first round may test only the candidates when nothing is left to repair (repair
     // flips change quads) and the list did not overflow.
     if (h[kMarked] == 0 && h[kInverted] == 0 && h[kCandidateCount] <= s.field(fields::lawson_candidates).count()) {
@@ -129,9 +150,9 @@ class DetectInversion final : public Stage {
   }
 
   // The marks, counters and Lawson candidates of this step's moves, judged against
-  // position_prev (nothing to judge against when the triangulation was just built). Leaves
-  // position_prev = position (the next step's reference).
-  const std::array<unsigned, kInversionCounters>& inspect(StepContext& ctx, bool fresh) {
+  // position_prev (nothing to judge against when the triangulation was just built). With
+  // `copy`, leaves position_prev = position (the next step's reference).
+  const std::array<unsigned, kInversionCounters>& inspect(StepContext& ctx, bool fresh, bool copy) {
     State& s = ctx.state;
     CUstream_st* st = ctx.stream;
     const Mesh m = mesh_view(s, where_);
@@ -152,8 +173,7 @@ class DetectInversion final : public Stage {
     // The next step's reference, copied on the stream while the host waits for the counters
     // (on CUDA the launches that follow this stage queue behind the copy instead of a gap).
     // Every outcome either keeps it or rolls the step back, which restores the old one.
-    ctx.will_overwrite(fields::position_prev);
-    mem_.copy(s.field(fields::position_prev).data<R>(ctx), pts.p, s.field(ff::fields::position).bytes(), st);
+    if (copy) copy_prev(ctx);
     const auto& h = counters_.finish_read();
     throw_if_too_long(s, where_, mem_, h[kTooLong], h[kTooLongAt], st, "delaunay.detect_inversion");
     if (h[kInverted]) {
@@ -161,6 +181,14 @@ class DetectInversion final : public Stage {
       return counters_.read(st);
     }
     return h;
+  }
+
+  // position_prev ← position, the next step's reference (a rollback restores the old one).
+  void copy_prev(StepContext& ctx) {
+    State& s = ctx.state;
+    ctx.will_overwrite(fields::position_prev);
+    mem_.copy(s.field(fields::position_prev).data<R>(ctx), s.field(ff::fields::position).data<R>(ctx),
+              s.field(ff::fields::position).bytes(), ctx.stream);
   }
 
   // How far the particles `ids` moved in this attempt (minimum image), for the message: what is

@@ -2,9 +2,12 @@
 // flips (Carter et al. 2017, figs. 5–6), in parallel without conflicts (common/flip.h). Each
 // round flips the marked edges that win their triangles, then re-detects; a flip turns one
 // inverted triangle into two positive ones and touches nothing else, so the number of inverted
-// triangles drops every round. Whatever cannot be repaired this way requests a rollback.
+// triangles drops every round. Whatever cannot be repaired this way requests a rollback, or,
+// with `on_unrepairable: substep`, is untangled through intermediate positions (untangle below;
+// Porro et al. §3) so that the step still ends at the integrator's targets.
 #pragma once
 #include <array>
+#include <string>
 
 #include "core/base/error.h"
 #include "core/backend/exec.h"
@@ -17,10 +20,21 @@ namespace ff::delaunay {
 
 struct FlipParams {
   std::int64_t max_rounds = 64;
+  std::string on_unrepairable = "rollback";
+  std::int64_t max_substeps = 8;
 
   template <class P>
   void describe(P& p) {
     p(max_rounds, "max_rounds", "repair rounds before the step is rolled back").at_least(1);
+    p(on_unrepairable, "on_unrepairable",
+      "what to do with triangles no single flip repairs (a vertex across several edges, an edge crossed from "
+      "both sides): rollback = retry the step with a smaller time step (new noise); substep = move their "
+      "particles half way back, repair, then on to the targets (Porro et al. 3; keeps the trajectory)")
+        .one_of({"rollback", "substep"});
+    p(max_substeps, "max_substeps",
+      "with on_unrepairable: substep, how many times a step may halve the remaining moves before it is rolled "
+      "back")
+        .at_least(1);
   }
 };
 
@@ -29,6 +43,8 @@ struct FlipLoops {
   ElementLoop<DecideFlips> decide;
   ElementLoop<ApplyFlips> apply;
   ElementLoop<MarkInversions<R>> mark;
+  ElementLoop<MarkInvertedVertices<R>> moving;
+  ElementLoop<MoveHalfway<R>> halfway;
 };
 
 // The plain element loops of the backend object (CpuExec or CudaExec) this stage.h is compiled
@@ -36,7 +52,8 @@ struct FlipLoops {
 template <class R, class Exec>
 FlipLoops<R> flip_loops(Exec) {
   return {&Exec::template for_each<DecideFlips>, &Exec::template for_each<ApplyFlips>,
-          &Exec::template for_each<MarkInversions<R>>};
+          &Exec::template for_each<MarkInversions<R>>, &Exec::template for_each<MarkInvertedVertices<R>>,
+          &Exec::template for_each<MoveHalfway<R>>};
 }
 
 template <class R>
@@ -53,21 +70,34 @@ class Flip final : public Stage {
   template <class Exec>
   Flip(const ParamValues& v, const RunInfo&, Exec exec)
       : p_(params_from<FlipParams>(v)),
+        substep_(p_.on_unrepairable == "substep"),
         where_(Exec::where),
         loops_(flip_loops<R>(exec)),
         mem_(exec.memory()),
         counters_(exec),
-        go_(exec) {}
+        go_(exec),
+        target_(exec),
+        moving_(exec) {}
 
   std::vector<Access> accesses() const override {
-    return {{ff::fields::position, where_, Mode::read},
-            Access::on_demand_write(fields::halfedge, where_),
-            Access::on_demand_write(fields::opposite, where_),
-            Access::on_demand_write(fields::vertex_edge, where_),
-            Access::step_local_write(fields::flip_mark, where_, Mode::readwrite),
-            {fields::status, Where::host, Mode::readwrite}};
+    std::vector<Access> a{{ff::fields::position, where_, Mode::read},
+                          Access::on_demand_write(fields::halfedge, where_),
+                          Access::on_demand_write(fields::opposite, where_),
+                          Access::on_demand_write(fields::vertex_edge, where_),
+                          Access::step_local_write(fields::flip_mark, where_, Mode::readwrite),
+                          {fields::status, Where::host, Mode::readwrite}};
+    if (substep_) {  // intermediate positions, and the next step's reference
+      a[0] = Access::on_demand_write(ff::fields::position, where_);
+      a.push_back(Access::on_demand_write(fields::position_prev, where_));
+    }
+    return a;
   }
-  void configure(State& s) override { add_topology_fields(s, "delaunay.flip"); }
+  void configure(State& s) override {
+    add_topology_fields(s, "delaunay.flip");
+    Field& f = s.field(fields::status);
+    f.acquire(Where::host, Mode::readwrite);
+    status(s)[kSubstep] = substep_ ? 1 : 0;  // tells delaunay.detect_inversion to leave them to us
+  }
   // Requests come from run(), after reading the counters.
   Scheduling scheduling() const override { return {true, false, false, false}; }
 
@@ -77,48 +107,145 @@ class Flip final : public Stage {
     ensure_topology(ctx, accesses());
     ctx.metrics.set("flips", 0);
     ctx.metrics.set("flip_rounds", 0);
-    if (status(s)[kPending] == 0) return Outcome::ok();  // detect_inversion found nothing to repair
+    if (substep_) ctx.metrics.set("substeps", 0);
+    // kPrevKept: detect_inversion (substep mode) found something inverted and left
+    // position_prev at the positions where the triangulation was valid.
+    const bool kept = status(s)[kPrevKept] != 0;
+    if (status(s)[kPending] == 0 && !kept) return Outcome::ok();  // detect_inversion found nothing to repair
     will_flip(ctx);  // the topology is in the rollback snapshot only on steps that flip
 
+    flips_ = 0;
+    rounds_ = 0;
     const Mesh m = mesh_view(s, where_);
-    const Points<R> pts = points_view<R>(s, ff::fields::position, where_);
-    std::uint8_t* mark = s.field(fields::flip_mark).data<std::uint8_t>(ctx);
+    // Detect's marks when it made any; else (only unrepairable triangles) nothing to flip yet.
+    auto h = repair(s, m, points_view<R>(s, ff::fields::position, where_), nullptr, status(s)[kPending] == 0, st);
+    status(s)[kPending] = 0;
+    Outcome out = Outcome::ok();
+    if (kept) {
+      out = untangle(ctx, m, h);
+    } else if (h[kInverted]) {
+      out = Outcome::request_rollback("delaunay.flip: " + std::to_string(h[kInverted]) +
+                                      " inverted triangle(s) remain after " + std::to_string(flips_) +
+                                      " repair flip(s) in " + std::to_string(rounds_) +
+                                      " round(s); the step is retried with a smaller time step");
+    }
+    if (flips_) status(s)[kCandidates] = 0;  // quads changed: Lawson tests every edge
+    ctx.metrics.set("flips", flips_);
+    ctx.metrics.set("flip_rounds", double(rounds_));
+    return out;
+  }
+
+ private:
+  using Tally = std::array<unsigned, kInversionCounters>;
+
+  // Repair rounds (decide → apply → re-mark) while something is marked, up to max_rounds.
+  // `mark_first`: the positions changed since the marks were made, so mark them first, with the
+  // r⁰·r¹ test against `prev` when given (returns at once when that fires). The last counters.
+  Tally repair(State& s, const Mesh& m, const Points<R>& pts, const R* prev, bool mark_first, CUstream_st* st) {
+    std::uint8_t* mark = s.field(fields::flip_mark).data<std::uint8_t>(where_);
     const std::size_t E = edge_count(s.n());
     std::uint8_t* go = go_.get(E);
     unsigned* c = counters_.ptr();
-
-    unsigned flips = 0;
+    Tally h{};
+    if (mark_first) {
+      counters_.reset(kMinSlots, st);
+      loops_.mark(E, MarkInversions<R>{m, pts, prev, mark, c}, st);
+      h = counters_.read(st);
+      throw_if_too_long(s, where_, mem_, h[kTooLong], h[kTooLongAt], st, "delaunay.flip");
+      if (h[kThrough] || !h[kMarked]) return h;
+    }
     std::int64_t rounds = 0;
-    std::array<unsigned, kInversionCounters> h{};
     do {
       counters_.reset(kMinSlots, st);
       loops_.decide(E, DecideFlips{m, mark, go, c, kRepairFlips}, st);
       loops_.apply(E, ApplyFlips{m, go}, st);
       loops_.mark(E, MarkInversions<R>{m, pts, nullptr, mark, c}, st);
       h = counters_.read(st);
-      flips += h[kRepairFlips];
+      flips_ += h[kRepairFlips];
       ++rounds;
       throw_if_too_long(s, where_, mem_, h[kTooLong], h[kTooLongAt], st, "delaunay.flip");
     } while (h[kMarked] && rounds < p_.max_rounds);
-    status(s)[kPending] = 0;
-    if (flips) status(s)[kCandidates] = 0;  // quads changed: Lawson tests every edge
-    ctx.metrics.set("flips", flips);
-    ctx.metrics.set("flip_rounds", double(rounds));
-    if (h[kInverted])
-      return Outcome::request_rollback("delaunay.flip: " + std::to_string(h[kInverted]) +
-                                       " inverted triangle(s) remain after " + std::to_string(flips) + " repair flip(s) in " +
-                                       std::to_string(rounds) + " round(s); the step is retried with a smaller time step");
+    rounds_ += rounds;
+    return h;
+  }
+
+  // Substep untangling (Porro et al. §3, "intermediate position"). The triangulation is valid
+  // at V = position_prev and the integrator's targets T are in `position`. While triangles stay
+  // inverted after the repair rounds, the particles of those triangles go half way from V
+  // toward where they are now, and the rounds run again; once nothing is inverted the
+  // positions become the new V and every particle goes to T again. Each halving counts; after
+  // max_substeps the step is rolled back. The last positions tried are T itself (a copy), so
+  // an accepted step ends exactly at the integrator's targets. Particles whose edge vector
+  // reverses between V and an attempt (r⁰·r¹ < 0) passed through each other: rollback.
+  Outcome untangle(StepContext& ctx, const Mesh& m, Tally h) {
+    State& s = ctx.state;
+    CUstream_st* st = ctx.stream;
+    const std::size_t n = s.n();
+    const std::size_t bytes = s.field(ff::fields::position).bytes();
+    const auto box = PeriodicBox<double>::make(s.box.L);
+    R* target = target_.get(2 * n);
+    std::uint8_t* moving = moving_.get(n);
+    bool at_target = true, announced = false;
+    std::int64_t halvings = 0;
+    const auto stop = [&](std::string why, std::vector<std::uint64_t> who) {
+      if (announced) mem_.copy(s.field(ff::fields::position).data<R>(ctx), target, bytes, st);  // as detect left it
+      ctx.metrics.set("substeps", double(halvings));
+      return Outcome::request_rollback("delaunay.flip: " + why + "; the step is retried with a smaller time step",
+                                       std::move(who));
+    };
+    while (true) {
+      if (h[kThrough]) {
+        auto ids = edge_vertices(s, where_, mem_, int(h[kThroughAt]), st);
+        return stop("particles " + list_ids(ids) + " passed through each other between intermediate positions (r0.r1 < 0)",
+                    ids);
+      }
+      R* x = s.field(ff::fields::position).data<R>(ctx);
+      R* v = s.field(fields::position_prev).data<R>(ctx);
+      if (!h[kInverted]) {
+        if (at_target) break;
+        mem_.copy(v, x, bytes, st);  // valid here: the next reference
+        mem_.copy(x, target, bytes, st);
+        at_target = true;
+      } else {
+        if (halvings == p_.max_substeps)
+          return stop(std::to_string(h[kInverted]) + " inverted triangle(s) remain after halving the moves " +
+                          std::to_string(halvings) + " time(s) (max_substeps)",
+                      {});
+        if (!announced) {  // the first intermediate position: keep T and V for a rollback
+          ctx.will_write(ff::fields::position);
+          ctx.will_write(fields::position_prev);
+          announced = true;
+          x = s.field(ff::fields::position).data<R>(ctx);
+          v = s.field(fields::position_prev).data<R>(ctx);
+          mem_.copy(target, x, bytes, st);
+        }
+        ++halvings;
+        loops_.moving(n, MarkInvertedVertices<R>{m, Points<R>{x, box}, moving}, st);
+        loops_.halfway(n, MoveHalfway<R>{Points<R>{v, box}, x, moving}, st);
+        at_target = false;
+      }
+      h = repair(s, m, Points<R>{x, box}, v, true, st);
+    }
+    // position_prev ← position (= T): the next step's reference.
+    if (!announced) ctx.will_overwrite(fields::position_prev);
+    mem_.copy(s.field(fields::position_prev).data<R>(ctx), s.field(ff::fields::position).data<R>(ctx), bytes, st);
+    status(s)[kPrevKept] = 0;
+    ctx.metrics.set("substeps", double(halvings));
     return Outcome::ok();
   }
 
- private:
   static constexpr std::array<int, 4> kMinSlots{kThroughAt, kTwiceAt, kUnrepairableAt, kTooLongAt};
   FlipParams p_;
+  bool substep_;
   Where where_;
   FlipLoops<R> loops_;
   const MemoryOps& mem_;
   Counters<kInversionCounters> counters_;
   Scratch<std::uint8_t> go_;
+  Scratch<R> target_;            // substep: the integrator's targets T
+  Scratch<std::uint8_t> moving_; // substep: particles with an inverted triangle around them
+  unsigned flips_ = 0;
+  std::int64_t rounds_ = 0;
 };
 
 }  // namespace ff::delaunay

@@ -143,3 +143,168 @@ TEST_CASE("flip: random large moves end valid or rolled back, never inverted", "
   CHECK(repaired > 0);
   CHECK(rolled_back > 0);
 }
+
+// --- on_unrepairable: substep (Porro et al. §3; spec seed-gaps P3) --------------------------
+
+namespace {
+// Carter fig. 6 on a random point set: v crosses (p, q) and then (q, w) of the triangle
+// (q, p, w), ending a fraction `past` of the way from (q, w) toward z, while every edge of v keeps
+// r0.r1 > 0 (the construction of test_detect_inversion.cpp, "a vertex across two edges").
+struct TwoEdgeCase {
+  std::uint64_t seed;
+  int v;
+  std::array<double, 2> to;
+};
+constexpr double kCaseSide = 14;
+std::unique_ptr<State> case_state(std::uint64_t seed) {
+  auto s = make_state(random_points(196, kCaseSide, kCaseSide, seed), kCaseSide, kCaseSide);
+  auto build = make_stage("delaunay.build", Backend::cpu);
+  build->configure(*s);
+  Runner rb(*s, Backend::cpu);
+  REQUIRE_FALSE(rb.run(*build).rollback);
+  return s;
+}
+std::vector<TwoEdgeCase> two_edge_cases(int want, double past) {
+  std::vector<TwoEdgeCase> out;
+  for (std::uint64_t seed = 1; seed <= 20 && int(out.size()) < want; ++seed) {
+    Scene sc(Precision::f64, 10, 10);
+    sc.s = case_state(seed);
+    sc.t = topology(*sc.s);
+    sc.xy = positions(*sc.s);
+    for (int v = 0; v < int(sc.n()) && int(out.size()) < want; ++v) {
+      const auto f = sc.fan(v);
+      const auto q = sc.near(f.v, f.q), w = sc.near(f.v, f.w), z = sc.near(f.v, f.z);
+      const auto on = sc.lerp(q, w, 0.3);
+      const std::array<double, 2> to{on[0] + past * (z[0] - on[0]), on[1] + past * (z[1] - on[1])};
+      const auto from = sc.near(f.v, f.v);
+      bool keeps_sign = true;
+      for (int h = 0; h < int(6 * sc.n()); ++h) {
+        if (sc.origin(h) != v) continue;
+        const auto y = sc.near(f.v, sc.origin(h ^ 1));
+        keeps_sign = keeps_sign && (y[0] - from[0]) * (y[0] - to[0]) + (y[1] - from[1]) * (y[1] - to[1]) > 0.05;
+      }
+      if (keeps_sign) out.push_back({seed, v, to});
+    }
+  }
+  return out;
+}
+
+// detect_inversion → flip (→ lawson) on the case's state with v moved to `to`.
+struct SubstepRun {
+  std::unique_ptr<State> s;
+  std::vector<double> targets;  // the positions after the move (the integrator's targets)
+  Outcome detect, flip;
+  double unrepairable = -1, flips = -1, substeps = -1;
+};
+SubstepRun run_case(const TwoEdgeCase& c, Backend b, const ff::test::ParamSettings& flip_set, bool lawson = true) {
+  SubstepRun out;
+  out.s = case_state(c.seed);
+  auto xy = positions(*out.s);
+  xy[2 * c.v] = c.to[0];
+  xy[2 * c.v + 1] = c.to[1];
+  set_positions(*out.s, xy);
+  out.targets = positions(*out.s);
+  auto detect = make_stage("delaunay.detect_inversion", b);
+  auto flip = make_stage("delaunay.flip", b, Precision::f64, flip_set);
+  auto law = make_stage("delaunay.lawson", b);
+  detect->configure(*out.s);
+  flip->configure(*out.s);
+  law->configure(*out.s);
+  Runner r(*out.s, b);
+  out.detect = r.run(*detect);
+  if (out.detect.rollback) return out;
+  if (r.metrics.values().count("unrepairable")) out.unrepairable = r.metric("unrepairable");
+  out.flip = r.run(*flip);
+  out.flips = r.metric("flips");
+  if (r.metrics.values().count("substeps")) out.substeps = r.metric("substeps");
+  if (!out.flip.rollback && lawson) REQUIRE_FALSE(r.run(*law).rollback);
+  return out;
+}
+
+const ff::test::ParamSettings kSubstepMode{{"on_unrepairable", ParamValue(std::string("substep"))}};
+}  // namespace
+
+TEST_CASE("flip substep: a vertex across two edges ends at the integrator's targets, Delaunay (fig. 6)",
+          "[delaunay][flip][substep]") {
+  const auto cases = two_edge_cases(3, 0.05);
+  REQUIRE(cases.size() == 3);
+  for (const auto& c : cases) {
+    std::vector<std::int32_t> cpu_he;
+    for (Backend b : ff::test::backends()) {
+      INFO("seed " << c.seed << ", v = " << c.v << ", backend " << int(b));
+      // The default rolls the step back.
+      const SubstepRun dflt = run_case(c, b, {});
+      REQUIRE(dflt.detect.rollback);
+      CHECK_THAT(dflt.detect.reason, Catch::Contains("no single edge flip repairs it"));
+
+      const SubstepRun run = run_case(c, b, kSubstepMode);
+      INFO(run.detect.reason << " / " << run.flip.reason);
+      REQUIRE_FALSE(run.detect.rollback);
+      REQUIRE_FALSE(run.flip.rollback);
+      CHECK(run.unrepairable >= 1);
+      CHECK(run.substeps >= 1);
+      CHECK(run.flips >= 2);  // at least one flip per crossed edge
+      // Exactly the targets, bit for bit, and position_prev (the next step's r0) equal to them.
+      CHECK(positions(*run.s) == run.targets);
+      Field& prev = run.s->field(ff::delaunay::fields::position_prev);
+      prev.acquire(Where::host, Mode::read);
+      CHECK(std::vector<double>(prev.host<double>(), prev.host<double>() + prev.size()) == run.targets);
+      CHECK(status_of(*run.s)[ff::delaunay::kPrevKept] == 0);
+      CHECK(status_of(*run.s)[ff::delaunay::kPending] == 0);
+      // Valid, and after Lawson the Delaunay triangulation of the targets (CGAL's, up to ties).
+      require_valid(*run.s);
+      CHECK(real_differences(topology(*run.s), cgal_reference(*run.s), *run.s) == 0);
+      // The same triangulation on every backend.
+      const auto he = topology(*run.s).he;
+      if (cpu_he.empty()) cpu_he = he;
+      CHECK(he == cpu_he);
+    }
+  }
+}
+
+TEST_CASE("flip substep: a case deeper than max_substeps falls back to rollback", "[delaunay][flip][substep]") {
+  // Each case needs k halvings with the default bound; with max_substeps = k - 1 it must roll
+  // back (leaving the targets in place), with max_substeps = k it must not.
+  int deep = 0;
+  for (const auto& c : two_edge_cases(6, 0.05)) {
+    const SubstepRun run = run_case(c, Backend::cpu, kSubstepMode, false);
+    REQUIRE_FALSE(run.flip.rollback);
+    const auto k = std::int64_t(run.substeps);
+    if (k < 2) continue;
+    ++deep;
+    for (Backend b : ff::test::backends()) {
+      INFO("seed " << c.seed << ", v = " << c.v << ", needs " << k << " halvings, backend " << int(b));
+      ff::test::ParamSettings set = kSubstepMode;
+      set.emplace_back("max_substeps", ParamValue(k - 1));
+      const SubstepRun below = run_case(c, b, set, false);
+      REQUIRE(below.flip.rollback);
+      CHECK_THAT(below.flip.reason, Catch::Contains("(max_substeps)"));
+      CHECK(below.substeps == double(k - 1));
+      CHECK(positions(*below.s) == below.targets);
+      set.back().second = ParamValue(k);
+      const SubstepRun at = run_case(c, b, set, false);
+      CHECK_FALSE(at.flip.rollback);
+      CHECK(at.substeps == double(k));
+    }
+  }
+  CHECK(deep >= 3);
+}
+
+TEST_CASE("flip substep: particles through each other still roll back", "[delaunay][flip][substep]") {
+  const Backend b = GENERATE(from_range(ff::test::backends()));
+  Scene sc;
+  const auto f = sc.fan(45);
+  const auto v = sc.near(f.p, f.v), pp = sc.near(f.p, f.p);
+  sc.move(f.v, {pp[0] + 0.3 * (pp[0] - v[0]), pp[1] + 0.3 * (pp[1] - v[1])});  // v jumps over p
+  auto detect = make_stage("delaunay.detect_inversion", b);
+  auto flip = make_stage("delaunay.flip", b, Precision::f64, kSubstepMode);
+  detect->configure(*sc.s);
+  flip->configure(*sc.s);
+  REQUIRE(status_of(*sc.s)[ff::delaunay::kSubstep] == 1);
+  Runner r(*sc.s, b);
+  const Outcome o = r.run(*detect);
+  INFO(o.reason);
+  REQUIRE(o.rollback);
+  CHECK_THAT(o.reason, Catch::Contains("passed through each other"));
+  CHECK(status_of(*sc.s)[ff::delaunay::kPrevKept] == 0);
+}

@@ -15,6 +15,9 @@
 
 namespace ff::neighbors {
 
+// Every field a build writes (list.h).
+inline constexpr const char* kListFields[] = {kList, kCount, kPositionAtBuild, kOrder, kCell, kCellStart, kCellEnd};
+
 // The device's cell sort keeps its buffers across builds (none on the CPU).
 struct CellSortScratch {
   template <class Exec>
@@ -89,9 +92,11 @@ class ListBuild {
 
   // Builds the list (list.h's fields) from the current positions: pairs within rl; rows grow
   // (reallocate and build again) when a particle has more neighbours than fit. `where`: the
-  // side the list lives on (the stage's backend).
+  // side the list lives on (the stage's backend). Announces its writes first (StepContext::
+  // will_write), so a stage may declare the list fields Access::on_demand_write.
   template <int D>
   void build(StepContext& ctx, double rl, Where where) {
+    for (const char* f : kListFields) ctx.will_write(f);
     State& s = ctx.state;
     const std::size_t n = s.n();
     const auto& L = loops_d<D>();
@@ -121,8 +126,9 @@ class ListBuild {
     }
   }
 
-  // The longest row of the last build.
+  // The longest row of the last build (set: restored from a checkpoint).
   std::uint32_t max_neighbors() const { return max_neighbors_; }
+  void set_max_neighbors(std::uint32_t m) { max_neighbors_ = m; }
 
  private:
   template <int D>

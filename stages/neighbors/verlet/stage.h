@@ -47,10 +47,11 @@ class Verlet final : public Stage {
         where_(Exec::where),
         builder_(exec) {}
 
+  // The list is written only on the steps that rebuild it (ListBuild::build announces the
+  // writes), so the rollback snapshot copies it only then.
   std::vector<Access> accesses() const override {
     std::vector<Access> a{{fields::position, where_, Mode::read}};
-    for (const char* f : {kList, kCount, kPositionAtBuild, kOrder, kCell, kCellStart, kCellEnd})
-      a.push_back({f, where_, Mode::readwrite});
+    for (const char* f : kListFields) a.push_back(Access::on_demand_write(f, where_));
     return a;
   }
 
@@ -88,6 +89,18 @@ class Verlet final : public Stage {
   Outcome run(StepContext& ctx) override {
     if (ctx.state.dim() == 2) return run_d<2>(ctx);
     return run_d<3>(ctx);
+  }
+
+  // The list itself is in the state's fields. A continued run must not rebuild it at its first
+  // step (a list built from other positions lists pairs in another order, and the forces summed
+  // over it round differently): keep "built" and the longest row (the metric).
+  void save_state(StageState& out) override {
+    out.put("built", std::uint8_t(built_ ? 1 : 0));
+    out.put("max_neighbors", builder_.max_neighbors());
+  }
+  void restore_state(const StageState& saved, State&) override {
+    if (saved.has("built")) built_ = saved.get<std::uint8_t>("built") != 0;
+    if (saved.has("max_neighbors")) builder_.set_max_neighbors(saved.get<std::uint32_t>("max_neighbors"));
   }
 
  private:

@@ -524,6 +524,50 @@ void Clusters::write_csv(const std::string& name, const std::string& header,
     throw RunError("observe.clusters: cannot rename '" + partial + "' to '" + path.string() + "': " + ec.message());
 }
 
+namespace {
+
+// Rows of doubles as one flat array and the row lengths.
+void put_rows(StageState& out, const std::string& name, const std::vector<std::vector<double>>& rows) {
+  std::vector<std::uint64_t> len;
+  std::vector<double> flat;
+  for (auto& r : rows) {
+    len.push_back(r.size());
+    flat.insert(flat.end(), r.begin(), r.end());
+  }
+  out.put(name + ".length", len);
+  out.put(name, flat);
+}
+
+std::vector<std::vector<double>> get_rows(const StageState& saved, const std::string& name) {
+  const auto len = saved.get_vector<std::uint64_t>(name + ".length");
+  const auto flat = saved.get_vector<double>(name);
+  std::vector<std::vector<double>> rows;
+  std::size_t at = 0;
+  for (auto l : len) {
+    if (at + l > flat.size()) throw InputError("observe.clusters: the checkpoint's rows are inconsistent");
+    rows.emplace_back(flat.begin() + std::ptrdiff_t(at), flat.begin() + std::ptrdiff_t(at + l));
+    at += l;
+  }
+  return rows;
+}
+
+}  // namespace
+
+void Clusters::save_state(StageState& out) {
+  put_rows(out, "rows", rows_);
+  put_rows(out, "size_rows", size_rows_);
+  out.put("fallbacks", fallbacks_);
+  out.put("warned", std::uint8_t(warned_ ? 1 : 0));
+}
+
+void Clusters::restore_state(const StageState& saved, State&) {
+  if (!saved.has("rows")) return;
+  rows_ = get_rows(saved, "rows");
+  size_rows_ = get_rows(saved, "size_rows");
+  fallbacks_ = saved.get<std::uint64_t>("fallbacks");
+  warned_ = saved.get<std::uint8_t>("warned") != 0;
+}
+
 void Clusters::finish(State&, bool completed) {
   if (finished_ || info_.out_dir.empty()) return;
   finished_ = true;

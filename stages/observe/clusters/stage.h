@@ -169,6 +169,9 @@ class Clusters final : public Stage {
   Outcome run(StepContext& ctx) override;
   void finish(State& s, bool completed) override;
   std::vector<std::string> outputs() const override { return {p_.file, p_.sizes_file}; }
+  // The rows of both CSV files so far (written at the end of the run) and the fallback count.
+  void save_state(StageState& out) override;
+  void restore_state(const StageState& saved, State& s) override;
 
   const ClusterResult& last() const { return last_; }
 

@@ -155,6 +155,25 @@ Outcome Gr::run(StepContext& ctx) {
   return Outcome::ok();
 }
 
+void Gr::save_state(StageState& out) {
+  out.put("hist", hist_);
+  out.put("frames", frames_);
+  out.put("g_contact", g_contact_);
+  out.put("z", z_);
+}
+
+void Gr::restore_state(const StageState& saved, State&) {
+  if (!saved.has("hist")) return;
+  auto hist = saved.get_vector<std::uint64_t>("hist");
+  if (hist.size() != hist_.size())
+    throw InputError("observe.gr: the checkpoint's histogram has " + std::to_string(hist.size()) +
+                     " bins, this pipeline's " + std::to_string(hist_.size()) + " (bins or r_max changed)");
+  hist_ = std::move(hist);
+  frames_ = saved.get<std::uint64_t>("frames");
+  g_contact_ = saved.get<double>("g_contact");
+  z_ = saved.get<double>("z");
+}
+
 void Gr::finish(State&, bool completed) {
   if (finished_ || info_.out_dir.empty()) return;
   finished_ = true;

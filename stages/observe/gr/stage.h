@@ -73,6 +73,10 @@ class Gr final : public Stage {
   Outcome run(StepContext& ctx) override;
   void finish(State& s, bool completed) override;
   std::vector<std::string> outputs() const override { return {p_.file}; }
+  // The histogram and frame count: a continued run keeps accumulating, and writes the CSV of
+  // the whole run at its end.
+  void save_state(StageState& out) override;
+  void restore_state(const StageState& saved, State& s) override;
 
   // The accumulated g(r) per bin (0 before the first frame).
   std::vector<double> g() const;

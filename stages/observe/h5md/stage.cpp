@@ -79,8 +79,11 @@ std::string H5mdObserver::path() const { return (std::filesystem::path(info_.out
 void H5mdObserver::open(const State& state) {
   H5mdHeader h;
   h.dim = state.dim();
+  h.readers_layout = p_.layout == "mdanalysis";
   for (int k = 0; k < 3; ++k) h.edges[k] = state.box.L[k];
-  if (!info_.pipeline_file.empty()) h.pipeline_text = read_text(info_.pipeline_file);
+  const RunRecord& rec = info_.record;
+  if (!rec.pipeline_text.empty()) h.pipeline_text = rec.pipeline_text;
+  else if (!info_.pipeline_file.empty()) h.pipeline_text = read_text(info_.pipeline_file);
   h.run_attributes = {{"pipeline_file", info_.pipeline_file},
                       {"precision", to_string(state.precision())},
                       {"backend", to_string(info_.backend)},
@@ -88,6 +91,19 @@ void H5mdObserver::open(const State& state) {
                       {"steps", std::to_string(info_.steps)},
                       {"dt", exact(info_.dt)},
                       {"stage_id", info_.stage_id}};
+  // What produced the run (version, commit, device, ...), unless named above already.
+  for (auto& kv : rec.attributes) {
+    bool named = false;
+    for (auto& have : h.run_attributes) named = named || have.first == kv.first;
+    if (!named) h.run_attributes.push_back(kv);
+  }
+  // The pipeline as it ran: after --set (effective_pipeline) and with every default filled in
+  // (resolved), so a run made with overrides can be reproduced from its output.
+  if (!rec.effective_pipeline.empty()) h.texts.emplace_back("effective_pipeline", rec.effective_pipeline);
+  if (!rec.resolved.empty()) h.texts.emplace_back("resolved", rec.resolved);
+  std::string overrides;
+  for (auto& o : rec.overrides) overrides += o + "\n";
+  h.texts.emplace_back("overrides", overrides);
   auto w = std::make_unique<H5mdWriter>(path(), h);
   w->write_species(state.field(fields::type).host<std::int32_t>(), state.n(), state.species);
   for (std::size_t i = 0; i < p_.fields.size(); ++i) {
@@ -132,6 +148,30 @@ Outcome H5mdObserver::run(StepContext& ctx) {
   copy_frame(ctx, frame);
   writer_->submit(std::move(frame));
   return Outcome::ok();
+}
+
+void H5mdObserver::save_state(StageState&) { drain(); }
+
+void H5mdObserver::restore_state(const StageState&, State& state) {
+  const RunRecord& rec = info_.record;
+  std::string overrides;
+  for (auto& o : rec.overrides) overrides += o + "\n";
+  const std::vector<std::pair<std::string, std::string>> history = {
+      {"step", std::to_string(state.step)},
+      {"time", exact(state.time)},
+      {"checkpoint", rec.resumed_from},
+      {"steps", std::to_string(info_.steps)},
+      {"changes", rec.changes},
+      {"overrides", overrides},
+      {"effective_pipeline", rec.effective_pipeline}};
+  auto w = H5mdWriter::reopen(path(), std::int64_t(state.step), history);
+  if (!w) return;  // the run that wrote the checkpoint had written no frame yet: open() at the first
+  for (std::size_t i = 0; i < p_.fields.size(); ++i) {
+    if (connectivity_[i] || w->has_particle_element(p_.fields[i])) continue;
+    const Field& f = state.field(p_.fields[i]);
+    w->add_particle_element(f.name(), f.dtype(), f.count(), f.components());
+  }
+  writer_ = std::make_unique<AsyncFrameWriter>(std::move(w), queue_depth);
 }
 
 void H5mdObserver::drain() {

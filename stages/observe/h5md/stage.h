@@ -21,12 +21,17 @@ struct H5mdParams {
   std::string file = "trajectory.h5";
   std::vector<std::string> fields{"position", "image"};
   bool observables = true;
+  std::string layout = "h5md";
 
   template <class P>
   void describe(P& p) {
     p(file, "file", "output file, relative to the run's output directory");
     p(fields, "fields", "state fields to write each frame (per-particle fields, or triangle lists)");
     p(observables, "observables", "write Δt, rollbacks and every stage metric under /observables");
+    p(layout, "layout",
+      "h5md: the plain H5MD layout; mdanalysis: what MDAnalysis (2.4) opens: a time-dependent box, flat "
+      "observable names, and a 2-D run written as 3-D (zero z, nominal Lz = 1; core/io/h5md_writer.h)")
+        .one_of({"h5md", "mdanalysis"});
   }
 };
 
@@ -48,6 +53,10 @@ class H5mdObserver final : public Stage {
   Outcome run(StepContext& ctx) override;
   void finish(State& state, bool completed) override;
   std::vector<std::string> outputs() const override { return {p_.file}; }
+  // save_state: every frame handed to the writer is written and flushed before the checkpoint.
+  // restore_state: continue the file, dropping frames after the checkpoint's step.
+  void save_state(StageState& out) override;
+  void restore_state(const StageState& saved, State& state) override;
 
   // Block until every frame handed to the writer thread is on disk (finish() does this too).
   void drain();

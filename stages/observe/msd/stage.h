@@ -38,6 +38,12 @@ class Msd final : public Stage {
     return Outcome::ok();
   }
 
+  // The reference positions: a continued run measures from the same start.
+  void save_state(StageState& out) override { out.put("reference", reference_); }
+  void restore_state(const StageState& saved, State&) override {
+    if (saved.has("reference")) reference_ = saved.get_vector<double>("reference");
+  }
+
  private:
   std::vector<double> reference_;  // unwrapped positions at the first run, n x dim
 };

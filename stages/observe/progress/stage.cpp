@@ -27,7 +27,9 @@ std::string format_progress(const ProgressLine& p) {
   char rest[160];
   std::snprintf(rest, sizeof rest, "  t %.6g  Δt %.3g  %.4g steps/s  ETA %s  rollbacks %llu", p.time, p.dt, p.rate,
                 eta.c_str(), (unsigned long long)p.rollbacks);
-  return std::string(head) + rest;
+  std::string line = std::string(head) + rest;
+  if (p.dt_limits) line += "  Δt limited " + std::to_string(p.dt_limits);
+  return line;
 }
 
 Progress::Progress(ProgressParams p, RunInfo info, std::FILE* out)
@@ -46,6 +48,7 @@ Outcome Progress::run(StepContext& ctx) {
   last_.time = ctx.host_params.time;
   last_.dt = ctx.stats.dt;
   last_.rollbacks = ctx.stats.rollbacks;
+  last_.dt_limits = ctx.stats.dt_limits;
   last_.rate = elapsed > 0 ? double(last_.step - first_step_) / elapsed : 0.0;
 
   const double since_print = std::chrono::duration<double>(now - last_print_).count();

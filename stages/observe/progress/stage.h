@@ -1,7 +1,7 @@
 // observe.progress: a progress report every time it runs (the pipeline's `every: k`): step,
-// simulated time, Δt, steps/s, ETA and rollbacks. On a terminal one line updates in place (at
-// most ten times a second); otherwise a plain line at most every `interval` seconds, so logs
-// stay quiet. finish() ends the terminal line (the `pipeline` command prints the summary).
+// simulated time, Δt, steps/s, ETA, rollbacks and (when a stage limits Δt) Δt limits. On a
+// terminal one line updates in place (at most ten times a second); otherwise a plain line at
+// most every `interval` seconds, so logs stay quiet. finish() ends the terminal line (the `pipeline` command prints the summary).
 #pragma once
 #include <chrono>
 #include <cstdint>
@@ -30,6 +30,7 @@ struct ProgressLine {
   double dt = 0;
   double rate = 0;          // steps per wall-clock second (0: not known yet)
   std::uint64_t rollbacks = 0;
+  std::uint64_t dt_limits = 0;  // steps run again at a Δt a stage limited (shown when any)
 };
 
 // "step 1200/10000 (12.0%)  t 12  Δt 0.01  850 steps/s  ETA 0:00:10  rollbacks 3"

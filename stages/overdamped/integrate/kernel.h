@@ -1,7 +1,7 @@
 // The overdamped (Euler–Maruyama) step with drift, per particle i of type t:
 //   x += (v_i + μ_t F_i) Δt + sqrt(2 D_t Δt) ξ,   then wrapped into the box (image counted),
 // v the `velocity` field and F the `force` field when the stage reads them, ξ truncated unit
-// Gaussians (core/physics/rng.h). Δt, the step and the attempt come from StepParams on the side
+// Gaussians (core/physics/rng.h; rescaled, or clamped with `noise: clamp`). Δt, the step and the attempt come from StepParams on the side
 // the loop runs on (never by value: a captured CUDA graph replays the step). OverdampedStep is
 // the step other integrators reuse with a drift of their own (abp.integrate). nvcc-clean.
 #pragma once
@@ -66,6 +66,7 @@ struct OverdampedStep {
   double two_D[General ? kMaxTypes : 1];  // 2 D_t
   PeriodicBox<R> box;
   RngKey key;
+  GaussianTail tail = GaussianTail::rescaled;  // `noise`: rescaled, or clamped as Carter et al.
   const StepParams* params;
   G drift;
   // With max_step (General only): steps longer than it are counted in too_far[0], the lowest
@@ -80,7 +81,7 @@ struct OverdampedStep {
   FF_HD std::uint32_t noise_pair(int j) const {
     return j < kTranslationPairs ? std::uint32_t(j) : drift.noise_pair(j - kTranslationPairs);
   }
-  FF_HD NoiseCounter noise_counter() const { return {key, params->step, params->attempt}; }
+  FF_HD NoiseCounter noise_counter() const { return {key, params->step, params->attempt, tail}; }
 
   // z: the particle's Gaussians, z[k] for component k, then the drift's pairs.
   FF_HD void move(std::size_t i, const double* z) const {

@@ -27,6 +27,7 @@ struct IntegrateParams {
   PerType mobility{{1.0}};
   std::string drift = "auto";
   double max_step = 0;
+  std::string noise = "rescaled";
 
   template <class P>
   void describe(P& p) {
@@ -42,26 +43,41 @@ struct IntegrateParams {
       "on from a blown-up state, and a non-finite position, force or velocity stops the run naming the particle "
       "(0: no check; with a check the step cannot be replayed from a CUDA graph)")
         .at_least(0);
+    p(noise, "noise",
+      "how the Gaussians ξ are kept within ±3: rescaled (a pair outside is redrawn, then scaled to unit "
+      "variance) or clamp (each clamped to ±3, variance 0.995: Carter et al. 2017 §2.4, for exact reproduction)")
+        .one_of({"rescaled", "clamp"});
   }
 };
 
-// The plain Brownian loop and the general one (kernel.h says why two), in 2D and 3D.
+// The plain Brownian loop and the general one (kernel.h says why two), in 2D and 3D, in place
+// and, for a step whose previous positions the rollback snapshot keeps (will_overwrite), from
+// those arrays into the field's.
+template <class R, bool InPlace>
+struct IntegrateLoopsOf {
+  ElementLoop<OverdampedStep<R, 2, false, NoDrift, InPlace>> plain2;
+  ElementLoop<OverdampedStep<R, 2, true, FieldDrift<R, 2>, InPlace>> general2;
+  ElementLoop<OverdampedStep<R, 3, false, NoDrift, InPlace>> plain3;
+  ElementLoop<OverdampedStep<R, 3, true, FieldDrift<R, 3>, InPlace>> general3;
+};
 template <class R>
 struct IntegrateLoops {
-  ElementLoop<OverdampedStep<R, 2, false>> plain2;
-  ElementLoop<OverdampedStep<R, 2, true, FieldDrift<R, 2>>> general2;
-  ElementLoop<OverdampedStep<R, 3, false>> plain3;
-  ElementLoop<OverdampedStep<R, 3, true, FieldDrift<R, 3>>> general3;
+  IntegrateLoopsOf<R, true> in_place;
+  IntegrateLoopsOf<R, false> from_snapshot;
 };
 
 // The overdamped loops of the backend object (CpuExec or CudaExec) this stage.h is compiled for
 // (core/stage/stage_registration.h).
+template <class R, bool InPlace, class Exec>
+IntegrateLoopsOf<R, InPlace> integrate_loops_of(Exec) {
+  return {&Exec::template overdamped<OverdampedStep<R, 2, false, NoDrift, InPlace>>,
+          &Exec::template overdamped<OverdampedStep<R, 2, true, FieldDrift<R, 2>, InPlace>>,
+          &Exec::template overdamped<OverdampedStep<R, 3, false, NoDrift, InPlace>>,
+          &Exec::template overdamped<OverdampedStep<R, 3, true, FieldDrift<R, 3>, InPlace>>};
+}
 template <class R, class Exec>
-IntegrateLoops<R> integrate_loops(Exec) {
-  return {&Exec::template overdamped<OverdampedStep<R, 2, false>>,
-          &Exec::template overdamped<OverdampedStep<R, 2, true, FieldDrift<R, 2>>>,
-          &Exec::template overdamped<OverdampedStep<R, 3, false>>,
-          &Exec::template overdamped<OverdampedStep<R, 3, true, FieldDrift<R, 3>>>};
+IntegrateLoops<R> integrate_loops(Exec exec) {
+  return {integrate_loops_of<R, true>(exec), integrate_loops_of<R, false>(exec)};
 }
 
 template <class R>
@@ -101,8 +117,11 @@ class OverdampedIntegrate final : public Stage {
     check_per_type("mobility", p_.mobility);
   }
 
+  // Every element of position and image is rewritten each step from its previous value, which
+  // the rollback snapshot keeps instead of copying (on_demand + will_overwrite, as abp.integrate).
   std::vector<Access> accesses() const override {
-    std::vector<Access> a{{fields::position, where_, Mode::readwrite}, {fields::image, where_, Mode::readwrite}};
+    std::vector<Access> a{Access::on_demand_write(fields::position, where_),
+                          Access::on_demand_write(fields::image, where_)};
     if (reads_velocity_) a.push_back({kVelocity, where_, Mode::read});
     if (reads_force_) a.push_back({kForce, where_, Mode::read});
     if (per_type()) a.push_back({fields::type, where_, Mode::read});
@@ -111,20 +130,25 @@ class OverdampedIntegrate final : public Stage {
 
   Outcome run(StepContext& ctx) override {
     State& s = ctx.state;
+    // Where the previous values are now: the snapshot's copy, or the field itself (in place).
+    Field& pos_in = ctx.will_overwrite(fields::position);
+    Field& img_in = ctx.will_overwrite(fields::image);
     auto ptr = [&](const char* f) { return s.field(f).data<R>(where_); };
     Field& img = s.field(fields::image);
+    const bool in_place = &pos_in == &s.field(fields::position) && &img_in == &img;
     Field& type = s.field(fields::type);
     const std::int32_t* t = per_type() ? type.data<std::int32_t>(where_) : nullptr;
     // The members every configuration sets (in place: position_in and image_in are not read).
     auto common = [&](auto f) {
       f.position = ptr(fields::position);
       f.image = img.data<std::int32_t>(where_);
-      f.position_in = nullptr;
-      f.image_in = nullptr;
+      f.position_in = in_place ? nullptr : pos_in.data<R>(where_);
+      f.image_in = in_place ? nullptr : img_in.data<std::int32_t>(where_);
       f.type = nullptr;
       f.two_D[0] = 2 * p_.D[0];
       f.box = PeriodicBox<R>::make(s.box.L);
       f.key = ctx.rng;
+      f.tail = p_.noise == "clamp" ? GaussianTail::clamped : GaussianTail::rescaled;
       f.params = ctx.params;
       return f;
     };
@@ -145,16 +169,22 @@ class OverdampedIntegrate final : public Stage {
     };
     // Counts start at 0, first particles at ~0u (they keep a minimum): fills on the loop's side.
     if (p_.max_step > 0) too_far_.reset(std::array<int, 2>{1, 3}, ctx.stream);
-    const std::size_t n = s.n();
-    if (s.dim() == 2) {
-      if (is_general()) loops_.general2(n, general(OverdampedStep<R, 2, true, FieldDrift<R, 2>>{}), ctx.stream);
-      else loops_.plain2(n, common(OverdampedStep<R, 2, false>{}), ctx.stream);
-    } else {
-      if (is_general()) loops_.general3(n, general(OverdampedStep<R, 3, true, FieldDrift<R, 3>>{}), ctx.stream);
-      else loops_.plain3(n, common(OverdampedStep<R, 3, false>{}), ctx.stream);
-    }
+    if (in_place) launch(ctx, loops_.in_place, common, general);
+    else launch(ctx, loops_.from_snapshot, common, general);
     if (p_.max_step > 0) return too_far(ctx);
     return Outcome::ok();
+  }
+
+  template <bool InPlace, class Common, class General>
+  void launch(StepContext& ctx, const IntegrateLoopsOf<R, InPlace>& loops, Common common, General general) const {
+    const std::size_t n = ctx.state.n();
+    if (ctx.state.dim() == 2) {
+      if (is_general()) loops.general2(n, general(OverdampedStep<R, 2, true, FieldDrift<R, 2>, InPlace>{}), ctx.stream);
+      else loops.plain2(n, common(OverdampedStep<R, 2, false, NoDrift, InPlace>{}), ctx.stream);
+    } else {
+      if (is_general()) loops.general3(n, general(OverdampedStep<R, 3, true, FieldDrift<R, 3>, InPlace>{}), ctx.stream);
+      else loops.plain3(n, common(OverdampedStep<R, 3, false, NoDrift, InPlace>{}), ctx.stream);
+    }
   }
 
   // Δt, step and attempt reach the kernels through ctx.params in every configuration, so a CUDA

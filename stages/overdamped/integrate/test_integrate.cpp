@@ -1,8 +1,12 @@
 // overdamped.integrate: per-type diffusion (MSD = 2·d·D_t·t per type), drift from `force`
 // (μ_t F Δt per step) and from `velocity` + `force`, the max_step guard, and that the
-// brownian.integrate and phoretic.integrate aliases are this stage.
+// brownian.integrate and phoretic.integrate aliases are this stage; `noise: clamp` (Carter's
+// clamped Gaussians, seed-gaps C2).
 #include <catch2/catch.hpp>
+#include <algorithm>
 #include <cmath>
+#include <cstring>
+#include <vector>
 
 #include "core/run/simulation.h"
 #include "support/backends.h"
@@ -105,6 +109,51 @@ TEST_CASE("overdamped.integrate: the drift is (v + μ_t F) Δt per step", "[over
         const double want = steps * ((with_v ? v : 0.0) + mu[i % 2] * F) * dt;
         REQUIRE(u1[i * dim + k] - u0[i * dim + k] == Approx(want).margin(1e-9));
       }
+  }
+}
+
+// One step of noise alone in 2D with `noise` and max_step (0: the plain loop; > 0: the general
+// one); the positions after it.
+static std::vector<double> one_noise_step(Backend b, const char* noise, double max_step, std::size_t n, double D, double dt) {
+  auto s = state(2, n, {});
+  test::StageDriver drive(registry(), "overdamped.integrate", b, Precision::f64, 2,
+                          params({{"D", D}, {"noise", std::string(noise)}, {"max_step", max_step}}), 21);
+  drive.stage->configure(*s);
+  drive.step(*s, 4, dt);
+  return test::unwrapped<double>(*s);
+}
+
+TEST_CASE("overdamped.integrate noise: clamp is Carter's clamped Gaussian: |ξ| ≤ 3 with point masses at ±3, "
+          "variance 0.99501; CPU = CUDA",
+          "[overdamped]") {
+  const std::size_t n = 1u << 18;
+  const double D = 0.5, dt = 0.01, a = std::sqrt(2 * D * dt);  // amplitude 0.1
+  const auto x0 = test::unwrapped<double>(*state(2, n, {}));
+  for (double max_step : {0.0, 10.0}) {
+    INFO("max_step " << max_step << (max_step > 0 ? " (general loop)" : " (plain loop)"));
+    const auto x = one_noise_step(Backend::cpu, "clamp", max_step, n, D, dt);
+    const auto r = one_noise_step(Backend::cpu, "rescaled", max_step, n, D, dt);
+    double m2 = 0, largest = 0, largest_rescaled = 0;
+    std::size_t at_edge = 0;
+    for (std::size_t j = 0; j < x.size(); ++j) {
+      const double z = (x[j] - x0[j]) / a;
+      m2 += z * z;
+      largest = std::max(largest, std::fabs(z));
+      largest_rescaled = std::max(largest_rescaled, std::fabs(r[j] - x0[j]) / a);
+      at_edge += std::fabs(std::fabs(z) - 3) < 1e-9;
+    }
+    m2 /= double(x.size());
+    CHECK(largest < 3 + 1e-9);
+    CHECK(largest_rescaled > 3.01);  // the rescaled variant reaches 3·1.0136
+    // P(|ξ| > 3) = 0.0027 (about 1400 of 2^19: 3 % standard error); variance within 5 standard errors.
+    CHECK(double(at_edge) / double(x.size()) == Approx(0.0026998).epsilon(0.15));
+    CHECK(std::fabs(m2 - 0.995007) < 5 * std::sqrt(1.9 / double(x.size())));
+    if (test::have_cuda("overdamped.integrate noise: clamp, CPU = CUDA bits")) {
+      const auto g = one_noise_step(Backend::cuda, "clamp", max_step, n, D, dt);
+      std::size_t differ = 0;
+      for (std::size_t j = 0; j < x.size(); ++j) differ += std::memcmp(&x[j], &g[j], sizeof(double)) != 0;
+      CHECK(differ == 0);
+    }
   }
 }
 

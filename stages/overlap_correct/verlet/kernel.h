@@ -9,6 +9,9 @@
 // displacements, bit for bit; a pair beyond σ_vu adds nothing, so the list's extra pairs (up to
 // cutoff + skin) change nothing either. Every displacement of an iteration is computed from the
 // positions before it (Jacobi), as in the Delaunay variant, then applied.
+// Walls (../kernel.h's wall_term) are a term of v's own sum, and along the wall axis a pair's
+// offset is the plain difference (no pair across a wall), as in the Delaunay variant: the same
+// bits again.
 // nvcc-clean.
 #pragma once
 #include <cstdint>
@@ -37,6 +40,10 @@ struct Gather {
   double inv_unit;               // 1 / length unit (the largest diameter at configure)
   double uniform;                // every diameter when all are equal (none is read then), else 0
   double* disp;                  // N x (D + 1): v's capped displacement and its length
+  int wall_axis = -1;            // walls: the axis they cut; -1: none
+  const std::int32_t* image = nullptr;  // N x D, read with walls
+  std::uint8_t* touched = nullptr;      // the touched field (mark: true), else null
+  bool first = false;                   // the step's first gather: it writes every touched entry
 
   FF_HD double diameter_of(std::size_t v) const { return uniform > 0 ? uniform : double(diameter[v]); }
 
@@ -48,20 +55,36 @@ struct Gather {
     std::int64_t q[D];
     for (int k = 0; k < D; ++k) q[k] = 0;
     std::uint64_t pairs = 0, bad = 0;
+    bool any = false;  // some pair or wall overlaps v
     const std::uint32_t m = count[i] < capacity ? count[i] : capacity;
     const std::uint32_t* row = list + i * capacity;
     for (std::uint32_t j = 0; j < m; ++j) {
       const std::uint32_t u = row[j];
       double r[D], t[D];
-      for (int k = 0; k < D; ++k) r[k] = box.min_image(double(pos[D * std::size_t(u) + k]) - xv[k], k);
+      for (int k = 0; k < D; ++k) {
+        const double dk = double(pos[D * std::size_t(u) + k]) - xv[k];
+        r[k] = k == wall_axis ? dk + 0.0 : box.min_image(dk, k);
+      }
       const double o = pair_term_d<D>(r, sv, diameter_of(u), factor, v, int(u), t);
       if (o == kNoOverlap) continue;
+      any = true;
       for (int k = 0; k < D; ++k) q[k] -= fixed_push(t[k], inv_unit);
       if (v < int(u) && o > 0) {
         ++pairs;
         if (o > tol) ++bad;
       }
     }
+    if (wall_axis >= 0) {
+      double push;
+      const double o = wall_term(xv[wall_axis], image[D * i + wall_axis], box.L[wall_axis], sv, factor, push);
+      if (o != kNoOverlap) {
+        any = true;
+        q[wall_axis] += fixed_push(push, inv_unit);
+        ++pairs;
+        if (o > tol) ++bad;
+      }
+    }
+    if (touched && (first || any)) touched[i] = std::uint8_t(any);
     double* d = disp + (D + 1) * i;
     d[D] = finish_d<D>(q, sv, cap, inv_unit, d);
     return pairs | (bad << kBadShift);
@@ -81,6 +104,12 @@ struct Apply {
     apply_d<D>(pos, image, box, i, d);  // zero components leave their coordinate alone
     return fixed_len(d[D], inv_unit);
   }
+};
+
+// The touched field's count (mark: true), after the step's last gather.
+struct CountTouched {
+  const std::uint8_t* touched;
+  FF_HD std::uint64_t operator()(std::size_t i) const { return touched[i]; }
 };
 
 }  // namespace ff::overlap

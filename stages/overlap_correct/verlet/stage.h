@@ -14,9 +14,16 @@
 //
 // In 2D the pushes are overlap_correct's bit for bit, so on the same overlapping pairs the two
 // give the same trajectory (test_verlet.cpp checks it for brownian hard disks).
+//
+// Walls (`walls: x | y | z`, ../kernel.h's wall_term): each particle's own term, on its unwrapped
+// coordinate; along the wall axis pair offsets are plain differences, so the list's pairs across
+// the seam never push. A particle that an integrator carried through a wall is reflected back
+// within the step; that move is longer than skin/2, so the list is rebuilt and the particle's
+// overlaps at its new place are corrected in the same step.
 #pragma once
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <memory>
 #include <sstream>
 #include <string>
@@ -56,6 +63,8 @@ class OverlapCorrectVerlet final : public Stage {
         where_(Exec::where),
         d2_{&Exec::template sum<Gather<R, 2>>, &Exec::template sum<Apply<R, 2>>},
         d3_{&Exec::template sum<Gather<R, 3>>, &Exec::template sum<Apply<R, 3>>},
+        count_touched_(&Exec::template sum<CountTouched>),
+        wall_axis_(wall_axis_of(p_.walls)),
         builder_(exec),
         sum_(exec),
         disp_(exec) {}
@@ -69,6 +78,7 @@ class OverlapCorrectVerlet final : public Stage {
     for (const char* f : {kList, kCount, kPositionAtBuild, kOrder, kCell, kCellStart, kCellEnd})
       a.push_back({f, where_, Mode::readwrite});
     a.push_back({kBuildParams, Where::host, Mode::read});
+    if (p_.mark) a.push_back({touched_field, where_, Mode::write});  // every entry written each step
     return a;
   }
 
@@ -86,6 +96,12 @@ class OverlapCorrectVerlet final : public Stage {
     diam_.template measure<R>(s, nullptr);
     if (!(diam_.min > 0)) throw InputError("overlap_correct.verlet: every particle needs a positive diameter");
     check_cutoff(false);
+    check_walls(s, wall_axis_, diam_.max, "overlap_correct.verlet");
+    if (p_.mark) {
+      Field& f = s.add_particle_field(touched_field, DType::u8, 1);
+      f.acquire(Where::host, Mode::write);
+      std::memset(f.host<std::uint8_t>(), 0, s.n());
+    }
     unit_ = diam_.max;
     tol_ = tolerance_for(p_, s, diam_.min);
     if (builder_.set_grid(s, cutoff_ + skin_) != s.field(kCellStart).count())
@@ -108,7 +124,11 @@ class OverlapCorrectVerlet final : public Stage {
     if (diam_.stale(s)) {  // written since: measure again
       diam_.template measure<R>(s, st);
       check_cutoff(true, ctx.host_params.step);
+      if (wall_axis_ >= 0 && !(s.box.L[wall_axis_] >= 2 * diam_.max))
+        throw RunError("overlap_correct.verlet: step " + std::to_string(ctx.host_params.step) +
+                       ": the diameters changed; the largest is now more than half the distance between the walls");
     }
+    std::uint8_t* touched = p_.mark ? s.field(touched_field).data<std::uint8_t>(ctx) : nullptr;
     const double uniform = diam_.min == diam_.max ? diam_.max : 0.0;  // all diameters equal: none is read
     double* disp = disp_.get((D + 1) * n);
     std::int64_t iterations = 0, rebuilds = 0;
@@ -123,7 +143,8 @@ class OverlapCorrectVerlet final : public Stage {
                        " neighbours may hold more pairs than the pair counter holds (2^32); lower the cutoff "
                        "or skin of neighbors.verlet");
       R* x = s.field(fields::position).data<R>(ctx);
-      const Gather<R, D> gather{x,
+      std::int32_t* img = s.field(fields::image).data<std::int32_t>(ctx);
+      Gather<R, D> gather{x,
                                 s.field(fields::diameter).data<R>(ctx),
                                 s.field(kList).data<std::uint32_t>(ctx),
                                 s.field(kCount).data<std::uint32_t>(ctx),
@@ -134,10 +155,13 @@ class OverlapCorrectVerlet final : public Stage {
                                 tol_,
                                 1.0 / unit_,
                                 uniform,
-                                disp};
-      const Apply<R, D> apply{x, s.field(fields::image).data<std::int32_t>(ctx), PeriodicBox<R>::make(s.box.L), disp,
-                              1.0 / unit_};
+                                disp,
+                                wall_axis_,
+                                wall_axis_ >= 0 ? img : nullptr,
+                                touched};
+      const Apply<R, D> apply{x, img, PeriodicBox<R>::make(s.box.L), disp, 1.0 / unit_};
       for (;;) {  // the correction loop on this list
+        gather.first = iterations == 0 && rebuilds == 0;
         const std::uint64_t c = loops.gather(n, gather, sum_, st);
         const std::uint64_t bad = c >> kBadShift;
         if (!bad) break;
@@ -155,6 +179,11 @@ class OverlapCorrectVerlet final : public Stage {
     ctx.metrics.set("pairs", double(pairs));
     ctx.metrics.set("correction", correction);
     ctx.metrics.set("list_rebuilds", double(rebuilds));
+    if (p_.mark) {
+      const double count = double(count_touched_(n, CountTouched{touched}, sum_, st));
+      ctx.metrics.set("touched", count);
+      ctx.metrics.set("touched_fraction", count / double(n));
+    }
     return Outcome::ok();
   }
 
@@ -188,7 +217,8 @@ class OverlapCorrectVerlet final : public Stage {
         const std::size_t b = list[a * capacity + j];
         double r2 = 0;
         for (int k = 0; k < D; ++k) {
-          const double dk = box.min_image(double(x[D * b + k]) - double(x[D * a + k]), k);
+          const double raw = double(x[D * b + k]) - double(x[D * a + k]);
+          const double dk = k == wall_axis_ ? raw : box.min_image(raw, k);
           r2 += dk * dk;
         }
         const double sab = 0.5 * (double(d[a]) + double(d[b])), r = std::sqrt(r2);
@@ -214,6 +244,8 @@ class OverlapCorrectVerlet final : public Stage {
   Where where_;
   VerletCorrectLoops<R, 2> d2_;
   VerletCorrectLoops<R, 3> d3_;
+  ReduceLoop<CountTouched, std::uint64_t> count_touched_;
+  int wall_axis_;  // walls: the axis (0, 1, 2); -1: none
   neighbors::ListBuild<R> builder_;  // the list's rebuild when the pushes moved a particle past skin/2
   Reduction<std::uint64_t> sum_;     // the word of the backend's sums
   Scratch<double> disp_;             // N x (D + 1): each iteration's displacements and their lengths

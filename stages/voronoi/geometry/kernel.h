@@ -1,0 +1,191 @@
+// voronoi.geometry's per-particle work: the Voronoi cell of particle v from the maintained
+// periodic Delaunay triangulation (De Fabritiis & Coveney §2, spec D1). FF_HD only; nvcc-clean.
+//
+// The cell's vertices are the circumcentres of the triangles around v. One thread walks v's fan
+// of half-edges twice: once to find its lowest half-edge and its length, then from that
+// half-edge, computing each circumcentre from minimum-image vectors relative to v and summing
+// the cell's faces in that fixed order. So every sum has one order, whatever the thread count,
+// the backend or which half-edge delaunay.vertex_edge happens to name: the same bits on the CPU
+// and on CUDA (no contraction into fma: cmake/flipflow_plugin.cmake). Each face (Delaunay edge e)
+// is written by the walk of origin(2e) only, each circumcentre copy (one per half-edge) by the
+// walk of that half-edge's origin: no two threads write the same element.
+//
+// Walk order: next(twin(h)) is the half-edge leaving v clockwise after h (overlap_correct walks
+// the same way). With u_k the far end of the k-th half-edge h_k, the triangle between h_k and
+// h_{k+1} is (v, u_{k+1}, u_k), counter-clockwise; its circumcentre is o_k. Face k (edge v–u_k)
+// runs from o_R = o_k (right of v -> u_k) to o_L = o_{k-1} (left of it).
+#pragma once
+#include <cmath>
+#include <cstdint>
+
+#include "core/base/hd.h"
+#include "stages/delaunay/common/mesh.h"
+
+namespace ff::voronoi {
+
+using delaunay::V2;
+
+// A fan longer than this is taken for a corrupt triangulation (sides = 0, reported by the stage).
+inline constexpr int kMaxSides = 64;
+
+// Circumcentre of the triangle (0, b, c), relative to its first vertex (spec D1's formula with
+// b' = b, c' = c).
+FF_HD V2 circumcentre(V2 b, V2 c) {
+  const double inv_D = 0.5 / (b.x * c.y - b.y * c.x);  // one division per circumcentre
+  const double bb = b.x * b.x + b.y * b.y, cc = c.x * c.x + c.y * c.y;
+  return {(c.y * bb - b.y * cc) * inv_D, (b.x * cc - c.x * bb) * inv_D};
+}
+
+// x brought into [0, L): a position written by the stage (midpoints, centroids, circumcentres).
+FF_HD double wrap_into(double x, double L, double inv_L) {
+  double w = x - L * std::floor(x * inv_L);
+  if (w >= L) w -= L;
+  if (w < 0) w = 0;
+  return w;
+}
+
+template <class R>
+struct CellGeometry {
+  const std::int32_t* he;     // 2 x 6N: {origin, next} (delaunay.halfedge)
+  const std::int32_t* vedge;  // N: one half-edge leaving each vertex
+  delaunay::Points<R> pts;    // the positions the cells are built on, with the box
+  int n;
+  R* area;             // N
+  R* perimeter;        // N: Σ of the signed face lengths
+  R* centroid;         // 2 x N, wrapped into the box
+  std::int32_t* sides; // N: faces = Delaunay neighbours; 0 when the fan is corrupt
+  R* face_length;      // 3N or null: signed length A_e of the Voronoi face of edge e
+  R* face_midpoint;    // 2 x 3N or null: its midpoint, wrapped into the box
+  R* circumcenter;     // 2 x 6N or null: per half-edge h, the circumcentre of the triangle left of h
+
+  // dest(h) and next(twin(h)) from half-edge twin(h)'s record (one 8-byte load on the device).
+  FF_HD void turn(int h, int& dest, int& next_out) const {
+#if defined(__CUDA_ARCH__)
+    const int2 r = __ldg(reinterpret_cast<const int2*>(he) + (h ^ 1));
+    dest = r.x;
+    next_out = r.y;
+#else
+    dest = he[2 * (h ^ 1)];
+    next_out = he[2 * (h ^ 1) + 1];
+#endif
+  }
+
+  FF_HD V2 absolute(int v, V2 rel) const {
+    const double x = double(pts.p[2 * v]) + rel.x, y = double(pts.p[2 * v + 1]) + rel.y;
+    return {wrap_into(x, pts.box.L[0], pts.box.inv_L[0]), wrap_into(y, pts.box.L[1], pts.box.inv_L[1])};
+  }
+
+  // What one face adds to its cell (face k: half-edge h = v -> u at d = u − v, from o_R to o_L).
+  struct Sums {
+    double area = 0, perimeter = 0, gx = 0, gy = 0;
+  };
+  FF_HD void face(int v, int h, V2 d, V2 oR, V2 oL, Sums& s) const {
+    const double r = std::sqrt(d.x * d.x + d.y * d.y);
+    // A = (o_L − o_R)·n̂ with n̂ = (v -> u)/r turned by +90°: ≥ 0 on a Delaunay edge.
+    const double A = ((oL.x - oR.x) * -d.y + (oL.y - oR.y) * d.x) / r;
+    // The triangle (v, o_R, o_L): base the face, height r/2 (= A r / 4 in exact arithmetic).
+    const double a = 0.5 * delaunay::cross(oR, oL);
+    s.area += a;
+    s.perimeter += A;
+    s.gx += a * (oR.x + oL.x);  // × 1/3 (the triangle's centroid) once, at the end
+    s.gy += a * (oR.y + oL.y);
+    if (face_length && (h & 1) == 0) {
+      const int e = h >> 1;
+      face_length[e] = R(A);
+      const V2 m = absolute(v, {0.5 * (oR.x + oL.x), 0.5 * (oR.y + oL.y)});
+      face_midpoint[2 * e] = R(m.x);
+      face_midpoint[2 * e + 1] = R(m.y);
+    }
+    if (circumcenter) {
+      const V2 o = absolute(v, oL);
+      circumcenter[2 * h] = R(o.x);
+      circumcenter[2 * h + 1] = R(o.y);
+    }
+  }
+
+  FF_HD void operator()(std::size_t i) const {
+    const int v = int(i);
+    const unsigned nh = 6u * unsigned(n);
+    // Pass 1: the fan closes within kMaxSides half-edges, every index in range; its lowest
+    // half-edge starts pass 2.
+    const int h0 = vedge[v];
+    int deg = 0, hmin = h0;
+    bool ok = unsigned(h0) < nh;
+    for (int h = h0; ok;) {
+      int u, hn;
+      turn(h, u, hn);
+      if (unsigned(u) >= unsigned(n) || u == v || unsigned(hn) >= nh || ++deg > kMaxSides) ok = false;
+      else if ((h = hn) == h0) break;
+      else if (h < hmin) hmin = h;
+    }
+    if (!ok || deg < 3) {
+      sides[v] = 0;
+      area[v] = perimeter[v] = R(0);
+      centroid[2 * v] = centroid[2 * v + 1] = R(0);
+      return;
+    }
+    // Pass 2: o_k = circumcentre of (v, u_{k+1}, u_k); face k needs o_{k-1} and o_k, so face 0
+    // (which needs o_{deg-1}) is summed last.
+    int u, hk = hmin, hnext;
+    turn(hk, u, hnext);
+    const V2 d_first = pts.rel(v, u);
+    V2 dk = d_first, o_first{0, 0}, o_prev{0, 0};
+    Sums s;
+    for (int k = 0; k < deg; ++k) {
+      V2 dn = d_first;
+      int hafter = hnext;
+      if (k + 1 < deg) {
+        turn(hnext, u, hafter);
+        dn = pts.rel(v, u);
+      }
+      const V2 o = circumcentre(dn, dk);
+      if (k == 0) o_first = o;
+      else face(v, hk, dk, o, o_prev, s);
+      o_prev = o;
+      dk = dn;
+      hk = hnext;
+      hnext = hafter;
+    }
+    face(v, hmin, d_first, o_first, o_prev, s);
+    sides[v] = deg;
+    area[v] = R(s.area);
+    perimeter[v] = R(s.perimeter);
+    const V2 g = absolute(v, {s.gx / (3.0 * s.area), s.gy / (3.0 * s.area)});
+    centroid[2 * v] = R(g.x);
+    centroid[2 * v + 1] = R(g.y);
+  }
+};
+
+// Terms of the metrics, as integers so that their sums do not depend on the order (the
+// backend's integer reductions): the area in units of the mean area / 2^bits, its square in
+// units of (mean area)² / 2^bits2, sides². Stored as two's complement modulo 2^64.
+template <class R>
+struct AreaTerm {
+  const R* area;
+  double scale;  // 2^bits / mean area
+  FF_HD std::uint64_t operator()(std::size_t i) const {
+    return std::uint64_t(std::int64_t(std::rint(double(area[i]) * scale)));
+  }
+};
+template <class R>
+struct AreaSquareTerm {
+  const R* area;
+  double inv_mean;
+  double scale;  // 2^bits2
+  FF_HD std::uint64_t operator()(std::size_t i) const {
+    const double q = double(area[i]) * inv_mean;
+    return std::uint64_t(std::int64_t(std::rint(q * q * scale)));
+  }
+};
+// A corrupt fan (sides 0) adds kBrokenTerm, far above any Σ sides² (N kMaxSides² < 2^44 for
+// N < 2^32): the stage reads it back as the count of corrupt fans.
+inline constexpr std::uint64_t kBrokenShift = 44;
+struct SidesSquareTerm {
+  const std::int32_t* sides;
+  FF_HD std::uint64_t operator()(std::size_t i) const {
+    const std::uint64_t s = std::uint64_t(sides[i]);
+    return s == 0 ? (std::uint64_t(1) << kBrokenShift) : s * s;
+  }
+};
+
+}  // namespace ff::voronoi

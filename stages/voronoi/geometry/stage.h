@@ -1,0 +1,196 @@
+// voronoi.geometry: the Voronoi cells of the particles, read off the maintained periodic
+// Delaunay triangulation (2D; De Fabritiis & Coveney §2, spec D1): per particle the cell's area,
+// perimeter, centroid and number of sides; per Delaunay edge the length and midpoint of its
+// Voronoi face; optionally every circumcentre (Voronoi vertex). One pass over the particles
+// (kernel.h), each summing its own cell in a fixed order: the same bits on both backends.
+// List it after delaunay.lawson:
+//
+//   - {stage: delaunay.lawson}
+//   - {stage: voronoi.geometry}                     # positions: delaunay (default) or current
+//   - {stage: observe.h5md, every: 1000, fields: [position, voronoi.area, voronoi.sides]}
+//
+// `positions: delaunay` builds the cells on delaunay.position_prev, the positions Lawson made
+// the triangulation Delaunay for: the true Voronoi cells of those positions. `current` builds
+// them on `position`: after a stage that moves particles past Lawson (overlap_correct), the
+// dual of a triangulation that may be slightly non-Delaunay for them, whose faces may then have
+// small negative lengths (the cells still tile the box exactly).
+#pragma once
+#include <cmath>
+#include <cstdint>
+#include <string>
+
+#include "core/backend/exec.h"
+#include "core/backend/memory.h"
+#include "core/base/error.h"
+#include "core/stage/params.h"
+#include "core/stage/stage.h"
+#include "core/stage/stage_registration.h"
+#include "stages/delaunay/common/fields.h"
+#include "stages/voronoi/geometry/kernel.h"
+
+namespace ff::voronoi {
+
+namespace fields {
+inline constexpr const char* area = "voronoi.area";                    // real, N
+inline constexpr const char* perimeter = "voronoi.perimeter";          // real, N
+inline constexpr const char* centroid = "voronoi.centroid";            // real x 2, N
+inline constexpr const char* sides = "voronoi.sides";                  // i32, N
+inline constexpr const char* face_length = "voronoi.face_length";      // real, 3N (per Delaunay edge)
+inline constexpr const char* face_midpoint = "voronoi.face_midpoint";  // real x 2, 3N
+inline constexpr const char* circumcenter = "voronoi.circumcenter";    // real x 2, 6N (per half-edge)
+}  // namespace fields
+
+struct GeometryParams {
+  std::string positions = "delaunay";
+  bool faces = true;
+  bool circumcenters = false;
+  bool metrics = true;
+
+  template <class P>
+  void describe(P& p) {
+    p(positions, "positions",
+      "delaunay: the cells of delaunay.position_prev, the positions the triangulation is Delaunay for; current: "
+      "the cells of `position` on the maintained triangulation (after overlap_correct possibly slightly "
+      "non-Delaunay: faces of small negative length)")
+        .one_of({"delaunay", "current"});
+    p(faces, "faces", "write each Delaunay edge's Voronoi face: voronoi.face_length (3N) and voronoi.face_midpoint (3N x 2)");
+    p(circumcenters, "circumcenters",
+      "write voronoi.circumcenter (6N x 2): per half-edge h, the circumcentre of the triangle left of h (each "
+      "Voronoi vertex three times, once per corner of its triangle)");
+    p(metrics, "metrics",
+      "report area_mean, area_variance, sides_variance and area_sum_error (three integer reductions over the "
+      "particles; on CUDA each waits for the stream)");
+  }
+};
+
+template <class R>
+class Geometry final : public Stage {
+ public:
+  static StageDecl declaration() {
+    return {"voronoi.geometry",
+            "Voronoi cells from the maintained Delaunay triangulation: area, perimeter, centroid, sides per particle; "
+            "face length and midpoint per edge (list it after delaunay.lawson)",
+            schema_of<GeometryParams>(), {2}, false};
+  }
+
+  template <class Exec>
+  Geometry(const ParamValues& v, const RunInfo&, Exec exec)
+      : p_(params_from<GeometryParams>(v)),
+        where_(Exec::where),
+        cells_(&Exec::template for_each<CellGeometry<R>>),
+        sum_area_(&Exec::template sum<AreaTerm<R>>),
+        sum_area2_(&Exec::template sum<AreaSquareTerm<R>>),
+        sum_sides2_(&Exec::template sum<SidesSquareTerm>),
+        reduction_(exec) {}
+
+  std::vector<Access> accesses() const override {
+    std::vector<Access> a{{source(), where_, Mode::read},
+                          {delaunay::fields::halfedge, where_, Mode::read},
+                          {delaunay::fields::vertex_edge, where_, Mode::read},
+                          {delaunay::fields::status, Where::host, Mode::read},
+                          {fields::area, where_, Mode::write},
+                          {fields::perimeter, where_, Mode::write},
+                          {fields::centroid, where_, Mode::write},
+                          {fields::sides, where_, Mode::write}};
+    if (p_.faces) {
+      a.push_back({fields::face_length, where_, Mode::write});
+      a.push_back({fields::face_midpoint, where_, Mode::write});
+    }
+    if (p_.circumcenters) a.push_back({fields::circumcenter, where_, Mode::write});
+    return a;
+  }
+
+  void configure(State& s) override {
+    if (s.dim() != 2)
+      throw InputError("voronoi.geometry works on the 2D Delaunay triangulation (system.dimensions is " +
+                       std::to_string(s.dim()) + ")");
+    for (const char* f : {delaunay::fields::halfedge, delaunay::fields::vertex_edge, delaunay::fields::status,
+                          delaunay::fields::position_prev})
+      if (!s.has_field(f))
+        throw InputError(std::string("voronoi.geometry needs the Delaunay triangulation (field '") + f +
+                         "'), which no stage before it provides: put it after the delaunay stages in `step:` "
+                         "(delaunay.detect_inversion, delaunay.flip, delaunay.lawson after the integrator, or "
+                         "delaunay.build)");
+    const std::size_t n = s.n();
+    s.add_field(fields::area, s.real(), 1, n);
+    s.add_field(fields::perimeter, s.real(), 1, n);
+    s.add_field(fields::centroid, s.real(), 2, n);
+    s.add_field(fields::sides, DType::i32, 1, n);
+    if (p_.faces) {
+      s.add_field(fields::face_length, s.real(), 1, delaunay::edge_count(n));
+      s.add_field(fields::face_midpoint, s.real(), 2, delaunay::edge_count(n));
+    }
+    if (p_.circumcenters) s.add_field(fields::circumcenter, s.real(), 2, delaunay::halfedge_count(n));
+  }
+
+  Outcome run(StepContext& ctx) override {
+    State& s = ctx.state;
+    CUstream_st* st = ctx.stream;
+    if (!s.field(delaunay::fields::status).host<std::int32_t>()[delaunay::kBuilt])
+      throw RunError("voronoi.geometry: step " + std::to_string(ctx.host_params.step) +
+                     ": no Delaunay triangulation has been built yet; put delaunay.build (or "
+                     "delaunay.detect_inversion) before voronoi.geometry");
+    const std::size_t n = s.n();
+    R* area = s.field(fields::area).data<R>(ctx);
+    std::int32_t* sides = s.field(fields::sides).data<std::int32_t>(ctx);
+    const CellGeometry<R> cells{s.field(delaunay::fields::halfedge).data<std::int32_t>(ctx),
+                                s.field(delaunay::fields::vertex_edge).data<std::int32_t>(ctx),
+                                {s.field(source()).template data<R>(ctx), PeriodicBox<double>::make(s.box.L)},
+                                int(n),
+                                area,
+                                s.field(fields::perimeter).data<R>(ctx),
+                                s.field(fields::centroid).data<R>(ctx),
+                                sides,
+                                p_.faces ? s.field(fields::face_length).data<R>(ctx) : nullptr,
+                                p_.faces ? s.field(fields::face_midpoint).data<R>(ctx) : nullptr,
+                                p_.circumcenters ? s.field(fields::circumcenter).data<R>(ctx) : nullptr};
+    cells_(n, cells, st);
+    if (p_.metrics) report(ctx, area, sides);
+    return Outcome::ok();
+  }
+
+ private:
+  const char* source() const {
+    return p_.positions == "current" ? ff::fields::position : delaunay::fields::position_prev;
+  }
+
+  // The metrics from integer sums (the same on both backends): the areas in fixed point relative
+  // to the mean area L_x L_y / N, with as many fraction bits as keep Σ (= N at the mean) at most
+  // 2^61, so that area_sum_error is exact to N × 2^-(bits+1) / N = 2^-42 at N = 2^20; their
+  // squares with the bits that keep Σ q² ≤ (Σ |q|)² ≈ N² at most 2^61 (any distribution of areas).
+  void report(StepContext& ctx, const R* area, const std::int32_t* sides) {
+    State& s = ctx.state;
+    CUstream_st* st = ctx.stream;
+    const std::size_t n = s.n();
+    const double N = double(n), mean = s.box.L[0] * s.box.L[1] / N;
+    const int log2n = int(std::ceil(std::log2(N)));
+    const int bits = 61 - log2n, bits2 = 61 - 2 * log2n;
+    const double one = std::ldexp(1.0, bits), one2 = std::ldexp(1.0, bits2);
+    const auto q = std::int64_t(sum_area_(n, AreaTerm<R>{area, one / mean}, reduction_, st));
+    const auto q2 = std::int64_t(sum_area2_(n, AreaSquareTerm<R>{area, 1.0 / mean, one2}, reduction_, st));
+    const std::uint64_t s2 = sum_sides2_(n, SidesSquareTerm{sides}, reduction_, st);
+    if (const std::uint64_t broken = s2 >> kBrokenShift)
+      throw RunError("voronoi.geometry: step " + std::to_string(ctx.host_params.step) + ": the half-edges around " +
+                     std::to_string(broken) + " particle(s) do not form a closed fan of at most " +
+                     std::to_string(kMaxSides) + " triangles (a corrupt triangulation); a delaunay stage before "
+                     "voronoi.geometry failed to keep it valid");
+    const double qm = double(q) / one / N;  // Σ V_i / (L_x L_y)
+    ctx.metrics.set("area_mean", qm * mean);
+    ctx.metrics.set("area_variance", double(q2) / one2 / N - qm * qm);
+    // Σ sides = 6N on the torus (every half-edge leaves one vertex): the mean is 6.
+    ctx.metrics.set("sides_variance", double(s2) / N - 36.0);
+    ctx.metrics.set("area_sum_error", qm - 1.0);
+  }
+
+  GeometryParams p_;
+  Where where_;
+  ElementLoop<CellGeometry<R>> cells_;
+  ReduceLoop<AreaTerm<R>, std::uint64_t> sum_area_;
+  ReduceLoop<AreaSquareTerm<R>, std::uint64_t> sum_area2_;
+  ReduceLoop<SidesSquareTerm, std::uint64_t> sum_sides2_;
+  Reduction<std::uint64_t> reduction_;
+};
+
+}  // namespace ff::voronoi
+
+FLIPFLOW_STAGE(ff::voronoi::Geometry)

@@ -1,0 +1,300 @@
+// voronoi.geometry: the cells of lattices (exact values), of random states (CGAL's periodic
+// Delaunay triangulation of the same points, Σ areas = box area, closure of every cell) and
+// Poisson–Voronoi statistics (Okabe et al.), on every backend, and CPU == CUDA bit for bit.
+#include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
+#include <CGAL/Periodic_2_Delaunay_triangulation_2.h>
+#include <CGAL/Periodic_2_Delaunay_triangulation_traits_2.h>
+#include <CGAL/Triangulation_vertex_base_with_info_2.h>
+
+#include <catch2/catch.hpp>
+#include <cmath>
+#include <cstring>
+#include <memory>
+#include <numeric>
+#include <string>
+#include <vector>
+
+#include "stages/delaunay/test_support.h"
+#include "stages/voronoi/geometry/stage.h"
+#include "support/backends.h"
+#include "support/fields.h"
+
+namespace {
+
+using namespace ff;
+using ff::test::values;
+namespace vf = ff::voronoi::fields;
+namespace dl = ff::test::dl;
+
+const Registry& registry() {
+  static const std::unique_ptr<Registry> r = test::registry_of({"delaunay", "voronoi"});
+  return *r;
+}
+
+std::unique_ptr<Stage> make(const std::string& name, Backend b, Precision p, const test::ParamSettings& set = {}) {
+  return test::make_stage(registry(), name, b, p, 2, set);
+}
+
+// A state with the triangulation delaunay.build makes of xy (CPU; the topology fields then
+// move to the device with the rest when a CUDA stage acquires them).
+std::unique_ptr<State> built(const std::vector<double>& xy, double Lx, double Ly, Precision p = Precision::f64) {
+  auto s = dl::make_state(xy, Lx, Ly, p);
+  auto build = make("delaunay.build", Backend::cpu, p);
+  build->configure(*s);
+  test::StageDriver d(Backend::cpu, p, 2);
+  REQUIRE_FALSE(d.run(*build, *s).rollback);
+  return s;
+}
+
+// voronoi.geometry once on backend b; its metrics.
+std::map<std::string, double> cells(State& s, Backend b, const test::ParamSettings& set = {}) {
+  auto g = make("voronoi.geometry", b, s.precision(), set);
+  g->configure(s);
+  test::StageDriver d(b, s.precision(), 2);
+  REQUIRE_FALSE(d.run(*g, s).rollback);
+  return d.metrics.values();
+}
+
+std::vector<std::int32_t> ints(State& s, const char* name) {
+  Field& f = s.field(name);
+  f.acquire(Where::host, Mode::read);
+  return std::vector<std::int32_t>(f.host<std::int32_t>(), f.host<std::int32_t>() + f.size());
+}
+
+double min_image(double d, double L) { return d - L * std::rint(d / L); }
+
+// Σ_j A_ij e_ij for every cell i, e_ij = (r_i − r_j)/r_ij, from the face lengths per edge.
+std::vector<double> closure(State& s) {
+  const auto x = dl::positions(s);
+  const auto A = values(s, vf::face_length);
+  const auto he = dl::topology(s).he;
+  std::vector<double> sum(2 * s.n(), 0.0);
+  for (std::size_t e = 0; e < 3 * s.n(); ++e) {
+    const int a = he[4 * e], b = he[4 * e + 2];
+    const double dx = min_image(x[2 * a] - x[2 * b], s.box.L[0]), dy = min_image(x[2 * a + 1] - x[2 * b + 1], s.box.L[1]);
+    const double r = std::hypot(dx, dy);
+    sum[2 * a] += A[e] * dx / r, sum[2 * a + 1] += A[e] * dy / r;
+    sum[2 * b] -= A[e] * dx / r, sum[2 * b + 1] -= A[e] * dy / r;
+  }
+  return sum;
+}
+
+// The cells of CGAL's periodic Delaunay triangulation of xy (square box L), computed apart from
+// the stage: each triangle gives each corner the kite (corner, edge midpoint, circumcentre, edge
+// midpoint), with CGAL's own circumcentre, in the triangle's unwrapped coordinates.
+struct CgalCells {
+  std::vector<double> area, perimeter, cx, cy;  // centroid relative to the site
+  std::vector<int> sides;
+};
+CgalCells cgal_cells(const std::vector<double>& xy, double L) {
+  using K = CGAL::Exact_predicates_inexact_constructions_kernel;
+  using Gt = CGAL::Periodic_2_Delaunay_triangulation_traits_2<K>;
+  using Vb = CGAL::Triangulation_vertex_base_with_info_2<int, Gt, CGAL::Periodic_2_triangulation_vertex_base_2<Gt>>;
+  using Tds = CGAL::Triangulation_data_structure_2<Vb, CGAL::Periodic_2_triangulation_face_base_2<Gt>>;
+  using PDT = CGAL::Periodic_2_Delaunay_triangulation_2<Gt, Tds>;
+  using P = K::Point_2;
+  const std::size_t n = xy.size() / 2;
+  PDT T(PDT::Iso_rectangle(0, 0, L, L));
+  for (std::size_t i = 0; i < n; ++i) T.insert(P(xy[2 * i], xy[2 * i + 1]))->info() = int(i);
+  if (!T.is_triangulation_in_1_sheet()) T.convert_to_1_sheeted_covering();
+  REQUIRE(T.is_triangulation_in_1_sheet());
+  CgalCells c{std::vector<double>(n), std::vector<double>(n), std::vector<double>(n), std::vector<double>(n),
+              std::vector<int>(n)};
+  auto cross = [](double ax, double ay, double bx, double by) { return ax * by - ay * bx; };
+  for (auto f = T.faces_begin(); f != T.faces_end(); ++f) {
+    const auto tri = T.triangle(T.periodic_triangle(f));
+    const P o = CGAL::circumcenter(tri[0], tri[1], tri[2]);
+    for (int k = 0; k < 3; ++k) {
+      const P a = tri[k], b = tri[(k + 1) % 3], cc = tri[(k + 2) % 3];
+      const int id = f->vertex(k)->info();
+      // Relative to a: midpoints of ab and ac, circumcentre.
+      const double mbx = 0.5 * (b.x() - a.x()), mby = 0.5 * (b.y() - a.y());
+      const double mcx = 0.5 * (cc.x() - a.x()), mcy = 0.5 * (cc.y() - a.y());
+      const double ox = o.x() - a.x(), oy = o.y() - a.y();
+      const double t1 = 0.5 * cross(mbx, mby, ox, oy), t2 = 0.5 * cross(ox, oy, mcx, mcy);
+      c.area[id] += t1 + t2;
+      c.cx[id] += t1 * (mbx + ox) / 3 + t2 * (ox + mcx) / 3;
+      c.cy[id] += t1 * (mby + oy) / 3 + t2 * (oy + mcy) / 3;
+      // Signed half-faces: + when the circumcentre is on the triangle's side of the edge.
+      const double hb = std::hypot(ox - mbx, oy - mby) * (cross(mbx, mby, ox, oy) >= 0 ? 1 : -1);
+      const double hc = std::hypot(ox - mcx, oy - mcy) * (cross(ox, oy, mcx, mcy) >= 0 ? 1 : -1);
+      c.perimeter[id] += hb + hc;
+    }
+  }
+  for (auto v = T.vertices_begin(); v != T.vertices_end(); ++v) {
+    auto circ = T.adjacent_vertices(v), end = circ;
+    int deg = 0;
+    do ++deg;
+    while (++circ != end);
+    c.sides[v->info()] = deg;
+  }
+  for (std::size_t i = 0; i < n; ++i) c.cx[i] /= c.area[i], c.cy[i] /= c.area[i];
+  return c;
+}
+
+}  // namespace
+
+TEST_CASE("voronoi.geometry: triangular lattice — area √3/2 a², faces a/√3, 6 sides, centroid = site", "[voronoi]") {
+  const Backend b = GENERATE(from_range(test::backends()));
+  const int nx = 16, ny = 16;
+  const double a = 1.7;
+  auto s = built(dl::triangular_lattice(nx, ny, a), nx * a, ny * a * std::sqrt(3.0) / 2);
+  const auto m = cells(*s, b);
+  const auto x = dl::positions(*s);
+  const auto area = values(*s, vf::area), per = values(*s, vf::perimeter), g = values(*s, vf::centroid);
+  const auto faces = values(*s, vf::face_length);
+  const auto sides = ints(*s, vf::sides);
+  for (std::size_t i = 0; i < s->n(); ++i) {
+    REQUIRE(area[i] == Approx(std::sqrt(3.0) / 2 * a * a).epsilon(1e-12));
+    REQUIRE(per[i] == Approx(6 * a / std::sqrt(3.0)).epsilon(1e-12));
+    REQUIRE(sides[i] == 6);
+    REQUIRE(std::fabs(min_image(g[2 * i] - x[2 * i], s->box.L[0])) < 1e-12);
+    REQUIRE(std::fabs(min_image(g[2 * i + 1] - x[2 * i + 1], s->box.L[1])) < 1e-12);
+  }
+  for (double A : faces) REQUIRE(A == Approx(a / std::sqrt(3.0)).epsilon(1e-12));
+  CHECK(m.at("area_mean") == Approx(std::sqrt(3.0) / 2 * a * a).epsilon(1e-12));
+  CHECK(std::fabs(m.at("area_variance")) < 1e-9);
+  CHECK(m.at("sides_variance") == 0.0);
+  CHECK(std::fabs(m.at("area_sum_error")) < 1e-12);
+}
+
+TEST_CASE("voronoi.geometry: square lattice — area a² whatever diagonals Lawson chose; the diagonals' faces 0",
+          "[voronoi]") {
+  const Backend b = GENERATE(from_range(test::backends()));
+  const int n = 12;
+  const double a = 1.3;
+  auto s = built(dl::square_lattice(n, n, a), n * a, n * a);
+  cells(*s, b);
+  const auto x = dl::positions(*s);
+  const auto he = dl::topology(*s).he;
+  const auto area = values(*s, vf::area), per = values(*s, vf::perimeter), faces = values(*s, vf::face_length);
+  for (std::size_t i = 0; i < s->n(); ++i) {
+    REQUIRE(area[i] == Approx(a * a).epsilon(1e-12));
+    REQUIRE(per[i] == Approx(4 * a).epsilon(1e-12));
+  }
+  int diagonals = 0;
+  for (std::size_t e = 0; e < 3 * s->n(); ++e) {
+    const int p = he[4 * e], q = he[4 * e + 2];
+    const double r = std::hypot(min_image(x[2 * p] - x[2 * q], s->box.L[0]), min_image(x[2 * p + 1] - x[2 * q + 1], s->box.L[1]));
+    if (r > 1.2 * a) {
+      ++diagonals;
+      REQUIRE(std::fabs(faces[e]) < 1e-12 * a);
+    } else {
+      REQUIRE(faces[e] == Approx(a).epsilon(1e-12));
+    }
+  }
+  CHECK(diagonals == int(s->n()));  // one diagonal per square
+}
+
+TEST_CASE("voronoi.geometry: random states equal CGAL's periodic Voronoi cells; Σ areas = box; every cell closes",
+          "[voronoi]") {
+  const Backend b = GENERATE(from_range(test::backends()));
+  const std::uint64_t seed = GENERATE(1, 2, 3);
+  const std::size_t n = 1500;
+  const double L = std::sqrt(double(n));
+  const auto xy = dl::random_points(n, L, L, seed);
+  auto s = built(xy, L, L);
+  const auto m = cells(*s, b);
+  const auto x = dl::positions(*s);
+  const CgalCells ref = cgal_cells(x, L);
+  const auto area = values(*s, vf::area), per = values(*s, vf::perimeter), g = values(*s, vf::centroid);
+  const auto sides = ints(*s, vf::sides);
+  double total = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    INFO("particle " << i);
+    REQUIRE(std::fabs(area[i] - ref.area[i]) < 1e-10);
+    REQUIRE(std::fabs(per[i] - ref.perimeter[i]) < 1e-10);
+    REQUIRE(sides[i] == ref.sides[i]);
+    REQUIRE(std::fabs(min_image(g[2 * i] - x[2 * i], L) - ref.cx[i]) < 1e-10);
+    REQUIRE(std::fabs(min_image(g[2 * i + 1] - x[2 * i + 1], L) - ref.cy[i]) < 1e-10);
+    total += area[i];
+  }
+  CHECK(std::fabs(total / (L * L) - 1) < 1e-12);
+  CHECK(std::fabs(m.at("area_sum_error")) < 1e-12);
+  CHECK(m.at("area_mean") == Approx(1.0).epsilon(1e-12));
+  for (double c : closure(*s)) REQUIRE(std::fabs(c) < 1e-12);
+  // Every face of a Delaunay edge is ≥ 0 (up to rounding).
+  for (double A : values(*s, vf::face_length)) REQUIRE(A > -1e-12);
+}
+
+TEST_CASE("voronoi.geometry: Poisson–Voronoi statistics at N = 2e5 (Okabe et al.: var(area) 0.280, perimeter 4, "
+          "sides 6, var(sides) 1.781, within 1 %)",
+          "[voronoi]") {
+  const std::size_t n = 200000;
+  const double L = std::sqrt(double(n));
+  auto s = built(dl::random_points(n, L, L, 11), L, L);
+  const auto m = cells(*s, Backend::cpu);
+  const auto area = values(*s, vf::area), per = values(*s, vf::perimeter);
+  const auto sides = ints(*s, vf::sides);
+  double a1 = 0, a2 = 0, p1 = 0, s1 = 0, s2 = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    a1 += area[i], a2 += area[i] * area[i], p1 += per[i];
+    s1 += sides[i], s2 += double(sides[i]) * sides[i];
+  }
+  a1 /= n, a2 /= n, p1 /= n, s1 /= n, s2 /= n;
+  CHECK(a1 == Approx(1.0).epsilon(1e-12));
+  CHECK(a2 - a1 * a1 == Approx(0.280).epsilon(0.01));
+  CHECK(p1 == Approx(4.0).epsilon(0.01));
+  CHECK(s1 == 6.0);  // exact on the torus
+  CHECK(s2 - s1 * s1 == Approx(1.781).epsilon(0.01));
+  // The metrics (integer sums) agree with the sums above.
+  CHECK(m.at("area_variance") == Approx(a2 - a1 * a1).epsilon(1e-6));
+  CHECK(m.at("sides_variance") == Approx(s2 - s1 * s1).epsilon(1e-12));
+  CHECK(std::fabs(m.at("area_sum_error")) < 1e-12);
+}
+
+TEST_CASE("voronoi.geometry: positions delaunay (position_prev) or current", "[voronoi]") {
+  const Backend b = GENERATE(from_range(test::backends()));
+  const std::size_t n = 600;
+  const double L = std::sqrt(double(n));
+  auto xy = dl::random_points(n, L, L, 5);
+  auto s = built(xy, L, L);
+  cells(*s, b);
+  const auto before = values(*s, vf::area);
+  // Small moves that keep every triangle positive: position_prev keeps the built positions.
+  const RngKey key = make_rng_key(9, "voronoi-move");
+  for (std::size_t i = 0; i < xy.size(); ++i) xy[i] += 0.01 * (uniform01(key, std::uint32_t(i), 0, 0, 0) - 0.5);
+  dl::set_positions(*s, xy);
+  cells(*s, b);
+  CHECK(values(*s, vf::area) == before);  // the cells of delaunay.position_prev, bit for bit
+  const auto m = cells(*s, b, {{"positions", std::string("current")}});
+  const auto now = values(*s, vf::area);
+  CHECK(now != before);
+  CHECK(std::fabs(m.at("area_sum_error")) < 1e-12);  // the cells of the moved points still tile the box
+  for (double c : closure(*s)) REQUIRE(std::fabs(c) < 1e-12);
+}
+
+TEST_CASE("voronoi.geometry: single precision stores the double computation rounded", "[voronoi]") {
+  const Backend b = GENERATE(from_range(test::backends()));
+  const std::size_t n = 400;
+  const double L = std::sqrt(double(n));
+  const auto xy = dl::random_points(n, L, L, 4);
+  auto s64 = built(xy, L, L);
+  auto s32 = built(dl::positions(*s64), L, L, Precision::f32);
+  cells(*s64, b);
+  cells(*s32, b);
+  const auto a64 = values(*s64, vf::area), a32 = values(*s32, vf::area);
+  for (std::size_t i = 0; i < n; ++i) REQUIRE(a32[i] == Approx(a64[i]).epsilon(1e-4));
+}
+
+TEST_CASE("voronoi.geometry: CPU and CUDA give the same bits", "[voronoi][cuda]") {
+  if (!test::have_cuda("voronoi.geometry CPU vs CUDA")) return;
+  const std::size_t n = 5000;
+  const double L = std::sqrt(double(n));
+  const auto xy = dl::random_points(n, L, L, 8);
+  for (Precision p : {Precision::f64, Precision::f32}) {
+    auto cpu = built(xy, L, L, p), gpu = built(xy, L, L, p);
+    const test::ParamSettings all{{"circumcenters", true}};
+    const auto mc = cells(*cpu, Backend::cpu, all), mg = cells(*gpu, Backend::cuda, all);
+    CHECK(mc == mg);
+    for (const char* f : {vf::area, vf::perimeter, vf::centroid, vf::sides, vf::face_length, vf::face_midpoint,
+                          vf::circumcenter}) {
+      INFO(f);
+      Field &a = cpu->field(f), &c = gpu->field(f);
+      a.acquire(Where::host, Mode::read);
+      c.acquire(Where::host, Mode::read);
+      REQUIRE(a.bytes() == c.bytes());
+      REQUIRE(std::memcmp(a.host_raw(), c.host_raw(), a.bytes()) == 0);
+    }
+  }
+}

@@ -1,0 +1,564 @@
+// Checkpoints and --resume end to end (the `pipeline` command): a run of 2n steps equals n steps
+// + --resume + n steps in every dataset of its H5MD file (and its CSV files), for ABP, hard
+// disks with rollbacks in the second half, the phoretic short-range model (a Verlet list) and a
+// pipeline of `every:` observers; after SIGKILL at a random step; after SIGTERM (exit 3, a
+// checkpoint at the step it stopped); and the refusals (changed N, changed stages, changed
+// parameters without --allow-changes, a corrupt and a truncated checkpoint), each exit 2, with
+// the previous checkpoint still resuming.
+//
+// Runs on the CPU; FLIPFLOW_TEST_DEVICE=cuda runs the same on the GPU (skipped without one).
+#include <catch2/catch.hpp>
+#include <hdf5.h>
+#include <signal.h>
+#include <spawn.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <random>
+#include <sstream>
+#include <thread>
+
+#include "core/backend/device.h"
+#include "support/cli.h"
+
+extern char** environ;
+
+namespace fs = std::filesystem;
+
+namespace {
+
+using ff::test::pipeline_exe;
+using ff::test::repo_file;
+
+std::string device() {
+  const char* d = std::getenv("FLIPFLOW_TEST_DEVICE");
+  return d && *d ? d : "cpu";
+}
+
+// The device asked for is there (CUDA: a GPU); otherwise the test says it skipped.
+bool device_available() {
+  if (device() != "cuda") return true;
+  if (ff::cuda_device_available()) return true;
+  WARN("SKIPPED (no CUDA device: " + ff::cuda_device_description() + "): checkpoint continuation on CUDA");
+  return false;
+}
+
+fs::path fresh_dir(const std::string& name) {
+  fs::path d = fs::temp_directory_path() / ("ff_ckpt_" + name + "_" + std::to_string(::getpid()));
+  fs::remove_all(d);
+  fs::create_directories(d);
+  return d;
+}
+
+ff::test::CommandResult pipeline(const std::string& args) {
+  return ff::test::run_command(pipeline_exe() + " " + args + " --device " + device() + " --threads 2",
+                               fs::temp_directory_path() / ("ff_ckpt_" + std::to_string(::getpid()) + ".log"));
+}
+
+std::string quoted(const std::vector<std::string>& sets) {
+  std::string s;
+  for (auto& x : sets) s += " --set '" + x + "'";
+  return s;
+}
+
+// ---- reading an H5MD file: every dataset outside /parameters and /h5md ----
+
+struct Dataset {
+  std::vector<unsigned long long> shape;
+  std::vector<unsigned char> bytes;
+  bool operator==(const Dataset& o) const { return shape == o.shape && bytes == o.bytes; }
+};
+
+herr_t collect(hid_t root, const char* name, const H5L_info_t*, void* op) {
+  auto& out = *static_cast<std::map<std::string, Dataset>*>(op);
+  const std::string n = name;
+  if (n.rfind("parameters", 0) == 0 || n.rfind("h5md", 0) == 0) return 0;
+  hid_t obj = H5Oopen(root, name, H5P_DEFAULT);
+  if (obj < 0) return -1;
+  const bool is_dataset = H5Iget_type(obj) == H5I_DATASET;
+  H5Oclose(obj);
+  if (!is_dataset) return 0;
+  hid_t d = H5Dopen2(root, name, H5P_DEFAULT);
+  hid_t ft = H5Dget_type(d);
+  hid_t mt = H5Tget_native_type(ft, H5T_DIR_ASCEND);
+  hid_t sp = H5Dget_space(d);
+  const int rank = H5Sget_simple_extent_ndims(sp);
+  std::vector<hsize_t> dims(std::size_t(std::max(rank, 0)));
+  if (rank > 0) H5Sget_simple_extent_dims(sp, dims.data(), nullptr);
+  Dataset ds;
+  std::size_t count = 1;
+  for (auto x : dims) {
+    ds.shape.push_back(x);
+    count *= x;
+  }
+  ds.bytes.resize(count * H5Tget_size(mt));
+  if (count) H5Dread(d, mt, H5S_ALL, H5S_ALL, H5P_DEFAULT, ds.bytes.data());
+  out[n] = std::move(ds);
+  H5Sclose(sp);
+  H5Tclose(mt);
+  H5Tclose(ft);
+  H5Dclose(d);
+  return 0;
+}
+
+std::map<std::string, Dataset> datasets(const fs::path& file) {
+  std::map<std::string, Dataset> out;
+  hid_t f = H5Fopen(file.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
+  REQUIRE(f >= 0);
+  H5Lvisit(f, H5_INDEX_NAME, H5_ITER_INC, collect, &out);
+  H5Fclose(f);
+  return out;
+}
+
+// A /parameters attribute (scalar string) or "" when missing.
+std::string parameter_attribute(const fs::path& file, const std::string& object, const std::string& attr) {
+  hid_t f = H5Fopen(file.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
+  if (f < 0) return "";
+  std::string out;
+  if (H5Aexists_by_name(f, object.c_str(), attr.c_str(), H5P_DEFAULT) > 0) {
+    hid_t a = H5Aopen_by_name(f, object.c_str(), attr.c_str(), H5P_DEFAULT, H5P_DEFAULT);
+    hid_t t = H5Aget_type(a);
+    out.assign(H5Tget_size(t), '\0');
+    H5Aread(a, t, out.data());
+    while (!out.empty() && out.back() == '\0') out.pop_back();
+    H5Tclose(t);
+    H5Aclose(a);
+  }
+  H5Fclose(f);
+  return out;
+}
+
+// A scalar string dataset (/parameters/effective_pipeline, ...) or "" when missing.
+std::string parameter_text(const fs::path& file, const std::string& dataset) {
+  hid_t f = H5Fopen(file.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
+  if (f < 0) return "";
+  std::string out;
+  if (H5Lexists(f, "/parameters", H5P_DEFAULT) > 0 && H5Lexists(f, dataset.c_str(), H5P_DEFAULT) > 0) {
+    hid_t d = H5Dopen2(f, dataset.c_str(), H5P_DEFAULT);
+    hid_t t = H5Dget_type(d);
+    out.assign(H5Tget_size(t), '\0');
+    H5Dread(d, t, H5S_ALL, H5S_ALL, H5P_DEFAULT, out.data());
+    while (!out.empty() && out.back() == '\0') out.pop_back();
+    H5Tclose(t);
+    H5Dclose(d);
+  }
+  H5Fclose(f);
+  return out;
+}
+
+std::string file_text(const fs::path& p) {
+  std::ifstream in(p);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+// Every dataset of both files equal, bit for bit; returns how many were compared.
+std::size_t require_same_h5md(const fs::path& a, const fs::path& b) {
+  REQUIRE(fs::exists(a));
+  REQUIRE(fs::exists(b));
+  const auto da = datasets(a), db = datasets(b);
+  std::vector<std::string> ka, kb;
+  for (auto& kv : da) ka.push_back(kv.first);
+  for (auto& kv : db) kb.push_back(kv.first);
+  REQUIRE(ka == kb);
+  for (auto& [name, d] : da) {
+    INFO("dataset " << name);
+    CHECK(d.shape == db.at(name).shape);
+    CHECK(d.bytes == db.at(name).bytes);
+  }
+  return da.size();
+}
+
+// The last value of /observables/<name>/value (double).
+double last_observable(const fs::path& file, const std::string& name) {
+  const auto d = datasets(file);
+  const Dataset& v = d.at("observables/" + name + "/value");
+  REQUIRE(v.bytes.size() >= sizeof(double));
+  double x;
+  std::memcpy(&x, v.bytes.data() + v.bytes.size() - sizeof(double), sizeof(double));
+  return x;
+}
+
+double observable_at(const fs::path& file, const std::string& name, std::int64_t step) {
+  const auto d = datasets(file);
+  const Dataset& s = d.at("observables/" + name + "/step");
+  const Dataset& v = d.at("observables/" + name + "/value");
+  for (std::size_t k = 0; k * 8 < s.bytes.size(); ++k) {
+    std::int64_t st;
+    std::memcpy(&st, s.bytes.data() + 8 * k, 8);
+    if (st == step) {
+      double x;
+      std::memcpy(&x, v.bytes.data() + 8 * k, 8);
+      return x;
+    }
+  }
+  FAIL("no frame at step " << step << " in " << name);
+  return 0;
+}
+
+std::vector<fs::path> checkpoints(const fs::path& dir) {
+  std::vector<fs::path> out;
+  for (auto& e : fs::directory_iterator(dir)) {
+    const std::string n = e.path().filename().string();
+    if (n.rfind("checkpoint-", 0) == 0 && e.path().extension() == ".h5") out.push_back(e.path());
+  }
+  std::sort(out.begin(), out.end());
+  return out;
+}
+
+// One pipeline, its --set arguments, the H5MD file and CSV files it writes.
+struct Case {
+  std::string file;
+  std::vector<std::string> sets;
+  std::string h5;
+  std::vector<std::string> csv;
+};
+
+std::string run_args(const Case& c, const fs::path& out, std::uint64_t steps) {
+  return "run " + c.file + quoted(c.sets) + " --set run.steps=" + std::to_string(steps) + " --out " + out.string();
+}
+
+// 2n steps in one run; n steps, then --resume to 2n: the same files.
+void check_continuation(const Case& c, std::uint64_t n, const std::string& name) {
+  const fs::path one = fresh_dir(name + "_one"), two = fresh_dir(name + "_two");
+  auto r = pipeline(run_args(c, one, 2 * n));
+  INFO(r.out);
+  REQUIRE(r.code == 0);
+  auto first = pipeline(run_args(c, two, n));
+  INFO(first.out);
+  REQUIRE(first.code == 0);
+  REQUIRE(!checkpoints(two).empty());
+  auto second = pipeline(run_args(c, two, 2 * n) + " --resume");
+  INFO(second.out);
+  REQUIRE(second.code == 0);
+  CHECK_THAT(second.out, Catch::Contains("resuming"));
+  CHECK(require_same_h5md(one / c.h5, two / c.h5) >= 4);
+  for (auto& csv : c.csv) {
+    INFO("CSV " << csv);
+    REQUIRE(fs::exists(one / csv));
+    CHECK(file_text(one / csv) == file_text(two / csv));
+  }
+  // Item 3: the output records what produced it, and the continuation its history.
+  CHECK(parameter_attribute(two / c.h5, "/parameters", "flipflow_version") != "");
+  CHECK(parameter_attribute(two / c.h5, "/parameters", "commit") != "");
+  CHECK(parameter_attribute(two / c.h5, "/parameters/history/0", "step") == std::to_string(n));
+  CHECK(parameter_attribute(two / c.h5, "/parameters", "device") != "");
+  // The effective pipeline and the resolved parameters carry the --set values, not the file's.
+  for (auto& set : c.sets) {
+    INFO("--set " << set);
+    CHECK_THAT(parameter_text(two / c.h5, "/parameters/overrides"), Catch::Contains(set));
+  }
+  if (!c.sets.empty() && c.sets.front() == "system.N=400") {
+    CHECK_THAT(parameter_text(two / c.h5, "/parameters/effective_pipeline"), Catch::Contains("N: 400"));
+    CHECK_THAT(parameter_text(two / c.h5, "/parameters/resolved"), Catch::Contains("run.seed = "));
+  }
+  fs::remove_all(one);
+  fs::remove_all(two);
+}
+
+pid_t spawn_pipeline(const std::string& args, const fs::path& log) {
+  const std::string cmd = "exec " + pipeline_exe() + " " + args + " --device " + device() + " --threads 2 > " +
+                          log.string() + " 2>&1";
+  pid_t pid = 0;
+  const char* argv[] = {"/bin/sh", "-c", cmd.c_str(), nullptr};
+  REQUIRE(posix_spawn(&pid, "/bin/sh", nullptr, nullptr, const_cast<char* const*>(argv), environ) == 0);
+  return pid;
+}
+
+// Waits until `dir` holds a checkpoint (or the process ended); true when one appeared.
+bool wait_for_checkpoint(const fs::path& dir, pid_t pid, double seconds) {
+  const auto t0 = std::chrono::steady_clock::now();
+  while (std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() < seconds) {
+    if (fs::exists(dir) && !checkpoints(dir).empty()) return true;
+    int status;
+    if (waitpid(pid, &status, WNOHANG) == pid) return false;
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
+  return false;
+}
+
+Case abp_case() {
+  return {repo_file("pipelines/abp.yaml").string(),
+          {"system.N=400", "step.observe.msd.every=10", "step.observe.h5md.every=10",
+           "step.observe.progress.every=1000", "run.checkpoint={every: 25, keep: 2}"},
+          "abp.h5",
+          {}};
+}
+
+}  // namespace
+
+TEST_CASE("checkpoint continuation: ABP, n + resume + n steps equal 2n steps in every H5MD dataset", "[checkpoint]") {
+  if (!device_available()) return;
+  check_continuation(abp_case(), 60, "abp");
+}
+
+TEST_CASE("checkpoint continuation: hard disks with rollbacks in the second half, and g(r)", "[checkpoint]") {
+  if (!device_available()) return;
+  // Δt = 0.05 at η = 0.5 makes detect_inversion ask for a rollback every few steps (19 in 120),
+  // and Δt regrowing after 5 good steps keeps the controller's streak in play at the checkpoint.
+  Case c{repo_file("pipelines/hard-disks.yaml").string(),
+         {"system.N=400", "run.dt=0.05", "run.dt_grow_after=5", "step.observe.gr.from_step=0",
+          "step.observe.gr.every=5",
+          "step.observe.h5md.every=10",
+          "step.observe.progress.every=1000", "run.checkpoint={every: 30}"},
+         "trajectory.h5",
+         {"gr.csv"}};
+  const std::uint64_t n = 60;
+  check_continuation(c, n, "hard_disks");
+  // The rollbacks the test relies on: some in the second half (their count grows after step n).
+  const fs::path out = fresh_dir("hard_disks_rollbacks");
+  REQUIRE(pipeline(run_args(c, out, 2 * n)).code == 0);
+  const double at_n = observable_at(out / c.h5, "rollbacks", std::int64_t(n));
+  const double at_end = last_observable(out / c.h5, "rollbacks");
+  INFO("rollbacks at step " << n << ": " << at_n << ", at the end: " << at_end);
+  CHECK(at_end > at_n);
+  fs::remove_all(out);
+}
+
+TEST_CASE("checkpoint continuation: phoretic short range (a Verlet list carried across)", "[checkpoint]") {
+  if (!device_available()) return;
+  Case c{repo_file("pipelines/phoretic-c0-short.yaml").string(),
+         {"system.N=400", "step.observe.h5md.every=10", "step.observe.progress.every=1000",
+          "run.checkpoint={every: 50}"},
+         "phoretic-c0-short.h5",
+         {}};
+  check_continuation(c, 50, "phoretic");
+}
+
+TEST_CASE("checkpoint continuation: 3D hard spheres (Verlet list rebuilt inside overlap_correct.verlet)",
+          "[checkpoint]") {
+  if (!device_available()) return;
+  Case c{repo_file("pipelines/hard-spheres.yaml").string(),
+         {"system.N=1000", "run.dt=0.001", "step.observe.gr.from_step=0", "step.observe.h5md.every=10",
+          "step.observe.progress.every=1000", "run.checkpoint={every: 40}"},
+         "trajectory.h5",
+         {"gr.csv"}};
+  check_continuation(c, 50, "hard_spheres");
+}
+
+TEST_CASE("checkpoint continuation: observers on `every:` schedules the checkpoint falls between", "[checkpoint]") {
+  if (!device_available()) return;
+  const fs::path dir = fresh_dir("every_pipeline");
+  const fs::path file = dir / "every.yaml";
+  std::ofstream(file) << R"(system: {dimensions: 2, N: 300, packing_fraction: 0.3, init: random}
+run: {steps: 100, dt: 0.001, seed: 7, checkpoint: {every: 13, keep: 3}}
+plugins: [brownian]
+step:
+  - {stage: delaunay.sort}
+  - {stage: brownian.integrate, D: 1.0}
+  - {stage: delaunay.detect_inversion}
+  - {stage: delaunay.flip}
+  - {stage: delaunay.lawson}
+  - {stage: overlap_correct}
+  - {stage: observe.msd, every: 3}
+  - {stage: observe.gr, every: 5, r_max: 3.0, bins: 60}
+  - {stage: observe.clusters, every: 7, bond: 1.2}
+  - {stage: observe.h5md, every: 4, file: every.h5, fields: [position, image]}
+)";
+  check_continuation(Case{file.string(), {}, "every.h5", {"gr.csv", "clusters.csv", "cluster_sizes.csv"}}, 50,
+                     "every");
+  fs::remove_all(dir);
+}
+
+TEST_CASE("checkpoint: SIGKILL at a random step, then --resume: the same files", "[checkpoint]") {
+  if (!device_available()) return;
+  Case c = abp_case();
+  c.sets.back() = "run.checkpoint={every: 10, keep: 2}";
+  const std::uint64_t steps = 20000;  // seconds: the kill lands mid-run
+  const fs::path ref = fresh_dir("kill_ref"), out = fresh_dir("kill");
+  REQUIRE(pipeline(run_args(c, ref, steps)).code == 0);
+  std::mt19937 rng(std::random_device{}());
+  const int delay_ms = std::uniform_int_distribution<int>(0, 1500)(rng);
+  const fs::path log = out / "log";
+  const pid_t pid = spawn_pipeline(run_args(c, out, steps), log);
+  const bool checkpointed = wait_for_checkpoint(out, pid, 120);
+  std::this_thread::sleep_for(std::chrono::milliseconds(delay_ms));
+  ::kill(pid, SIGKILL);
+  int status = 0;
+  waitpid(pid, &status, 0);
+  INFO(file_text(log));
+  const bool killed = WIFSIGNALED(status) && WTERMSIG(status) == SIGKILL;
+  if (!killed || !checkpointed) WARN("the run ended before SIGKILL (" << delay_ms << " ms after its first checkpoint)");
+  if (killed) {
+    REQUIRE(checkpointed);
+    auto r = pipeline(run_args(c, out, steps) + " --resume");
+    INFO(r.out);
+    REQUIRE(r.code == 0);
+  }
+  require_same_h5md(ref / c.h5, out / c.h5);
+  fs::remove_all(ref);
+  fs::remove_all(out);
+}
+
+TEST_CASE("checkpoint: SIGTERM finishes the step, writes a checkpoint, exits 3; --resume completes identically",
+          "[checkpoint]") {
+  if (!device_available()) return;
+  Case c = abp_case();
+  c.sets.back() = "run.checkpoint={every: 1000000}";  // no periodic checkpoint: the signal's is the only one
+  const std::uint64_t steps = 20000;  // seconds: the signal lands mid-run
+  const fs::path ref = fresh_dir("term_ref"), out = fresh_dir("term");
+  REQUIRE(pipeline(run_args(c, ref, steps)).code == 0);
+  const fs::path log = fresh_dir("term_log") / "log";
+  const pid_t pid = spawn_pipeline(run_args(c, out, steps), log);
+  // Once frames appear the run is stepping.
+  for (int k = 0; k < 20000 && !fs::exists(out / (c.h5 + ".partial")); ++k)
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  std::mt19937 rng(std::random_device{}());
+  std::this_thread::sleep_for(std::chrono::milliseconds(std::uniform_int_distribution<int>(50, 1500)(rng)));
+  ::kill(pid, SIGTERM);
+  int status = 0;
+  waitpid(pid, &status, 0);
+  const std::string text = file_text(log);
+  INFO(text);
+  REQUIRE(WIFEXITED(status));
+  if (WEXITSTATUS(status) == 0) {
+    WARN("the run finished before SIGTERM arrived");
+  } else {
+    CHECK(WEXITSTATUS(status) == 3);
+    CHECK_THAT(text, Catch::Contains("stopped by SIGTERM"));
+    REQUIRE(checkpoints(out).size() == 1);
+    CHECK(fs::exists(out / (c.h5 + ".partial")));
+    auto r = pipeline(run_args(c, out, steps) + " --resume");
+    INFO(r.out);
+    REQUIRE(r.code == 0);
+  }
+  require_same_h5md(ref / c.h5, out / c.h5);
+  fs::remove_all(ref);
+  fs::remove_all(out);
+  fs::remove_all(log.parent_path());
+}
+
+TEST_CASE("checkpoint: refusals exit 2 naming the difference; the previous checkpoint still resumes",
+          "[checkpoint]") {
+  if (!device_available()) return;
+  Case c = abp_case();
+  c.sets.back() = "run.checkpoint={every: 20, keep: 2}";
+  const fs::path ref = fresh_dir("refuse_ref"), out = fresh_dir("refuse");
+  REQUIRE(pipeline(run_args(c, ref, 80)).code == 0);
+  REQUIRE(pipeline(run_args(c, out, 40)).code == 0);
+  const auto files = checkpoints(out);
+  REQUIRE(files.size() == 2);  // steps 20 and 40: keep 2
+  CHECK(files[1].filename() == "checkpoint-000000000040.h5");
+
+  // A structural change: N.
+  auto n = pipeline(run_args(c, out, 80) + " --set system.N=401 --resume");
+  CHECK(n.code == 2);
+  CHECK_THAT(n.out, Catch::Contains("system.N: the checkpoint has 400, the pipeline 401"));
+
+  // A structural change: the stage list.
+  const fs::path extra = out / "extra-stage.yaml";
+  {
+    std::string text = file_text(c.file);
+    const std::string msd = "  - {stage: observe.msd, every: 100}\n";
+    REQUIRE(text.find(msd) != std::string::npos);
+    text.replace(text.find(msd), msd.size(), msd + "  - {stage: observe.msd, id: msd2, every: 100}\n");
+    std::ofstream(extra) << text;
+  }
+  Case changed = c;
+  changed.file = extra.string();
+  auto stages = pipeline(run_args(changed, out, 80) + " --resume");
+  CHECK(stages.code == 2);
+  CHECK_THAT(stages.out, Catch::Contains("stages: the checkpoint has 9, the pipeline 10"));
+  CHECK_THAT(stages.out, Catch::Contains("structure differs"));
+
+  // A parameter change needs --allow-changes.
+  auto param = pipeline(run_args(c, out, 80) + " --set step.abp.integrate.v0=2 --resume");
+  CHECK(param.code == 2);
+  CHECK_THAT(param.out, Catch::Contains("step.abp.integrate.v0: 1 -> 2"));
+  CHECK_THAT(param.out, Catch::Contains("--allow-changes"));
+
+  // A corrupt checkpoint: one value changed, the checksum no longer matches.
+  const fs::path saved = out / "saved.h5";
+  fs::copy_file(files[1], saved);
+  {
+    hid_t f = H5Fopen(files[1].c_str(), H5F_ACC_RDWR, H5P_DEFAULT);
+    REQUIRE(f >= 0);
+    hid_t d = H5Dopen2(f, "clock/time", H5P_DEFAULT);
+    const double t = 123.0;
+    REQUIRE(H5Dwrite(d, H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, &t) >= 0);
+    H5Dclose(d);
+    H5Fclose(f);
+  }
+  auto corrupt = pipeline(run_args(c, out, 80) + " --resume " + files[1].string());
+  CHECK(corrupt.code == 2);
+  CHECK_THAT(corrupt.out, Catch::Contains("fails its checksum"));
+
+  // A truncated checkpoint.
+  fs::copy_file(saved, out / "truncated.h5");
+  fs::resize_file(out / "truncated.h5", fs::file_size(saved) / 2);
+  auto truncated = pipeline(run_args(c, out, 80) + " --resume " + (out / "truncated.h5").string());
+  CHECK(truncated.code == 2);
+  CHECK_THAT(truncated.out, Catch::Contains("truncated"));
+  fs::remove(out / "truncated.h5");
+  fs::remove(saved);
+
+  // The directory: the corrupt newest is skipped with a warning, the one before resumes, and
+  // the result is still the uninterrupted run's (frames after step 20 are dropped and redone).
+  auto resumed = pipeline(run_args(c, out, 80) + " --resume");
+  INFO(resumed.out);
+  REQUIRE(resumed.code == 0);
+  CHECK_THAT(resumed.out, Catch::Contains("fails its checksum"));
+  CHECK_THAT(resumed.out, Catch::Contains("at step 20"));
+  require_same_h5md(ref / c.h5, out / c.h5);
+
+  // Extending the finished run with a changed parameter: allowed with --allow-changes, recorded.
+  auto extend = pipeline(run_args(c, out, 100) + " --set step.abp.integrate.v0=2 --resume --allow-changes");
+  INFO(extend.out);
+  REQUIRE(extend.code == 0);
+  CHECK_THAT(parameter_attribute(out / c.h5, "/parameters/history/1", "changes"),
+             Catch::Contains("step.abp.integrate.v0: 1 -> 2"));
+  fs::remove_all(ref);
+  fs::remove_all(out);
+}
+
+TEST_CASE("system.init.from starts a run from an H5MD frame: positions, images, species, orientations, box",
+          "[checkpoint][init]") {
+  if (!device_available()) return;
+  const fs::path dir = fresh_dir("init_from");
+  const fs::path file = dir / "source.yaml";
+  std::ofstream(file) << R"(system: {dimensions: 2, N: 300, packing_fraction: 0.3, init: random,
+         types: [{name: A, fraction: 0.5}, {name: B, fraction: 0.5, diameter: 1.2}]}
+run: {steps: 30, dt: 0.01, seed: 3}
+plugins: [abp]
+step:
+  - {stage: abp.integrate, v0: 1.0, Dr: 0.5, D: 0.1}
+  - {stage: observe.h5md, every: 10, file: source.h5, fields: [position, image, orientation, type]}
+)";
+  auto src = pipeline("run " + file.string() + " --out " + (dir / "a").string());
+  INFO(src.out);
+  REQUIRE(src.code == 0);
+  // The second run starts from frame -1 (step 30) and writes its first frame at its step 0.
+  auto next = pipeline("run " + file.string() + " --out " + (dir / "b").string() +
+                       " --set 'system.init={from: " + (dir / "a" / "source.h5").string() +
+                       ", frame: -1}' --set run.steps=10");
+  INFO(next.out);
+  REQUIRE(next.code == 0);
+  const auto a = datasets(dir / "a" / "source.h5"), b = datasets(dir / "b" / "source.h5");
+  for (const char* element : {"position", "image", "orientation", "type"}) {
+    INFO(element);
+    const Dataset& va = a.at(std::string("particles/all/") + element + "/value");
+    const Dataset& vb = b.at(std::string("particles/all/") + element + "/value");
+    REQUIRE(va.shape.size() >= 2);
+    REQUIRE(va.shape[0] == 4);  // steps 0, 10, 20, 30
+    const std::size_t frame_bytes = va.bytes.size() / va.shape[0];
+    REQUIRE(vb.bytes.size() >= frame_bytes);
+    CHECK(std::equal(va.bytes.end() - std::ptrdiff_t(frame_bytes), va.bytes.end(), vb.bytes.begin()));
+  }
+  CHECK(a.at("particles/all/box/edges").bytes == b.at("particles/all/box/edges").bytes);
+  // A frame out of range and a wrong N are refused with the key named.
+  auto bad = pipeline("run " + file.string() + " --out " + (dir / "c").string() + " --set 'system.init={from: " +
+                      (dir / "a" / "source.h5").string() + ", frame: 7}'");
+  CHECK(bad.code == 2);
+  CHECK_THAT(bad.out, Catch::Contains("frame 7 is out of range"));
+  auto wrong_n = pipeline("run " + file.string() + " --out " + (dir / "d").string() + " --set system.N=301" +
+                          " --set 'system.init={from: " + (dir / "a" / "source.h5").string() + "}'");
+  CHECK(wrong_n.code == 2);
+  CHECK_THAT(wrong_n.out, Catch::Contains("has 300 particles; system.N is 301"));
+  fs::remove_all(dir);
+}
