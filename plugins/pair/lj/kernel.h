@@ -19,10 +19,7 @@
 //
 // Each particle sums its own row in list order (ascending j, stages/neighbors/list.h), writing
 // only its own entries: no atomics, and CPU and CUDA add the same terms in the same order.
-// Element p of the loop is particle order[p], the list build's cell order when there is one:
-// neighbouring threads then read neighbouring particles, whose neighbours are mostly the same
-// (the sums do not depend on which thread computes them). 1/r² is one division; the cap on s
-// below computes it again from the capped s (rare). The
+// 1/r² is one division; the cap on s below computes it again from the capped s (rare). The
 // products feeding a sum are math::mul_rn (never fused into an fma), so the bits agree.
 // Optional observables (energy: true): ½ Σ_j U_ij and ½ Σ_j r_ij·F_ij per particle. nvcc-clean.
 #pragma once
@@ -67,7 +64,6 @@ struct LJForce {
   R* virial;                     // N, or null: ½ Σ_j r_ij·F_ij (written)
   const std::uint32_t* list;     // N x capacity: row i = neighbours of i, ascending
   const std::uint32_t* count;    // N: entries set in row i
-  const std::uint32_t* order;    // N: the particle of loop element p (a permutation), or null: p
   std::uint32_t capacity;
   PeriodicBox<R> box;
   LJTable<R> table;
@@ -83,8 +79,7 @@ struct LJForce {
     return math::mul_rn(s, s);
   }
 
-  FF_HD void operator()(std::size_t p) const {
-    const std::size_t i = order ? order[p] : p;
+  FF_HD void operator()(std::size_t i) const {
     R f[D] = {};
     R u = 0, w = 0;
     const int ti = type ? type[i] : 0;

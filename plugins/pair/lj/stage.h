@@ -77,7 +77,6 @@ class LJ final : public Stage {
                           {neighbors::kList, where_, Mode::read},
                           {neighbors::kCount, where_, Mode::read},
                           Access::step_local_write(kForce, where_)};  // remade before it is read: no snapshot copy
-    if (by_cell_) a.push_back({neighbors::kOrder, where_, Mode::read});
     if (per_type_) a.push_back({fields::type, where_, Mode::read});
     if (from_diameter()) a.push_back({fields::diameter, where_, Mode::read});
     if (p_.energy) {
@@ -105,8 +104,6 @@ class LJ final : public Stage {
                        " exceeds neighbors.verlet's cutoff " + num(listed) +
                        "; raise neighbors.verlet's `cutoff` to at least " + num(needed) + " or lower pair.lj's `r_cut`");
     s.add_particle_field(kForce, s.real(), s.dim());  // or the one another stage made, if the same shape
-    // The list build's cell order (a permutation of the particles), when the list source keeps one.
-    by_cell_ = s.has_field(neighbors::kOrder) && s.field(neighbors::kOrder).count() == s.n();
     if (p_.energy) {
       s.add_particle_field(kEnergy, s.real(), 1);
       s.add_particle_field(kVirial, s.real(), 1);
@@ -199,7 +196,6 @@ class LJ final : public Stage {
             p_.energy ? data<R>(ctx, kVirial) : nullptr,
             data<std::uint32_t>(ctx, neighbors::kList),
             data<std::uint32_t>(ctx, neighbors::kCount),
-            by_cell_ ? data<std::uint32_t>(ctx, neighbors::kOrder) : nullptr,
             neighbors::list_capacity(s),
             PeriodicBox<R>::make(s.box.L),
             table_,
@@ -230,7 +226,6 @@ class LJ final : public Stage {
   ElementLoop<LJForce<R, 3>> loop3_;
   LJTable<R> table_{};
   bool per_type_ = false;
-  bool by_cell_ = false;  // loop over the list build's cell order (neighbors.order)
 };
 
 }  // namespace ff::pair
