@@ -61,8 +61,8 @@ void* Field::host_raw() { return host_; }
 // How an out-of-memory error names this field: its name, its element count (N for a
 // per-particle field) and layout.
 std::string Field::device_label() const {
-  return "field '" + name_ + "' (" + std::to_string(count_) + " elements, N for a per-particle field, x " +
-         std::to_string(components_) + " x " + to_string(dtype_) + ")";
+  return "field '" + name_ + "' (" + std::to_string(count_) + " elements = N for a per-particle field, " +
+         std::to_string(components_) + " x " + to_string(dtype_) + " each)";
 }
 
 #ifdef FLIPFLOW_HAVE_CUDA

@@ -80,6 +80,7 @@ class Field {
 
  private:
   void check_type(DType asked) const;
+  std::string device_label() const;  // the field in an out-of-memory error
 
   std::string name_;
   DType dtype_;

@@ -161,7 +161,9 @@ struct H5mdWriter::Impl {
       append(s, frame_steps[s.frames], frame_times[s.frames], &nan, 0);
   }
 
+  mutable bool failed = false;  // a write or flush failed (a full disk): close() keeps the file openable
   void check(bool ok, const std::string& what) const {
+    if (!ok) failed = true;
     if (!ok) throw RunError("H5MD file '" + partial + "': " + what + " failed: " + hdf5_error());
   }
   Hid group(hid_t parent, const std::string& name) const {
@@ -603,7 +605,27 @@ void H5mdWriter::close(bool completed) {
   impl->observables.reset();
   impl->connectivity.reset();
   const hid_t file = impl->file.release();  // closed here, where its status is checked
-  if (H5Fclose(file) < 0)
+  // After a failed write (a full disk) the superblock on disk may already claim space that could
+  // not be written, and HDF5 refuses to open a file shorter than that ("truncated file"), which
+  // would lose every frame written before. Extending the file to the space HDF5 allocated (plus
+  // room for what closing allocates) makes it openable again; the extension is a hole (sparse),
+  // so it needs no disk space.
+  haddr_t allocated = 0;
+  if (impl->failed) {
+    H5Fflush(file, H5F_SCOPE_GLOBAL);  // fails again, but allocates what it would write
+    if (H5Fget_eoa(file, &allocated) < 0) allocated = 0;
+  }
+  const bool closed = H5Fclose(file) >= 0;
+  if (impl->failed && allocated) {
+    std::error_code ec;
+    const std::uintmax_t want = std::uintmax_t(allocated) + (1u << 20);
+    const std::uintmax_t size = std::filesystem::file_size(partial, ec);
+    if (!ec && size < want) std::filesystem::resize_file(partial, want, ec);
+    if (ec)
+      std::fprintf(stderr, "flipflow: cannot extend '%s' after the failed write (%s); HDF5 may refuse to open it\n",
+                   partial.c_str(), ec.message().c_str());
+  }
+  if (!closed)
     throw RunError("closing the H5MD file '" + partial + "' failed: " + hdf5_error() +
                    "; the partial trajectory is kept at '" + partial + "'");
   if (!completed) {

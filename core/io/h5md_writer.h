@@ -32,7 +32,9 @@
 //
 // Nothing half-written: the file is created as `<path>.partial` and flushed after every frame
 // (flush()), so a killed run leaves a readable partial file; close(true) renames it to `path`,
-// close(false) keeps the .partial and says so on stderr.
+// close(false) keeps the .partial and says so on stderr. A write that fails (a full disk)
+// throws RunError naming the file; close() then extends the file by a hole to the space HDF5
+// had claimed, so the frames flushed before stay readable.
 //
 // Not thread-safe: one thread at a time (observe.h5md hands its writer to one writer thread).
 #pragma once

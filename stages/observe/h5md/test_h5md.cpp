@@ -3,6 +3,7 @@
 // thread-count determinism, written through observe.h5md) and observe.progress (log lines).
 // Files are checked with h5py: /usr/bin/python3 runs a script and must exit 0.
 #include <oneapi/tbb/global_control.h>
+#include <sys/resource.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -16,6 +17,7 @@
 
 #include "core/backend/device.h"
 #include "core/base/error.h"
+#include "core/io/h5md_reader.h"
 #include "core/io/h5md_writer.h"
 #include "core/stage/state.h"
 #include "stages/observe/h5md/stage.h"
@@ -446,4 +448,74 @@ TEST_CASE("stage_observe registers three observers, for CUDA runs too", "[observ
   auto stage = r.create("observe.h5md", Backend::cpu, defaults, info);
   CHECK(stage->outputs() == std::vector<std::string>{"trajectory.h5"});
   CHECK(ParamValues::defaults(r.get("observe.progress").decl.params).real("interval") == 10.0);
+}
+
+// A full disk during output (issue 19, item 6): the write that does not fit fails with a
+// RunError naming the file, and every frame flushed before it reads back unchanged from
+// the kept .partial. The disk is "full" by RLIMIT_FSIZE (writes past the limit fail with EFBIG;
+// SIGXFSZ ignored), which any user may lower and raise back to the hard limit.
+//
+// The failed flush leaves a superblock that claims space it could not write; close() extends
+// the file to it by a hole (core/io/h5md_writer.cpp), else HDF5 would refuse the whole file.
+TEST_CASE("H5mdWriter on a full disk: a clear error, and every earlier frame stays readable",
+          "[observe][h5md]") {
+  rlimit old{};
+  REQUIRE(getrlimit(RLIMIT_FSIZE, &old) == 0);
+  const auto dir = std::filesystem::temp_directory_path() / ("ff_h5md_full_" + std::to_string(::getpid()));
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  const std::string path = (dir / "full.h5").string();
+  const std::size_t n = 1000;
+  auto frame_values = [&](int k) {
+    std::vector<double> p(2 * n);
+    for (std::size_t i = 0; i < p.size(); ++i) p[i] = double(k) * 1000.0 + double(i) * 0.5;
+    return p;
+  };
+  ff::H5mdHeader h;
+  h.dim = 2;
+  h.edges[0] = h.edges[1] = 10.0;
+  int written = 0;
+  std::string error;
+  {
+    ff::H5mdWriter w(path, h);
+    w.add_particle_element("position", ff::DType::f64, n, 2);
+    for (; written < 3; ++written) {
+      w.append_particle_element("position", written, 0.1 * written, frame_values(written).data());
+      w.flush();
+    }
+    const auto size = std::uintmax_t(std::filesystem::file_size(w.partial_path()));
+    void (*previous)(int) = std::signal(SIGXFSZ, SIG_IGN);
+    rlimit full = old;
+    full.rlim_cur = rlim_t(size + 3 * 2 * n * sizeof(double) + 4096);  // room for about three more frames
+    if (old.rlim_max != RLIM_INFINITY && full.rlim_cur > old.rlim_max) full.rlim_cur = old.rlim_max;
+    REQUIRE(setrlimit(RLIMIT_FSIZE, &full) == 0);
+    try {
+      for (; written < 100; ++written) {
+        w.append_particle_element("position", written, 0.1 * written, frame_values(written).data());
+        w.flush();
+      }
+    } catch (const ff::RunError& e) {
+      error = e.what();
+    }
+    // The limit goes before close(): on a full disk close() can still extend the file by a
+    // hole (no blocks), which RLIMIT_FSIZE, counting length and not blocks, would refuse.
+    REQUIRE(setrlimit(RLIMIT_FSIZE, &old) == 0);
+    std::signal(SIGXFSZ, previous);
+    try {
+      w.close(false);  // as observe.h5md's finish() does for a failed run
+    } catch (const ff::RunError&) {
+    }
+  }
+  INFO(error);
+  CHECK_THAT(error, Catch::Contains("full.h5.partial") && Catch::Contains("failed"));
+  CHECK(written >= 3);
+  CHECK(written < 100);
+  // Every frame whose append and flush returned is there, bit for bit.
+  for (int k = 0; k < written; ++k) {
+    INFO("frame " << k << " of " << written);
+    const ff::H5mdFrame f = ff::read_h5md_frame(path + ".partial", k);
+    CHECK(f.step == k);
+    CHECK(f.position == frame_values(k));
+  }
+  std::filesystem::remove_all(dir);
 }
