@@ -8,6 +8,7 @@
 #include <filesystem>
 
 #include "core/base/error.h"
+#include "core/io/hdf5_common.h"
 
 namespace fs = std::filesystem;
 
@@ -15,59 +16,12 @@ namespace ff {
 
 namespace {
 
+using hdf5::QuietErrors;
+using hdf5::Handle;
+using hdf5::file_type;
+using hdf5::memory_type;
+
 constexpr const char* kFormat = "flipflow checkpoint 1";
-
-// HDF5 prints its error stack by default; we report through exceptions.
-class QuietErrors {
- public:
-  QuietErrors() {
-    H5Eget_auto2(H5E_DEFAULT, &func_, &data_);
-    H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
-  }
-  ~QuietErrors() { H5Eset_auto2(H5E_DEFAULT, func_, data_); }
-
- private:
-  H5E_auto2_t func_ = nullptr;
-  void* data_ = nullptr;
-};
-
-// Closes an HDF5 handle at scope exit.
-struct Handle {
-  hid_t id;
-  herr_t (*close)(hid_t);
-  Handle(hid_t i, herr_t (*c)(hid_t)) : id(i), close(c) {}
-  ~Handle() {
-    if (id >= 0) close(id);
-  }
-  Handle(const Handle&) = delete;
-  Handle& operator=(const Handle&) = delete;
-};
-
-hid_t file_type(DType t) {
-  switch (t) {
-    case DType::f32: return H5T_IEEE_F32LE;
-    case DType::f64: return H5T_IEEE_F64LE;
-    case DType::i32: return H5T_STD_I32LE;
-    case DType::u32: return H5T_STD_U32LE;
-    case DType::i64: return H5T_STD_I64LE;
-    case DType::u64: return H5T_STD_U64LE;
-    case DType::u8: return H5T_STD_U8LE;
-  }
-  return -1;
-}
-
-hid_t memory_type(DType t) {
-  switch (t) {
-    case DType::f32: return H5T_NATIVE_FLOAT;
-    case DType::f64: return H5T_NATIVE_DOUBLE;
-    case DType::i32: return H5T_NATIVE_INT32;
-    case DType::u32: return H5T_NATIVE_UINT32;
-    case DType::i64: return H5T_NATIVE_INT64;
-    case DType::u64: return H5T_NATIVE_UINT64;
-    case DType::u8: return H5T_NATIVE_UINT8;
-  }
-  return -1;
-}
 
 bool dtype_of_file_type(hid_t t, DType& out) {
   const H5T_class_t c = H5Tget_class(t);

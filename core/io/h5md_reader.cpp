@@ -5,34 +5,14 @@
 #include <filesystem>
 
 #include "core/base/error.h"
+#include "core/io/hdf5_common.h"
 
 namespace ff {
 
 namespace {
 
-class QuietErrors {
- public:
-  QuietErrors() {
-    H5Eget_auto2(H5E_DEFAULT, &func_, &data_);
-    H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
-  }
-  ~QuietErrors() { H5Eset_auto2(H5E_DEFAULT, func_, data_); }
-
- private:
-  H5E_auto2_t func_ = nullptr;
-  void* data_ = nullptr;
-};
-
-struct Handle {
-  hid_t id;
-  herr_t (*close)(hid_t);
-  Handle(hid_t i, herr_t (*c)(hid_t)) : id(i), close(c) {}
-  ~Handle() {
-    if (id >= 0) close(id);
-  }
-  Handle(const Handle&) = delete;
-  Handle& operator=(const Handle&) = delete;
-};
+using hdf5::QuietErrors;
+using hdf5::Handle;
 
 bool exists(hid_t f, const std::string& path) {
   // H5Lexists needs every parent to exist: check them one by one.

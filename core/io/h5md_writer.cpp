@@ -15,26 +15,17 @@
 
 #include "core/base/error.h"
 #include "core/base/version.h"
+#include "core/io/hdf5_common.h"
 
 namespace ff {
 
 namespace {
 
+using hdf5::QuietErrors;
+using hdf5::file_type;
+using hdf5::memory_type;
+
 // ---- errors -----------------------------------------------------------------------------
-
-// HDF5 prints its error stack by default; the writer reports through exceptions instead.
-class QuietErrors {
- public:
-  QuietErrors() {
-    H5Eget_auto2(H5E_DEFAULT, &func_, &data_);
-    H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
-  }
-  ~QuietErrors() { H5Eset_auto2(H5E_DEFAULT, func_, data_); }
-
- private:
-  H5E_auto2_t func_ = nullptr;
-  void* data_ = nullptr;
-};
 
 herr_t collect_error(unsigned n, const H5E_error2_t* e, void* out) {
   auto& s = *static_cast<std::string*>(out);
@@ -92,32 +83,6 @@ class Hid {
 };
 
 // ---- types ------------------------------------------------------------------------------
-
-hid_t file_type(DType t) {
-  switch (t) {
-    case DType::f32: return H5T_IEEE_F32LE;
-    case DType::f64: return H5T_IEEE_F64LE;
-    case DType::i32: return H5T_STD_I32LE;
-    case DType::u32: return H5T_STD_U32LE;
-    case DType::i64: return H5T_STD_I64LE;
-    case DType::u64: return H5T_STD_U64LE;
-    case DType::u8: return H5T_STD_U8LE;
-  }
-  return -1;
-}
-
-hid_t memory_type(DType t) {
-  switch (t) {
-    case DType::f32: return H5T_NATIVE_FLOAT;
-    case DType::f64: return H5T_NATIVE_DOUBLE;
-    case DType::i32: return H5T_NATIVE_INT32;
-    case DType::u32: return H5T_NATIVE_UINT32;
-    case DType::i64: return H5T_NATIVE_INT64;
-    case DType::u64: return H5T_NATIVE_UINT64;
-    case DType::u8: return H5T_NATIVE_UINT8;
-  }
-  return -1;
-}
 
 // One time-dependent H5MD element: {step, time, value}.
 struct Series {

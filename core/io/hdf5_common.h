@@ -1,0 +1,65 @@
+// What the HDF5 files of core/io share (the H5MD writer and reader, the checkpoint file):
+// silencing HDF5's own error printing, closing handles at scope exit, and the HDF5 types of
+// flipflow's field types. Internal to core/io's .cpp files (it includes hdf5.h).
+#pragma once
+#include <hdf5.h>
+
+#include "core/base/types.h"
+
+namespace ff::hdf5 {
+
+// HDF5 prints its error stack by default; core/io reports through exceptions instead.
+class QuietErrors {
+ public:
+  QuietErrors() {
+    H5Eget_auto2(H5E_DEFAULT, &func_, &data_);
+    H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
+  }
+  ~QuietErrors() { H5Eset_auto2(H5E_DEFAULT, func_, data_); }
+  QuietErrors(const QuietErrors&) = delete;
+  QuietErrors& operator=(const QuietErrors&) = delete;
+
+ private:
+  H5E_auto2_t func_ = nullptr;
+  void* data_ = nullptr;
+};
+
+// Closes an HDF5 handle at scope exit.
+struct Handle {
+  hid_t id;
+  herr_t (*close)(hid_t);
+  Handle(hid_t i, herr_t (*c)(hid_t)) : id(i), close(c) {}
+  ~Handle() {
+    if (id >= 0) close(id);
+  }
+  Handle(const Handle&) = delete;
+  Handle& operator=(const Handle&) = delete;
+};
+
+// The little-endian file type and the native memory type of a field type.
+inline hid_t file_type(DType t) {
+  switch (t) {
+    case DType::f32: return H5T_IEEE_F32LE;
+    case DType::f64: return H5T_IEEE_F64LE;
+    case DType::i32: return H5T_STD_I32LE;
+    case DType::u32: return H5T_STD_U32LE;
+    case DType::i64: return H5T_STD_I64LE;
+    case DType::u64: return H5T_STD_U64LE;
+    case DType::u8: return H5T_STD_U8LE;
+  }
+  return -1;
+}
+inline hid_t memory_type(DType t) {
+  switch (t) {
+    case DType::f32: return H5T_NATIVE_FLOAT;
+    case DType::f64: return H5T_NATIVE_DOUBLE;
+    case DType::i32: return H5T_NATIVE_INT32;
+    case DType::u32: return H5T_NATIVE_UINT32;
+    case DType::i64: return H5T_NATIVE_INT64;
+    case DType::u64: return H5T_NATIVE_UINT64;
+    case DType::u8: return H5T_NATIVE_UINT8;
+  }
+  return -1;
+}
+
+}  // namespace ff::hdf5
