@@ -250,7 +250,6 @@ void host_iterate(HostWorkspace* w, const Problem<R>& p, std::int64_t k0, std::i
     std::uint8_t* cur = w->flags[k & 1].data();
     std::uint8_t* next = w->flags[(k + 1) & 1].data();
     const bool edge = w->edge_pass;
-    const double relax = relaxation(k, p.relax_from, p.relax_factor);
 
     std::uint64_t* c = out.counters[j];
     std::memset(c, 0, kCounters * sizeof(std::uint64_t));
@@ -292,8 +291,7 @@ void host_iterate(HostWorkspace* w, const Problem<R>& p, std::int64_t k0, std::i
           w->slot[std::size_t(tp.v)] = -1;
           if constexpr (Mark) first += touch(p.touched, tp.v);
           if (!go) continue;
-          VertexPush q = ov.from_sum(tp.v, tp.qx, tp.qy);
-          if (relax != 1) q.scale(relax);
+          const VertexPush q = ov.from_sum(tp.v, tp.qx, tp.qy);
           corr += ov.fixed_len(q.len);
           if (q.dx != 0 || q.dy != 0) {
             apply_one(p.pos, p.image, p.box, std::size_t(tp.v), q.dx, q.dy);
@@ -319,8 +317,7 @@ void host_iterate(HostWorkspace* w, const Problem<R>& p, std::int64_t k0, std::i
         const std::size_t count = compact(cur, tl.t0, tl.t1, tl.cand.data());
         for (std::size_t i = 0; i < count; ++i) {
           const int v = tl.cand[i];
-          VertexPush q = ov.gather(v);
-          if (relax != 1) q.scale(relax);
+          const VertexPush q = ov.gather(v);
           tc[kBad] += q.bad;
           tc[kPairs] += q.pairs;
           tc[kBroken] += q.broken;

@@ -221,9 +221,7 @@ __global__ void __launch_bounds__(kThreads, MinBlocks) correct_kernel(Args<R, Wa
     // What a gather found: counted, and the particle listed when it touched an overlap. The
     // touched field (Mark): iteration 0 gathers every particle and writes each entry, later ones
     // set those they touch (only v's gatherer writes v's entry in an iteration).
-    const double relax = relaxation(k, a.p.relax_from, a.p.relax_factor);
-    auto take = [&](int v, VertexPush q) {
-      if (relax != 1) q.scale(relax);
+    auto take = [&](int v, const VertexPush& q) {
       c[kBad] += q.bad;
       c[kPairs] += q.pairs;
       c[kCorrection] += ov.fixed_len(q.len);

@@ -151,23 +151,6 @@ FF_HD double finish_d(const std::int64_t* q, double sv, double cap, double inv_u
   return len;
 }
 
-// The step's schedule of iterations (scheme: in params.h): iteration k moves each particle by
-// relaxation(k) times its capped displacement, 1 for k < relax_from, else `factor` (relax_d:
-// rounded products, the same on either backend); with relax_from beyond max_iterations
-// (scheme: jacobi) every iteration moves by the capped displacement itself. The cap bounds the
-// displacement before the factor: capping the relaxed move again at cap·σ took 57 iterations per
-// step instead of 17 (ABP φ = 0.7, 2^14, after 3000 steps; bench/overlap_correct-PERF.md).
-FF_HD double relaxation(std::int64_t k, std::int64_t relax_from, double factor) {
-  return k < relax_from ? 1.0 : factor;
-}
-
-// d (D components) and its length len times f.
-template <int D>
-FF_HD void relax_d(double* d, double& len, double f) {
-  for (int k = 0; k < D; ++k) d[k] *= f;
-  len *= f;
-}
-
 // |d_v| in the correction counter's fixed point, 2^-32·unit.
 FF_HD std::uint64_t fixed_len(double len, double inv_unit) {
   return len > 0 ? std::uint64_t(std::llround(len * inv_unit * kFixedOne)) : 0;
@@ -264,14 +247,6 @@ struct VertexPush {
   unsigned bad = 0;       // of those, beyond the tolerance
   bool touched = false;   // some edge of v overlaps (r² < σ²), counted or not
   bool broken = false;    // the fan did not close within kMaxFan steps
-
-  // The displacement times f (relaxation): the move of this iteration.
-  FF_HD void scale(double f) {
-    double d[2] = {dx, dy};
-    relax_d<2>(d, len, f);
-    dx = d[0];
-    dy = d[1];
-  }
 };
 
 // The overlap problem on the triangulation: the particles (positions, diameters), their Delaunay

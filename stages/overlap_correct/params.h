@@ -20,9 +20,6 @@ struct Params {
   std::int64_t max_iterations = 1000;
   std::string walls = "none";
   bool mark = false;
-  std::string scheme = "jacobi";
-  std::int64_t relax_after = 1;
-  double relax_factor = 1.5;
 
   template <class P>
   void describe(P& p) {
@@ -45,18 +42,6 @@ struct Params {
       "about the contact plane), within the same iterations; the axis stays periodic for the bookkeeping, but no "
       "pair interacts across it and its image counts stay 0")
         .one_of({"none", "x", "y", "z"});
-    p(scheme, "scheme",
-      "jacobi: every iteration moves each particle by the sum of its pushes (Carter et al.'s rule); relaxed: the "
-      "first relax_after iterations of a step as jacobi, every later one by relax_factor times its capped sum "
-      "(moves up to relax_factor·cap·σ_i): in dense ABP clusters over-relaxed moves take fewer iterations, but "
-      "leave the clusters looser (bench/overlap_correct-PERF.md); not the default")
-        .one_of({"jacobi", "relaxed"});
-    p(relax_after, "relax_after", "scheme: relaxed: the iterations of a step that move by the sum itself").at_least(1);
-    p(relax_factor, "relax_factor",
-      "scheme: relaxed: later iterations move by this times the sum of the pushes (below 1 under-relaxes; "
-      "with mode: reflect, 0.5 leaves pairs at contact)")
-        .above(0)
-        .at_most(2);
     p(mark, "mark",
       "write the field overlap_correct.touched (u8: 1 for every particle that overlapped a neighbour or a wall in "
       "any iteration of the step) and the metrics touched and touched_fraction (Carter et al. 2017, Fig. 13)");

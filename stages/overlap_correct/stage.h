@@ -69,8 +69,6 @@ struct Problem {
   PeriodicBox<R> box;
   std::size_t n;
   std::uint8_t* touched = nullptr;  // the touched field (mark: true), else null
-  std::int64_t relax_from = 0;      // the first iteration whose moves are relaxed (kernel.h's relaxation)
-  double relax_factor = 1;          // by this factor
 };
 
 // overlap_correct's parameters: the corrections' (params.h) and the diameter-ratio check.
@@ -196,8 +194,7 @@ class OverlapCorrect final : public Stage {
                                      wall_axis_,
                                      wall_axis_ >= 0 ? img : nullptr};
     std::uint8_t* touched = p_.mark ? s.field(touched_field).data<std::uint8_t>(ctx) : nullptr;
-    const std::int64_t relax_from = p_.scheme == "relaxed" ? p_.relax_after : p_.max_iterations + 1;
-    const Problem<R> prob{overlaps, x, img, PeriodicBox<R>::make(s.box.L), n, touched, relax_from, p_.relax_factor};
+    const Problem<R> prob{overlaps, x, img, PeriodicBox<R>::make(s.box.L), n, touched};
 
     // Replays the loop's rule on each gather's counters: error, converged, or apply and go on.
     std::int64_t iterations = 0;

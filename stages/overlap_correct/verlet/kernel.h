@@ -47,7 +47,6 @@ struct Gather {
   const std::int32_t* image = nullptr;  // N x D, read with walls
   std::uint8_t* touched = nullptr;      // the touched field (Mark)
   bool first = false;                   // the step's first gather: it writes every touched entry
-  double relax = 1;                     // this iteration's relaxation (../kernel.h): the move is relax·d
 
   FF_HD double diameter_of(std::size_t v) const { return uniform > 0 ? uniform : double(diameter[v]); }
 
@@ -93,7 +92,6 @@ struct Gather {
     }
     double* d = disp + (D + 1) * i;
     d[D] = finish_d<D>(q, sv, cap, inv_unit, d);
-    if (relax != 1) relax_d<D>(d, d[D], relax);
     return pairs | (bad << kBadShift);
   }
 };

@@ -160,7 +160,6 @@ class OverlapCorrectVerlet final : public Stage {
     std::uint8_t* touched = p_.mark ? s.field(touched_field).data<std::uint8_t>(ctx) : nullptr;
     const double uniform = diam_.min == diam_.max ? diam_.max : 0.0;  // all diameters equal: none is read
     double* disp = disp_.get((D + 1) * n);
-    const std::int64_t relax_from = p_.scheme == "relaxed" ? p_.relax_after : p_.max_iterations + 1;
     std::int64_t iterations = 0, rebuilds = 0;
     std::uint64_t pairs = 0;
     double correction = 0;
@@ -192,7 +191,6 @@ class OverlapCorrectVerlet final : public Stage {
       const Apply<R, D> apply{x, img, PeriodicBox<R>::make(s.box.L), disp, 1.0 / unit_};
       for (;;) {  // the correction loop on this list
         gather.first = iterations == 0 && rebuilds == 0;
-        gather.relax = relaxation(iterations, relax_from, p_.relax_factor);
         const std::uint64_t c = loops.gather(n, gather, sum_, st);
         const std::uint64_t bad = c >> kBadShift;
         if (!bad) break;
