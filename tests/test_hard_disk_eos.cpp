@@ -70,3 +70,35 @@ TEST_CASE("hard-disk equation of state: Z = 1 + 2η g(σ⁺) within 3 % of Hende
     CHECK(min_gap(sim.state()) >= 1 - 1e-6);  // and no overlap is left
   }
 }
+
+// Issue 20, item 3: a correction scheme becomes overlap_correct's default only if, at the Δt the
+// pipelines use (hard-disks.yaml: 3e-4), it leaves no overlap and gives the hard-disk pressure
+// within 1 % of Liu's equation of state (Mol. Phys. 2021, stable fluid:
+// Z = (1 + η²/8 + η⁴/18 − 4η⁶/21)/(1 − η)², within 0.2 % of Henderson's up to η = 0.6). This is
+// that check at η = 0.6 for the default, the same 2000 disks, seed and times as the test above,
+// from a lattice sample (random placement jams before 0.6). Measured: Z = 6.524 against Liu's
+// 6.521 (+0.06 %). (At η = 0.3 and 0.5 the default is +1.11 % and +1.00 % from Liu in this run,
+// the Δt bias described above; the test above bounds those against Henderson.)
+TEST_CASE("hard-disk equation of state at η = 0.6 within 1 % of Liu", "[physics][eos][long]") {
+  const Backend backend = GENERATE(from_range(test::backends()));
+  auto r = test::registry_with({"brownian"});
+  const double dt = 3e-4, eta = 0.6;
+  const std::uint64_t equilibrate = 3334, steps = 16667;
+  const double liu = (1 + eta * eta / 8 + std::pow(eta, 4) / 18 - 4 * std::pow(eta, 6) / 21) / ((1 - eta) * (1 - eta));
+  auto s = test::spec(2, 2000, eta, steps, dt,
+                      {entry(*r, "brownian.integrate", {{"D", 1.0}}), entry(*r, "delaunay.detect_inversion"),
+                       entry(*r, "delaunay.flip"), entry(*r, "delaunay.lawson"), entry(*r, "overlap_correct"),
+                       entry(*r, "observe.gr", {{"from_step", std::int64_t(equilibrate)}}, {"", {}, false, 10})},
+                      42);
+  s.system.init = "triangular_lattice_sample";
+  RunOptions o;
+  o.dry_run = true;
+  o.backend = backend;
+  Simulation sim(s, *r, o);
+  sim.run();
+  const double z = sim.stats().metrics.at("observe.gr/Z");
+  WARN(to_string(backend) << ": η = " << eta << ", Δt = " << dt << ": Z = " << z << ", Liu " << liu << " ("
+                          << 100 * (z / liu - 1) << " %), rollbacks " << sim.stats().rollbacks);
+  CHECK(std::fabs(z / liu - 1) < 0.01);
+  CHECK(min_gap(sim.state()) >= 1 - 1e-6);
+}

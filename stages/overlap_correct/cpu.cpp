@@ -147,9 +147,9 @@ std::size_t compact(std::uint8_t* flags, std::size_t t0, std::size_t t1, int* ca
   return count;
 }
 
-// Marks v as touched in this step (the touched field, when there is one); returns 1 when it was not yet.
+// Marks v as touched in this step (the touched field); returns 1 when it was not yet.
 inline std::uint64_t touch(std::uint8_t* touched, int v) {
-  if (!touched || touched[v]) return 0;
+  if (touched[v]) return 0;
   touched[v] = 1;
   return 1;
 }
@@ -179,9 +179,9 @@ void for_each_tile(std::size_t nt, const F& f, bool serial = false) {
 
 // One tile's share of an edge pass (Check: iteration 0, with the mesh checks): adds the pushes
 // of its overlapping edges to its own particles and lists the others', counts pairs into tl.c.
-template <bool Check, class R>
-void edge_pass(const Overlaps<R>& ov, Tile& tl, std::int32_t* slot) {
-  const Overlaps<R> m = ov;  // a local copy: the stores below cannot alias its fields
+template <bool Check, class R, bool Walls>
+void edge_pass(const Overlaps<R, Walls>& ov, Tile& tl, std::int32_t* slot) {
+  const Overlaps<R, Walls> m = ov;  // a local copy: the stores below cannot alias its fields
   std::uint64_t pairs = 0, bad = 0, broken = 0, hash = 0;
   const unsigned t0 = unsigned(tl.t0), size = unsigned(tl.t1 - tl.t0);
   tl.ntouched = 0;
@@ -211,7 +211,7 @@ void edge_pass(const Overlaps<R>& ov, Tile& tl, std::int32_t* slot) {
     add(a, qx, qy);
     add(b, -qx, -qy);
   }
-  if (m.wall_axis >= 0)  // the walls: a term per particle of the tile, deposited like an edge's
+  if constexpr (Walls)  // the walls: a term per particle of the tile, deposited like an edge's
     for (std::size_t v = tl.t0; v < tl.t1; ++v) {
       double x, y;
       load_xy(m.pos, int(v), x, y);
@@ -232,14 +232,15 @@ void edge_pass(const Overlaps<R>& ov, Tile& tl, std::int32_t* slot) {
   tl.next_hash = hash;
 }
 
-template <class R>
+// Walls: the wall code compiled in (walls: x | y); Mark: the touched field written (mark: true).
+template <bool Walls, bool Mark, class R>
 void host_iterate(HostWorkspace* w, const Problem<R>& p, std::int64_t k0, std::int64_t max_iterations, Batch& out) {
-  const Overlaps<R>& ov = p.overlaps;
+  const Overlaps<R, Walls> ov = p.overlaps.template with_walls<Walls>();
   const std::size_t nt = w->tiles.size();
   // A step starts from clean flags (cheap; also covers a step that ended in an error).
   if (k0 == 0) {
     for (auto& f : w->flags) std::memset(f.data(), 0, f.size());
-    if (p.touched) std::memset(p.touched, 0, p.n);
+    if (Mark) std::memset(p.touched, 0, p.n);
     w->edge_pass = true;
     w->last_moved = w->n;
   }
@@ -288,7 +289,7 @@ void host_iterate(HostWorkspace* w, const Problem<R>& p, std::int64_t k0, std::i
         for (std::size_t i = 0; i < tl.ntouched; ++i) {
           const Touched& tp = tl.touched[i];
           w->slot[std::size_t(tp.v)] = -1;
-          first += touch(p.touched, tp.v);
+          if constexpr (Mark) first += touch(p.touched, tp.v);
           if (!go) continue;
           const VertexPush q = ov.from_sum(tp.v, tp.qx, tp.qy);
           corr += ov.fixed_len(q.len);
@@ -321,7 +322,7 @@ void host_iterate(HostWorkspace* w, const Problem<R>& p, std::int64_t k0, std::i
           tc[kPairs] += q.pairs;
           tc[kBroken] += q.broken;
           if (!q.touched) continue;  // d = 0, len = 0
-          tc[kTouched] += touch(p.touched, v);
+          if constexpr (Mark) tc[kTouched] += touch(p.touched, v);
           tc[kCorrection] += ov.fixed_len(q.len);
           if (q.dx != 0 || q.dy != 0) {
             tl.moved[nm] = v;
@@ -371,7 +372,15 @@ class HostLoops final : public OverlapCorrectLoops<R> {
       prepare(ws_, p.n);
       made_ = true;
     }
-    host_iterate(&ws_, p, k0, max_iterations, out);
+    const bool walls = p.overlaps.wall_axis >= 0, mark = p.touched != nullptr;
+    if (walls && mark)
+      host_iterate<true, true>(&ws_, p, k0, max_iterations, out);
+    else if (walls)
+      host_iterate<true, false>(&ws_, p, k0, max_iterations, out);
+    else if (mark)
+      host_iterate<false, true>(&ws_, p, k0, max_iterations, out);
+    else
+      host_iterate<false, false>(&ws_, p, k0, max_iterations, out);
   }
 
  private:

@@ -64,9 +64,16 @@ constexpr int kThreads = 256;
 constexpr int kWarps = kThreads / 32;
 constexpr int kShards = 8;
 constexpr int kShardStride = 4;  // u64 between shards: one 32-byte sector each
-// A device-side counter beyond kernel.h's: particles moved (summed over the blocks like the
-// others; decides when the tail starts, not reported to the host).
-constexpr int kMoved = kCounters, kDevCounters = kCounters + 1;
+// The counters a kernel sums: kernel.h's, kTouched (the last) only with the touched field (Mark),
+// then one device-side counter: particles moved (summed over the blocks like the others; decides
+// when the tail starts, not reported to the host).
+template <bool Mark>
+struct Sums {
+  static constexpr int kReported = Mark ? kCounters : kTouched;
+  static constexpr int kMoved = kReported, kAll = kReported + 1;
+};
+static_assert(kTouched == kCounters - 1, "kTouched is the counter left out without the touched field");
+constexpr int kDevCounters = kCounters + 1;  // the most a kernel sums (the slots' layout)
 constexpr std::size_t kSlotWords = std::size_t(kBatch) * kDevCounters * kShards * kShardStride;
 constexpr std::size_t kResultWords = std::size_t(kBatch) * kCounters + 1;  // + gathers run
 // Iterations after one that moved at most this many particles run in block 0 alone
@@ -75,16 +82,17 @@ constexpr int kTailMoved = 512;
 
 using u64 = unsigned long long;
 
-template <class R>
+template <class R, bool Walls>
 struct Args {
   Problem<R> p;
+  Overlaps<R, Walls> ov;   // p.overlaps with the wall code compiled in or out
   std::uint8_t* marks;     // grid·tile bytes, one per particle (padding never set): next candidates
   int* cand;               // grid·tile: each block's candidates, tile-private; in the tail, the claimed
   int* seed;               // grid·tile: each block's touched particles, v if it moved, ~v if not
   double2* disp;           // grid·tile: the displacements of the moved ones
   int* nb;                 // kCached x grid·tile: each particle's neighbours, filled in iteration 0
   std::uint8_t* degree;    // grid·tile: how many (kWalk: more than kCached, walk the fan)
-  u64* slots;              // kBatch x kDevCounters x kShards (sharded counters, zero at launch)
+  u64* slots;              // kBatch x Sums::kAll x kShards (sharded counters, zero at launch)
   u64* claims;             // entries of cand claimed for the tail (zero at launch)
   u64* next_slots;         // the other launch's slots and claims (kSlotWords + 1): zeroed here
   u64* result;             // kBatch x kCounters + 1 (block 0 writes the sums and the gather count):
@@ -165,15 +173,17 @@ __device__ u64 warp_sum(u64 x) {
   return x;
 }
 
-template <class R, int MinBlocks>
-__global__ void __launch_bounds__(kThreads, MinBlocks) correct_kernel(Args<R> a) {
+// Walls: the wall code compiled in (walls: x | y); Mark: the touched field written (mark: true).
+template <class R, int MinBlocks, bool Walls, bool Mark>
+__global__ void __launch_bounds__(kThreads, MinBlocks) correct_kernel(Args<R, Walls> a) {
+  constexpr int kReported = Sums<Mark>::kReported, kMoved = Sums<Mark>::kMoved, kAll = Sums<Mark>::kAll;
   cg::grid_group grid = cg::this_grid();
   __shared__ int s_warp[kWarps];
   __shared__ int s_seeds, s_moved, s_count;
-  __shared__ u64 s_red[kCounters][kWarps];
-  __shared__ u64 s_tot[kDevCounters];
+  __shared__ u64 s_red[kReported][kWarps];
+  __shared__ u64 s_tot[kAll];
 
-  const Overlaps<R>& ov = a.p.overlaps;
+  const Overlaps<R, Walls>& ov = a.ov;
   const int n = int(a.p.n);
   const int t0 = int(blockIdx.x) * a.tile;
   const int t1 = min(n, t0 + a.tile);
@@ -207,16 +217,16 @@ __global__ void __launch_bounds__(kThreads, MinBlocks) correct_kernel(Args<R> a)
     if (threadIdx.x == 0) s_seeds = s_moved = 0;
     __syncthreads();
 
-    u64 c[kCounters] = {};
+    u64 c[kReported] = {};
     // What a gather found: counted, and the particle listed when it touched an overlap. The
-    // touched field (when there is one): iteration 0 gathers every particle and writes each entry,
-    // later ones set those they touch (only v's gatherer writes v's entry in an iteration).
+    // touched field (Mark): iteration 0 gathers every particle and writes each entry, later ones
+    // set those they touch (only v's gatherer writes v's entry in an iteration).
     auto take = [&](int v, const VertexPush& q) {
       c[kBad] += q.bad;
       c[kPairs] += q.pairs;
       c[kCorrection] += ov.fixed_len(q.len);
       c[kBroken] += q.broken;
-      if (a.p.touched) {
+      if constexpr (Mark) {
         if (q.touched && (k == 0 || !a.p.touched[v])) ++c[kTouched];
         if (q.touched || k == 0) a.p.touched[v] = std::uint8_t(q.touched);
       }
@@ -251,14 +261,14 @@ __global__ void __launch_bounds__(kThreads, MinBlocks) correct_kernel(Args<R> a)
       }
     }
 #pragma unroll
-    for (int q = 0; q < kCounters; ++q) {
+    for (int q = 0; q < kReported; ++q) {
       const u64 s = warp_sum(c[q]);
       if (lane == 0) s_red[q][warp] = s;
     }
     __syncthreads();
-    if (threadIdx.x < kDevCounters) {
+    if (threadIdx.x < kAll) {
       u64 s = 0;
-      if (threadIdx.x < kCounters) {
+      if (threadIdx.x < kReported) {
 #pragma unroll
         for (int w = 0; w < kWarps; ++w) s += s_red[threadIdx.x][w];
       } else {
@@ -267,12 +277,12 @@ __global__ void __launch_bounds__(kThreads, MinBlocks) correct_kernel(Args<R> a)
       if (tail)
         s_tot[threadIdx.x] = s;
       else if (s)
-        atomicAdd(a.slots + (std::size_t(j) * kDevCounters + threadIdx.x) * kShards * kShardStride + shard, s);
+        atomicAdd(a.slots + (std::size_t(j) * kAll + threadIdx.x) * kShards * kShardStride + shard, s);
     }
     if (!tail) {
       grid.sync();
-      if (threadIdx.x < kDevCounters) {
-        const u64* p = a.slots + (std::size_t(j) * kDevCounters + threadIdx.x) * kShards * kShardStride;
+      if (threadIdx.x < kAll) {
+        const u64* p = a.slots + (std::size_t(j) * kAll + threadIdx.x) * kShards * kShardStride;
         u64 s = 0;
 #pragma unroll
         for (int h = 0; h < kShards; ++h) s += __ldcg(p + h * kShardStride);
@@ -280,12 +290,12 @@ __global__ void __launch_bounds__(kThreads, MinBlocks) correct_kernel(Args<R> a)
       }
     }
     __syncthreads();
-    if (blockIdx.x == 0 && threadIdx.x < kCounters)
+    if (blockIdx.x == 0 && threadIdx.x < kReported)
       a.result[std::size_t(j) * kCounters + threadIdx.x] = s_tot[threadIdx.x];
     if (blockIdx.x == 0 && threadIdx.x == 0) a.result[std::size_t(kBatch) * kCounters] = u64(j + 1);
-    std::uint64_t tot[kCounters];
+    std::uint64_t tot[kReported];
 #pragma unroll
-    for (int q = 0; q < kCounters; ++q) tot[q] = s_tot[q];
+    for (int q = 0; q < kReported; ++q) tot[q] = s_tot[q];
     // The step ends here. Every mark is clear: the compaction or the gather cleared each one,
     // and none is set before the check that follows an apply.
     if (!keeps_going(tot, k, a.max_iterations)) return;
@@ -348,19 +358,19 @@ __global__ void __launch_bounds__(kThreads, MinBlocks) correct_kernel(Args<R> a)
 // fan walks only), so measure again after changing it (bench/overlap_correct-PERF.md and
 // bench/README.md, "Numbers formerly in source comments").
 constexpr int kMinBlocks = 2;
-template <class R>
+template <class R, bool Walls, bool Mark>
 void* kernel_ptr() {
-  return reinterpret_cast<void*>(correct_kernel<R, kMinBlocks>);
+  return reinterpret_cast<void*>(correct_kernel<R, kMinBlocks, Walls, Mark>);
 }
 
-template <class R>
+template <class R, bool Walls, bool Mark>
 void shape(std::size_t n, int& grid, int& tile) {
   int dev = 0, sms = 0, per_sm = 0, coop = 0;
   FF_CUDA_CHECK(cudaGetDevice(&dev), "overlap_correct: current device");
   FF_CUDA_CHECK(cudaDeviceGetAttribute(&sms, cudaDevAttrMultiProcessorCount, dev), "overlap_correct: SM count");
   FF_CUDA_CHECK(cudaDeviceGetAttribute(&coop, cudaDevAttrCooperativeLaunch, dev), "overlap_correct: cooperative");
   if (!coop) throw RunError("overlap_correct: the CUDA device does not support cooperative launches");
-  FF_CUDA_CHECK(cudaOccupancyMaxActiveBlocksPerMultiprocessor(&per_sm, kernel_ptr<R>(), kThreads, 0),
+  FF_CUDA_CHECK(cudaOccupancyMaxActiveBlocksPerMultiprocessor(&per_sm, kernel_ptr<R, Walls, Mark>(), kThreads, 0),
                 "overlap_correct: occupancy");
   const std::size_t most = std::size_t(std::max(1, per_sm)) * std::size_t(sms);
   const std::size_t want = std::max<std::size_t>(1, (n + 255) / 256);
@@ -386,41 +396,60 @@ class DeviceLoops final : public OverlapCorrectLoops<R> {
 
   void iterate(const Problem<R>& p, std::int64_t k0, std::int64_t max_iterations, Batch& out,
                CUstream_st* s) override {
-    if (!made_ || n_ != p.n) prepare(p.n);
-    Args<R> a{p,
-              marks_.get(cap_),
-              cand_.get(cap_),
-              seed_.get(cap_),
-              disp_.get(cap_),
-              nb_.get(kCached * cap_),
-              degree_.get(cap_),
-              slots_[parity_].get(kSlotWords + 1),
-              slots_[parity_].get(kSlotWords + 1) + kSlotWords,
-              slots_[1 - parity_].get(kSlotWords + 1),
-              result_.get(kResultWords),
-              tile_,
-              static_cast<long long>(k0),
-              static_cast<long long>(max_iterations)};
+    const bool walls = p.overlaps.wall_axis >= 0, mark = p.touched != nullptr;
+    if (walls && mark)
+      launch<true, true>(p, k0, max_iterations, out, s);
+    else if (walls)
+      launch<true, false>(p, k0, max_iterations, out, s);
+    else if (mark)
+      launch<false, true>(p, k0, max_iterations, out, s);
+    else
+      launch<false, false>(p, k0, max_iterations, out, s);
+  }
+
+ private:
+  template <bool Walls, bool Mark>
+  void launch(const Problem<R>& p, std::int64_t k0, std::int64_t max_iterations, Batch& out, CUstream_st* s) {
+    const int variant = 2 * int(Walls) + int(Mark);
+    if (!made_ || n_ != p.n || variant_ != variant) prepare<Walls, Mark>(p.n, variant);
+    Args<R, Walls> a{p,
+                     p.overlaps.template with_walls<Walls>(),
+                     marks_.get(cap_),
+                     cand_.get(cap_),
+                     seed_.get(cap_),
+                     disp_.get(cap_),
+                     nb_.get(kCached * cap_),
+                     degree_.get(cap_),
+                     slots_[parity_].get(kSlotWords + 1),
+                     slots_[parity_].get(kSlotWords + 1) + kSlotWords,
+                     slots_[1 - parity_].get(kSlotWords + 1),
+                     result_.get(kResultWords),
+                     tile_,
+                     static_cast<long long>(k0),
+                     static_cast<long long>(max_iterations)};
     void* args[] = {&a};
-    FF_CUDA_CHECK(cudaLaunchCooperativeKernel(kernel_ptr<R>(), dim3(grid_), dim3(kThreads), args, 0, s),
+    FF_CUDA_CHECK(cudaLaunchCooperativeKernel(kernel_ptr<R, Walls, Mark>(), dim3(grid_), dim3(kThreads), args, 0, s),
                   "launching overlap_correct");
     parity_ = 1 - parity_;
     FF_CUDA_CHECK(cudaStreamSynchronize(s), "waiting for overlap_correct");
     const u64* result = result_.get(kResultWords);
     out.gathers = int(result[std::size_t(kBatch) * kCounters]);
-    for (int j = 0; j < out.gathers; ++j)
-      for (int c = 0; c < kCounters; ++c) out.counters[j][c] = result[std::size_t(j) * kCounters + c];
+    for (int j = 0; j < out.gathers; ++j) {
+      for (int c = 0; c < Sums<Mark>::kReported; ++c) out.counters[j][c] = result[std::size_t(j) * kCounters + c];
+      if (!Mark) out.counters[j][kTouched] = 0;
+    }
   }
 
- private:
   // Every array zeroed (the marks and the counters must start so).
-  void prepare(std::size_t n) {
-    shape<R>(n, grid_, tile_);
+  template <bool Walls, bool Mark>
+  void prepare(std::size_t n, int variant) {
+    shape<R, Walls, Mark>(n, grid_, tile_);
     cap_ = std::size_t(grid_) * std::size_t(tile_);
     for (Scratch<u64>& sl : slots_) sl.reset();
     marks_.reset();  // fresh zeroed arrays even where the size did not change
     parity_ = 0;
     n_ = n;
+    variant_ = variant;
     made_ = true;
   }
 
@@ -435,6 +464,7 @@ class DeviceLoops final : public OverlapCorrectLoops<R> {
   std::size_t n_ = 0, cap_ = 0;
   int grid_ = 0, tile_ = 0;
   int parity_ = 0;  // which slots the next launch uses (zero); it zeroes the other
+  int variant_ = -1;  // the kernel prepared for: 2·walls + mark (its occupancy sets the grid)
   bool made_ = false;
 };
 

@@ -252,7 +252,10 @@ struct VertexPush {
 // The overlap problem on the triangulation: the particles (positions, diameters), their Delaunay
 // edges (half-edges), and the push rule; finds the overlapping pairs along the edges and the
 // pushes they give (delaunay::Mesh is the triangulation alone).
-template <class R>
+// Walls: whether the wall code is compiled in (then wall_axis is 0 or 1). Without it the walks
+// are the code they were before walls existed: no wall branch in the gathers and checks, a
+// minimum image on both axes (the loops pick the variant once per step from the parameters).
+template <class R, bool Walls = false>
 struct Overlaps {
   const R* pos;                // N x 2
   const R* diameter;           // N
@@ -275,6 +278,12 @@ struct Overlaps {
   int wall_axis = -1;
   const std::int32_t* image = nullptr;  // N x 2
 
+  // The same problem with the wall code compiled in (W) or out (the members are the same).
+  template <bool W>
+  FF_HD Overlaps<R, W> with_walls() const {
+    return {pos, diameter, he, vedge, n, reach2, box, factor, cap, tol, inv_unit, uniform, wall_axis, image};
+  }
+
   FF_HD double diameter_of(int v) const { return uniform > 0 ? uniform : double(diameter[v]); }
 
   // The wall term of v (at xv, yv with diameter sv) added to its fixed-point sum and counted in
@@ -282,18 +291,23 @@ struct Overlaps {
   // load: on the device, applies change it during the stage (see load_xy).
   FF_HD void gather_wall(int v, double xv, double yv, double sv, std::int64_t& qx, std::int64_t& qy,
                          VertexPush& out) const {
-    if (wall_axis < 0) return;
-    double push;
-    const double o = wall_term(wall_axis == 0 ? xv : yv, image[2 * v + wall_axis], box.L[wall_axis], sv, factor, push);
-    if (o == kNoOverlap) return;
-    (wall_axis == 0 ? qx : qy) += fixed_push(push);
-    out.touched = true;
-    ++out.pairs;
-    if (o > tol) ++out.bad;
+    if constexpr (Walls) {
+      double push;
+      const double o =
+          wall_term(wall_axis == 0 ? xv : yv, image[2 * v + wall_axis], box.L[wall_axis], sv, factor, push);
+      if (o == kNoOverlap) return;
+      (wall_axis == 0 ? qx : qy) += fixed_push(push);
+      out.touched = true;
+      ++out.pairs;
+      if (o > tol) ++out.bad;
+    }
   }
   // Whether v (at xv, yv with diameter sv) overlaps a wall at its new position (near_wall).
   FF_HD bool wall_after_move(int v, double xv, double yv, double sv) const {
-    return wall_axis >= 0 && near_wall(wall_axis == 0 ? xv : yv, image[2 * v + wall_axis], box.L[wall_axis], sv);
+    if constexpr (Walls)
+      return near_wall(wall_axis == 0 ? xv : yv, image[2 * v + wall_axis], box.L[wall_axis], sv);
+    else
+      return false;
   }
 
   // Calls f(u, h) for each neighbour u of v in fan order (h = the half-edge v -> u); returns
@@ -321,7 +335,7 @@ struct Overlaps {
   // box.min_image(d, k), bit for bit; on the host without the rounding when |d| ≤ L/4 (then
   // rint(d/L) = ±0 and the minimum image is d + 0: d, or +0 for d = −0).
   FF_HD double min_image(double d, int k) const {
-    if (k == wall_axis) return d + 0.0;  // no pair across a wall
+    if (Walls && k == wall_axis) return d + 0.0;  // no pair across a wall
 #if !defined(__CUDA_ARCH__)
     if (std::fabs(d) <= 0.25 * box.L[k]) return d + 0.0;
 #endif
@@ -359,8 +373,8 @@ struct Overlaps {
     } else
 #endif
     {
-      rx = wall_axis == 0 ? rx + 0.0 : box.min_image(rx, 0);
-      ry = wall_axis == 1 ? ry + 0.0 : box.min_image(ry, 1);
+      rx = Walls && wall_axis == 0 ? rx + 0.0 : box.min_image(rx, 0);
+      ry = Walls && wall_axis == 1 ? ry + 0.0 : box.min_image(ry, 1);
     }
     if (!(rx * rx + ry * ry < reach2)) return kEdgeApart;  // σ_ab ≤ largest diameter
     double tx, ty;

@@ -33,8 +33,8 @@ __device__ inline void load_ids(const int* nb, int v, int d, int (&ids)[kCached]
 // loading the positions kInFlight at a time: independent loads in flight together, not one
 // after the other (one thread's gathers and checks).
 constexpr int kInFlight = 4;
-template <class R, class F>
-__device__ void for_each_loaded(const Overlaps<R>& ov, const int (&ids)[kCached], int d, F&& f) {
+template <class R, bool W, class F>
+__device__ void for_each_loaded(const Overlaps<R, W>& ov, const int (&ids)[kCached], int d, F&& f) {
 #pragma unroll
   for (int h = 0; h < kCached; h += kInFlight) {
     double xu[kInFlight], yu[kInFlight];
@@ -48,8 +48,8 @@ __device__ void for_each_loaded(const Overlaps<R>& ov, const int (&ids)[kCached]
 }
 
 // A gather of v by one thread from its neighbours ids[0 .. d) (from neighbor_ids below).
-template <class R>
-__device__ VertexPush gather_ids(const Overlaps<R>& ov, int v, const int (&ids)[kCached], int d) {
+template <class R, bool W>
+__device__ VertexPush gather_ids(const Overlaps<R, W>& ov, int v, const int (&ids)[kCached], int d) {
   VertexPush out;
   double xv, yv;
   load_xy(ov.pos, v, xv, yv);
@@ -68,8 +68,8 @@ __device__ VertexPush gather_ids(const Overlaps<R>& ov, int v, const int (&ids)[
 // Walking and gathering at once made every step of the chain wait for a position load too
 // (bench/overlap_correct-PERF.md). False: gather by Overlaps::gather's walk instead (more than
 // kCached neighbours, or, in iteration 0, a fan that does not close, which that walk reports).
-template <class R>
-__device__ bool neighbor_ids(const Overlaps<R>& ov, int v, bool first, int* nb, std::uint8_t* degree,
+template <class R, bool W>
+__device__ bool neighbor_ids(const Overlaps<R, W>& ov, int v, bool first, int* nb, std::uint8_t* degree,
                               int (&ids)[kCached], int& d) {
   if (!first) {
     d = degree[v];
@@ -98,8 +98,8 @@ __device__ bool neighbor_ids(const Overlaps<R>& ov, int v, bool first, int* nb, 
 // The check of moved particle v by one thread, loading as gather_ids: calls f(u) for each
 // neighbour u that overlaps v at the new positions (Overlaps::overlapping_neighbors' test) and
 // returns whether any did.
-template <class R, class F>
-__device__ bool thread_check(const Overlaps<R>& ov, int v, const int* nb, const std::uint8_t* degree, F&& f) {
+template <class R, bool W, class F>
+__device__ bool thread_check(const Overlaps<R, W>& ov, int v, const int* nb, const std::uint8_t* degree, F&& f) {
   const int d = degree[v];
   if (d == kWalk) return ov.overlapping_neighbors(v, f);
   int ids[kCached];
@@ -141,8 +141,8 @@ __device__ inline unsigned group_or(unsigned x) {
 // The gather of particle v by its lane group (lane l of kGroup); `has` false: the group has no
 // particle but its lanes still take part in the shuffles. Every lane of the group returns v's
 // VertexPush (meaningful when `has`).
-template <class R>
-__device__ VertexPush group_gather(const Overlaps<R>& ov, int v, bool has, int l, const int* nb,
+template <class R, bool W>
+__device__ VertexPush group_gather(const Overlaps<R, W>& ov, int v, bool has, int l, const int* nb,
                                    const std::uint8_t* degree) {
   VertexPush part;
   std::int64_t qx = 0, qy = 0;
@@ -176,8 +176,8 @@ __device__ VertexPush group_gather(const Overlaps<R>& ov, int v, bool has, int l
 // The check of moved particle v by its lane group: calls f(u) for each neighbour u that
 // overlaps v at the new positions (Overlaps::overlapping_neighbors_by's test); every lane of the
 // group returns whether any did.
-template <class R, class F>
-__device__ bool group_check(const Overlaps<R>& ov, int v, bool has, int l, const int* nb, const std::uint8_t* degree,
+template <class R, bool W, class F>
+__device__ bool group_check(const Overlaps<R, W>& ov, int v, bool has, int l, const int* nb, const std::uint8_t* degree,
                             F&& f) {
   bool any = false;
   if (has) {

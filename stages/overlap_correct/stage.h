@@ -57,9 +57,13 @@ FF_HD bool keeps_going(const std::uint64_t* c, std::int64_t k, std::int64_t max_
   return c[kBroken] == 0 && c[kBad] != 0 && k < max_iterations;
 }
 
+// A step's problem for a backend's loop. The loops compile a variant for each of walls (on when
+// overlaps.wall_axis >= 0: Overlaps<R, true>, else the wall code is left out) and mark (on when
+// touched is set: else no touched counter in the sums), so a run without them runs the code it
+// ran before they existed.
 template <class R>
 struct Problem {
-  Overlaps<R> overlaps;
+  Overlaps<R, true> overlaps;  // the loops take with_walls<false>() of it when wall_axis < 0
   R* pos;                // == overlaps.pos
   std::int32_t* image;
   PeriodicBox<R> box;
@@ -175,20 +179,20 @@ class OverlapCorrect final : public Stage {
                        ": the diameters changed; the largest is now more than half the distance between the walls");
     }
     const double uniform = diam_.min == diam_.max ? diam_.max : 0.0;  // all diameters equal: none is read
-    const Overlaps<R> overlaps{x,
-                               diam,
-                               he,
-                               ve,
-                               std::int32_t(n),
-                               diam_.max * diam_.max,
-                               PeriodicBox<double>::make(s.box.L),
-                               p_.mode == "contact" ? 0.5 : 1.0,
-                               p_.cap,
-                               tol_,
-                               1.0 / unit_,
-                               uniform,
-                               wall_axis_,
-                               wall_axis_ >= 0 ? img : nullptr};
+    const Overlaps<R, true> overlaps{x,
+                                     diam,
+                                     he,
+                                     ve,
+                                     std::int32_t(n),
+                                     diam_.max * diam_.max,
+                                     PeriodicBox<double>::make(s.box.L),
+                                     p_.mode == "contact" ? 0.5 : 1.0,
+                                     p_.cap,
+                                     tol_,
+                                     1.0 / unit_,
+                                     uniform,
+                                     wall_axis_,
+                                     wall_axis_ >= 0 ? img : nullptr};
     std::uint8_t* touched = p_.mark ? s.field(touched_field).data<std::uint8_t>(ctx) : nullptr;
     const Problem<R> prob{overlaps, x, img, PeriodicBox<R>::make(s.box.L), n, touched};
 

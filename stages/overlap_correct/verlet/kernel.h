@@ -26,7 +26,10 @@ namespace ff::overlap {
 // stage checks that a step's pairs fit 32 bits: at most N·capacity/2).
 inline constexpr int kBadShift = 32;
 
-template <class R, int D>
+// Walls: the wall code compiled in (walls: x | y | z); Mark: the touched field written (mark:
+// true). Without them the gather is the code it was before they existed (the stage picks the
+// variant from its parameters).
+template <class R, int D, bool Walls = false, bool Mark = false>
 struct Gather {
   const R* pos;                  // N x D
   const R* diameter;             // N
@@ -40,9 +43,9 @@ struct Gather {
   double inv_unit;               // 1 / length unit (the largest diameter at configure)
   double uniform;                // every diameter when all are equal (none is read then), else 0
   double* disp;                  // N x (D + 1): v's capped displacement and its length
-  int wall_axis = -1;            // walls: the axis they cut; -1: none
+  int wall_axis = -1;            // walls: the axis they cut (Walls)
   const std::int32_t* image = nullptr;  // N x D, read with walls
-  std::uint8_t* touched = nullptr;      // the touched field (mark: true), else null
+  std::uint8_t* touched = nullptr;      // the touched field (Mark)
   bool first = false;                   // the step's first gather: it writes every touched entry
 
   FF_HD double diameter_of(std::size_t v) const { return uniform > 0 ? uniform : double(diameter[v]); }
@@ -63,7 +66,7 @@ struct Gather {
       double r[D], t[D];
       for (int k = 0; k < D; ++k) {
         const double dk = double(pos[D * std::size_t(u) + k]) - xv[k];
-        r[k] = k == wall_axis ? dk + 0.0 : box.min_image(dk, k);
+        r[k] = Walls && k == wall_axis ? dk + 0.0 : box.min_image(dk, k);
       }
       const double o = pair_term_d<D>(r, sv, diameter_of(u), factor, v, int(u), t);
       if (o == kNoOverlap) continue;
@@ -74,7 +77,7 @@ struct Gather {
         if (o > tol) ++bad;
       }
     }
-    if (wall_axis >= 0) {
+    if constexpr (Walls) {
       double push;
       const double o = wall_term(xv[wall_axis], image[D * i + wall_axis], box.L[wall_axis], sv, factor, push);
       if (o != kNoOverlap) {
@@ -84,7 +87,9 @@ struct Gather {
         if (o > tol) ++bad;
       }
     }
-    if (touched && (first || any)) touched[i] = std::uint8_t(any);
+    if constexpr (Mark) {
+      if (first || any) touched[i] = std::uint8_t(any);
+    }
     double* d = disp + (D + 1) * i;
     d[D] = finish_d<D>(q, sv, cap, inv_unit, d);
     return pairs | (bad << kBadShift);

@@ -41,10 +41,30 @@
 
 namespace ff::overlap {
 
-template <class R, int D>
+template <class R, int D, bool Walls, bool Mark>
 struct VerletCorrectLoops {
-  ReduceLoop<Gather<R, D>, std::uint64_t> gather;
+  ReduceLoop<Gather<R, D, Walls, Mark>, std::uint64_t> gather;
   ReduceLoop<Apply<R, D>, std::uint64_t> apply;
+};
+
+// The loops of each variant of the gather (walls and mark compiled in or out, verlet/kernel.h),
+// in D dimensions.
+template <class R, int D>
+struct VerletCorrectVariants {
+  VerletCorrectLoops<R, D, false, false> plain;
+  VerletCorrectLoops<R, D, false, true> mark;
+  VerletCorrectLoops<R, D, true, false> walls;
+  VerletCorrectLoops<R, D, true, true> walls_mark;
+
+  template <class Exec>
+  static VerletCorrectVariants make() {
+    return {loops<Exec, false, false>(), loops<Exec, false, true>(), loops<Exec, true, false>(),
+            loops<Exec, true, true>()};
+  }
+  template <class Exec, bool Walls, bool Mark>
+  static VerletCorrectLoops<R, D, Walls, Mark> loops() {
+    return {&Exec::template sum<Gather<R, D, Walls, Mark>>, &Exec::template sum<Apply<R, D>>};
+  }
 };
 
 template <class R>
@@ -61,8 +81,8 @@ class OverlapCorrectVerlet final : public Stage {
   OverlapCorrectVerlet(const ParamValues& v, const RunInfo&, Exec exec)
       : p_(params_from<Params>(v)),
         where_(Exec::where),
-        d2_{&Exec::template sum<Gather<R, 2>>, &Exec::template sum<Apply<R, 2>>},
-        d3_{&Exec::template sum<Gather<R, 3>>, &Exec::template sum<Apply<R, 3>>},
+        d2_(VerletCorrectVariants<R, 2>::template make<Exec>()),
+        d3_(VerletCorrectVariants<R, 3>::template make<Exec>()),
         count_touched_(&Exec::template sum<CountTouched>),
         wall_axis_(wall_axis_of(p_.walls)),
         builder_(exec),
@@ -110,13 +130,22 @@ class OverlapCorrectVerlet final : public Stage {
   }
 
   Outcome run(StepContext& ctx) override {
-    if (ctx.state.dim() == 2) return run_d<2>(ctx, d2_);
-    return run_d<3>(ctx, d3_);
+    if (ctx.state.dim() == 2) return run_variant<2>(ctx, d2_);
+    return run_variant<3>(ctx, d3_);
   }
 
  private:
   template <int D>
-  Outcome run_d(StepContext& ctx, const VerletCorrectLoops<R, D>& loops) {
+  Outcome run_variant(StepContext& ctx, const VerletCorrectVariants<R, D>& v) {
+    const bool walls = wall_axis_ >= 0;
+    if (walls && p_.mark) return run_d<D, true, true>(ctx, v.walls_mark);
+    if (walls) return run_d<D, true, false>(ctx, v.walls);
+    if (p_.mark) return run_d<D, false, true>(ctx, v.mark);
+    return run_d<D, false, false>(ctx, v.plain);
+  }
+
+  template <int D, bool Walls, bool Mark>
+  Outcome run_d(StepContext& ctx, const VerletCorrectLoops<R, D, Walls, Mark>& loops) {
     using namespace neighbors;
     State& s = ctx.state;
     CUstream_st* st = ctx.stream;
@@ -144,21 +173,21 @@ class OverlapCorrectVerlet final : public Stage {
                        "or skin of neighbors.verlet");
       R* x = s.field(fields::position).data<R>(ctx);
       std::int32_t* img = s.field(fields::image).data<std::int32_t>(ctx);
-      Gather<R, D> gather{x,
-                                s.field(fields::diameter).data<R>(ctx),
-                                s.field(kList).data<std::uint32_t>(ctx),
-                                s.field(kCount).data<std::uint32_t>(ctx),
-                                capacity,
-                                PeriodicBox<double>::make(s.box.L),
-                                p_.mode == "contact" ? 0.5 : 1.0,
-                                p_.cap,
-                                tol_,
-                                1.0 / unit_,
-                                uniform,
-                                disp,
-                                wall_axis_,
-                                wall_axis_ >= 0 ? img : nullptr,
-                                touched};
+      Gather<R, D, Walls, Mark> gather{x,
+                                       s.field(fields::diameter).data<R>(ctx),
+                                       s.field(kList).data<std::uint32_t>(ctx),
+                                       s.field(kCount).data<std::uint32_t>(ctx),
+                                       capacity,
+                                       PeriodicBox<double>::make(s.box.L),
+                                       p_.mode == "contact" ? 0.5 : 1.0,
+                                       p_.cap,
+                                       tol_,
+                                       1.0 / unit_,
+                                       uniform,
+                                       disp,
+                                       wall_axis_,
+                                       wall_axis_ >= 0 ? img : nullptr,
+                                       touched};
       const Apply<R, D> apply{x, img, PeriodicBox<R>::make(s.box.L), disp, 1.0 / unit_};
       for (;;) {  // the correction loop on this list
         gather.first = iterations == 0 && rebuilds == 0;
@@ -242,8 +271,8 @@ class OverlapCorrectVerlet final : public Stage {
 
   Params p_;
   Where where_;
-  VerletCorrectLoops<R, 2> d2_;
-  VerletCorrectLoops<R, 3> d3_;
+  VerletCorrectVariants<R, 2> d2_;
+  VerletCorrectVariants<R, 3> d3_;
   ReduceLoop<CountTouched, std::uint64_t> count_touched_;
   int wall_axis_;  // walls: the axis (0, 1, 2); -1: none
   neighbors::ListBuild<R> builder_;  // the list's rebuild when the pushes moved a particle past skin/2
