@@ -68,6 +68,18 @@ struct MetricScales {
   double inv_mean = 0;  // 1 / mean area
   double area2 = 0;     // 2^bits2
 };
+// The area term: the area in units of 1 / scale, rounded to an integer.
+FF_HD std::uint64_t area_term(double area, double scale) {
+  return std::uint64_t(std::int64_t(std::rint(area * scale)));
+}
+// The area term as an element functor of the backend's integer sum (voronoi.mirror's area check).
+template <class R>
+struct AreaTerm {
+  const R* area;
+  double scale;  // 2^bits / mean area
+  FF_HD std::uint64_t operator()(std::size_t i) const { return area_term(double(area[i]), scale); }
+};
+
 // Where a loop leaves Σ MetricTerms (null pointers: no metrics). `device`: four words on the
 // loop's backend, zero between launches (the three sums and a count of finished blocks: the
 // CUDA loop's last block moves the sums to `out` and zeroes them again); `out`: three words of
@@ -140,7 +152,7 @@ struct CellGeometry {
   // The stored area (rounded to R, as the field holds it) and the fan's size as metric terms.
   FF_HD MetricTerms terms(R stored_area, int deg) const {
     MetricTerms t;
-    t.area = std::uint64_t(std::int64_t(std::rint(double(stored_area) * scale.area)));
+    t.area = area_term(double(stored_area), scale.area);
     const double q = double(stored_area) * scale.inv_mean;
     t.area2 = std::uint64_t(std::int64_t(std::rint(q * q * scale.area2)));
     const std::uint64_t d = std::uint64_t(deg);
