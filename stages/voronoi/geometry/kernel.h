@@ -14,6 +14,9 @@
 // the same way). With u_k the far end of the k-th half-edge h_k, the triangle between h_k and
 // h_{k+1} is (v, u_{k+1}, u_k), counter-clockwise; its circumcentre is o_k. Face k (edge v–u_k)
 // runs from o_R = o_k (right of v -> u_k) to o_L = o_{k-1} (left of it).
+//
+// The metrics' terms come out of the same walk (cell() returns them): integers, so that the
+// backend loops (geometry/cpu.cpp, geometry/cuda.cu) may add them in any order.
 #pragma once
 #include <cmath>
 #include <cstdint>
@@ -44,6 +47,48 @@ FF_HD double wrap_into(double x, double L, double inv_L) {
   return w;
 }
 
+// The metrics' terms of one cell, as integers so that their sums do not depend on the order
+// (stored as two's complement modulo 2^64): the area in units of the mean area / 2^bits, its
+// square in units of (mean area)² / 2^bits2, sides². A corrupt fan (sides 0) adds kBrokenTerm to
+// sides2, far above any Σ sides² (N kMaxSides² < 2^44 for N < 2^32): the stage reads it back as
+// the count of corrupt fans.
+inline constexpr std::uint64_t kBrokenShift = 44;
+struct MetricTerms {
+  std::uint64_t area = 0, area2 = 0, sides2 = 0;
+  FF_HD MetricTerms& operator+=(const MetricTerms& o) {
+    area += o.area;
+    area2 += o.area2;
+    sides2 += o.sides2;
+    return *this;
+  }
+};
+// The fixed-point scales of the terms (the stage's report() says how they are chosen).
+struct MetricScales {
+  double area = 0;      // 2^bits / mean area
+  double inv_mean = 0;  // 1 / mean area
+  double area2 = 0;     // 2^bits2
+};
+// The area term: the area in units of 1 / scale, rounded to an integer.
+FF_HD std::uint64_t area_term(double area, double scale) {
+  return std::uint64_t(std::int64_t(std::rint(area * scale)));
+}
+// The area term as an element functor of the backend's integer sum (voronoi.mirror's area check).
+template <class R>
+struct AreaTerm {
+  const R* area;
+  double scale;  // 2^bits / mean area
+  FF_HD std::uint64_t operator()(std::size_t i) const { return area_term(double(area[i]), scale); }
+};
+
+// Where a loop leaves Σ MetricTerms (null pointers: no metrics). `device`: four words on the
+// loop's backend, zero between launches (the three sums and a count of finished blocks: the
+// CUDA loop's last block moves the sums to `out` and zeroes them again); `out`: three words of
+// host memory (pinned on CUDA, written by the kernel) that hold the sums once the loop is done.
+struct MetricSums {
+  std::uint64_t* device = nullptr;
+  std::uint64_t* out = nullptr;
+};
+
 template <class R>
 struct CellGeometry {
   const std::int32_t* he;     // 2 x 6N: {origin, next} (delaunay.halfedge)
@@ -57,6 +102,7 @@ struct CellGeometry {
   R* face_length;      // 3N or null: signed length A_e of the Voronoi face of edge e
   R* face_midpoint;    // 2 x 3N or null: its midpoint, wrapped into the box
   R* circumcenter;     // 2 x 6N or null: per half-edge h, the circumcentre of the triangle left of h
+  MetricScales scale;  // of the terms cell() returns
 
   // dest(h) and next(twin(h)) from half-edge twin(h)'s record (one 8-byte load on the device).
   FF_HD void turn(int h, int& dest, int& next_out) const {
@@ -103,8 +149,21 @@ struct CellGeometry {
     }
   }
 
-  FF_HD void operator()(std::size_t i) const {
-    const int v = int(i);
+  // The stored area (rounded to R, as the field holds it) and the fan's size as metric terms.
+  FF_HD MetricTerms terms(R stored_area, int deg) const {
+    MetricTerms t;
+    t.area = area_term(double(stored_area), scale.area);
+    const double q = double(stored_area) * scale.inv_mean;
+    t.area2 = std::uint64_t(std::int64_t(std::rint(q * q * scale.area2)));
+    const std::uint64_t d = std::uint64_t(deg);
+    t.sides2 = d == 0 ? (std::uint64_t(1) << kBrokenShift) : d * d;
+    return t;
+  }
+
+  FF_HD void operator()(std::size_t i) const { cell(int(i)); }
+
+  // Writes particle v's cell (and its faces and circumcentres); returns its metric terms.
+  FF_HD MetricTerms cell(int v) const {
     const unsigned nh = 6u * unsigned(n);
     // Pass 1: the fan closes within kMaxSides half-edges, every index in range; its lowest
     // half-edge starts pass 2.
@@ -122,7 +181,7 @@ struct CellGeometry {
       sides[v] = 0;
       area[v] = perimeter[v] = R(0);
       centroid[2 * v] = centroid[2 * v + 1] = R(0);
-      return;
+      return terms(R(0), 0);
     }
     // Pass 2: o_k = circumcentre of (v, u_{k+1}, u_k); face k needs o_{k-1} and o_k, so face 0
     // (which needs o_{deg-1}) is summed last.
@@ -148,43 +207,13 @@ struct CellGeometry {
     }
     face(v, hmin, d_first, o_first, o_prev, s);
     sides[v] = deg;
-    area[v] = R(s.area);
+    const R a = R(s.area);
+    area[v] = a;
     perimeter[v] = R(s.perimeter);
     const V2 g = absolute(v, {s.gx / (3.0 * s.area), s.gy / (3.0 * s.area)});
     centroid[2 * v] = R(g.x);
     centroid[2 * v + 1] = R(g.y);
-  }
-};
-
-// Terms of the metrics, as integers so that their sums do not depend on the order (the
-// backend's integer reductions): the area in units of the mean area / 2^bits, its square in
-// units of (mean area)² / 2^bits2, sides². Stored as two's complement modulo 2^64.
-template <class R>
-struct AreaTerm {
-  const R* area;
-  double scale;  // 2^bits / mean area
-  FF_HD std::uint64_t operator()(std::size_t i) const {
-    return std::uint64_t(std::int64_t(std::rint(double(area[i]) * scale)));
-  }
-};
-template <class R>
-struct AreaSquareTerm {
-  const R* area;
-  double inv_mean;
-  double scale;  // 2^bits2
-  FF_HD std::uint64_t operator()(std::size_t i) const {
-    const double q = double(area[i]) * inv_mean;
-    return std::uint64_t(std::int64_t(std::rint(q * q * scale)));
-  }
-};
-// A corrupt fan (sides 0) adds kBrokenTerm, far above any Σ sides² (N kMaxSides² < 2^44 for
-// N < 2^32): the stage reads it back as the count of corrupt fans.
-inline constexpr std::uint64_t kBrokenShift = 44;
-struct SidesSquareTerm {
-  const std::int32_t* sides;
-  FF_HD std::uint64_t operator()(std::size_t i) const {
-    const std::uint64_t s = std::uint64_t(sides[i]);
-    return s == 0 ? (std::uint64_t(1) << kBrokenShift) : s * s;
+    return terms(a, deg);
   }
 };
 

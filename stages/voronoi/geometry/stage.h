@@ -2,7 +2,10 @@
 // Delaunay triangulation (2D; De Fabritiis & Coveney §2, spec D1): per particle the cell's area,
 // perimeter, centroid and number of sides; per Delaunay edge the length and midpoint of its
 // Voronoi face; optionally every circumcentre (Voronoi vertex). One pass over the particles
-// (kernel.h), each summing its own cell in a fixed order: the same bits on both backends.
+// (kernel.h), each summing its own cell in a fixed order: the same bits on both backends. The
+// same pass sums the metrics' integer terms (geometry/cpu.cpp, geometry/cuda.cu); the host reads
+// them after the step (after_step), so on CUDA the stages after this one queue behind its
+// kernel instead of waiting for the host.
 // List it after delaunay.lawson:
 //
 //   - {stage: delaunay.lawson}
@@ -58,10 +61,21 @@ struct GeometryParams {
       "write voronoi.circumcenter (6N x 2): per half-edge h, the circumcentre of the triangle left of h (each "
       "Voronoi vertex three times, once per corner of its triangle)");
     p(metrics, "metrics",
-      "report area_mean, area_variance, sides_variance and area_sum_error (three integer reductions over the "
-      "particles; on CUDA each waits for the stream)");
+      "report area_mean, area_variance, sides_variance and area_sum_error (integer sums over the particles, "
+      "made in the cells' pass and read after the step)");
   }
 };
+
+// The loop of each backend (geometry/cpu.cpp, geometry/cuda.cu): the cells of particles [0, n),
+// and with sums.out their metric terms' sums (kernel.h, MetricSums).
+template <class R>
+struct GeometryLoops {
+  void (*cells)(std::size_t n, const CellGeometry<R>& f, MetricSums sums, CUstream_st* s);
+};
+template <class R>
+GeometryLoops<R> geometry_loops(CpuExec);
+template <class R>
+GeometryLoops<R> geometry_loops(CudaExec);
 
 template <class R>
 class Geometry final : public Stage {
@@ -77,11 +91,14 @@ class Geometry final : public Stage {
   Geometry(const ParamValues& v, const RunInfo&, Exec exec)
       : p_(params_from<GeometryParams>(v)),
         where_(Exec::where),
-        cells_(&Exec::template for_each<CellGeometry<R>>),
-        sum_area_(&Exec::template sum<AreaTerm<R>>),
-        sum_area2_(&Exec::template sum<AreaSquareTerm<R>>),
-        sum_sides2_(&Exec::template sum<SidesSquareTerm>),
-        reduction_(exec) {}
+        loops_(geometry_loops<R>(exec)),
+        mem_(exec.memory()),
+        sums_(exec),
+        landing_(exec),
+        fence_(mem_.fence_create()) {}
+  ~Geometry() override { mem_.fence_destroy(fence_); }
+  Geometry(const Geometry&) = delete;
+  Geometry& operator=(const Geometry&) = delete;
 
   std::vector<Access> accesses() const override {
     std::vector<Access> a{{source(), where_, Mode::read},
@@ -131,22 +148,32 @@ class Geometry final : public Stage {
                      ": no Delaunay triangulation has been built yet; put delaunay.build (or "
                      "delaunay.detect_inversion) before voronoi.geometry");
     const std::size_t n = s.n();
-    R* area = s.field(fields::area).data<R>(ctx);
-    std::int32_t* sides = s.field(fields::sides).data<std::int32_t>(ctx);
     const CellGeometry<R> cells{s.field(delaunay::fields::halfedge).data<std::int32_t>(ctx),
                                 s.field(delaunay::fields::vertex_edge).data<std::int32_t>(ctx),
                                 {s.field(source()).template data<R>(ctx), PeriodicBox<double>::make(s.box.L)},
                                 int(n),
-                                area,
+                                s.field(fields::area).data<R>(ctx),
                                 s.field(fields::perimeter).data<R>(ctx),
                                 s.field(fields::centroid).data<R>(ctx),
-                                sides,
+                                s.field(fields::sides).data<std::int32_t>(ctx),
                                 p_.faces ? s.field(fields::face_length).data<R>(ctx) : nullptr,
                                 p_.faces ? s.field(fields::face_midpoint).data<R>(ctx) : nullptr,
-                                p_.circumcenters ? s.field(fields::circumcenter).data<R>(ctx) : nullptr};
-    cells_(n, cells, st);
-    if (p_.metrics) report(ctx, area, sides);
+                                p_.circumcenters ? s.field(fields::circumcenter).data<R>(ctx) : nullptr,
+                                scales(s)};
+    pending_ = p_.metrics && n > 0;
+    loops_.cells(n, cells, pending_ ? MetricSums{sums_.get(4), landing_.get(3)} : MetricSums{}, st);
+    if (pending_) mem_.fence_record(fence_, st);
     return Outcome::ok();
+  }
+
+  // The metrics of this step's cells (waits for the cells' loop only). Not called when a later
+  // stage rolls the step back: the next run() starts over.
+  void after_step(StepContext& ctx) override {
+    if (!pending_) return;
+    pending_ = false;
+    mem_.fence_wait(fence_);
+    const std::uint64_t* t = landing_.get(3);
+    report(ctx, t[0], t[1], t[2]);
   }
 
  private:
@@ -158,17 +185,28 @@ class Geometry final : public Stage {
   // to the mean area L_x L_y / N, with as many fraction bits as keep Σ (= N at the mean) at most
   // 2^61, so that area_sum_error is exact to N × 2^-(bits+1) / N = 2^-42 at N = 2^20; their
   // squares with the bits that keep Σ q² ≤ (Σ |q|)² ≈ N² at most 2^61 (any distribution of areas).
-  void report(StepContext& ctx, const R* area, const std::int32_t* sides) {
-    State& s = ctx.state;
-    CUstream_st* st = ctx.stream;
-    const std::size_t n = s.n();
-    const double N = double(n), mean = s.box.L[0] * s.box.L[1] / N;
-    const int log2n = int(std::ceil(std::log2(N)));
-    const int bits = 61 - log2n, bits2 = 61 - 2 * log2n;
-    const double one = std::ldexp(1.0, bits), one2 = std::ldexp(1.0, bits2);
-    const auto q = std::int64_t(sum_area_(n, AreaTerm<R>{area, one / mean}, reduction_, st));
-    const auto q2 = std::int64_t(sum_area2_(n, AreaSquareTerm<R>{area, 1.0 / mean, one2}, reduction_, st));
-    const std::uint64_t s2 = sum_sides2_(n, SidesSquareTerm{sides}, reduction_, st);
+  struct Bits {
+    int bits, bits2;
+  };
+  static Bits fraction_bits(const State& s) {
+    const int log2n = int(std::ceil(std::log2(double(s.n()))));
+    return {61 - log2n, 61 - 2 * log2n};
+  }
+  static double mean_area(const State& s) { return s.box.L[0] * s.box.L[1] / double(s.n()); }
+  static MetricScales scales(const State& s) {
+    if (s.n() == 0) return {};
+    const Bits b = fraction_bits(s);
+    const double mean = mean_area(s);
+    return {std::ldexp(1.0, b.bits) / mean, 1.0 / mean, std::ldexp(1.0, b.bits2)};
+  }
+
+  void report(StepContext& ctx, std::uint64_t sum_area, std::uint64_t sum_area2, std::uint64_t s2) {
+    const State& s = ctx.state;
+    const double N = double(s.n()), mean = mean_area(s);
+    const Bits b = fraction_bits(s);
+    const double one = std::ldexp(1.0, b.bits), one2 = std::ldexp(1.0, b.bits2);
+    const auto q = std::int64_t(sum_area);
+    const auto q2 = std::int64_t(sum_area2);
     if (const std::uint64_t broken = s2 >> kBrokenShift)
       throw RunError("voronoi.geometry: step " + std::to_string(ctx.host_params.step) + ": the half-edges around " +
                      std::to_string(broken) + " particle(s) do not form a closed fan of at most " +
@@ -184,11 +222,12 @@ class Geometry final : public Stage {
 
   GeometryParams p_;
   Where where_;
-  ElementLoop<CellGeometry<R>> cells_;
-  ReduceLoop<AreaTerm<R>, std::uint64_t> sum_area_;
-  ReduceLoop<AreaSquareTerm<R>, std::uint64_t> sum_area2_;
-  ReduceLoop<SidesSquareTerm, std::uint64_t> sum_sides2_;
-  Reduction<std::uint64_t> reduction_;
+  GeometryLoops<R> loops_;
+  const MemoryOps& mem_;
+  Scratch<std::uint64_t> sums_;         // MetricSums::device
+  HostScratch<std::uint64_t> landing_;  // MetricSums::out
+  void* fence_;                         // recorded after the cells' loop
+  bool pending_ = false;                // metrics to read in after_step
 };
 
 }  // namespace ff::voronoi

@@ -7,6 +7,7 @@
 #include <CGAL/Triangulation_vertex_base_with_info_2.h>
 
 #include <catch2/catch.hpp>
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <memory>
@@ -275,6 +276,63 @@ TEST_CASE("voronoi.geometry: single precision stores the double computation roun
   cells(*s32, b);
   const auto a64 = values(*s64, vf::area), a32 = values(*s32, vf::area);
   for (std::size_t i = 0; i < n; ++i) REQUIRE(a32[i] == Approx(a64[i]).epsilon(1e-4));
+}
+
+// The metrics come from integer terms summed in the cells' pass (on CUDA per block, then the last
+// block publishes the totals and zeroes its words for the next call): they must equal the same
+// fixed-point sums taken here over the stored fields, exactly, call after call.
+TEST_CASE("voronoi.geometry: the metrics are the fixed-point sums of the stored cells, on every call", "[voronoi]") {
+  const Backend b = GENERATE(from_range(test::backends()));
+  const std::size_t n = 5000;  // 20 blocks of 256 threads on CUDA
+  const double L = 1.3 * std::sqrt(double(n));
+  auto s = built(dl::random_points(n, L, L, 21), L, L);
+  auto g = make("voronoi.geometry", b, s->precision());
+  g->configure(*s);
+  test::StageDriver d(b, s->precision(), 2);
+  const int log2n = int(std::ceil(std::log2(double(n))));
+  const double mean = L * L / double(n), one = std::ldexp(1.0, 61 - log2n), one2 = std::ldexp(1.0, 61 - 2 * log2n);
+  for (int call = 0; call < 3; ++call) {
+    INFO("call " << call);
+    REQUIRE_FALSE(d.run(*g, *s).rollback);
+    const auto m = d.metrics.values();
+    const auto area = values(*s, vf::area);
+    const auto sides = ints(*s, vf::sides);
+    std::int64_t q = 0, q2 = 0, s2 = 0;
+    for (std::size_t i = 0; i < n; ++i) {
+      q += std::int64_t(std::rint(area[i] * (one / mean)));
+      const double a = area[i] * (1.0 / mean);
+      q2 += std::int64_t(std::rint(a * a * one2));
+      s2 += std::int64_t(sides[i]) * sides[i];
+    }
+    const double qm = double(q) / one / double(n);
+    CHECK(m.at("area_mean") == qm * mean);
+    CHECK(m.at("area_variance") == double(q2) / one2 / double(n) - qm * qm);
+    CHECK(m.at("sides_variance") == double(s2) / double(n) - 36.0);
+    CHECK(m.at("area_sum_error") == qm - 1.0);
+    CHECK(std::fabs(m.at("area_sum_error")) < 1e-12);
+  }
+}
+
+TEST_CASE("voronoi.geometry: a fan that does not close stops the run (metrics on) or gives sides 0", "[voronoi]") {
+  const Backend b = GENERATE(from_range(test::backends()));
+  const std::size_t n = 3000;
+  const double L = std::sqrt(double(n));
+  auto s = built(dl::random_points(n, L, L, 3), L, L);
+  {  // particle 1234 names a half-edge that does not exist
+    Field& ve = s->field("delaunay.vertex_edge");
+    ve.acquire(Where::host, Mode::readwrite);
+    ve.host<std::int32_t>()[1234] = std::int32_t(6 * n + 5);
+  }
+  test::StageDriver d(b, s->precision(), 2);
+  auto quiet = make("voronoi.geometry", b, s->precision(), {{"metrics", false}});
+  quiet->configure(*s);
+  REQUIRE_FALSE(d.run(*quiet, *s).rollback);
+  const auto sides = ints(*s, vf::sides);
+  CHECK(sides[1234] == 0);
+  CHECK(std::count(sides.begin(), sides.end(), 0) == 1);
+  auto g = make("voronoi.geometry", b, s->precision());
+  g->configure(*s);
+  CHECK_THROWS_WITH(d.run(*g, *s), Catch::Contains("1 particle(s) do not form a closed fan"));
 }
 
 TEST_CASE("voronoi.geometry: CPU and CUDA give the same bits", "[voronoi][cuda]") {

@@ -1,0 +1,61 @@
+#include "core/backend/cuda/loop.cuh"
+#include "stages/voronoi/geometry/stage.h"
+
+namespace ff::voronoi {
+
+namespace {
+
+constexpr int kBlock = 256;
+
+// One particle per thread. With metrics, each block adds its terms to sums.device with one
+// atomic per sum (integers: the total does not depend on the order), and the last block to
+// finish moves the totals to sums.out (pinned host memory) and zeroes the words for the next
+// launch: no memset, no copy and no host wait on the stream (the stage reads sums.out after the
+// step, behind a fence).
+template <class R>
+__global__ void __launch_bounds__(kBlock) cells_kernel(std::size_t n, CellGeometry<R> f, MetricSums sums) {
+  const std::size_t i = std::size_t(blockIdx.x) * kBlock + threadIdx.x;
+  MetricTerms t;
+  if (i < n) t = f.cell(int(i));
+  if (!sums.device) return;
+  unsigned long long v[3] = {t.area, t.area2, t.sides2};
+  __shared__ unsigned long long warps[3][kBlock / 32];
+  for (int k = 0; k < 3; ++k) {
+    for (int o = 16; o > 0; o >>= 1) v[k] += __shfl_down_sync(0xffffffffu, v[k], o);
+    if ((threadIdx.x & 31) == 0) warps[k][threadIdx.x >> 5] = v[k];
+  }
+  __syncthreads();
+  if (threadIdx.x != 0) return;
+  auto* d = reinterpret_cast<unsigned long long*>(sums.device);
+  for (int k = 0; k < 3; ++k) {
+    unsigned long long b = 0;
+    for (int w = 0; w < kBlock / 32; ++w) b += warps[k][w];
+    atomicAdd(d + k, b);
+  }
+  __threadfence();  // this block's sums before its count
+  if (atomicAdd(d + 3, 1ull) != gridDim.x - 1) return;
+  // The last block: every other block's sums are in.
+  __threadfence();
+  sums.out[0] = atomicExch(d, 0ull);
+  sums.out[1] = atomicExch(d + 1, 0ull);
+  sums.out[2] = atomicExch(d + 2, 0ull);
+  atomicExch(d + 3, 0ull);
+}
+
+template <class R>
+void cells(std::size_t n, const CellGeometry<R>& f, MetricSums sums, CUstream_st* s) {
+  if (n == 0) return;
+  cells_kernel<R><<<unsigned((n + kBlock - 1) / kBlock), kBlock, 0, s>>>(n, f, sums);
+  FF_CUDA_CHECK_LAUNCH("launching voronoi.geometry's cells");
+}
+
+}  // namespace
+
+template <class R>
+GeometryLoops<R> geometry_loops(CudaExec) {
+  return {&cells<R>};
+}
+template GeometryLoops<float> geometry_loops<float>(CudaExec);
+template GeometryLoops<double> geometry_loops<double>(CudaExec);
+
+}  // namespace ff::voronoi
