@@ -1,0 +1,248 @@
+// voronoi.mirror: each particle's Voronoi cell clipped by the hard walls of a slab (De Fabritiis
+// & Coveney §4.2, spec D2 W2), CPU and CUDA with the same bits. For a pipeline with walls
+// (overlap_correct's `walls: y`); list it after the correction, with `every: k` if the cells
+// are wanted only for frames:
+//
+//   - {stage: overlap_correct, mode: reflect, cap: 0.25, walls: y}
+//   - {stage: voronoi.mirror, walls: y}
+//   - {stage: observe.h5md, every: 1000, fields: [position, image, voronoi.area, voronoi.sides]}
+//
+// It writes voronoi.geometry's per-particle fields (voronoi.area, .perimeter, .centroid, .sides)
+// for the real particles, so everything that reads those (observe.h5md, tools/render) serves
+// both; the two stages are alternatives in one pipeline.
+//
+// How: the doubled box (spec W2). With walls at 0 and L along the wall axis, particle i's mirror
+// image N + i sits at 2L − c (c its coordinate along the axis) in the periodic box doubled
+// along that axis, whose seams are then the two walls. Among the 2N points, a real particle's
+// Voronoi cell is its cell among the real particles clipped by the walls: the bisector of i and
+// its own image is the wall, and for any point x on the real side the image j' of another
+// particle is never nearer than j (|x − j'| ≥ |x − j|), so images cut nothing but the walls.
+// The stage writes the 2N points from `position` (kernel.h MirrorPoints), keeps its own Delaunay
+// triangulation of them in its own fields (voronoi.mirror.*), and reads the real cells off it
+// with voronoi.geometry's kernel (geometry/kernel.h, one thread per real particle).
+//
+// Its triangulation is maintained from call to call like the pipeline's: if it is still a
+// valid triangulation at the new points (every triangle closes and is surely positive, and the
+// triangles cover the doubled box once), Lawson's flips (delaunay.lawson's test and
+// tolerance, common/flip.h's conflict rule: the same flips on both backends) make it Delaunay;
+// otherwise (the first call, or after moves that inverted a triangle, typical with `every: k`
+// and k in the hundreds) it is rebuilt on the host with delaunay.build's CGAL code (build.cpp).
+// Either way the result is the Delaunay triangulation of the points, so the cells are exact.
+//
+// Why its own triangulation and not the pipeline's:
+// - The pipeline's torus triangulation clipped at the walls is not exact. Its edges across the
+//   seam join particles at opposite walls: a particle at distance a below the top wall and one
+//   at distance b above the bottom wall facing it have their bisector at (b − a)/2 from the
+//   wall, inside the slab when a > b, cutting the cell short; and two particles at the same wall
+//   whose clipped cells share a face need not be joined (a particle at the other wall, between
+//   them in x, takes their place across the seam: disks at 2σ along the top wall, one in contact
+//   with the bottom wall half way between them). No clipping of the torus cells repairs that.
+// - Making the pipeline's triangulation the doubled one (the spec's first sketch: 2N vertices,
+//   images slaved) changes N for every stage: the integrators, the force stages, overlap_correct
+//   (which would have to skip real–image pairs), the observers and the output would all have to
+//   know which half is real. Here nothing else changes; the cost is a second triangulation of
+//   2N points (memory 12N half-edges; per call one pass over the 2N triangles, Lawson's rounds,
+//   one pass over the cells) paid only on the steps the cells are asked for, and the stage works
+//   with any pipeline (Delaunay or Verlet corrections alike): it reads only `position`.
+#pragma once
+#include <cmath>
+#include <cstdint>
+#include <string>
+
+#include "core/backend/exec.h"
+#include "core/backend/memory.h"
+#include "core/base/error.h"
+#include "core/stage/params.h"
+#include "core/stage/stage.h"
+#include "core/stage/stage_registration.h"
+#include "stages/delaunay/common/fields.h"
+#include "stages/delaunay/common/flip.h"
+#include "stages/voronoi/geometry/kernel.h"
+#include "stages/voronoi/geometry/fields.h"
+#include "stages/voronoi/mirror/build.h"
+#include "stages/voronoi/mirror/kernel.h"
+
+namespace ff::voronoi {
+
+struct MirrorParams {
+  std::string walls = "y";
+  double tolerance = 1e-10;
+  std::int64_t max_rounds = 1000;
+
+  template <class P>
+  void describe(P& p) {
+    p(walls, "walls", "the axis the two hard walls are perpendicular to, at 0 and L along it (as overlap_correct's walls)")
+        .one_of({"x", "y"});
+    p(tolerance, "tolerance",
+      "Lawson's in-circle tolerance relative to the determinant's rounding scale (as delaunay.lawson's): co-circular "
+      "points within it are left as they are (a particle and a neighbour near the same wall, with their images, are "
+      "four co-circular points: the cells get a face of length 0)")
+        .at_least(0);
+    p(max_rounds, "max_rounds", "most Lawson rounds per call before the run stops with an error").at_least(1);
+  }
+};
+
+template <class R>
+class Mirror final : public Stage {
+ public:
+  static StageDecl declaration() {
+    return {"voronoi.mirror",
+            "each particle's Voronoi cell clipped by the hard walls of a slab (mirror images in the doubled box, its own "
+            "triangulation): writes voronoi.area, .perimeter, .centroid, .sides",
+            schema_of<MirrorParams>(), {2}, false};
+  }
+
+  template <class Exec>
+  Mirror(const ParamValues& v, const RunInfo&, Exec exec)
+      : p_(params_from<MirrorParams>(v)),
+        where_(Exec::where),
+        axis_(p_.walls == "x" ? 0 : 1),
+        mirror_(&Exec::template for_each<MirrorPoints<R>>),
+        bad_(&Exec::template count<BadTriangle<R>>),
+        cover_(&Exec::template sum<TriangleArea<R>>),
+        mark_(&Exec::template sum<MarkLawson<R>>),
+        decide_(&Exec::template for_each<delaunay::DecideFlips>),
+        apply_(&Exec::template for_each<delaunay::ApplyFlips>),
+        cells_(&Exec::template for_each<CellGeometry<R>>),
+        sum_area_(&Exec::template sum<AreaTerm<R>>),
+        sum_sides2_(&Exec::template sum<SidesSquareTerm>),
+        reduction_(exec),
+        go_(exec),
+        flips_(exec) {}
+
+  std::vector<Access> accesses() const override {
+    return {{ff::fields::position, where_, Mode::read},
+            {mirror_fields::position, where_, Mode::write},
+            {mirror_fields::halfedge, where_, Mode::readwrite},
+            {mirror_fields::opposite, where_, Mode::readwrite},
+            {mirror_fields::vertex_edge, where_, Mode::readwrite},
+            {mirror_fields::status, Where::host, Mode::readwrite},
+            {fields::area, where_, Mode::write},
+            {fields::perimeter, where_, Mode::write},
+            {fields::centroid, where_, Mode::write},
+            {fields::sides, where_, Mode::write}};
+  }
+
+  void configure(State& s) override {
+    if (s.dim() != 2)
+      throw InputError("voronoi.mirror: the doubled-box triangulation is 2D (system.dimensions is " +
+                       std::to_string(s.dim()) + ")");
+    if (s.n() < 2) throw InputError("voronoi.mirror needs at least 2 particles");
+    const std::size_t n = s.n(), m = 2 * n;
+    s.add_field(mirror_fields::position, s.real(), 2, m);
+    s.add_field(mirror_fields::halfedge, DType::i32, 2, delaunay::halfedge_count(m));
+    s.add_field(mirror_fields::opposite, DType::i32, 1, delaunay::halfedge_count(m));
+    s.add_field(mirror_fields::vertex_edge, DType::i32, 1, m);
+    s.add_field(mirror_fields::status, DType::i32, 1, 1);
+    s.add_field(fields::area, s.real(), 1, n);
+    s.add_field(fields::perimeter, s.real(), 1, n);
+    s.add_field(fields::centroid, s.real(), 2, n);
+    s.add_field(fields::sides, DType::i32, 1, n);
+  }
+
+  Outcome run(StepContext& ctx) override {
+    State& s = ctx.state;
+    CUstream_st* st = ctx.stream;
+    const std::size_t n = s.n(), m = 2 * n, edges = delaunay::edge_count(m);
+    double L2[3] = {s.box.L[0], s.box.L[1], 0};
+    L2[axis_] *= 2;
+    const PeriodicBox<double> box2 = PeriodicBox<double>::make(L2);
+    R* pts = s.field(mirror_fields::position).data<R>(ctx);
+    mirror_(n, MirrorPoints<R>{s.field(ff::fields::position).data<R>(ctx), pts, int(n), axis_, R(L2[axis_])}, st);
+
+    std::int32_t* built = s.field(mirror_fields::status).host<std::int32_t>();
+    bool rebuilt = false;
+    if (!built[0] || !valid(ctx, box2, L2)) {
+      build_mirror_mesh(s, L2, st);
+      for (const Access& a : accesses()) s.field(a.field).acquire(a.where, a.mode, st);
+      pts = s.field(mirror_fields::position).data<R>(ctx);
+      rebuilt = true;
+    }
+
+    // Lawson's rounds: mark every edge, let the lowest marked id win both its triangles, flip.
+    const delaunay::Mesh mesh = mesh_of(ctx);
+    const delaunay::Points<R> points{pts, box2};
+    std::uint8_t* mark = go_.get(2 * edges);
+    std::uint8_t* go = mark + edges;
+    unsigned* flips = flips_.get(1);
+    std::int64_t rounds = 0;
+    for (;; ++rounds) {
+      const std::uint64_t r = mark_(edges, MarkLawson<R>{mesh, points, p_.tolerance, mark}, reduction_, st);
+      if (r >> kTooLongShift)
+        throw RunError("voronoi.mirror: step " + std::to_string(ctx.host_params.step) + ": " +
+                       std::to_string(r >> kTooLongShift) +
+                       " Delaunay flip(s) of the doubled box would need an edge longer than half the box; "
+                       "the slab holds too few particles for its size");
+      const std::uint64_t marked = r & 0xffffffffu;
+      if (!marked) break;
+      if (rounds == p_.max_rounds)
+        throw RunError("voronoi.mirror: step " + std::to_string(ctx.host_params.step) + ": " +
+                       std::to_string(marked) + " edges still not locally Delaunay after max_rounds = " +
+                       std::to_string(p_.max_rounds) + " Lawson rounds");
+      decide_(edges, delaunay::DecideFlips{mesh, mark, go, flips, 0}, st);
+      apply_(edges, delaunay::ApplyFlips{mesh, go}, st);
+    }
+
+    // The real particles' cells (vertices 0..N-1 of the 2N; faces and circumcentres not kept).
+    R* area = s.field(fields::area).data<R>(ctx);
+    std::int32_t* sides = s.field(fields::sides).data<std::int32_t>(ctx);
+    const CellGeometry<R> cells{mesh.he, mesh.vedge, points, int(m), area, s.field(fields::perimeter).data<R>(ctx),
+                                s.field(fields::centroid).data<R>(ctx), sides, nullptr, nullptr, nullptr};
+    cells_(n, cells, st);
+
+    // Σ V_i over the real particles in fixed point (as voronoi.geometry's metric): L_x L_y up to
+    // rounding; and the corrupt-fan count.
+    const double N = double(n), mean = s.box.L[0] * s.box.L[1] / N;
+    const double one = std::ldexp(1.0, 61 - int(std::ceil(std::log2(N))));
+    const auto q = std::int64_t(sum_area_(n, AreaTerm<R>{area, one / mean}, reduction_, st));
+    if (const std::uint64_t broken = sum_sides2_(n, SidesSquareTerm{sides}, reduction_, st) >> kBrokenShift)
+      throw RunError("voronoi.mirror: step " + std::to_string(ctx.host_params.step) + ": the half-edges around " +
+                     std::to_string(broken) + " particle(s) do not form a closed fan of at most " +
+                     std::to_string(kMaxSides) + " triangles");
+    ctx.metrics.set("area_sum_error", double(q) / one / N - 1.0);
+    ctx.metrics.set("rebuilt", rebuilt ? 1.0 : 0.0);
+    ctx.metrics.set("lawson_rounds", double(rounds));
+    return Outcome::ok();
+  }
+
+ private:
+  delaunay::Mesh mesh_of(StepContext& ctx) const {
+    State& s = ctx.state;
+    return {s.field(mirror_fields::halfedge).data<std::int32_t>(ctx),
+            s.field(mirror_fields::vertex_edge).data<std::int32_t>(ctx),
+            s.field(mirror_fields::opposite).data<std::int32_t>(ctx)};
+  }
+
+  // Whether the stage's triangulation is still one at the new points: no triangle fails to close
+  // or is not surely positive, and the areas add up to the doubled box once (not twice or more:
+  // positive triangles that wrap the torus d times cover it d times). Two integer reductions.
+  bool valid(StepContext& ctx, const PeriodicBox<double>& box2, const double L2[2]) {
+    State& s = ctx.state;
+    const std::size_t h = delaunay::halfedge_count(2 * s.n());
+    const TriangleTerms<R> t{mesh_of(ctx), {s.field(mirror_fields::position).data<R>(ctx), box2},
+                             std::ldexp(1.0, kAreaBits) / (L2[0] * L2[1])};
+    if (bad_(h, BadTriangle<R>{t}, reduction_, ctx.stream)) return false;
+    const double cover = double(cover_(h, TriangleArea<R>{t}, reduction_, ctx.stream)) * std::ldexp(1.0, -kAreaBits);
+    return std::fabs(cover - 1.0) < 1e-6;
+  }
+
+  MirrorParams p_;
+  Where where_;
+  int axis_;
+  ElementLoop<MirrorPoints<R>> mirror_;
+  ReduceLoop<BadTriangle<R>, std::uint64_t> bad_;
+  ReduceLoop<TriangleArea<R>, std::uint64_t> cover_;
+  ReduceLoop<MarkLawson<R>, std::uint64_t> mark_;
+  ElementLoop<delaunay::DecideFlips> decide_;
+  ElementLoop<delaunay::ApplyFlips> apply_;
+  ElementLoop<CellGeometry<R>> cells_;
+  ReduceLoop<AreaTerm<R>, std::uint64_t> sum_area_;
+  ReduceLoop<SidesSquareTerm, std::uint64_t> sum_sides2_;
+  Reduction<std::uint64_t> reduction_;
+  Scratch<std::uint8_t> go_;  // per edge: Lawson's marks, then the decisions
+  Scratch<unsigned> flips_;   // DecideFlips' counter (unread: the marks are counted by the sum)
+};
+
+}  // namespace ff::voronoi
+
+FLIPFLOW_STAGE(ff::voronoi::Mirror)
