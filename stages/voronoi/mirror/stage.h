@@ -83,7 +83,7 @@ struct MirrorParams {
 };
 
 template <class R>
-class Mirror final : public Stage {
+class Mirror : public Stage {
  public:
   static StageDecl declaration() {
     return {"voronoi.mirror",
@@ -243,6 +243,28 @@ class Mirror final : public Stage {
   Scratch<unsigned> flips_;   // DecideFlips' counter (unread: the marks are counted by the sum)
 };
 
+// voronoi.mirror_observer: the same stage in the observer phase, after a step is accepted, at
+// the steps of its `every:` / `at:` like observe.h5md. A compute stage with `every: k` runs on
+// steps k, 2k, ... before they move the particles, so its cells would be a step old in a frame
+// written at step k; listed before observe.h5md with the same `every`, the observer's cells are
+// those of the frame. Between frames the particles move far, so each call usually rebuilds (on
+// the host): cheap when frames are rare, and the pipeline's steps pay nothing.
+template <class R>
+class MirrorObserver final : public Mirror<R> {
+ public:
+  static StageDecl declaration() {
+    StageDecl d = Mirror<R>::declaration();
+    d.name = "voronoi.mirror_observer";
+    d.summary =
+        "voronoi.mirror as an observer: the cells clipped by the walls of the accepted step's positions, at the steps "
+        "of its every/at (list it before observe.h5md with the same every)";
+    d.observer = true;
+    return d;
+  }
+  using Mirror<R>::Mirror;
+};
+
 }  // namespace ff::voronoi
 
 FLIPFLOW_STAGE(ff::voronoi::Mirror)
+FLIPFLOW_STAGE(ff::voronoi::MirrorObserver)

@@ -1,5 +1,6 @@
 // voronoi.mirror (spec D2 W2): in the shipped slab pipeline (hard disks between hard walls,
-// pipelines/hard-disks-slab-voronoi.yaml, fewer disks), every disk's cell equals CGAL's
+// pipelines/hard-disks-slab-voronoi.yaml, fewer disks; the stage every step, or its observer
+// form every 50 steps), every disk's cell equals CGAL's
 // non-periodic Voronoi cell clipped at the walls (mirror/clipped_cells.h) to 1e-10 — area,
 // perimeter with the wall segments, centroid — and the cells tile the slab (Σ V_i = L_x L_y) at
 // every step checked; the stage's own triangulation is maintained by Lawson flips (no rebuild
@@ -35,13 +36,19 @@ namespace dl = ff::test::dl;
 double min_image(double d, double L) { return d - L * std::rint(d / L); }
 
 // The shipped slab pipeline with N disks in a box of the same packing fraction (η = 0.3 and
-// aspect 64:42), compute stages only.
-test::LoadedPipeline slab(std::size_t n, double& Lx, double& Ly) {
+// aspect 64:42), compute stages only (the file's voronoi.mirror_observer is an observer), and
+// `stage` appended (every `every` steps).
+test::LoadedPipeline slab(std::size_t n, double& Lx, double& Ly, const std::string& stage, std::uint64_t every = 1) {
   Lx = std::sqrt(double(n) * M_PI / 4 / 0.299 * 64.0 / 42.0);
   Ly = Lx * 42.0 / 64.0;
-  return test::load_compute_steps(test::repo_file("pipelines/hard-disks-slab-voronoi.yaml").string(),
-                                  {"system.N=" + std::to_string(n),
-                                   "system.box=[" + std::to_string(Lx) + ", " + std::to_string(Ly) + "]"});
+  auto l = test::load_compute_steps(test::repo_file("pipelines/hard-disks-slab-voronoi.yaml").string(),
+                                    {"system.N=" + std::to_string(n),
+                                     "system.box=[" + std::to_string(Lx) + ", " + std::to_string(Ly) + "]"});
+  for (auto& e : l.spec.step) REQUIRE(e.stage.rfind("voronoi.", 0) != 0);
+  test::EntryOptions o;
+  o.every = every;
+  l.spec.step.push_back(test::entry(*l.registry, stage, {{"walls", std::string("y")}}, o));
+  return l;
 }
 
 std::vector<double> positions(State& s) {
@@ -57,7 +64,8 @@ std::vector<std::int32_t> ints(State& s, const char* name) {
 }
 
 double metric(const Simulation& sim, const std::string& name) {
-  const auto it = sim.stats().metrics.find("voronoi.mirror/" + name);
+  auto it = sim.stats().metrics.find("voronoi.mirror/" + name);
+  if (it == sim.stats().metrics.end()) it = sim.stats().metrics.find("voronoi.mirror_observer/" + name);
   REQUIRE(it != sim.stats().metrics.end());
   return it->second;
 }
@@ -94,7 +102,7 @@ TEST_CASE("voronoi.mirror in the slab pipeline: every disk's cell is CGAL's Voro
           "[voronoi][walls]") {
   const Backend b = GENERATE(from_range(test::backends()));
   double Lx = 0, Ly = 0;
-  const auto l = slab(400, Lx, Ly);
+  const auto l = slab(400, Lx, Ly, "voronoi.mirror");
   Simulation sim(l.spec, *l.registry, test::dry(b));
   std::uint64_t rebuilt = 0;
   for (std::uint64_t k = 1; k <= 300; ++k) {
@@ -121,6 +129,22 @@ TEST_CASE("voronoi.mirror in the slab pipeline: every disk's cell is CGAL's Voro
   }
   CHECK(near_bottom < 1.0);
   CHECK(near_top < 1.0);
+}
+
+TEST_CASE("voronoi.mirror_observer in the slab pipeline: the cells of the frame's positions, at its steps",
+          "[voronoi][walls]") {
+  const Backend b = GENERATE(from_range(test::backends()));
+  double Lx = 0, Ly = 0;
+  const auto l = slab(400, Lx, Ly, "voronoi.mirror_observer", 50);
+  Simulation sim(l.spec, *l.registry, test::dry(b));
+  for (std::uint64_t k = 1; k <= 150; ++k) {
+    sim.advance();
+    if (sim.state().step % 50 != 0) continue;
+    INFO("step " << sim.state().step);
+    // Rebuilt or maintained (50 steps of these disks move them ~0.2σ: usually still valid).
+    CHECK(std::fabs(metric(sim, "area_sum_error")) < 1e-12);
+    require_clipped_cells(sim.state(), positions(sim.state()));
+  }
 }
 
 TEST_CASE("voronoi.mirror driven alone: rebuilt after moves that invert its triangles, maintained after small ones; "
@@ -180,7 +204,7 @@ TEST_CASE("voronoi.mirror refuses 3D and a particle on a wall", "[voronoi][walls
 TEST_CASE("voronoi.mirror in the slab pipeline: CPU and CUDA give the same bits", "[voronoi][walls][cuda]") {
   if (!test::have_cuda("voronoi.mirror CPU == CUDA")) return;
   double Lx = 0, Ly = 0;
-  const auto l = slab(400, Lx, Ly);
+  const auto l = slab(400, Lx, Ly, "voronoi.mirror");
   auto bytes = [&](Backend b) {
     Simulation sim(l.spec, *l.registry, test::dry(b));
     for (int k = 0; k < 200; ++k) sim.advance();
