@@ -1,12 +1,14 @@
 // voronoi.mirror's per-element work (spec D2 W2): the doubled point set, the validity test of
-// the stage's own triangulation of it, and Lawson's marking. FF_HD only; nvcc-clean. The flips
-// themselves are delaunay/common/flip.h's, the cells voronoi/geometry/kernel.h's.
+// the stage's own triangulation of it, and Lawson's rounds on it. FF_HD only; nvcc-clean. The
+// conflict rule is delaunay/common/flip.h's DecideFlips, the flip mesh.h's flip_edge, the cells
+// voronoi/geometry/kernel.h's.
 #pragma once
 #include <cmath>
 #include <cstdint>
 
 #include "core/base/hd.h"
 #include "core/physics/box.h"
+#include "core/backend/atomics.h"
 #include "stages/delaunay/common/mesh.h"
 
 namespace ff::voronoi {
@@ -33,65 +35,111 @@ struct MirrorPoints {
   }
 };
 
-// The stage's triangulation is valid at the current points when every triangle closes under
-// minimum image and is surely counter-clockwise, and the triangles cover the box once. These two
-// terms are summed over the half-edges, each triangle counted at its canonical (lowest)
-// half-edge: the number of bad triangles, and the areas in fixed point (units of the box area /
-// 2^kAreaBits). With every triangle positive the areas sum to d times the box area, d the
-// number of times the triangles wrap the torus; d = 1 is a triangulation.
-inline constexpr int kAreaBits = 50;
-template <class R>
-struct TriangleTerms {
-  delaunay::Mesh mesh;
-  delaunay::Points<R> pts;
-  double scale;  // 2^kAreaBits / box area
-  FF_HD bool bad(std::size_t i, delaunay::V2& ab, delaunay::V2& ac) const {
-    const int h = int(i), hn = mesh.next(h);
-    const int a = mesh.origin(h), b = mesh.origin(hn), c = mesh.origin(mesh.next(hn));
-    ab = pts.rel(a, b);
-    ac = pts.rel(a, c);
-    return !delaunay::closes(ab, ac, pts.box) || !(delaunay::orient_surely({0, 0}, ab, ac) > 0);
-  }
-};
-template <class R>
-struct BadTriangle {
-  TriangleTerms<R> t;
-  FF_HD bool operator()(std::size_t i) const {
-    if (!t.mesh.canonical(int(i))) return false;
-    delaunay::V2 ab, ac;
-    return t.bad(i, ab, ac);
-  }
-};
-template <class R>
-struct TriangleArea {
-  TriangleTerms<R> t;
-  FF_HD std::uint64_t operator()(std::size_t i) const {
-    if (!t.mesh.canonical(int(i))) return 0;
-    delaunay::V2 ab, ac;
-    t.bad(i, ab, ac);
-    return std::uint64_t(std::int64_t(std::rint(0.5 * delaunay::cross(ab, ac) * t.scale)));
-  }
+// Counters of a call (a Counters block, atomics: order-free).
+enum MirrorCounter : int {
+  kMirrorMarked = 0,  // edges marked in this round
+  kMirrorTooLong,     // flips not marked: the new edge would exceed half the box
+  kMirrorBad,         // edges with a triangle not closing or not surely positive
+  kMirrorFlips,       // flips in this call (DecideFlips' winners)
+  kMirrorCounters
 };
 
-// One Lawson round's marks, over every edge: mark[e] = 1 when e is not locally Delaunay
-// (delaunay.lawson's test, wants_flip, at the same tolerance) and its flip is possible. Returns
-// 1 for a mark and 2^32 for an edge whose flip would create an edge longer than half the box
-// (not marked; the stage stops with an error), so one integer sum counts both.
-inline constexpr int kTooLongShift = 32;
+// Lawson's mark of edge e (delaunay.lawson's test, wants_flip, at its tolerance): 1 when e is
+// not locally Delaunay and its flip keeps both triangles surely positive and its new edge
+// shorter than half the box (a longer one is counted, not marked: the stage stops).
 template <class R>
-struct MarkLawson {
+FF_HD std::uint8_t lawson_mark(const delaunay::Points<R>& pts, delaunay::V2 ab, delaunay::V2 ac, delaunay::V2 ad,
+                               double tol, unsigned* counters) {
+  if (!delaunay::wants_flip(ab, ac, ad, tol)) return 0;
+  if (!delaunay::is_min_image(ad - ac, pts.box)) {
+    count_one(counters + kMirrorTooLong);
+    return 0;
+  }
+  count_one(counters + kMirrorMarked);
+  return 1;
+}
+
+// Round 0, per edge, fused with the test that the stage's triangulation is still one at the new
+// points: the edge's two triangles, (a, b, c) and (b, a, d), must close under minimum image and
+// be surely counter-clockwise (else kMirrorBad), and the triangles must cover the doubled box
+// once: the sum of the returned terms, each edge's two triangle areas in fixed point (units of
+// the box area / 2^kAreaBits), is 3 × 2^kAreaBits, every triangle being on the sides of its three
+// edges (positive triangles wrapping the torus d times would sum to 3d × 2^kAreaBits). Marks are
+// written for every edge (DecideFlips reads those around each marked edge); they are meaningful
+// only when nothing was bad. `stamp` (per edge: the round in which to test it) is set to 0.
+inline constexpr int kAreaBits = 50;
+template <class R>
+struct FirstRound {
   delaunay::Mesh mesh;
   delaunay::Points<R> pts;
   double tol;
-  std::uint8_t* mark;  // 3 x 2N
+  double scale;  // 2^kAreaBits / box area
+  std::uint8_t* mark;
+  std::int32_t* stamp;
+  unsigned* counters;
   FF_HD std::uint64_t operator()(std::size_t i) const {
     const int e = int(i);
     const delaunay::QuadVertices q = delaunay::quad_vertices(mesh, e);
-    const delaunay::V2 ab = pts.rel(q.a, q.b), ac = pts.rel(q.a, q.c), ad = pts.rel(q.a, q.d);
-    std::uint64_t r = 0;
-    if (delaunay::wants_flip(ab, ac, ad, tol)) r = delaunay::is_min_image(ad - ac, pts.box) ? 1 : std::uint64_t(1) << kTooLongShift;
-    mark[e] = r == 1 ? 1 : 0;
-    return r;
+    const delaunay::V2 o{0, 0}, ab = pts.rel(q.a, q.b), ac = pts.rel(q.a, q.c), ad = pts.rel(q.a, q.d);
+    const bool ok = delaunay::closes(ab, ac, pts.box) && delaunay::closes(ad, ab, pts.box) &&
+                    delaunay::orient_surely(o, ab, ac) > 0 && delaunay::orient_surely(o, ad, ab) > 0;
+    stamp[e] = 0;
+    if (!ok) {
+      count_one(counters + kMirrorBad);
+      mark[e] = 0;
+      return 0;
+    }
+    mark[e] = lawson_mark(pts, ab, ac, ad, tol, counters);
+    return std::uint64_t(std::int64_t(std::rint(0.5 * (delaunay::cross(ab, ac) + delaunay::cross(ad, ab)) * scale)));
+  }
+};
+
+// Rounds after the first: an edge is tested again only when its quad changed (one of the four
+// edges around a flip) or it was marked and lost its conflict (stamp == round); every other edge
+// keeps both its triangles, so its answer cannot change (delaunay.lawson's argument). The
+// others get mark 0.
+template <class R>
+struct MarkRound {
+  delaunay::Mesh mesh;
+  delaunay::Points<R> pts;
+  double tol;
+  std::uint8_t* mark;
+  const std::int32_t* stamp;
+  std::int32_t round;
+  unsigned* counters;
+  FF_HD void operator()(std::size_t i) const {
+    const int e = int(i);
+    if (stamp[e] != round) {
+      mark[e] = 0;
+      return;
+    }
+    const delaunay::QuadVertices q = delaunay::quad_vertices(mesh, e);
+    mark[e] = lawson_mark(pts, pts.rel(q.a, q.b), pts.rel(q.a, q.c), pts.rel(q.a, q.d), tol, counters);
+  }
+};
+
+// Applies the winners of a round (DecideFlips' go) and stamps what the next round tests: the four
+// edges around each flip (read before it: flips that share no triangle do not touch each other's
+// around-edges' links) and each marked edge that lost. A flipped edge is locally Delaunay
+// afterwards (its quad's in-circle changes sign) and is not stamped. Several threads may stamp
+// one edge, all with the same value.
+struct ApplyRound {
+  delaunay::Mesh mesh;
+  const std::uint8_t* mark;
+  const std::uint8_t* go;
+  std::int32_t* stamp;
+  std::int32_t next_round;
+  FF_HD void operator()(std::size_t i) const {
+    const int e = int(i);
+    if (!mark[e]) return;
+    if (!go[e]) {
+      delaunay::store_relaxed(stamp + e, next_round);
+      return;
+    }
+    const int h0n = mesh.next(2 * e), h1n = mesh.next(2 * e + 1);
+    const int around[4] = {h0n >> 1, mesh.next(h0n) >> 1, h1n >> 1, mesh.next(h1n) >> 1};
+    delaunay::flip_edge(mesh, e);
+    for (int k = 0; k < 4; ++k) delaunay::store_relaxed(stamp + around[k], next_round);
   }
 };
 

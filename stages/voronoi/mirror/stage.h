@@ -21,13 +21,16 @@
 // triangulation of them in its own fields (voronoi.mirror.*), and reads the real cells off it
 // with voronoi.geometry's kernel (geometry/kernel.h, one thread per real particle).
 //
-// Its triangulation is maintained from call to call like the pipeline's: if it is still a
-// valid triangulation at the new points (every triangle closes and is surely positive, and the
-// triangles cover the doubled box once), Lawson's flips (delaunay.lawson's test and
-// tolerance, common/flip.h's conflict rule: the same flips on both backends) make it Delaunay;
-// otherwise (the first call, or after moves that inverted a triangle, typical with `every: k`
-// and k in the hundreds) it is rebuilt on the host with delaunay.build's CGAL code (build.cpp).
-// Either way the result is the Delaunay triangulation of the points, so the cells are exact.
+// Its triangulation is maintained from call to call like the pipeline's. Lawson's first round
+// (kernel.h FirstRound: every edge) also checks that it is still a triangulation at the new
+// points: every triangle closes under minimum image and is surely positive, and the triangles
+// cover the doubled box once (an integer sum of their areas). If so, Lawson's rounds
+// (delaunay.lawson's test and tolerance; common/flip.h's lowest-id conflict rule; later rounds
+// test only the edges around a flip and the marked edges that lost, as delaunay.lawson's) make
+// it Delaunay, with the same flips on both backends. If not (the first call, or moves that
+// inverted a triangle: typical when the stage runs only every few hundred steps), it is rebuilt
+// on the host with delaunay.build's CGAL code (build.cpp). Either way the result is the Delaunay
+// triangulation of the points, so the cells are exact.
 //
 // Why its own triangulation and not the pipeline's:
 // - The pipeline's torus triangulation clipped at the walls is not exact. Its edges across the
@@ -41,10 +44,11 @@
 //   images slaved) changes N for every stage: the integrators, the force stages, overlap_correct
 //   (which would have to skip real–image pairs), the observers and the output would all have to
 //   know which half is real. Here nothing else changes; the cost is a second triangulation of
-//   2N points (memory 12N half-edges; per call one pass over the 2N triangles, Lawson's rounds,
-//   one pass over the cells) paid only on the steps the cells are asked for, and the stage works
-//   with any pipeline (Delaunay or Verlet corrections alike): it reads only `position`.
+//   2N points (memory 12N half-edges; per call one pass over its 6N edges, a few cheaper rounds,
+//   one pass over the N cells) paid only on the steps the cells are asked for, and the stage
+//   works with any pipeline (Delaunay or Verlet corrections alike): it reads only `position`.
 #pragma once
+#include <array>
 #include <cmath>
 #include <cstdint>
 #include <string>
@@ -98,17 +102,16 @@ class Mirror : public Stage {
         where_(Exec::where),
         axis_(p_.walls == "x" ? 0 : 1),
         mirror_(&Exec::template for_each<MirrorPoints<R>>),
-        bad_(&Exec::template count<BadTriangle<R>>),
-        cover_(&Exec::template sum<TriangleArea<R>>),
-        mark_(&Exec::template sum<MarkLawson<R>>),
+        first_(&Exec::template sum<FirstRound<R>>),
+        mark_(&Exec::template for_each<MarkRound<R>>),
         decide_(&Exec::template for_each<delaunay::DecideFlips>),
-        apply_(&Exec::template for_each<delaunay::ApplyFlips>),
+        apply_(&Exec::template for_each<ApplyRound>),
         cells_(&Exec::template for_each<CellGeometry<R>>),
         sum_area_(&Exec::template sum<AreaTerm<R>>),
-        sum_sides2_(&Exec::template sum<SidesSquareTerm>),
         reduction_(exec),
-        go_(exec),
-        flips_(exec) {}
+        marks_(exec),
+        stamps_(exec),
+        counters_(exec) {}
 
   std::vector<Access> accesses() const override {
     return {{ff::fields::position, where_, Mode::read},
@@ -150,58 +153,74 @@ class Mirror : public Stage {
     R* pts = s.field(mirror_fields::position).data<R>(ctx);
     mirror_(n, MirrorPoints<R>{s.field(ff::fields::position).data<R>(ctx), pts, int(n), axis_, R(L2[axis_])}, st);
 
-    std::int32_t* built = s.field(mirror_fields::status).host<std::int32_t>();
+    std::uint8_t* mark = marks_.get(2 * edges);
+    std::uint8_t* go = mark + edges;
+    std::int32_t* stamp = stamps_.get(edges);
+    unsigned* c = counters_.ptr();
+    const double scale = std::ldexp(1.0, kAreaBits) / (L2[0] * L2[1]);
+    // Round 0 with the validity test; a rebuild when the triangulation is not one any more (or
+    // none was built yet), then round 0 again on the new one.
     bool rebuilt = false;
-    if (!built[0] || !valid(ctx, box2, L2)) {
+    std::array<unsigned, kMirrorCounters> h{};
+    for (int attempt = 0;; ++attempt) {
+      const bool built = s.field(mirror_fields::status).host<std::int32_t>()[0] != 0;
+      if (built) {
+        counters_.reset(std::array<int, 0>{}, st);
+        const std::uint64_t area = first_(
+            edges, FirstRound<R>{mesh_of(ctx), {pts, box2}, p_.tolerance, scale, mark, stamp, c}, reduction_, st);
+        h = counters_.read(st);
+        // 3 x the doubled box's area: each triangle is on the sides of three edges.
+        if (h[kMirrorBad] == 0 && std::fabs(double(area) * std::ldexp(1.0, -kAreaBits) / 3.0 - 1.0) < 1e-6) break;
+        if (attempt > 0)
+          throw RunError("voronoi.mirror: step " + std::to_string(ctx.host_params.step) +
+                         ": the triangulation just built for the particles and their mirror images is not valid (" +
+                         std::to_string(h[kMirrorBad]) + " bad triangle sides)");
+      }
       build_mirror_mesh(s, L2, st);
       for (const Access& a : accesses()) s.field(a.field).acquire(a.where, a.mode, st);
       pts = s.field(mirror_fields::position).data<R>(ctx);
       rebuilt = true;
     }
 
-    // Lawson's rounds: mark every edge, let the lowest marked id win both its triangles, flip.
+    // Lawson's rounds: the lowest marked id wins both its triangles (common/flip.h), the winners
+    // flip, and the next round tests only what changed.
     const delaunay::Mesh mesh = mesh_of(ctx);
     const delaunay::Points<R> points{pts, box2};
-    std::uint8_t* mark = go_.get(2 * edges);
-    std::uint8_t* go = mark + edges;
-    unsigned* flips = flips_.get(1);
-    std::int64_t rounds = 0;
-    for (;; ++rounds) {
-      const std::uint64_t r = mark_(edges, MarkLawson<R>{mesh, points, p_.tolerance, mark}, reduction_, st);
-      if (r >> kTooLongShift)
+    std::int32_t round = 0;
+    for (;; ++round) {
+      if (h[kMirrorTooLong])
         throw RunError("voronoi.mirror: step " + std::to_string(ctx.host_params.step) + ": " +
-                       std::to_string(r >> kTooLongShift) +
+                       std::to_string(h[kMirrorTooLong]) +
                        " Delaunay flip(s) of the doubled box would need an edge longer than half the box; "
                        "the slab holds too few particles for its size");
-      const std::uint64_t marked = r & 0xffffffffu;
-      if (!marked) break;
-      if (rounds == p_.max_rounds)
+      if (!h[kMirrorMarked]) break;
+      if (round == p_.max_rounds)
         throw RunError("voronoi.mirror: step " + std::to_string(ctx.host_params.step) + ": " +
-                       std::to_string(marked) + " edges still not locally Delaunay after max_rounds = " +
+                       std::to_string(h[kMirrorMarked]) + " edges still not locally Delaunay after max_rounds = " +
                        std::to_string(p_.max_rounds) + " Lawson rounds");
-      decide_(edges, delaunay::DecideFlips{mesh, mark, go, flips, 0}, st);
-      apply_(edges, delaunay::ApplyFlips{mesh, go}, st);
+      decide_(edges, delaunay::DecideFlips{mesh, mark, go, c, kMirrorFlips}, st);
+      apply_(edges, ApplyRound{mesh, mark, go, stamp, round + 1}, st);
+      counters_.zero(kMirrorMarked, 2, st);  // marked and too long; the flips add up
+      mark_(edges, MarkRound<R>{mesh, points, p_.tolerance, mark, stamp, round + 1, c}, st);
+      h = counters_.read(st);
     }
 
     // The real particles' cells (vertices 0..N-1 of the 2N; faces and circumcentres not kept).
     R* area = s.field(fields::area).data<R>(ctx);
-    std::int32_t* sides = s.field(fields::sides).data<std::int32_t>(ctx);
     const CellGeometry<R> cells{mesh.he, mesh.vedge, points, int(m), area, s.field(fields::perimeter).data<R>(ctx),
-                                s.field(fields::centroid).data<R>(ctx), sides, nullptr, nullptr, nullptr};
+                                s.field(fields::centroid).data<R>(ctx), s.field(fields::sides).data<std::int32_t>(ctx),
+                                nullptr, nullptr, nullptr};
     cells_(n, cells, st);
 
     // Σ V_i over the real particles in fixed point (as voronoi.geometry's metric): L_x L_y up to
-    // rounding; and the corrupt-fan count.
+    // rounding.
     const double N = double(n), mean = s.box.L[0] * s.box.L[1] / N;
     const double one = std::ldexp(1.0, 61 - int(std::ceil(std::log2(N))));
     const auto q = std::int64_t(sum_area_(n, AreaTerm<R>{area, one / mean}, reduction_, st));
-    if (const std::uint64_t broken = sum_sides2_(n, SidesSquareTerm{sides}, reduction_, st) >> kBrokenShift)
-      throw RunError("voronoi.mirror: step " + std::to_string(ctx.host_params.step) + ": the half-edges around " +
-                     std::to_string(broken) + " particle(s) do not form a closed fan of at most " +
-                     std::to_string(kMaxSides) + " triangles");
     ctx.metrics.set("area_sum_error", double(q) / one / N - 1.0);
     ctx.metrics.set("rebuilt", rebuilt ? 1.0 : 0.0);
-    ctx.metrics.set("lawson_rounds", double(rounds));
+    ctx.metrics.set("lawson_rounds", double(round));
+    ctx.metrics.set("lawson_flips", double(h[kMirrorFlips]));
     return Outcome::ok();
   }
 
@@ -213,34 +232,20 @@ class Mirror : public Stage {
             s.field(mirror_fields::opposite).data<std::int32_t>(ctx)};
   }
 
-  // Whether the stage's triangulation is still one at the new points: no triangle fails to close
-  // or is not surely positive, and the areas add up to the doubled box once (not twice or more:
-  // positive triangles that wrap the torus d times cover it d times). Two integer reductions.
-  bool valid(StepContext& ctx, const PeriodicBox<double>& box2, const double L2[2]) {
-    State& s = ctx.state;
-    const std::size_t h = delaunay::halfedge_count(2 * s.n());
-    const TriangleTerms<R> t{mesh_of(ctx), {s.field(mirror_fields::position).data<R>(ctx), box2},
-                             std::ldexp(1.0, kAreaBits) / (L2[0] * L2[1])};
-    if (bad_(h, BadTriangle<R>{t}, reduction_, ctx.stream)) return false;
-    const double cover = double(cover_(h, TriangleArea<R>{t}, reduction_, ctx.stream)) * std::ldexp(1.0, -kAreaBits);
-    return std::fabs(cover - 1.0) < 1e-6;
-  }
-
   MirrorParams p_;
   Where where_;
   int axis_;
   ElementLoop<MirrorPoints<R>> mirror_;
-  ReduceLoop<BadTriangle<R>, std::uint64_t> bad_;
-  ReduceLoop<TriangleArea<R>, std::uint64_t> cover_;
-  ReduceLoop<MarkLawson<R>, std::uint64_t> mark_;
+  ReduceLoop<FirstRound<R>, std::uint64_t> first_;
+  ElementLoop<MarkRound<R>> mark_;
   ElementLoop<delaunay::DecideFlips> decide_;
-  ElementLoop<delaunay::ApplyFlips> apply_;
+  ElementLoop<ApplyRound> apply_;
   ElementLoop<CellGeometry<R>> cells_;
   ReduceLoop<AreaTerm<R>, std::uint64_t> sum_area_;
-  ReduceLoop<SidesSquareTerm, std::uint64_t> sum_sides2_;
   Reduction<std::uint64_t> reduction_;
-  Scratch<std::uint8_t> go_;  // per edge: Lawson's marks, then the decisions
-  Scratch<unsigned> flips_;   // DecideFlips' counter (unread: the marks are counted by the sum)
+  Scratch<std::uint8_t> marks_;    // per edge: Lawson's marks, then the decisions (go)
+  Scratch<std::int32_t> stamps_;   // per edge: the round in which to test it again
+  Counters<kMirrorCounters> counters_;
 };
 
 // voronoi.mirror_observer: the same stage in the observer phase, after a step is accepted, at
