@@ -37,8 +37,10 @@ struct Cell {
 };
 
 // The cells of the real points (x-periodic, walls at 0 and Ly) from CGAL's non-periodic
-// Delaunay triangulation of the points and their copies at x ± Lx.
-inline std::vector<Cell> clipped_cells(const std::vector<double>& xy, double Lx, double Ly) {
+// Delaunay triangulation of the points and their copies at x ± Lx. With torus = true the
+// copies at y ± Ly are in too: the cells of the periodic (torus) Voronoi diagram clipped at the
+// walls, which are not the walled cells (what voronoi.mirror's test shows).
+inline std::vector<Cell> clipped_cells(const std::vector<double>& xy, double Lx, double Ly, bool torus = false) {
   using K = CGAL::Exact_predicates_inexact_constructions_kernel;
   using Vb = CGAL::Triangulation_vertex_base_with_info_2<int, K>;
   using Tds = CGAL::Triangulation_data_structure_2<Vb>;
@@ -46,12 +48,13 @@ inline std::vector<Cell> clipped_cells(const std::vector<double>& xy, double Lx,
   const std::size_t n = xy.size() / 2;
   DT T;
   std::vector<DT::Vertex_handle> real(n);
-  for (int copy = -1; copy <= 1; ++copy)
-    for (std::size_t i = 0; i < n; ++i) {
-      auto v = T.insert(K::Point_2(xy[2 * i] + copy * Lx, xy[2 * i + 1]));
-      v->info() = int(i);
-      if (copy == 0) real[i] = v;
-    }
+  for (int copy_y = torus ? -1 : 0; copy_y <= (torus ? 1 : 0); ++copy_y)
+    for (int copy = -1; copy <= 1; ++copy)
+      for (std::size_t i = 0; i < n; ++i) {
+        auto v = T.insert(K::Point_2(xy[2 * i] + copy * Lx, xy[2 * i + 1] + copy_y * Ly));
+        v->info() = int(i);
+        if (copy == 0 && copy_y == 0) real[i] = v;
+      }
   std::vector<Cell> cells(n);
   for (std::size_t i = 0; i < n; ++i) {
     const Pt s{xy[2 * i], xy[2 * i + 1]};
