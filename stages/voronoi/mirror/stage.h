@@ -1,7 +1,8 @@
 // voronoi.mirror: each particle's Voronoi cell clipped by the hard walls of a slab (De Fabritiis
 // & Coveney §4.2, spec D2 W2), CPU and CUDA with the same bits. For a pipeline with walls
-// (overlap_correct's `walls: y`); list it after the correction, with `every: k` if the cells
-// are wanted only for frames:
+// (overlap_correct's `walls: y`): list it after the correction to have the cells in every step
+// (a model that reads them), or its observer form voronoi.mirror_observer (end of this file)
+// before observe.h5md for the cells of the frames only:
 //
 //   - {stage: overlap_correct, mode: reflect, cap: 0.25, walls: y}
 //   - {stage: voronoi.mirror, walls: y}
@@ -9,7 +10,7 @@
 //
 // It writes voronoi.geometry's per-particle fields (voronoi.area, .perimeter, .centroid, .sides)
 // for the real particles, so everything that reads those (observe.h5md, tools/render) serves
-// both; the two stages are alternatives in one pipeline.
+// both; voronoi.geometry and voronoi.mirror are alternatives in one pipeline.
 //
 // How: the doubled box (spec W2). With walls at 0 and L along the wall axis, particle i's mirror
 // image N + i sits at 2L − c (c its coordinate along the axis) in the periodic box doubled
