@@ -167,12 +167,15 @@ TEST_CASE("voronoi.mirror_observer in the slab pipeline: the cells of the frame'
 }
 
 TEST_CASE("voronoi.mirror driven alone: rebuilt after moves that invert its triangles, maintained after small ones; "
-          "walls along x",
+          "walls along x; square and rectangular doubled boxes",
           "[voronoi][walls]") {
   const Backend b = GENERATE(from_range(test::backends()));
   const int axis = GENERATE(0, 1);
+  // Along the wall axis 20 and across it 30 (a rectangular doubled box: CGAL on the points and
+  // their 8 copies) or 40 (a square one: CGAL's periodic triangulation).
+  const double across = GENERATE(30.0, 40.0);
   const std::size_t n = 600;
-  const double L[2] = {axis == 1 ? 30.0 : 20.0, axis == 1 ? 20.0 : 30.0};
+  const double L[2] = {axis == 1 ? across : 20.0, axis == 1 ? 20.0 : across};
   std::vector<double> x = dl::random_points(n, L[0], L[1], 7);
   for (std::size_t i = 0; i < n; ++i)
     if (x[2 * i + axis] == 0) x[2 * i + axis] = 0.5 * L[axis];
