@@ -29,19 +29,10 @@
 #include "core/stage/stage.h"
 #include "core/stage/stage_registration.h"
 #include "stages/delaunay/common/fields.h"
+#include "stages/voronoi/geometry/fields.h"
 #include "stages/voronoi/geometry/kernel.h"
 
 namespace ff::voronoi {
-
-namespace fields {
-inline constexpr const char* area = "voronoi.area";                    // real, N
-inline constexpr const char* perimeter = "voronoi.perimeter";          // real, N
-inline constexpr const char* centroid = "voronoi.centroid";            // real x 2, N
-inline constexpr const char* sides = "voronoi.sides";                  // i32, N
-inline constexpr const char* face_length = "voronoi.face_length";      // real, 3N (per Delaunay edge)
-inline constexpr const char* face_midpoint = "voronoi.face_midpoint";  // real x 2, 3N
-inline constexpr const char* circumcenter = "voronoi.circumcenter";    // real x 2, 6N (per half-edge)
-}  // namespace fields
 
 struct GeometryParams {
   std::string positions = "delaunay";
