@@ -107,6 +107,26 @@ FF_HD void store4(std::uint32_t* p, const std::uint32_t v[4]) {
 #endif
 }
 
+// Two ring members' positions at once ({x, y, x, y}, 16-byte aligned).
+FF_HD void load4(const float* p, float v[4]) {
+#if defined(__CUDA_ARCH__)
+  const float4 q = __ldg(reinterpret_cast<const float4*>(p));
+  v[0] = q.x;
+  v[1] = q.y;
+  v[2] = q.z;
+  v[3] = q.w;
+#else
+  for (int k = 0; k < 4; ++k) v[k] = p[k];
+#endif
+}
+FF_HD void store4(float* p, const float v[4]) {
+#if defined(__CUDA_ARCH__)
+  *reinterpret_cast<float4*>(p) = make_float4(v[0], v[1], v[2], v[3]);
+#else
+  for (int k = 0; k < 4; ++k) p[k] = v[k];
+#endif
+}
+
 // Particle i's two coordinates (one load on the device; the arrays are not written while a
 // search runs).
 template <class R>
@@ -141,7 +161,11 @@ FF_HD void load_halfedge(const std::int32_t* he, int h, int& origin, int& next) 
 
 // Vertex u's one-ring into ring[u·width ...] in CCW order from vertex_edge[u], then kRingEnd up
 // to the next multiple of 4 when it is shorter than width; degree[u] = its true degree (more
-// than width: the search reports kRingOverflow and the stage widens the ring). Returns the bits
+// than width: the search reports kRingOverflow and the stage widens the ring); and beside each
+// member its position in the triangulation's positions, wrapped into the box and rounded to
+// float (ring_xy, 2 floats per slot), so that the visited search reads a vertex's ring and
+// where its members are in a few contiguous loads instead of one scattered load each (the
+// rounding is within the expansion margin: SearchBase::expand2). Returns the bits
 // of u's squared minimum-image move since the triangulation's positions, rounded up to a float,
 // so an integer max-reduction gives an upper bound of m² (all the expansion radius needs).
 template <class R>
@@ -152,6 +176,7 @@ struct GatherRing {
   std::uint32_t n;            // vertices: no valid ring is longer (guards a corrupt mesh)
   std::uint32_t* ring;        // n x width
   std::uint32_t* degree;      // n
+  float* ring_xy;             // n x width x 2
   delaunay::Points<R> now;    // position
   const R* prev;              // delaunay.position_prev
 
@@ -159,7 +184,9 @@ struct GatherRing {
     const int h0 = vedge[u];
     int h = h0;
     std::uint32_t k = 0, chunk[4];
+    float xy[4] = {0, 0, 0, 0};
     std::uint32_t* row = ring + u * width;
+    float* row_xy = ring_xy + 2 * u * width;
     do {
       // The other end of h is the origin of next(h), whose next is next(next(h)), and
       // twin(next(next(h))) is the next half-edge CCW around u.
@@ -169,6 +196,11 @@ struct GatherRing {
       if (k < width) {
         chunk[k & 3] = std::uint32_t(end);
         if ((k & 3) == 3) store4(row + (k & ~3u), chunk);
+        R ex, ey;
+        load_xy(prev, std::size_t(end), ex, ey);
+        xy[2 * (k & 1)] = wrapped(ex, 0);
+        xy[2 * (k & 1) + 1] = wrapped(ey, 1);
+        if (k & 1) store4(row_xy + 2 * (k & ~1u), xy);
       }
       ++k;
       h = next2 ^ 1;
@@ -176,6 +208,7 @@ struct GatherRing {
     if (k < width) {  // kRingEnd to the end of the chunk (a whole chunk of them after a full one)
       for (std::uint32_t a = k & 3; a < 4; ++a) chunk[a] = kRingEnd;
       store4(row + (k & ~3u), chunk);
+      if (k & 1) store4(row_xy + 2 * (k & ~1u), xy);  // the last member's pair
     }
     degree[u] = k;
 
@@ -189,6 +222,12 @@ struct GatherRing {
     const std::uint32_t b = float_bits(f);
     return double(f) < d2 ? b + 1 : b;  // the next float up
   }
+
+  // Coordinate c along axis k wrapped into [0, L] (up to rounding) and rounded to float.
+  FF_HD float wrapped(R c, int k) const {
+    const double d = double(c);
+    return float(d - now.box.L[k] * std::floor(d * now.box.inv_L[k]));
+  }
 };
 
 // What both traversals share: the radii, the two position sets, the rings and the output.
@@ -198,12 +237,13 @@ struct SearchBase {
   const R* x;                   // position now
   PeriodicBox<R> box;           // the acceptance test's minimum image (BuildList's)
   R accept2;                    // r², in the run's precision
-  double radius;                // r, and expand_radius's margin
-  double margin;
+  double radius;                // r, and expand_radius's margin, which covers the float rounding
+  double margin;                // of ring_xy too: ≤ half an ulp of the box edge per coordinate
   double lmin;                  // the smallest box edge
   const std::uint32_t* move2;   // GatherRing's max-reduction: the bits of an upper bound of m²
   const std::uint32_t* ring;    // GatherRing's
   const std::uint32_t* degree;
+  const float* ring_xy;
   std::uint32_t width;
   std::uint32_t capacity;       // row length of the list, a multiple of 4
   std::uint32_t* list;          // n x capacity
@@ -298,15 +338,22 @@ struct SearchVisited : SearchBase<R> {
     Queue q{fast, stride, this->list + std::size_t(p) * this->capacity, this->capacity, false};
     R ox, oy;
     load_xy(this->old.p, p, ox, oy);
-    const double px = double(ox), py = double(oy);
+    // p where ring_xy has it: wrapped (in double; ring_xy's members are rounded to float).
+    const double px = double(ox) - this->old.box.L[0] * std::floor(double(ox) * this->old.box.inv_L[0]);
+    const double py = double(oy) - this->old.box.L[1] * std::floor(double(oy) * this->old.box.inv_L[1]);
     std::uint64_t filter[2] = {0, 0};  // bit (hash of w) set for every w in the queue
     std::uint32_t n = 0, head = 0, u = p;
     for (;;) {
       const std::uint32_t* ru = this->ring + std::size_t(u) * this->width;
+      const float* xu = this->ring_xy + 2 * std::size_t(u) * this->width;
       bool end = false;
       for (std::uint32_t k = 0; k < this->width && !end; k += 4) {
         std::uint32_t c[4];
+        float cx[8];
         load4(ru + k, c);
+        load4(xu + 2 * k, cx);
+        if (c[2] != kRingEnd) load4(xu + 2 * k + 4, cx + 4);
+        else cx[4] = cx[5] = cx[6] = cx[7] = 0;  // not read: the ring ends before them
         for (int j = 0; j < 4; ++j) {
           const std::uint32_t w = c[j];
           if (w == kRingEnd) {
@@ -320,7 +367,9 @@ struct SearchVisited : SearchBase<R> {
             for (std::uint32_t a = 0; a < n && !seen; ++a) seen = q.get(a) == w;
             if (seen) continue;
           }
-          if (w == p || this->old_d2(px, py, w) > e2) continue;
+          const double dx = this->old.image(double(cx[2 * j]) - px, 0);
+          const double dy = this->old.image(double(cx[2 * j + 1]) - py, 1);
+          if (w == p || dx * dx + dy * dy > e2) continue;
           if (n == q.limit() && !q.spill(n)) return this->overflow(p);
           filter[hash >> 6] |= bit;
           q.set(n++, w);

@@ -76,7 +76,8 @@ class DelaunaySearch final : public Stage {
         loops_(delaunay_loops<R>(exec)),
         words_(exec),
         ring_(exec),
-        degree_(exec) {}
+        degree_(exec),
+        ring_xy_(exec) {}
 
   std::vector<Access> accesses() const override {
     namespace df = delaunay::fields;
@@ -139,7 +140,10 @@ class DelaunaySearch final : public Stage {
     const R* prev = s.field(df::position_prev).data<R>(ctx);
     const auto box = PeriodicBox<double>::make(s.box.L);
     const double lmax = std::max(s.box.L[0], s.box.L[1]), lmin = std::min(s.box.L[0], s.box.L[1]);
-    const double margin = 16 * double(std::numeric_limits<R>::epsilon()) * lmax;  // see expand_radius
+    // expand_radius's margin, and the float rounding of GatherRing's ring_xy (half an ulp of the
+    // box edge per coordinate, wrapped positions).
+    const double margin = 16 * double(std::numeric_limits<R>::epsilon()) * lmax +
+                          4 * double(std::numeric_limits<float>::epsilon()) * lmax;
     const delaunay::Points<R> old{prev, box};
     const std::int32_t* he = s.field(df::halfedge).data<std::int32_t>(ctx);
     const std::int32_t* ve = s.field(df::vertex_edge).data<std::int32_t>(ctx);
@@ -153,11 +157,14 @@ class DelaunaySearch final : public Stage {
     for (;;) {
       std::uint32_t* ring = ring_.get(n * width_);
       std::uint32_t* degree = degree_.get(n);
-      if (!gathered) loops_.gather(n, GatherRing<R>{he, ve, width_, std::uint32_t(n), ring, degree, {x, box}, prev}, words, st);
+      float* ring_xy = ring_xy_.get(2 * n * width_);
+      if (!gathered)
+        loops_.gather(n, GatherRing<R>{he, ve, width_, std::uint32_t(n), ring, degree, ring_xy, {x, box}, prev}, words,
+                      st);
       gathered = true;
       const std::uint32_t cap = list_capacity(s);
       SearchBase<R> base{old,    x,        PeriodicBox<R>::make(s.box.L), R(p_.radius * p_.radius), p_.radius, margin,
-                         lmin,   words,    ring, degree, width_, cap, list.data<std::uint32_t>(ctx), count, at_build};
+                         lmin,   words,    ring, degree, ring_xy, width_, cap, list.data<std::uint32_t>(ctx), count, at_build};
       if (p_.traversal == "parent") loops_.parent(n, SearchParent<R>{base}, words, st);
       else loops_.visited(n, SearchVisited<R>{base}, words, st);
       const auto& w = words_.read(st);  // the step's one wait for the device
@@ -218,6 +225,7 @@ class DelaunaySearch final : public Stage {
   Counters<2> words_;                // the loops' two result words (loops.h)
   Scratch<std::uint32_t> ring_;      // n x width_: each vertex's one-ring (GatherRing)
   Scratch<std::uint32_t> degree_;    // n: each vertex's degree
+  Scratch<float> ring_xy_;           // n x width_ x 2: where the ring members are (GatherRing)
   std::uint32_t width_ = 16;         // ring slots per vertex, doubled when a vertex has more
 };
 
