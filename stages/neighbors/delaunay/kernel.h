@@ -301,27 +301,28 @@ struct SearchBase {
   }
 };
 
-// The visited search's queue: slots [0, fast_cap) in fast memory (`stride` apart: a column of a
+// The visited search's queue: slots [0, kFastSlots) in fast memory (`stride` apart: a column of a
 // shared-memory block on CUDA, so the threads of a warp never share a bank), moved to the row of
 // the list when it needs more (spill).
 struct Queue {
-  std::uint32_t* fast;
-  std::uint32_t stride;
+  std::uint32_t* base;    // the fast slots, then the row
+  std::uint32_t stride;   // between slots: the fast memory's, then 1
   std::uint32_t* row;
-  std::uint32_t cap;  // the row's length
-  bool spilled;
+  std::uint32_t cap;      // the row's length
+  std::uint32_t lim;      // slots in base
 
-  FF_HD std::uint32_t get(std::uint32_t a) const { return spilled ? row[a] : fast[a * stride]; }
-  FF_HD void set(std::uint32_t a, std::uint32_t v) {
-    if (spilled) row[a] = v;
-    else fast[a * stride] = v;
-  }
-  FF_HD std::uint32_t limit() const { return spilled || cap < kFastSlots ? cap : kFastSlots; }
+  FF_HD Queue(std::uint32_t* fast, std::uint32_t fast_stride, std::uint32_t* row_, std::uint32_t cap_)
+      : base(fast), stride(fast_stride), row(row_), cap(cap_), lim(cap_ < kFastSlots ? cap_ : kFastSlots) {}
+  FF_HD std::uint32_t get(std::uint32_t a) const { return base[a * stride]; }
+  FF_HD void set(std::uint32_t a, std::uint32_t v) { base[a * stride] = v; }
+  FF_HD std::uint32_t limit() const { return lim; }
   // Room for more than limit(): false when the row is full too.
   FF_HD bool spill(std::uint32_t n) {
-    if (spilled || cap <= kFastSlots) return false;
-    for (std::uint32_t a = 0; a < n; ++a) row[a] = fast[a * stride];
-    spilled = true;
+    if (lim == cap) return false;
+    for (std::uint32_t a = 0; a < n; ++a) row[a] = base[a * stride];
+    base = row;
+    stride = 1;
+    lim = cap;
     return true;
   }
 };
@@ -335,7 +336,7 @@ struct SearchVisited : SearchBase<R> {
     const double e2 = this->expand2();
     if (e2 < 0) return kTooFar;
     if (this->degree[p] > this->width) return this->overflow(p) | kRingOverflow;
-    Queue q{fast, stride, this->list + std::size_t(p) * this->capacity, this->capacity, false};
+    Queue q(fast, stride, this->list + std::size_t(p) * this->capacity, this->capacity);
     R ox, oy;
     load_xy(this->old.p, p, ox, oy);
     // p where ring_xy has it: wrapped (in double; ring_xy's members are rounded to float).
