@@ -33,6 +33,8 @@ timeout 240 tools/bench/plugin_ab.sh pipelines/bench-frnn.yaml - "$F/v1" "$F/v2"
 echo "ab delaunay rc=$?" >> "$O/summary.txt"
 ROUNDS=1 timeout 90 tools/bench/plugin_ab.sh pipelines/bench-frnn-verlet.yaml - > "$O/ab-verlet.txt" 2>&1
 echo "ab verlet rc=$?" >> "$O/summary.txt"
+ROUNDS=1 timeout 90 tools/bench/plugin_ab.sh "$F/frnn-parent.yaml" - "$F/v2" > "$O/ab-parent.txt" 2>&1
+echo "ab parent rc=$?" >> "$O/summary.txt"
 # 3. Kernel breakdown at 2^20 (CUPTI trace): main vs v2.
 for v in main v2; do
   if [[ $v == main ]]; then unset FLIPFLOW_PLUGIN_PATH; else export FLIPFLOW_PLUGIN_PATH=$F/$v; fi
