@@ -107,6 +107,11 @@ FF_HD void store4(std::uint32_t* p, const std::uint32_t v[4]) {
 #endif
 }
 
+FF_HD void store4(std::uint32_t* p, std::uint32_t a, std::uint32_t b, std::uint32_t c, std::uint32_t d) {
+  const std::uint32_t v[4] = {a, b, c, d};
+  store4(p, v);
+}
+
 // Two ring members' positions at once ({x, y, x, y}, 16-byte aligned).
 FF_HD void load4(const float* p, float v[4]) {
 #if defined(__CUDA_ARCH__)
@@ -119,11 +124,14 @@ FF_HD void load4(const float* p, float v[4]) {
   for (int k = 0; k < 4; ++k) v[k] = p[k];
 #endif
 }
-FF_HD void store4(float* p, const float v[4]) {
+FF_HD void store4(float* p, float a, float b, float c, float d) {
 #if defined(__CUDA_ARCH__)
-  *reinterpret_cast<float4*>(p) = make_float4(v[0], v[1], v[2], v[3]);
+  *reinterpret_cast<float4*>(p) = make_float4(a, b, c, d);
 #else
-  for (int k = 0; k < 4; ++k) p[k] = v[k];
+  p[0] = a;
+  p[1] = b;
+  p[2] = c;
+  p[3] = d;
 #endif
 }
 
@@ -183,8 +191,10 @@ struct GatherRing {
   FF_HD std::uint32_t operator()(std::size_t u) const {
     const int h0 = vedge[u];
     int h = h0;
-    std::uint32_t k = 0, chunk[4];
-    float xy[4] = {0, 0, 0, 0};
+    // The chunk of 4 slots being filled and the pair of positions, in registers (named, not
+    // indexed: an indexed array would live in local memory on the device).
+    std::uint32_t k = 0, c0 = kRingEnd, c1 = kRingEnd, c2 = kRingEnd, c3 = kRingEnd;
+    float x0 = 0, y0 = 0, x1 = 0, y1 = 0;
     std::uint32_t* row = ring + u * width;
     float* row_xy = ring_xy + 2 * u * width;
     do {
@@ -194,21 +204,37 @@ struct GatherRing {
       load_halfedge(he, h, origin, next);
       load_halfedge(he, next, end, next2);
       if (k < width) {
-        chunk[k & 3] = std::uint32_t(end);
-        if ((k & 3) == 3) store4(row + (k & ~3u), chunk);
+        const std::uint32_t e = std::uint32_t(end);
+        switch (k & 3) {
+          case 0: c0 = e; break;
+          case 1: c1 = e; break;
+          case 2: c2 = e; break;
+          default:
+            c3 = e;
+            store4(row + (k & ~3u), c0, c1, c2, c3);
+        }
         R ex, ey;
         load_xy(prev, std::size_t(end), ex, ey);
-        xy[2 * (k & 1)] = wrapped(ex, 0);
-        xy[2 * (k & 1) + 1] = wrapped(ey, 1);
-        if (k & 1) store4(row_xy + 2 * (k & ~1u), xy);
+        if (k & 1) {
+          x1 = wrapped(ex, 0);
+          y1 = wrapped(ey, 1);
+          store4(row_xy + 2 * (k & ~1u), x0, y0, x1, y1);
+        } else {
+          x0 = wrapped(ex, 0);
+          y0 = wrapped(ey, 1);
+        }
       }
       ++k;
       h = next2 ^ 1;
     } while (h != h0 && k < n);
     if (k < width) {  // kRingEnd to the end of the chunk (a whole chunk of them after a full one)
-      for (std::uint32_t a = k & 3; a < 4; ++a) chunk[a] = kRingEnd;
-      store4(row + (k & ~3u), chunk);
-      if (k & 1) store4(row_xy + 2 * (k & ~1u), xy);  // the last member's pair
+      const std::uint32_t r = k & 3;
+      if (r == 0) c0 = kRingEnd;
+      if (r <= 1) c1 = kRingEnd;
+      if (r <= 2) c2 = kRingEnd;
+      c3 = kRingEnd;
+      store4(row + (k & ~3u), c0, c1, c2, c3);
+      if (k & 1) store4(row_xy + 2 * (k & ~1u), x0, y0, x1, y1);  // the last member's pair
     }
     degree[u] = k;
 
@@ -342,7 +368,9 @@ struct SearchVisited : SearchBase<R> {
     // p where ring_xy has it: wrapped (in double; ring_xy's members are rounded to float).
     const double px = double(ox) - this->old.box.L[0] * std::floor(double(ox) * this->old.box.inv_L[0]);
     const double py = double(oy) - this->old.box.L[1] * std::floor(double(oy) * this->old.box.inv_L[1]);
-    std::uint64_t filter[2] = {0, 0};  // bit (hash of w) set for every w in the queue
+    // Bit (hash of w) set for every w in the queue: 128 bits in two named words (an indexed pair
+    // would live in local memory on the device).
+    std::uint64_t filter_lo = 0, filter_hi = 0;
     std::uint32_t n = 0, head = 0, u = p;
     for (;;) {
       const std::uint32_t* ru = this->ring + std::size_t(u) * this->width;
@@ -355,15 +383,18 @@ struct SearchVisited : SearchBase<R> {
         load4(xu + 2 * k, cx);
         if (c[2] != kRingEnd) load4(xu + 2 * k + 4, cx + 4);
         else cx[4] = cx[5] = cx[6] = cx[7] = 0;  // not read: the ring ends before them
+        // Unrolled with constant indices, so that c and cx stay in registers on the device.
+#if defined(__CUDA_ARCH__)
+#pragma unroll
+#endif
         for (int j = 0; j < 4; ++j) {
           const std::uint32_t w = c[j];
-          if (w == kRingEnd) {
-            end = true;
-            break;
-          }
+          end = end || w == kRingEnd;
+          if (end) continue;
           const std::uint32_t hash = (w * 0x9E3779B1u) >> 25;  // 7 bits
           const std::uint64_t bit = std::uint64_t(1) << (hash & 63);
-          if (filter[hash >> 6] & bit) {
+          const bool hi = (hash >> 6) != 0;
+          if ((hi ? filter_hi : filter_lo) & bit) {
             bool seen = false;
             for (std::uint32_t a = 0; a < n && !seen; ++a) seen = q.get(a) == w;
             if (seen) continue;
@@ -372,7 +403,8 @@ struct SearchVisited : SearchBase<R> {
           const double dy = this->old.image(double(cx[2 * j + 1]) - py, 1);
           if (w == p || dx * dx + dy * dy > e2) continue;
           if (n == q.limit() && !q.spill(n)) return this->overflow(p);
-          filter[hash >> 6] |= bit;
+          if (hi) filter_hi |= bit;
+          else filter_lo |= bit;
           q.set(n++, w);
         }
       }
