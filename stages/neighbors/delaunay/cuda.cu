@@ -31,7 +31,7 @@ template <class R>
 __global__ void __launch_bounds__(kBlock) visited_kernel(std::size_t n, SearchVisited<R> f, std::uint32_t* word) {
   __shared__ std::uint32_t fast[kFastSlots * kBlock];
   const std::size_t i = std::size_t(blockIdx.x) * kBlock + threadIdx.x;
-  combine_max(i < n ? f(i, fast + threadIdx.x, kBlock) : 0u, word);
+  combine_max(i < n ? f.template search<kBlock>(i, fast + threadIdx.x) : 0u, word);
 }
 
 unsigned grid_of(std::size_t n) { return unsigned((n + kBlock - 1) / kBlock); }

@@ -327,25 +327,27 @@ struct SearchBase {
   }
 };
 
-// The visited search's queue: slots [0, kFastSlots) in fast memory (`stride` apart: a column of a
-// shared-memory block on CUDA, so the threads of a warp never share a bank), moved to the row of
-// the list when it needs more (spill).
+// The visited search's queue: slots [0, kFastSlots) in fast memory (`Stride` apart: a column of
+// a shared-memory block on CUDA, so the threads of a warp never share a bank; 1 on the CPU),
+// moved to the row of the list when it needs more (spill).
+template <std::uint32_t Stride>
 struct Queue {
   std::uint32_t* base;    // the fast slots, then the row
-  std::uint32_t stride;   // between slots: the fast memory's, then 1
+  std::uint32_t stride;   // between slots: Stride, then 1
   std::uint32_t* row;
   std::uint32_t cap;      // the row's length
   std::uint32_t lim;      // slots in base
 
-  FF_HD Queue(std::uint32_t* fast, std::uint32_t fast_stride, std::uint32_t* row_, std::uint32_t cap_)
-      : base(fast), stride(fast_stride), row(row_), cap(cap_), lim(cap_ < kFastSlots ? cap_ : kFastSlots) {}
-  FF_HD std::uint32_t get(std::uint32_t a) const { return base[a * stride]; }
-  FF_HD void set(std::uint32_t a, std::uint32_t v) { base[a * stride] = v; }
+  FF_HD Queue(std::uint32_t* fast, std::uint32_t* row_, std::uint32_t cap_)
+      : base(fast), stride(Stride), row(row_), cap(cap_), lim(cap_ < kFastSlots ? cap_ : kFastSlots) {}
+  FF_HD std::uint32_t at(std::uint32_t a) const { return Stride == 1 ? a : a * stride; }
+  FF_HD std::uint32_t get(std::uint32_t a) const { return base[at(a)]; }
+  FF_HD void set(std::uint32_t a, std::uint32_t v) { base[at(a)] = v; }
   FF_HD std::uint32_t limit() const { return lim; }
   // Room for more than limit(): false when the row is full too.
   FF_HD bool spill(std::uint32_t n) {
     if (lim == cap) return false;
-    for (std::uint32_t a = 0; a < n; ++a) row[a] = base[a * stride];
+    for (std::uint32_t a = 0; a < n; ++a) row[a] = base[at(a)];
     base = row;
     stride = 1;
     lim = cap;
@@ -354,15 +356,16 @@ struct Queue {
 };
 
 // Traversal `visited`: breadth-first, the queue as visited set. `fast`: kFastSlots slots,
-// `stride` apart.
+// Stride apart.
 template <class R>
 struct SearchVisited : SearchBase<R> {
-  FF_HD std::uint32_t operator()(std::size_t pi, std::uint32_t* fast, std::uint32_t stride) const {
+  template <std::uint32_t Stride>
+  FF_HD std::uint32_t search(std::size_t pi, std::uint32_t* fast) const {
     const std::uint32_t p = std::uint32_t(pi);
     const double e2 = this->expand2();
     if (e2 < 0) return kTooFar;
     if (this->degree[p] > this->width) return this->overflow(p) | kRingOverflow;
-    Queue q(fast, stride, this->list + std::size_t(p) * this->capacity, this->capacity);
+    Queue<Stride> q(fast, this->list + std::size_t(p) * this->capacity, this->capacity);
     R ox, oy;
     load_xy(this->old.p, p, ox, oy);
     // p where ring_xy has it: wrapped (in double; ring_xy's members are rounded to float).
