@@ -1,9 +1,15 @@
 // delaunay.flip alone: repairs marked inversions (Carter et al. 2017 figs. 5–6) by parallel,
 // conflict-free flips; conflicting repairs on one triangle take two rounds; with detection in
 // front, random large moves either end in a valid triangulation or in a rollback, never in an
-// inverted triangle.
+// inverted triangle; with `on_unrepairable: substep`, vertices across two edges (fig. 6) end at
+// the integrator's targets, alone and inside a running pipeline, and pass-throughs still roll back.
+#include <map>
+#include <random>
+
 #include "core/base/error.h"
+#include "core/run/simulation.h"
 #include "stages/delaunay/test_support.h"
+#include "support/spec.h"
 
 using namespace ff;
 using namespace ff::test::dl;
@@ -307,4 +313,125 @@ TEST_CASE("flip substep: particles through each other still roll back", "[delaun
   REQUIRE(o.rollback);
   CHECK_THAT(o.reason, Catch::Contains("passed through each other"));
   CHECK(status_of(*sc.s)[ff::delaunay::kPrevKept] == 0);
+}
+
+// --- sub-steps in a running pipeline (the core's Simulation) -------------------------------
+
+namespace {
+
+// test.scripted_move: the "integrator" of a pipeline whose trajectory the test prescribes: at
+// step k it writes positions frames[k] (frames[0] at step 0: the start, before the first
+// triangulation). A host stage on either backend (the core copies the field).
+class ScriptedMove final : public Stage {
+ public:
+  explicit ScriptedMove(const std::vector<std::vector<double>>* frames) : frames_(frames) {}
+  std::vector<Access> accesses() const override { return {{fields::position, Where::host, Mode::write}}; }
+  Outcome run(StepContext& ctx) override {
+    const std::vector<double>& f = (*frames_)[std::min<std::size_t>(ctx.host_params.step, frames_->size() - 1)];
+    std::copy(f.begin(), f.end(), ctx.state.field(fields::position).host<double>());
+    return Outcome::ok();
+  }
+
+ private:
+  const std::vector<std::vector<double>>* frames_;
+};
+
+std::unique_ptr<Registry> registry_with_script(const std::vector<std::vector<double>>* frames) {
+  auto r = ff::test::registry_of({"delaunay"});
+  r->declare({"test.scripted_move", "writes the test's positions (tests only)", {}, {2}, false});
+  for (Backend b : {Backend::cpu, Backend::cuda})
+    r->implement("test.scripted_move", b,
+                 [frames](const ParamValues&, const RunInfo&) { return std::make_unique<ScriptedMove>(frames); });
+  return r;
+}
+
+StepEntry step_entry(const Registry& r, const std::string& stage, const std::map<std::string, ParamValue>& params = {},
+                     std::uint64_t every = 1) {
+  StepEntry e;
+  e.stage = e.id = stage;
+  e.params = ParamValues::defaults(r.get(stage).decl.params);
+  for (auto& kv : params) e.params.set(kv.first, kv.second);
+  e.schedule.every = every;
+  e.where = Location{"test", 1, 1};
+  return e;
+}
+
+double wrap(double x, double L) { return x - L * std::floor(x / L); }
+
+}  // namespace
+
+TEST_CASE("flip substep: in a running pipeline, two-edge crossings end at the integrator's targets every step",
+          "[delaunay][flip][substep][pipeline]") {
+  // Two vertices of one point set, far apart, each made to cross two edges (Carter fig. 6): the
+  // first at step 1, the second at step 2; at step 3 every particle makes a small move. The
+  // pipeline: the scripted integrator (step 0: the start, which delaunay.build triangulates),
+  // detect_inversion, flip (substep), lawson, and delaunay.check every step (a RunError at the
+  // first step not Delaunay for the positions).
+  const auto cases = two_edge_cases(40, 0.05);
+  const TwoEdgeCase* first = nullptr;
+  const TwoEdgeCase* second = nullptr;
+  for (std::size_t a = 0; a < cases.size() && !second; ++a)
+    for (std::size_t b = a + 1; b < cases.size() && !second; ++b) {
+      if (cases[a].seed != cases[b].seed) continue;
+      const auto xy = positions(*case_state(cases[a].seed));
+      const double dx = std::remainder(xy[2 * cases[a].v] - xy[2 * cases[b].v], kCaseSide);
+      const double dy = std::remainder(xy[2 * cases[a].v + 1] - xy[2 * cases[b].v + 1], kCaseSide);
+      if (std::hypot(dx, dy) > 5) {
+        first = &cases[a];
+        second = &cases[b];
+      }
+    }
+  REQUIRE(second != nullptr);
+  std::vector<std::vector<double>> frames{positions(*case_state(first->seed))};
+  for (const TwoEdgeCase* c : {first, second}) {
+    auto f = frames.back();
+    f[2 * c->v] = wrap(c->to[0], kCaseSide);
+    f[2 * c->v + 1] = wrap(c->to[1], kCaseSide);
+    frames.push_back(f);
+  }
+  {
+    auto f = frames.back();
+    std::mt19937_64 g(3);
+    std::uniform_real_distribution<double> u(-0.01, 0.01);
+    for (double& x : f) x = wrap(x + u(g), kCaseSide);
+    frames.push_back(f);
+  }
+  const std::uint64_t steps = frames.size();
+  const auto reg = registry_with_script(&frames);
+  auto pipeline = [&](const std::string& on_unrepairable) {
+    std::vector<StepEntry> step{step_entry(*reg, "test.scripted_move"),
+                                step_entry(*reg, "delaunay.build", {}, steps + 1),
+                                step_entry(*reg, "delaunay.detect_inversion"),
+                                step_entry(*reg, "delaunay.flip", {{"on_unrepairable", on_unrepairable}}),
+                                step_entry(*reg, "delaunay.lawson"),
+                                step_entry(*reg, "delaunay.check")};
+    auto s = ff::test::spec(2, frames[0].size() / 2, 0.3, steps, 0.01, std::move(step), 1);
+    s.system.box = {kCaseSide, kCaseSide};
+    s.system.sigma = 0.1;  // only `init: random` sees a diameter, and the script moves them at once
+    return s;
+  };
+  for (Backend b : ff::test::backends()) {
+    INFO("seed " << first->seed << ", vertices " << first->v << " and " << second->v << ", backend " << int(b));
+    Simulation sim(pipeline("substep"), *reg, ff::test::dry(b));
+    for (std::uint64_t k = 0; k < steps; ++k) {
+      INFO("step " << k);
+      REQUIRE_NOTHROW(sim.advance());
+      CHECK(positions(sim.state()) == frames[k]);  // the integrator's targets, bit for bit
+      CHECK(sim.stats().rollbacks == 0);
+      CHECK(sim.stats().dt == 0.01);
+      const double substeps = sim.stats().metrics.at("delaunay.flip/substeps");
+      const double unrepairable = sim.stats().metrics.at("delaunay.detect_inversion/unrepairable");
+      if (k == 1 || k == 2) {
+        CHECK(substeps >= 1);
+        CHECK(unrepairable >= 1);
+      } else {
+        CHECK(substeps == 0);
+      }
+    }
+    // The default mode cannot take step 1 at any Δt (the script moves the same way whatever Δt
+    // is): it rolls back until Δt reaches dt_min and gives up, naming the crossing.
+    Simulation rollback(pipeline("rollback"), *reg, ff::test::dry(b));
+    REQUIRE_NOTHROW(rollback.advance());
+    CHECK_THROWS_WITH(rollback.advance(), Catch::Contains("no single edge flip repairs it"));
+  }
 }

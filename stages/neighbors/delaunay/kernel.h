@@ -9,27 +9,33 @@
 //
 // The triangulation is Delaunay for delaunay.position_prev (the positions delaunay.lawson
 // worked on), and overlap correction may have moved particles since. With m the largest move
-// since (MaxMove), a pair within r now was within r + 2m then, so the search walks the old
-// positions expanding vertices within r_expand = r + 2m (plus a relative margin for Lawson's
-// co-circular tolerance and rounding), and a vertex it reaches is accepted when its current
-// distance is within r, by the same formula as neighbors.verlet's BuildList (so both sources
-// list the same pairs at the same cutoff, bit for bit).
+// since (GatherRing returns each vertex's), a pair within r now was within r + 2m then, so the
+// search walks the old positions expanding vertices within r_expand = r + 2m (plus a relative
+// margin for Lawson's co-circular tolerance and rounding; expand_radius), and a vertex it
+// reaches is accepted when its current distance is within r, by the same formula as
+// neighbors.verlet's BuildList (so both sources list the same pairs at the same cutoff, bit for
+// bit). The search reads m from the word the gather's max-reduction left in memory, so the host
+// does not wait between the two loops.
 //
 // Layout: GatherRing copies each vertex's one-ring (its neighbours, turning CCW from
-// vertex_edge) into a padded array of `width` slots per vertex, so the search reads each ring
-// contiguously. The search of p writes into p's row of neighbors.list, used as working memory
-// of `capacity` slots until the accepted neighbours are compacted to its front and sorted:
-//   visited  breadth-first; the row is the queue and the visited set. A 128-bit filter in
-//            registers answers "not seen" for most new vertices without a scan of the row, and a
-//            vertex seen before is skipped before its distance is computed again.
+// vertex_edge) into a padded array of `width` slots per vertex, ended by kRingEnd when shorter,
+// written and read four slots at a time, so the search reads each ring in one or two loads.
+//   visited  breadth-first with a queue that is also the visited set: the first kFastSlots
+//            entries in fast memory (CUDA: the thread's column of shared memory; CPU: the
+//            stack), beyond that the row of neighbors.list. A 128-bit filter in registers
+//            answers "not seen" for most new vertices without a scan of the queue, and a vertex
+//            seen before is skipped before its distance is computed again. The accepted entries
+//            are then compacted, sorted and written to the row.
 //   parent   depth-first without a visited set: q's parent is its ring member closest to p
 //            (ties: lower index), which the lemma makes closer to p than q, so the parent links
 //            form a tree rooted at p; the search descends from u to w iff parent(w) = u. The
 //            row holds the tree's vertices from its front and the depth-first stack (ring slots
 //            to resume at) from its back.
-// Either returns (through the backend's max-reduction) the most row slots it held at once, or
-// capacity + 1 when the row overflowed, with kRingOverflow set when p's degree exceeds `width`:
-// the stage then grows the row or the ring and searches again, so an overflow is never silent.
+// Both write the row's slots up to the next multiple of 4 past the count (kRingEnd after the
+// last neighbour), the same slots on both backends. Either returns (through a max-reduction)
+// the most slots it held at once, or capacity + 1 when the row overflowed, with kRingOverflow
+// set when p's degree exceeds `width` and kTooFar when r_expand reaches half the box: the stage
+// then grows the row or the ring and searches again, or stops, so an overflow is never silent.
 // nvcc-clean.
 #pragma once
 #include <cmath>
@@ -44,6 +50,13 @@ namespace ff::neighbors {
 
 // Set in a search's result when the vertex has more ring members than the ring array's width.
 inline constexpr std::uint32_t kRingOverflow = 0x80000000u;
+// Set in a search's result when the radius to expand reaches half the smallest box edge.
+inline constexpr std::uint32_t kTooFar = 0x40000000u;
+// After the last member of a ring shorter than the ring array's width, and after the last
+// neighbour of a row.
+inline constexpr std::uint32_t kRingEnd = 0xFFFFFFFFu;
+// Queue slots of the visited search kept out of the list (shared memory on CUDA).
+inline constexpr std::uint32_t kFastSlots = 32;
 
 // The bits of a non-negative float as an unsigned integer, which order as the floats do.
 FF_HD std::uint32_t float_bits(float f) {
@@ -65,45 +78,181 @@ FF_HD float bits_float(std::uint32_t u) {
 #endif
 }
 
-// Squared minimum-image move of each particle since the triangulation's positions, rounded up to
-// a float and returned as its bits, so the backend's integer max-reduction gives an upper bound
-// of m² (an upper bound is all the expansion radius needs).
-template <class R>
-struct MaxMove {
-  delaunay::Points<R> now;
-  const R* prev;
+// The radius the search expands, from the bits of an upper bound of m² (the largest move since
+// the triangulation's positions, squared). margin: Lawson leaves co-circular quads within its
+// relative tolerance, and the acceptance test rounds in the run's precision (its minimum image
+// to ~ulp(L)): expanding more costs a few distance tests, expanding less could miss a pair.
+FF_HD double expand_radius(std::uint32_t m2_bits, double radius, double margin) {
+  const double m = std::sqrt(double(bits_float(m2_bits)));
+  return (radius + 2 * m) * (1 + 1e-6) + margin;
+}
 
-  FF_HD std::uint32_t operator()(std::size_t i) const {
-    const double dx = now.image(double(now.p[2 * i]) - double(prev[2 * i]), 0);
-    const double dy = now.image(double(now.p[2 * i + 1]) - double(prev[2 * i + 1]), 1);
+// Four slots at once (16-byte aligned: the ring and list rows are multiples of 4 slots).
+FF_HD void load4(const std::uint32_t* p, std::uint32_t v[4]) {
+#if defined(__CUDA_ARCH__)
+  const uint4 q = __ldg(reinterpret_cast<const uint4*>(p));
+  v[0] = q.x;
+  v[1] = q.y;
+  v[2] = q.z;
+  v[3] = q.w;
+#else
+  for (int k = 0; k < 4; ++k) v[k] = p[k];
+#endif
+}
+FF_HD void store4(std::uint32_t* p, const std::uint32_t v[4]) {
+#if defined(__CUDA_ARCH__)
+  *reinterpret_cast<uint4*>(p) = make_uint4(v[0], v[1], v[2], v[3]);
+#else
+  for (int k = 0; k < 4; ++k) p[k] = v[k];
+#endif
+}
+
+FF_HD void store4(std::uint32_t* p, std::uint32_t a, std::uint32_t b, std::uint32_t c, std::uint32_t d) {
+  const std::uint32_t v[4] = {a, b, c, d};
+  store4(p, v);
+}
+
+// Two ring members' positions at once ({x, y, x, y}, 16-byte aligned).
+FF_HD void load4(const float* p, float v[4]) {
+#if defined(__CUDA_ARCH__)
+  const float4 q = __ldg(reinterpret_cast<const float4*>(p));
+  v[0] = q.x;
+  v[1] = q.y;
+  v[2] = q.z;
+  v[3] = q.w;
+#else
+  for (int k = 0; k < 4; ++k) v[k] = p[k];
+#endif
+}
+FF_HD void store4(float* p, float a, float b, float c, float d) {
+#if defined(__CUDA_ARCH__)
+  *reinterpret_cast<float4*>(p) = make_float4(a, b, c, d);
+#else
+  p[0] = a;
+  p[1] = b;
+  p[2] = c;
+  p[3] = d;
+#endif
+}
+
+// Particle i's two coordinates (one load on the device; the arrays are not written while a
+// search runs).
+template <class R>
+FF_HD void load_xy(const R* pos, std::size_t i, R& x, R& y) {
+#if defined(__CUDA_ARCH__)
+  if constexpr (sizeof(R) == 8) {
+    const double2 p = __ldg(reinterpret_cast<const double2*>(pos) + i);
+    x = p.x;
+    y = p.y;
+  } else {
+    const float2 p = __ldg(reinterpret_cast<const float2*>(pos) + i);
+    x = p.x;
+    y = p.y;
+  }
+#else
+  x = pos[2 * i];
+  y = pos[2 * i + 1];
+#endif
+}
+
+// {origin, next} of half-edge h.
+FF_HD void load_halfedge(const std::int32_t* he, int h, int& origin, int& next) {
+#if defined(__CUDA_ARCH__)
+  const int2 r = __ldg(reinterpret_cast<const int2*>(he) + h);
+  origin = r.x;
+  next = r.y;
+#else
+  origin = he[2 * h];
+  next = he[2 * h + 1];
+#endif
+}
+
+// Vertex u's one-ring into ring[u·width ...] in CCW order from vertex_edge[u], then kRingEnd up
+// to the next multiple of 4 when it is shorter than width; degree[u] = its true degree (more
+// than width: the search reports kRingOverflow and the stage widens the ring); and beside each
+// member its position in the triangulation's positions, wrapped into the box and rounded to
+// float (ring_xy, 2 floats per slot), so that the visited search reads a vertex's ring and
+// where its members are in a few contiguous loads instead of one scattered load each (the
+// rounding is within the expansion margin: SearchBase::expand2). Returns the bits
+// of u's squared minimum-image move since the triangulation's positions, rounded up to a float,
+// so an integer max-reduction gives an upper bound of m² (all the expansion radius needs).
+template <class R>
+struct GatherRing {
+  const std::int32_t* he;     // delaunay.halfedge: {origin, next} per half-edge
+  const std::int32_t* vedge;  // delaunay.vertex_edge
+  std::uint32_t width;        // a multiple of 4
+  std::uint32_t n;            // vertices: no valid ring is longer (guards a corrupt mesh)
+  std::uint32_t* ring;        // n x width
+  std::uint32_t* degree;      // n
+  float* ring_xy;             // n x width x 2
+  delaunay::Points<R> now;    // position
+  const R* prev;              // delaunay.position_prev
+
+  FF_HD std::uint32_t operator()(std::size_t u) const {
+    const int h0 = vedge[u];
+    int h = h0;
+    // The chunk of 4 slots being filled and the pair of positions, in registers (named, not
+    // indexed: an indexed array would live in local memory on the device).
+    std::uint32_t k = 0, c0 = kRingEnd, c1 = kRingEnd, c2 = kRingEnd, c3 = kRingEnd;
+    float x0 = 0, y0 = 0, x1 = 0, y1 = 0;
+    std::uint32_t* row = ring + u * width;
+    float* row_xy = ring_xy + 2 * u * width;
+    do {
+      // The other end of h is the origin of next(h), whose next is next(next(h)), and
+      // twin(next(next(h))) is the next half-edge CCW around u.
+      int origin, next, end, next2;
+      load_halfedge(he, h, origin, next);
+      load_halfedge(he, next, end, next2);
+      if (k < width) {
+        const std::uint32_t e = std::uint32_t(end);
+        switch (k & 3) {
+          case 0: c0 = e; break;
+          case 1: c1 = e; break;
+          case 2: c2 = e; break;
+          default:
+            c3 = e;
+            store4(row + (k & ~3u), c0, c1, c2, c3);
+        }
+        R ex, ey;
+        load_xy(prev, std::size_t(end), ex, ey);
+        if (k & 1) {
+          x1 = wrapped(ex, 0);
+          y1 = wrapped(ey, 1);
+          store4(row_xy + 2 * (k & ~1u), x0, y0, x1, y1);
+        } else {
+          x0 = wrapped(ex, 0);
+          y0 = wrapped(ey, 1);
+        }
+      }
+      ++k;
+      h = next2 ^ 1;
+    } while (h != h0 && k < n);
+    if (k < width) {  // kRingEnd to the end of the chunk (a whole chunk of them after a full one)
+      const std::uint32_t r = k & 3;
+      if (r == 0) c0 = kRingEnd;
+      if (r <= 1) c1 = kRingEnd;
+      if (r <= 2) c2 = kRingEnd;
+      c3 = kRingEnd;
+      store4(row + (k & ~3u), c0, c1, c2, c3);
+      if (k & 1) store4(row_xy + 2 * (k & ~1u), x0, y0, x1, y1);  // the last member's pair
+    }
+    degree[u] = k;
+
+    R xu, yu, pu, qu;
+    load_xy(now.p, u, xu, yu);
+    load_xy(prev, u, pu, qu);
+    const double dx = now.image(double(xu) - double(pu), 0);
+    const double dy = now.image(double(yu) - double(qu), 1);
     const double d2 = dx * dx + dy * dy;
     const float f = float(d2);
     const std::uint32_t b = float_bits(f);
     return double(f) < d2 ? b + 1 : b;  // the next float up
   }
-};
 
-// Vertex u's one-ring into ring[u·width ...] in CCW order from vertex_edge[u]; degree[u] = its
-// true degree (more than width: the search reports kRingOverflow and the stage widens the ring).
-struct GatherRing {
-  const std::int32_t* he;     // delaunay.halfedge: {origin, next} per half-edge
-  const std::int32_t* vedge;  // delaunay.vertex_edge
-  std::uint32_t width;
-  std::uint32_t n;            // vertices: no valid ring is longer (guards a corrupt mesh)
-  std::uint32_t* ring;        // n x width
-  std::uint32_t* degree;      // n
-
-  FF_HD void operator()(std::size_t u) const {
-    const int h0 = vedge[u];
-    int h = h0;
-    std::uint32_t k = 0;
-    std::uint32_t* row = ring + u * width;
-    do {
-      if (k < width) row[k] = std::uint32_t(he[2 * (h ^ 1)]);  // the other end of h
-      ++k;
-      h = he[2 * he[2 * h + 1] + 1] ^ 1;  // twin(next(next(h))): the next half-edge CCW around u
-    } while (h != h0 && k < n);
-    degree[u] = k;
+  // Coordinate c along axis k wrapped into [0, L] (up to rounding) and rounded to float.
+  FF_HD float wrapped(R c, int k) const {
+    const double d = double(c);
+    return float(d - now.box.L[k] * std::floor(d * now.box.inv_L[k]));
   }
 };
 
@@ -114,48 +263,61 @@ struct SearchBase {
   const R* x;                   // position now
   PeriodicBox<R> box;           // the acceptance test's minimum image (BuildList's)
   R accept2;                    // r², in the run's precision
-  double expand2;               // r_expand²
+  double radius;                // r, and expand_radius's margin, which covers the float rounding
+  double margin;                // of ring_xy too: ≤ half an ulp of the box edge per coordinate
+  double lmin;                  // the smallest box edge
+  const std::uint32_t* move2;   // GatherRing's max-reduction: the bits of an upper bound of m²
   const std::uint32_t* ring;    // GatherRing's
   const std::uint32_t* degree;
+  const float* ring_xy;
   std::uint32_t width;
-  std::uint32_t capacity;       // row length of the list
+  std::uint32_t capacity;       // row length of the list, a multiple of 4
   std::uint32_t* list;          // n x capacity
   std::uint32_t* count;         // accepted neighbours per row
   R* at_build;                  // neighbors.position_at_build: the positions the rows are exact for
+
+  // r_expand², or a negative number when r_expand reaches half the smallest box edge.
+  FF_HD double expand2() const {
+    const double re = expand_radius(*move2, radius, margin);
+    return 2 * re < lmin ? re * re : -1.0;
+  }
 
   FF_HD std::uint32_t ring_size(std::uint32_t u) const { return degree[u] < width ? degree[u] : width; }
 
   // Squared distance from p (its old position (px, py)) to vertex w, in the old positions.
   FF_HD double old_d2(double px, double py, std::uint32_t w) const {
-    const double dx = old.image(double(old.p[2 * w]) - px, 0);
-    const double dy = old.image(double(old.p[2 * w + 1]) - py, 1);
+    R wx, wy;
+    load_xy(old.p, w, wx, wy);
+    const double dx = old.image(double(wx) - px, 0);
+    const double dy = old.image(double(wy) - py, 1);
     return dx * dx + dy * dy;
   }
 
   // Within r now: neighbors.verlet's test (verlet/kernel.h BuildList), term for term.
-  FF_HD bool accepted(std::uint32_t p, std::uint32_t j) const {
+  FF_HD bool accepted(R px, R py, std::uint32_t j) const {
+    R jx, jy;
+    load_xy(x, j, jx, jy);
+    const R dx = box.min_image(jx - px, 0);
+    const R dy = box.min_image(jy - py, 1);
     R d2 = 0;
-    for (int k = 0; k < 2; ++k) {
-      const R d = box.min_image(x[std::size_t(j) * 2 + k] - x[std::size_t(p) * 2 + k], k);
-      d2 += d * d;
-    }
+    d2 += dx * dx;
+    d2 += dy * dy;
     return d2 <= accept2;
   }
 
-  // Keeps the accepted entries of row[0, n) in ascending order at the row's front; count[p].
-  FF_HD void finish_row(std::uint32_t p, std::uint32_t* row, std::uint32_t n) const {
-    std::uint32_t m = 0;
-    for (std::uint32_t a = 0; a < n; ++a)
-      if (accepted(p, row[a])) row[m++] = row[a];
-    for (std::uint32_t a = 1; a < m; ++a) {  // insertion sort: rows are short
-      const std::uint32_t v = row[a];
-      std::uint32_t b = a;
-      for (; b > 0 && row[b - 1] > v; --b) row[b] = row[b - 1];
-      row[b] = v;
+  // Writes the row: the m entries (ascending) of `sorted`, then kRingEnd to the next multiple of
+  // 4; count[p] and position_at_build[p].
+  template <class Get>
+  FF_HD void write_row(std::uint32_t p, R px, R py, std::uint32_t m, const Get& sorted) const {
+    std::uint32_t* row = list + std::size_t(p) * capacity;
+    for (std::uint32_t a = 0; a < m; a += 4) {
+      std::uint32_t v[4];
+      for (std::uint32_t b = 0; b < 4; ++b) v[b] = a + b < m ? sorted(a + b) : kRingEnd;
+      store4(row + a, v);
     }
     count[p] = m;
-    at_build[2 * std::size_t(p)] = x[2 * std::size_t(p)];
-    at_build[2 * std::size_t(p) + 1] = x[2 * std::size_t(p) + 1];
+    at_build[2 * std::size_t(p)] = px;
+    at_build[2 * std::size_t(p) + 1] = py;
   }
 
   // Row overflow: nothing valid in the row; the stage grows it and searches again.
@@ -165,37 +327,108 @@ struct SearchBase {
   }
 };
 
-// Traversal `visited`: breadth-first, the row as queue and visited set.
+// The visited search's queue: slots [0, kFastSlots) in fast memory (`Stride` apart: a column of
+// a shared-memory block on CUDA, so the threads of a warp never share a bank; 1 on the CPU),
+// moved to the row of the list when it needs more (spill).
+template <std::uint32_t Stride>
+struct Queue {
+  std::uint32_t* base;    // the fast slots, then the row
+  std::uint32_t stride;   // between slots: Stride, then 1
+  std::uint32_t* row;
+  std::uint32_t cap;      // the row's length
+  std::uint32_t lim;      // slots in base
+
+  FF_HD Queue(std::uint32_t* fast, std::uint32_t* row_, std::uint32_t cap_)
+      : base(fast), stride(Stride), row(row_), cap(cap_), lim(cap_ < kFastSlots ? cap_ : kFastSlots) {}
+  FF_HD std::uint32_t at(std::uint32_t a) const { return Stride == 1 ? a : a * stride; }
+  FF_HD std::uint32_t get(std::uint32_t a) const { return base[at(a)]; }
+  FF_HD void set(std::uint32_t a, std::uint32_t v) { base[at(a)] = v; }
+  FF_HD std::uint32_t limit() const { return lim; }
+  // Room for more than limit(): false when the row is full too.
+  FF_HD bool spill(std::uint32_t n) {
+    if (lim == cap) return false;
+    for (std::uint32_t a = 0; a < n; ++a) row[a] = base[at(a)];
+    base = row;
+    stride = 1;
+    lim = cap;
+    return true;
+  }
+};
+
+// Traversal `visited`: breadth-first, the queue as visited set. `fast`: kFastSlots slots,
+// Stride apart.
 template <class R>
 struct SearchVisited : SearchBase<R> {
-  FF_HD std::uint32_t operator()(std::size_t pi) const {
+  template <std::uint32_t Stride>
+  FF_HD std::uint32_t search(std::size_t pi, std::uint32_t* fast) const {
     const std::uint32_t p = std::uint32_t(pi);
+    const double e2 = this->expand2();
+    if (e2 < 0) return kTooFar;
     if (this->degree[p] > this->width) return this->overflow(p) | kRingOverflow;
-    std::uint32_t* row = this->list + std::size_t(p) * this->capacity;
-    const double px = double(this->old.p[2 * pi]), py = double(this->old.p[2 * pi + 1]);
-    std::uint64_t filter[2] = {0, 0};  // bit (hash of w) set for every w in the row
+    Queue<Stride> q(fast, this->list + std::size_t(p) * this->capacity, this->capacity);
+    R ox, oy;
+    load_xy(this->old.p, p, ox, oy);
+    // p where ring_xy has it: wrapped (in double; ring_xy's members are rounded to float).
+    const double px = double(ox) - this->old.box.L[0] * std::floor(double(ox) * this->old.box.inv_L[0]);
+    const double py = double(oy) - this->old.box.L[1] * std::floor(double(oy) * this->old.box.inv_L[1]);
+    // Bit (hash of w) set for every w in the queue: 128 bits in two named words (an indexed pair
+    // would live in local memory on the device).
+    std::uint64_t filter_lo = 0, filter_hi = 0;
     std::uint32_t n = 0, head = 0, u = p;
     for (;;) {
       const std::uint32_t* ru = this->ring + std::size_t(u) * this->width;
-      const std::uint32_t du = this->ring_size(u);
-      for (std::uint32_t k = 0; k < du; ++k) {
-        const std::uint32_t w = ru[k];
-        const std::uint32_t hash = (w * 0x9E3779B1u) >> 25;  // 7 bits
-        const std::uint64_t bit = std::uint64_t(1) << (hash & 63);
-        if (filter[hash >> 6] & bit) {
-          bool seen = false;
-          for (std::uint32_t a = 0; a < n && !seen; ++a) seen = row[a] == w;
-          if (seen) continue;
+      const float* xu = this->ring_xy + 2 * std::size_t(u) * this->width;
+      bool end = false;
+      for (std::uint32_t k = 0; k < this->width && !end; k += 4) {
+        std::uint32_t c[4];
+        float cx[8];
+        load4(ru + k, c);
+        load4(xu + 2 * k, cx);
+        if (c[2] != kRingEnd) load4(xu + 2 * k + 4, cx + 4);
+        else cx[4] = cx[5] = cx[6] = cx[7] = 0;  // not read: the ring ends before them
+        // Unrolled with constant indices, so that c and cx stay in registers on the device.
+#if defined(__CUDA_ARCH__)
+#pragma unroll
+#endif
+        for (int j = 0; j < 4; ++j) {
+          const std::uint32_t w = c[j];
+          end = end || w == kRingEnd;
+          if (end) continue;
+          const std::uint32_t hash = (w * 0x9E3779B1u) >> 25;  // 7 bits
+          const std::uint64_t bit = std::uint64_t(1) << (hash & 63);
+          const bool hi = (hash >> 6) != 0;
+          if ((hi ? filter_hi : filter_lo) & bit) {
+            bool seen = false;
+            for (std::uint32_t a = 0; a < n && !seen; ++a) seen = q.get(a) == w;
+            if (seen) continue;
+          }
+          const double dx = this->old.image(double(cx[2 * j]) - px, 0);
+          const double dy = this->old.image(double(cx[2 * j + 1]) - py, 1);
+          if (w == p || dx * dx + dy * dy > e2) continue;
+          if (n == q.limit() && !q.spill(n)) return this->overflow(p);
+          if (hi) filter_hi |= bit;
+          else filter_lo |= bit;
+          q.set(n++, w);
         }
-        if (w == p || this->old_d2(px, py, w) > this->expand2) continue;
-        if (n == this->capacity) return this->overflow(p);
-        filter[hash >> 6] |= bit;
-        row[n++] = w;
       }
       if (head == n) break;
-      u = row[head++];
+      u = q.get(head++);
     }
-    this->finish_row(p, row, n);
+    // The accepted ones, compacted to the front in queue order, then sorted (rows are short).
+    R x0, y0;
+    load_xy(this->x, p, x0, y0);
+    std::uint32_t m = 0;
+    for (std::uint32_t a = 0; a < n; ++a) {
+      const std::uint32_t w = q.get(a);
+      if (this->accepted(x0, y0, w)) q.set(m++, w);
+    }
+    for (std::uint32_t a = 1; a < m; ++a) {
+      const std::uint32_t v = q.get(a);
+      std::uint32_t b = a;
+      for (; b > 0 && q.get(b - 1) > v; --b) q.set(b, q.get(b - 1));
+      q.set(b, v);
+    }
+    this->write_row(p, x0, y0, m, [&](std::uint32_t a) { return q.get(a); });
     return n;
   }
 };
@@ -222,10 +455,14 @@ struct SearchParent : SearchBase<R> {
 
   FF_HD std::uint32_t operator()(std::size_t pi) const {
     const std::uint32_t p = std::uint32_t(pi);
+    const double e2 = this->expand2();
+    if (e2 < 0) return kTooFar;
     if (this->degree[p] > this->width) return this->overflow(p) | kRingOverflow;
     const std::uint32_t W = this->width, cap = this->capacity;
     std::uint32_t* row = this->list + std::size_t(p) * cap;
-    const double px = double(this->old.p[2 * pi]), py = double(this->old.p[2 * pi + 1]);
+    R ox, oy;
+    load_xy(this->old.p, p, ox, oy);
+    const double px = double(ox), py = double(oy);
     // Ring slots (u·W + k) of the vertex being scanned: the next one and the end.
     std::uint32_t slot = p * W, end = p * W + this->ring_size(p);
     std::uint32_t n = 0, top = cap;  // tree vertices in row[0, n), the stack in row[top, cap)
@@ -240,7 +477,7 @@ struct SearchParent : SearchBase<R> {
       }
       const std::uint32_t u = slot / W;
       const std::uint32_t w = this->ring[slot++];
-      if (w == p || this->old_d2(px, py, w) > this->expand2) continue;
+      if (w == p || this->old_d2(px, py, w) > e2) continue;
       if (parent(px, py, w) != u) continue;
       if (n + 2 > top) return this->overflow(p);  // w and the resume slot must both fit
       row[n++] = w;
@@ -249,7 +486,18 @@ struct SearchParent : SearchBase<R> {
       slot = w * W;
       end = w * W + this->ring_size(w);
     }
-    this->finish_row(p, row, n);
+    R x0, y0;
+    load_xy(this->x, p, x0, y0);
+    std::uint32_t m = 0;
+    for (std::uint32_t a = 0; a < n; ++a)
+      if (this->accepted(x0, y0, row[a])) row[m++] = row[a];
+    for (std::uint32_t a = 1; a < m; ++a) {  // insertion sort: rows are short
+      const std::uint32_t v = row[a];
+      std::uint32_t b = a;
+      for (; b > 0 && row[b - 1] > v; --b) row[b] = row[b - 1];
+      row[b] = v;
+    }
+    this->write_row(p, x0, y0, m, [&](std::uint32_t a) { return row[a]; });
     return used;
   }
 };

@@ -9,17 +9,20 @@
 // positions of this step (position_at_build) and holds no pair beyond `radius`. It does not
 // write neighbors.build_params or the cell fields, which only a Verlet list's own rebuild
 // (verlet/build.h) can use: overlap_correct.verlet, which rebuilds the list it corrects on,
-// refuses it and asks for neighbors.verlet.
+// refuses it and asks for neighbors.verlet. Its rows are a multiple of 4 slots long.
 //
 // Place it after delaunay.lawson (and after overlap_correct when that runs), or at the start of a
 // step after the first triangulation exists (delaunay.build before it): anywhere but between
 // delaunay.detect_inversion and delaunay.lawson. It searches the positions the triangulation was
 // made Delaunay for (delaunay.position_prev), widened by twice the largest move since (moves of
-// the overlap correction, or of the integrator when it runs at the start of the step). Each step: one max-reduction for that move, the one-ring gather, and
-// the search (a max-reduction too, returning the row slots it needed); a row or ring that
-// overflowed is grown and the search repeated (metrics `max_visited`, `capacity`).
+// the overlap correction, or of the integrator when it runs at the start of the step). Each
+// step: the one-ring gather, which also reduces the largest move, and the search, which reads
+// that move where the gather left it and reduces the row slots it needed (loops.h); the host
+// reads both results once, after the search. A row or ring that overflowed is grown and the
+// search repeated (metrics `max_visited`, `capacity`).
 #pragma once
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdint>
 #include <limits>
@@ -32,6 +35,7 @@
 #include "core/stage/stage_registration.h"
 #include "stages/delaunay/common/fields.h"
 #include "stages/neighbors/delaunay/kernel.h"
+#include "stages/neighbors/delaunay/loops.h"
 #include "stages/neighbors/list.h"
 
 namespace ff::neighbors {
@@ -69,13 +73,11 @@ class DelaunaySearch final : public Stage {
   DelaunaySearch(const ParamValues& v, const RunInfo&, Exec exec)
       : p_(params_from<DelaunaySearchParams>(v)),
         where_(Exec::where),
-        move_(&Exec::template max<MaxMove<R>>),
-        gather_(&Exec::template for_each<GatherRing>),
-        visited_(&Exec::template max<SearchVisited<R>>),
-        parent_(&Exec::template max<SearchParent<R>>),
-        max_(exec),
+        loops_(delaunay_loops<R>(exec)),
+        words_(exec),
         ring_(exec),
-        degree_(exec) {}
+        degree_(exec),
+        ring_xy_(exec) {}
 
   std::vector<Access> accesses() const override {
     namespace df = delaunay::fields;
@@ -137,39 +139,37 @@ class DelaunaySearch final : public Stage {
     const R* x = s.field(fields::position).data<R>(ctx);
     const R* prev = s.field(df::position_prev).data<R>(ctx);
     const auto box = PeriodicBox<double>::make(s.box.L);
-    // The largest move since the triangulation's positions, and the radius the search expands.
-    const std::uint32_t m2_bits = move_(n, MaxMove<R>{{x, box}, prev}, max_, st);
-    const double m = std::sqrt(double(bits_float(m2_bits)));
     const double lmax = std::max(s.box.L[0], s.box.L[1]), lmin = std::min(s.box.L[0], s.box.L[1]);
-    // Margin: Lawson leaves co-circular quads within its relative tolerance, and the acceptance
-    // test rounds in the run's precision (its minimum image to ~ulp(L)): expanding more costs a
-    // few distance tests, expanding less could miss a pair.
-    const double r_expand =
-        (p_.radius + 2 * m) * (1 + 1e-6) + 16 * double(std::numeric_limits<R>::epsilon()) * lmax;
-    if (!(2 * r_expand < lmin))
-      throw RunError(at + "particles moved up to " + std::to_string(m) +
-                     " since delaunay.lawson, so the search must reach radius + 2·move = " + std::to_string(r_expand) +
-                     ", not less than half the smallest box edge (" + std::to_string(lmin) +
-                     "); lower run.dt, or use a larger box or a smaller radius");
-
+    // expand_radius's margin, and the float rounding of GatherRing's ring_xy (half an ulp of the
+    // box edge per coordinate, wrapped positions).
+    const double margin = 16 * double(std::numeric_limits<R>::epsilon()) * lmax +
+                          4 * double(std::numeric_limits<float>::epsilon()) * lmax;
     const delaunay::Points<R> old{prev, box};
     const std::int32_t* he = s.field(df::halfedge).data<std::int32_t>(ctx);
     const std::int32_t* ve = s.field(df::vertex_edge).data<std::int32_t>(ctx);
     Field& list = s.field(kList);
     std::uint32_t* count = s.field(kCount).data<std::uint32_t>(ctx);
     R* at_build = s.field(kPositionAtBuild).data<R>(ctx);
+    words_.reset(std::array<int, 0>{}, st);
+    std::uint32_t* words = words_.ptr();
     bool gathered = false;
-    std::uint32_t result = 0;
+    std::uint32_t m2_bits = 0, result = 0;
     for (;;) {
       std::uint32_t* ring = ring_.get(n * width_);
       std::uint32_t* degree = degree_.get(n);
-      if (!gathered) gather_(n, GatherRing{he, ve, width_, std::uint32_t(n), ring, degree}, st);
+      float* ring_xy = ring_xy_.get(2 * n * width_);
+      if (!gathered)
+        loops_.gather(n, GatherRing<R>{he, ve, width_, std::uint32_t(n), ring, degree, ring_xy, {x, box}, prev}, words,
+                      st);
       gathered = true;
       const std::uint32_t cap = list_capacity(s);
-      SearchBase<R> base{old,   x,    PeriodicBox<R>::make(s.box.L), R(p_.radius * p_.radius), r_expand * r_expand,
-                         ring,  degree, width_, cap, list.data<std::uint32_t>(ctx), count, at_build};
-      result = p_.traversal == "parent" ? parent_(n, SearchParent<R>{base}, max_, st)
-                                        : visited_(n, SearchVisited<R>{base}, max_, st);
+      SearchBase<R> base{old,    x,        PeriodicBox<R>::make(s.box.L), R(p_.radius * p_.radius), p_.radius, margin,
+                         lmin,   words,    ring, degree, ring_xy, width_, cap, list.data<std::uint32_t>(ctx), count, at_build};
+      if (p_.traversal == "parent") loops_.parent(n, SearchParent<R>{base}, words, st);
+      else loops_.visited(n, SearchVisited<R>{base}, words, st);
+      const auto& w = words_.read(st);  // the step's one wait for the device
+      m2_bits = w[0];
+      result = w[1];
       if (result & kRingOverflow) {  // some vertex has more neighbours than the ring holds
         if (width_ >= kMaxWidth)
           throw RunError(at + "a particle has more than " + std::to_string(kMaxWidth) +
@@ -177,19 +177,29 @@ class DelaunaySearch final : public Stage {
                          "which delaunay.check reports)");
         width_ *= 2;
         gathered = false;
+        words_.zero(1, 1, st);
         continue;
+      }
+      if (result & kTooFar) {
+        const double m = std::sqrt(double(bits_float(m2_bits)));
+        throw RunError(at + "particles moved up to " + std::to_string(m) +
+                       " since delaunay.lawson, so the search must reach radius + 2·move = " +
+                       std::to_string(expand_radius(m2_bits, p_.radius, margin)) +
+                       ", not less than half the smallest box edge (" + std::to_string(lmin) +
+                       "); lower run.dt, or use a larger box or a smaller radius");
       }
       if (result <= cap) break;
       // A row overflowed: double it (its working set is not known) and search again.
       if (cap >= 2 * n + 2)
         throw RunError(at + "the search of some particle needed more than 2N row slots, which a valid triangulation "
                             "never does; run delaunay.check to find what is wrong with it");
-      list.resize(n * std::min<std::size_t>(2 * std::size_t(cap), 2 * n + 2));
+      list.resize(n * std::min<std::size_t>(2 * std::size_t(cap), round4(2 * n + 2)));
       list.acquire(where_, Mode::write, st);
+      words_.zero(1, 1, st);
     }
     ctx.metrics.set("max_visited", double(result));
     ctx.metrics.set("capacity", double(list_capacity(s)));
-    ctx.metrics.set("max_move", m);
+    ctx.metrics.set("max_move", std::sqrt(double(bits_float(m2_bits))));
     return Outcome::ok();
   }
 
@@ -197,23 +207,25 @@ class DelaunaySearch final : public Stage {
   // Widest one-ring the ring array takes (a Delaunay vertex of a physical state has ~6).
   static constexpr std::uint32_t kMaxWidth = 64;
 
+  // n rounded up to a multiple of 4 (rows are written four slots at a time).
+  static std::size_t round4(std::size_t n) { return (n + 3) & ~std::size_t(3); }
+
   // The ball of r at the mean density, with room for clusters and the visited rim.
   std::uint32_t initial_capacity(const State& s) const {
-    if (p_.capacity > 0) return std::uint32_t(std::min<std::int64_t>(p_.capacity, 2 * std::int64_t(s.n()) + 2));
+    const double most = 2 * double(s.n()) + 2;
+    if (p_.capacity > 0) return std::uint32_t(round4(std::size_t(std::min(double(p_.capacity), most))));
     constexpr double pi = 3.14159265358979323846;
     const double ball = double(s.n()) / s.box.volume() * pi * p_.radius * p_.radius;
-    return std::uint32_t(std::min(std::ceil(2 * ball) + 16, 2 * double(s.n()) + 2));
+    return std::uint32_t(round4(std::size_t(std::min(std::ceil(2 * ball) + 16, most))));
   }
 
   DelaunaySearchParams p_;
   Where where_;
-  ReduceLoop<MaxMove<R>, std::uint32_t> move_;
-  ElementLoop<GatherRing> gather_;
-  ReduceLoop<SearchVisited<R>, std::uint32_t> visited_;
-  ReduceLoop<SearchParent<R>, std::uint32_t> parent_;
-  Reduction<std::uint32_t> max_;     // the word of the backend's max-reductions
+  DelaunayLoops<R> loops_;
+  Counters<2> words_;                // the loops' two result words (loops.h)
   Scratch<std::uint32_t> ring_;      // n x width_: each vertex's one-ring (GatherRing)
   Scratch<std::uint32_t> degree_;    // n: each vertex's degree
+  Scratch<float> ring_xy_;           // n x width_ x 2: where the ring members are (GatherRing)
   std::uint32_t width_ = 16;         // ring slots per vertex, doubled when a vertex has more
 };
 
