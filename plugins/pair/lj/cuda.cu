@@ -202,7 +202,8 @@ __global__ void slots_kernel(std::size_t n, const std::uint32_t* __restrict__ pe
   if (p >= n) return;
   const std::size_t i = perm[p];
   const std::uint32_t c = min(count[i], capacity);
-  for (std::uint32_t a = 0; a < c; ++a) slots[std::size_t(a) * n + p] = rank[list[i * capacity + a]];
+  for (std::uint32_t a = 0; a < c; ++a)
+    slots[FF_LJ_VARIANT == 6 ? p * capacity + a : std::size_t(a) * n + p] = rank[list[i * capacity + a]];
   slot_count[p] = c;
 }
 
@@ -241,6 +242,49 @@ __global__ void __launch_bounds__(kBlock) sorted_kernel(std::size_t n, LJForce<R
   write_out(f, perm[p], acc, u, w);
 }
 
+
+// Variant 6: variant 5's order, W lanes per slot (rows of the order's list row-major).
+template <class R, int D, int W>
+__global__ void __launch_bounds__(kBlock) sorted_lanes_kernel(std::size_t n, LJForce<R, D> f,
+                                                              const R* __restrict__ packed,
+                                                              const std::int32_t* __restrict__ type,
+                                                              const std::uint32_t* __restrict__ perm,
+                                                              const std::uint32_t* __restrict__ slots,
+                                                              const std::uint32_t* __restrict__ slot_count) {
+  const std::size_t t = std::size_t(blockIdx.x) * blockDim.x + threadIdx.x;
+  const std::size_t p = t / W;
+  const int lane = int(threadIdx.x % W);
+  const bool live = p < n;
+  R own[4] = {}, acc[D] = {}, u = 0, w = 0;
+  std::uint32_t cnt = 0;
+  int ti = 0;
+  if (live) {
+    load4(packed + 4 * p, own);
+    cnt = slot_count[p];
+    ti = type ? type[p] : 0;
+  }
+  const std::uint32_t most = __reduce_max_sync(0xffffffffu, cnt);
+  const std::uint32_t* row = slots + p * f.capacity;
+  for (std::uint32_t base = 0; base < most; base += W) {
+    const std::uint32_t a = base + std::uint32_t(lane);
+    R tf[D] = {}, tu = 0, tw = 0;
+    if (a < cnt) {
+      const std::uint32_t q = __ldg(row + a);
+      R other[4];
+      load4(packed + 4 * std::size_t(q), other);
+      f.add_pair(own, other, own[3], other[3], type ? ti * kMaxTypes + __ldg(type + q) : 0, tf, tu, tw);
+    }
+    for (int k = 0; k < W; ++k) {
+      for (int c = 0; c < D; ++c) acc[c] += __shfl_sync(0xffffffffu, tf[c], k, W);
+      if (f.energy) {
+        u += __shfl_sync(0xffffffffu, tu, k, W);
+        w += __shfl_sync(0xffffffffu, tw, k, W);
+      }
+    }
+  }
+  if (live && lane == 0) write_out(f, perm[p], acc, u, w);
+}
+
 // Remakes the order and the list in it when the list was rebuilt (or resized, or restored).
 template <class R, int D>
 void make_order(std::size_t n, const LJForce<R, D>& f, LJScratch<R>& s, const ListStamp& stamp, CUstream_st* stream) {
@@ -273,15 +317,21 @@ template <class R, int D>
 void forces(std::size_t n, const LJForce<R, D>& f, LJScratch<R>& scratch, const ListStamp& stamp, CUstream_st* stream) {
   if (n == 0) return;
   (void)stamp;
-#if FF_LJ_VARIANT == 5
+#if FF_LJ_VARIANT == 5 || FF_LJ_VARIANT == 6
   make_order(n, f, scratch, stamp, stream);
   R* packed = scratch.packed.get(4 * n);
   std::int32_t* type = f.type ? scratch.type.get(n) : nullptr;
   scatter_pack_kernel<R, D><<<blocks(n), kBlock, 0, stream>>>(n, f.position, f.diameter, f.type, scratch.rank.get(n),
                                                              packed, type);
   FF_CUDA_CHECK_LAUNCH("launching pair.lj's packing");
+#if FF_LJ_VARIANT == 5
   sorted_kernel<R, D><<<blocks(n), kBlock, 0, stream>>>(n, f, packed, type, scratch.perm.get(n), scratch.slots.get(n * f.capacity ? n * f.capacity : 1),
                                                        scratch.slot_count.get(n));
+#else
+  sorted_lanes_kernel<R, D, 4><<<blocks(4 * n), kBlock, 0, stream>>>(n, f, packed, type, scratch.perm.get(n),
+                                                                   scratch.slots.get(n * f.capacity ? n * f.capacity : 1),
+                                                                   scratch.slot_count.get(n));
+#endif
 #elif FF_LJ_VARIANT == 1
   (void)scratch;
   ldg_kernel<R, D><<<blocks(n), kBlock, 0, stream>>>(n, f);
