@@ -72,43 +72,51 @@ struct LJForce {
   R r_cut2;                      // (r_cut)², r_cut in units of σ_ij
   R shift;                       // U(r_cut σ_ij)/ε_ij, or 0 without `shift`
 
-  // σ_ij² of the pair (i, j) and the table entry of its types.
-  FF_HD R sigma2(std::size_t i, std::size_t j, int ab) const {
+  // σ_ij² from the diameters d_i, d_j of the pair, or from its table entry ab.
+  FF_HD R sigma2(R di, R dj, int ab) const {
     if (!diameter) return table.sigma2[ab];
-    const R s = geometric ? std::sqrt(math::mul_rn(diameter[i], diameter[j])) : R(0.5) * (diameter[i] + diameter[j]);
+    const R s = geometric ? std::sqrt(math::mul_rn(di, dj)) : R(0.5) * (di + dj);
     return math::mul_rn(s, s);
+  }
+
+  // Adds the terms of the pair (i, j) to f (and u, w with energy): xi, xj their positions, di,
+  // dj their diameters (read only when σ_ij comes from them), ab the table entry of their types.
+  // operator() and the CUDA loops (cuda.cu) both sum through it, so they do the same operations.
+  FF_HD void add_pair(const R* xi, const R* xj, R di, R dj, int ab, R f[D], R& u, R& w) const {
+    R d[D], r2 = 0;
+    for (int c = 0; c < D; ++c) {
+      d[c] = box.min_image(xi[c] - xj[c], c);
+      r2 += math::mul_rn(d[c], d[c]);
+    }
+    const R sig2 = sigma2(di, dj, ab);
+    if (r2 >= math::mul_rn(r_cut2, sig2) || r2 == R(0)) return;  // beyond the cutoff (or coincident)
+    R inv_r2 = R(1) / r2;
+    R s = math::mul_rn(sig2, inv_r2);
+    if (s > R(kMaxS)) {  // (the cap holds for 1/r² = s/σ² too)
+      s = R(kMaxS);
+      inv_r2 = s / sig2;
+    }
+    const R q = n & 1 ? math::mul_rn(power(s, n / 2), std::sqrt(s)) : power(s, n / 2);  // (σ/r)^n
+    const R q2 = math::mul_rn(q, q);                                                      // (σ/r)^{2n}
+    const R eps = table.epsilon[ab];
+    // 4 n ε (2q² − q) / r²
+    const R magnitude = math::mul_rn(math::mul_rn(R(4 * n) * eps, (R(2) * q2 - q)), inv_r2);
+    for (int c = 0; c < D; ++c) f[c] += math::mul_rn(magnitude, d[c]);
+    if (energy) {
+      u += math::mul_rn(R(4) * eps, q2 - q) - math::mul_rn(eps, shift);
+      w += math::mul_rn(magnitude, r2);
+    }
   }
 
   FF_HD void operator()(std::size_t i) const {
     R f[D] = {};
     R u = 0, w = 0;
     const int ti = type ? type[i] : 0;
+    const R di = diameter ? diameter[i] : R(0);
     for (std::uint32_t a = 0; a < count[i]; ++a) {
       const std::uint32_t j = list[i * capacity + a];
-      R d[D], r2 = 0;
-      for (int c = 0; c < D; ++c) {
-        d[c] = box.min_image(position[i * D + c] - position[std::size_t(j) * D + c], c);
-        r2 += math::mul_rn(d[c], d[c]);
-      }
-      const int ab = type ? ti * kMaxTypes + type[j] : 0;
-      const R sig2 = sigma2(i, j, ab);
-      if (r2 >= math::mul_rn(r_cut2, sig2) || r2 == R(0)) continue;  // beyond the cutoff (or coincident)
-      R inv_r2 = R(1) / r2;
-      R s = math::mul_rn(sig2, inv_r2);
-      if (s > R(kMaxS)) {  // (the cap holds for 1/r² = s/σ² too)
-        s = R(kMaxS);
-        inv_r2 = s / sig2;
-      }
-      const R q = n & 1 ? math::mul_rn(power(s, n / 2), std::sqrt(s)) : power(s, n / 2);  // (σ/r)^n
-      const R q2 = math::mul_rn(q, q);                                                      // (σ/r)^{2n}
-      const R eps = table.epsilon[ab];
-      // 4 n ε (2q² − q) / r²
-      const R magnitude = math::mul_rn(math::mul_rn(R(4 * n) * eps, (R(2) * q2 - q)), inv_r2);
-      for (int c = 0; c < D; ++c) f[c] += math::mul_rn(magnitude, d[c]);
-      if (energy) {
-        u += math::mul_rn(R(4) * eps, q2 - q) - math::mul_rn(eps, shift);
-        w += math::mul_rn(magnitude, r2);
-      }
+      add_pair(&position[i * D], &position[std::size_t(j) * D], di, diameter ? diameter[j] : R(0),
+               type ? ti * kMaxTypes + type[j] : 0, f, u, w);
     }
     for (int c = 0; c < D; ++c) force[i * D + c] = f[c];
     if (energy) {

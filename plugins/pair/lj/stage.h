@@ -1,7 +1,8 @@
 // pair.lj: the generalized Lennard-Jones 2n–n potential (kernel.h) between the pairs of the
 // Verlet list of a neighbors.verlet stage before it, per type pair ε_ij and σ_ij, cut at
 // r_cut σ_ij, into the `force` field that overdamped.integrate reads (x += μ_t F Δt + noise).
-// With energy: true also `pair.energy` and `pair.virial` (per particle) for observers.
+// With energy: true also `pair.energy` and `pair.virial` (per particle) for observers. The CPU
+// runs the functor per particle; CUDA has its own loop (cuda.cu) over the same per-pair terms.
 #pragma once
 #include <algorithm>
 #include <cmath>
@@ -14,6 +15,7 @@
 #include "core/stage/stage.h"
 #include "core/stage/stage_registration.h"
 #include "plugins/pair/lj/kernel.h"
+#include "plugins/pair/lj/loops.h"
 #include "stages/neighbors/list.h"
 
 namespace ff::pair {
@@ -70,7 +72,10 @@ class LJ final : public Stage {
   template <class Exec>
   LJ(const ParamValues& v, const RunInfo&, Exec)
       : p_(params_from<LJParams>(v)), where_(Exec::where),
-        loop2_(&Exec::template for_each<LJForce<R, 2>>), loop3_(&Exec::template for_each<LJForce<R, 3>>) {}
+        loop2_(&Exec::template for_each<LJForce<R, 2>>), loop3_(&Exec::template for_each<LJForce<R, 3>>),
+        scratch_(Exec{}) {
+    if constexpr (Exec::backend == Backend::cuda) cuda_ = lj_loops<R>(Exec{});
+  }
 
   std::vector<Access> accesses() const override {
     std::vector<Access> a{{fields::position, where_, Mode::read},
@@ -112,8 +117,13 @@ class LJ final : public Stage {
 
   Outcome run(StepContext& ctx) override {
     State& s = ctx.state;
-    if (s.dim() == 2) loop2_(s.n(), functor<2>(ctx), ctx.stream);
-    else loop3_(s.n(), functor<3>(ctx), ctx.stream);
+    if (s.dim() == 2) {
+      if (cuda_.d2) cuda_.d2(s.n(), functor<2>(ctx), scratch_, ctx.stream);
+      else loop2_(s.n(), functor<2>(ctx), ctx.stream);
+    } else {
+      if (cuda_.d3) cuda_.d3(s.n(), functor<3>(ctx), scratch_, ctx.stream);
+      else loop3_(s.n(), functor<3>(ctx), ctx.stream);
+    }
     return Outcome::ok();
   }
 
@@ -224,6 +234,8 @@ class LJ final : public Stage {
   Where where_;
   ElementLoop<LJForce<R, 2>> loop2_;
   ElementLoop<LJForce<R, 3>> loop3_;
+  LJLoops<R> cuda_;  // the CUDA loops (loops.h, cuda.cu); none on the CPU
+  LJScratch<R> scratch_;
   LJTable<R> table_{};
   bool per_type_ = false;
 };

@@ -1,0 +1,29 @@
+// The CUDA loops of pair.lj (cuda.cu), declared for stage.h; on the CPU the stage runs the
+// functor of kernel.h through the backend object's element loop. nvcc-clean.
+#pragma once
+#include <cstddef>
+
+#include "core/backend/exec.h"
+#include "core/backend/memory.h"
+#include "plugins/pair/lj/kernel.h"
+
+namespace ff::pair {
+
+// Device memory the CUDA loops keep between steps.
+template <class R>
+struct LJScratch {
+  template <class Exec>
+  explicit LJScratch(Exec exec) : record(exec) {}
+  Scratch<R> record;  // N x 4: each particle's position (D reals, then zeros) and diameter
+};
+
+template <class R>
+struct LJLoops {
+  void (*d2)(std::size_t n, const LJForce<R, 2>& f, LJScratch<R>& scratch, CUstream_st* stream) = nullptr;
+  void (*d3)(std::size_t n, const LJForce<R, 3>& f, LJScratch<R>& scratch, CUstream_st* stream) = nullptr;
+};
+
+template <class R>
+LJLoops<R> lj_loops(CudaExec);
+
+}  // namespace ff::pair
