@@ -4,7 +4,8 @@
 // pipeline of `every:` observers; after SIGKILL at a random step; after SIGTERM (exit 3, a
 // checkpoint at the step it stopped); and the refusals (changed N, changed stages, changed
 // parameters without --allow-changes, a corrupt and a truncated checkpoint), each exit 2, with
-// the previous checkpoint still resuming.
+// the previous checkpoint still resuming (a corrupt or truncated newest one in the folder is
+// skipped).
 //
 // Runs on the CPU; FLIPFLOW_TEST_DEVICE=cuda runs the same on the GPU (skipped without one).
 #include <catch2/catch.hpp>
@@ -506,6 +507,22 @@ TEST_CASE("checkpoint: refusals exit 2 naming the difference; the previous check
   CHECK_THAT(resumed.out, Catch::Contains("fails its checksum"));
   CHECK_THAT(resumed.out, Catch::Contains("at step 20"));
   require_same_h5md(ref / c.h5, out / c.h5);
+
+  // A truncated newest checkpoint in the directory (a crash while the disk filled up, a copy cut
+  // short): skipped with a warning like the corrupt one, the one before it resumes, same files.
+  {
+    const auto now = checkpoints(out);
+    REQUIRE(now.size() == 2);  // steps 60 and 80, written by the run that just finished
+    REQUIRE(now[1].filename() == "checkpoint-000000000080.h5");
+    fs::resize_file(now[1], fs::file_size(now[1]) * 2 / 3);
+    auto again = pipeline(run_args(c, out, 80) + " --resume");
+    INFO(again.out);
+    REQUIRE(again.code == 0);
+    CHECK_THAT(again.out, Catch::Contains("truncated"));
+    CHECK_THAT(again.out, Catch::Contains("at step 60"));
+    CHECK(fs::exists(out / "checkpoint-000000000080.h5.invalid"));
+    require_same_h5md(ref / c.h5, out / c.h5);
+  }
 
   // Extending the finished run with a changed parameter: allowed with --allow-changes, recorded.
   auto extend = pipeline(run_args(c, out, 100) + " --set step.abp.integrate.v0=2 --resume --allow-changes");

@@ -30,6 +30,7 @@ struct Scheduler::Impl {
   bool capturable = false;       // every compute stage graph_capturable, none uses `every`
   bool capture_failed = false;
   std::uint64_t steps_run = 0;  // the first runs without the graph, settling every field
+  std::vector<int> after_replay;  // compute stages whose after_step runs on replayed steps too (Stage::after_step)
 #endif
   // Per-attempt parameters read by the node bodies; `params` is their host copy (ctx.params
   // on the CPU).
@@ -55,6 +56,7 @@ Scheduler::Scheduler(const StepGraph& graph, std::vector<StageSlot>& slots, Stat
       const Scheduling h = slots[i].stage->scheduling();
       any_reads_params = any_reads_params || h.reads_step_params;
       impl_->capturable = impl_->capturable && h.graph_capturable && graph.nodes()[i].schedule.every_step();
+      if (h.reads_step_params) impl_->after_replay.push_back(i);
     }
     // (The upload is on the step's critical path: after the last stage's wait, before the first
     // launch of the next step.)
@@ -182,7 +184,15 @@ std::optional<RollbackRequest> Scheduler::run_compute(std::uint64_t step, std::u
     if (slots_[i].ran && slots_[i].outcome.rollback) return RollbackRequest{i, slots_[i].outcome};
   if (auto limit = exceeded_dt_limit(dt)) return limit;
 #ifdef FLIPFLOW_HAVE_CUDA
-  if (captured) return std::nullopt;
+  if (captured) {
+    // A replayed step is accepted (no stage of a captured step may request a rollback); stages
+    // that read ctx.params may look at what their kernels published in host memory (Stage::after_step).
+    for (int i : impl_->after_replay) {
+      StepContext ctx = context(i, main_stream(), step, attempt, dt, time);
+      slots_[i].stage->after_step(ctx);
+    }
+    return std::nullopt;
+  }
 #endif
   // The step is accepted: stages that left results on the device read them now (in step order,
   // which for a chain is the order their work was enqueued).
@@ -246,11 +256,14 @@ bool Scheduler::run_captured() {
       return false;
     }
   }
+  // The graph reads and writes what the stages declared: bring what the host wrote since the last
+  // step over first (as run_node does before a stage runs; after the launch the copy would
+  // overwrite the step's results), and keep host/device coherence flags true.
+  for (int i : im.compute)
+    for (auto& a : graph_.nodes()[i].accesses) state_.field(a.field).acquire(a.where, a.mode, main_stream());
   im.captured.launch(main_stream());
   im.device_params->advanced_by_graph();
-  // The graph wrote what the stages declared: keep host/device coherence flags true.
   for (int i : im.compute) {
-    for (auto& a : graph_.nodes()[i].accesses) state_.field(a.field).acquire(a.where, a.mode, main_stream());
     slots_[i].ran = true;
     slots_[i].outcome = Outcome::ok();
     slots_[i].metrics.clear();

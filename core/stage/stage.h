@@ -238,7 +238,11 @@ class Stage {
   virtual Outcome run(StepContext& ctx) = 0;
   // Once per attempt, after every compute stage of the step has run (its device work enqueued),
   // for each stage that ran, in step order; not when a stage requested a rollback or failed,
-  // and not for a step replayed from a CUDA graph. A CUDA stage that left its results on the
+  // and, for a step replayed from a CUDA graph, only if the stage reads ctx.params
+  // (Scheduling::reads_step_params: its kernels know the step they run in). There run() was not
+  // called and ctx.stream is the stream the graph was launched on: after_step may look at host
+  // memory its kernels write themselves and record fences, but not read back what run() started
+  // (that was captured once). The overdamped integrators' non-finite check does so. A CUDA stage that left its results on the
   // device (so that the stages after it queue behind its kernels instead of waiting for the
   // host) reads them here: it sets its metrics and throws RunError on what they report. It must
   // not request a rollback, and must cope with not being called (a later stage's rollback):

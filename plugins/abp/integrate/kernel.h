@@ -71,6 +71,12 @@ struct SelfPropulsion {
     return true;
   }
 
+  // Whether particle i's orientation after its step is finite (the step's non-finite check,
+  // stages/overdamped/integrate/kernel.h).
+  FF_HD bool finite(std::size_t i) const {
+    return overdamped::all_finite<R, D == 2 ? 1 : 3>(orientation + i * (D == 2 ? 1 : 3));
+  }
+
   // out = e rotated about ω = rot_amp·η by |ω|, renormalised.
   FF_HD static void rotate_3d(const R e[3], R rot_amp, const double eta[3], R* out) {
     R w[3] = {rot_amp * R(eta[0]), rot_amp * R(eta[1]), rot_amp * R(eta[2])};

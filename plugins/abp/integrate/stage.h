@@ -1,10 +1,13 @@
 // abp.integrate: Active Brownian Particles (Carter et al. 2017, eq. 10-11), 2D and 3D: the
 // standard overdamped step (stages/overdamped/integrate/kernel.h) driven by the self-propulsion,
 // and the orientation's rotational diffusion (kernel.h). Force-free: a `force` or `velocity`
-// field written by other stages is not read.
+// field written by other stages is not read. A position or orientation that is not finite after
+// its step stops the run naming the particle (the check every overdamped step makes:
+// stages/overdamped/integrate/finite_check.h).
 #pragma once
 #include <cmath>
 #include <string>
+#include <utility>
 
 #include "core/base/error.h"
 #include "core/backend/exec.h"
@@ -12,6 +15,7 @@
 #include "core/stage/stage.h"
 #include "core/stage/stage_registration.h"
 #include "plugins/abp/integrate/kernel.h"
+#include "stages/overdamped/integrate/finite_check.h"
 
 namespace ff::abp {
 
@@ -46,8 +50,11 @@ class AbpIntegrate final : public Stage {
       : p_(params_from<IntegrateParams>(v)),
         seed_(info.seed),
         where_(Exec::where),
+        id_(info.stage_id),
+        last_step_(info.steps),
         loop2_(&Exec::template overdamped<AbpStep<R, 2>>),
-        loop3_(&Exec::template overdamped<AbpStep<R, 3>>) {}
+        loop3_(&Exec::template overdamped<AbpStep<R, 3>>),
+        finite_(Exec{}) {}
 
   // Every element is rewritten each step from the previous values, which the rollback snapshot
   // keeps instead of copying (on_demand + will_overwrite: the step reads the snapshot's arrays
@@ -61,6 +68,7 @@ class AbpIntegrate final : public Stage {
   // Adds the orientation field when no one has, and fills it with uniformly random
   // orientations (keyed by the run's seed, independent of the stage id and backend).
   void configure(State& s) override {
+    state_ = &s;
     const int comps = orientation_components(s.dim());
     if (s.has_field(kOrientation)) {
       const Field& f = s.field(kOrientation);
@@ -83,6 +91,7 @@ class AbpIntegrate final : public Stage {
 
   Outcome run(StepContext& ctx) override {
     State& s = ctx.state;
+    if (finite_.reported()) not_finite(s, finite_.read(ctx.stream), ctx.stream);  // an earlier step's (CUDA)
     // Where the previous values are now (the snapshot's copy, or the field itself).
     Field& pos_in = ctx.will_overwrite(fields::position);
     Field& img_in = ctx.will_overwrite(fields::image);
@@ -109,11 +118,29 @@ class AbpIntegrate final : public Stage {
       f.key = ctx.rng;
       f.params = ctx.params;
       f.drift = {o0, o, p_.v0, 2.0 * p_.Dr};
+      f.non_finite = finite_.kernel_side(ctx.stream);
       return f;
     };
     if (s.dim() == 2) loop2_(s.n(), step(AbpStep<R, 2>{}), ctx.stream);
     else loop3_(s.n(), step(AbpStep<R, 3>{}), ctx.stream);
+    // On the CPU the loop is done: look now. On CUDA after_step looks (finite_check.h).
+    if (where_ == Where::host && finite_.reported()) not_finite(s, finite_.read(ctx.stream), ctx.stream);
     return Outcome::ok();
+  }
+
+  // CUDA: what the device has reported so far, without waiting (also on steps replayed from a
+  // graph); every NonFiniteCheck::kPace steps a fence bounds how far behind that may be.
+  void after_step(StepContext& ctx) override {
+    if (where_ != Where::device) return;
+    finite_.pace(ctx.stream, ctx.host_params.step + 1 == last_step_);
+    if (finite_.reported()) not_finite(ctx.state, finite_.read(ctx.stream), ctx.stream);
+  }
+  // Between steps with the device idle: a checkpoint never holds what the check would stop.
+  void save_state(StageState&) override {
+    if (finite_.reported()) not_finite(*state_, finite_.read(nullptr), nullptr);
+  }
+  void finish(State& s, bool completed) override {
+    if (completed && finite_.reported()) not_finite(s, finite_.read(nullptr), nullptr);
   }
 
   // Its kernels take Δt, the step and the attempt from ctx.params, and will_overwrite swaps
@@ -126,11 +153,45 @@ class AbpIntegrate final : public Stage {
   }
 
  private:
+  // Stops the run: `found.count` particles, the lowest `found.first`, had a non-finite position
+  // or orientation after their step. Names the orientation when the particle's is not finite
+  // (its position then is not either), else the position, with their values read back.
+  [[noreturn]] void not_finite(State& s, const overdamped::NonFiniteFound& found, CUstream_st* stream) {
+    const std::size_t i = found.first;
+    auto values = [&](const char* name) {
+      Field& f = s.field(name);
+      f.acquire(Where::host, Mode::read, stream);
+      const int c = f.components();
+      const R* v = f.host<R>() + i * std::size_t(c);
+      bool finite = true;
+      std::string text = c > 1 ? "(" : "";
+      for (int k = 0; k < c; ++k) {
+        finite = finite && std::isfinite(double(v[k]));
+        text += (k ? ", " : "") + overdamped::value_text(double(v[k]));
+      }
+      return std::make_pair(finite, text + (c > 1 ? ")" : ""));
+    };
+    const auto o = values(kOrientation), x = values(fields::position);
+    const std::string what = !o.first ? std::string("orientation ") + (s.dim() == 2 ? "θ" : "e") + " = " + o.second +
+                                            " (position " + x.second + ")"
+                                      : "position " + x.second + " (orientation " + o.second + ")";
+    throw RunError("stage '" + id_ + "' (abp.integrate), " + found.where() + ": particle " + std::to_string(i) +
+                   " has a non-finite " + what +
+                   (found.count > 1 ? " (" + std::to_string(found.count - 1) + " other particle(s) too)" : "") +
+                   " after its step; the run stops. A value that is not finite came in with the configuration "
+                   "(system.init) or from a stage before this one, or v0 Δt is not representable");
+  }
+
+
   IntegrateParams p_;
   std::uint64_t seed_;
   Where where_;
+  std::string id_;           // the stage's id, for messages
+  std::uint64_t last_step_;  // the run's steps (its last step waits for the check)
+  State* state_ = nullptr;   // for save_state's message
   ElementLoop<AbpStep<R, 2>> loop2_;
   ElementLoop<AbpStep<R, 3>> loop3_;
+  overdamped::NonFiniteCheck finite_;  // every step's check (stages/overdamped/integrate/finite_check.h)
 };
 
 }  // namespace ff::abp

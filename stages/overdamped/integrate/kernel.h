@@ -7,6 +7,8 @@
 #pragma once
 #include <cmath>
 #include <cstdint>
+#include <type_traits>
+#include <utility>
 
 #include "core/backend/atomics.h"
 #include "core/physics/box.h"
@@ -18,6 +20,53 @@
 namespace ff::overdamped {
 
 inline constexpr int kMaxTypes = 16;
+
+// The non-finite check every overdamped step makes (finite_check.h holds the host's side). A
+// particle whose position, or a field its drift moves (abp.integrate's orientation), is not
+// finite after its step is reported here; nothing is touched while every value is finite, so in
+// the good case the check costs a sum and a compare per particle and no memory traffic.
+//  - counters (the backend's memory): how many particles were found, the lowest one, and the
+//    step and attempt of the first report (written by the report that found the count at 0);
+//  - published: one word of host memory (pinned on CUDA: the kernel writes it directly) set to 1,
+//    which the host reads every step without waiting for the device.
+enum NonFiniteSlot : int { kBadCount, kBadFirst, kBadStepLow, kBadStepHigh, kBadAttempt, kNonFiniteSlots };
+
+struct NonFiniteReport {
+  unsigned* counters = nullptr;   // kNonFiniteSlots, kBadFirst starting at ~0u; null: no check
+  unsigned* published = nullptr;  // host-visible
+
+  FF_HD void report(std::size_t i, const StepParams* p) const {
+    if (append_index(counters + kBadCount, 1) == 0) {
+      counters[kBadStepLow] = unsigned(p->step);
+      counters[kBadStepHigh] = unsigned(p->step >> 32);
+      counters[kBadAttempt] = p->attempt;
+    }
+    keep_min(counters + kBadFirst, unsigned(i));
+#if defined(__CUDA_ARCH__)
+    __threadfence_system();
+    *static_cast<volatile unsigned*>(published) = 1u;
+#else
+    __atomic_store_n(published, 1u, __ATOMIC_RELEASE);
+#endif
+  }
+};
+
+// Whether x[0 .. n-1] are all finite: their sum is finite (a NaN or an infinity makes it NaN or
+// infinite, and inf - inf is NaN) and s - s is 0 only for a finite s. One compare per particle,
+// no branch per component.
+template <class R, int n>
+FF_HD bool all_finite(const R* x) {
+  R s = x[0];
+  for (int k = 1; k < n; ++k) s += x[k];
+  return s - s == R(0);
+}
+
+// A drift that moves fields of its own (abp.integrate's orientation) may say whether particle i's
+// values there are finite after its step: `FF_HD bool finite(std::size_t i) const`. Optional.
+template <class G, class = void>
+struct DriftChecksFinite : std::false_type {};
+template <class G>
+struct DriftChecksFinite<G, std::void_t<decltype(std::declval<const G&>().finite(std::size_t{}))>> : std::true_type {};
 
 // The drift of overdamped.integrate (a drift functor, core/physics/overdamped.h): (v + μ_t F) Δt
 // from the `velocity` and `force` fields, each when set; none when neither is.
@@ -75,6 +124,9 @@ struct OverdampedStep {
   // stage then stops the run: a smaller Δt cannot mend a NaN force); null: no check.
   unsigned* too_far = nullptr;
   double max_step2 = 0;
+  // Particles whose position, or whose drift's own fields, are not finite after the step
+  // (NonFiniteReport above; the stages always set it).
+  NonFiniteReport non_finite;
 
   static constexpr int kTranslationPairs = (D + 1) / 2;  // pairs 0 (and 1 in 3D); G's follow
   static constexpr int kNoisePairs = kTranslationPairs + G::kNoisePairs;
@@ -95,6 +147,11 @@ struct OverdampedStep {
     }
     if constexpr (InPlace) overdamped_move<R, D>(position, image, box, i, by, amplitude, z);
     else overdamped_move<R, D>(position_in, image_in, position, image, box, i, by, amplitude, z);
+    if (non_finite.counters) {
+      bool ok = all_finite<R, D>(position + i * D);
+      if constexpr (DriftChecksFinite<G>::value) ok = ok & drift.finite(i);
+      if (!ok) non_finite.report(i, params);
+    }
   }
   // The step's length against max_step (the move itself is made regardless: a step that fails
   // the check is rolled back or stops the run). Written so that NaN, which compares false with

@@ -15,6 +15,7 @@
 #include "core/stage/params.h"
 #include "core/stage/stage.h"
 #include "core/stage/stage_registration.h"
+#include "stages/overdamped/integrate/finite_check.h"
 #include "stages/overdamped/integrate/kernel.h"
 
 namespace ff::overdamped {
@@ -40,8 +41,8 @@ struct IntegrateParams {
         .one_of({"auto", "none", "velocity", "force", "velocity+force"});
     p(max_step, "max_step",
       "longest step a particle may take (σ); a longer one rolls the step back with a smaller Δt instead of going "
-      "on from a blown-up state, and a non-finite position, force or velocity stops the run naming the particle "
-      "(0: no check; with a check the step cannot be replayed from a CUDA graph)")
+      "on from a blown-up state (0: no check; with a check the step cannot be replayed from a CUDA graph). A "
+      "non-finite position stops the run naming the particle with or without it")
         .at_least(0);
     p(noise, "noise",
       "how the Gaussians ξ are kept within ±3: rescaled (a pair outside is redrawn, then scaled to unit "
@@ -94,9 +95,12 @@ class OverdampedIntegrate final : public Stage {
         where_(Exec::where),
         loops_(integrate_loops<R>(Exec{})),
         id_(info.stage_id),
-        too_far_(Exec{}) {}
+        last_step_(info.steps),
+        too_far_(Exec{}),
+        finite_(Exec{}) {}
 
   void configure(State& s) override {
+    state_ = &s;
     const bool want_v = p_.drift == "velocity" || p_.drift == "velocity+force";
     const bool want_f = p_.drift == "force" || p_.drift == "velocity+force";
     for (const char* f : {kVelocity, kForce}) {
@@ -130,6 +134,7 @@ class OverdampedIntegrate final : public Stage {
 
   Outcome run(StepContext& ctx) override {
     State& s = ctx.state;
+    if (finite_.reported()) not_finite(s, finite_.read(ctx.stream), ctx.stream);  // an earlier step's (CUDA)
     // Where the previous values are now: the snapshot's copy, or the field itself (in place).
     Field& pos_in = ctx.will_overwrite(fields::position);
     Field& img_in = ctx.will_overwrite(fields::image);
@@ -150,6 +155,7 @@ class OverdampedIntegrate final : public Stage {
       f.key = ctx.rng;
       f.tail = p_.noise == "clamp" ? GaussianTail::clamped : GaussianTail::rescaled;
       f.params = ctx.params;
+      f.non_finite = finite_.kernel_side(ctx.stream);
       return f;
     };
     auto general = [&](auto f) {
@@ -171,8 +177,27 @@ class OverdampedIntegrate final : public Stage {
     if (p_.max_step > 0) too_far_.reset(std::array<int, 2>{1, 3}, ctx.stream);
     if (in_place) launch(ctx, loops_.in_place, common, general);
     else launch(ctx, loops_.from_snapshot, common, general);
-    if (p_.max_step > 0) return too_far(ctx);
-    return Outcome::ok();
+    const Outcome out = p_.max_step > 0 ? too_far(ctx) : Outcome::ok();
+    // On the CPU the loop is done (and max_step's read waited for the device): look now. Else
+    // after_step looks, once the step is enqueued (finite_check.h).
+    if ((where_ == Where::host || p_.max_step > 0) && finite_.reported())
+      not_finite(s, finite_.read(ctx.stream), ctx.stream);
+    return out;
+  }
+
+  // CUDA: what the device has reported so far, without waiting (also on steps replayed from a
+  // graph); every NonFiniteCheck::kPace steps a fence bounds how far behind that may be.
+  void after_step(StepContext& ctx) override {
+    if (where_ != Where::device) return;
+    finite_.pace(ctx.stream, ctx.host_params.step + 1 == last_step_);
+    if (finite_.reported()) not_finite(ctx.state, finite_.read(ctx.stream), ctx.stream);
+  }
+  // Between steps with the device idle: a checkpoint never holds what the check would stop.
+  void save_state(StageState&) override {
+    if (finite_.reported()) not_finite(*state_, finite_.read(nullptr), nullptr);
+  }
+  void finish(State& s, bool completed) override {
+    if (completed && finite_.reported()) not_finite(s, finite_.read(nullptr), nullptr);
   }
 
   template <bool InPlace, class Common, class General>
@@ -201,7 +226,14 @@ class OverdampedIntegrate final : public Stage {
  private:
   Outcome too_far(StepContext& ctx) {
     const std::array<unsigned, 4>& c = too_far_.read(ctx.stream);
-    if (c[2]) not_finite(ctx, c[2], c[3]);
+    if (c[2]) {
+      NonFiniteFound f;
+      f.count = c[2];
+      f.first = c[3];
+      f.step = ctx.host_params.step;
+      f.attempt = ctx.host_params.attempt;
+      not_finite(ctx.state, f, ctx.stream);
+    }
     const unsigned count = c[0], first = c[1];
     if (!count) return Outcome::ok();
     return Outcome::request_rollback("overdamped.integrate: " + std::to_string(count) +
@@ -211,28 +243,28 @@ class OverdampedIntegrate final : public Stage {
                                          "); the step is retried with a smaller time step",
                                      {first});
   }
-  // Stops the run: `count` particles, the lowest `first`, had a non-finite position or step. Names
-  // the first input of particle `first` that is not finite (force, velocity; else the position it
-  // entered the step with), read back on the host.
-  [[noreturn]] void not_finite(StepContext& ctx, unsigned count, unsigned first) {
-    State& s = ctx.state;
+  // Stops the run: `f.count` particles, the lowest `f.first`, had a non-finite position or step.
+  // Names the first input of that particle that is not finite (force, velocity; else the
+  // position), read back on the host.
+  [[noreturn]] void not_finite(State& s, const NonFiniteFound& found, CUstream_st* stream) {
+    const unsigned first = found.first, count = found.count;
     std::string what = "position (at the start of the step, or after adding its step)", values;
     for (const char* f : {kForce, kVelocity}) {
       if (!(f == kForce ? reads_force_ : reads_velocity_)) continue;
       Field& field = s.field(f);
-      field.acquire(Where::host, Mode::read, ctx.stream);
+      field.acquire(Where::host, Mode::read, stream);
       const R* v = field.host<R>() + std::size_t(first) * s.dim();
       bool bad = false;
       for (int k = 0; k < s.dim(); ++k) bad |= !std::isfinite(double(v[k]));
       if (!bad) continue;
       what = std::string("`") + f + "` field (written by a stage before this one)";
       values = " = (";
-      for (int k = 0; k < s.dim(); ++k) values += (k ? ", " : "") + std::to_string(double(v[k]));
+      for (int k = 0; k < s.dim(); ++k) values += (k ? ", " : "") + value_text(double(v[k]));
       values += ")";
       break;
     }
-    throw RunError("stage '" + id_ + "' (overdamped.integrate), step " + std::to_string(ctx.host_params.step) +
-                   ": particle " + std::to_string(first) + " has a non-finite " + what + values +
+    throw RunError("stage '" + id_ + "' (overdamped.integrate), " + found.where() + ": particle " +
+                   std::to_string(first) + " has a non-finite " + what + values +
                    (count > 1 ? " (" + std::to_string(count - 1) + " other particle(s) too)" : std::string()) +
                    "; a smaller time step cannot mend this, so the run stops. Look for particles that met closer "
                    "than the force model allows in the steps before (a lower run.dt or max_step helps then)");
@@ -252,7 +284,10 @@ class OverdampedIntegrate final : public Stage {
   Where where_;
   IntegrateLoops<R> loops_;
   std::string id_;             // the stage's id, for messages
+  std::uint64_t last_step_;    // the run's steps (its last step waits for the check)
+  State* state_ = nullptr;     // for save_state's message
   Counters<4> too_far_;        // max_step's count and first particle; non-finite ones'
+  NonFiniteCheck finite_;      // every step's check of the positions (finite_check.h)
   bool reads_velocity_ = false, reads_force_ = false;
   std::size_t types_ = 1;
 };
