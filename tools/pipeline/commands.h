@@ -9,4 +9,5 @@ int cmd_graph(const std::vector<std::string>& args);
 int cmd_stages(const std::vector<std::string>& args);
 int cmd_describe(const std::vector<std::string>& args);
 int cmd_bench(const std::vector<std::string>& args);
+int cmd_sweep(const std::vector<std::string>& args);
 }  // namespace ff::cli

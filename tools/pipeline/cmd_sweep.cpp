@@ -1,0 +1,624 @@
+// `pipeline sweep FILE.yaml --grid key=v1,v2,... [--grid ...] [--replicas R] [--concurrent K]`:
+// every combination of the grid values (and R seeds each) as its own `pipeline run` in its own
+// folder, with an index CSV of parameters -> outcome.
+//
+// Every run is a child process (this program's `run` command), not a Simulation on a thread
+// of this process, because in one process the runs would not be independent:
+//  - field copies from outside a step (set-up, observers' output) wait with
+//    cudaDeviceSynchronize (core/backend/cuda/device_buffer.cpp, memory.cu), and cudaFree
+//    synchronizes the device: one run's set-up or output would wait for every other run's
+//    queued work, and a device-wide wait is not allowed while another run captures its step
+//    into a CUDA graph (core/run/cuda/graph.cpp);
+//  - a CUDA error such as an illegal address is sticky for the whole context: one bad run would
+//    end all K;
+//  - `pipeline run` sets process-wide state: the oneTBB thread limit (tbb::global_control), the
+//    SIGINT/SIGTERM handlers that make it write a checkpoint, and its log on stderr; stages and
+//    plugins were never required to be safe to instantiate from several threads at once.
+// A child process has none of these problems, gets its own log file, and is what `pipeline
+// run --resume` already continues. The price: without CUDA MPS, processes sharing a GPU
+// time-slice it instead of running their kernels side by side (measured: two 60k-particle runs
+// at once got 1 370 steps/s each against 7 170 alone, since each step waits on the host). So
+// when more than one run shares a GPU, the sweep uses MPS: a control daemon already running
+// (the default pipe directory, or CUDA_MPS_PIPE_DIRECTORY), else one it starts itself with a
+// private pipe directory and stops at the end (`--mps auto`, the default; `on` requires it,
+// `off` never). Under MPS at most 48 clients share a device (Volta MPS's limit), so --concurrent
+// is capped at 48 per GPU there. Several GPUs: each run gets CUDA_VISIBLE_DEVICES of the GPU
+// with the fewest runs under way (`--gpus` chooses them; default: CUDA_VISIBLE_DEVICES, else
+// every GPU in /proc/driver/nvidia/gpus). On the CPU runs go one after another unless
+// --concurrent says otherwise, each with its share of the cores (--threads).
+//
+// Before anything is written, every combination goes through the loader and a dry run on the
+// CPU (as `pipeline validate`): a bad key or value is an InputError naming the --grid argument
+// (exit 2). The index (<out>/index.csv) is rewritten atomically when a run starts or ends. A run
+// that fails does not stop the others; its row says why (the last error line of its run.log).
+// Running the same command again skips the runs the index says are done, continues the others
+// from their newest checkpoint (`pipeline run --resume`) when they have one and restarts them
+// (--force) otherwise. <out>/sweep.txt records what the sweep is (file, --set, --grid,
+// --replicas); a different sweep in the same folder is refused unless --force, which also runs
+// every run again from the start.
+//
+// SIGINT/SIGTERM: the runs under way get SIGTERM (they finish their step, write a checkpoint and
+// exit 3), the index says `interrupted`, and the sweep exits 3. If the sweep itself is killed,
+// its runs get SIGTERM from the kernel (PR_SET_PDEATHSIG) and checkpoint the same way.
+//
+// Exit codes: 0 every run done, 1 some run failed, 2 bad input, 3 interrupted.
+#include <fcntl.h>
+#include <oneapi/tbb/info.h>
+#include <sys/prctl.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <atomic>
+#include <boost/dll/runtime_symbol_info.hpp>
+#include <chrono>
+#include <csignal>
+#include <cstdlib>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <iomanip>
+#include <iostream>
+#include <map>
+#include <memory>
+#include <sstream>
+#include <thread>
+
+#include "core/backend/device.h"
+#include "core/base/error.h"
+#include "core/run/builtin_stages.h"
+#include "core/run/plugin_loader.h"
+#include "core/run/simulation.h"
+#include "tools/pipeline/commands.h"
+#include "tools/pipeline/common.h"
+#include "tools/pipeline/options.h"
+#include "tools/pipeline/sweep.h"
+
+extern char** environ;
+
+namespace po = boost::program_options;
+namespace fs = std::filesystem;
+
+namespace ff::cli {
+
+namespace {
+using sweep::Axis;
+using sweep::Run;
+
+constexpr int kMpsClientLimit = 48;
+
+std::atomic<int> g_stop{0};
+extern "C" void on_sweep_signal(int sig) { g_stop.store(sig); }
+
+std::string file_text(const fs::path& p) {
+  std::ifstream in(p);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+std::vector<std::string> split(const std::string& s, char sep) {
+  std::vector<std::string> out;
+  std::stringstream ss(s);
+  for (std::string item; std::getline(ss, item, sep);)
+    if (!item.empty()) out.push_back(item);
+  return out;
+}
+
+// What the sweep is: re-running it in the same folder must mean the same runs.
+std::string definition(const std::string& file, const std::string& text, const std::vector<std::string>& sets,
+                       const std::vector<std::string>& grids, int replicas) {
+  std::ostringstream d;
+  d << "pipeline: " << fs::absolute(file).lexically_normal().string() << "\n";
+  for (auto& s : sets) d << "set: " << s << "\n";
+  for (auto& g : grids) d << "grid: " << g << "\n";
+  d << "replicas: " << replicas << "\n";
+  d << "--- pipeline file ---\n" << text;
+  return d.str();
+}
+
+// Checks every combination and fills in seeds, sets, N and steps. Nothing is written.
+void plan_runs(const std::string& file, const std::vector<std::string>& user_sets, const std::vector<Axis>& axes,
+               const std::vector<std::string>& grid_args, int replicas, std::vector<Run>& runs) {
+  std::map<std::string, std::unique_ptr<Registry>> registries;  // by plugin list
+  const Run* previous = nullptr;
+  for (auto& run : runs) {
+    std::vector<std::string> sets = user_sets;
+    for (std::size_t k = 0; k < axes.size(); ++k) sets.push_back(axes[k].key + "=" + run.values[k]);
+    const bool first_replica = run.replica == 0;
+    if (!first_replica) {
+      // Replicas differ only in run.seed: base seed + replica.
+      run.seed = previous->seed - std::uint64_t(previous->replica) + std::uint64_t(run.replica);
+      run.N = previous->N;
+      run.steps = previous->steps;
+      sets.push_back("run.seed=" + std::to_string(run.seed));
+      run.sets = sets;
+      previous = &run;
+      continue;
+    }
+    // Which --grid argument a loader error comes from, when one does.
+    auto blame = [&](const std::string& what) -> std::string {
+      for (std::size_t k = 0; k < axes.size(); ++k)
+        if (what.find("--set " + axes[k].key + "=") != std::string::npos)
+          return "--grid " + grid_args[k] + " (value '" + run.values[k] + "'): " + what;
+      std::string combo;
+      for (std::size_t k = 0; k < axes.size(); ++k) combo += (k ? ", " : "") + axes[k].key + "=" + run.values[k];
+      return combo.empty() ? what : "with " + combo + ": " + what;
+    };
+    try {
+      auto doc = PipelineDocument::parse(file, sets);
+      const auto plugins = doc.plugins();
+      std::string plugin_key;
+      for (auto& p : plugins) plugin_key += p + "\n";
+      auto& registry = registries[plugin_key];
+      if (!registry) registry = make_registry(plugins, [&doc](std::size_t i) { return doc.plugin_location(i); });
+      const PipelineSpec spec = doc.resolve(*registry);
+      run.seed = spec.run.seed;
+      run.N = spec.system.N;
+      run.steps = spec.run.steps;
+      if (replicas > 1) sets.push_back("run.seed=" + std::to_string(run.seed));
+      // As `pipeline validate`: every stage configured on the real initial state, no files.
+      RunOptions o;
+      o.dry_run = true;
+      Simulation dry(spec, *registry, o);
+    } catch (const InputError& e) {
+      throw InputError(blame(e.what()));
+    } catch (const std::exception& e) {
+      throw InputError(blame(std::string("the dry run failed: ") + e.what()));
+    }
+    run.sets = sets;
+    previous = &run;
+  }
+}
+
+// ---- GPUs and MPS ----
+
+std::vector<std::string> visible_gpus(const std::string& gpus_arg) {
+  if (!gpus_arg.empty()) return split(gpus_arg, ',');
+  if (const char* v = std::getenv("CUDA_VISIBLE_DEVICES")) return split(v, ',');
+  std::vector<std::string> out;
+  std::error_code ec;
+  std::size_t n = 0;
+  for (auto& e : fs::directory_iterator("/proc/driver/nvidia/gpus", ec)) {
+    (void)e;
+    ++n;
+  }
+  for (std::size_t i = 0; i < std::max<std::size_t>(n, 1); ++i) out.push_back(std::to_string(i));
+  return out;
+}
+
+std::string find_on_path(const std::string& program) {
+  const char* path = std::getenv("PATH");
+  std::vector<std::string> dirs = split(path ? path : "", ':');
+  dirs.push_back("/usr/bin");
+  dirs.push_back("/usr/local/bin");
+  for (auto& d : dirs) {
+    const fs::path p = fs::path(d) / program;
+    if (::access(p.c_str(), X_OK) == 0) return p.string();
+  }
+  return "";
+}
+
+// Runs `program args` with `env` added, stdin from `input`, and waits; its exit status.
+int run_helper(const std::string& program, const std::vector<std::string>& args,
+               const std::vector<std::string>& env, const std::string& input, const std::string& log) {
+  int fds[2];
+  if (::pipe(fds) != 0) return -1;
+  std::vector<std::string> envs;
+  for (char** e = environ; *e; ++e) envs.push_back(*e);
+  for (auto& e : env) envs.push_back(e);
+  std::vector<char*> envp, argv;
+  for (auto& e : envs) envp.push_back(const_cast<char*>(e.c_str()));
+  envp.push_back(nullptr);
+  argv.push_back(const_cast<char*>(program.c_str()));
+  for (auto& a : args) argv.push_back(const_cast<char*>(a.c_str()));
+  argv.push_back(nullptr);
+  const pid_t pid = ::fork();
+  if (pid == 0) {
+    ::dup2(fds[0], 0);
+    ::close(fds[1]);
+    const int out = ::open(log.c_str(), O_WRONLY | O_CREAT | O_APPEND, 0644);
+    if (out >= 0) {
+      ::dup2(out, 1);
+      ::dup2(out, 2);
+    }
+    ::execve(program.c_str(), argv.data(), envp.data());
+    ::_exit(127);
+  }
+  ::close(fds[0]);
+  if (!input.empty()) (void)!::write(fds[1], input.data(), input.size());
+  ::close(fds[1]);
+  int status = 0;
+  if (pid < 0 || ::waitpid(pid, &status, 0) != pid) return -1;
+  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+}
+
+// An MPS control daemon for the sweep: one already running, or our own (stopped on destruction).
+class Mps {
+ public:
+  // Empty env and active() false when MPS is not used; `note` says why.
+  Mps(const std::string& mode, bool wanted, std::string& note) {
+    if (mode == "off" || !wanted) return;
+    const char* pipe_env = std::getenv("CUDA_MPS_PIPE_DIRECTORY");
+    const std::string pipe_dir = pipe_env && *pipe_env ? pipe_env : "/tmp/nvidia-mps";
+    if (fs::exists(fs::path(pipe_dir) / "control")) {
+      active_ = true;
+      note = "CUDA MPS: using the control daemon of " + pipe_dir;
+      return;
+    }
+    control_ = find_on_path("nvidia-cuda-mps-control");
+    if (control_.empty()) {
+      if (mode == "on") throw InputError("--mps on: no MPS control daemon is running and nvidia-cuda-mps-control is not on PATH");
+      note = "no CUDA MPS (nvidia-cuda-mps-control not found): the runs sharing a GPU time-slice it";
+      return;
+    }
+    char tmpl[] = "/tmp/flipflow-mps-XXXXXX";  // short: the pipe is a Unix socket path
+    if (!::mkdtemp(tmpl)) throw RunError("cannot create a directory for the MPS daemon in /tmp");
+    dir_ = tmpl;
+    fs::create_directories(dir_ / "pipe");
+    fs::create_directories(dir_ / "log");
+    env_ = {"CUDA_MPS_PIPE_DIRECTORY=" + (dir_ / "pipe").string(), "CUDA_MPS_LOG_DIRECTORY=" + (dir_ / "log").string()};
+    const int rc = run_helper(control_, {"-d"}, env_, "", (dir_ / "log" / "start.log").string());
+    if (rc != 0) {
+      const std::string why = file_text(dir_ / "log" / "start.log");
+      fs::remove_all(dir_);
+      env_.clear();
+      if (mode == "on") throw InputError("--mps on: nvidia-cuda-mps-control -d failed (exit " + std::to_string(rc) + "): " + why);
+      note = "CUDA MPS could not be started (nvidia-cuda-mps-control -d: exit " + std::to_string(rc) +
+             "): the runs sharing a GPU time-slice it";
+      return;
+    }
+    active_ = owned_ = true;
+    note = "CUDA MPS: started a control daemon (pipe directory " + (dir_ / "pipe").string() + "), stopped at the end";
+  }
+  ~Mps() {
+    if (!owned_) return;
+    run_helper(control_, {}, env_, "quit\n", (dir_ / "log" / "stop.log").string());
+    // The daemon removes its pipe on quit; give it a moment before the folder goes.
+    for (int i = 0; i < 50 && fs::exists(dir_ / "pipe" / "control"); ++i)
+      std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    std::error_code ec;
+    fs::remove_all(dir_, ec);
+  }
+  Mps(const Mps&) = delete;
+  Mps& operator=(const Mps&) = delete;
+  bool active() const { return active_; }
+  const std::vector<std::string>& env() const { return env_; }
+
+ private:
+  bool active_ = false, owned_ = false;
+  std::string control_;
+  fs::path dir_;
+  std::vector<std::string> env_;
+};
+
+// ---- running ----
+
+struct Child {
+  pid_t pid = -1;
+  std::size_t run = 0;
+  int gpu = -1;
+  bool resuming = false;
+  std::chrono::steady_clock::time_point t0;
+};
+
+bool has_checkpoint(const fs::path& dir) {
+  std::error_code ec;
+  for (auto& e : fs::directory_iterator(dir, ec)) {
+    const std::string n = e.path().filename().string();
+    if (n.rfind("checkpoint-", 0) == 0 && e.path().extension() == ".h5") return true;
+  }
+  return false;
+}
+
+// From a run's log: its rate ("done: S steps in T s (R steps/s)") and its last error line.
+void read_log(const fs::path& log, double& steps_per_s, std::string& error) {
+  std::ifstream in(log);
+  steps_per_s = 0;
+  error.clear();
+  for (std::string line; std::getline(in, line);) {
+    if (line.rfind("done: ", 0) == 0) {
+      const auto open = line.find('(');
+      if (open != std::string::npos) steps_per_s = std::atof(line.c_str() + open + 1);
+    } else if (line.rfind("error: ", 0) == 0 || line.rfind("run failed: ", 0) == 0 ||
+               line.find("stopped by") != std::string::npos) {
+      error = line;
+    }
+  }
+}
+
+std::string duration(double s) {
+  std::ostringstream o;
+  if (s >= 3600) o << int(s / 3600) << "h" << std::setw(2) << std::setfill('0') << int(s / 60) % 60 << "m";
+  else if (s >= 60) o << int(s / 60) << "m" << std::setw(2) << std::setfill('0') << int(s) % 60 << "s";
+  else o << std::fixed << std::setprecision(s < 10 ? 1 : 0) << s << "s";
+  return o.str();
+}
+
+}  // namespace
+
+int cmd_sweep(const std::vector<std::string>& args) {
+  CommonOptions common;
+  std::vector<std::string> grid_args;
+  std::string out, mps_mode, gpus_arg;
+  int replicas = 1, concurrent = 1, threads = 0;
+  bool force = false;
+  po::options_description extra;
+  extra.add_options()("grid", po::value<std::vector<std::string>>(&grid_args)->composing(),
+                      "KEY=V1,V2,...: one axis of the grid (keys as for --set)")(
+      "replicas", po::value<int>(&replicas)->default_value(1), "runs per combination, seeds run.seed + 0 .. R-1")(
+      "concurrent", po::value<int>(&concurrent)->default_value(1), "runs at once per GPU (on the CPU: in all)")(
+      "out", po::value<std::string>(&out), "the sweep's folder (default sweeps/<file stem>)")(
+      "threads", po::value<int>(&threads)->default_value(0), "CPU threads per run (0 = the cores / runs at once)")(
+      "mps", po::value<std::string>(&mps_mode)->default_value("auto"), "CUDA MPS when runs share a GPU: auto, on, off")(
+      "gpus", po::value<std::string>(&gpus_arg), "GPUs to spread the runs over, e.g. 0,1 (default: every visible GPU)")(
+      "force", po::bool_switch(&force), "run every run again from the start, whatever the folder holds");
+  parse_options(args, extra, common);
+  if (replicas < 1) throw InputError("--replicas must be at least 1");
+  if (concurrent < 1) throw InputError("--concurrent must be at least 1");
+  if (threads < 0) throw InputError("--threads must be 0 (automatic) or more");
+  if (mps_mode != "auto" && mps_mode != "on" && mps_mode != "off")
+    throw InputError("--mps: expected auto, on or off, got '" + mps_mode + "'");
+
+  std::vector<Axis> axes;
+  for (auto& g : grid_args) {
+    axes.push_back(sweep::parse_grid(g));
+    for (std::size_t k = 0; k + 1 < axes.size(); ++k)
+      if (axes[k].key == axes.back().key) throw InputError("--grid " + g + ": the key '" + axes[k].key + "' has two --grid arguments");
+    if (replicas > 1 && axes.back().key == "run.seed")
+      throw InputError("--grid " + g + ": --replicas sets run.seed (the pipeline's seed + 0 .. R-1); grid over the seed or give --replicas, not both");
+  }
+  const Backend backend = resolve_backend(common.device);
+  std::vector<Run> runs = sweep::combinations(axes, replicas);
+  plan_runs(common.file, common.overrides, axes, grid_args, replicas, runs);
+  sweep::name_folders(axes, runs, replicas > 1);
+
+  // Everything is valid: from here on the sweep writes.
+  if (out.empty()) out = "sweeps/" + fs::path(common.file).stem().string();
+  const fs::path root(out);
+  const std::string def = definition(common.file, file_text(common.file), common.overrides, grid_args, replicas);
+  const fs::path def_file = root / "sweep.txt", index_file = root / "index.csv";
+  if (fs::exists(def_file) && file_text(def_file) != def && !force)
+    throw InputError("'" + out + "' holds another sweep (" + def_file.string() +
+                     " records its file, --set, --grid and --replicas): use another --out, or --force to run this "
+                     "one there from the start");
+  fs::create_directories(root);
+  {
+    std::ofstream d(def_file, std::ios::trunc);
+    d << def;
+  }
+  // Runs an earlier invocation finished are kept as they are.
+  std::size_t skipped = 0;
+  if (!force) {
+    const auto previous = sweep::read_index(index_file.string());
+    for (auto& r : runs) {
+      auto it = previous.find(r.folder);
+      if (it == previous.end() || !fs::is_directory(root / r.folder)) continue;
+      auto row = it->second;
+      if (row["status"] != "done") continue;
+      r.status = "done";
+      r.exit_code = 0;
+      r.steps_per_s = std::atof(row["steps_per_s"].c_str());
+      r.wall_s = std::atof(row["wall_s"].c_str());
+      r.gpu = row["gpu"];
+      r.message = row["message"];
+      ++skipped;
+    }
+  }
+
+  const bool cuda = backend == Backend::cuda;
+  const std::vector<std::string> gpus = cuda ? visible_gpus(gpus_arg) : std::vector<std::string>{""};
+  std::string mps_note;
+  Mps mps(mps_mode, cuda && concurrent > 1, mps_note);
+  int per_gpu = concurrent;
+  if (mps.active() && per_gpu > kMpsClientLimit) {
+    mps_note += "; --concurrent " + std::to_string(per_gpu) + " capped at " + std::to_string(kMpsClientLimit) +
+                " runs per GPU (MPS's client limit)";
+    per_gpu = kMpsClientLimit;
+  }
+  const int slots = per_gpu * int(gpus.size());
+  const int cores = tbb::info::default_concurrency();
+  const int run_threads = threads > 0 ? threads : std::max(1, cores / slots);
+  const std::size_t todo = runs.size() - skipped;
+  std::cerr << "sweep: " << runs.size() << " runs of " << common.file << " (" << axes.size() << " grid axes, "
+            << replicas << " replica" << (replicas > 1 ? "s" : "") << "), " << todo << " to run, " << skipped
+            << " done before; up to " << per_gpu << " at once"
+            << (cuda ? " per GPU on " + std::to_string(gpus.size()) + " GPU" + (gpus.size() > 1 ? "s" : "") : " on the CPU")
+            << ", " << run_threads << " CPU thread" << (run_threads > 1 ? "s" : "") << " each; index " << index_file.string()
+            << "\n";
+  if (!mps_note.empty()) std::cerr << "sweep: " << mps_note << "\n";
+  sweep::write_index(index_file.string(), axes, runs);
+
+  const std::string exe = boost::dll::program_location().string();
+  std::vector<std::string> base_env;
+  for (char** e = environ; *e; ++e) {
+    const std::string s = *e;
+    if (cuda && s.rfind("CUDA_VISIBLE_DEVICES=", 0) == 0) continue;
+    base_env.push_back(s);
+  }
+  for (auto& e : mps.env()) base_env.push_back(e);
+
+  std::signal(SIGINT, on_sweep_signal);
+  std::signal(SIGTERM, on_sweep_signal);
+  const pid_t me = ::getpid();
+  std::vector<Child> children;
+  std::vector<int> on_gpu(gpus.size(), 0);
+  std::size_t next = 0, done = 0, failed = 0, interrupted = 0;
+  const auto t_start = std::chrono::steady_clock::now();
+  const bool tty = ::isatty(2);
+  double particle_steps = 0;  // of the runs this invocation finished
+
+  // `restart`: from the beginning even where a checkpoint is (after a refused --resume).
+  auto launch = [&](std::size_t i, int gpu, bool restart) {
+    Run& r = runs[i];
+    const fs::path dir = root / r.folder;
+    fs::create_directories(dir);
+    std::vector<std::string> argv = {exe, "run", common.file, "--out", dir.string(), "--device", to_string(backend),
+                                     "--threads", std::to_string(run_threads)};
+    for (auto& s : r.sets) {
+      argv.push_back("--set");
+      argv.push_back(s);
+    }
+    // The folder is the sweep's own (sweep.txt guards against another sweep's): a run that does
+    // not continue from a checkpoint overwrites what an earlier, unfinished launch left there.
+    const bool resume = !restart && !force && has_checkpoint(dir);
+    argv.push_back(resume ? "--resume" : "--force");
+    const fs::path log = dir / "run.log";
+    {
+      std::ofstream l(log, std::ios::app);
+      l << "== pipeline sweep: ";
+      for (std::size_t k = 1; k < argv.size(); ++k) l << (k > 1 ? " " : "") << argv[k];
+      l << (cuda ? "   (CUDA_VISIBLE_DEVICES=" + gpus[gpu] + ")" : "") << "\n";
+    }
+    std::vector<std::string> env = base_env;
+    if (cuda) env.push_back("CUDA_VISIBLE_DEVICES=" + gpus[gpu]);
+    std::vector<char*> cargv, cenv;
+    for (auto& a : argv) cargv.push_back(const_cast<char*>(a.c_str()));
+    cargv.push_back(nullptr);
+    for (auto& e : env) cenv.push_back(const_cast<char*>(e.c_str()));
+    cenv.push_back(nullptr);
+    const int fd = ::open(log.c_str(), O_WRONLY | O_CREAT | O_APPEND | O_CLOEXEC, 0644);
+    if (fd < 0) throw RunError("cannot open '" + log.string() + "': " + std::strerror(errno));
+    const pid_t pid = ::fork();
+    if (pid < 0) throw RunError(std::string("cannot start a run: fork: ") + std::strerror(errno));
+    if (pid == 0) {
+      // The run checkpoints and stops if the sweep dies.
+      ::prctl(PR_SET_PDEATHSIG, SIGTERM);
+      if (::getppid() != me) ::_exit(3);
+      ::dup2(fd, 1);
+      ::dup2(fd, 2);
+      ::execve(exe.c_str(), cargv.data(), cenv.data());
+      ::_exit(127);
+    }
+    ::close(fd);
+    r.status = "running";
+    r.exit_code = -1;
+    r.gpu = cuda ? gpus[gpu] : "";
+    r.message = resume ? "resumed from a checkpoint" : "";
+    children.push_back({pid, i, gpu, resume, std::chrono::steady_clock::now()});
+    if (cuda) ++on_gpu[gpu];
+  };
+
+  auto progress = [&](bool final_line) {
+    const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
+    std::ostringstream line;
+    line << "sweep: " << done + skipped << "/" << runs.size() << " done, " << children.size() << " running, " << failed
+         << " failed";
+    if (interrupted) line << ", " << interrupted << " interrupted";
+    line << ", " << duration(elapsed);
+    const std::size_t finished_here = done + failed;
+    if (!final_line && finished_here > 0 && finished_here < todo)
+      line << ", ETA " << duration(elapsed / double(finished_here) * double(todo - finished_here));
+    std::cerr << "\r\033[K" << line.str() << (final_line ? "\n" : "") << std::flush;
+  };
+
+  auto reap = [&](std::size_t c, int status) {
+    Child ch = children[c];
+    children.erase(children.begin() + std::ptrdiff_t(c));
+    if (cuda) --on_gpu[ch.gpu];
+    Run& r = runs[ch.run];
+    r.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - ch.t0).count();
+    std::string error;
+    read_log(root / r.folder / "run.log", r.steps_per_s, error);
+    if (WIFEXITED(status)) {
+      r.exit_code = WEXITSTATUS(status);
+    } else {
+      r.exit_code = 128 + WTERMSIG(status);
+      error = std::string("killed by signal ") + std::to_string(WTERMSIG(status)) + " (" + strsignal(WTERMSIG(status)) + ")";
+    }
+    // A refused resume (every checkpoint invalid, say): start again from the beginning, once.
+    if (ch.resuming && r.exit_code == 2 && !g_stop.load()) {
+      launch(ch.run, ch.gpu, true);
+      runs[ch.run].message = "its checkpoints were refused (run.log); restarted";
+      return;
+    }
+    std::string verb;
+    if (r.exit_code == 0) {
+      r.status = "done";
+      r.message = ch.resuming ? "resumed from a checkpoint" : "";
+      ++done;
+      particle_steps += double(r.N) * double(r.steps);
+      verb = "done";
+    } else if (r.exit_code == 3 || (g_stop.load() && !WIFEXITED(status))) {
+      r.status = "interrupted";
+      r.message = error;
+      ++interrupted;
+      verb = "interrupted";
+    } else {
+      r.status = "failed";
+      r.message = error.empty() ? "exit " + std::to_string(r.exit_code) + " (see run.log)" : error;
+      ++failed;
+      verb = "FAILED";
+    }
+    if (!tty || verb != "done") {
+      if (tty) std::cerr << "\r\033[K";
+      std::cerr << "sweep: [" << done + failed + interrupted << "/" << todo << "] " << verb << " " << r.folder;
+      if (r.exit_code == 0 && r.steps_per_s > 0) std::cerr << " (" << std::setprecision(4) << r.steps_per_s << " steps/s)";
+      if (r.exit_code != 0) std::cerr << ": " << r.message;
+      std::cerr << "\n";
+    }
+  };
+
+  bool forwarded = false;
+  auto last_draw = std::chrono::steady_clock::now() - std::chrono::seconds(1);
+  while (true) {
+    if (g_stop.load() && !forwarded) {
+      for (auto& ch : children) ::kill(ch.pid, SIGTERM);
+      forwarded = true;
+    }
+    bool changed = false;
+    while (!g_stop.load() && next < runs.size() && int(children.size()) < slots) {
+      if (runs[next].status == "done") {
+        ++next;
+        continue;
+      }
+      const int gpu = cuda ? int(std::min_element(on_gpu.begin(), on_gpu.end()) - on_gpu.begin()) : 0;
+      launch(next, gpu, false);
+      ++next;
+      changed = true;
+    }
+    if (changed) sweep::write_index(index_file.string(), axes, runs);
+    if (children.empty()) break;
+    int status = 0;
+    const pid_t pid = ::waitpid(-1, &status, WNOHANG);
+    if (pid > 0) {
+      for (std::size_t c = 0; c < children.size(); ++c)
+        if (children[c].pid == pid) {
+          reap(c, status);
+          break;
+        }
+      sweep::write_index(index_file.string(), axes, runs);
+      continue;
+    }
+    if (tty && std::chrono::steady_clock::now() - last_draw > std::chrono::milliseconds(500)) {
+      progress(false);
+      last_draw = std::chrono::steady_clock::now();
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  // Runs never started because of a signal stay pending; the next invocation starts them.
+  sweep::write_index(index_file.string(), axes, runs);
+  const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
+  if (tty) progress(true);
+  std::cerr << "sweep: " << done << " run" << (done == 1 ? "" : "s") << " done in " << duration(elapsed);
+  if (done && elapsed > 0)
+    std::cerr << ", " << std::setprecision(4) << particle_steps / elapsed
+              << " particle-steps/s over the sweep's wall time (start-up of each run included)";
+  double sum_rate = 0;
+  for (auto& r : runs)
+    if (r.status == "done") sum_rate += r.steps_per_s * double(r.N);
+  // With runs side by side, the sum of their own rates (each timed from its first step to its
+  // last, set-up left out) is the aggregate while they ran together.
+  if (sum_rate > 0 && slots > 1)
+    std::cerr << "; sum of the runs' own rates " << std::setprecision(4) << sum_rate << " particle-steps/s";
+  std::cerr << "\n";
+  if (failed) std::cerr << "sweep: " << failed << " run" << (failed == 1 ? "" : "s") << " failed: see the index's message column and each folder's run.log\n";
+  if (g_stop.load()) {
+    std::cerr << "sweep: stopped by " << (g_stop.load() == SIGINT ? "SIGINT" : "SIGTERM")
+              << "; run the same command again to continue\n";
+    return 3;
+  }
+  return failed ? 1 : 0;
+}
+
+}  // namespace ff::cli
