@@ -3,7 +3,8 @@
 // effective pipeline); a run of the sweep equals the same `pipeline run --set ...` in every
 // H5MD dataset; a bad grid key or value exits 2 naming it and writes nothing; a sweep killed
 // mid-way (its runs get SIGTERM and checkpoint) and run again finishes with the same outputs
-// as one never interrupted; --concurrent 2 gives the same outputs as --concurrent 1.
+// as one never interrupted; --concurrent 2 (child processes, or threads with --in-process) gives
+// the same outputs as --concurrent 1.
 #include <catch2/catch.hpp>
 #include <hdf5.h>
 #include <signal.h>
@@ -308,7 +309,8 @@ TEST_CASE("sweep: a bad grid key or value exits 2 naming it, and writes nothing"
   CHECK_FALSE(fs::exists(out));
 }
 
-TEST_CASE("sweep: --concurrent 2 on the CPU gives the same outputs as --concurrent 1", "[sweep]") {
+TEST_CASE("sweep: --concurrent 2 on the CPU, in processes or threads, gives the same outputs as --concurrent 1",
+          "[sweep]") {
   const fs::path out = fresh_dir("concurrent");
   auto r = pipeline(sweep_args(out) + " --concurrent 2");
   INFO(r.out);
@@ -327,6 +329,14 @@ TEST_CASE("sweep: --concurrent 2 on the CPU gives the same outputs as --concurre
   CHECK(other.code == 2);
   CHECK_THAT(other.out, Catch::Contains("holds another sweep"));
   fs::remove_all(out);
+  // The same on threads of one process.
+  const fs::path threads = fresh_dir("in_process");
+  auto t = pipeline(sweep_args(threads) + " --concurrent 2 --in-process");
+  INFO(t.out);
+  REQUIRE(t.code == 0);
+  CHECK_THAT(t.out, Catch::Contains("on threads of this process"));
+  require_same_sweep(threads, reference_sweep());
+  fs::remove_all(threads);
 }
 
 TEST_CASE("sweep: killed (SIGKILL) or stopped (SIGTERM) mid-way and run again, it finishes with the same outputs",

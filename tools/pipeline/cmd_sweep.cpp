@@ -43,6 +43,7 @@
 //
 // Exit codes: 0 every run done, 1 some run failed, 2 bad input, 3 interrupted.
 #include <fcntl.h>
+#include <oneapi/tbb/global_control.h>
 #include <oneapi/tbb/info.h>
 #include <sys/prctl.h>
 #include <sys/wait.h>
@@ -61,6 +62,7 @@
 #include <iostream>
 #include <map>
 #include <memory>
+#include <optional>
 #include <sstream>
 #include <thread>
 
@@ -73,6 +75,10 @@
 #include "tools/pipeline/common.h"
 #include "tools/pipeline/options.h"
 #include "tools/pipeline/sweep.h"
+
+#ifdef FLIPFLOW_HAVE_CUDA
+#include <cuda_runtime_api.h>
+#endif
 
 extern char** environ;
 
@@ -294,8 +300,11 @@ class Mps {
 
 // ---- running ----
 
+// A run under way: a child process, or (--in-process) a thread of this one.
 struct Child {
   pid_t pid = -1;
+  std::shared_ptr<std::thread> thread;
+  std::shared_ptr<std::atomic<int>> thread_exit;  // -1 while the thread runs
   std::size_t run = 0;
   int gpu = -1;
   bool resuming = false;
@@ -342,7 +351,7 @@ int cmd_sweep(const std::vector<std::string>& args) {
   std::vector<std::string> grid_args;
   std::string out, mps_mode, gpus_arg;
   int replicas = 1, concurrent = 1, threads = 0;
-  bool force = false;
+  bool force = false, in_process = false;
   po::options_description extra;
   extra.add_options()("grid", po::value<std::vector<std::string>>(&grid_args)->composing(),
                       "KEY=V1,V2,...: one axis of the grid (keys as for --set)")(
@@ -352,7 +361,9 @@ int cmd_sweep(const std::vector<std::string>& args) {
       "threads", po::value<int>(&threads)->default_value(0), "CPU threads per run (0 = the cores / runs at once)")(
       "mps", po::value<std::string>(&mps_mode)->default_value("auto"), "CUDA MPS when runs share a GPU: auto, on, off")(
       "gpus", po::value<std::string>(&gpus_arg), "GPUs to spread the runs over, e.g. 0,1 (default: every visible GPU)")(
-      "force", po::bool_switch(&force), "run every run again from the start, whatever the folder holds");
+      "force", po::bool_switch(&force), "run every run again from the start, whatever the folder holds")(
+      "in-process", po::bool_switch(&in_process),
+      "run the runs on threads of this process (one GPU, no MPS needed) instead of child processes");
   parse_options(args, extra, common);
   if (replicas < 1) throw InputError("--replicas must be at least 1");
   if (concurrent < 1) throw InputError("--concurrent must be at least 1");
@@ -407,9 +418,13 @@ int cmd_sweep(const std::vector<std::string>& args) {
   }
 
   const bool cuda = backend == Backend::cuda;
-  const std::vector<std::string> gpus = cuda ? visible_gpus(gpus_arg) : std::vector<std::string>{""};
+  std::vector<std::string> gpus = cuda ? visible_gpus(gpus_arg) : std::vector<std::string>{""};
   std::string mps_note;
-  Mps mps(mps_mode, cuda && concurrent > 1, mps_note);
+  if (in_process && gpus.size() > 1) {
+    mps_note = "--in-process: every run on the first GPU this process sees (spreading over GPUs needs child processes)";
+    gpus.resize(1);
+  }
+  Mps mps(mps_mode, cuda && concurrent > 1 && !in_process, mps_note);
   int per_gpu = concurrent;
   if (mps.active() && per_gpu > kMpsClientLimit) {
     mps_note += "; --concurrent " + std::to_string(per_gpu) + " capped at " + std::to_string(kMpsClientLimit) +
@@ -419,12 +434,22 @@ int cmd_sweep(const std::vector<std::string>& args) {
   const int slots = per_gpu * int(gpus.size());
   const int cores = tbb::info::default_concurrency();
   const int run_threads = threads > 0 ? threads : std::max(1, cores / slots);
+  std::optional<tbb::global_control> thread_limit;  // --in-process: one limit for all runs
+  if (in_process && threads > 0)
+    thread_limit.emplace(tbb::global_control::max_allowed_parallelism, std::size_t(threads));
+#ifdef FLIPFLOW_HAVE_CUDA
+  // More runs than cores waiting on the GPU in one process: a waiting thread sleeps instead of
+  // spinning, or the spinning ones would keep those whose work is done from their cores.
+  if (in_process && cuda && slots > cores) cudaSetDeviceFlags(cudaDeviceScheduleBlockingSync);
+#endif
   const std::size_t todo = runs.size() - skipped;
   std::cerr << "sweep: " << runs.size() << " runs of " << common.file << " (" << axes.size() << " grid axes, "
             << replicas << " replica" << (replicas > 1 ? "s" : "") << "), " << todo << " to run, " << skipped
             << " done before; up to " << per_gpu << " at once"
             << (cuda ? " per GPU on " + std::to_string(gpus.size()) + " GPU" + (gpus.size() > 1 ? "s" : "") : " on the CPU")
-            << ", " << run_threads << " CPU thread" << (run_threads > 1 ? "s" : "") << " each; index " << index_file.string()
+            << (in_process ? ", on threads of this process"
+                           : ", " + std::to_string(run_threads) + " CPU thread" + (run_threads > 1 ? "s" : "") + " each")
+            << "; index " << index_file.string()
             << "\n";
   if (!mps_note.empty()) std::cerr << "sweep: " << mps_note << "\n";
   sweep::write_index(index_file.string(), axes, runs);
@@ -466,36 +491,67 @@ int cmd_sweep(const std::vector<std::string>& args) {
     const fs::path log = dir / "run.log";
     {
       std::ofstream l(log, std::ios::app);
-      l << "== pipeline sweep: ";
+      l << "== pipeline sweep" << (in_process ? " (in its own process)" : "") << ": ";
       for (std::size_t k = 1; k < argv.size(); ++k) l << (k > 1 ? " " : "") << argv[k];
-      l << (cuda ? "   (CUDA_VISIBLE_DEVICES=" + gpus[gpu] + ")" : "") << "\n";
+      l << (cuda && !in_process ? "   (CUDA_VISIBLE_DEVICES=" + gpus[gpu] + ")" : "") << "\n";
     }
-    std::vector<std::string> env = base_env;
-    if (cuda) env.push_back("CUDA_VISIBLE_DEVICES=" + gpus[gpu]);
-    std::vector<char*> cargv, cenv;
-    for (auto& a : argv) cargv.push_back(const_cast<char*>(a.c_str()));
-    cargv.push_back(nullptr);
-    for (auto& e : env) cenv.push_back(const_cast<char*>(e.c_str()));
-    cenv.push_back(nullptr);
-    const int fd = ::open(log.c_str(), O_WRONLY | O_CREAT | O_APPEND | O_CLOEXEC, 0644);
-    if (fd < 0) throw RunError("cannot open '" + log.string() + "': " + std::strerror(errno));
-    const pid_t pid = ::fork();
-    if (pid < 0) throw RunError(std::string("cannot start a run: fork: ") + std::strerror(errno));
-    if (pid == 0) {
-      // The run checkpoints and stops if the sweep dies.
-      ::prctl(PR_SET_PDEATHSIG, SIGTERM);
-      if (::getppid() != me) ::_exit(3);
-      ::dup2(fd, 1);
-      ::dup2(fd, 2);
-      ::execve(exe.c_str(), cargv.data(), cenv.data());
-      ::_exit(127);
+    Child child;
+    if (in_process) {
+      RunRequest req;
+      req.file = common.file;
+      req.overrides = r.sets;
+      req.device = to_string(backend);
+      req.out = dir.string();
+      req.force = !resume;
+      req.resuming = resume;
+      child.thread_exit = std::make_shared<std::atomic<int>>(-1);
+      child.thread = std::make_shared<std::thread>([req, log, exit = child.thread_exit] {
+        std::ofstream out(log, std::ios::app);
+        int rc = 1;
+        try {
+          rc = run_pipeline(req, out, g_stop);
+        } catch (const InputError& e) {
+          out << "error: " << e.what() << "\n";
+          rc = 2;
+        } catch (const std::exception& e) {
+          out << "run failed: " << e.what() << "\n";
+        }
+        out.flush();
+        exit->store(rc);
+      });
+    } else {
+      std::vector<std::string> env = base_env;
+      if (cuda) env.push_back("CUDA_VISIBLE_DEVICES=" + gpus[gpu]);
+      std::vector<char*> cargv, cenv;
+      for (auto& a : argv) cargv.push_back(const_cast<char*>(a.c_str()));
+      cargv.push_back(nullptr);
+      for (auto& e : env) cenv.push_back(const_cast<char*>(e.c_str()));
+      cenv.push_back(nullptr);
+      const int fd = ::open(log.c_str(), O_WRONLY | O_CREAT | O_APPEND | O_CLOEXEC, 0644);
+      if (fd < 0) throw RunError("cannot open '" + log.string() + "': " + std::strerror(errno));
+      const pid_t pid = ::fork();
+      if (pid < 0) throw RunError(std::string("cannot start a run: fork: ") + std::strerror(errno));
+      if (pid == 0) {
+        // The run checkpoints and stops if the sweep dies.
+        ::prctl(PR_SET_PDEATHSIG, SIGTERM);
+        if (::getppid() != me) ::_exit(3);
+        ::dup2(fd, 1);
+        ::dup2(fd, 2);
+        ::execve(exe.c_str(), cargv.data(), cenv.data());
+        ::_exit(127);
+      }
+      ::close(fd);
+      child.pid = pid;
     }
-    ::close(fd);
     r.status = "running";
     r.exit_code = -1;
     r.gpu = cuda ? gpus[gpu] : "";
     r.message = resume ? "resumed from a checkpoint" : "";
-    children.push_back({pid, i, gpu, resume, std::chrono::steady_clock::now()});
+    child.run = i;
+    child.gpu = gpu;
+    child.resuming = resume;
+    child.t0 = std::chrono::steady_clock::now();
+    children.push_back(child);
     if (cuda) ++on_gpu[gpu];
   };
 
@@ -512,9 +568,11 @@ int cmd_sweep(const std::vector<std::string>& args) {
     std::cerr << "\r\033[K" << line.str() << (final_line ? "\n" : "") << std::flush;
   };
 
+  // `status`: from waitpid for a process; an exit code shifted into WEXITSTATUS for a thread.
   auto reap = [&](std::size_t c, int status) {
     Child ch = children[c];
     children.erase(children.begin() + std::ptrdiff_t(c));
+    if (ch.thread) ch.thread->join();
     if (cuda) --on_gpu[ch.gpu];
     Run& r = runs[ch.run];
     r.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - ch.t0).count();
@@ -563,7 +621,9 @@ int cmd_sweep(const std::vector<std::string>& args) {
   auto last_draw = std::chrono::steady_clock::now() - std::chrono::seconds(1);
   while (true) {
     if (g_stop.load() && !forwarded) {
-      for (auto& ch : children) ::kill(ch.pid, SIGTERM);
+      // Threads see g_stop themselves.
+      for (auto& ch : children)
+        if (ch.pid > 0) ::kill(ch.pid, SIGTERM);
       forwarded = true;
     }
     bool changed = false;
@@ -579,14 +639,25 @@ int cmd_sweep(const std::vector<std::string>& args) {
     }
     if (changed) sweep::write_index(index_file.string(), axes, runs);
     if (children.empty()) break;
-    int status = 0;
-    const pid_t pid = ::waitpid(-1, &status, WNOHANG);
-    if (pid > 0) {
-      for (std::size_t c = 0; c < children.size(); ++c)
-        if (children[c].pid == pid) {
-          reap(c, status);
-          break;
-        }
+    bool reaped = false;
+    for (std::size_t c = 0; c < children.size() && !reaped; ++c)
+      if (children[c].thread && children[c].thread_exit->load() >= 0) {
+        reap(c, (children[c].thread_exit->load() & 0xff) << 8);  // as waitpid reports an exit code
+        reaped = true;
+      }
+    if (!in_process) {
+      int status = 0;
+      const pid_t pid = ::waitpid(-1, &status, WNOHANG);
+      if (pid > 0) {
+        for (std::size_t c = 0; c < children.size(); ++c)
+          if (children[c].pid == pid) {
+            reap(c, status);
+            break;
+          }
+        reaped = true;
+      }
+    }
+    if (reaped) {
       sweep::write_index(index_file.string(), axes, runs);
       continue;
     }
