@@ -2,30 +2,40 @@
 // every combination of the grid values (and R seeds each) as its own `pipeline run` in its own
 // folder, with an index CSV of parameters -> outcome.
 //
-// Every run is a child process (this program's `run` command), not a Simulation on a thread
-// of this process, because in one process the runs would not be independent:
+// Two ways to run the runs side by side. By default every run is a child process (this
+// program's `run` command), not a Simulation on a thread of this process, because in one process
+// the runs are not independent:
 //  - field copies from outside a step (set-up, observers' output) wait with
 //    cudaDeviceSynchronize (core/backend/cuda/device_buffer.cpp, memory.cu), and cudaFree
-//    synchronizes the device: one run's set-up or output would wait for every other run's
-//    queued work, and a device-wide wait is not allowed while another run captures its step
-//    into a CUDA graph (core/run/cuda/graph.cpp);
-//  - a CUDA error such as an illegal address is sticky for the whole context: one bad run would
-//    end all K;
+//    synchronizes the device: one run's set-up or output waits for every other run's queued
+//    work, and a device-wide wait is not allowed while another run captures its step into a
+//    CUDA graph (core/run/cuda/graph.cpp; pipelines whose stages are all graph_capturable);
+//  - a CUDA error such as an illegal address is sticky for the whole context: one bad run ends
+//    all K;
 //  - `pipeline run` sets process-wide state: the oneTBB thread limit (tbb::global_control), the
-//    SIGINT/SIGTERM handlers that make it write a checkpoint, and its log on stderr; stages and
-//    plugins were never required to be safe to instantiate from several threads at once.
-// A child process has none of these problems, gets its own log file, and is what `pipeline
-// run --resume` already continues. The price: without CUDA MPS, processes sharing a GPU
-// time-slice it instead of running their kernels side by side (measured: two 60k-particle runs
-// at once got 1 370 steps/s each against 7 170 alone, since each step waits on the host). So
-// when more than one run shares a GPU, the sweep uses MPS: a control daemon already running
-// (the default pipe directory, or CUDA_MPS_PIPE_DIRECTORY), else one it starts itself with a
-// private pipe directory and stops at the end (`--mps auto`, the default; `on` requires it,
-// `off` never). Under MPS at most 48 clients share a device (Volta MPS's limit), so --concurrent
-// is capped at 48 per GPU there. Several GPUs: each run gets CUDA_VISIBLE_DEVICES of the GPU
-// with the fewest runs under way (`--gpus` chooses them; default: CUDA_VISIBLE_DEVICES, else
-// every GPU in /proc/driver/nvidia/gpus). On the CPU runs go one after another unless
+//    SIGINT/SIGTERM handlers that make it write a checkpoint; stages print to the process's
+//    stderr (observe.progress); stages and plugins were never required to be safe to create and
+//    run from several threads at once.
+// A child process has none of these problems, has its own log file, and is what `pipeline run
+// --resume` already continues. The price: without CUDA MPS, processes sharing a GPU time-slice
+// it instead of running their kernels side by side (measured before this command: two
+// 60k-particle runs at once got 1 370 steps/s each against 7 170 alone, since each step waits on
+// the host). So when more than one run shares a GPU, the sweep uses MPS: a control daemon
+// already running (the default pipe directory, or CUDA_MPS_PIPE_DIRECTORY), else one it starts
+// itself with a private pipe directory and stops at the end (`--mps auto`, the default; `on`
+// requires it, `off` never). Under MPS at most 48 clients share a device (Volta MPS's limit), so
+// --concurrent is capped at 48 per GPU there. Several GPUs: each run gets CUDA_VISIBLE_DEVICES of
+// the GPU with the fewest runs under way (`--gpus` chooses them; default: CUDA_VISIBLE_DEVICES,
+// else every GPU in /proc/driver/nvidia/gpus). On the CPU runs go one after another unless
 // --concurrent says otherwise, each with its share of the cores (--threads).
+//
+// `--in-process` runs them instead on threads of this process (run_pipeline, cmd_run.cpp): one
+// CUDA context, each run on its own streams, so kernels of different runs overlap without MPS,
+// on the first GPU only. It is correct for pipelines that are not captured into CUDA graphs
+// (any with a Delaunay or overlap stage; tests/test_sweep.cpp checks the outputs are those of
+// `--concurrent 1`), and one failing run's sticky CUDA error would end the others. With more
+// runs than cores a waiting thread sleeps (cudaDeviceScheduleBlockingSync) instead of spinning.
+// Which of the two fills an H100 better is measured by bench/sweep_abp.sh (bench/README.md).
 //
 // Before anything is written, every combination goes through the loader and a dry run on the
 // CPU (as `pipeline validate`): a bad key or value is an InputError naming the --grid argument
@@ -320,20 +330,31 @@ bool has_checkpoint(const fs::path& dir) {
   return false;
 }
 
-// From a run's log: its rate ("done: S steps in T s (R steps/s)") and its last error line.
-void read_log(const fs::path& log, double& steps_per_s, std::string& error) {
+// What a run's log says about its last launch: "done: S steps in T s (R steps/s)", and its
+// last error line.
+struct LogSummary {
+  double steps = 0, seconds = 0, steps_per_s = 0;
+  std::string error;
+};
+
+LogSummary read_log(const fs::path& log) {
   std::ifstream in(log);
-  steps_per_s = 0;
-  error.clear();
+  LogSummary sum;
   for (std::string line; std::getline(in, line);) {
-    if (line.rfind("done: ", 0) == 0) {
+    if (line.rfind("== pipeline sweep", 0) == 0) {
+      sum = LogSummary{};  // a new launch
+    } else if (line.rfind("done: ", 0) == 0) {
+      std::istringstream words(line.substr(6));
+      std::string steps_word, in_word;
+      words >> sum.steps >> steps_word >> in_word >> sum.seconds;
       const auto open = line.find('(');
-      if (open != std::string::npos) steps_per_s = std::atof(line.c_str() + open + 1);
+      if (open != std::string::npos) sum.steps_per_s = std::atof(line.c_str() + open + 1);
     } else if (line.rfind("error: ", 0) == 0 || line.rfind("run failed: ", 0) == 0 ||
                line.find("stopped by") != std::string::npos) {
-      error = line;
+      sum.error = line;
     }
   }
+  return sum;
 }
 
 std::string duration(double s) {
@@ -471,7 +492,10 @@ int cmd_sweep(const std::vector<std::string>& args) {
   std::size_t next = 0, done = 0, failed = 0, interrupted = 0;
   const auto t_start = std::chrono::steady_clock::now();
   const bool tty = ::isatty(2);
-  double particle_steps = 0;  // of the runs this invocation finished
+  // The particle-steps the runs of this invocation made, and the span from the first step of any
+  // of them to the last step of any (seconds since t_start): the sweep's throughput with the
+  // set-up before the first step and the clean-up after the last left out.
+  double particle_steps = 0, first_step = 1e300, last_step = 0;
 
   // `restart`: from the beginning even where a checkpoint is (after a refused --resume).
   auto launch = [&](std::size_t i, int gpu, bool restart) {
@@ -576,8 +600,9 @@ int cmd_sweep(const std::vector<std::string>& args) {
     if (cuda) --on_gpu[ch.gpu];
     Run& r = runs[ch.run];
     r.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - ch.t0).count();
-    std::string error;
-    read_log(root / r.folder / "run.log", r.steps_per_s, error);
+    const LogSummary summary = read_log(root / r.folder / "run.log");
+    std::string error = summary.error;
+    r.steps_per_s = summary.steps_per_s;
     if (WIFEXITED(status)) {
       r.exit_code = WEXITSTATUS(status);
     } else {
@@ -595,7 +620,11 @@ int cmd_sweep(const std::vector<std::string>& args) {
       r.status = "done";
       r.message = ch.resuming ? "resumed from a checkpoint" : "";
       ++done;
-      particle_steps += double(r.N) * double(r.steps);
+      particle_steps += double(r.N) * summary.steps;
+      // The run's last step came shortly before it exited; its first, `seconds` before that.
+      const double end = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
+      first_step = std::min(first_step, end - summary.seconds);
+      last_step = std::max(last_step, end);
       verb = "done";
     } else if (r.exit_code == 3 || (g_stop.load() && !WIFEXITED(status))) {
       r.status = "interrupted";
@@ -672,16 +701,12 @@ int cmd_sweep(const std::vector<std::string>& args) {
   const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
   if (tty) progress(true);
   std::cerr << "sweep: " << done << " run" << (done == 1 ? "" : "s") << " done in " << duration(elapsed);
-  if (done && elapsed > 0)
-    std::cerr << ", " << std::setprecision(4) << particle_steps / elapsed
-              << " particle-steps/s over the sweep's wall time (start-up of each run included)";
-  double sum_rate = 0;
-  for (auto& r : runs)
-    if (r.status == "done") sum_rate += r.steps_per_s * double(r.N);
-  // With runs side by side, the sum of their own rates (each timed from its first step to its
-  // last, set-up left out) is the aggregate while they ran together.
-  if (sum_rate > 0 && slots > 1)
-    std::cerr << "; sum of the runs' own rates " << std::setprecision(4) << sum_rate << " particle-steps/s";
+  if (particle_steps > 0 && elapsed > 0) {
+    std::cerr << "; " << std::setprecision(4) << particle_steps / elapsed << " particle-steps/s over its wall time";
+    if (last_step > first_step)
+      std::cerr << ", " << std::setprecision(4) << particle_steps / (last_step - first_step)
+                << " from the first step of any run to the last of any";
+  }
   std::cerr << "\n";
   if (failed) std::cerr << "sweep: " << failed << " run" << (failed == 1 ? "" : "s") << " failed: see the index's message column and each folder's run.log\n";
   if (g_stop.load()) {
