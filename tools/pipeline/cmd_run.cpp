@@ -153,6 +153,7 @@ int run_pipeline(const RunRequest& req, std::ostream& log, const std::atomic<int
       << to_string(backend) << (backend == Backend::cuda ? " (" + device + ")" : "") << ", output in " << out
       << "/\n";
 
+  if (req.no_graph_capture) sim->scheduler().set_graph_capture(false);
   Checkpointer checkpoints(*sim, out, spec.run.checkpoint_every, spec.run.checkpoint_keep, record, history);
   if (before_steps) before_steps();
   const std::uint64_t first = sim->state().step;

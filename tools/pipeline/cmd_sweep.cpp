@@ -31,10 +31,11 @@
 //
 // `--in-process` runs them instead on threads of this process (run_pipeline, cmd_run.cpp): one
 // CUDA context, each run on its own streams, so kernels of different runs overlap without MPS,
-// on the first GPU only. It is correct for pipelines that are not captured into CUDA graphs
-// (any with a Delaunay or overlap stage; tests/test_sweep.cpp checks the outputs are those of
-// `--concurrent 1`), and one failing run's sticky CUDA error would end the others. With more
-// runs than cores a waiting thread sleeps (cudaDeviceScheduleBlockingSync) instead of spinning.
+// on the first GPU only. There no run captures its step into a CUDA graph (the same bits,
+// launched directly: Scheduler::set_graph_capture), so another run's device-wide wait cannot
+// break a capture; the outputs are those of `--concurrent 1` (tests/test_sweep.cpp, on the CPU).
+// One failing run's sticky CUDA error would still end the others. With more runs than cores a
+// waiting thread sleeps (cudaDeviceScheduleBlockingSync) instead of spinning.
 // Which of the two fills an H100 better is measured by bench/sweep_abp.sh (bench/README.md).
 //
 // Before anything is written, every combination goes through the loader and a dry run on the
@@ -528,6 +529,7 @@ int cmd_sweep(const std::vector<std::string>& args) {
       req.out = dir.string();
       req.force = !resume;
       req.resuming = resume;
+      req.no_graph_capture = cuda && slots > 1;
       child.thread_exit = std::make_shared<std::atomic<int>>(-1);
       child.thread = std::make_shared<std::thread>([req, log, exit = child.thread_exit] {
         std::ofstream out(log, std::ios::app);

@@ -21,6 +21,9 @@ struct RunRequest {
   bool allow_changes = false;
   bool check_rollbacks = false;
   int threads = 0;                     // > 0: limit oneTBB (process-wide) for the run's duration
+  // Launch every step's work directly, never from a captured CUDA graph (same bits): for runs
+  // sharing a process, where a device-wide wait of one would break another's capture.
+  bool no_graph_capture = false;
 };
 
 // Runs one pipeline as `pipeline run` does, writing its messages to `log`. When `stop` becomes
