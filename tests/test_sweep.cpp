@@ -4,7 +4,8 @@
 // H5MD dataset; a bad grid key or value exits 2 naming it and writes nothing; a sweep killed
 // mid-way (its runs get SIGTERM and checkpoint) and run again finishes with the same outputs
 // as one never interrupted; --concurrent 2 (child processes, or threads with --in-process) gives
-// the same outputs as --concurrent 1.
+// the same outputs as --concurrent 1. FLIPFLOW_TEST_DEVICE=cuda runs the same on the GPU (skipped
+// without one): there --concurrent 2 shares the GPU through CUDA MPS when it starts.
 #include <catch2/catch.hpp>
 #include <hdf5.h>
 #include <signal.h>
@@ -19,6 +20,7 @@
 #include <sstream>
 #include <thread>
 
+#include "core/backend/device.h"
 #include "support/cli.h"
 
 extern char** environ;
@@ -29,6 +31,19 @@ namespace {
 
 using ff::test::pipeline_exe;
 using ff::test::repo_file;
+
+std::string device() {
+  const char* d = std::getenv("FLIPFLOW_TEST_DEVICE");
+  return d && *d ? d : "cpu";
+}
+
+// The device asked for is there (CUDA: a GPU); otherwise the test says it skipped.
+bool device_available() {
+  if (device() != "cuda") return true;
+  if (ff::cuda_device_available()) return true;
+  WARN("SKIPPED (no CUDA device: " + ff::cuda_device_description() + "): pipeline sweep on CUDA");
+  return false;
+}
 
 fs::path fresh_dir(const std::string& name) {
   fs::path d = fs::temp_directory_path() / ("ff_sweep_" + name + "_" + std::to_string(::getpid()));
@@ -55,7 +70,7 @@ const std::vector<std::string> kSets = {"run.steps=60", "step.observe.h5md.every
 const std::vector<std::string> kGrid = {"step.brownian.integrate.D=0.5,2", "system.N=50,80"};
 
 std::string sweep_args(const fs::path& out, const std::vector<std::string>& extra_sets = {}) {
-  std::string a = "sweep " + repo_file("pipelines/brownian.yaml").string() + " --device cpu --replicas 2 --out " +
+  std::string a = "sweep " + repo_file("pipelines/brownian.yaml").string() + " --device " + device() + " --replicas 2 --out " +
                   out.string();
   for (auto& s : kSets) a += " --set '" + s + "'";
   for (auto& s : extra_sets) a += " --set '" + s + "'";
@@ -229,6 +244,7 @@ pid_t spawn(const std::string& args, const fs::path& log) {
 }  // namespace
 
 TEST_CASE("sweep: a 2 x 2 grid with 2 replicas makes 8 folders; the index matches each run's /parameters", "[sweep]") {
+  if (!device_available()) return;
   const fs::path out = reference_sweep();
   const auto rows = read_index(out / "index.csv");
   REQUIRE(rows.size() == 8);
@@ -263,9 +279,10 @@ TEST_CASE("sweep: a 2 x 2 grid with 2 replicas makes 8 folders; the index matche
 }
 
 TEST_CASE("sweep: a run equals the same `pipeline run --set ...`, bit for bit", "[sweep]") {
+  if (!device_available()) return;
   const fs::path ref = reference_sweep();
   const fs::path alone = fresh_dir("alone");
-  std::string args = "run " + repo_file("pipelines/brownian.yaml").string() + " --device cpu --out " + alone.string();
+  std::string args = "run " + repo_file("pipelines/brownian.yaml").string() + " --device " + device() + " --out " + alone.string();
   for (auto& s : kSets) args += " --set '" + s + "'";
   for (auto& s : {"step.brownian.integrate.D=2", "system.N=80", "run.seed=43"}) args += std::string(" --set '") + s + "'";
   auto r = pipeline(args);
@@ -311,6 +328,7 @@ TEST_CASE("sweep: a bad grid key or value exits 2 naming it, and writes nothing"
 
 TEST_CASE("sweep: --concurrent 2 on the CPU, in processes or threads, gives the same outputs as --concurrent 1",
           "[sweep]") {
+  if (!device_available()) return;
   const fs::path out = fresh_dir("concurrent");
   auto r = pipeline(sweep_args(out) + " --concurrent 2");
   INFO(r.out);
@@ -341,6 +359,7 @@ TEST_CASE("sweep: --concurrent 2 on the CPU, in processes or threads, gives the 
 
 TEST_CASE("sweep: killed (SIGKILL) or stopped (SIGTERM) mid-way and run again, it finishes with the same outputs",
           "[sweep]") {
+  if (!device_available()) return;
   const int sig = GENERATE(SIGKILL, SIGTERM);
   INFO("signal " << sig);
   const fs::path& ref = longer_reference_sweep();
