@@ -243,7 +243,8 @@ pid_t spawn(const std::string& args, const fs::path& log) {
 
 }  // namespace
 
-TEST_CASE("sweep: a 2 x 2 grid with 2 replicas makes 8 folders; the index matches each run's /parameters", "[sweep]") {
+TEST_CASE("sweep: a 2 x 2 grid with 2 replicas makes 8 folders; the index matches each run's /parameters",
+          "[sweep][device]") {
   if (!device_available()) return;
   const fs::path out = reference_sweep();
   const auto rows = read_index(out / "index.csv");
@@ -278,7 +279,7 @@ TEST_CASE("sweep: a 2 x 2 grid with 2 replicas makes 8 folders; the index matche
   for (auto& kv : combos) CHECK(kv.second == 2);
 }
 
-TEST_CASE("sweep: a run equals the same `pipeline run --set ...`, bit for bit", "[sweep]") {
+TEST_CASE("sweep: a run equals the same `pipeline run --set ...`, bit for bit", "[sweep][device]") {
   if (!device_available()) return;
   const fs::path ref = reference_sweep();
   const fs::path alone = fresh_dir("alone");
@@ -326,8 +327,8 @@ TEST_CASE("sweep: a bad grid key or value exits 2 naming it, and writes nothing"
   CHECK_FALSE(fs::exists(out));
 }
 
-TEST_CASE("sweep: --concurrent 2 on the CPU, in processes or threads, gives the same outputs as --concurrent 1",
-          "[sweep]") {
+TEST_CASE("sweep: --concurrent 2, in processes or threads, gives the same outputs as --concurrent 1",
+          "[sweep][device]") {
   if (!device_available()) return;
   const fs::path out = fresh_dir("concurrent");
   auto r = pipeline(sweep_args(out) + " --concurrent 2");
@@ -358,7 +359,7 @@ TEST_CASE("sweep: --concurrent 2 on the CPU, in processes or threads, gives the 
 }
 
 TEST_CASE("sweep: killed (SIGKILL) or stopped (SIGTERM) mid-way and run again, it finishes with the same outputs",
-          "[sweep]") {
+          "[sweep][kill]") {
   if (!device_available()) return;
   const int sig = GENERATE(SIGKILL, SIGTERM);
   INFO("signal " << sig);
