@@ -36,7 +36,7 @@
 // break a capture; the outputs are those of `--concurrent 1` (tests/test_sweep.cpp, on the CPU).
 // One failing run's sticky CUDA error would still end the others. With more runs than cores a
 // waiting thread sleeps (cudaDeviceScheduleBlockingSync) instead of spinning.
-// Which of the two fills an H100 better is measured by bench/sweep_abp.sh (bench/README.md).
+// Which of the two fills an H100 better is measured by bench/sweep_abp.sh.
 //
 // Before anything is written, every combination goes through the loader and a dry run on the
 // CPU (as `pipeline validate`): a bad key or value is an InputError naming the --grid argument
