@@ -100,6 +100,7 @@ namespace ff::cli {
 
 namespace {
 using sweep::Axis;
+using sweep::Mps;
 using sweep::Run;
 
 constexpr int kMpsClientLimit = 48;
@@ -112,14 +113,6 @@ std::string file_text(const fs::path& p) {
   std::stringstream ss;
   ss << in.rdbuf();
   return ss.str();
-}
-
-std::vector<std::string> split(const std::string& s, char sep) {
-  std::vector<std::string> out;
-  std::stringstream ss(s);
-  for (std::string item; std::getline(ss, item, sep);)
-    if (!item.empty()) out.push_back(item);
-  return out;
 }
 
 // What the sweep is: re-running it in the same folder must mean the same runs.
@@ -187,127 +180,6 @@ void plan_runs(const std::string& file, const std::vector<std::string>& user_set
     previous = &run;
   }
 }
-
-// ---- GPUs and MPS ----
-
-std::vector<std::string> visible_gpus(const std::string& gpus_arg) {
-  if (!gpus_arg.empty()) return split(gpus_arg, ',');
-  if (const char* v = std::getenv("CUDA_VISIBLE_DEVICES")) return split(v, ',');
-  std::vector<std::string> out;
-  std::error_code ec;
-  std::size_t n = 0;
-  for (auto& e : fs::directory_iterator("/proc/driver/nvidia/gpus", ec)) {
-    (void)e;
-    ++n;
-  }
-  for (std::size_t i = 0; i < std::max<std::size_t>(n, 1); ++i) out.push_back(std::to_string(i));
-  return out;
-}
-
-std::string find_on_path(const std::string& program) {
-  const char* path = std::getenv("PATH");
-  std::vector<std::string> dirs = split(path ? path : "", ':');
-  dirs.push_back("/usr/bin");
-  dirs.push_back("/usr/local/bin");
-  for (auto& d : dirs) {
-    const fs::path p = fs::path(d) / program;
-    if (::access(p.c_str(), X_OK) == 0) return p.string();
-  }
-  return "";
-}
-
-// Runs `program args` with `env` added, stdin from `input`, and waits; its exit status.
-int run_helper(const std::string& program, const std::vector<std::string>& args,
-               const std::vector<std::string>& env, const std::string& input, const std::string& log) {
-  int fds[2];
-  if (::pipe(fds) != 0) return -1;
-  std::vector<std::string> envs;
-  for (char** e = environ; *e; ++e) envs.push_back(*e);
-  for (auto& e : env) envs.push_back(e);
-  std::vector<char*> envp, argv;
-  for (auto& e : envs) envp.push_back(const_cast<char*>(e.c_str()));
-  envp.push_back(nullptr);
-  argv.push_back(const_cast<char*>(program.c_str()));
-  for (auto& a : args) argv.push_back(const_cast<char*>(a.c_str()));
-  argv.push_back(nullptr);
-  const pid_t pid = ::fork();
-  if (pid == 0) {
-    ::dup2(fds[0], 0);
-    ::close(fds[1]);
-    const int out = ::open(log.c_str(), O_WRONLY | O_CREAT | O_APPEND, 0644);
-    if (out >= 0) {
-      ::dup2(out, 1);
-      ::dup2(out, 2);
-    }
-    ::execve(program.c_str(), argv.data(), envp.data());
-    ::_exit(127);
-  }
-  ::close(fds[0]);
-  if (!input.empty()) (void)!::write(fds[1], input.data(), input.size());
-  ::close(fds[1]);
-  int status = 0;
-  if (pid < 0 || ::waitpid(pid, &status, 0) != pid) return -1;
-  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-}
-
-// An MPS control daemon for the sweep: one already running, or our own (stopped on destruction).
-class Mps {
- public:
-  // Empty env and active() false when MPS is not used; `note` says why.
-  Mps(const std::string& mode, bool wanted, std::string& note) {
-    if (mode == "off" || !wanted) return;
-    const char* pipe_env = std::getenv("CUDA_MPS_PIPE_DIRECTORY");
-    const std::string pipe_dir = pipe_env && *pipe_env ? pipe_env : "/tmp/nvidia-mps";
-    if (fs::exists(fs::path(pipe_dir) / "control")) {
-      active_ = true;
-      note = "CUDA MPS: using the control daemon of " + pipe_dir;
-      return;
-    }
-    control_ = find_on_path("nvidia-cuda-mps-control");
-    if (control_.empty()) {
-      if (mode == "on") throw InputError("--mps on: no MPS control daemon is running and nvidia-cuda-mps-control is not on PATH");
-      note = "no CUDA MPS (nvidia-cuda-mps-control not found): the runs sharing a GPU time-slice it";
-      return;
-    }
-    char tmpl[] = "/tmp/flipflow-mps-XXXXXX";  // short: the pipe is a Unix socket path
-    if (!::mkdtemp(tmpl)) throw RunError("cannot create a directory for the MPS daemon in /tmp");
-    dir_ = tmpl;
-    fs::create_directories(dir_ / "pipe");
-    fs::create_directories(dir_ / "log");
-    env_ = {"CUDA_MPS_PIPE_DIRECTORY=" + (dir_ / "pipe").string(), "CUDA_MPS_LOG_DIRECTORY=" + (dir_ / "log").string()};
-    const int rc = run_helper(control_, {"-d"}, env_, "", (dir_ / "log" / "start.log").string());
-    if (rc != 0) {
-      const std::string why = file_text(dir_ / "log" / "start.log");
-      fs::remove_all(dir_);
-      env_.clear();
-      if (mode == "on") throw InputError("--mps on: nvidia-cuda-mps-control -d failed (exit " + std::to_string(rc) + "): " + why);
-      note = "CUDA MPS could not be started (nvidia-cuda-mps-control -d: exit " + std::to_string(rc) +
-             "): the runs sharing a GPU time-slice it";
-      return;
-    }
-    active_ = owned_ = true;
-    note = "CUDA MPS: started a control daemon (pipe directory " + (dir_ / "pipe").string() + "), stopped at the end";
-  }
-  ~Mps() {
-    if (!owned_) return;
-    run_helper(control_, {}, env_, "quit\n", (dir_ / "log" / "stop.log").string());
-    // The daemon removes its pipe on quit; give it a moment before the folder goes.
-    for (int i = 0; i < 50 && fs::exists(dir_ / "pipe" / "control"); ++i)
-      std::this_thread::sleep_for(std::chrono::milliseconds(100));
-    std::error_code ec;
-    fs::remove_all(dir_, ec);
-  }
-  Mps(const Mps&) = delete;
-  Mps& operator=(const Mps&) = delete;
-  bool active() const { return active_; }
-  const std::vector<std::string>& env() const { return env_; }
-
- private:
-  bool active_ = false, owned_ = false;
-  std::string control_;
-  fs::path dir_;
-  std::vector<std::string> env_;
-};
 
 // ---- running ----
 
@@ -440,7 +312,7 @@ int cmd_sweep(const std::vector<std::string>& args) {
   }
 
   const bool cuda = backend == Backend::cuda;
-  std::vector<std::string> gpus = cuda ? visible_gpus(gpus_arg) : std::vector<std::string>{""};
+  std::vector<std::string> gpus = cuda ? sweep::visible_gpus(gpus_arg) : std::vector<std::string>{""};
   std::string mps_note;
   if (in_process && gpus.size() > 1) {
     mps_note = "--in-process: every run on the first GPU this process sees (spreading over GPUs needs child processes)";
@@ -489,6 +361,18 @@ int cmd_sweep(const std::vector<std::string>& args) {
   std::signal(SIGTERM, on_sweep_signal);
   const pid_t me = ::getpid();
   std::vector<Child> children;
+  // Leaving on an exception (an index that cannot be written, say) with runs on threads: they
+  // stop as on SIGTERM (a checkpoint) and are joined before their std::thread objects go.
+  struct JoinThreads {
+    std::vector<Child>& children;
+    ~JoinThreads() {
+      for (auto& c : children)
+        if (c.thread && c.thread->joinable()) {
+          g_stop.store(SIGTERM);
+          c.thread->join();
+        }
+    }
+  } join_threads{children};
   std::vector<int> on_gpu(gpus.size(), 0);
   std::size_t next = 0, done = 0, failed = 0, interrupted = 0;
   const auto t_start = std::chrono::steady_clock::now();
@@ -516,7 +400,7 @@ int cmd_sweep(const std::vector<std::string>& args) {
     const fs::path log = dir / "run.log";
     {
       std::ofstream l(log, std::ios::app);
-      l << "== pipeline sweep" << (in_process ? " (in its own process)" : "") << ": ";
+      l << "== pipeline sweep" << (in_process ? " (on a thread of the sweep's process)" : "") << ": ";
       for (std::size_t k = 1; k < argv.size(); ++k) l << (k > 1 ? " " : "") << argv[k];
       l << (cuda && !in_process ? "   (CUDA_VISIBLE_DEVICES=" + gpus[gpu] + ")" : "") << "\n";
     }

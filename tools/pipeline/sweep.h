@@ -50,6 +50,31 @@ void write_index(const std::string& path, const std::vector<Axis>& axes, const s
 // Rows of an existing index by folder (column name -> value); empty when there is none.
 std::map<std::string, std::map<std::string, std::string>> read_index(const std::string& path);
 
+// The GPUs to spread runs over: --gpus, else CUDA_VISIBLE_DEVICES, else every GPU the driver lists
+// (/proc/driver/nvidia/gpus); at least one.
+std::vector<std::string> visible_gpus(const std::string& gpus_arg);
+
+// An MPS control daemon for the runs sharing a GPU: one already running (the default pipe
+// directory, or CUDA_MPS_PIPE_DIRECTORY), else one started with a private pipe directory in /tmp
+// and stopped on destruction. mode: auto, on (InputError when MPS cannot be had), off.
+// active() false: no MPS (`note` says why when it was wanted).
+class Mps {
+ public:
+  Mps(const std::string& mode, bool wanted, std::string& note);
+  ~Mps();
+  Mps(const Mps&) = delete;
+  Mps& operator=(const Mps&) = delete;
+  bool active() const { return active_; }
+  // What the runs' environment needs (CUDA_MPS_PIPE_DIRECTORY, ...) when the daemon is ours.
+  const std::vector<std::string>& env() const { return env_; }
+
+ private:
+  bool active_ = false, owned_ = false;
+  std::string control_;
+  std::string dir_;
+  std::vector<std::string> env_;
+};
+
 // CSV field quoting (RFC 4180) and a line's fields.
 std::string csv_field(const std::string& s);
 std::vector<std::string> csv_split(const std::string& line);
