@@ -19,8 +19,10 @@
 // A child process has none of these problems, has its own log file, and is what `pipeline run
 // --resume` already continues. The price: without CUDA MPS, processes sharing a GPU time-slice
 // it instead of running their kernels side by side (measured before this command: two
-// 60k-particle runs at once got 1 370 steps/s each against 7 170 alone, since each step waits on
-// the host). So when more than one run shares a GPU, the sweep uses MPS: a control daemon
+// 60k-particle runs at once on an H100 got 1 370 steps/s each against 7 170 alone, since each
+// step waits on the host); under MPS they do not (measured at afdd1e8 on an H200, 60 000 LJ
+// spheres of tran-homo-phi*.yaml: two runs at once 13 309 and 12 432 steps/s, one alone
+// 13 152). So when more than one run shares a GPU, the sweep uses MPS: a control daemon
 // already running (the default pipe directory, or CUDA_MPS_PIPE_DIRECTORY), else one it starts
 // itself with a private pipe directory and stops at the end (`--mps auto`, the default; `on`
 // requires it, `off` never). Under MPS at most 48 clients share a device (Volta MPS's limit), so
