@@ -1,11 +1,12 @@
 // `pipeline sweep` end to end, on the CPU: a 2 x 2 grid with 2 replicas makes 8 folders and an
 // index whose rows match what each run recorded (/parameters: the --set arguments and the
 // effective pipeline); a run of the sweep equals the same `pipeline run --set ...` in every
-// H5MD dataset; a bad grid key or value exits 2 naming it and writes nothing; a sweep killed
-// mid-way (its runs get SIGTERM and checkpoint) and run again finishes with the same outputs
-// as one never interrupted; --concurrent 2 (child processes, or threads with --in-process) gives
-// the same outputs as --concurrent 1. FLIPFLOW_TEST_DEVICE=cuda runs the same on the GPU (skipped
-// without one): there --concurrent 2 shares the GPU through CUDA MPS when it starts.
+// H5MD dataset; a bad grid key or value exits 2 naming it and writes nothing; a run that fails
+// leaves the others running and its row says why; a sweep killed mid-way (its runs get SIGTERM
+// and checkpoint) and run again finishes with the same outputs as one never interrupted;
+// --concurrent 2 (child processes, or threads with --in-process) gives the same outputs as
+// --concurrent 1. FLIPFLOW_TEST_DEVICE=cuda runs the [device] cases on the GPU (skipped without
+// one): there --concurrent 2 shares the GPU through CUDA MPS when it starts.
 #include <catch2/catch.hpp>
 #include <hdf5.h>
 #include <signal.h>
@@ -325,6 +326,31 @@ TEST_CASE("sweep: a bad grid key or value exits 2 naming it, and writes nothing"
   CHECK(r.code == 2);
   CHECK_THAT(r.out, Catch::Contains("--replicas sets run.seed"));
   CHECK_FALSE(fs::exists(out));
+}
+
+TEST_CASE("sweep: a run that fails does not stop the others; its row says why; the sweep exits 1", "[sweep]") {
+  // Valid for the loader and the dry run; the second value fails when the run creates its file.
+  const fs::path out = fresh_dir("failing");
+  auto r = pipeline("sweep " + repo_file("pipelines/brownian.yaml").string() +
+                    " --device cpu --set run.steps=20 --set system.N=50 --grid 'step.observe.h5md.file=a.h5,no/such/b.h5'"
+                    " --grid run.seed=1,2 --out " + out.string());
+  INFO(r.out);
+  CHECK(r.code == 1);
+  const auto rows = read_index(out / "index.csv");
+  REQUIRE(rows.size() == 4);
+  for (auto& row : rows) {
+    INFO("row " << row.at("folder"));
+    if (row.at("step.observe.h5md.file") == "a.h5") {
+      CHECK(row.at("status") == "done");
+      CHECK(fs::exists(out / row.at("folder") / "a.h5"));
+    } else {
+      CHECK(row.at("status") == "failed");
+      CHECK(row.at("exit_code") == "1");
+      CHECK_THAT(row.at("message"), Catch::Contains("cannot create the H5MD file"));
+    }
+  }
+  CHECK_THAT(r.out, Catch::Contains("2 runs failed"));
+  fs::remove_all(out);
 }
 
 TEST_CASE("sweep: --concurrent 2, in processes or threads, gives the same outputs as --concurrent 1",

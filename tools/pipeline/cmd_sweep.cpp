@@ -339,7 +339,7 @@ int cmd_sweep(const std::vector<std::string>& args) {
   if (in_process && cuda && slots > cores) cudaSetDeviceFlags(cudaDeviceScheduleBlockingSync);
 #endif
   const std::size_t todo = runs.size() - skipped;
-  std::cerr << "sweep: " << runs.size() << " runs of " << common.file << " (" << axes.size() << " grid axes, "
+  std::cerr << "sweep: " << runs.size() << " runs of " << common.file << " (" << axes.size() << " grid ax" << (axes.size() == 1 ? "is" : "es") << ", "
             << replicas << " replica" << (replicas > 1 ? "s" : "") << "), " << todo << " to run, " << skipped
             << " done before; up to " << per_gpu << " at once"
             << (cuda ? " per GPU on " + std::to_string(gpus.size()) + " GPU" + (gpus.size() > 1 ? "s" : "") : " on the CPU")
