@@ -35,8 +35,6 @@ namespace fs = std::filesystem;
 namespace ff::cli {
 
 namespace {
-constexpr int kExitInterrupted = 3;
-
 std::atomic<int> g_signal{0};
 extern "C" void on_signal(int sig) { g_signal.store(sig); }
 
@@ -85,37 +83,21 @@ std::string lines(const std::vector<std::string>& v) {
 }
 }  // namespace
 
-int cmd_run(const std::vector<std::string>& raw_args) {
-  std::vector<std::string> args = raw_args;
-  std::string resume_where;
-  const bool resuming = take_resume(args, resume_where);
-  CommonOptions common;
-  std::string out;
-  bool force = false;
-  bool check_rollbacks = false;
-  bool allow_changes = false;
-  int threads = 0;
-  po::options_description extra;
-  extra.add_options()("out", po::value<std::string>(&out), "output directory (default runs/<file stem>)")(
-      "force", po::bool_switch(&force), "overwrite existing outputs")(
-      "threads", po::value<int>(&threads)->default_value(0), "CPU threads (0 = all cores)")(
-      "allow-changes", po::bool_switch(&allow_changes),
-      "with --resume: continue with changed parameters (recorded in the H5MD file's /parameters/history)")(
-      "check-rollbacks", po::bool_switch(&check_rollbacks),
-      "after every rollback, check that the whole state was restored bit for bit (slow: copies the state every "
-      "step; for stage authors)");
-  parse_options(args, extra, common);
-  if (resuming && force) throw InputError("--resume continues the outputs of a run; --force would overwrite them");
-  const Backend backend = resolve_backend(common.device);
-  Loaded loaded = load(common.file, common.overrides);
+int run_pipeline(const RunRequest& req, std::ostream& log, const std::atomic<int>& stop,
+                 const std::function<void()>& before_steps) {
+  if (req.resuming && req.force) throw InputError("--resume continues the outputs of a run; --force would overwrite them");
+  const Backend backend = resolve_backend(req.device);
+  Loaded loaded = load(req.file, req.overrides);
+  std::string out = req.out;
+  const std::string& resume_where = req.resume_where;
   if (out.empty()) {
-    if (resuming && !resume_where.empty())
+    if (req.resuming && !resume_where.empty())
       out = fs::is_regular_file(resume_where) ? fs::path(resume_where).parent_path().string() : resume_where;
     else
-      out = "runs/" + fs::path(common.file).stem().string();
+      out = "runs/" + fs::path(req.file).stem().string();
   }
   std::optional<tbb::global_control> limit;
-  if (threads > 0) limit.emplace(tbb::global_control::max_allowed_parallelism, std::size_t(threads));
+  if (req.threads > 0) limit.emplace(tbb::global_control::max_allowed_parallelism, std::size_t(req.threads));
   const auto& spec = loaded.spec;
 
   // What produced this run, recorded in the H5MD file and in checkpoints.
@@ -128,14 +110,14 @@ int cmd_run(const std::vector<std::string>& raw_args) {
   record.attributes = {{"flipflow_version", FF_VERSION_STRING},
                        {"commit", FLIPFLOW_GIT_COMMIT},
                        {"device", device},
-                       {"threads", std::to_string(threads > 0 ? threads : int(std::thread::hardware_concurrency()))},
+                       {"threads", std::to_string(req.threads > 0 ? req.threads : int(std::thread::hardware_concurrency()))},
                        {"started", utc_now()}};
 
-  RunOptions options{backend, out, force, loaded.text};
-  options.check_rollbacks = check_rollbacks;
+  RunOptions options{backend, out, req.force, loaded.text};
+  options.check_rollbacks = req.check_rollbacks;
   std::unique_ptr<Simulation> sim;
   std::string history;
-  if (resuming) {
+  if (req.resuming) {
     ResumePoint rp = find_resume_point(resume_where.empty() ? out : resume_where);
     const PipelineChanges changes = compare_with_checkpoint(rp.data, spec);
     if (!changes.structure.empty())
@@ -143,7 +125,7 @@ int cmd_run(const std::vector<std::string>& raw_args) {
                        lines(changes.structure) +
                        "\nA continuation must have the same N, dimensions, precision, species and stages; start a "
                        "new run from a frame of this one instead (system: {init: {from: FILE.h5, frame: -1}})");
-    if (!changes.parameters.empty() && !allow_changes)
+    if (!changes.parameters.empty() && !req.allow_changes)
       throw InputError("cannot resume from '" + rp.path + "': parameters changed since the checkpoint:" +
                        lines(changes.parameters) +
                        "\nPass --allow-changes to continue with them (they are recorded in the H5MD file under "
@@ -158,33 +140,33 @@ int cmd_run(const std::vector<std::string>& raw_args) {
     restore_checkpoint(*sim, rp.data);
     history = checkpoint_history(rp.data) + "step " + std::to_string(step) + ": resumed from " + rp.path + " at " +
               utc_now() + (changes.parameters.empty() ? "" : "; changes:" + lines(changes.parameters)) + "\n";
-    std::cerr << "flipflow: resuming " << common.file << " at step " << step << " from " << rp.path << "\n";
+    log << "flipflow: resuming " << req.file << " at step " << step << " from " << rp.path << "\n";
     if (step >= spec.run.steps)
-      std::cerr << "flipflow: the checkpoint is at step " << step << " and run.steps is " << spec.run.steps
-                << ": nothing to run (extend the run with --set run.steps=...)\n";
+      log << "flipflow: the checkpoint is at step " << step << " and run.steps is " << spec.run.steps
+          << ": nothing to run (extend the run with --set run.steps=...)\n";
   } else {
     options.record = record;
     sim = std::make_unique<Simulation>(spec, *loaded.registry, options);
   }
-  std::cerr << "flipflow: " << common.file << " — " << spec.system.dimensions << "D, N = " << spec.system.N << ", "
-            << spec.run.steps << " steps of Δt = " << spec.run.dt << ", " << to_string(spec.run.precision) << " on "
-            << to_string(backend) << (backend == Backend::cuda ? " (" + device + ")" : "") << ", output in " << out
-            << "/\n";
+  log << "flipflow: " << req.file << " — " << spec.system.dimensions << "D, N = " << spec.system.N << ", "
+      << spec.run.steps << " steps of Δt = " << spec.run.dt << ", " << to_string(spec.run.precision) << " on "
+      << to_string(backend) << (backend == Backend::cuda ? " (" + device + ")" : "") << ", output in " << out
+      << "/\n";
 
+  if (req.no_graph_capture) sim->scheduler().set_graph_capture(false);
   Checkpointer checkpoints(*sim, out, spec.run.checkpoint_every, spec.run.checkpoint_keep, record, history);
-  std::signal(SIGINT, on_signal);
-  std::signal(SIGTERM, on_signal);
+  if (before_steps) before_steps();
   const std::uint64_t first = sim->state().step;
   const auto t0 = std::chrono::steady_clock::now();
   try {
     while (sim->state().step < spec.run.steps) {
-      if (const int sig = g_signal.load()) {
+      if (const int sig = stop.load()) {
         // The step under way was finished: keep it in a checkpoint and stop.
         const std::string path = checkpoints.write();
         sim->finish(false);
-        std::cerr << "flipflow: stopped by " << (sig == SIGINT ? "SIGINT" : "SIGTERM") << " after step "
-                  << sim->state().step << "; checkpoint " << path << "; continue with: pipeline run " << common.file
-                  << " --resume " << out << "\n";
+        log << "flipflow: stopped by " << (sig == SIGINT ? "SIGINT" : "SIGTERM") << " after step "
+            << sim->state().step << "; checkpoint " << path << "; continue with: pipeline run " << req.file
+            << " --resume " << out << "\n";
         return kExitInterrupted;
       }
       sim->advance();
@@ -199,12 +181,37 @@ int cmd_run(const std::vector<std::string>& raw_args) {
   sim->finish(true);
   const double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   const double steps = double(sim->state().step - first);
-  std::cerr << "done: " << steps << " steps in " << secs << " s (" << steps / secs
-            << " steps/s), simulated time " << sim->state().time << ", rollbacks " << sim->stats().rollbacks;
+  log << "done: " << steps << " steps in " << secs << " s (" << steps / secs
+      << " steps/s), simulated time " << sim->state().time << ", rollbacks " << sim->stats().rollbacks;
   // Attempts run again at a smaller Δt because a stage limited it (Outcome::limit_dt).
-  if (sim->stats().dt_limits) std::cerr << ", Δt limited " << sim->stats().dt_limits;
-  std::cerr << "\n";
+  if (sim->stats().dt_limits) log << ", Δt limited " << sim->stats().dt_limits;
+  log << "\n";
   return 0;
+}
+
+int cmd_run(const std::vector<std::string>& raw_args) {
+  std::vector<std::string> args = raw_args;
+  RunRequest req;
+  req.resuming = take_resume(args, req.resume_where);
+  CommonOptions common;
+  po::options_description extra;
+  extra.add_options()("out", po::value<std::string>(&req.out), "output directory (default runs/<file stem>)")(
+      "force", po::bool_switch(&req.force), "overwrite existing outputs")(
+      "threads", po::value<int>(&req.threads)->default_value(0), "CPU threads (0 = all cores)")(
+      "allow-changes", po::bool_switch(&req.allow_changes),
+      "with --resume: continue with changed parameters (recorded in the H5MD file's /parameters/history)")(
+      "check-rollbacks", po::bool_switch(&req.check_rollbacks),
+      "after every rollback, check that the whole state was restored bit for bit (slow: copies the state every "
+      "step; for stage authors)");
+  parse_options(args, extra, common);
+  req.file = common.file;
+  req.overrides = common.overrides;
+  req.device = common.device;
+  // SIGINT/SIGTERM from the first step on: the step under way finishes, a checkpoint is written.
+  return run_pipeline(req, std::cerr, g_signal, [] {
+    std::signal(SIGINT, on_signal);
+    std::signal(SIGTERM, on_signal);
+  });
 }
 
 }  // namespace ff::cli

@@ -1,6 +1,6 @@
 // `pipeline`: run, check and inspect flipflow pipelines. Exit codes: 0 ok, 1 the run failed,
-// 2 bad input (file, flags, plugins, a refused --resume), 3 `run` stopped by SIGINT/SIGTERM
-// after writing a checkpoint.
+// 2 bad input (file, flags, plugins, a refused --resume), 3 `run` (or `sweep`) stopped by
+// SIGINT/SIGTERM after writing a checkpoint; `sweep` exits 1 when any of its runs failed.
 #include <iostream>
 #include <string>
 #include <vector>
@@ -20,6 +20,12 @@ const char* kUsage =
     "  stages                           every stage the plugins on the search path offer\n"
     "  describe STAGE                   one stage: parameters, defaults, reads/writes, backends\n"
     "  bench FILE.yaml [--sizes N,N,...] [--steps S] [--warmup W] [--device ...] [--set ...]\n"
+    "  sweep FILE.yaml --grid key=v1,v2,... [--grid ...] [--replicas R] [--concurrent K] [--out DIR] [--set ...]\n"
+    "      [--device ...] [--threads N] [--mps auto|on|off] [--gpus 0,1,...] [--in-process] [--force]\n"
+    "      one run per combination and seed, each in its own folder, with an index CSV; run it again to\n"
+    "      continue an interrupted sweep. Runs are child processes (--in-process: threads of one process,\n"
+    "      one GPU). With K > 1 runs on a GPU, --mps auto uses a running CUDA MPS daemon, else starts its own\n"
+    "      (private pipe directory in /tmp) and stops it when the sweep ends; --mps off never, --mps on requires it\n"
     "\n"
     "Exit codes: 0 done, 1 the run failed, 2 bad input, 3 stopped by SIGINT/SIGTERM after writing a checkpoint.\n"
     "\n"
@@ -41,6 +47,7 @@ int main(int argc, char** argv) {
     if (command == "stages") return ff::cli::cmd_stages(args);
     if (command == "describe") return ff::cli::cmd_describe(args);
     if (command == "bench") return ff::cli::cmd_bench(args);
+    if (command == "sweep") return ff::cli::cmd_sweep(args);
     std::cerr << "pipeline: unknown command '" << command << "'\n\n" << kUsage;
     return 2;
   } catch (const ff::InputError& e) {

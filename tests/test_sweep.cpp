@@ -1,0 +1,440 @@
+// `pipeline sweep` end to end, on the CPU: a 2 x 2 grid with 2 replicas makes 8 folders and an
+// index whose rows match what each run recorded (/parameters: the --set arguments and the
+// effective pipeline); a run of the sweep equals the same `pipeline run --set ...` in every
+// H5MD dataset; a bad grid key or value exits 2 naming it and writes nothing; a run that fails
+// leaves the others running and its row says why; a sweep killed mid-way (its runs get SIGTERM
+// and checkpoint) and run again finishes with the same outputs as one never interrupted;
+// --concurrent 2 (child processes, or threads with --in-process) gives the same outputs as
+// --concurrent 1. FLIPFLOW_TEST_DEVICE=cuda runs the [device] cases on the GPU (skipped without
+// one): there --concurrent 2 shares the GPU through CUDA MPS when it starts.
+#include <catch2/catch.hpp>
+#include <hdf5.h>
+#include <signal.h>
+#include <spawn.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <sstream>
+#include <thread>
+
+#include "core/backend/device.h"
+#include "support/cli.h"
+
+extern char** environ;
+
+namespace fs = std::filesystem;
+
+namespace {
+
+using ff::test::pipeline_exe;
+using ff::test::repo_file;
+
+std::string device() {
+  const char* d = std::getenv("FLIPFLOW_TEST_DEVICE");
+  return d && *d ? d : "cpu";
+}
+
+// The device asked for is there (CUDA: a GPU); otherwise the test says it skipped.
+bool device_available() {
+  if (device() != "cuda") return true;
+  if (ff::cuda_device_available()) return true;
+  WARN("SKIPPED (no CUDA device: " + ff::cuda_device_description() + "): pipeline sweep on CUDA");
+  return false;
+}
+
+fs::path fresh_dir(const std::string& name) {
+  fs::path d = fs::temp_directory_path() / ("ff_sweep_" + name + "_" + std::to_string(::getpid()));
+  fs::remove_all(d);
+  return d;
+}
+
+ff::test::CommandResult pipeline(const std::string& args) {
+  return ff::test::run_command(pipeline_exe() + " " + args,
+                               fs::temp_directory_path() / ("ff_sweep_" + std::to_string(::getpid()) + ".log"));
+}
+
+std::string file_text(const fs::path& p) {
+  std::ifstream in(p);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+// ---- the sweep of these tests: brownian.yaml, 2 x 2 grid, 2 replicas ----
+
+const std::vector<std::string> kSets = {"run.steps=60", "step.observe.h5md.every=20", "step.observe.msd.every=20",
+                                        "step.observe.progress.every=100000"};
+const std::vector<std::string> kGrid = {"step.brownian.integrate.D=0.5,2", "system.N=50,80"};
+
+std::string sweep_args(const fs::path& out, const std::vector<std::string>& extra_sets = {}) {
+  std::string a = "sweep " + repo_file("pipelines/brownian.yaml").string() + " --device " + device() + " --replicas 2 --out " +
+                  out.string();
+  for (auto& s : kSets) a += " --set '" + s + "'";
+  for (auto& s : extra_sets) a += " --set '" + s + "'";
+  for (auto& g : kGrid) a += " --grid '" + g + "'";
+  return a;
+}
+
+// ---- reading outputs ----
+
+std::vector<std::string> csv_split(const std::string& line) {
+  std::vector<std::string> out;
+  std::string cur;
+  bool q = false;
+  for (std::size_t i = 0; i < line.size(); ++i) {
+    const char c = line[i];
+    if (q && c == '"' && i + 1 < line.size() && line[i + 1] == '"') cur += '"', ++i;
+    else if (c == '"') q = !q;
+    else if (c == ',' && !q) out.push_back(cur), cur.clear();
+    else cur += c;
+  }
+  out.push_back(cur);
+  return out;
+}
+
+// The index as rows of column -> value.
+std::vector<std::map<std::string, std::string>> read_index(const fs::path& file) {
+  std::ifstream in(file);
+  std::string line;
+  std::vector<std::map<std::string, std::string>> rows;
+  REQUIRE(std::getline(in, line));
+  const auto header = csv_split(line);
+  while (std::getline(in, line)) {
+    const auto f = csv_split(line);
+    REQUIRE(f.size() == header.size());
+    std::map<std::string, std::string> row;
+    for (std::size_t i = 0; i < f.size(); ++i) row[header[i]] = f[i];
+    rows.push_back(row);
+  }
+  return rows;
+}
+
+struct Dataset {
+  std::vector<hsize_t> shape;
+  std::vector<unsigned char> bytes;
+};
+
+herr_t collect(hid_t root, const char* name, const H5L_info_t*, void* op) {
+  auto& out = *static_cast<std::map<std::string, Dataset>*>(op);
+  const std::string n = name;
+  // What produced the run (/parameters: start time, history of a resumed run) is not its output.
+  if (n.rfind("parameters", 0) == 0 || n.rfind("h5md", 0) == 0) return 0;
+  hid_t obj = H5Oopen(root, name, H5P_DEFAULT);
+  if (obj < 0) return -1;
+  const bool is_dataset = H5Iget_type(obj) == H5I_DATASET;
+  H5Oclose(obj);
+  if (!is_dataset) return 0;
+  hid_t d = H5Dopen2(root, name, H5P_DEFAULT);
+  hid_t ft = H5Dget_type(d);
+  hid_t mt = H5Tget_native_type(ft, H5T_DIR_ASCEND);
+  hid_t sp = H5Dget_space(d);
+  const int rank = H5Sget_simple_extent_ndims(sp);
+  Dataset ds;
+  ds.shape.resize(std::size_t(std::max(rank, 0)));
+  if (rank > 0) H5Sget_simple_extent_dims(sp, ds.shape.data(), nullptr);
+  std::size_t count = 1;
+  for (auto x : ds.shape) count *= x;
+  ds.bytes.resize(count * H5Tget_size(mt));
+  if (count) H5Dread(d, mt, H5S_ALL, H5S_ALL, H5P_DEFAULT, ds.bytes.data());
+  out[n] = std::move(ds);
+  H5Sclose(sp);
+  H5Tclose(mt);
+  H5Tclose(ft);
+  H5Dclose(d);
+  return 0;
+}
+
+std::map<std::string, Dataset> datasets(const fs::path& file) {
+  std::map<std::string, Dataset> out;
+  hid_t f = H5Fopen(file.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
+  REQUIRE(f >= 0);
+  H5Lvisit(f, H5_INDEX_NAME, H5_ITER_INC, collect, &out);
+  H5Fclose(f);
+  return out;
+}
+
+// A scalar string dataset under /parameters, or "" when missing.
+std::string parameter_text(const fs::path& file, const std::string& dataset) {
+  hid_t f = H5Fopen(file.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
+  if (f < 0) return "";
+  std::string out;
+  if (H5Lexists(f, "/parameters", H5P_DEFAULT) > 0 && H5Lexists(f, dataset.c_str(), H5P_DEFAULT) > 0) {
+    hid_t d = H5Dopen2(f, dataset.c_str(), H5P_DEFAULT);
+    hid_t t = H5Dget_type(d);
+    out.assign(H5Tget_size(t), '\0');
+    H5Dread(d, t, H5S_ALL, H5S_ALL, H5P_DEFAULT, out.data());
+    while (!out.empty() && out.back() == '\0') out.pop_back();
+    H5Tclose(t);
+    H5Dclose(d);
+  }
+  H5Fclose(f);
+  return out;
+}
+
+// Every dataset of both files equal, bit for bit; how many were compared.
+std::size_t require_same_h5md(const fs::path& a, const fs::path& b) {
+  INFO(a << " vs " << b);
+  REQUIRE(fs::exists(a));
+  REQUIRE(fs::exists(b));
+  const auto da = datasets(a), db = datasets(b);
+  std::vector<std::string> ka, kb;
+  for (auto& kv : da) ka.push_back(kv.first);
+  for (auto& kv : db) kb.push_back(kv.first);
+  REQUIRE(ka == kb);
+  for (auto& [name, d] : da) {
+    INFO("dataset " << name);
+    CHECK(d.shape == db.at(name).shape);
+    CHECK(d.bytes == db.at(name).bytes);
+  }
+  return da.size();
+}
+
+// Every run of sweep `a` has the same trajectory.h5 datasets as in sweep `b`.
+void require_same_sweep(const fs::path& a, const fs::path& b) {
+  const auto rows = read_index(a / "index.csv");
+  REQUIRE(rows.size() == 8);
+  for (auto& row : rows) CHECK(require_same_h5md(a / row.at("folder") / "trajectory.h5",
+                                                 b / row.at("folder") / "trajectory.h5") >= 6);
+}
+
+// A sweep made once and shared by the tests, removed at exit.
+struct SharedSweep {
+  fs::path dir;
+  ~SharedSweep() {
+    std::error_code ec;
+    if (!dir.empty()) fs::remove_all(dir, ec);
+  }
+};
+
+const fs::path& shared_sweep(SharedSweep& s, const std::string& name, const std::vector<std::string>& sets) {
+  if (s.dir.empty()) {
+    const fs::path out = fresh_dir(name);
+    auto r = pipeline(sweep_args(out, sets));
+    INFO(r.out);
+    REQUIRE(r.code == 0);
+    s.dir = out;
+  }
+  return s.dir;
+}
+
+// The uninterrupted sweep the others are compared with.
+const fs::path& reference_sweep() {
+  static SharedSweep s;
+  return shared_sweep(s, "reference", {});
+}
+
+// Longer runs with checkpoints, so that a kill lands inside a run; and their uninterrupted sweep.
+const std::vector<std::string> kLonger = {"run.steps=3000", "run.checkpoint={every: 100, keep: 2}"};
+const fs::path& longer_reference_sweep() {
+  static SharedSweep s;
+  return shared_sweep(s, "longer_reference", kLonger);
+}
+
+pid_t spawn(const std::string& args, const fs::path& log) {
+  const std::string cmd = "exec " + pipeline_exe() + " " + args + " > " + log.string() + " 2>&1";
+  pid_t pid = 0;
+  const char* argv[] = {"/bin/sh", "-c", cmd.c_str(), nullptr};
+  REQUIRE(posix_spawn(&pid, "/bin/sh", nullptr, nullptr, const_cast<char* const*>(argv), environ) == 0);
+  return pid;
+}
+
+}  // namespace
+
+TEST_CASE("sweep: a 2 x 2 grid with 2 replicas makes 8 folders; the index matches each run's /parameters",
+          "[sweep][device]") {
+  if (!device_available()) return;
+  const fs::path out = reference_sweep();
+  const auto rows = read_index(out / "index.csv");
+  REQUIRE(rows.size() == 8);
+  std::size_t folders = 0;
+  for (auto& e : fs::directory_iterator(out)) folders += e.is_directory();
+  CHECK(folders == 8);
+  std::map<std::string, int> combos;
+  for (auto& row : rows) {
+    INFO("row " << row.at("folder"));
+    CHECK(row.at("status") == "done");
+    CHECK(row.at("exit_code") == "0");
+    CHECK(std::stod(row.at("steps_per_s")) > 0);
+    const fs::path h5 = out / row.at("folder") / "trajectory.h5";
+    REQUIRE(fs::exists(h5));
+    const std::string overrides = parameter_text(h5, "/parameters/overrides");
+    const std::string effective = parameter_text(h5, "/parameters/effective_pipeline");
+    const std::string D = row.at("step.brownian.integrate.D"), N = row.at("system.N"), seed = row.at("seed");
+    CHECK_THAT(overrides, Catch::Contains("step.brownian.integrate.D=" + D) && Catch::Contains("system.N=" + N) &&
+                              Catch::Contains("run.seed=" + seed) && Catch::Contains("run.steps=60"));
+    CHECK_THAT(effective, Catch::Contains("N: " + N) && Catch::Contains("seed: " + seed) &&
+                              Catch::Contains("D: " + D));
+    // The folder name says the same, and the replicas have the file's seed + 0 and + 1.
+    CHECK(row.at("folder") == "D=" + D + "_N=" + N + "_seed=" + seed);
+    CHECK((seed == "42" || seed == "43"));
+    CHECK(row.at("replica") == (seed == "42" ? "0" : "1"));
+    ++combos[D + "/" + N];
+    // The run's frames have the grid's N.
+    CHECK(datasets(h5).at("particles/all/position/value").shape[1] == std::stoul(N));
+  }
+  CHECK(combos.size() == 4);
+  for (auto& kv : combos) CHECK(kv.second == 2);
+}
+
+TEST_CASE("sweep: a run equals the same `pipeline run --set ...`, bit for bit", "[sweep][device]") {
+  if (!device_available()) return;
+  const fs::path ref = reference_sweep();
+  const fs::path alone = fresh_dir("alone");
+  std::string args = "run " + repo_file("pipelines/brownian.yaml").string() + " --device " + device() + " --out " + alone.string();
+  for (auto& s : kSets) args += " --set '" + s + "'";
+  for (auto& s : {"step.brownian.integrate.D=2", "system.N=80", "run.seed=43"}) args += std::string(" --set '") + s + "'";
+  auto r = pipeline(args);
+  INFO(r.out);
+  REQUIRE(r.code == 0);
+  const fs::path swept = ref / "D=2_N=80_seed=43" / "trajectory.h5";
+  CHECK(require_same_h5md(swept, alone / "trajectory.h5") >= 6);
+  CHECK(parameter_text(swept, "/parameters/overrides") == parameter_text(alone / "trajectory.h5", "/parameters/overrides"));
+  CHECK(parameter_text(swept, "/parameters/effective_pipeline") ==
+        parameter_text(alone / "trajectory.h5", "/parameters/effective_pipeline"));
+  fs::remove_all(alone);
+}
+
+TEST_CASE("sweep: a bad grid key or value exits 2 naming it, and writes nothing", "[sweep]") {
+  const std::string file = repo_file("pipelines/brownian.yaml").string();
+  struct Bad {
+    std::string grid, expect;
+  };
+  for (const Bad& b : {Bad{"step.brownian.integrat.D=1,2", "no step entry with id 'brownian.integrat'"},
+                       Bad{"step.brownian.integrate.D=1,abc", "(value 'abc')"},
+                       Bad{"step.brownian.integrate.nosuch=1,2", "nosuch"},
+                       Bad{"sytem.N=10,20", "unknown section 'sytem'"}, Bad{"system.N=10,,20", "empty value"},
+                       Bad{"system.N", "expected KEY.PATH=V1,V2"}}) {
+    INFO("--grid " << b.grid);
+    const fs::path out = fresh_dir("bad");
+    auto r = pipeline("sweep " + file + " --device cpu --set run.steps=10 --grid system.N=10,20 --grid '" + b.grid +
+                      "' --out " + out.string());
+    INFO(r.out);
+    CHECK(r.code == 2);
+    CHECK_THAT(r.out, Catch::Contains("--grid " + b.grid.substr(0, b.grid.find('=') == std::string::npos
+                                                                      ? b.grid.size()
+                                                                      : b.grid.find('='))) &&
+                          Catch::Contains(b.expect));
+    CHECK_FALSE(fs::exists(out));
+  }
+  // --replicas and a grid over the seed contradict each other.
+  const fs::path out = fresh_dir("bad_seed");
+  auto r = pipeline("sweep " + file + " --device cpu --replicas 2 --grid run.seed=1,2 --out " + out.string());
+  CHECK(r.code == 2);
+  CHECK_THAT(r.out, Catch::Contains("--replicas sets run.seed"));
+  CHECK_FALSE(fs::exists(out));
+}
+
+TEST_CASE("sweep: a run that fails does not stop the others; its row says why; the sweep exits 1", "[sweep]") {
+  // Valid for the loader and the dry run; the second value fails when the run creates its file.
+  const fs::path out = fresh_dir("failing");
+  auto r = pipeline("sweep " + repo_file("pipelines/brownian.yaml").string() +
+                    " --device cpu --set run.steps=20 --set system.N=50 --grid 'step.observe.h5md.file=a.h5,no/such/b.h5'"
+                    " --grid run.seed=1,2 --out " + out.string());
+  INFO(r.out);
+  CHECK(r.code == 1);
+  const auto rows = read_index(out / "index.csv");
+  REQUIRE(rows.size() == 4);
+  for (auto& row : rows) {
+    INFO("row " << row.at("folder"));
+    if (row.at("step.observe.h5md.file") == "a.h5") {
+      CHECK(row.at("status") == "done");
+      CHECK(fs::exists(out / row.at("folder") / "a.h5"));
+    } else {
+      CHECK(row.at("status") == "failed");
+      CHECK(row.at("exit_code") == "1");
+      CHECK_THAT(row.at("message"), Catch::Contains("cannot create the H5MD file"));
+    }
+  }
+  CHECK_THAT(r.out, Catch::Contains("2 runs failed"));
+  fs::remove_all(out);
+}
+
+TEST_CASE("sweep: --concurrent 2, in processes or threads, gives the same outputs as --concurrent 1",
+          "[sweep][device]") {
+  if (!device_available()) return;
+  const fs::path out = fresh_dir("concurrent");
+  auto r = pipeline(sweep_args(out) + " --concurrent 2");
+  INFO(r.out);
+  REQUIRE(r.code == 0);
+  CHECK_THAT(r.out, Catch::Contains("up to 2 at once"));
+  require_same_sweep(out, reference_sweep());
+  // Run again: every run is done, nothing runs, the index is unchanged but for nothing.
+  const std::string index = file_text(out / "index.csv");
+  auto again = pipeline(sweep_args(out) + " --concurrent 2");
+  INFO(again.out);
+  CHECK(again.code == 0);
+  CHECK_THAT(again.out, Catch::Contains("0 to run, 8 done before"));
+  CHECK(file_text(out / "index.csv") == index);
+  // A different sweep in the same folder is refused.
+  auto other = pipeline(sweep_args(out, {"run.dt=0.02"}));
+  CHECK(other.code == 2);
+  CHECK_THAT(other.out, Catch::Contains("holds another sweep"));
+  fs::remove_all(out);
+  // The same on threads of one process.
+  const fs::path threads = fresh_dir("in_process");
+  auto t = pipeline(sweep_args(threads) + " --concurrent 2 --in-process");
+  INFO(t.out);
+  REQUIRE(t.code == 0);
+  CHECK_THAT(t.out, Catch::Contains("on threads of this process"));
+  require_same_sweep(threads, reference_sweep());
+  fs::remove_all(threads);
+}
+
+TEST_CASE("sweep: killed (SIGKILL) or stopped (SIGTERM) mid-way and run again, it finishes with the same outputs",
+          "[sweep][kill]") {
+  if (!device_available()) return;
+  const int sig = GENERATE(SIGKILL, SIGTERM);
+  INFO("signal " << sig);
+  const fs::path& ref = longer_reference_sweep();
+  const fs::path out = fresh_dir("kill"), log = fresh_dir("kill_log");
+  fs::create_directories(log);
+  const pid_t pid = spawn(sweep_args(out, kLonger) + " --threads 1", log / "log");
+  // Wait until a run has written its first checkpoint, then signal the sweep itself. SIGKILL:
+  // its running run gets SIGTERM from the kernel, checkpoints and stops. SIGTERM: the sweep
+  // passes it on, waits for the run to checkpoint, marks it interrupted and exits 3.
+  bool checkpointed = false;
+  for (int k = 0; k < 24000 && !checkpointed; ++k) {
+    std::error_code ec;
+    for (auto& e : fs::recursive_directory_iterator(out, ec))
+      if (e.path().filename().string().rfind("checkpoint-", 0) == 0) checkpointed = true;
+    int status;
+    if (waitpid(pid, &status, WNOHANG) == pid) break;
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
+  ::kill(pid, sig);
+  int status = 0;
+  waitpid(pid, &status, 0);
+  INFO(file_text(log / "log"));
+  REQUIRE(checkpointed);
+  if (sig == SIGTERM) {
+    REQUIRE(WIFEXITED(status));
+    CHECK(WEXITSTATUS(status) == 3);
+    CHECK_THAT(file_text(log / "log"), Catch::Contains("run the same command again to continue"));
+  } else {
+    // Give the orphaned run time to write its checkpoint and exit.
+    std::this_thread::sleep_for(std::chrono::seconds(2));
+  }
+  std::size_t unfinished = 0, interrupted = 0;
+  for (auto& row : read_index(out / "index.csv")) {
+    unfinished += row.at("status") != "done";
+    interrupted += row.at("status") == "interrupted";
+  }
+  CHECK(unfinished > 0);
+  if (sig == SIGTERM) CHECK(interrupted == 1);
+  auto again = pipeline(sweep_args(out, kLonger));
+  INFO(again.out);
+  REQUIRE(again.code == 0);
+  std::size_t resumed = 0;
+  for (auto& row : read_index(out / "index.csv")) {
+    CHECK(row.at("status") == "done");
+    resumed += row.at("message") == "resumed from a checkpoint";
+  }
+  CHECK(resumed >= 1);
+  require_same_sweep(out, ref);
+  fs::remove_all(out);
+  fs::remove_all(log);
+}
