@@ -318,12 +318,46 @@ TEST_CASE("observe.clusters: random states equal an O(N²) union-find, for 1, 2 
   }
 }
 
-TEST_CASE("observe.clusters: cells, verlet and delaunay pairs agree on a hard-disk state", "[clusters][sources]") {
-  // 1200 disks by random sequential addition (no overlaps) at φ ≈ 0.45.
+namespace {
+
+// n = nx·ny disks on a triangular lattice at packing fraction phi, each moved by a uniform random
+// displacement within (a − 1)/2 of its site (a the lattice spacing): no two closer than 1.
+std::vector<Particle> perturbed_lattice(std::size_t nx, std::size_t ny, double phi, double* L, std::uint64_t seed) {
+  const double a = std::sqrt(3.14159265358979323846 / (2 * std::sqrt(3.0)) / phi);
+  L[0] = double(nx) * a;
+  L[1] = double(ny) * a * std::sqrt(3.0) / 2;
+  L[2] = 0;
+  std::mt19937_64 g(seed);
+  std::uniform_real_distribution<double> u(0, 1);
+  std::vector<Particle> ps;
+  for (std::size_t r = 0; r < ny; ++r)
+    for (std::size_t c = 0; c < nx; ++c) {
+      const double rho = 0.5 * (a - 1) * std::sqrt(u(g)), t = 2 * 3.14159265358979323846 * u(g);
+      ps.push_back({(double(c) + 0.5 * double(r % 2)) * a + rho * std::cos(t),
+                    double(r) * a * std::sqrt(3.0) / 2 + rho * std::sin(t), 0.0, 0});
+    }
+  return ps;
+}
+
+}  // namespace
+
+TEST_CASE("observe.clusters: cells, verlet and delaunay pairs agree on hard-disk states", "[clusters][sources]") {
+  // 1200 disks: by random sequential addition (no overlaps) at φ ≈ 0.45, and on a perturbed
+  // triangular lattice at φ = 0.7 (the issue's dense case; neighbours at 1.00–1.28 σ, so the
+  // bond threshold 1.1 σ cuts through the first shell).
   const std::size_t n = 1200;
-  const double side = std::sqrt(n * 3.14159265358979323846 / 4 / 0.45);
-  const double L[3] = {side, side, 0};
-  const auto ps = rsa(2, n, L, 3);
+  const bool dense = GENERATE(false, true);
+  CAPTURE(dense);
+  double L[3];
+  std::vector<Particle> ps;
+  if (dense) {
+    ps = perturbed_lattice(30, 40, 0.7, L, 5);
+  } else {
+    const double side = std::sqrt(n * 3.14159265358979323846 / 4 / 0.45);
+    L[0] = L[1] = side;
+    L[2] = 0;
+    ps = rsa(2, n, L, 3);
+  }
   auto s = make_state(2, ps, L);
   test::StageDriver drv(Backend::cpu, Precision::f64, 2);
   auto verlet = test::make_stage(registry(), "neighbors.verlet", Backend::cpu, Precision::f64, 2,
