@@ -53,8 +53,8 @@ struct DelaunaySearchParams {
       "along parent links (the ring member closest to the centre), no visited set")
         .one_of({"visited", "parent"});
     p(capacity, "capacity",
-      "initial row length of the list, which is also the search's working memory (0: from the density); grown "
-      "when a search overflows it")
+      "initial row length of the list, rounded up to a multiple of 4, which is also the search's working memory "
+      "beyond 32 queue slots (0: from the density); grown when a search overflows it")
         .at_least(0);
   }
 };
