@@ -44,7 +44,7 @@ constexpr std::uint64_t kSteps = 1000;
 
 // The pipelines compared: every shipped one whose stages are all short-ranged.
 const std::vector<std::string>& pipelines() {
-  static const std::vector<std::string> p{"abp.yaml", "hard-disks.yaml", "phoretic-c2-short.yaml"};
+  static const std::vector<std::string> p{"abp.yaml", "hard-disks.yaml", "phoretic-c2-short.yaml", "lj-aggregation.yaml"};
   return p;
 }
 

@@ -396,10 +396,10 @@ TEST_CASE("pair.lj: CPU and CUDA give the same bits", "[pair][cuda]") {
   }
 }
 
-// The CUDA loops take particles in another order than the CPU's and keep derived copies of
-// the list and the positions between steps (cuda.cu): a random polydisperse system (σ_ij from
-// the diameters, several warps of rows of different lengths) moved between steps, with list
-// rebuilds, gives the CPU's bits at every step.
+// The CUDA loop (cuda.cu) reads positions and diameters from a copy it makes each step and keeps
+// between steps: a random polydisperse system (σ_ij from the diameters, many warps of rows of
+// different lengths) moved between steps, with and without list rebuilds, gives the CPU's bits
+// at every step.
 TEST_CASE("pair.lj: CPU and CUDA give the same bits over moving steps with rebuilds", "[pair][cuda]") {
   if (!test::have_cuda("pair.lj CPU vs CUDA over steps")) return;
   const int dim = GENERATE(2, 3);
