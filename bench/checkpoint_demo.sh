@@ -19,7 +19,8 @@
 # fresh folder under ${TMPDIR:-/tmp}; removed at the end unless KEEP=1). Environment (defaults for
 # an H100, about 4 minutes in all): DEVICE (cuda when nvidia-smi sees a GPU, else cpu), N (65536),
 # STEPS (100000), FRAME_EVERY (2000), CKPT_EVERY (5000), BIG_N (1048576), BIG_STEPS (400),
-# AB_SIZES (2^14,2^20), AB_STEPS (300), AB_ROUNDS (3), WITHOUT (default $BUNDLE/i19-without;
+# AB_SIZES (2^14,2^20), AB_STEPS (300), AB_ROUNDS (3), AB_FREE_SIZE (2^20), AB_FREE_STEPS (2000),
+# AB_FREE_WARMUP (200), WITHOUT (default $BUNDLE/i19-without;
 # part (e) is skipped when it is missing), PARTS (which of a b d e to run; default "a b d e",
 # (c) comes with a and b). Exit 0 when the two files are IDENTICAL, 1 otherwise.
 set -uo pipefail
@@ -140,7 +141,6 @@ if [[ $parts == *" a "* && $parts == *" b "* ]]; then
     diff "$out/hashes-uninterrupted.txt" "$out/hashes-interrupted.txt" | tee -a "$log"
     identical=0
   fi
-  "$h5hash" --all "$two/abp.h5" | grep ' /parameters/history' >/dev/null && say "   (the interrupted file records its resumes under /parameters/history)"
 fi
 
 if [[ $parts == *" d "* ]]; then
@@ -189,7 +189,8 @@ plugins: [abp]
 step:
   - {stage: abp.integrate, v0: 1.0, Dr: 0.05, D: 0.01}
 YAML
-    PIPELINE_BIN=$bin DEVICE=$device SIZES=2^20 STEPS=${AB_FREE_STEPS:-2000} WARMUP=200 ROUNDS=${AB_ROUNDS:-3} \
+    PIPELINE_BIN=$bin DEVICE=$device SIZES=${AB_FREE_SIZE:-2^20} STEPS=${AB_FREE_STEPS:-2000} \
+      WARMUP=${AB_FREE_WARMUP:-200} ROUNDS=${AB_ROUNDS:-3} \
       SHOW='^no metric lines$' "$ab" "$work/abp-free.yaml" - "$without" 2>&1 | tee -a "$log" | tee "$out/e-abp-free.txt"
   fi
 fi
