@@ -18,10 +18,13 @@
 # Logs and hash lists go to $OUT (default ./checkpoint-demo-out), run outputs to $WORK (default a
 # fresh folder under ${TMPDIR:-/tmp}; removed at the end unless KEEP=1). Environment (defaults for
 # an H100, about 4 minutes in all): DEVICE (cuda when nvidia-smi sees a GPU, else cpu), N (65536),
-# STEPS (100000), FRAME_EVERY (2000), CKPT_EVERY (5000), BIG_N (1048576), BIG_STEPS (400),
-# AB_SIZES (2^14,2^20), AB_STEPS (300), AB_ROUNDS (3), WITHOUT (default $BUNDLE/i19-without;
+# STEPS (100000), FRAME_EVERY (STEPS/50), CKPT_EVERY (STEPS/20), BIG_N (1048576), BIG_STEPS (400),
+# AB_SIZES (2^14,2^20), AB_STEPS (300), AB_ROUNDS (3), AB_FREE_SIZE (2^20), AB_FREE_STEPS (2000),
+# AB_FREE_WARMUP (200), WITHOUT (default $BUNDLE/i19-without;
 # part (e) is skipped when it is missing), PARTS (which of a b d e to run; default "a b d e",
-# (c) comes with a and b). Exit 0 when the two files are IDENTICAL, 1 otherwise.
+# (c) comes with a and b). Exit 0 when the two files are IDENTICAL, 1 otherwise. On a CPU, in
+# seconds: PARTS="a b" N=1024 STEPS=4000 bench/checkpoint_demo.sh build-bundle (or BIG_N=16384
+# BIG_STEPS=40 AB_SIZES=2^10,2^12 AB_FREE_SIZE=2^14 for d and e too).
 set -uo pipefail
 here=$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)
 bundle=$(cd "${1:-bundle}" && pwd) || { echo "checkpoint_demo: no bundle folder '${1:-bundle}'" >&2; exit 2; }
@@ -42,8 +45,8 @@ fi
 parts=" ${PARTS:-a b d e} "
 n=${N:-65536}
 steps=${STEPS:-100000}
-frame_every=${FRAME_EVERY:-2000}
-ckpt_every=${CKPT_EVERY:-5000}
+frame_every=${FRAME_EVERY:-$((steps / 50))}
+ckpt_every=${CKPT_EVERY:-$((steps / 20))}
 log=$out/demo.log
 say() { echo "$*" | tee -a "$log"; }
 now() { date +%s.%N; }
@@ -73,6 +76,19 @@ wait_for_checkpoint() {  # wait_for_checkpoint DIR STEP PID: until a checkpoint 
   done
 }
 fail() { say "checkpoint_demo: FAILED: $*"; exit 1; }
+# random_moment PID DIR STEP: waits for the checkpoints at STEP - ckpt_every and at STEP, then for
+# a random 0-89 % of the time between them (a random step before the next checkpoint, whatever the
+# machine's speed); prints that delay in ms. Fails when PID ended first.
+random_moment() {
+  local t1 t2 ms
+  wait_for_checkpoint "$2" $(($3 - ckpt_every)) "$1" || return 1
+  t1=$(now)
+  wait_for_checkpoint "$2" "$3" "$1" || return 1
+  t2=$(now)
+  ms=$(calc "($t2 - $t1) * 1000 * $((RANDOM % 90)) / 100" 0)
+  sleep "$(calc "$ms / 1000" 3)"
+  echo "$ms"
+}
 
 one=$work/uninterrupted
 two=$work/interrupted
@@ -88,31 +104,31 @@ if [[ $parts == *" b "* ]]; then
   ckpt=(--set "run.checkpoint={every: $ckpt_every, keep: 2}")
   say "== (b) interrupted three times, checkpoints every $ckpt_every steps"
   t0=$(now)
-  # 1. SIGTERM once a fifth of the run is behind it (and a random moment after).
+  # 1. SIGTERM at a random step after a fifth of the run.
+  first=$(((steps / 5 + ckpt_every - 1) / ckpt_every * ckpt_every))
   "$bin" run "$pipelines/abp.yaml" "${sets[@]}" --device "$device" --out "$two" --set "run.steps=$steps" "${ckpt[@]}" \
     >"$out/b1-sigterm.log" 2>&1 &
   pid=$!
-  wait_for_checkpoint "$two" $((steps / 5)) "$pid" || fail "run 1 ended before its checkpoint at step $((steps / 5))"
-  sleep "0.$((RANDOM % 10))"
+  delay=$(random_moment "$pid" "$two" "$first") || fail "run 1 ended before its checkpoint at step $first"
   kill -TERM "$pid"
   wait "$pid"
   rc=$?
   ((rc == 3)) || fail "run 1: exit $rc after SIGTERM, expected 3 (log $out/b1-sigterm.log)"
-  say "   1. SIGTERM: exit $rc; $(grep -o 'stopped by SIGTERM after step [0-9]*' "$out/b1-sigterm.log")"
+  say "   1. SIGTERM ${delay} ms after the checkpoint at step $first: exit $rc;" \
+    "$(grep -o 'stopped by SIGTERM after step [0-9]*' "$out/b1-sigterm.log")"
   # 2. --resume, SIGKILL at a random step past the middle of the run.
   "$bin" run "$pipelines/abp.yaml" "${sets[@]}" --device "$device" --out "$two" --set "run.steps=$steps" "${ckpt[@]}" \
     --resume >"$out/b2-sigkill.log" 2>&1 &
   pid=$!
-  wait_for_checkpoint "$two" $((steps / 2)) "$pid" || fail "run 2 ended before its checkpoint at step $((steps / 2))"
-  delay=$((RANDOM % 1000))
-  sleep "$(printf '%d.%03d' $((delay / 1000)) $((delay % 1000)))"
+  half=$(((steps / 2 + ckpt_every - 1) / ckpt_every * ckpt_every))
+  delay=$(random_moment "$pid" "$two" "$half") || fail "run 2 ended before its checkpoint at step $half"
   kill -KILL "$pid"
   wait "$pid" 2>/dev/null
   rc=$?
   ((rc == 137)) || fail "run 2: exit $rc, expected 137 (killed; log $out/b2-sigkill.log)"
   at=$(newest_checkpoint "$two")
   say "   2. --resume ($(grep -o 'resuming[^;]*' "$out/b2-sigkill.log" | head -n 1)), SIGKILL ${delay} ms after" \
-    "the checkpoint at step $((steps / 2)); newest checkpoint: step $at"
+    "the checkpoint at step $half; newest checkpoint: step $at"
   # 3. --resume to a smaller run.steps: the run finishes there (exit 0) ...
   short=$((steps * 3 / 4))
   ((short > at)) || short=$((at + ckpt_every))
@@ -140,7 +156,6 @@ if [[ $parts == *" a "* && $parts == *" b "* ]]; then
     diff "$out/hashes-uninterrupted.txt" "$out/hashes-interrupted.txt" | tee -a "$log"
     identical=0
   fi
-  "$h5hash" --all "$two/abp.h5" | grep ' /parameters/history' >/dev/null && say "   (the interrupted file records its resumes under /parameters/history)"
 fi
 
 if [[ $parts == *" d "* ]]; then
@@ -189,7 +204,8 @@ plugins: [abp]
 step:
   - {stage: abp.integrate, v0: 1.0, Dr: 0.05, D: 0.01}
 YAML
-    PIPELINE_BIN=$bin DEVICE=$device SIZES=2^20 STEPS=${AB_FREE_STEPS:-2000} WARMUP=200 ROUNDS=${AB_ROUNDS:-3} \
+    PIPELINE_BIN=$bin DEVICE=$device SIZES=${AB_FREE_SIZE:-2^20} STEPS=${AB_FREE_STEPS:-2000} \
+      WARMUP=${AB_FREE_WARMUP:-200} ROUNDS=${AB_ROUNDS:-3} \
       SHOW='^no metric lines$' "$ab" "$work/abp-free.yaml" - "$without" 2>&1 | tee -a "$log" | tee "$out/e-abp-free.txt"
   fi
 fi

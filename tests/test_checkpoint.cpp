@@ -528,7 +528,7 @@ TEST_CASE("checkpoint: refusals exit 2 naming the difference; the previous check
   auto extend = pipeline(run_args(c, out, 100) + " --set step.abp.integrate.v0=2 --resume --allow-changes");
   INFO(extend.out);
   REQUIRE(extend.code == 0);
-  CHECK_THAT(parameter_attribute(out / c.h5, "/parameters/history/1", "changes"),
+  CHECK_THAT(parameter_attribute(out / c.h5, "/parameters/history/2", "changes"),  // 0, 1: the resumes above
              Catch::Contains("step.abp.integrate.v0: 1 -> 2"));
   fs::remove_all(ref);
   fs::remove_all(out);

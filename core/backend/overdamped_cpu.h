@@ -3,7 +3,8 @@
 // Gaussians gaussian_pair_lanes draws together (vectorized), then F::move runs per particle.
 // The last block is padded: its extra lanes draw numbers nobody uses. Every particle's noise is
 // a function of its counter only and its lane is fixed, so results do not depend on the thread
-// count or on how oneTBB splits the range.
+// count or on how oneTBB splits the range. A functor with after_moves (core/physics/overdamped.h)
+// gets each block after its moves (the overdamped integrators' non-finite check).
 #pragma once
 #include <oneapi/tbb/blocked_range.h>
 #include <oneapi/tbb/parallel_for.h>
@@ -37,6 +38,7 @@ void cpu_overdamped_for_each(std::size_t n, const F& f, CUstream_st* /*stream*/)
         for (int k = 0; k < 2 * P; ++k) zl[k] = z[k][l];
         local.move(first + l, zl);
       }
+      if constexpr (HasAfterMoves<F>::value) local.after_moves(first, m);
     }
   };
   const std::size_t blocks = (n + kLanes - 1) / kLanes;

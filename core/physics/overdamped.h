@@ -10,6 +10,9 @@
 //   FF_HD std::uint32_t noise_pair(int j) const;   the pair index (core/physics/rng.h) of the j-th pair
 //   FF_HD NoiseCounter noise_counter() const;      key, step, attempt, Gaussian tail
 //   FF_HD void move(std::size_t i, const double* z) const;  z[2j], z[2j + 1]: pair j
+// and optionally, for the CPU loop only (the GPU's element operation is F::operator()(i)):
+//   void after_moves(std::size_t first, std::size_t count) const;  once per block of particles
+//                                                   after their moves (a check of what they wrote)
 // The standard integrator's functor (OverdampedStep, stages/overdamped/integrate/kernel.h) is
 // this step for every model whose particles diffuse and drift; a model adds its deterministic
 // displacement, and any degree of freedom that moves with it, as a drift functor (abp.integrate's
@@ -17,6 +20,8 @@
 #pragma once
 #include <cstddef>
 #include <cstdint>
+#include <type_traits>
+#include <utility>
 
 #include "core/physics/box.h"
 #include "core/base/hd.h"
@@ -71,6 +76,13 @@ struct NoDrift {
   template <class R>
   FF_HD bool operator()(std::size_t, int, double, const double*, R*) const { return false; }
 };
+
+// Whether F has after_moves (above).
+template <class F, class = void>
+struct HasAfterMoves : std::false_type {};
+template <class F>
+struct HasAfterMoves<F, std::void_t<decltype(std::declval<const F&>().after_moves(std::size_t{}, std::size_t{}))>>
+    : std::true_type {};
 
 // One particle's step: its Gaussian pairs, then F::move (the element operation of the GPU loop).
 template <class F>

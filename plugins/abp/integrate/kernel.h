@@ -71,10 +71,11 @@ struct SelfPropulsion {
     return true;
   }
 
-  // Whether particle i's orientation after its step is finite (the step's non-finite check,
-  // stages/overdamped/integrate/kernel.h).
-  FF_HD bool finite(std::size_t i) const {
-    return overdamped::all_finite<R, D == 2 ? 1 : 3>(orientation + i * (D == 2 ? 1 : 3));
+  // Whether the orientations of particles [first, first + count) are finite after their step
+  // (the step's non-finite check, stages/overdamped/integrate/kernel.h).
+  FF_HD bool finite(std::size_t first, std::size_t count) const {
+    constexpr std::size_t c = D == 2 ? 1 : 3;
+    return overdamped::all_finite(orientation + first * c, count * c);
   }
 
   // out = e rotated about ω = rot_amp·η by |ω|, renormalised.

@@ -24,7 +24,7 @@ inline constexpr int kMaxTypes = 16;
 // The non-finite check every overdamped step makes (finite_check.h holds the host's side). A
 // particle whose position, or a field its drift moves (abp.integrate's orientation), is not
 // finite after its step is reported here; nothing is touched while every value is finite, so in
-// the good case the check costs a sum and a compare per particle and no memory traffic.
+// the good case the check costs a subtract and a compare per value and no memory traffic.
 //  - counters (the backend's memory): how many particles were found, the lowest one, and the
 //    step and attempt of the first report (written by the report that found the count at 0);
 //  - published: one word of host memory (pinned on CUDA: the kernel writes it directly) set to 1,
@@ -51,22 +51,23 @@ struct NonFiniteReport {
   }
 };
 
-// Whether x[0 .. n-1] are all finite: their sum is finite (a NaN or an infinity makes it NaN or
-// infinite, and inf - inf is NaN) and s - s is 0 only for a finite s. One compare per particle,
-// no branch per component.
-template <class R, int n>
-FF_HD bool all_finite(const R* x) {
-  R s = x[0];
-  for (int k = 1; k < n; ++k) s += x[k];
-  return s - s == R(0);
+// Whether x[0 .. n-1] are all finite: x - x is 0 for a finite x and NaN for a NaN or an
+// infinity. No branch, an OR of compares: the CPU loop's check of a block vectorises.
+template <class R>
+FF_HD bool all_finite(const R* x, std::size_t n) {
+  unsigned bad = 0;
+  for (std::size_t k = 0; k < n; ++k) bad |= unsigned(!(x[k] - x[k] == R(0)));
+  return bad == 0;
 }
 
-// A drift that moves fields of its own (abp.integrate's orientation) may say whether particle i's
-// values there are finite after its step: `FF_HD bool finite(std::size_t i) const`. Optional.
+// A drift that moves fields of its own (abp.integrate's orientation) may say whether particles
+// [first, first + count) have finite values there after their step:
+// `FF_HD bool finite(std::size_t first, std::size_t count) const`. Optional.
 template <class G, class = void>
 struct DriftChecksFinite : std::false_type {};
 template <class G>
-struct DriftChecksFinite<G, std::void_t<decltype(std::declval<const G&>().finite(std::size_t{}))>> : std::true_type {};
+struct DriftChecksFinite<G, std::void_t<decltype(std::declval<const G&>().finite(std::size_t{}, std::size_t{}))>>
+    : std::true_type {};
 
 // The drift of overdamped.integrate (a drift functor, core/physics/overdamped.h): (v + μ_t F) Δt
 // from the `velocity` and `force` fields, each when set; none when neither is.
@@ -147,11 +148,12 @@ struct OverdampedStep {
     }
     if constexpr (InPlace) overdamped_move<R, D>(position, image, box, i, by, amplitude, z);
     else overdamped_move<R, D>(position_in, image_in, position, image, box, i, by, amplitude, z);
-    if (non_finite.counters) {
-      bool ok = all_finite<R, D>(position + i * D);
-      if constexpr (DriftChecksFinite<G>::value) ok = ok & drift.finite(i);
-      if (!ok) non_finite.report(i, params);
-    }
+  }
+  // The non-finite check of particles [first, first + count) after their moves (NonFiniteReport).
+  FF_HD bool finite(std::size_t first, std::size_t count) const {
+    bool ok = all_finite(position + first * D, count * D);
+    if constexpr (DriftChecksFinite<G>::value) ok = ok & drift.finite(first, count);
+    return ok;
   }
   // The step's length against max_step (the move itself is made regardless: a step that fails
   // the check is rolled back or stops the run). Written so that NaN, which compares false with
@@ -168,7 +170,19 @@ struct OverdampedStep {
     count_one(slot);
     keep_min(slot + 1, unsigned(i));
   }
-  FF_HD void operator()(std::size_t i) const { overdamped_step(*this, i); }
+  // The GPU loop's element operation: the step, then the check.
+  FF_HD void operator()(std::size_t i) const {
+    overdamped_step(*this, i);
+    if (non_finite.counters && !finite(i, 1)) non_finite.report(i, params);
+  }
+  // The CPU loop's check, once per block of particles [first, first + count) after their moves
+  // (core/physics/overdamped.h): one pass over values still in L1 whose compares vectorise,
+  // where a branch inside move() would keep the compiler from vectorising the moves.
+  void after_moves(std::size_t first, std::size_t count) const {
+    if (!non_finite.counters || finite(first, count)) return;
+    for (std::size_t l = 0; l < count; ++l)
+      if (!finite(first + l, 1)) non_finite.report(first + l, params);
+  }
 };
 
 }  // namespace ff::overdamped
