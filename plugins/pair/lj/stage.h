@@ -57,6 +57,11 @@ struct LJParams {
   }
 };
 
+// The CPU loop (cpu.cpp): LJForce for blocks of particles in vector lanes, the same bits as the
+// scalar functor; the CUDA loop is the backend's for_each over LJForce.
+template <class R, int D>
+void lj_cpu_loop(std::size_t n, const LJForce<R, D>& f, CUstream_st* stream);
+
 template <class R>
 class LJ final : public Stage {
  public:
@@ -70,7 +75,7 @@ class LJ final : public Stage {
   template <class Exec>
   LJ(const ParamValues& v, const RunInfo&, Exec)
       : p_(params_from<LJParams>(v)), where_(Exec::where),
-        loop2_(&Exec::template for_each<LJForce<R, 2>>), loop3_(&Exec::template for_each<LJForce<R, 3>>) {}
+        loop2_(loop_of<Exec, 2>()), loop3_(loop_of<Exec, 3>()) {}
 
   std::vector<Access> accesses() const override {
     std::vector<Access> a{{fields::position, where_, Mode::read},
@@ -118,6 +123,11 @@ class LJ final : public Stage {
   }
 
  private:
+  template <class Exec, int D>
+  static ElementLoop<LJForce<R, D>> loop_of() {
+    if constexpr (Exec::backend == Backend::cpu) return &lj_cpu_loop<R, D>;
+    else return &Exec::template for_each<LJForce<R, D>>;
+  }
   bool from_diameter() const { return p_.sigma.values.empty(); }
 
   // Every particle's type must have an entry; at most kMaxTypes types.
