@@ -3,10 +3,12 @@
 // LJForce (kernel.h) does: the same operations on the same values in the same order, with the
 // pairs beyond the cutoff (and the rows already finished) blended out instead of skipped. So every
 // particle's force, energy and virial have the bits of the scalar functor, hence of the CUDA loop,
-// for any thread count and any split of the range. The radial terms are kernel.h's lj_terms and
-// lj_energy, instantiated on the lane type below. Why lanes across particles: the scalar loop's
-// cutoff test is taken for about half the listed pairs at random, a branch no predictor learns;
-// lanes turn it into a blend. Built with flipflow_cpu_loop_flags (AVX2, no fma contraction).
+// for any thread count, any split of the range and any assignment of particles to lanes. The
+// radial terms are kernel.h's lj_terms and lj_energy, instantiated on the lane type below. Why
+// lanes across particles: the scalar loop's cutoff test is taken for about half the listed pairs
+// at random, a branch no predictor learns; lanes turn it into a blend. A block of W lanes runs as
+// long as its longest row, so each task puts its particles into lanes in order of row length.
+// Built with flipflow_cpu_loop_flags (AVX2, no fma contraction). Measurements: bench/README.md.
 #include <immintrin.h>
 
 #include <algorithm>
@@ -80,10 +82,8 @@ inline __m128i mul(__m128i a, __m128i b) { return _mm_mullo_epi32(a, b); }
 inline __m256i mul(__m256i a, __m256i b) { return _mm256_mullo_epi32(a, b); }
 inline __m128i greater(__m128i a, __m128i b) { return _mm_cmpgt_epi32(a, b); }
 inline __m256i greater(__m256i a, __m256i b) { return _mm256_cmpgt_epi32(a, b); }
-inline __m128i load_index(const std::uint32_t* p, double*) { return _mm_loadu_si128((const __m128i*)p); }
+inline __m128i load_index(const std::uint32_t* p, double*) { return _mm_loadu_si128((const __m128i*)p); }  // W of them
 inline __m256i load_index(const std::uint32_t* p, float*) { return _mm256_loadu_si256((const __m256i*)p); }
-inline __m128i iota(double*) { return _mm_setr_epi32(0, 1, 2, 3); }
-inline __m256i iota(float*) { return _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7); }
 // base[idx] where m is set, src elsewhere (32-bit elements).
 inline __m128i gather_masked(__m128i src, const std::uint32_t* base, __m128i idx, __m128i m) {
   return _mm_mask_i32gather_epi32(src, (const int*)base, idx, m, 4);
@@ -99,25 +99,24 @@ inline V<float> gather(const float* base, __m256i idx) { return (V<float>::raw)_
 inline Raw<double>::mask widen(__m128i m) { return (Raw<double>::mask)_mm256_cvtepi32_epi64(m); }
 inline Raw<float>::mask widen(__m256i m) { return (Raw<float>::mask)m; }
 
-// Particles i0 .. i0 + W − 1, all < n: LJForce::operator() for each, one per lane. kEnergy is
+// Particles who[0 .. W − 1] (each < n): LJForce::operator() for each, one per lane. kEnergy is
 // f.energy != nullptr; kN is f.n, or 0 for an n known only at run time (a constant n unrolls
 // power()'s loop).
 template <class R, int D, bool kEnergy, int kN>
-inline __attribute__((always_inline)) void block(const LJForce<R, D>& f, std::size_t i0) {
+inline __attribute__((always_inline)) void block(const LJForce<R, D>& f, const std::uint32_t* who) {
   using L = V<R>;
   using M = typename Raw<R>::mask;
   constexpr int W = L::W;
   R* const tag = nullptr;  // picks the index width of R's lanes
-  const auto lane = iota(tag);
-  const auto i = add(lane, splat_index(tag, int(i0)));
+  const auto i = load_index(who, tag);
   const auto iD = mul(i, splat_index(tag, D));
   L xi[D];
   for (int c = 0; c < D; ++c) xi[c] = gather(f.position, add(iD, splat_index(tag, c)));
-  const auto count = load_index(f.count + i0, tag);
+  const auto count = gather_int(reinterpret_cast<const std::int32_t*>(f.count), i);
   std::uint32_t longest = 0;
-  for (int l = 0; l < W; ++l) longest = std::max(longest, f.count[i0 + l]);
-  const auto row = mul(lane, splat_index(tag, int(f.capacity)));  // offsets of the rows from row i0
-  const std::uint32_t* const list = f.list + i0 * f.capacity;
+  for (int l = 0; l < W; ++l) longest = std::max(longest, f.count[who[l]]);
+  const auto row = mul(i, splat_index(tag, int(f.capacity)));  // where each lane's row starts
+  const std::uint32_t* const list = f.list;
   const L di = f.diameter ? gather(f.diameter, i) : L(R(0));
   const auto ti = f.type ? mul(gather_int(f.type, i), splat_index(tag, kMaxTypes)) : splat_index(tag, 0);
   const L r_cut2(f.r_cut2), shift(f.shift);
@@ -164,13 +163,13 @@ inline __attribute__((always_inline)) void block(const LJForce<R, D>& f, std::si
     }
   }
   for (int l = 0; l < W; ++l)
-    for (int c = 0; c < D; ++c) f.force[(i0 + l) * D + c] = force[c].v[l];
+    for (int c = 0; c < D; ++c) f.force[std::size_t(who[l]) * D + c] = force[c].v[l];
   if (kEnergy) {
     const L half(R(0.5));
     const L eu = half * u, ew = half * w;
     for (int l = 0; l < W; ++l) {
-      f.energy[i0 + l] = eu.v[l];
-      f.virial[i0 + l] = ew.v[l];
+      f.energy[who[l]] = eu.v[l];
+      f.virial[who[l]] = ew.v[l];
     }
   }
 }
@@ -180,36 +179,45 @@ inline __attribute__((always_inline)) void block(const LJForce<R, D>& f, std::si
 template <class R, int D>
 void lj_cpu_loop(std::size_t n, const LJForce<R, D>& f, CUstream_st* stream) {
   constexpr std::size_t W = lanes::V<R>::W;
+  constexpr std::size_t grain = 2048;  // particles per task at most
   // The lanes' gathers take int32 element offsets.
-  if (n * D >= std::size_t(std::numeric_limits<std::int32_t>::max()) ||
-      std::size_t(f.capacity) * W >= std::size_t(std::numeric_limits<std::int32_t>::max())) {
+  if (n * std::max<std::size_t>(D, f.capacity) >= std::size_t(std::numeric_limits<std::int32_t>::max())) {
     cpu_for_each(n, f, stream);
     return;
   }
-  const std::size_t blocks = n / W;
-  auto blocks_of = [&](auto energy, auto exponent) {
-    return [&](std::size_t b0, std::size_t b1) {
-      const LJForce<R, D> local = f;  // members in registers (see cpu_for_each)
-      for (std::size_t b = b0; b < b1; ++b) lanes::block<R, D, energy(), exponent()>(local, b * W);
-    };
+  // The particles of a task go into lanes in order of their row length (a stable counting sort),
+  // so the W rows of a block end together: lanes wait little on the longest row of their block.
+  // Which lane a particle takes does not change its bits.
+  auto particles = [&](std::size_t p0, std::size_t p1, auto energy, auto exponent) {
+    const LJForce<R, D> local = f;  // members in registers (see cpu_for_each)
+    std::uint32_t who[grain], start[65];
+    constexpr std::uint32_t kLongest = 63;  // rows longer than this share the last bucket
+    std::fill(start, start + 65, 0u);
+    for (std::size_t i = p0; i < p1; ++i) ++start[std::min(local.count[i], kLongest) + 1];
+    for (std::uint32_t b = 1; b < 65; ++b) start[b] += start[b - 1];
+    for (std::size_t i = p0; i < p1; ++i) who[start[std::min(local.count[i], kLongest)]++] = std::uint32_t(i);
+    const std::size_t m = p1 - p0, full = m / W * W;
+    for (std::size_t b = 0; b < full; b += W) lanes::block<R, D, energy(), exponent()>(local, who + b);
+    for (std::size_t b = full; b < m; ++b) local(who[b]);  // the last m mod W, one by one
   };
   using Tran = std::integral_constant<int, 18>;  // Tran et al.'s 36–18
   using Any = std::integral_constant<int, 0>;
-  auto run = [&](std::size_t b0, std::size_t b1) {
-    if (f.energy) {
-      if (f.n == Tran()) blocks_of(std::true_type{}, Tran{})(b0, b1);
-      else blocks_of(std::true_type{}, Any{})(b0, b1);
-    } else {
-      if (f.n == Tran()) blocks_of(std::false_type{}, Tran{})(b0, b1);
-      else blocks_of(std::false_type{}, Any{})(b0, b1);
+  auto run = [&](std::size_t r0, std::size_t r1) {  // oneTBB's ranges may exceed the grain
+    for (std::size_t p0 = r0; p0 < r1; p0 += grain) {
+      const std::size_t p1 = std::min(r1, p0 + grain);
+      if (f.energy) {
+        if (f.n == Tran()) particles(p0, p1, std::true_type{}, Tran{});
+        else particles(p0, p1, std::true_type{}, Any{});
+      } else {
+        if (f.n == Tran()) particles(p0, p1, std::false_type{}, Tran{});
+        else particles(p0, p1, std::false_type{}, Any{});
+      }
     }
   };
-  constexpr std::size_t grain = 2048 / W;
-  if (blocks <= grain) run(0, blocks);
+  if (n <= grain) run(0, n);
   else
-    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, blocks, grain),
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, grain),
                       [&](const tbb::blocked_range<std::size_t>& r) { run(r.begin(), r.end()); });
-  for (std::size_t i = blocks * W; i < n; ++i) f(i);  // the last n mod W particles, one by one
 }
 
 template void lj_cpu_loop<float, 2>(std::size_t, const LJForce<float, 2>&, CUstream_st*);
