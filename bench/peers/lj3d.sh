@@ -5,7 +5,9 @@
 #      FF (default build/bin/pipeline), N (65536), PHI (0.15), NWARM (100), NRUN (1000), DT (5e-6),
 #      RNG (gaussian | uniform: LAMMPS fix brownian noise), FF_RESULTS (where `pipeline bench` writes
 #      its JSON line; default a temp folder, so bench/results is left alone), RESULTS (summary lines
-#      are appended there too when set).
+#      are appended there too when set), WAIT_LOAD (e.g. 1.5: before each round, wait until the
+#      1-minute load average is below it, at most WAIT_MAX seconds, default 900; the machine is
+#      shared, and LAMMPS' MPI ranks lose most under another load).
 # Each round: LAMMPS 2 MPI ranks, LAMMPS 1 rank + 2 OpenMP threads (-sf omp), flipflow 2 threads.
 # Both start from a random-sequential-addition start (r >= sigma) and time the same step window
 # (steps NWARM .. NWARM+NRUN after the start): LAMMPS' second `run`, flipflow bench's throughput pass.
@@ -40,6 +42,13 @@ say "== flipflow vs LAMMPS, 3D LJ 36-18 BD, $(date -u +%FT%TZ) on $(hostname): $
 say "   flipflow $(git -C $REPO rev-parse --short HEAD)$(git -C $REPO diff --quiet HEAD -- . ':!bench' || echo '+local changes') ($FF); LAMMPS $LMP ($(strings $LMP 2>/dev/null | grep -m1 -o '[0-9]\{1,2\} [A-Z][a-z][a-z] 20[0-9][0-9]' || echo '?'))"
 say "   N = $N, phi = $PHI, eps = 14, n = 18, r_cut = 1.5, skin 0.3, D = mu = kT = 1, dt = $DT, rng $RNG; warm-up $NWARM steps, $NRUN timed"
 for r in $(seq 1 $ROUNDS); do
+  if [ -n "$WAIT_LOAD" ]; then
+    waited=0
+    while awk -v m=$WAIT_LOAD '{exit !($1 >= m)}' /proc/loadavg && [ $waited -lt ${WAIT_MAX:-900} ]; do
+      sleep 10; waited=$((waited + 10))
+    done
+    say "   round $r: waited ${waited} s for a 1-minute load average below $WAIT_LOAD"
+  fi
   say "   round $r: load average $(cut -d' ' -f1-3 /proc/loadavg)"
   OMP=1 lmp_run mpi2 "mpirun -np 2 --allow-run-as-root --oversubscribe" "" $((12345 + r)); L1=$LSPS
   OMP=2 lmp_run omp2 "" "-sf omp -pk omp 2" $((12345 + r)); L2=$LSPS

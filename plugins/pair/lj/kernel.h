@@ -43,15 +43,40 @@ struct LJTable {
 };
 
 // x^k for k ≥ 0 by squaring and multiplying: the same products, in the same order, everywhere.
+// R is a real or the CPU loop's vector of lanes (cpu.cpp), whose mul_rn and sqrt ADL finds.
 template <class R>
 FF_HD R power(R x, int k) {
+  using math::mul_rn;
   R result = R(1);
   while (k > 0) {
-    if (k & 1) result = math::mul_rn(result, x);
-    x = math::mul_rn(x, x);
+    if (k & 1) result = mul_rn(result, x);
+    x = mul_rn(x, x);
     k >>= 1;
   }
   return result;
+}
+
+// The radial terms of one pair inside the cutoff, from s = σ²/r² (capped) and 1/r²: q = (σ/r)^n,
+// q² and the force magnitude 4 n ε (2q² − q) / r² (F_i = magnitude · d_ij). Written once for the
+// scalar functor below (both backends) and for the CPU loop's lanes (cpu.cpp: one particle per
+// lane, the same operations in the same order, so the same bits).
+template <class R>
+struct LJTerms {
+  R q, q2, magnitude;
+};
+template <class R>
+FF_HD LJTerms<R> lj_terms(R s, R inv_r2, R eps, int n) {
+  using math::mul_rn;
+  using std::sqrt;
+  const R q = n & 1 ? mul_rn(power(s, n / 2), sqrt(s)) : power(s, n / 2);  // (σ/r)^n
+  const R q2 = mul_rn(q, q);                                                // (σ/r)^{2n}
+  return {q, q2, mul_rn(mul_rn(R(4 * n) * eps, (R(2) * q2 - q)), inv_r2)};
+}
+// The pair's energy U_ij − ε_ij·shift (shift = U(r_cut σ_ij)/ε_ij or 0) and its virial r²·magnitude.
+template <class R>
+FF_HD R lj_energy(const LJTerms<R>& t, R eps, R shift) {
+  using math::mul_rn;
+  return mul_rn(R(4) * eps, t.q2 - t.q) - mul_rn(eps, shift);
 }
 
 template <class R, int D>
@@ -96,15 +121,12 @@ struct LJForce {
       s = R(kMaxS);
       inv_r2 = s / sig2;
     }
-    const R q = n & 1 ? math::mul_rn(power(s, n / 2), std::sqrt(s)) : power(s, n / 2);  // (σ/r)^n
-    const R q2 = math::mul_rn(q, q);                                                      // (σ/r)^{2n}
     const R eps = table.epsilon[ab];
-    // 4 n ε (2q² − q) / r²
-    const R magnitude = math::mul_rn(math::mul_rn(R(4 * n) * eps, (R(2) * q2 - q)), inv_r2);
-    for (int c = 0; c < D; ++c) f[c] += math::mul_rn(magnitude, d[c]);
+    const LJTerms<R> t = lj_terms(s, inv_r2, eps, n);
+    for (int c = 0; c < D; ++c) f[c] += math::mul_rn(t.magnitude, d[c]);
     if (energy) {
-      u += math::mul_rn(R(4) * eps, q2 - q) - math::mul_rn(eps, shift);
-      w += math::mul_rn(magnitude, r2);
+      u += lj_energy(t, eps, shift);
+      w += math::mul_rn(t.magnitude, r2);
     }
   }
 

@@ -1,8 +1,9 @@
 // pair.lj: the generalized Lennard-Jones 2n–n potential (kernel.h) between the pairs of the
 // Verlet list of a neighbors.verlet stage before it, per type pair ε_ij and σ_ij, cut at
 // r_cut σ_ij, into the `force` field that overdamped.integrate reads (x += μ_t F Δt + noise).
-// With energy: true also `pair.energy` and `pair.virial` (per particle) for observers. The CPU
-// runs the functor per particle; CUDA has its own loop (cuda.cu) over the same per-pair terms.
+// With energy: true also `pair.energy` and `pair.virial` (per particle) for observers. Each
+// backend has its own loop over the same terms: the CPU's in vector lanes (cpu.cpp), CUDA's over
+// packed records (cuda.cu).
 #pragma once
 #include <algorithm>
 #include <cmath>
@@ -59,6 +60,11 @@ struct LJParams {
   }
 };
 
+// The CPU loop (cpu.cpp): LJForce for blocks of particles in vector lanes, the same bits as the
+// scalar functor; the CUDA loops are lj_loops (loops.h, cuda.cu).
+template <class R, int D>
+void lj_cpu_loop(std::size_t n, const LJForce<R, D>& f, CUstream_st* stream);
+
 template <class R>
 class LJ final : public Stage {
  public:
@@ -72,8 +78,7 @@ class LJ final : public Stage {
   template <class Exec>
   LJ(const ParamValues& v, const RunInfo&, Exec)
       : p_(params_from<LJParams>(v)), where_(Exec::where),
-        loop2_(&Exec::template for_each<LJForce<R, 2>>), loop3_(&Exec::template for_each<LJForce<R, 3>>),
-        scratch_(Exec{}) {
+        loop2_(loop_of<Exec, 2>()), loop3_(loop_of<Exec, 3>()), scratch_(Exec{}) {
     if constexpr (Exec::backend == Backend::cuda) cuda_ = lj_loops<R>(Exec{});
   }
 
@@ -128,6 +133,11 @@ class LJ final : public Stage {
   }
 
  private:
+  template <class Exec, int D>
+  static ElementLoop<LJForce<R, D>> loop_of() {
+    if constexpr (Exec::backend == Backend::cpu) return &lj_cpu_loop<R, D>;
+    else return &Exec::template for_each<LJForce<R, D>>;
+  }
   bool from_diameter() const { return p_.sigma.values.empty(); }
 
   // Every particle's type must have an entry; at most kMaxTypes types.

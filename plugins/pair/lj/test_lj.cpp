@@ -4,11 +4,15 @@
 // rules and explicit matrices on two types, the energy shift, the skin does not change a bit,
 // overlapping pairs stay finite, CPU and CUDA give the same bits, and input errors name the key.
 #include <catch2/catch.hpp>
+#include <oneapi/tbb/global_control.h>
+
 #include <cmath>
 #include <cstring>
 #include <random>
 
 #include "core/base/error.h"
+#include "plugins/pair/lj/kernel.h"
+#include "stages/neighbors/list.h"
 #include "support/backends.h"
 #include "support/fields.h"
 #include "support/stage_driver.h"
@@ -59,8 +63,8 @@ struct LJ {
   double cutoff = 1.5, skin = 0.3;  // neighbors.verlet
 };
 
-// neighbors.verlet then pair.lj (energy: true) once.
-void run(State& s, Backend b, const LJ& q) {
+// neighbors.verlet then pair.lj once (energy: `energy`).
+void run(State& s, Backend b, const LJ& q, bool energy = true) {
   ParamValues verlet_p, lj_p;
   verlet_p.set("cutoff", q.cutoff);
   verlet_p.set("skin", q.skin);
@@ -70,7 +74,7 @@ void run(State& s, Backend b, const LJ& q) {
   lj_p.set("n", q.n);
   lj_p.set("r_cut", q.r_cut);
   lj_p.set("shift", q.shift);
-  lj_p.set("energy", true);
+  lj_p.set("energy", energy);
   test::StageDriver verlet(registry(), "neighbors.verlet", b, s.precision(), s.dim(), verlet_p, 1);
   test::StageDriver lj(registry(), "pair.lj", b, s.precision(), s.dim(), lj_p, 1);
   verlet.stage->configure(s);
@@ -460,6 +464,113 @@ TEST_CASE("pair.lj: CPU and CUDA give the same bits over moving steps with rebui
     }
   }
   CHECK(rebuilds >= 3);  // the first build and some of the moves of up to 0.12·√D
+}
+
+namespace {
+
+// The scalar functor of kernel.h, particle by particle on this thread, over the list that
+// neighbors.verlet left in s: the reference for the CPU stage's vector lanes (plugins/pair/lj/
+// cpu.cpp). ε and σ: one type from `q` (σ_ij from the diameters, by q.mixing) or, with q.sigma
+// set, the T×T matrices q.eps_list and q.sigma.
+struct Fields { std::vector<double> force, energy, virial; };
+template <class R, int D>
+Fields scalar_functor(State& s, const LJ& q, bool energy) {
+  const std::size_t n = s.n();
+  std::vector<R> force(n * D), u(n), w(n);
+  pair::LJForce<R, D> f{};
+  for (const char* name : {fields::position, fields::diameter, fields::type, neighbors::kList, neighbors::kCount})
+    s.field(name).acquire(Where::host, Mode::read);
+  f.position = s.field(fields::position).host<R>();
+  f.force = force.data();
+  f.energy = energy ? u.data() : nullptr;
+  f.virial = energy ? w.data() : nullptr;
+  f.list = s.field(neighbors::kList).host<std::uint32_t>();
+  f.count = s.field(neighbors::kCount).host<std::uint32_t>();
+  f.capacity = neighbors::list_capacity(s);
+  f.box = PeriodicBox<R>::make(s.box.L);
+  const int T = q.sigma.empty() ? 1 : int(std::lround(std::sqrt(double(q.sigma.size()))));
+  for (int a = 0; a < T; ++a)
+    for (int b = 0; b < T; ++b) {
+      f.table.epsilon[a * pair::kMaxTypes + b] = R(T == 1 ? q.epsilon : q.eps_list[a * T + b]);
+      f.table.sigma2[a * pair::kMaxTypes + b] = R(T == 1 ? 1.0 : q.sigma[a * T + b] * q.sigma[a * T + b]);
+    }
+  f.type = T > 1 ? s.field(fields::type).host<std::int32_t>() : nullptr;
+  f.diameter = T == 1 ? s.field(fields::diameter).host<R>() : nullptr;
+  f.n = int(q.n);
+  f.geometric = q.mixing == "geometric";
+  f.r_cut2 = R(q.r_cut * q.r_cut);
+  const double s1 = 1 / (q.r_cut * q.r_cut);
+  const int k = int(q.n);
+  const double qc = k & 1 ? pair::power(s1, k / 2) * std::sqrt(s1) : pair::power(s1, k / 2);
+  f.shift = q.shift ? R(4 * (qc * qc - qc)) : R(0);
+  for (std::size_t i = 0; i < n; ++i) f(i);
+  return {{force.begin(), force.end()}, {u.begin(), u.end()}, {w.begin(), w.end()}};
+}
+
+// n random particles (not a multiple of any lane count) at volume fraction ~0.3 with random
+// diameters in [0.8, 1.2] σ, two types, one coincident pair and one pair at 0.3 σ (s capped).
+std::unique_ptr<State> random_state(int dim, Precision p, std::size_t n) {
+  std::mt19937_64 gen(5 + dim);
+  std::uniform_real_distribution<double> u01(0, 1);
+  const double L = dim == 2 ? std::sqrt(n * 0.785 / 0.5) : std::cbrt(n * 0.524 / 0.3);
+  std::vector<double> x(n * dim), d(n);
+  std::vector<int> t(n);
+  for (auto& v : x) v = L * u01(gen);
+  for (std::size_t i = 0; i < n; ++i) {
+    d[i] = 0.8 + 0.4 * u01(gen);
+    t[i] = int(i % 3 == 0);
+  }
+  for (int c = 0; c < dim; ++c) {
+    x[5 * dim + c] = x[1 * dim + c];
+    x[9 * dim + c] = x[2 * dim + c] + (c == 0 ? 0.3 : 0.0);
+  }
+  return state(dim, p, L, x, t, d, {"A", "B"});
+}
+
+template <class R, int D>
+void lanes_match_functor(Precision p) {
+  LJ diam, geo, matrix;
+  diam.epsilon = 14;
+  diam.cutoff = 1.9;  // r_cut · the largest σ_ij = 1.8
+  geo = diam;
+  geo.mixing = "geometric";
+  geo.n = 7;  // odd: the √s factor
+  geo.shift = true;
+  matrix.eps_list = {14, 7, 7, 3};
+  matrix.sigma = {1, 0.95, 0.95, 0.9};
+  matrix.n = 6;
+  matrix.shift = true;
+  for (const LJ* q : {&diam, &geo, &matrix})
+    for (bool energy : {true, false})
+      for (int threads : {1, 2}) {
+        INFO(D << "D, " << to_string(p) << ", σ " << (q->sigma.empty() ? q->mixing : "matrix") << ", energy " << energy << ", " << threads
+               << " threads");
+        tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
+        auto s = random_state(D, p, D == 2 ? 4099 : 3001);
+        run(*s, Backend::cpu, *q, energy);
+        const Fields want = scalar_functor<R, D>(*s, *q, energy);
+        const auto got = values(*s, "force");
+        REQUIRE(got.size() == want.force.size());
+        CHECK(std::memcmp(got.data(), want.force.data(), got.size() * sizeof(double)) == 0);
+        if (energy)
+          for (const auto& [name, v] : {std::pair{"pair.energy", &want.energy}, std::pair{"pair.virial", &want.virial}}) {
+            const auto field = values(*s, name);
+            INFO(name);
+            REQUIRE(field.size() == v->size());
+            CHECK(std::memcmp(field.data(), v->data(), field.size() * sizeof(double)) == 0);
+          }
+        // The state reaches the cap and the cutoff: a test that would catch their blends.
+        CHECK(*std::max_element(got.begin(), got.end()) > 1e3);
+      }
+}
+
+}  // namespace
+
+TEST_CASE("pair.lj: the CPU loop's vector lanes give the scalar functor's bits, any thread count", "[pair]") {
+  lanes_match_functor<double, 3>(Precision::f64);
+  lanes_match_functor<double, 2>(Precision::f64);
+  lanes_match_functor<float, 3>(Precision::f32);
+  lanes_match_functor<float, 2>(Precision::f32);
 }
 
 TEST_CASE("pair.lj: input errors name the key", "[pair]") {

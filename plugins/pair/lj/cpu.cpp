@@ -1,0 +1,228 @@
+// The CPU loop of pair.lj: particles in AVX2 vector lanes (4 doubles or 8 floats), each lane one
+// particle i walking its own row of the Verlet list in list order, exactly as the scalar functor
+// LJForce (kernel.h) does: the same operations on the same values in the same order, with the
+// pairs beyond the cutoff (and the rows already finished) blended out instead of skipped. So every
+// particle's force, energy and virial have the bits of the scalar functor, hence of the CUDA loop,
+// for any thread count, any split of the range and any assignment of particles to lanes. The
+// radial terms are kernel.h's lj_terms and lj_energy, instantiated on the lane type below. Why
+// lanes across particles: the scalar loop's cutoff test is taken for about half the listed pairs
+// at random, a branch no predictor learns; lanes turn it into a blend. A block of W lanes runs as
+// long as its longest row, so each task puts its particles into lanes in order of row length.
+// Built with flipflow_cpu_loop_flags (AVX2, no fma contraction). Measurements: bench/README.md.
+#include <immintrin.h>
+
+#include <algorithm>
+#include <cstdint>
+#include <limits>
+#include <type_traits>
+
+#include "core/backend/exec_cpu.h"
+#include "plugins/pair/lj/stage.h"
+
+namespace ff::pair {
+
+namespace lanes {
+
+template <class R>
+struct Raw;
+template <>
+struct Raw<double> {
+  typedef double type __attribute__((vector_size(32)));
+  typedef long long mask __attribute__((vector_size(32)));
+  typedef __m128i index;  // 4 x int32
+};
+template <>
+struct Raw<float> {
+  typedef float type __attribute__((vector_size(32)));
+  typedef int mask __attribute__((vector_size(32)));
+  typedef __m256i index;  // 8 x int32
+};
+
+// W reals, one per particle; a class, so that kernel.h's unqualified mul_rn and sqrt find the
+// overloads below by argument-dependent lookup.
+template <class R>
+struct V {
+  using raw = typename Raw<R>::type;
+  static constexpr int W = int(32 / sizeof(R));
+  raw v;
+  V() = default;
+  V(raw x) : v(x) {}
+  V(R x) : v(raw{} + x) {}  // every lane x
+};
+template <class R>
+V<R> operator+(V<R> a, V<R> b) { return a.v + b.v; }
+template <class R>
+V<R> operator-(V<R> a, V<R> b) { return a.v - b.v; }
+template <class R>
+V<R> operator*(V<R> a, V<R> b) { return a.v * b.v; }
+template <class R>
+V<R> operator/(V<R> a, V<R> b) { return a.v / b.v; }
+template <class R>
+V<R> mul_rn(V<R> a, V<R> b) { return a.v * b.v; }  // never contracted: flipflow_cpu_loop_flags
+inline V<double> sqrt(V<double> a) { return (V<double>::raw)_mm256_sqrt_pd((__m256d)a.v); }
+inline V<float> sqrt(V<float> a) { return (V<float>::raw)_mm256_sqrt_ps((__m256)a.v); }
+// std::rint in the default rounding mode (to nearest, ties to even), as PeriodicBox::min_image.
+inline V<double> rint(V<double> a) {
+  return (V<double>::raw)_mm256_round_pd((__m256d)a.v, _MM_FROUND_TO_NEAREST_INT | _MM_FROUND_NO_EXC);
+}
+inline V<float> rint(V<float> a) {
+  return (V<float>::raw)_mm256_round_ps((__m256)a.v, _MM_FROUND_TO_NEAREST_INT | _MM_FROUND_NO_EXC);
+}
+template <class R>
+V<R> select(typename Raw<R>::mask m, V<R> a, V<R> b) { return m ? a.v : b.v; }
+template <class R>
+bool any(typename Raw<R>::mask m) { return !_mm256_testz_si256((__m256i)m, (__m256i)m); }
+
+// Lane indices (int32) and gathers.
+inline __m128i splat_index(double*, int x) { return _mm_set1_epi32(x); }
+inline __m256i splat_index(float*, int x) { return _mm256_set1_epi32(x); }
+inline __m128i add(__m128i a, __m128i b) { return _mm_add_epi32(a, b); }
+inline __m256i add(__m256i a, __m256i b) { return _mm256_add_epi32(a, b); }
+inline __m128i mul(__m128i a, __m128i b) { return _mm_mullo_epi32(a, b); }
+inline __m256i mul(__m256i a, __m256i b) { return _mm256_mullo_epi32(a, b); }
+inline __m128i greater(__m128i a, __m128i b) { return _mm_cmpgt_epi32(a, b); }
+inline __m256i greater(__m256i a, __m256i b) { return _mm256_cmpgt_epi32(a, b); }
+inline __m128i load_index(const std::uint32_t* p, double*) { return _mm_loadu_si128((const __m128i*)p); }  // W of them
+inline __m256i load_index(const std::uint32_t* p, float*) { return _mm256_loadu_si256((const __m256i*)p); }
+// base[idx] where m is set, src elsewhere (32-bit elements).
+inline __m128i gather_masked(__m128i src, const std::uint32_t* base, __m128i idx, __m128i m) {
+  return _mm_mask_i32gather_epi32(src, (const int*)base, idx, m, 4);
+}
+inline __m256i gather_masked(__m256i src, const std::uint32_t* base, __m256i idx, __m256i m) {
+  return _mm256_mask_i32gather_epi32(src, (const int*)base, idx, m, 4);
+}
+inline __m128i gather_int(const std::int32_t* base, __m128i idx) { return _mm_i32gather_epi32(base, idx, 4); }
+inline __m256i gather_int(const std::int32_t* base, __m256i idx) { return _mm256_i32gather_epi32(base, idx, 4); }
+inline V<double> gather(const double* base, __m128i idx) { return (V<double>::raw)_mm256_i32gather_pd(base, idx, 8); }
+inline V<float> gather(const float* base, __m256i idx) { return (V<float>::raw)_mm256_i32gather_ps(base, idx, 4); }
+// An int32 lane mask (all ones or zero) as the reals' lane mask.
+inline Raw<double>::mask widen(__m128i m) { return (Raw<double>::mask)_mm256_cvtepi32_epi64(m); }
+inline Raw<float>::mask widen(__m256i m) { return (Raw<float>::mask)m; }
+
+// Particles who[0 .. W − 1] (each < n): LJForce::operator() for each, one per lane. kEnergy is
+// f.energy != nullptr; kN is f.n, or 0 for an n known only at run time (a constant n unrolls
+// power()'s loop).
+template <class R, int D, bool kEnergy, int kN>
+inline __attribute__((always_inline)) void block(const LJForce<R, D>& f, const std::uint32_t* who) {
+  using L = V<R>;
+  using M = typename Raw<R>::mask;
+  constexpr int W = L::W;
+  R* const tag = nullptr;  // picks the index width of R's lanes
+  const auto i = load_index(who, tag);
+  const auto iD = mul(i, splat_index(tag, D));
+  L xi[D];
+  for (int c = 0; c < D; ++c) xi[c] = gather(f.position, add(iD, splat_index(tag, c)));
+  const auto count = gather_int(reinterpret_cast<const std::int32_t*>(f.count), i);
+  std::uint32_t longest = 0;
+  for (int l = 0; l < W; ++l) longest = std::max(longest, f.count[who[l]]);
+  const auto row = mul(i, splat_index(tag, int(f.capacity)));  // where each lane's row starts
+  const std::uint32_t* const list = f.list;
+  const L di = f.diameter ? gather(f.diameter, i) : L(R(0));
+  const auto ti = f.type ? mul(gather_int(f.type, i), splat_index(tag, kMaxTypes)) : splat_index(tag, 0);
+  const L r_cut2(f.r_cut2), shift(f.shift);
+  L force[D], u(R(0)), w(R(0));
+  for (int c = 0; c < D; ++c) force[c] = L(R(0));
+  for (std::uint32_t a = 0; a < longest; ++a) {
+    const auto a_lanes = splat_index(tag, int(a));
+    const auto active = greater(count, a_lanes);
+    // Finished rows read their own particle (then masked out), never an unset list entry.
+    const auto j = gather_masked(i, list, add(row, a_lanes), active);
+    const auto jD = mul(j, splat_index(tag, D));
+    L d[D], r2(R(0));
+    for (int c = 0; c < D; ++c) {
+      const L dc = xi[c] - gather(f.position, add(jD, splat_index(tag, c)));
+      d[c] = dc - L(f.box.L[c]) * rint(dc * L(f.box.inv_L[c]));
+      r2 = r2 + mul_rn(d[c], d[c]);
+    }
+    auto ab = ti;
+    if (f.type) ab = add(ti, gather_int(f.type, j));
+    L sig2;
+    if (f.diameter) {
+      const L dj = gather(f.diameter, j);
+      const L s = f.geometric ? sqrt(mul_rn(di, dj)) : L(R(0.5)) * (di + dj);
+      sig2 = mul_rn(s, s);
+    } else {
+      sig2 = f.type ? gather(f.table.sigma2, ab) : L(f.table.sigma2[0]);
+    }
+    // Kept: in an unfinished row, not beyond the cutoff, not coincident (the scalar `continue`).
+    const M keep = widen(active) & ~M(r2.v >= mul_rn(r_cut2, sig2).v) & M(r2.v != R(0));
+    if (!any<R>(keep)) continue;
+    L inv_r2 = L(R(1)) / r2;
+    L s = mul_rn(sig2, inv_r2);
+    const M capped = keep & M(s.v > R(kMaxS));
+    if (any<R>(capped)) {
+      s = select<R>(capped, L(R(kMaxS)), s);
+      inv_r2 = select<R>(capped, s / sig2, inv_r2);
+    }
+    const L eps = f.type ? gather(f.table.epsilon, ab) : L(f.table.epsilon[0]);
+    const LJTerms<L> t = lj_terms(s, inv_r2, eps, kN ? kN : f.n);
+    for (int c = 0; c < D; ++c) force[c] = select<R>(keep, force[c] + mul_rn(t.magnitude, d[c]), force[c]);
+    if (kEnergy) {
+      u = select<R>(keep, u + lj_energy(t, eps, shift), u);
+      w = select<R>(keep, w + mul_rn(t.magnitude, r2), w);
+    }
+  }
+  for (int l = 0; l < W; ++l)
+    for (int c = 0; c < D; ++c) f.force[std::size_t(who[l]) * D + c] = force[c].v[l];
+  if (kEnergy) {
+    const L half(R(0.5));
+    const L eu = half * u, ew = half * w;
+    for (int l = 0; l < W; ++l) {
+      f.energy[who[l]] = eu.v[l];
+      f.virial[who[l]] = ew.v[l];
+    }
+  }
+}
+
+}  // namespace lanes
+
+template <class R, int D>
+void lj_cpu_loop(std::size_t n, const LJForce<R, D>& f, CUstream_st* stream) {
+  constexpr std::size_t W = lanes::V<R>::W;
+  constexpr std::size_t grain = 2048;  // particles per task at most
+  // The lanes' gathers take int32 element offsets.
+  if (n * std::max<std::size_t>(D, f.capacity) >= std::size_t(std::numeric_limits<std::int32_t>::max())) {
+    cpu_for_each(n, f, stream);
+    return;
+  }
+  // The particles of a task go into lanes in order of their row length (a stable counting sort),
+  // so the W rows of a block end together: lanes wait little on the longest row of their block.
+  // Which lane a particle takes does not change its bits.
+  auto particles = [&](std::size_t p0, std::size_t p1, auto energy, auto exponent) {
+    const LJForce<R, D> local = f;  // members in registers (see cpu_for_each)
+    std::uint32_t who[grain], start[65];
+    constexpr std::uint32_t kLongest = 63;  // rows longer than this share the last bucket
+    std::fill(start, start + 65, 0u);
+    for (std::size_t i = p0; i < p1; ++i) ++start[std::min(local.count[i], kLongest) + 1];
+    for (std::uint32_t b = 1; b < 65; ++b) start[b] += start[b - 1];
+    for (std::size_t i = p0; i < p1; ++i) who[start[std::min(local.count[i], kLongest)]++] = std::uint32_t(i);
+    const std::size_t m = p1 - p0, full = m / W * W;
+    for (std::size_t b = 0; b < full; b += W) lanes::block<R, D, energy(), exponent()>(local, who + b);
+    for (std::size_t b = full; b < m; ++b) local(who[b]);  // the last m mod W, one by one
+  };
+  using Tran = std::integral_constant<int, 18>;  // Tran et al.'s 36–18
+  using Any = std::integral_constant<int, 0>;
+  auto run = [&](std::size_t r0, std::size_t r1) {  // oneTBB's ranges may exceed the grain
+    for (std::size_t p0 = r0; p0 < r1; p0 += grain) {
+      const std::size_t p1 = std::min(r1, p0 + grain);
+      if (f.energy) {
+        if (f.n == Tran()) particles(p0, p1, std::true_type{}, Tran{});
+        else particles(p0, p1, std::true_type{}, Any{});
+      } else {
+        if (f.n == Tran()) particles(p0, p1, std::false_type{}, Tran{});
+        else particles(p0, p1, std::false_type{}, Any{});
+      }
+    }
+  };
+  if (n <= grain) run(0, n);
+  else
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, grain),
+                      [&](const tbb::blocked_range<std::size_t>& r) { run(r.begin(), r.end()); });
+}
+
+template void lj_cpu_loop<float, 2>(std::size_t, const LJForce<float, 2>&, CUstream_st*);
+template void lj_cpu_loop<float, 3>(std::size_t, const LJForce<float, 3>&, CUstream_st*);
+template void lj_cpu_loop<double, 2>(std::size_t, const LJForce<double, 2>&, CUstream_st*);
+template void lj_cpu_loop<double, 3>(std::size_t, const LJForce<double, 3>&, CUstream_st*);
+
+}  // namespace ff::pair
