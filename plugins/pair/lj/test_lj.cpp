@@ -2,7 +2,8 @@
 // the force is −dU/dr of the energy it reports, the minimum is −ε at 2^{1/n} σ, the sum of all
 // forces vanishes (Newton's third law), a jittered lattice equals a direct O(N²) sum, mixing
 // rules and explicit matrices on two types, the energy shift, the skin does not change a bit,
-// overlapping pairs stay finite, CPU and CUDA give the same bits, and input errors name the key.
+// overlapping pairs stay finite, the CPU loop's vector lanes give the scalar functor's bits (any
+// thread count), CPU and CUDA give the same bits, and input errors name the key.
 #include <catch2/catch.hpp>
 #include <oneapi/tbb/global_control.h>
 
