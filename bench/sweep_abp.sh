@@ -9,7 +9,8 @@
 #
 # Environment: OUT (where sweep.txt and the index files go; default ./sweep-bench-out), STEPS
 # (steps per run, default 2000), N (default 16384), PIPELINE_BIN (default BUNDLE/bin/pipeline),
-# DEVICE (default cuda; cpu to try the script on a machine without a GPU).
+# DEVICE (default cuda; cpu to try the script on a machine without a GPU), QUICK=1 (only
+# --concurrent 1 and 64, in processes under MPS and in one process).
 # Each configuration prints two aggregates: particle-steps over the sweep's wall time (every
 # run's start-up included: plugin loading, the lattice, the CUDA context), and the sum of the
 # runs' own rates (each run timed from its first step to its last; the aggregate while they ran
@@ -73,9 +74,14 @@ config() {
 }
 
 config alone-processes 8 1
-config processes-no-mps 16 8 --mps off
-config processes-mps 64 8 --mps auto
-config processes-mps 64 64 --mps auto
-config in-process 64 8 --in-process
-config in-process 64 64 --in-process
+if [[ ${QUICK:-0} == 1 ]]; then  # the largest K only (~60 s of GPU at STEPS=500)
+  config processes-mps 64 64 --mps auto
+  config in-process 64 64 --in-process
+else
+  config processes-no-mps 16 8 --mps off
+  config processes-mps 64 8 --mps auto
+  config processes-mps 64 64 --mps auto
+  config in-process 64 8 --in-process
+  config in-process 64 64 --in-process
+fi
 cat "$report"
