@@ -25,6 +25,16 @@ FF_HD void keep_min(unsigned* p, unsigned v) {
 #endif
 }
 
+// Set *p to `desired` if it holds `expected`; returns what it held before.
+FF_HD unsigned compare_and_swap(unsigned* p, unsigned expected, unsigned desired) {
+#if defined(__CUDA_ARCH__)
+  return atomicCAS(p, expected, desired);
+#else
+  __atomic_compare_exchange_n(p, &expected, desired, false, __ATOMIC_RELAXED, __ATOMIC_RELAXED);
+  return expected;
+#endif
+}
+
 // Reserve k consecutive slots of a list whose length is *counter; returns the first.
 FF_HD unsigned append_index(unsigned* counter, unsigned k) {
 #if defined(__CUDA_ARCH__)

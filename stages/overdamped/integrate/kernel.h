@@ -25,22 +25,30 @@ inline constexpr int kMaxTypes = 16;
 // particle whose position, or a field its drift moves (abp.integrate's orientation), is not
 // finite after its step is reported here; nothing is touched while every value is finite, so in
 // the good case the check costs a subtract and a compare per value and no memory traffic.
-//  - counters (the backend's memory): how many particles were found, the lowest one, and the
-//    step and attempt of the first report (written by the report that found the count at 0);
+//  - counters (the backend's memory): the step and attempt of the first report, and how many
+//    particles were found in that step and attempt and the lowest of them. Only that step counts:
+//    on CUDA the host learns of a report a few steps later, and the particles stay non-finite in
+//    the steps between (kBadKey, claimed by the first report, tells them apart);
 //  - published: one word of host memory (pinned on CUDA: the kernel writes it directly) set to 1,
 //    which the host reads every step without waiting for the device.
-enum NonFiniteSlot : int { kBadCount, kBadFirst, kBadStepLow, kBadStepHigh, kBadAttempt, kNonFiniteSlots };
+enum NonFiniteSlot : int { kBadCount, kBadFirst, kBadStepLow, kBadStepHigh, kBadAttempt, kBadKey, kNonFiniteSlots };
 
 struct NonFiniteReport {
   unsigned* counters = nullptr;   // kNonFiniteSlots, kBadFirst starting at ~0u; null: no check
   unsigned* published = nullptr;  // host-visible
 
   FF_HD void report(std::size_t i, const StepParams* p) const {
-    if (append_index(counters + kBadCount, 1) == 0) {
+    // The step and attempt as one nonzero word: unique within any 2^27 steps and 16 attempts,
+    // far more than the host can fall behind (finite_check.h: at most 2 × kPace steps).
+    const unsigned key = unsigned(p->step) << 5 | (p->attempt & 15u) << 1 | 1u;
+    const unsigned claimed = compare_and_swap(counters + kBadKey, 0u, key);
+    if (claimed != 0u && claimed != key) return;  // a later step than the one reported
+    if (claimed == 0u) {
       counters[kBadStepLow] = unsigned(p->step);
       counters[kBadStepHigh] = unsigned(p->step >> 32);
       counters[kBadAttempt] = p->attempt;
     }
+    count_one(counters + kBadCount);
     keep_min(counters + kBadFirst, unsigned(i));
 #if defined(__CUDA_ARCH__)
     __threadfence_system();
