@@ -36,18 +36,8 @@ namespace {
 using ff::test::pipeline_exe;
 using ff::test::repo_file;
 
-std::string device() {
-  const char* d = std::getenv("FLIPFLOW_TEST_DEVICE");
-  return d && *d ? d : "cpu";
-}
-
-// The device asked for is there (CUDA: a GPU); otherwise the test says it skipped.
-bool device_available() {
-  if (device() != "cuda") return true;
-  if (ff::cuda_device_available()) return true;
-  WARN("SKIPPED (no CUDA device: " + ff::cuda_device_description() + "): checkpoint continuation on CUDA");
-  return false;
-}
+std::string device() { return ff::test::test_device(); }
+bool device_available() { return ff::test::test_device_available("checkpoint continuation on CUDA"); }
 
 fs::path fresh_dir(const std::string& name) {
   fs::path d = fs::temp_directory_path() / ("ff_ckpt_" + name + "_" + std::to_string(::getpid()));

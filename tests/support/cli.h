@@ -1,14 +1,18 @@
-// Shared by the end-to-end tests that shell out (test_cli, test_render): where the `pipeline`
-// executable and the repository's files are, and a way to run a command and keep its exit code
-// and combined output. Kept here so both tests resolve paths the same way.
+// Shared by the end-to-end tests that shell out (test_cli, test_render, test_checkpoint,
+// test_sweep): where the `pipeline` executable and the repository's files are, the device they
+// run on, and a way to run a command and keep its exit code and combined output. Kept here so
+// they all resolve paths and devices the same way.
 #pragma once
 #include <boost/dll/runtime_symbol_info.hpp>
+#include <catch2/catch.hpp>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
 #include <string>
 #include <sys/wait.h>
+
+#include "core/backend/device.h"
 
 namespace ff::test {
 
@@ -24,6 +28,21 @@ inline std::filesystem::path repo_file(const std::string& rel) {
   const char* data = std::getenv("FLIPFLOW_TEST_DATA");
   fs::path base = data ? fs::path(data) / ".." / ".." : fs::path(__FILE__).parent_path().parent_path().parent_path();
   return (base / rel).lexically_normal();
+}
+
+// The device the end-to-end tests give `pipeline --device`: FLIPFLOW_TEST_DEVICE, cpu unless set
+// (cuda on a GPU node runs the same tests there).
+inline std::string test_device() {
+  const char* d = std::getenv("FLIPFLOW_TEST_DEVICE");
+  return d && *d ? d : "cpu";
+}
+
+// Whether test_device() is here (CUDA: a GPU); otherwise the test says it skipped `what`.
+inline bool test_device_available(const std::string& what) {
+  if (test_device() != "cuda") return true;
+  if (ff::cuda_device_available()) return true;
+  WARN("SKIPPED (no CUDA device: " + ff::cuda_device_description() + "): " + what);
+  return false;
 }
 
 struct CommandResult {
