@@ -51,10 +51,11 @@ class AbpIntegrate final : public Stage {
         seed_(info.seed),
         where_(Exec::where),
         id_(info.stage_id),
-        last_step_(info.steps),
         loop2_(&Exec::template overdamped<AbpStep<R, 2>>),
         loop3_(&Exec::template overdamped<AbpStep<R, 3>>),
-        finite_(Exec{}) {}
+        finite_(Exec{}, info.steps, [this](State& s, const overdamped::NonFiniteFound& f, CUstream_st* stream) {
+          not_finite(s, f, stream);
+        }) {}
 
   // Every element is rewritten each step from the previous values, which the rollback snapshot
   // keeps instead of copying (on_demand + will_overwrite: the step reads the snapshot's arrays
@@ -91,7 +92,7 @@ class AbpIntegrate final : public Stage {
 
   Outcome run(StepContext& ctx) override {
     State& s = ctx.state;
-    if (finite_.reported()) not_finite(s, finite_.read(ctx.stream), ctx.stream);  // an earlier step's (CUDA)
+    finite_.look(s, ctx.stream);  // an earlier step's (CUDA)
     // Where the previous values are now (the snapshot's copy, or the field itself).
     Field& pos_in = ctx.will_overwrite(fields::position);
     Field& img_in = ctx.will_overwrite(fields::image);
@@ -123,25 +124,14 @@ class AbpIntegrate final : public Stage {
     };
     if (s.dim() == 2) loop2_(s.n(), step(AbpStep<R, 2>{}), ctx.stream);
     else loop3_(s.n(), step(AbpStep<R, 3>{}), ctx.stream);
-    // On the CPU the loop is done: look now. On CUDA after_step looks (finite_check.h).
-    if (where_ == Where::host && finite_.reported()) not_finite(s, finite_.read(ctx.stream), ctx.stream);
+    finite_.after_loop(s, ctx.stream);  // on the CPU; on CUDA after_step looks
     return Outcome::ok();
   }
 
-  // CUDA: what the device has reported so far, without waiting (also on steps replayed from a
-  // graph); every NonFiniteCheck::kPace steps a fence bounds how far behind that may be.
-  void after_step(StepContext& ctx) override {
-    if (where_ != Where::device) return;
-    finite_.pace(ctx.stream, ctx.host_params.step + 1 == last_step_);
-    if (finite_.reported()) not_finite(ctx.state, finite_.read(ctx.stream), ctx.stream);
-  }
-  // Between steps with the device idle: a checkpoint never holds what the check would stop.
-  void save_state(StageState&) override {
-    if (finite_.reported()) not_finite(*state_, finite_.read(nullptr), nullptr);
-  }
-  void finish(State& s, bool completed) override {
-    if (completed && finite_.reported()) not_finite(s, finite_.read(nullptr), nullptr);
-  }
+  // The non-finite check's other looks (finite_check.h).
+  void after_step(StepContext& ctx) override { finite_.after_step(ctx); }
+  void save_state(StageState&) override { finite_.save_state(*state_); }
+  void finish(State& s, bool completed) override { finite_.finish(s, completed); }
 
   // Its kernels take Δt, the step and the attempt from ctx.params, and will_overwrite swaps
   // nothing in a step the core captures (no snapshot then): a CUDA run can replay it from a graph.
@@ -187,7 +177,6 @@ class AbpIntegrate final : public Stage {
   std::uint64_t seed_;
   Where where_;
   std::string id_;           // the stage's id, for messages
-  std::uint64_t last_step_;  // the run's steps (its last step waits for the check)
   State* state_ = nullptr;   // for save_state's message
   ElementLoop<AbpStep<R, 2>> loop2_;
   ElementLoop<AbpStep<R, 3>> loop3_;

@@ -14,12 +14,15 @@
 #include "core/base/error.h"
 #include "core/run/simulation.h"
 #include "stages/overdamped/integrate/finite_check.h"
+#include "stages/overdamped/integrate/test_support.h"
 #include "support/backends.h"
 #include "support/spec.h"
 #include "support/test_plugins.h"
 
 using namespace ff;
+using test::advance_until_error;
 using test::entry;
+using test::put;
 
 namespace {
 
@@ -31,26 +34,6 @@ const Registry& registry() {
 PipelineSpec abp_spec(int dim, std::uint64_t steps, Precision p = Precision::f64) {
   return test::spec(dim, 64, 0.2, steps, 0.01,
                     {entry(registry(), "abp.integrate", {{"v0", 1.0}, {"Dr", 0.5}, {"D", 0.1}})}, 3, p);
-}
-
-// Sets component k of particle i of `field` to `value` (on the host; the next step copies it over).
-void put(Simulation& sim, const char* field, std::size_t i, int k, double value) {
-  Field& f = sim.state().field(field);
-  f.acquire(Where::host, Mode::readwrite);
-  const std::size_t at = i * std::size_t(f.components()) + std::size_t(k);
-  if (f.dtype() == DType::f64) f.host<double>()[at] = value;
-  else f.host<float>()[at] = float(value);
-}
-
-// Advances until a RunError (its message) or `steps` steps ("" then).
-std::string advance_until_error(Simulation& sim, std::uint64_t steps) {
-  try {
-    for (std::uint64_t k = 0; k < steps; ++k) sim.advance();
-    sim.finish(true);
-  } catch (const RunError& e) {
-    return e.what();
-  }
-  return "";
 }
 
 bool warn_if_no_cuda() {

@@ -16,14 +16,19 @@
 //    past it). The message names the step the device recorded, not the one the host was at.
 //    Before a checkpoint is written (save_state) and at the end of a run the device is idle and
 //    the check is exact: a checkpoint never holds a non-finite value.
+// NonFiniteCheck holds those looks once, for both stages: each gives it the function that builds
+// its own message and stops the run, and forwards run(), after_step, save_state and finish to it.
 #pragma once
 #include <array>
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
+#include <functional>
 #include <string>
+#include <utility>
 
 #include "core/backend/memory.h"
+#include "core/stage/stage.h"
 #include "stages/overdamped/integrate/kernel.h"
 
 namespace ff::overdamped {
@@ -57,9 +62,20 @@ class NonFiniteCheck {
   // accepted steps, waited for kPace steps later.
   static constexpr unsigned kPace = 128;
 
+  // Stops the run with the stage's message for what the kernels found (it throws RunError; the
+  // stream is the one to read fields back on, nullptr between steps).
+  using Stop = std::function<void(State&, const NonFiniteFound&, CUstream_st*)>;
+
+  // `last_step`: the run's steps (RunInfo::steps; its last step waits for the check).
   template <class Exec>
-  explicit NonFiniteCheck(Exec)
-      : ops_(&Exec::memory()), counters_(Exec::memory()), published_(Exec::memory()), fence_(ops_->fence_create()) {}
+  NonFiniteCheck(Exec, std::uint64_t last_step, Stop stop)
+      : ops_(&Exec::memory()),
+        counters_(Exec::memory()),
+        published_(Exec::memory()),
+        fence_(ops_->fence_create()),
+        where_(Exec::where),
+        last_step_(last_step),
+        stop_(std::move(stop)) {}
   ~NonFiniteCheck() { ops_->fence_destroy(fence_); }
   NonFiniteCheck(const NonFiniteCheck&) = delete;
   NonFiniteCheck& operator=(const NonFiniteCheck&) = delete;
@@ -103,11 +119,39 @@ class NonFiniteCheck {
     if (last) ops_->fence_wait(fence_);
   }
 
+  // The stage's looks. Each stops the run (stop) if a kernel has reported.
+  // Whatever has reached host memory: at the start of run() (on CUDA an earlier step's report).
+  void look(State& s, CUstream_st* stream) {
+    if (reported()) stop_(s, read(stream), stream);
+  }
+  // At the end of run(): on the CPU the loop is done; on CUDA only where run() has waited for the
+  // device anyway (`waited`), else after_step looks, once the step is enqueued.
+  void after_loop(State& s, CUstream_st* stream, bool waited = false) {
+    if (where_ == Where::host || waited) look(s, stream);
+  }
+  // Stage::after_step. CUDA: what the device has reported so far, without waiting (also on steps
+  // replayed from a graph); every kPace steps a fence bounds how far behind that may be.
+  void after_step(StepContext& ctx) {
+    if (where_ != Where::device) return;
+    pace(ctx.stream, ctx.host_params.step + 1 == last_step_);
+    look(ctx.state, ctx.stream);
+  }
+  // Stage::save_state: between steps with the device idle, so a checkpoint never holds what the
+  // check would stop.
+  void save_state(State& s) { look(s, nullptr); }
+  // Stage::finish: a completed run's last steps are checked too.
+  void finish(State& s, bool completed) {
+    if (completed) look(s, nullptr);
+  }
+
  private:
   const MemoryOps* ops_;
   Counters<kNonFiniteSlots> counters_;
   HostScratch<unsigned> published_;
   void* fence_;
+  Where where_;
+  std::uint64_t last_step_;
+  Stop stop_;
   bool armed_ = false;
   bool fence_pending_ = false;
   unsigned steps_ = 0;

@@ -95,9 +95,9 @@ class OverdampedIntegrate final : public Stage {
         where_(Exec::where),
         loops_(integrate_loops<R>(Exec{})),
         id_(info.stage_id),
-        last_step_(info.steps),
         too_far_(Exec{}),
-        finite_(Exec{}) {}
+        finite_(Exec{}, info.steps,
+                [this](State& s, const NonFiniteFound& f, CUstream_st* stream) { not_finite(s, f, stream); }) {}
 
   void configure(State& s) override {
     state_ = &s;
@@ -134,7 +134,7 @@ class OverdampedIntegrate final : public Stage {
 
   Outcome run(StepContext& ctx) override {
     State& s = ctx.state;
-    if (finite_.reported()) not_finite(s, finite_.read(ctx.stream), ctx.stream);  // an earlier step's (CUDA)
+    finite_.look(s, ctx.stream);  // an earlier step's (CUDA)
     // Where the previous values are now: the snapshot's copy, or the field itself (in place).
     Field& pos_in = ctx.will_overwrite(fields::position);
     Field& img_in = ctx.will_overwrite(fields::image);
@@ -178,27 +178,16 @@ class OverdampedIntegrate final : public Stage {
     if (in_place) launch(ctx, loops_.in_place, common, general);
     else launch(ctx, loops_.from_snapshot, common, general);
     const Outcome out = p_.max_step > 0 ? too_far(ctx) : Outcome::ok();
-    // On the CPU the loop is done (and max_step's read waited for the device): look now. Else
-    // after_step looks, once the step is enqueued (finite_check.h).
-    if ((where_ == Where::host || p_.max_step > 0) && finite_.reported())
-      not_finite(s, finite_.read(ctx.stream), ctx.stream);
+    // On the CPU the loop is done, and max_step's read waited for the device: look now. Else
+    // after_step looks, once the step is enqueued.
+    finite_.after_loop(s, ctx.stream, p_.max_step > 0);
     return out;
   }
 
-  // CUDA: what the device has reported so far, without waiting (also on steps replayed from a
-  // graph); every NonFiniteCheck::kPace steps a fence bounds how far behind that may be.
-  void after_step(StepContext& ctx) override {
-    if (where_ != Where::device) return;
-    finite_.pace(ctx.stream, ctx.host_params.step + 1 == last_step_);
-    if (finite_.reported()) not_finite(ctx.state, finite_.read(ctx.stream), ctx.stream);
-  }
-  // Between steps with the device idle: a checkpoint never holds what the check would stop.
-  void save_state(StageState&) override {
-    if (finite_.reported()) not_finite(*state_, finite_.read(nullptr), nullptr);
-  }
-  void finish(State& s, bool completed) override {
-    if (completed && finite_.reported()) not_finite(s, finite_.read(nullptr), nullptr);
-  }
+  // The non-finite check's other looks (finite_check.h).
+  void after_step(StepContext& ctx) override { finite_.after_step(ctx); }
+  void save_state(StageState&) override { finite_.save_state(*state_); }
+  void finish(State& s, bool completed) override { finite_.finish(s, completed); }
 
   template <bool InPlace, class Common, class General>
   void launch(StepContext& ctx, const IntegrateLoopsOf<R, InPlace>& loops, Common common, General general) const {
@@ -284,7 +273,6 @@ class OverdampedIntegrate final : public Stage {
   Where where_;
   IntegrateLoops<R> loops_;
   std::string id_;             // the stage's id, for messages
-  std::uint64_t last_step_;    // the run's steps (its last step waits for the check)
   State* state_ = nullptr;     // for save_state's message
   Counters<4> too_far_;        // max_step's count and first particle; non-finite ones'
   NonFiniteCheck finite_;      // every step's check of the positions (finite_check.h)

@@ -12,12 +12,15 @@
 #include "core/base/error.h"
 #include "core/run/simulation.h"
 #include "stages/overdamped/integrate/finite_check.h"
+#include "stages/overdamped/integrate/test_support.h"
 #include "support/backends.h"
 #include "support/spec.h"
 #include "support/test_plugins.h"
 
 using namespace ff;
+using test::advance_until_error;
 using test::entry;
+using test::put;
 
 namespace {
 
@@ -35,22 +38,6 @@ PipelineSpec spec(int dim, bool general, std::uint64_t steps) {
   return s;
 }
 
-void put(Simulation& sim, std::size_t i, int k, double value) {
-  Field& f = sim.state().field(fields::position);
-  f.acquire(Where::host, Mode::readwrite);
-  f.host<double>()[i * std::size_t(sim.state().dim()) + std::size_t(k)] = value;
-}
-
-std::string advance_until_error(Simulation& sim, std::uint64_t steps) {
-  try {
-    for (std::uint64_t k = 0; k < steps; ++k) sim.advance();
-    sim.finish(true);
-  } catch (const RunError& e) {
-    return e.what();
-  }
-  return "";
-}
-
 }  // namespace
 
 TEST_CASE("overdamped.integrate without max_step: a NaN position stops the run naming step and particle",
@@ -64,8 +51,8 @@ TEST_CASE("overdamped.integrate without max_step: a NaN position stops the run n
   // At the start of the run.
   {
     Simulation first(spec(dim, general, 10), registry(), test::dry(b));
-    put(first, 61, dim - 1, std::numeric_limits<double>::quiet_NaN());
-    put(first, 17, 0, std::numeric_limits<double>::infinity());
+    put(first, fields::position, 61, dim - 1, std::numeric_limits<double>::quiet_NaN());
+    put(first, fields::position, 17, 0, std::numeric_limits<double>::infinity());
     const std::string what = advance_until_error(first, 10);
     INFO(what);
     CHECK_THAT(what, Catch::Contains("stage 'overdamped.integrate' (overdamped.integrate), step 0: particle 17 has a "
@@ -74,7 +61,7 @@ TEST_CASE("overdamped.integrate without max_step: a NaN position stops the run n
   }
   // Mid-run, after the CUDA step became a replayed graph.
   REQUIRE(advance_until_error(sim, 200) == "");
-  put(sim, 42, 1, -std::numeric_limits<double>::infinity());
+  put(sim, fields::position, 42, 1, -std::numeric_limits<double>::infinity());
   const std::string what = advance_until_error(sim, 800);
   INFO(what);
   CHECK_THAT(what, Catch::Contains("step 200: particle 42 has a non-finite position"));
