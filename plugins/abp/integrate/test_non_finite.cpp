@@ -20,9 +20,7 @@
 #include "support/test_plugins.h"
 
 using namespace ff;
-using test::advance_until_error;
 using test::entry;
-using test::put;
 
 namespace {
 
@@ -52,8 +50,8 @@ TEST_CASE("abp.integrate: a NaN orientation at the start stops the run at step 0
   const int dim = GENERATE(2, 3);
   INFO(to_string(b) << ", " << dim << "D");
   Simulation sim(abp_spec(dim, 50), registry(), test::dry(b));
-  put(sim, "orientation", 5, dim == 2 ? 0 : 1, kNaN);
-  const std::string what = advance_until_error(sim, 50);
+  test::put(sim, "orientation", 5, dim == 2 ? 0 : 1, kNaN);
+  const std::string what = test::advance_until_error(sim, 50);
   INFO(what);
   CHECK_THAT(what, Catch::Contains("stage 'abp.integrate' (abp.integrate), step 0: particle 5 has a non-finite "
                                    "orientation"));
@@ -70,10 +68,10 @@ TEST_CASE("abp.integrate: non-finite positions stop the run naming the lowest pa
   const Precision p = GENERATE(Precision::f64, Precision::f32);
   INFO(to_string(b) << ", " << to_string(p));
   Simulation sim(abp_spec(2, 50, p), registry(), test::dry(b));
-  put(sim, fields::position, 40, 1, kInf);  // inf wraps to NaN: x - floor(x/L)·L = inf - inf
-  put(sim, fields::position, 7, 0, -kInf);
-  put(sim, fields::position, 23, 0, kNaN);
-  const std::string what = advance_until_error(sim, 50);
+  test::put(sim, fields::position, 40, 1, kInf);  // inf wraps to NaN: x - floor(x/L)·L = inf - inf
+  test::put(sim, fields::position, 7, 0, -kInf);
+  test::put(sim, fields::position, 23, 0, kNaN);
+  const std::string what = test::advance_until_error(sim, 50);
   INFO(what);
   CHECK_THAT(what, Catch::Contains("stage 'abp.integrate' (abp.integrate), step 0: particle 7 has a non-finite "
                                    "position (nan, "));
@@ -88,11 +86,11 @@ TEST_CASE("abp.integrate: a value that turns non-finite mid-run stops the run at
   // 300 steps before: on CUDA the steady-state step is a replayed graph by then, whose after_step
   // is the only place the host looks.
   Simulation sim(abp_spec(2, 1000), registry(), test::dry(b));
-  REQUIRE(advance_until_error(sim, 300) == "");
+  REQUIRE(test::advance_until_error(sim, 300) == "");
   REQUIRE(sim.state().step == 300);
-  put(sim, "orientation", 12, 0, kInf);
-  put(sim, "orientation", 30, 0, kNaN);
-  const std::string what = advance_until_error(sim, 700);
+  test::put(sim, "orientation", 12, 0, kInf);
+  test::put(sim, "orientation", 30, 0, kNaN);
+  const std::string what = test::advance_until_error(sim, 700);
   INFO(what);
   CHECK_THAT(what, Catch::Contains("step 300: particle 12 has a non-finite orientation θ = nan"));
   CHECK_THAT(what, Catch::Contains("(1 other particle(s) too)"));

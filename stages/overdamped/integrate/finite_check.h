@@ -91,6 +91,32 @@ class NonFiniteCheck {
     return {counters_.ptr(), published_.get(1)};
   }
 
+  // The stage's looks: each calls `stop` where a kernel has reported.
+  // What has reached host memory so far: at the start of run() (on CUDA an earlier step's report).
+  void look(State& s, CUstream_st* stream) {
+    if (reported()) stop_(s, read(stream), stream);
+  }
+  // At the end of run(): on the CPU the loop is done; on CUDA only where run() has waited for the
+  // device anyway (`waited`), else after_step looks, once the step is enqueued.
+  void after_loop(State& s, CUstream_st* stream, bool waited = false) {
+    if (where_ == Where::host || waited) look(s, stream);
+  }
+  // Stage::after_step. CUDA: what the device has reported so far, without waiting (also on steps
+  // replayed from a graph); every kPace steps a fence bounds how far behind that may be.
+  void after_step(StepContext& ctx) {
+    if (where_ != Where::device) return;
+    pace(ctx.stream, ctx.host_params.step + 1 == last_step_);
+    look(ctx.state, ctx.stream);
+  }
+  // Stage::save_state: between steps with the device idle, so a checkpoint never holds what the
+  // check would stop.
+  void save_state(State& s) { look(s, nullptr); }
+  // Stage::finish: a completed run's last steps are checked too.
+  void finish(State& s, bool completed) {
+    if (completed) look(s, nullptr);
+  }
+
+ private:
   // Whether a kernel has reported (what has reached host memory so far; never waits).
   bool reported() {
     return armed_ && *static_cast<const volatile unsigned*>(published_.get(1)) != 0u;
@@ -119,39 +145,13 @@ class NonFiniteCheck {
     if (last) ops_->fence_wait(fence_);
   }
 
-  // The stage's looks. Each stops the run (stop) if a kernel has reported.
-  // Whatever has reached host memory: at the start of run() (on CUDA an earlier step's report).
-  void look(State& s, CUstream_st* stream) {
-    if (reported()) stop_(s, read(stream), stream);
-  }
-  // At the end of run(): on the CPU the loop is done; on CUDA only where run() has waited for the
-  // device anyway (`waited`), else after_step looks, once the step is enqueued.
-  void after_loop(State& s, CUstream_st* stream, bool waited = false) {
-    if (where_ == Where::host || waited) look(s, stream);
-  }
-  // Stage::after_step. CUDA: what the device has reported so far, without waiting (also on steps
-  // replayed from a graph); every kPace steps a fence bounds how far behind that may be.
-  void after_step(StepContext& ctx) {
-    if (where_ != Where::device) return;
-    pace(ctx.stream, ctx.host_params.step + 1 == last_step_);
-    look(ctx.state, ctx.stream);
-  }
-  // Stage::save_state: between steps with the device idle, so a checkpoint never holds what the
-  // check would stop.
-  void save_state(State& s) { look(s, nullptr); }
-  // Stage::finish: a completed run's last steps are checked too.
-  void finish(State& s, bool completed) {
-    if (completed) look(s, nullptr);
-  }
-
- private:
   const MemoryOps* ops_;
   Counters<kNonFiniteSlots> counters_;
   HostScratch<unsigned> published_;
   void* fence_;
-  Where where_;
-  std::uint64_t last_step_;
-  Stop stop_;
+  Where where_;              // the stage's backend: host (CPU) or device (CUDA)
+  std::uint64_t last_step_;  // the run's steps (its last step waits for the check)
+  Stop stop_;                // the stage's message and stop
   bool armed_ = false;
   bool fence_pending_ = false;
   unsigned steps_ = 0;

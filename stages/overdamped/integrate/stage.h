@@ -178,7 +178,7 @@ class OverdampedIntegrate final : public Stage {
     if (in_place) launch(ctx, loops_.in_place, common, general);
     else launch(ctx, loops_.from_snapshot, common, general);
     const Outcome out = p_.max_step > 0 ? too_far(ctx) : Outcome::ok();
-    // On the CPU the loop is done, and max_step's read waited for the device: look now. Else
+    // On the CPU the loop is done (and max_step's read waited for the device): look now. Else
     // after_step looks, once the step is enqueued.
     finite_.after_loop(s, ctx.stream, p_.max_step > 0);
     return out;

@@ -18,9 +18,7 @@
 #include "support/test_plugins.h"
 
 using namespace ff;
-using test::advance_until_error;
 using test::entry;
-using test::put;
 
 namespace {
 
@@ -51,18 +49,18 @@ TEST_CASE("overdamped.integrate without max_step: a NaN position stops the run n
   // At the start of the run.
   {
     Simulation first(spec(dim, general, 10), registry(), test::dry(b));
-    put(first, fields::position, 61, dim - 1, std::numeric_limits<double>::quiet_NaN());
-    put(first, fields::position, 17, 0, std::numeric_limits<double>::infinity());
-    const std::string what = advance_until_error(first, 10);
+    test::put(first, fields::position, 61, dim - 1, std::numeric_limits<double>::quiet_NaN());
+    test::put(first, fields::position, 17, 0, std::numeric_limits<double>::infinity());
+    const std::string what = test::advance_until_error(first, 10);
     INFO(what);
     CHECK_THAT(what, Catch::Contains("stage 'overdamped.integrate' (overdamped.integrate), step 0: particle 17 has a "
                                      "non-finite position") &&
                          Catch::Contains("(1 other particle(s) too)") && Catch::Contains("cannot mend"));
   }
   // Mid-run, after the CUDA step became a replayed graph.
-  REQUIRE(advance_until_error(sim, 200) == "");
-  put(sim, fields::position, 42, 1, -std::numeric_limits<double>::infinity());
-  const std::string what = advance_until_error(sim, 800);
+  REQUIRE(test::advance_until_error(sim, 200) == "");
+  test::put(sim, fields::position, 42, 1, -std::numeric_limits<double>::infinity());
+  const std::string what = test::advance_until_error(sim, 800);
   INFO(what);
   CHECK_THAT(what, Catch::Contains("step 200: particle 42 has a non-finite position"));
   CHECK_THAT(what, !Catch::Contains("other particle"));
