@@ -23,16 +23,22 @@ class Build final : public Stage {
   }
   Build(const ParamValues&, const RunInfo&) {}
 
+  // The topology and position_prev are on-demand writes, announced in run() (will_build): with
+  // `every: k` the rollback snapshot copies them only on the steps this stage runs, and
+  // delaunay.detect_inversion sees that the triangulation was built in its own step (its
+  // rollback path then judges the moves since this build, not since the step's start).
+  // Read-write: the snapshot's copy must be of current contents (a CUDA run's device side).
   std::vector<Access> accesses() const override {
     return {{ff::fields::position, Where::host, Mode::read},
-            {fields::halfedge, Where::host, Mode::write},
-            {fields::opposite, Where::host, Mode::write},
-            {fields::vertex_edge, Where::host, Mode::write},
-            {fields::position_prev, Where::host, Mode::write},
+            Access::on_demand_write(fields::halfedge, Where::host),
+            Access::on_demand_write(fields::opposite, Where::host),
+            Access::on_demand_write(fields::vertex_edge, Where::host),
+            Access::on_demand_write(fields::position_prev, Where::host),
             {fields::status, Where::host, Mode::readwrite}};
   }
   void configure(State& s) override { add_topology_fields(s, "delaunay.build"); }
   Outcome run(StepContext& ctx) override {
+    will_build(ctx);
     method_ = build_topology(ctx.state, ctx.stream);
     ctx.metrics.set("rebuilds", 1);
     return Outcome::ok();

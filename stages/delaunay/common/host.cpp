@@ -28,11 +28,16 @@ void will_flip(const StepContext& ctx) {
   for (const char* f : {fields::halfedge, fields::opposite, fields::vertex_edge}) ctx.will_write(f);
 }
 
+void will_build(const StepContext& ctx) {
+  will_flip(ctx);
+  ctx.will_write(fields::position_prev);
+}
+
 bool ensure_topology(const StepContext& ctx, const std::vector<Access>& acc) {
   State& s = ctx.state;
   CUstream_st* stream = ctx.stream;
   if (status(s)[kBuilt]) return false;
-  will_flip(ctx);
+  will_build(ctx);
   build_topology(s, stream);
   for (const Access& a : acc) s.field(a.field).acquire(a.where, a.mode, stream);
   return true;

@@ -22,13 +22,17 @@ std::int32_t* status(State& s);
 
 // If no triangulation exists yet (status kBuilt == 0), build one from the current positions
 // (delaunay.build's CGAL path) and re-acquire `acc` so the stage's declared side is current.
-// Announces the writes first (ctx.will_write: the topology fields are on-demand in the
-// rollback snapshot). Returns true when it built.
+// Announces the writes first (will_build). Returns true when it built.
 bool ensure_topology(const StepContext& ctx, const std::vector<Access>& acc);
 
 // The topology fields a flip rewrites (declared Access::on_demand by the stages that flip only
 // on some steps): announce them before the first flip of a step.
 void will_flip(const StepContext& ctx);
+// Everything build_topology writes that the stages declare on demand: the flipped fields and
+// delaunay.position_prev. Announce before every build, so that a rollback restores them and
+// detect_inversion can tell a triangulation built earlier in the step from the one the step
+// inherited (StepContext::at_step_start(position_prev) is then the snapshot's copy).
+void will_build(const StepContext& ctx);
 
 inline Mesh mesh_view(State& s, Where w) {
   return {s.field(fields::halfedge).data<std::int32_t>(w), s.field(fields::vertex_edge).data<std::int32_t>(w),

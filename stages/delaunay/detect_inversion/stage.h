@@ -71,6 +71,14 @@ class DetectInversion final : public Stage {
   Outcome run(StepContext& ctx) override {
     State& s = ctx.state;
     CUstream_st* st = ctx.stream;
+    // Whether the triangulation is the one this step started with: not when a stage before this
+    // one (delaunay.build, or the first topology stage) built it in this step, which announces
+    // position_prev (will_build), so the snapshot holds its step-start copy. Asked before this
+    // stage's own writes. (Every delaunay stage declares position_prev on demand; a stage that
+    // declared it a plain write would have the snapshot copy it every step, and then no
+    // triangulation counts as inherited: a broken one is rolled back to dt_min, never rebuilt.)
+    Field* prev_at_start = ctx.at_step_start(fields::position_prev);
+    const bool inherited = prev_at_start == &s.field(fields::position_prev);
     const bool fresh = ensure_topology(ctx, accesses());
     // delaunay.flip's `on_unrepairable: substep` needs the positions at which the triangulation
     // was valid when something is inverted: position_prev is then written after the counters
@@ -82,11 +90,16 @@ class DetectInversion final : public Stage {
     // the moves shrink toward the positions the step started from. When the triangulation is
     // already not valid for those (the previous step's overlap correction pushed a particle
     // across its neighbours' edges after Lawson), no Δt repairs it: rebuild it for the step's
-    // starting positions and judge this step's moves against that.
+    // starting positions and judge this step's moves against that. Only for an inherited
+    // triangulation: one built earlier in this step is valid at position_prev (where it was
+    // built), the retry builds it again, and the step's start may be anywhere (a stage before
+    // the build may have placed the particles anew): judged against a triangulation of the
+    // start, the moves since then would look like moves across the whole box.
     bool rebuilt = false;
     Field* start = nullptr;  // asked for only on the way to a rollback; null: unknown (no snapshot)
-    if (!fresh && asks_rollback(h) && (start = ctx.at_step_start(ff::fields::position)) && !valid_at(ctx, *start)) {
-      will_flip(ctx);
+    if (!fresh && inherited && asks_rollback(h) && (start = ctx.at_step_start(ff::fields::position)) &&
+        !valid_at(ctx, *start)) {
+      will_build(ctx);  // position_prev too: a rollback after the rebuild restores the old one
       build_topology(s, *start, st);
       for (const Access& a : accesses()) s.field(a.field).acquire(a.where, a.mode, st);
       h = inspect(ctx, false, !substep);

@@ -146,7 +146,6 @@ class DtBound final : public Stage {
   Outcome run(StepContext& ctx) override {
     State& s = ctx.state;
     CUstream_st* st = ctx.stream;
-    if (!status(s)[kBuilt]) ctx.will_write(fields::position_prev);  // (the build writes it too)
     ensure_topology(ctx, accesses());
     const std::size_t n = s.n();
     // Squared distances start at 0x7f7f...: 1.4e306, above any squared edge length.

@@ -435,3 +435,103 @@ TEST_CASE("flip substep: in a running pipeline, two-edge crossings end at the in
     CHECK_THROWS_WITH(rollback.advance(), Catch::Contains("no single edge flip repairs it"));
   }
 }
+
+// --- detect_inversion's rollback path when the triangulation is not the step's own ----------
+
+namespace {
+// Registers `name`: a host stage writing positions frames[min(step, last)] (as test.scripted_move).
+void add_script(Registry& r, const std::string& name, const std::vector<std::vector<double>>* frames) {
+  r.declare({name, "writes the test's positions (tests only)", {}, {2}, false});
+  for (Backend b : {Backend::cpu, Backend::cuda})
+    r.implement(name, b, [frames](const ParamValues&, const RunInfo&) { return std::make_unique<ScriptedMove>(frames); });
+}
+}  // namespace
+
+TEST_CASE("detect_inversion: a triangulation built earlier in the step is judged as built, not rebuilt at the "
+          "step's start",
+          "[delaunay][detect_inversion][rollback][pipeline]") {
+  // One step: test.place puts the particles at a Delaunay point set (far from where init: random
+  // put them), delaunay.build triangulates it, the scripted integrator moves one vertex across
+  // two edges, detect_inversion (default mode) must ask for rollbacks ("no single edge flip
+  // repairs it") until Δt reaches dt_min. It once took the step's start (the random positions)
+  // for the triangulation's reference, rebuilt for those and stopped the run at once with
+  // hundreds of triangles that "no longer close". check_rollbacks: every retry restores all.
+  const auto cases = two_edge_cases(1, 0.05);
+  REQUIRE(cases.size() == 1);
+  const TwoEdgeCase& c = cases[0];
+  const std::vector<std::vector<double>> place{positions(*case_state(c.seed))};
+  std::vector<std::vector<double>> moved{place[0]};
+  moved[0][2 * c.v] = wrap(c.to[0], kCaseSide);
+  moved[0][2 * c.v + 1] = wrap(c.to[1], kCaseSide);
+  auto reg = registry_with_script(&moved);
+  add_script(*reg, "test.place", &place);
+  for (Backend b : ff::test::backends()) {
+    INFO("backend " << int(b));
+    std::vector<StepEntry> step{step_entry(*reg, "test.place"), step_entry(*reg, "delaunay.build", {}, 5),
+                                step_entry(*reg, "test.scripted_move"), step_entry(*reg, "delaunay.detect_inversion")};
+    auto s = ff::test::spec(2, place[0].size() / 2, 0.3, 2, 0.01, std::move(step), 1);
+    s.system.box = {kCaseSide, kCaseSide};
+    s.system.sigma = 0.1;
+    RunOptions o = ff::test::dry(b);
+    o.check_rollbacks = true;
+    Simulation sim(s, *reg, o);
+    CHECK_THROWS_WITH(sim.advance(), Catch::Contains("no single edge flip repairs it") &&
+                                         Catch::Contains("cannot be halved again"));
+    CHECK(sim.stats().rollbacks == 11);  // Δt halved 10 times to dt_min = dt / 1024, then given up
+  }
+}
+
+TEST_CASE("detect_inversion: a rollback after rebuilding an inherited broken triangulation restores position_prev",
+          "[delaunay][detect_inversion][rollback][pipeline]") {
+  // Step 0: the particles at a Delaunay point set (the triangulation is built there), then a
+  // stage after Lawson (as overlap_correct would) moves vertex v across two edges: step 1
+  // inherits a triangulation that is not valid where it starts. At step 1 the integrator also
+  // moves v through its nearest neighbour u, so detect_inversion rebuilds for the step's start
+  // and still asks for a rollback (v and u passed through each other). The rebuild once wrote
+  // position_prev without announcing it to the rollback snapshot: the retry started from
+  // position_prev = the step's start instead of where the triangulation was valid
+  // (check_rollbacks names it). In the default mode detect_inversion's own first look had
+  // announced position_prev already; with `on_unrepairable: substep` nothing had.
+  const auto cases = two_edge_cases(1, 0.05);
+  REQUIRE(cases.size() == 1);
+  const TwoEdgeCase& c = cases[0];
+  const auto f0 = positions(*case_state(c.seed));
+  std::vector<std::vector<double>> late{f0};
+  late[0][2 * c.v] = wrap(c.to[0], kCaseSide);
+  late[0][2 * c.v + 1] = wrap(c.to[1], kCaseSide);
+  // u: v's nearest neighbour at the late positions (a Delaunay edge of them); v jumps over it.
+  const auto& l0 = late[0];
+  int u = -1;
+  double best = 1e300;
+  std::array<double, 2> du{};
+  for (int i = 0; i < int(l0.size() / 2); ++i) {
+    if (i == c.v) continue;
+    const double dx = std::remainder(l0[2 * i] - l0[2 * c.v], kCaseSide);
+    const double dy = std::remainder(l0[2 * i + 1] - l0[2 * c.v + 1], kCaseSide);
+    if (dx * dx + dy * dy < best) best = dx * dx + dy * dy, u = i, du = {dx, dy};
+  }
+  REQUIRE(u >= 0);
+  std::vector<std::vector<double>> frames{f0, l0};
+  frames[1][2 * c.v] = wrap(l0[2 * c.v] + 1.3 * du[0], kCaseSide);
+  frames[1][2 * c.v + 1] = wrap(l0[2 * c.v + 1] + 1.3 * du[1], kCaseSide);
+  auto reg = registry_with_script(&frames);
+  add_script(*reg, "test.late_move", &late);
+  for (Backend b : ff::test::backends())
+    for (const std::string substep : {"rollback", "substep"}) {
+    INFO("seed " << c.seed << ", v = " << c.v << ", u = " << u << ", backend " << int(b) << ", on_unrepairable: " << substep);
+    std::vector<StepEntry> step{step_entry(*reg, "test.scripted_move"), step_entry(*reg, "delaunay.detect_inversion"),
+                                step_entry(*reg, "delaunay.flip", {{"on_unrepairable", substep}}),
+                                step_entry(*reg, "delaunay.lawson"), step_entry(*reg, "test.late_move")};
+    auto s = ff::test::spec(2, f0.size() / 2, 0.3, 3, 0.01, std::move(step), 1);
+    s.system.box = {kCaseSide, kCaseSide};
+    s.system.sigma = 0.1;
+    RunOptions o = ff::test::dry(b);
+    o.check_rollbacks = true;
+    Simulation sim(s, *reg, o);
+    REQUIRE_NOTHROW(sim.advance());
+    CHECK(sim.stats().metrics.at("delaunay.detect_inversion/rebuilds") == 0);
+    CHECK_THROWS_WITH(sim.advance(), Catch::Contains("passed through each other") &&
+                                         Catch::Contains("cannot be halved again"));
+    CHECK(sim.stats().rollbacks == 11);
+  }
+}
