@@ -26,6 +26,7 @@
 
 #include "core/backend/device.h"
 #include "support/cli.h"
+#include "support/h5md_files.h"
 
 extern char** environ;
 
@@ -33,8 +34,7 @@ namespace fs = std::filesystem;
 
 namespace {
 
-using ff::test::pipeline_exe;
-using ff::test::repo_file;
+using namespace ff::test;  // pipeline_exe, repo_file, datasets, require_same_h5md, ...
 
 std::string device() { return ff::test::test_device(); }
 bool device_available() { return ff::test::test_device_available("checkpoint continuation on CUDA"); }
@@ -57,54 +57,7 @@ std::string quoted(const std::vector<std::string>& sets) {
   return s;
 }
 
-// ---- reading an H5MD file: every dataset outside /parameters and /h5md ----
-
-struct Dataset {
-  std::vector<unsigned long long> shape;
-  std::vector<unsigned char> bytes;
-  bool operator==(const Dataset& o) const { return shape == o.shape && bytes == o.bytes; }
-};
-
-herr_t collect(hid_t root, const char* name, const H5L_info_t*, void* op) {
-  auto& out = *static_cast<std::map<std::string, Dataset>*>(op);
-  const std::string n = name;
-  if (n.rfind("parameters", 0) == 0 || n.rfind("h5md", 0) == 0) return 0;
-  hid_t obj = H5Oopen(root, name, H5P_DEFAULT);
-  if (obj < 0) return -1;
-  const bool is_dataset = H5Iget_type(obj) == H5I_DATASET;
-  H5Oclose(obj);
-  if (!is_dataset) return 0;
-  hid_t d = H5Dopen2(root, name, H5P_DEFAULT);
-  hid_t ft = H5Dget_type(d);
-  hid_t mt = H5Tget_native_type(ft, H5T_DIR_ASCEND);
-  hid_t sp = H5Dget_space(d);
-  const int rank = H5Sget_simple_extent_ndims(sp);
-  std::vector<hsize_t> dims(std::size_t(std::max(rank, 0)));
-  if (rank > 0) H5Sget_simple_extent_dims(sp, dims.data(), nullptr);
-  Dataset ds;
-  std::size_t count = 1;
-  for (auto x : dims) {
-    ds.shape.push_back(x);
-    count *= x;
-  }
-  ds.bytes.resize(count * H5Tget_size(mt));
-  if (count) H5Dread(d, mt, H5S_ALL, H5S_ALL, H5P_DEFAULT, ds.bytes.data());
-  out[n] = std::move(ds);
-  H5Sclose(sp);
-  H5Tclose(mt);
-  H5Tclose(ft);
-  H5Dclose(d);
-  return 0;
-}
-
-std::map<std::string, Dataset> datasets(const fs::path& file) {
-  std::map<std::string, Dataset> out;
-  hid_t f = H5Fopen(file.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
-  REQUIRE(f >= 0);
-  H5Lvisit(f, H5_INDEX_NAME, H5_ITER_INC, collect, &out);
-  H5Fclose(f);
-  return out;
-}
+// ---- reading an H5MD file (the rest: support/h5md_files.h) ----
 
 // A /parameters attribute (scalar string) or "" when missing.
 std::string parameter_attribute(const fs::path& file, const std::string& object, const std::string& attr) {
@@ -122,48 +75,6 @@ std::string parameter_attribute(const fs::path& file, const std::string& object,
   }
   H5Fclose(f);
   return out;
-}
-
-// A scalar string dataset (/parameters/effective_pipeline, ...) or "" when missing.
-std::string parameter_text(const fs::path& file, const std::string& dataset) {
-  hid_t f = H5Fopen(file.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
-  if (f < 0) return "";
-  std::string out;
-  if (H5Lexists(f, "/parameters", H5P_DEFAULT) > 0 && H5Lexists(f, dataset.c_str(), H5P_DEFAULT) > 0) {
-    hid_t d = H5Dopen2(f, dataset.c_str(), H5P_DEFAULT);
-    hid_t t = H5Dget_type(d);
-    out.assign(H5Tget_size(t), '\0');
-    H5Dread(d, t, H5S_ALL, H5S_ALL, H5P_DEFAULT, out.data());
-    while (!out.empty() && out.back() == '\0') out.pop_back();
-    H5Tclose(t);
-    H5Dclose(d);
-  }
-  H5Fclose(f);
-  return out;
-}
-
-std::string file_text(const fs::path& p) {
-  std::ifstream in(p);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
-
-// Every dataset of both files equal, bit for bit; returns how many were compared.
-std::size_t require_same_h5md(const fs::path& a, const fs::path& b) {
-  REQUIRE(fs::exists(a));
-  REQUIRE(fs::exists(b));
-  const auto da = datasets(a), db = datasets(b);
-  std::vector<std::string> ka, kb;
-  for (auto& kv : da) ka.push_back(kv.first);
-  for (auto& kv : db) kb.push_back(kv.first);
-  REQUIRE(ka == kb);
-  for (auto& [name, d] : da) {
-    INFO("dataset " << name);
-    CHECK(d.shape == db.at(name).shape);
-    CHECK(d.bytes == db.at(name).bytes);
-  }
-  return da.size();
 }
 
 // The last value of /observables/<name>/value (double).

@@ -1,0 +1,109 @@
+// Reading H5MD outputs in the end-to-end tests (test_checkpoint, test_sweep): every dataset of a
+// file outside /parameters and /h5md, a /parameters string, and a bit-for-bit comparison of two
+// files. What produced a run (/parameters: the start time, a resumed run's history) is not its
+// output, so it is left out of the comparison.
+#pragma once
+#include <catch2/catch.hpp>
+#include <hdf5.h>
+
+#include <algorithm>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <sstream>
+#include <string>
+#include <vector>
+
+namespace ff::test {
+
+struct Dataset {
+  std::vector<hsize_t> shape;
+  std::vector<unsigned char> bytes;
+  bool operator==(const Dataset& o) const { return shape == o.shape && bytes == o.bytes; }
+};
+
+namespace detail {
+inline herr_t collect_dataset(hid_t root, const char* name, const H5L_info_t*, void* op) {
+  auto& out = *static_cast<std::map<std::string, Dataset>*>(op);
+  const std::string n = name;
+  if (n.rfind("parameters", 0) == 0 || n.rfind("h5md", 0) == 0) return 0;
+  hid_t obj = H5Oopen(root, name, H5P_DEFAULT);
+  if (obj < 0) return -1;
+  const bool is_dataset = H5Iget_type(obj) == H5I_DATASET;
+  H5Oclose(obj);
+  if (!is_dataset) return 0;
+  hid_t d = H5Dopen2(root, name, H5P_DEFAULT);
+  hid_t ft = H5Dget_type(d);
+  hid_t mt = H5Tget_native_type(ft, H5T_DIR_ASCEND);
+  hid_t sp = H5Dget_space(d);
+  const int rank = H5Sget_simple_extent_ndims(sp);
+  Dataset ds;
+  ds.shape.resize(std::size_t(std::max(rank, 0)));
+  if (rank > 0) H5Sget_simple_extent_dims(sp, ds.shape.data(), nullptr);
+  std::size_t count = 1;
+  for (auto x : ds.shape) count *= x;
+  ds.bytes.resize(count * H5Tget_size(mt));
+  if (count) H5Dread(d, mt, H5S_ALL, H5S_ALL, H5P_DEFAULT, ds.bytes.data());
+  out[n] = std::move(ds);
+  H5Sclose(sp);
+  H5Tclose(mt);
+  H5Tclose(ft);
+  H5Dclose(d);
+  return 0;
+}
+}  // namespace detail
+
+// Every dataset of `file` outside /parameters and /h5md, by path (without the leading '/').
+inline std::map<std::string, Dataset> datasets(const std::filesystem::path& file) {
+  std::map<std::string, Dataset> out;
+  hid_t f = H5Fopen(file.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
+  REQUIRE(f >= 0);
+  H5Lvisit(f, H5_INDEX_NAME, H5_ITER_INC, detail::collect_dataset, &out);
+  H5Fclose(f);
+  return out;
+}
+
+// A scalar string dataset under /parameters (/parameters/effective_pipeline, ...), or "" when missing.
+inline std::string parameter_text(const std::filesystem::path& file, const std::string& dataset) {
+  hid_t f = H5Fopen(file.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
+  if (f < 0) return "";
+  std::string out;
+  if (H5Lexists(f, "/parameters", H5P_DEFAULT) > 0 && H5Lexists(f, dataset.c_str(), H5P_DEFAULT) > 0) {
+    hid_t d = H5Dopen2(f, dataset.c_str(), H5P_DEFAULT);
+    hid_t t = H5Dget_type(d);
+    out.assign(H5Tget_size(t), '\0');
+    H5Dread(d, t, H5S_ALL, H5S_ALL, H5P_DEFAULT, out.data());
+    while (!out.empty() && out.back() == '\0') out.pop_back();
+    H5Tclose(t);
+    H5Dclose(d);
+  }
+  H5Fclose(f);
+  return out;
+}
+
+inline std::string file_text(const std::filesystem::path& p) {
+  std::ifstream in(p);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+// Every dataset of both files equal, bit for bit; returns how many were compared.
+inline std::size_t require_same_h5md(const std::filesystem::path& a, const std::filesystem::path& b) {
+  INFO(a << " vs " << b);
+  REQUIRE(std::filesystem::exists(a));
+  REQUIRE(std::filesystem::exists(b));
+  const auto da = datasets(a), db = datasets(b);
+  std::vector<std::string> ka, kb;
+  for (auto& kv : da) ka.push_back(kv.first);
+  for (auto& kv : db) kb.push_back(kv.first);
+  REQUIRE(ka == kb);
+  for (auto& [name, d] : da) {
+    INFO("dataset " << name);
+    CHECK(d.shape == db.at(name).shape);
+    CHECK(d.bytes == db.at(name).bytes);
+  }
+  return da.size();
+}
+
+}  // namespace ff::test
