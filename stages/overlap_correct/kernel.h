@@ -26,8 +26,11 @@
 
 #include "core/physics/box.h"
 #include "core/base/hd.h"
+#include "stages/delaunay/common/mesh.h"
 
 namespace ff::overlap {
+
+using delaunay::load_halfedge;
 
 enum Counter : int {
   kBad = 0,     // pairs with (σ_ij − r)/σ_ij > tolerance (each pair once)
@@ -194,18 +197,6 @@ FF_HD void load_xy(const R* pos, int v, double& x, double& y) {
 #else
   x = double(pos[2 * v]);
   y = double(pos[2 * v + 1]);
-#endif
-}
-
-// {origin, next} of half-edge h.
-FF_HD void load_halfedge(const std::int32_t* he, int h, int& origin, int& next) {
-#if defined(__CUDA_ARCH__)
-  const int2 r = __ldg(reinterpret_cast<const int2*>(he) + h);
-  origin = r.x;
-  next = r.y;
-#else
-  origin = he[2 * h];
-  next = he[2 * h + 1];
 #endif
 }
 

@@ -18,6 +18,18 @@ namespace ff::delaunay {
 // twin(h) = h ^ 1, edge(h) = h >> 1. A triangle is a cycle h -> next -> next -> h.
 FF_HD int twin(int h) { return h ^ 1; }
 
+// {origin, next} of half-edge h in one load (a read-only 8-byte load on the device).
+FF_HD void load_halfedge(const std::int32_t* he, int h, int& origin, int& next) {
+#if defined(__CUDA_ARCH__)
+  const int2 r = __ldg(reinterpret_cast<const int2*>(he) + h);
+  origin = r.x;
+  next = r.y;
+#else
+  origin = he[2 * h];
+  next = he[2 * h + 1];
+#endif
+}
+
 struct Mesh {
   std::int32_t* he;     // 2 x 6N
   std::int32_t* vedge;  // N: one outgoing half-edge per vertex

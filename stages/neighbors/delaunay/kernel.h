@@ -48,6 +48,8 @@
 
 namespace ff::neighbors {
 
+using delaunay::load_halfedge;
+
 // Set in a search's result when the vertex has more ring members than the ring array's width.
 inline constexpr std::uint32_t kRingOverflow = 0x80000000u;
 // Set in a search's result when the radius to expand reaches half the smallest box edge.
@@ -152,18 +154,6 @@ FF_HD void load_xy(const R* pos, std::size_t i, R& x, R& y) {
 #else
   x = pos[2 * i];
   y = pos[2 * i + 1];
-#endif
-}
-
-// {origin, next} of half-edge h.
-FF_HD void load_halfedge(const std::int32_t* he, int h, int& origin, int& next) {
-#if defined(__CUDA_ARCH__)
-  const int2 r = __ldg(reinterpret_cast<const int2*>(he) + h);
-  origin = r.x;
-  next = r.y;
-#else
-  origin = he[2 * h];
-  next = he[2 * h + 1];
 #endif
 }
 
