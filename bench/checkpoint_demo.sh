@@ -6,12 +6,15 @@
 #      finishes, then --resume --set run.steps=<full> extending it;
 #  (c) the SHA-256 of every dataset of both H5MD files (bin/h5hash; /parameters and /h5md, which
 #      record the commit, the time and the resume history, left out), and IDENTICAL or DIFFERENT;
-#  (d) the cost of a checkpoint of bench-abp at 2^20: ms per checkpoint (runs with and without
-#      four checkpoints, interleaved) and MB per file;
+#  (d) the cost of a checkpoint of bench-abp at 2^20: ms per checkpoint and MB per file, as the
+#      runs report them (runs with and without four checkpoints, interleaved);
 #  (e) the cost of the per-step non-finite check of the overdamped integrators: bench-abp at
 #      2^14 and 2^20, and abp.integrate alone at 2^20 (a replayed CUDA graph: the check's upper
 #      bound), with the bundle's plugins and with WITHOUT, a folder of the two plugin libraries
-#      built without the check (tools/bench/plugin_ab.sh, interleaved).
+#      built without the check (tools/bench/plugin_ab.sh, interleaved). Make WITHOUT from
+#      bench/checkpoint-without-check.patch: apply it in a worktree, build the targets
+#      flipflow_plugin_abp and flipflow_stage_overdamped, copy their two .so files into
+#      BUNDLE/i19-without/ and `patchelf --force-rpath --set-rpath '$ORIGIN/../lib'` them.
 #
 #   OUT=dir bench/checkpoint_demo.sh [BUNDLE=bundle]
 #
@@ -162,8 +165,10 @@ if [[ $parts == *" d "* ]]; then
   big_n=${BIG_N:-1048576}
   big_steps=${BIG_STEPS:-400}
   every=$((big_steps / 4))
-  say "== (d) checkpoint cost: bench-abp.yaml, N = $big_n, $big_steps steps, without and with a checkpoint every $every (4)"
-  declare -a t_without=() t_with=()
+  say "== (d) checkpoint cost: bench-abp.yaml, N = $big_n, $big_steps steps, a checkpoint every $every (4 in all)"
+  # The run's own account ("checkpoints K (X MB, Y ms each)" on its done line: write() from the
+  # device idle to the file renamed), and the run's wall time with and without, interleaved (a
+  # whole 2^20 run's start-up varies by about a second: the difference is only a bound).
   for round in 1 2; do
     for variant in without with; do
       dir=$work/d-$variant-$round
@@ -173,17 +178,10 @@ if [[ $parts == *" d "* ]]; then
       "$bin" run "$pipelines/bench-abp.yaml" --set "system.N=$big_n" --set "run.steps=$big_steps" "${extra[@]}" \
         --device "$device" --out "$dir" >"$out/d-$variant-$round.log" 2>&1 || fail "(d) $variant (log $out/d-$variant-$round.log)"
       t=$(calc "$(now) - $t0" 3)
-      if [[ $variant == with ]]; then
-        t_with+=("$t")
-        bytes=$(stat -c %s "$dir"/checkpoint-*.h5 | head -n 1)
-      else t_without+=("$t"); fi
-      say "   round $round, $variant: $t s"
+      say "   round $round, $variant: $t s; $(grep -o 'checkpoints [0-9]* ([^)]*)' "$out/d-$variant-$round.log" || echo 'no checkpoints')"
       rm -rf "$dir"
     done
   done
-  cost=$(calc "((${t_with[0]} + ${t_with[1]}) - (${t_without[0]} + ${t_without[1]})) / 2 / 4 * 1000" 1)
-  say "   per checkpoint: $cost ms (difference of the means / 4); file: $(calc "$bytes / 1000000" 1) MB" \
-    "($bytes bytes)"
 fi
 
 if [[ $parts == *" e "* ]]; then

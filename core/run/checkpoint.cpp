@@ -1,6 +1,7 @@
 #include "core/run/checkpoint.h"
 
 #include <algorithm>
+#include <chrono>
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
@@ -184,6 +185,7 @@ std::string Checkpointer::write() {
   const fs::path path = fs::path(dir_) / checkpoint_file_name(s.step);
   if (last_step_ == s.step) return path.string();
   sim_.synchronize();
+  const auto t0 = std::chrono::steady_clock::now();
   CheckpointData d;
   // Stage states first: an observer makes its files durable here, so the checkpoint never
   // claims frames its files do not hold.
@@ -250,6 +252,8 @@ std::string Checkpointer::write() {
   last_step_ = s.step;
   ++written_;
   prune();
+  write_seconds_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  last_bytes_ = fs::file_size(path, ec);
   return path.string();
 }
 

@@ -8,6 +8,7 @@
 #include <atomic>
 #include <chrono>
 #include <csignal>
+#include <cstdio>
 #include <ctime>
 #include <filesystem>
 #include <fstream>
@@ -185,6 +186,13 @@ int run_pipeline(const RunRequest& req, std::ostream& log, const std::atomic<int
       << " steps/s), simulated time " << sim->state().time << ", rollbacks " << sim->stats().rollbacks;
   // Attempts run again at a smaller Δt because a stage limited it (Outcome::limit_dt).
   if (sim->stats().dt_limits) log << ", Δt limited " << sim->stats().dt_limits;
+  if (const std::uint64_t n = checkpoints.written()) {
+    // What checkpointing cost this run: mean write time (the device idle) and the file size.
+    char buf[96];
+    std::snprintf(buf, sizeof buf, ", checkpoints %llu (%.1f MB, %.1f ms each)", static_cast<unsigned long long>(n),
+                  double(checkpoints.last_bytes()) / 1e6, 1e3 * checkpoints.write_seconds() / double(n));
+    log << buf;
+  }
   log << "\n";
   return 0;
 }
