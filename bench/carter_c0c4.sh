@@ -18,7 +18,7 @@
 #    and 16× more particles for as long), seed 1.
 #
 # Environment: OUT (default ./carter-out), DEVICE (cuda when a GPU is visible, else cpu),
-# PIPELINE_BIN, BENCH_SIZES, STEPS, WARMUP, MORPH, CASES (default "0 1 2 3 4").
+# PIPELINE_BIN, BENCH_SIZES (none: morphology only), STEPS, WARMUP, MORPH, CASES (default "0 1 2 3 4").
 # Writes $OUT/carter_c0c4.txt (and the runs' CSVs under $OUT/morph/). On an H100 the defaults
 # take about 1.5–2 minutes (most of it building the 2^20 triangulations on the host).
 set -euo pipefail
@@ -55,7 +55,9 @@ commit=$(git -C "$root" rev-parse --short HEAD 2>/dev/null || echo "unknown (bun
 } > "$txt"
 
 echo "== bench" >> "$txt"
+[[ ${BENCH_SIZES:-} == none ]] && echo "(skipped: BENCH_SIZES=none)" >> "$txt"
 for c in $cases; do
+  [[ ${BENCH_SIZES:-} == none ]] && break
   f=$pipes/phoretic-c$c-short.yaml
   echo "-- c$c ($f)" >> "$txt"
   t0=$(date +%s.%N)
