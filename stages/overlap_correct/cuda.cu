@@ -60,8 +60,7 @@ namespace ff::overlap {
 
 namespace {
 
-constexpr int kThreads = 256;
-constexpr int kWarps = kThreads / 32;
+constexpr int kThreads = 256;  // the grid kernel's block size
 constexpr int kShards = 8;
 constexpr int kShardStride = 4;  // u64 between shards: one 32-byte sector each
 // The counters a kernel sums: kernel.h's, kTouched (the last) only with the touched field (Mark),
@@ -103,7 +102,9 @@ struct Args {
 };
 
 // Exclusive block-wide prefix sum of c; *total gets the sum. Every thread must call it.
+template <int Threads>
 __device__ int block_scan(int c, int* total, int* s_warp) {
+  constexpr int kWarps = Threads / 32;
   const int lane = threadIdx.x & 31, warp = threadIdx.x >> 5;
   int x = c;
 #pragma unroll
@@ -126,16 +127,17 @@ __device__ int block_scan(int c, int* total, int* s_warp) {
 }
 
 // The marked particles of [t0, t0 + tile) into cand, in index order; clears those marks.
+template <int Threads>
 __device__ int compact(std::uint8_t* marks, int t0, int tile, int* cand, int* s_warp) {
   int count = 0;
-  for (int base = 0; base < tile; base += 16 * kThreads) {
+  for (int base = 0; base < tile; base += 16 * Threads) {
     const int off = base + 16 * int(threadIdx.x);
     uint4 w = make_uint4(0, 0, 0, 0);
     auto* p = reinterpret_cast<uint4*>(marks + t0 + off);
     if (off < tile) w = __ldcg(p);
     const int c = __popc(w.x) + __popc(w.y) + __popc(w.z) + __popc(w.w);  // bytes are 0 or 1
     int total;
-    int at = count + block_scan(c, &total, s_warp);
+    int at = count + block_scan<Threads>(c, &total, s_warp);
     if (c) {
       const unsigned words[4] = {w.x, w.y, w.z, w.w};
 #pragma unroll
@@ -161,11 +163,39 @@ __device__ void mark(std::uint8_t* marks, int u, bool claim, int* cand, u64* cla
   if (!(atomicOr(reinterpret_cast<unsigned*>(marks) + (u >> 2), bit) & bit)) cand[atomicAdd(claims, 1ull)] = int(u);
 }
 
-constexpr int kGroups = kThreads / kGroup;
-// A block's gathers (checks) go to lane groups when it has at most this many particles to do,
-// else one thread each: a group shortens one particle's chain of loads, but puts 8x fewer
-// particles in flight (measured on the H100, bench/overlap_correct-PERF.md).
-constexpr int kGroupBelow = 128;
+// A block's gathers (checks) go to lane groups when it has at most this many particles to do
+// (half its threads: 128 in the grid's blocks), else one thread each: a group shortens one
+// particle's chain of loads, but puts 8x fewer particles in flight (measured on the H100 with
+// blocks of 256, bench/overlap_correct-PERF.md).
+template <int Threads>
+constexpr int kGroupBelow = Threads / 2;
+
+// Who runs a launch's iterations (Team): the grid (kGrid: a cooperative launch of every block that
+// fits on the device, grid barriers between phases) or a team of Team blocks, all launched at
+// once: one block (Team = 1, __syncthreads) or a thread-block cluster (sm_90; cluster.sync(), a
+// barrier in the hardware, where a grid barrier is atomics on a global word and a spin, ~3 µs on
+// the H100 with 64 blocks, bench/overlap_correct-PERF.md). Team blocks do the work of the grid's
+// with fewer threads; small systems (DeviceLoops::team_for) have too little work to fill the grid,
+// and there the barriers (three per iteration) and the cooperative launch are the time.
+constexpr int kGrid = 0;
+
+// A barrier among the launch's blocks, with the memory ordering of grid.sync: writes before it
+// (positions, marks, counters) are seen by every read after it. The cluster's barrier is a
+// release (arrive) and an acquire (wait) at cluster scope, which order global memory too.
+template <int Team>
+__device__ void team_sync() {
+  if constexpr (Team == kGrid) {
+    cg::this_grid().sync();
+  } else if constexpr (Team == 1) {
+    __syncthreads();
+  } else {
+#if defined(__CUDA_ARCH__) && __CUDA_ARCH__ >= 900
+    cg::this_cluster().sync();
+#else
+    __trap();  // never launched: the host launches clusters only on devices that have them
+#endif
+  }
+}
 
 __device__ u64 warp_sum(u64 x) {
 #pragma unroll
@@ -173,11 +203,13 @@ __device__ u64 warp_sum(u64 x) {
   return x;
 }
 
-// Walls: the wall code compiled in (walls: x | y); Mark: the touched field written (mark: true).
-template <class R, int MinBlocks, bool Walls, bool Mark>
-__global__ void __launch_bounds__(kThreads, MinBlocks) correct_kernel(Args<R, Walls> a) {
+// Walls: the wall code compiled in (walls: x | y); Mark: the touched field written (mark: true);
+// Team: who runs the iterations (team_sync); Threads: the block size.
+template <class R, int Threads, int MinBlocks, int Team, bool Walls, bool Mark>
+__global__ void __launch_bounds__(Threads, MinBlocks) correct_kernel(Args<R, Walls> a) {
   constexpr int kReported = Sums<Mark>::kReported, kMoved = Sums<Mark>::kMoved, kAll = Sums<Mark>::kAll;
-  cg::grid_group grid = cg::this_grid();
+  constexpr int kWarps = Threads / 32, kGroups = Threads / kGroup;
+  constexpr bool kOneBlock = Team == 1;  // counters summed in the block alone, barriers __syncthreads
   __shared__ int s_warp[kWarps];
   __shared__ int s_seeds, s_moved, s_count;
   __shared__ u64 s_red[kReported][kWarps];
@@ -196,7 +228,7 @@ __global__ void __launch_bounds__(kThreads, MinBlocks) correct_kernel(Args<R, Wa
   bool tail = false;  // block 0 alone runs the iterations
   // The next launch's counters, zeroed here instead of by a memset before it (a host call on
   // the step's critical path, between Lawson's wait and this launch). No one reads them now.
-  for (int w = int(blockIdx.x * kThreads + threadIdx.x); w < int(kSlotWords + 1); w += int(gridDim.x) * kThreads)
+  for (int w = int(blockIdx.x * Threads + threadIdx.x); w < int(kSlotWords + 1); w += int(gridDim.x) * Threads)
     a.next_slots[w] = 0;
 
   for (int j = 0; j < kBatch; ++j) {
@@ -205,7 +237,7 @@ __global__ void __launch_bounds__(kThreads, MinBlocks) correct_kernel(Args<R, Wa
     if (k == 0) {
       count = max(0, t1 - t0);
     } else if (!tail) {
-      count = compact(a.marks, t0, a.tile, cand, s_warp);
+      count = compact<Threads>(a.marks, t0, a.tile, cand, s_warp);
     } else {
       if (threadIdx.x == 0) {
         s_count = int(__ldcg(a.claims));
@@ -240,8 +272,8 @@ __global__ void __launch_bounds__(kThreads, MinBlocks) correct_kernel(Args<R, Wa
         }
       }
     };
-    if (k == 0 || count > kGroupBelow) {  // one thread per particle
-      for (int i = int(threadIdx.x); i < count; i += kThreads) {
+    if (k == 0 || count > kGroupBelow<Threads>) {  // one thread per particle
+      for (int i = int(threadIdx.x); i < count; i += Threads) {
         const int v = k == 0 ? t0 + i : __ldcg(cand + i);
         if (tail)  // its claim: cleared for the next check
           atomicAnd(reinterpret_cast<unsigned*>(a.marks) + (v >> 2), ~(1u << (8 * (v & 3))));
@@ -274,13 +306,13 @@ __global__ void __launch_bounds__(kThreads, MinBlocks) correct_kernel(Args<R, Wa
       } else {
         s = u64(s_moved);
       }
-      if (tail)
+      if (tail || kOneBlock)
         s_tot[threadIdx.x] = s;
       else if (s)
         atomicAdd(a.slots + (std::size_t(j) * kAll + threadIdx.x) * kShards * kShardStride + shard, s);
     }
-    if (!tail) {
-      grid.sync();
+    if (!tail && !kOneBlock) {
+      team_sync<Team>();
       if (threadIdx.x < kAll) {
         const u64* p = a.slots + (std::size_t(j) * kAll + threadIdx.x) * kShards * kShardStride;
         u64 s = 0;
@@ -301,7 +333,7 @@ __global__ void __launch_bounds__(kThreads, MinBlocks) correct_kernel(Args<R, Wa
     if (!keeps_going(tot, k, a.max_iterations)) return;
 
     const int ns = s_seeds;
-    for (int i = int(threadIdx.x); i < ns; i += kThreads) {
+    for (int i = int(threadIdx.x); i < ns; i += Threads) {
       const int v = seed[i];
       if (v >= 0) {
         const double2 d = disp[i];
@@ -311,7 +343,7 @@ __global__ void __launch_bounds__(kThreads, MinBlocks) correct_kernel(Args<R, Wa
     if (tail)
       __syncthreads();
     else
-      grid.sync();
+      team_sync<Team>();
 
     // The check (positions are the new ones now): marks the next iteration's candidates. The
     // last iteration of a batch leaves plain marks, which the next launch compacts.
@@ -319,8 +351,8 @@ __global__ void __launch_bounds__(kThreads, MinBlocks) correct_kernel(Args<R, Wa
     const bool to_tail = !tail && s_tot[kMoved] <= u64(kTailMoved);
     const bool claim = (tail || to_tail) && !last;
     auto mark_it = [&](int u) { mark(a.marks, u, claim, a.cand, a.claims); };
-    if (ns > kGroupBelow) {  // one thread per listed particle
-      for (int i = int(threadIdx.x); i < ns; i += kThreads) {
+    if (ns > kGroupBelow<Threads>) {  // one thread per listed particle
+      for (int i = int(threadIdx.x); i < ns; i += Threads) {
         const int v = seed[i];
         if (v < 0)
           mark_it(~v);
@@ -341,7 +373,7 @@ __global__ void __launch_bounds__(kThreads, MinBlocks) correct_kernel(Args<R, Wa
     if (tail) {
       __syncthreads();
     } else {
-      grid.sync();
+      team_sync<Team>();
       if (to_tail) {
         if (blockIdx.x != 0) return;
         tail = true;
@@ -358,19 +390,69 @@ __global__ void __launch_bounds__(kThreads, MinBlocks) correct_kernel(Args<R, Wa
 // fan walks only), so measure again after changing it (bench/overlap_correct-PERF.md and
 // bench/README.md, "Numbers formerly in source comments").
 constexpr int kMinBlocks = 2;
-template <class R, bool Walls, bool Mark>
+
+// Small systems (n ≤ kSmallMaxN): a team (team_sync) of kSmallTeam blocks of kSmallThreads runs
+// the iterations instead of the grid. At 2^14 (bench-abp, H200) the grid's iteration costs ~15 µs
+// for what is a few µs of walks: three grid barriers and the cooperative launch are the time.
+constexpr int kSmallTeam = 16;
+constexpr int kSmallThreads = 256;
+constexpr std::size_t kSmallMaxN = std::size_t(1) << 16;
+// 128 registers a thread, as the grid's kernel (kMinBlocks).
+constexpr int kSmallMinBlocks = std::max(1, 512 / kSmallThreads);
+
+template <class R, int Team, bool Walls, bool Mark>
 void* kernel_ptr() {
-  return reinterpret_cast<void*>(correct_kernel<R, kMinBlocks, Walls, Mark>);
+  if constexpr (Team == kGrid)
+    return reinterpret_cast<void*>(correct_kernel<R, kThreads, kMinBlocks, kGrid, Walls, Mark>);
+  else
+    return reinterpret_cast<void*>(correct_kernel<R, kSmallThreads, kSmallMinBlocks, Team, Walls, Mark>);
+}
+
+// The team for n particles: kSmallTeam blocks when n is small and the device can run them all at
+// once (a cluster needs sm_90 and room for its blocks in one GPC), else the grid.
+template <class R, bool Walls, bool Mark>
+int team_for(std::size_t n) {
+  if (n > kSmallMaxN) return kGrid;
+  if constexpr (kSmallTeam == 1) {
+    return 1;
+  } else {
+    int dev = 0, cluster = 0;
+    FF_CUDA_CHECK(cudaGetDevice(&dev), "overlap_correct: current device");
+    FF_CUDA_CHECK(cudaDeviceGetAttribute(&cluster, cudaDevAttrClusterLaunch, dev), "overlap_correct: clusters");
+    if (!cluster) return kGrid;
+    void* f = kernel_ptr<R, kSmallTeam, Walls, Mark>();
+    if (kSmallTeam > 8)  // 8 is the portable cluster size; sm_90 runs 16
+      FF_CUDA_CHECK(cudaFuncSetAttribute(f, cudaFuncAttributeNonPortableClusterSizeAllowed, 1),
+                    "overlap_correct: cluster size");
+    cudaLaunchConfig_t cfg = {};
+    cudaLaunchAttribute attr[1];
+    cfg.gridDim = dim3(kSmallTeam);
+    cfg.blockDim = dim3(kSmallThreads);
+    attr[0].id = cudaLaunchAttributeClusterDimension;
+    attr[0].val.clusterDim.x = kSmallTeam;
+    attr[0].val.clusterDim.y = attr[0].val.clusterDim.z = 1;
+    cfg.attrs = attr;
+    cfg.numAttrs = 1;
+    int clusters = 0;
+    FF_CUDA_CHECK(cudaOccupancyMaxActiveClusters(&clusters, f, &cfg), "overlap_correct: cluster occupancy");
+    return clusters >= 1 ? kSmallTeam : kGrid;
+  }
 }
 
 template <class R, bool Walls, bool Mark>
-void shape(std::size_t n, int& grid, int& tile) {
+void shape(std::size_t n, int team, int& grid, int& tile) {
+  if (team != kGrid) {  // the team's blocks share the particles in tiles
+    grid = team;
+    const std::size_t t = (n + grid - 1) / grid;
+    tile = int(std::max<std::size_t>(16, (t + 15) / 16 * 16));
+    return;
+  }
   int dev = 0, sms = 0, per_sm = 0, coop = 0;
   FF_CUDA_CHECK(cudaGetDevice(&dev), "overlap_correct: current device");
   FF_CUDA_CHECK(cudaDeviceGetAttribute(&sms, cudaDevAttrMultiProcessorCount, dev), "overlap_correct: SM count");
   FF_CUDA_CHECK(cudaDeviceGetAttribute(&coop, cudaDevAttrCooperativeLaunch, dev), "overlap_correct: cooperative");
   if (!coop) throw RunError("overlap_correct: the CUDA device does not support cooperative launches");
-  FF_CUDA_CHECK(cudaOccupancyMaxActiveBlocksPerMultiprocessor(&per_sm, kernel_ptr<R, Walls, Mark>(), kThreads, 0),
+  FF_CUDA_CHECK(cudaOccupancyMaxActiveBlocksPerMultiprocessor(&per_sm, kernel_ptr<R, kGrid, Walls, Mark>(), kThreads, 0),
                 "overlap_correct: occupancy");
   const std::size_t most = std::size_t(std::max(1, per_sm)) * std::size_t(sms);
   const std::size_t want = std::max<std::size_t>(1, (n + 255) / 256);
@@ -428,8 +510,24 @@ class DeviceLoops final : public OverlapCorrectLoops<R> {
                      static_cast<long long>(k0),
                      static_cast<long long>(max_iterations)};
     void* args[] = {&a};
-    FF_CUDA_CHECK(cudaLaunchCooperativeKernel(kernel_ptr<R, Walls, Mark>(), dim3(grid_), dim3(kThreads), args, 0, s),
-                  "launching overlap_correct");
+    if (team_ == kGrid) {
+      FF_CUDA_CHECK(
+          cudaLaunchCooperativeKernel(kernel_ptr<R, kGrid, Walls, Mark>(), dim3(grid_), dim3(kThreads), args, 0, s),
+          "launching overlap_correct");
+    } else {  // a plain launch (one block) or a cluster launch of the team's blocks
+      cudaLaunchConfig_t cfg = {};
+      cudaLaunchAttribute attr[1];
+      cfg.gridDim = dim3(grid_);
+      cfg.blockDim = dim3(kSmallThreads);
+      cfg.stream = s;
+      attr[0].id = cudaLaunchAttributeClusterDimension;
+      attr[0].val.clusterDim.x = unsigned(grid_);
+      attr[0].val.clusterDim.y = attr[0].val.clusterDim.z = 1;
+      cfg.attrs = attr;
+      cfg.numAttrs = grid_ > 1 ? 1 : 0;
+      FF_CUDA_CHECK(cudaLaunchKernelExC(&cfg, kernel_ptr<R, kSmallTeam, Walls, Mark>(), args),
+                    "launching overlap_correct (a team of blocks)");
+    }
     parity_ = 1 - parity_;
     FF_CUDA_CHECK(cudaStreamSynchronize(s), "waiting for overlap_correct");
     const u64* result = result_.get(kResultWords);
@@ -443,7 +541,8 @@ class DeviceLoops final : public OverlapCorrectLoops<R> {
   // Every array zeroed (the marks and the counters must start so).
   template <bool Walls, bool Mark>
   void prepare(std::size_t n, int variant) {
-    shape<R, Walls, Mark>(n, grid_, tile_);
+    team_ = team_for<R, Walls, Mark>(n);
+    shape<R, Walls, Mark>(n, team_, grid_, tile_);
     cap_ = std::size_t(grid_) * std::size_t(tile_);
     for (Scratch<u64>& sl : slots_) sl.reset();
     marks_.reset();  // fresh zeroed arrays even where the size did not change
@@ -463,6 +562,7 @@ class DeviceLoops final : public OverlapCorrectLoops<R> {
   HostScratch<u64> result_;      // pinned: the kernel writes its counters there (no copy after it)
   std::size_t n_ = 0, cap_ = 0;
   int grid_ = 0, tile_ = 0;
+  int team_ = kGrid;  // who runs the iterations (team_for): kGrid or kSmallTeam
   int parity_ = 0;  // which slots the next launch uses (zero); it zeroes the other
   int variant_ = -1;  // the kernel prepared for: 2·walls + mark (its occupancy sets the grid)
   bool made_ = false;

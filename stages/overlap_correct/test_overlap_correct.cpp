@@ -553,6 +553,35 @@ TEST_CASE("overlap_correct: CPU and CUDA give the same bits (double) and agree i
     }
 }
 
+TEST_CASE("overlap_correct: CPU and CUDA give the same bits on either device path (team and grid)",
+          "[overlap][cuda]") {
+  // cuda.cu runs small systems (n ≤ kSmallMaxN = 2^16) in a team of blocks (one block or a
+  // thread-block cluster) and larger ones on the whole grid: sizes on both sides, and a small one
+  // where a block of the team has only a few hundred particles. (20000, the size of the tests
+  // above, is a team's.)
+  if (!test::have_cuda("overlap_correct CPU-vs-CUDA by size")) return;
+  for (std::uint64_t n : {3000u, 65536u, 100000u}) {
+    INFO("n " << n);
+    const auto spec = correct_spec(n, 0.75, {});
+    std::vector<std::vector<double>> xy;
+    std::vector<double> iterations, pairs;
+    for (Backend b : {Backend::cpu, Backend::cuda}) {
+      auto state = make_initial_state(spec.system, spec.run.precision, spec.run.seed);
+      jiggle(*state, 0.1, 5);
+      Simulation sim(spec, registry(), dry(b), std::move(state));
+      sim.advance();
+      sim.synchronize();
+      xy.push_back(positions(sim.state()));
+      iterations.push_back(metric(sim, "iterations"));
+      pairs.push_back(metric(sim, "pairs"));
+    }
+    CHECK(iterations[0] >= 3);
+    CHECK(iterations[0] == iterations[1]);
+    CHECK(pairs[0] == pairs[1]);
+    CHECK(std::memcmp(xy[0].data(), xy[1].data(), xy[0].size() * sizeof(double)) == 0);
+  }
+}
+
 TEST_CASE("overlap_correct: errors name what to change", "[overlap][errors]") {
   const Registry& r = registry();
   SECTION("no triangulation before it") {
