@@ -197,6 +197,18 @@ __device__ void team_sync() {
   }
 }
 
+// p (a __shared__ array) in the shared memory of the cluster's block `rank` (sm_90's distributed
+// shared memory).
+template <class T>
+__device__ T* in_block(T* p, int rank) {
+#if defined(__CUDA_ARCH__) && __CUDA_ARCH__ >= 900
+  return cg::this_cluster().map_shared_rank(p, rank);
+#else
+  __trap();
+  return p;
+#endif
+}
+
 __device__ u64 warp_sum(u64 x) {
 #pragma unroll
   for (int o = 16; o > 0; o >>= 1) x += __shfl_down_sync(0xffffffffu, x, o);
@@ -210,6 +222,10 @@ __global__ void __launch_bounds__(Threads, MinBlocks) correct_kernel(Args<R, Wal
   constexpr int kReported = Sums<Mark>::kReported, kMoved = Sums<Mark>::kMoved, kAll = Sums<Mark>::kAll;
   constexpr int kWarps = Threads / 32, kGroups = Threads / kGroup;
   constexpr bool kOneBlock = Team == 1;  // counters summed in the block alone, barriers __syncthreads
+  // A cluster's blocks sum the counters from each other's shared memory (s_part) instead of
+  // global atomics and loads: no round trip to L2 between the barrier and the decision.
+  constexpr bool kCluster = Team > 1;
+  __shared__ u64 s_part[kAll];  // (kCluster) this block's sums of the iteration
   __shared__ int s_warp[kWarps];
   __shared__ int s_seeds, s_moved, s_count;
   __shared__ u64 s_red[kReported][kWarps];
@@ -308,16 +324,24 @@ __global__ void __launch_bounds__(Threads, MinBlocks) correct_kernel(Args<R, Wal
       }
       if (tail || kOneBlock)
         s_tot[threadIdx.x] = s;
+      else if (kCluster)
+        s_part[threadIdx.x] = s;
       else if (s)
         atomicAdd(a.slots + (std::size_t(j) * kAll + threadIdx.x) * kShards * kShardStride + shard, s);
     }
     if (!tail && !kOneBlock) {
       team_sync<Team>();
       if (threadIdx.x < kAll) {
-        const u64* p = a.slots + (std::size_t(j) * kAll + threadIdx.x) * kShards * kShardStride;
         u64 s = 0;
+        if constexpr (kCluster) {
+          // Read here, between the barrier and the next one (the apply's): s_part is written
+          // again only after that, and a block returns only after one more barrier (below).
+          for (int r = 0; r < Team; ++r) s += in_block(s_part, r)[threadIdx.x];
+        } else {
+          const u64* p = a.slots + (std::size_t(j) * kAll + threadIdx.x) * kShards * kShardStride;
 #pragma unroll
-        for (int h = 0; h < kShards; ++h) s += __ldcg(p + h * kShardStride);
+          for (int h = 0; h < kShards; ++h) s += __ldcg(p + h * kShardStride);
+        }
         s_tot[threadIdx.x] = s;
       }
     }
@@ -330,7 +354,11 @@ __global__ void __launch_bounds__(Threads, MinBlocks) correct_kernel(Args<R, Wal
     for (int q = 0; q < kReported; ++q) tot[q] = s_tot[q];
     // The step ends here. Every mark is clear: the compaction or the gather cleared each one,
     // and none is set before the check that follows an apply.
-    if (!keeps_going(tot, k, a.max_iterations)) return;
+    if (!keeps_going(tot, k, a.max_iterations)) {
+      // A cluster's block keeps its shared memory until the others have read its sums.
+      if (kCluster && !tail) team_sync<Team>();
+      return;
+    }
 
     const int ns = s_seeds;
     for (int i = int(threadIdx.x); i < ns; i += Threads) {
