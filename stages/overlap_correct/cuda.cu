@@ -422,7 +422,7 @@ constexpr int kMinBlocks = 2;
 // Small systems (n ≤ kSmallMaxN): a team (team_sync) of kSmallTeam blocks of kSmallThreads runs
 // the iterations instead of the grid. At 2^14 (bench-abp, H200) the grid's iteration costs ~15 µs
 // for what is a few µs of walks: three grid barriers and the cooperative launch are the time.
-constexpr int kSmallTeam = 8;
+constexpr int kSmallTeam = 1;
 constexpr int kSmallThreads = 512;
 constexpr std::size_t kSmallMaxN = std::size_t(1) << 16;
 // 128 registers a thread, as the grid's kernel (kMinBlocks).
