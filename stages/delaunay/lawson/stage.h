@@ -179,6 +179,11 @@ class Lawson final : public Stage {
     // every round left, however long its lists (a round of many edges is slower in one block:
     // the next step then runs kDeviceRoundsPerRead grid rounds first, grid_rounds_).
     std::int64_t grid_rounds = grid_rounds_;
+    // Small systems: when round 0 marked no more edges than the tail kernel takes (bench-abp at
+    // N = 2^14 tests ~300 candidates), the tail kernel runs from round 1 on, and the grid round's
+    // kernels (decide, apply, mark and two counter fills) are not launched. The same rounds run,
+    // in one block: the same flips (the lowest marked edge id wins, whoever runs the round).
+    if (loops_.tail && bound <= kTailMarked) grid_rounds = 0;
     while (h[kLawsonMarked]) {
       if (launched >= p_.max_rounds) throw_not_delaunay(h);
       const std::int64_t per_read = loops_.tail ? grid_rounds : 1;
