@@ -197,15 +197,21 @@ __device__ void team_sync() {
   }
 }
 
-// p (a __shared__ array) in the shared memory of the cluster's block `rank` (sm_90's distributed
-// shared memory).
-template <class T>
-__device__ T* in_block(T* p, int rank) {
+// The u64 at p (in this block's shared memory) in the shared memory of the cluster's block
+// `rank` (sm_90's distributed shared memory): mapa and ld.shared::cluster. (cg's
+// cluster.map_shared_rank goes through a generic address, and cost this kernel up to 128
+// registers with 8-32 B of spills, against ~100-112 and none.)
+__device__ u64 load_in_block(const u64* p, int rank) {
 #if defined(__CUDA_ARCH__) && __CUDA_ARCH__ >= 900
-  return cg::this_cluster().map_shared_rank(p, rank);
+  const unsigned local = unsigned(__cvta_generic_to_shared(p));
+  unsigned remote;
+  u64 v;
+  asm volatile("mapa.shared::cluster.u32 %0, %1, %2;" : "=r"(remote) : "r"(local), "r"(rank));
+  asm volatile("ld.shared::cluster.u64 %0, [%1];" : "=l"(v) : "r"(remote) : "memory");
+  return v;
 #else
   __trap();
-  return p;
+  return 0;
 #endif
 }
 
@@ -336,7 +342,7 @@ __global__ void __launch_bounds__(Threads, MinBlocks) correct_kernel(Args<R, Wal
         if constexpr (kCluster) {
           // Read here, between the barrier and the next one (the apply's): s_part is written
           // again only after that, and a block returns only after one more barrier (below).
-          for (int r = 0; r < Team; ++r) s += in_block(s_part, r)[threadIdx.x];
+          for (int r = 0; r < Team; ++r) s += load_in_block(s_part + threadIdx.x, r);
         } else {
           const u64* p = a.slots + (std::size_t(j) * kAll + threadIdx.x) * kShards * kShardStride;
 #pragma unroll
@@ -419,52 +425,68 @@ __global__ void __launch_bounds__(Threads, MinBlocks) correct_kernel(Args<R, Wal
 // bench/README.md, "Numbers formerly in source comments").
 constexpr int kMinBlocks = 2;
 
-// Small systems (n ≤ kSmallMaxN): a team (team_sync) of kSmallTeam blocks of kSmallThreads runs
-// the iterations instead of the grid. At 2^14 (bench-abp, H200) the grid's iteration costs ~15 µs
-// for what is a few µs of walks: three grid barriers and the cooperative launch are the time.
-constexpr int kSmallTeam = 1;
-constexpr int kSmallThreads = 512;
-constexpr std::size_t kSmallMaxN = std::size_t(1) << 16;
-// 128 registers a thread, as the grid's kernel (kMinBlocks).
-constexpr int kSmallMinBlocks = std::max(1, 512 / kSmallThreads);
+// Small systems: a team (team_sync) runs the iterations instead of the grid: one block of
+// kOneThreads for n ≤ kOneBlockMaxN, a cluster of kClusterBlocks blocks of kClusterThreads for
+// n ≤ kClusterMaxN. At 2^14 (bench-abp, H200) the grid's iteration costs ~15 µs for what is a few
+// µs of walks: three grid barriers and the cooperative launch are the time. The sizes and thresholds here are one variant of the GPU A/B
+// of branch small (not measured yet).
+constexpr int kOneThreads = 512;
+constexpr std::size_t kOneBlockMaxN = 0;
+constexpr int kClusterBlocks = 16;
+constexpr int kClusterThreads = 256;
+constexpr std::size_t kClusterMaxN = std::size_t(1) << 16;
+
+// A team's block size; 128 registers a thread, as the grid's kernel (kMinBlocks).
+template <int Team>
+constexpr int threads_of = Team == kGrid ? kThreads : Team == 1 ? kOneThreads : kClusterThreads;
+template <int Team>
+constexpr int min_blocks_of = Team == kGrid ? kMinBlocks : std::max(1, 512 / threads_of<Team>);
 
 template <class R, int Team, bool Walls, bool Mark>
 void* kernel_ptr() {
-  if constexpr (Team == kGrid)
-    return reinterpret_cast<void*>(correct_kernel<R, kThreads, kMinBlocks, kGrid, Walls, Mark>);
-  else
-    return reinterpret_cast<void*>(correct_kernel<R, kSmallThreads, kSmallMinBlocks, Team, Walls, Mark>);
+  return reinterpret_cast<void*>(correct_kernel<R, threads_of<Team>, min_blocks_of<Team>, Team, Walls, Mark>);
 }
 
-// The team for n particles: kSmallTeam blocks when n is small and the device can run them all at
-// once (a cluster needs sm_90 and room for its blocks in one GPC), else the grid.
+// The launch's shape for a team of Team > 0 blocks (a cluster when Team > 1).
+template <int Team>
+cudaLaunchConfig_t team_config(cudaLaunchAttribute* attr, CUstream_st* s) {
+  cudaLaunchConfig_t cfg = {};
+  cfg.gridDim = dim3(Team);
+  cfg.blockDim = dim3(threads_of<Team>);
+  cfg.stream = s;
+  attr[0].id = cudaLaunchAttributeClusterDimension;
+  attr[0].val.clusterDim.x = Team;
+  attr[0].val.clusterDim.y = attr[0].val.clusterDim.z = 1;
+  cfg.attrs = attr;
+  cfg.numAttrs = Team > 1 ? 1 : 0;
+  return cfg;
+}
+
+// Whether the device can run the cluster team: sm_90 clusters, and its blocks in one GPC at once.
+template <class R, bool Walls, bool Mark>
+bool cluster_fits() {
+  int dev = 0, cluster = 0;
+  FF_CUDA_CHECK(cudaGetDevice(&dev), "overlap_correct: current device");
+  FF_CUDA_CHECK(cudaDeviceGetAttribute(&cluster, cudaDevAttrClusterLaunch, dev), "overlap_correct: clusters");
+  if (!cluster) return false;
+  void* f = kernel_ptr<R, kClusterBlocks, Walls, Mark>();
+  if (kClusterBlocks > 8)  // 8 is the portable cluster size; sm_90 runs 16
+    FF_CUDA_CHECK(cudaFuncSetAttribute(f, cudaFuncAttributeNonPortableClusterSizeAllowed, 1),
+                  "overlap_correct: cluster size");
+  cudaLaunchAttribute attr[1];
+  const cudaLaunchConfig_t cfg = team_config<kClusterBlocks>(attr, nullptr);
+  int clusters = 0;
+  FF_CUDA_CHECK(cudaOccupancyMaxActiveClusters(&clusters, f, &cfg), "overlap_correct: cluster occupancy");
+  return clusters >= 1;
+}
+
+// The team for n particles (see kOneBlockMaxN): one block, the cluster where the device runs it,
+// else the grid.
 template <class R, bool Walls, bool Mark>
 int team_for(std::size_t n) {
-  if (n > kSmallMaxN) return kGrid;
-  if constexpr (kSmallTeam == 1) {
-    return 1;
-  } else {
-    int dev = 0, cluster = 0;
-    FF_CUDA_CHECK(cudaGetDevice(&dev), "overlap_correct: current device");
-    FF_CUDA_CHECK(cudaDeviceGetAttribute(&cluster, cudaDevAttrClusterLaunch, dev), "overlap_correct: clusters");
-    if (!cluster) return kGrid;
-    void* f = kernel_ptr<R, kSmallTeam, Walls, Mark>();
-    if (kSmallTeam > 8)  // 8 is the portable cluster size; sm_90 runs 16
-      FF_CUDA_CHECK(cudaFuncSetAttribute(f, cudaFuncAttributeNonPortableClusterSizeAllowed, 1),
-                    "overlap_correct: cluster size");
-    cudaLaunchConfig_t cfg = {};
-    cudaLaunchAttribute attr[1];
-    cfg.gridDim = dim3(kSmallTeam);
-    cfg.blockDim = dim3(kSmallThreads);
-    attr[0].id = cudaLaunchAttributeClusterDimension;
-    attr[0].val.clusterDim.x = kSmallTeam;
-    attr[0].val.clusterDim.y = attr[0].val.clusterDim.z = 1;
-    cfg.attrs = attr;
-    cfg.numAttrs = 1;
-    int clusters = 0;
-    FF_CUDA_CHECK(cudaOccupancyMaxActiveClusters(&clusters, f, &cfg), "overlap_correct: cluster occupancy");
-    return clusters >= 1 ? kSmallTeam : kGrid;
-  }
+  if (n <= kOneBlockMaxN) return 1;
+  if (n <= kClusterMaxN && cluster_fits<R, Walls, Mark>()) return kClusterBlocks;
+  return kGrid;
 }
 
 template <class R, bool Walls, bool Mark>
@@ -542,19 +564,10 @@ class DeviceLoops final : public OverlapCorrectLoops<R> {
       FF_CUDA_CHECK(
           cudaLaunchCooperativeKernel(kernel_ptr<R, kGrid, Walls, Mark>(), dim3(grid_), dim3(kThreads), args, 0, s),
           "launching overlap_correct");
-    } else {  // a plain launch (one block) or a cluster launch of the team's blocks
-      cudaLaunchConfig_t cfg = {};
-      cudaLaunchAttribute attr[1];
-      cfg.gridDim = dim3(grid_);
-      cfg.blockDim = dim3(kSmallThreads);
-      cfg.stream = s;
-      attr[0].id = cudaLaunchAttributeClusterDimension;
-      attr[0].val.clusterDim.x = unsigned(grid_);
-      attr[0].val.clusterDim.y = attr[0].val.clusterDim.z = 1;
-      cfg.attrs = attr;
-      cfg.numAttrs = grid_ > 1 ? 1 : 0;
-      FF_CUDA_CHECK(cudaLaunchKernelExC(&cfg, kernel_ptr<R, kSmallTeam, Walls, Mark>(), args),
-                    "launching overlap_correct (a team of blocks)");
+    } else if (team_ == 1) {
+      launch_team<1, Walls, Mark>(args, s);
+    } else {
+      launch_team<kClusterBlocks, Walls, Mark>(args, s);
     }
     parity_ = 1 - parity_;
     FF_CUDA_CHECK(cudaStreamSynchronize(s), "waiting for overlap_correct");
@@ -564,6 +577,15 @@ class DeviceLoops final : public OverlapCorrectLoops<R> {
       for (int c = 0; c < Sums<Mark>::kReported; ++c) out.counters[j][c] = result[std::size_t(j) * kCounters + c];
       if (!Mark) out.counters[j][kTouched] = 0;
     }
+  }
+
+  // A plain launch (one block) or a cluster launch of the team's blocks.
+  template <int Team, bool Walls, bool Mark>
+  static void launch_team(void** args, CUstream_st* s) {
+    cudaLaunchAttribute attr[1];
+    const cudaLaunchConfig_t cfg = team_config<Team>(attr, s);
+    FF_CUDA_CHECK(cudaLaunchKernelExC(&cfg, kernel_ptr<R, Team, Walls, Mark>(), args),
+                  "launching overlap_correct (a team of blocks)");
   }
 
   // Every array zeroed (the marks and the counters must start so).
@@ -590,7 +612,7 @@ class DeviceLoops final : public OverlapCorrectLoops<R> {
   HostScratch<u64> result_;      // pinned: the kernel writes its counters there (no copy after it)
   std::size_t n_ = 0, cap_ = 0;
   int grid_ = 0, tile_ = 0;
-  int team_ = kGrid;  // who runs the iterations (team_for): kGrid or kSmallTeam
+  int team_ = kGrid;  // who runs the iterations (team_for): kGrid, 1 or kClusterBlocks
   int parity_ = 0;  // which slots the next launch uses (zero); it zeroes the other
   int variant_ = -1;  // the kernel prepared for: 2·walls + mark (its occupancy sets the grid)
   bool made_ = false;
