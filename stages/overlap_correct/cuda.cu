@@ -433,7 +433,7 @@ constexpr int kMinBlocks = 2;
 constexpr int kOneThreads = 512;
 constexpr std::size_t kOneBlockMaxN = 0;
 constexpr int kClusterBlocks = 16;
-constexpr int kClusterThreads = 256;
+constexpr int kClusterThreads = 512;
 constexpr std::size_t kClusterMaxN = std::size_t(1) << 16;
 
 // A team's block size; 128 registers a thread, as the grid's kernel (kMinBlocks).
