@@ -432,7 +432,7 @@ constexpr int kMinBlocks = 2;
 // of branch small (not measured yet).
 constexpr int kOneThreads = 512;
 constexpr std::size_t kOneBlockMaxN = 0;
-constexpr int kClusterBlocks = 16;
+constexpr int kClusterBlocks = 8;
 constexpr int kClusterThreads = 512;
 constexpr std::size_t kClusterMaxN = std::size_t(1) << 16;
 
