@@ -431,7 +431,7 @@ constexpr int kMinBlocks = 2;
 // µs of walks: three grid barriers and the cooperative launch are the time. The sizes and thresholds here are one variant of the GPU A/B
 // of branch small (not measured yet).
 constexpr int kOneThreads = 512;
-constexpr std::size_t kOneBlockMaxN = 0;
+constexpr std::size_t kOneBlockMaxN = std::size_t(1) << 16;
 constexpr int kClusterBlocks = 8;
 constexpr int kClusterThreads = 512;
 constexpr std::size_t kClusterMaxN = std::size_t(1) << 16;
