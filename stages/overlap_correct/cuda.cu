@@ -44,6 +44,13 @@
 // kShards copies of each counter (spreading same-address atomics); after the barrier every
 // block sums the shards and takes the same decision (keeps_going). Integer sums do not depend
 // on the order, so neither does anything else.
+//
+// Small systems (team_for): the same kernel runs in a team of blocks instead of the grid, one
+// block (n ≤ kOneBlockMaxN; its barriers are __syncthreads) or a thread-block cluster (n ≤
+// kClusterMaxN; cluster.sync, and each block reads the others' block sums from their shared
+// memory instead of the sharded atomics). Who gathers a particle changes, not what it gathers, so
+// the bits and the iteration counts are the grid's (test_overlap_correct: CPU == CUDA on both
+// sides of the thresholds).
 #include <cooperative_groups.h>
 #include <cuda_runtime.h>
 
