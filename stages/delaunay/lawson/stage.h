@@ -3,8 +3,9 @@
 // tests every edge, later rounds only the edges whose quad changed. The lowest marked edge id
 // wins both of its triangles, so the result is independent of thread scheduling and backend.
 // The host reads the counters after round 0's marks (on the device not always: see run()) and
-// then after every round on the CPU; on the device after one grid round and the rounds of a
-// one-block tail kernel that follow it (each read waits for the device), or, when nothing can
+// then after every round on the CPU; on the device after one grid round (none when round 0 marked
+// few enough edges for the tail: small systems) and the rounds of a one-block tail kernel that
+// follow it (each read waits for the device), or, when nothing can
 // roll the step back after this stage, not before the step ends: the tail kernel then runs every
 // round left and writes the counters to pinned host memory, and after_step() reads them, so the
 // stages after this one queue behind its kernels instead of behind a wait for the host. The
