@@ -9,6 +9,9 @@
 // enqueued at the end of step k (after_step, once the step is accepted and every stage has
 // moved its particles), while the host goes on to the next step, and run() only collects the
 // answer — the same test on the same positions and build positions, so the same decisions.
+// Where the stage that moved the particles has already answered the test (neighbors.moved,
+// list.h: overdamped.integrate with max_step does, in its own kernel), run() takes that answer
+// and after_step enqueues nothing.
 #pragma once
 #include <algorithm>
 #include <cmath>
@@ -57,7 +60,7 @@ class Verlet final : public Stage {
   // The list is written only on the steps that rebuild it (ListBuild::build announces the
   // writes), so the rollback snapshot copies it only then.
   std::vector<Access> accesses() const override {
-    std::vector<Access> a{{fields::position, where_, Mode::read}};
+    std::vector<Access> a{{fields::position, where_, Mode::read}, {kMoved, Where::host, Mode::read}};
     for (const char* f : kListFields) a.push_back(Access::on_demand_write(f, where_));
     return a;
   }
@@ -91,6 +94,8 @@ class Verlet final : public Stage {
     bp.acquire(Where::host, Mode::write);
     bp.host<double>()[0] = p_.cutoff;
     bp.host<double>()[1] = p_.skin;
+    Field& moved = s.add_field(kMoved, DType::u64, 1, 2);  // nothing published yet (zeroed)
+    moved.acquire(Where::host, Mode::write);
   }
 
   Outcome run(StepContext& ctx) override {
@@ -106,7 +111,7 @@ class Verlet final : public Stage {
   void after_step(StepContext& ctx) override {
     ahead_ = false;
     State& s = ctx.state;
-    if (where_ != Where::device || !built_) return;
+    if (where_ != Where::device || !built_ || published_applies(s)) return;
     Field& x = s.field(fields::position);
     if (!x.valid_on(Where::device) || !s.field(kPositionAtBuild).valid_on(Where::device)) return;
     ahead_ = s.dim() == 2 ? builder_.template start_moved_test<2>(s, p_.skin, ctx.stream)
@@ -122,9 +127,14 @@ class Verlet final : public Stage {
     out.put("built", std::uint8_t(built_ ? 1 : 0));
     out.put("max_neighbors", builder_.max_neighbors());
   }
-  void restore_state(const StageState& saved, State&) override {
+  void restore_state(const StageState& saved, State& s) override {
     if (saved.has("built")) built_ = saved.get<std::uint8_t>("built") != 0;
     if (saved.has("max_neighbors")) builder_.set_max_neighbors(saved.get<std::uint32_t>("max_neighbors"));
+    // An answer published in the run that wrote the checkpoint names a version of that run's
+    // position field: not this one's.
+    Field& moved = s.field(kMoved);
+    moved.acquire(Where::host, Mode::write);
+    moved.host<std::uint64_t>()[0] = 0;
   }
 
  private:
@@ -147,10 +157,19 @@ class Verlet final : public Stage {
     return true;
   }
 
+  // Whether the test answered by the stage that moved the particles (neighbors.moved) is for
+  // the positions as they are.
+  static bool published_applies(State& s) {
+    const std::uint64_t* moved = s.field(kMoved).host<std::uint64_t>();
+    return moved[0] != 0 && moved[0] == s.field(fields::position).version();
+  }
+
   template <int D>
   Outcome run_d(StepContext& ctx) {
+    State& s = ctx.state;
     bool rebuild = !built_;
-    if (ahead_applies(ctx.state)) rebuild = builder_.finish_moved_test() || rebuild;
+    if (!rebuild && published_applies(s)) rebuild = s.field(kMoved).host<std::uint64_t>()[1] != 0;
+    else if (ahead_applies(s)) rebuild = builder_.finish_moved_test() || rebuild;
     else if (!rebuild) rebuild = builder_.template moved_too_far<D>(ctx, p_.skin);
     ahead_ = false;
     if (rebuild) builder_.template build<D>(ctx, p_.cutoff + p_.skin, where_);
