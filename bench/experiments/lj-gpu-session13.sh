@@ -15,8 +15,8 @@
 # rpath $ORIGIN/../../lib finds the bundle's lib/) and its test binary into BUNDLE/ljgpu/tests/.
 #   1. bits  (bits.txt): the CUDA tests of the touched stages against each variant's plugins;
 #   2. speed (ab.txt): tools/bench/plugin_ab.sh, 2^20, 100 steps after 20, 2 rounds interleaved;
-#   3. where the time goes (trace-<variant>.txt): a CUPTI trace of 30 bench steps of main, fused
-#      and ahead-pipe (a step from one pair.lj sum kernel to the next).
+#   3. where the time goes (trace-<variant>.txt): a CUPTI trace of 30 bench steps of main and
+#      fused (a step from one pair.lj sum kernel to the next).
 set -u
 B=$(cd "${BUNDLE:?set BUNDLE to the bundle of main}" && pwd)
 OUT=${OUT:?set OUT}
@@ -49,7 +49,9 @@ variant ahead-pipe2 neighbors-ahead.so pair-pipe2.so
 variant ahead-occ5 neighbors-ahead.so pair-occ5.so
 variant fused neighbors-fused.so overdamped-fused.so pair-pipe.so
 variant fused-n neighbors-fused.so overdamped-fused.so pair-pipen.so
-names=(fused fused-n ahead-pipe ahead ahead-pipe3 ahead-pipe2 ahead-occ5)
+# (the batch runs under a 150 s limit: pipe2 and occ5, the least likely, are left out of it; add
+# them back to NAMES to run them)
+names=(${NAMES:-fused fused-n ahead-pipe ahead ahead-pipe3})
 el "variants: ${names[*]}"
 
 # 1. bits. test_pair_cuda_run: neighbors.verlet + pair.lj + overdamped.integrate (max_step) for
@@ -64,11 +66,11 @@ el "variants: ${names[*]}"
     # (ahead has main's pair.lj)
     [[ $n == ahead ]] || (cd /tmp && timeout 60 "$B/bin/test_pair_lj" "[cuda]" 2>&1 | tail -3)
   done
-  for n in ahead fused; do
+  for n in fused; do
     echo "== $n: test_neighbors_verlet"
     FLIPFLOW_PLUGIN_PATH=$V/$n:$B/plugins timeout 90 "$B/bin/test_neighbors_verlet" 2>&1 | tail -2
   done
-  for t in test_pair_blowup test_overdamped_integrate test_overdamped_non_finite test_overdamped_brownian; do
+  for t in test_pair_blowup test_overdamped_integrate test_overdamped_non_finite; do
     echo "== fused: $t"
     (cd /tmp && FLIPFLOW_PLUGIN_PATH=$V/fused:$B/plugins timeout 60 "$B/bin/$t" 2>&1 | tail -2)
   done
@@ -81,15 +83,15 @@ el "bits done"; grep -E "^==|passed|failed|FAILED" "$OUT/bits.txt"
 # 2. speed: main's plugins (-) against every variant, interleaved, two rounds, 2^20.
 cd "$root"
 SIZES=${SIZES:-2^20} ROUNDS=${ROUNDS:-2} SHOW="rebuilds per|rollbacks per" PIPELINE_BIN=$B/bin/pipeline \
-  timeout 170 tools/bench/plugin_ab.sh "$B/pipelines/lj-aggregation.yaml" - "${names[@]/#/$V/}" > "$OUT/ab.txt" 2>&1
+  timeout 100 tools/bench/plugin_ab.sh "$B/pipelines/lj-aggregation.yaml" - "${names[@]/#/$V/}" > "$OUT/ab.txt" 2>&1
 el "speed done"; cat "$OUT/ab.txt"
 
 # 3. traces: kernel medians of the back-to-back pass (tools/gpu_trace).
 if [[ -f $B/lib/libflipflow_gpu_trace.so ]]; then
-  for name in main fused ahead-pipe; do
+  for name in main fused; do
     if [[ $name == main ]]; then unset FLIPFLOW_PLUGIN_PATH; else export FLIPFLOW_PLUGIN_PATH=$V/$name; fi
     CUDA_INJECTION64_PATH=$B/lib/libflipflow_gpu_trace.so FLIPFLOW_GPU_TRACE=$OUT/trace-$name.csv \
-      timeout 60 "$B/bin/pipeline" bench "$B/pipelines/lj-aggregation.yaml" --device cuda --sizes 2^20 --steps 30 \
+      timeout 25 "$B/bin/pipeline" bench "$B/pipelines/lj-aggregation.yaml" --device cuda --sizes 2^20 --steps 30 \
       --warmup 5 --results "$OUT/results" > /dev/null 2>&1
     /usr/bin/python3 tools/gpu_trace/summarize.py "$OUT/trace-$name.csv" --step-marker force_kernel --skip 5 --count 30 \
       > "$OUT/trace-$name.txt" 2>&1
