@@ -4,13 +4,13 @@
 #
 #   BUNDLE=/tmp/bundle OUT=$OUT bash gpu-carry/ljgpu/run.sh      (from the repository root)
 #
-# libs/: neighbors-ahead.so (libflipflow_stage_neighbors.so of ba4297d), neighbors-fused.so and
-# overdamped-fused.so (efd6a35), pair-pipe.so (libflipflow_plugin_pair.so of 9f7013c), and
+# libs/: neighbors-ahead.so (libflipflow_stage_neighbors.so of dc65805), neighbors-fused.so and
+# overdamped-fused.so (754c66a), pair-pipe.so (libflipflow_plugin_pair.so of 1e5602b), and
 # pair-{pipe3,pipe2,occ5,pipen}.so: the branch with bench/experiments/lj-s13/pair-*.patch applied;
 # each with `patchelf --force-rpath --set-rpath '$ORIGIN/../../lib'`. tests/test_pair_cuda_run:
 # the branch's (the same rpath).
 #
-# BUNDLE: a bundle of main (9c80e0c: bin/, lib/, plugins/, pipelines/). The script copies this
+# BUNDLE: a bundle of main (29a3dee: bin/, lib/, plugins/, pipelines/). The script copies this
 # folder's libraries into BUNDLE/ljgpu/<variant>/ (two folders below the bundle root, where their
 # rpath $ORIGIN/../../lib finds the bundle's lib/) and its test binary into BUNDLE/ljgpu/tests/.
 #   1. bits  (bits.txt): the CUDA tests of the touched stages against each variant's plugins;
