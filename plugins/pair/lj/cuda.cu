@@ -64,7 +64,7 @@ __global__ void pack_kernel(std::size_t n, const R* __restrict__ x, const R* __r
 // latency) is in flight while the current pair's terms are computed. The terms are added in
 // row order as before. 4 blocks of kBlock threads per SM (at most 64 registers), as the plain
 // loop had.
-template <class R, int D>
+template <class R, int D, int N>
 __global__ void __launch_bounds__(kBlock, 4)
     force_kernel(std::size_t n, LJForce<R, D> f, const R* __restrict__ record) {
   const std::size_t i = std::size_t(blockIdx.x) * blockDim.x + threadIdx.x;
@@ -85,7 +85,7 @@ __global__ void __launch_bounds__(kBlock, 4)
       j = __ldg(row + a + 1);
       load4(record + 4 * std::size_t(j), next);
     }
-    f.add_pair(own, other, own[3], other[3], f.type ? ti * kMaxTypes + __ldg(f.type + here) : 0, acc, u, w);
+    f.template add_pair<N>(own, other, own[3], other[3], f.type ? ti * kMaxTypes + __ldg(f.type + here) : 0, acc, u, w);
   }
   for (int c = 0; c < D; ++c) f.force[i * D + c] = acc[c];
   if (f.energy) {
@@ -100,7 +100,10 @@ void forces(std::size_t n, const LJForce<R, D>& f, LJScratch<R>& scratch, CUstre
   R* record = scratch.record.get(4 * n);
   pack_kernel<R, D><<<blocks(n), kBlock, 0, stream>>>(n, f.position, f.diameter, record);
   FF_CUDA_CHECK_LAUNCH("launching pair.lj's records");
-  force_kernel<R, D><<<blocks(n), kBlock, 0, stream>>>(n, f, record);
+  // The exponent as a template argument for the common 2n–n forms (kernel.h, add_pair).
+  if (f.n == 18) force_kernel<R, D, 18><<<blocks(n), kBlock, 0, stream>>>(n, f, record);
+  else if (f.n == 6) force_kernel<R, D, 6><<<blocks(n), kBlock, 0, stream>>>(n, f, record);
+  else force_kernel<R, D, 0><<<blocks(n), kBlock, 0, stream>>>(n, f, record);
   FF_CUDA_CHECK_LAUNCH("launching pair.lj");
 }
 

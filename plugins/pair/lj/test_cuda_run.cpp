@@ -1,10 +1,10 @@
 // A whole run of issue 16's step (neighbors.verlet, pair.lj, overdamped.integrate with max_step)
-// gives the same bits on CUDA as on the CPU, step by step. On CUDA neighbors.verlet enqueues the
-// next step's rebuild test at the end of each accepted step (after_step) and collects its answer
-// in the next run(); what could go wrong there — a test on positions that a later write or a
-// rollback changed, an answer used twice — shows as a rebuild on another step than the CPU's
-// (the metric) or as other forces, and from there other positions. The run is made to roll back
-// (Δt = 2e-4 moves a pair at contact by 0.2 σ > max_step = 0.1 σ) and to rebuild often.
+// gives the same bits on CUDA as on the CPU, step by step. On CUDA overdamped.integrate answers
+// neighbors.verlet's rebuild test in its own kernel and neighbors.verlet takes that answer in the
+// next step (neighbors.moved, stages/neighbors/list.h); what could go wrong there — an answer for
+// positions that a later write or a rollback changed — shows as a rebuild on another step than
+// the CPU's (the metric) or as other forces, and from there other positions. The run is made to
+// roll back (Δt = 2e-4 moves a pair at contact by 0.2 σ > max_step = 0.1 σ) and to rebuild often.
 #include <catch2/catch.hpp>
 #include <cstring>
 #include <map>

@@ -9,7 +9,6 @@
 #include <cstdint>
 
 #include "core/backend/exec.h"
-#include "core/backend/memory.h"
 #include "core/stage/stage.h"
 #include "stages/neighbors/list.h"
 #include "stages/neighbors/verlet/kernel.h"
@@ -34,18 +33,11 @@ using CellSort = void (*)(std::size_t n, std::uint32_t ncells, const std::uint32
                           std::uint32_t* cell_start, std::uint32_t* cell_end, CellSortScratch& scratch,
                           CUstream_st* stream);
 
-// The rebuild test enqueued without reading its answer back (ListBuild::start_moved_test), CUDA
-// only: waits for the device (so the test sees what every stream wrote), then clears `word`
-// (device memory) and enqueues the max of MovedTooFar into it on `stream`. None on the CPU.
-template <class R, int D>
-using MovedLoop = void (*)(std::size_t n, const MovedTooFar<R, D>& f, std::uint32_t* word, CUstream_st* stream);
-
 template <class R, int D>
 struct VerletLoopsD {
   ElementLoop<AssignCell<R, D>> assign;
   ElementLoop<BuildList<R, D>> build;
   ReduceLoop<MovedTooFar<R, D>, std::uint32_t> moved;  // the backend object's max
-  MovedLoop<R, D> moved_async;                         // CUDA only
 };
 
 template <class R>
@@ -66,8 +58,7 @@ template <class R>
 class ListBuild {
  public:
   template <class Exec>
-  explicit ListBuild(Exec exec)
-      : loops_(verlet_loops<R>(exec)), max_(exec), sort_scratch_(exec), moved_word_(exec) {}
+  explicit ListBuild(Exec exec) : loops_(verlet_loops<R>(exec)), max_(exec), sort_scratch_(exec) {}
 
   // The cell grid for lists of radius rl = cutoff + skin: cells of edge ≥ rl, at most ~4 per
   // particle so empty cells cost little. A function of the box, N and rl alone, so every
@@ -98,24 +89,6 @@ class ListBuild {
                               PeriodicBox<R>::make(s.box.L), half * half};
     return loops_d<D>().moved(s.n(), f, max_, ctx.stream) != 0;
   }
-
-  // moved_too_far in two halves, for a CUDA stage that asks the question before it needs the
-  // answer: start_moved_test waits for the device (MovedLoop), then enqueues the test on
-  // `stream` and the copy of its answer to pinned host memory; finish_moved_test waits for that
-  // copy only. False where the backend has no such loop (the CPU: ask moved_too_far).
-  template <int D>
-  bool start_moved_test(State& s, double skin, CUstream_st* stream) {
-    const MovedLoop<R, D> loop = loops_d<D>().moved_async;
-    if (!loop) return false;
-    const R half = R(0.5 * skin);
-    const MovedTooFar<R, D> f{s.field(fields::position).template device<R>(),
-                              s.field(kPositionAtBuild).template device<R>(), PeriodicBox<R>::make(s.box.L),
-                              half * half};
-    loop(s.n(), f, moved_word_.ptr(), stream);
-    moved_word_.start_read(stream);
-    return true;
-  }
-  bool finish_moved_test() { return moved_word_.finish_read()[0] != 0; }
 
   // Builds the list (list.h's fields) from the current positions: pairs within rl; rows grow
   // (reallocate and build again) when a particle has more neighbours than fit. `where`: the
@@ -167,7 +140,6 @@ class ListBuild {
   VerletLoops<R> loops_;
   Reduction<std::uint32_t> max_;  // the word of the backend's max-reductions
   CellSortScratch sort_scratch_;
-  Counters<1> moved_word_;  // start_moved_test's answer
   int grid_nc_[3] = {1, 1, 1};
   std::uint32_t max_neighbors_ = 0;
 };

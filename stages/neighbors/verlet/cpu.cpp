@@ -32,8 +32,8 @@ void cpu_sort(std::size_t n, std::uint32_t ncells, const std::uint32_t* cell, st
 template <class R>
 VerletLoops<R> verlet_loops(CpuExec) {
   using E = CpuExec;
-  return {{&E::for_each<AssignCell<R, 2>>, &E::for_each<BuildList<R, 2>>, &E::max<MovedTooFar<R, 2>>, nullptr},
-          {&E::for_each<AssignCell<R, 3>>, &E::for_each<BuildList<R, 3>>, &E::max<MovedTooFar<R, 3>>, nullptr},
+  return {{&E::for_each<AssignCell<R, 2>>, &E::for_each<BuildList<R, 2>>, &E::max<MovedTooFar<R, 2>>},
+          {&E::for_each<AssignCell<R, 3>>, &E::for_each<BuildList<R, 3>>, &E::max<MovedTooFar<R, 3>>},
           &E::max<CountOf>,
           &cpu_sort};
 }

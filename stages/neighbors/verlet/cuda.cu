@@ -1,8 +1,7 @@
 // CUDA loops of neighbors.verlet: the backend object's element loops and max-reduction
 // (core/backend/cuda/loop.cuh; it reads one word back: the rebuild decision and the capacity
-// check need the answer on the host), the rebuild test without that read-back (enqueued ahead
-// of the step that needs it), and a stable radix sort by cell (CUB) followed by a kernel that
-// marks cell ranges.
+// check need the answer on the host), and a stable radix sort by cell (CUB) followed by a kernel
+// that marks cell ranges.
 #include <cub/device/device_radix_sort.cuh>
 
 #include <algorithm>
@@ -54,28 +53,13 @@ void cuda_sort(std::size_t n, std::uint32_t ncells, const std::uint32_t* cell, s
   FF_CUDA_CHECK_LAUNCH("launching cell bounds (neighbors.verlet)");
 }
 
-// The rebuild test without the read-back (ListBuild::start_moved_test, MovedLoop): the
-// max-reduction's kernel into `word`, once every stream's work is done. The wait comes first:
-// the device is normally idle by now, and a clear enqueued before it would make it wait for that.
-template <class R, int D>
-void moved_async(std::size_t n, const MovedTooFar<R, D>& f, std::uint32_t* word, CUstream_st* stream) {
-  FF_CUDA_CHECK(cudaDeviceSynchronize(), "waiting for the step before the rebuild test (neighbors.verlet)");
-  FF_CUDA_CHECK(cudaMemsetAsync(word, 0, sizeof(std::uint32_t), stream), "clearing the rebuild test's word");
-  if (n == 0) return;
-  constexpr int block = 256;
-  reduce_max_kernel<MovedTooFar<R, D>><<<unsigned((n + block - 1) / block), block, 0, stream>>>(n, f, word);
-  FF_CUDA_CHECK_LAUNCH("launching the rebuild test (neighbors.verlet)");
-}
-
 }  // namespace
 
 template <class R>
 VerletLoops<R> verlet_loops(CudaExec) {
   using E = CudaExec;
-  return {{&E::for_each<AssignCell<R, 2>>, &E::for_each<BuildList<R, 2>>, &E::max<MovedTooFar<R, 2>>,
-           &moved_async<R, 2>},
-          {&E::for_each<AssignCell<R, 3>>, &E::for_each<BuildList<R, 3>>, &E::max<MovedTooFar<R, 3>>,
-           &moved_async<R, 3>},
+  return {{&E::for_each<AssignCell<R, 2>>, &E::for_each<BuildList<R, 2>>, &E::max<MovedTooFar<R, 2>>},
+          {&E::for_each<AssignCell<R, 3>>, &E::for_each<BuildList<R, 3>>, &E::max<MovedTooFar<R, 3>>},
           &E::max<CountOf>,
           &cuda_sort};
 }

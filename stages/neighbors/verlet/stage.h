@@ -3,15 +3,13 @@
 // rebuilds only then (metric `rebuilds`, 0 or 1). Row capacity grows (reallocate + rebuild)
 // whenever a particle has more neighbours than fit (metric `max_neighbors`).
 //
-// On CUDA the host must have the test's answer before it can launch (or skip) the build, and
-// waiting for it in run() drains the stream in the middle of the step (the kernel, its read-back
-// and the host's next launch: ~40 µs of a 0.3 ms step at 2^20). So the test of step k + 1 is
-// enqueued at the end of step k (after_step, once the step is accepted and every stage has
-// moved its particles), while the host goes on to the next step, and run() only collects the
-// answer — the same test on the same positions and build positions, so the same decisions.
-// Where the stage that moved the particles has already answered the test (neighbors.moved,
-// list.h: overdamped.integrate with max_step does, in its own kernel), run() takes that answer
-// and after_step enqueues nothing.
+// On CUDA the host must have the test's answer before it can launch (or skip) the build; a test
+// kernel of its own and the wait for its answer would drain the stream in the middle of the step
+// (~40 µs of a 0.3 ms step at 2^20). Where the stage that moved the particles has already
+// answered the test (neighbors.moved, list.h: overdamped.integrate with max_step does, in its own
+// kernel, read back with its own counters), run() takes that answer: the same test on the same
+// positions and build positions, so the same decisions. Else it tests itself. (Enqueuing the
+// test at the end of the step before instead, in after_step, gained less: bench/experiments.)
 #pragma once
 #include <algorithm>
 #include <cmath>
@@ -103,23 +101,6 @@ class Verlet final : public Stage {
     return run_d<3>(ctx);
   }
 
-  // CUDA: the next step's rebuild test (the comment at the top). Its kernel must see every
-  // position this step wrote, also those of stages on other streams than this one's: the host
-  // first waits for the device (ListBuild::start_moved_test), which is normally idle here (a
-  // stage at the step's end that reads counters back, as overdamped.integrate with max_step
-  // does, has waited for it already; else run() would wait for the same work in the next step).
-  void after_step(StepContext& ctx) override {
-    ahead_ = false;
-    State& s = ctx.state;
-    if (where_ != Where::device || !built_ || published_applies(s)) return;
-    Field& x = s.field(fields::position);
-    if (!x.valid_on(Where::device) || !s.field(kPositionAtBuild).valid_on(Where::device)) return;
-    ahead_ = s.dim() == 2 ? builder_.template start_moved_test<2>(s, p_.skin, ctx.stream)
-                          : builder_.template start_moved_test<3>(s, p_.skin, ctx.stream);
-    ahead_position_ = x.version();
-    for (int k = 0; k < 3; ++k) ahead_box_[k] = s.box.L[k];
-  }
-
   // The list itself is in the state's fields. A continued run must not rebuild it at its first
   // step (a list built from other positions lists pairs in another order, and the forces summed
   // over it round differently): keep "built" and the longest row (the metric).
@@ -147,16 +128,6 @@ class Verlet final : public Stage {
     return std::uint32_t(std::ceil(expected * 1.5)) + 8;
   }
 
-  // Whether after_step's test is this step's: the first run() after it (a retried attempt may
-  // have rebuilt, and the restore put back the positions at build), with the same positions
-  // (Field::version: no stage wrote them since) and the same box.
-  bool ahead_applies(const State& s) const {
-    if (!ahead_ || s.field(fields::position).version() != ahead_position_) return false;
-    for (int k = 0; k < 3; ++k)
-      if (s.box.L[k] != ahead_box_[k]) return false;
-    return true;
-  }
-
   // Whether the test answered by the stage that moved the particles (neighbors.moved) is for
   // the positions as they are.
   static bool published_applies(State& s) {
@@ -169,9 +140,7 @@ class Verlet final : public Stage {
     State& s = ctx.state;
     bool rebuild = !built_;
     if (!rebuild && published_applies(s)) rebuild = s.field(kMoved).host<std::uint64_t>()[1] != 0;
-    else if (ahead_applies(s)) rebuild = builder_.finish_moved_test() || rebuild;
     else if (!rebuild) rebuild = builder_.template moved_too_far<D>(ctx, p_.skin);
-    ahead_ = false;
     if (rebuild) builder_.template build<D>(ctx, p_.cutoff + p_.skin, where_);
     built_ = true;
     ctx.metrics.set("rebuilds", rebuild ? 1.0 : 0.0);
@@ -183,10 +152,6 @@ class Verlet final : public Stage {
   Where where_;
   ListBuild<R> builder_;
   bool built_ = false;
-  // after_step's test of the next step (CUDA): enqueued, on these positions and this box.
-  bool ahead_ = false;
-  std::uint64_t ahead_position_ = 0;
-  double ahead_box_[3] = {0, 0, 0};
 };
 
 }  // namespace ff::neighbors
