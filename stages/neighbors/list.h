@@ -10,6 +10,15 @@
 //                     precision. The list is complete for pairs closer than the cutoff while no
 //                     particle has moved skin/2 since the build; a stage that moves particles
 //                     after the build checks that and rebuilds the same list (verlet/build.h)
+//   neighbors.moved   u64, 2 values, on the host: the rebuild test answered ahead by the stage
+//                     that moved the particles last (overdamped.integrate with max_step, on CUDA:
+//                     in its kernel and its counters' read-back, so neighbors.verlet needs no
+//                     kernel and no wait of its own): [0] the position field's Field::version()
+//                     right after that write (0: nothing published), [1] 1 when some particle is
+//                     then farther than skin/2 (minimum image) from its position at build, else
+//                     0. neighbors.verlet takes [1] as its test while the positions' version is
+//                     still [0] (no stage wrote them since; the build positions change only with
+//                     the list, whose builders write the positions too or run before the test)
 //
 // Because each row is sorted by particle index, a stage that sums over a row in list order,
 // skipping pairs beyond its cutoff, adds the same terms in the same order whenever the list was
@@ -31,6 +40,7 @@ inline constexpr const char* kOrder = "neighbors.order";            // u32: part
 inline constexpr const char* kCell = "neighbors.cell";              // u32: cell of each particle at build
 inline constexpr const char* kCellStart = "neighbors.cell_start";   // u32 per cell: first slot in order
 inline constexpr const char* kCellEnd = "neighbors.cell_end";       // u32 per cell: one past the last
+inline constexpr const char* kMoved = "neighbors.moved";            // u64 x 2, host: the test answered ahead
 
 // Row length of the list (0 before the first build).
 inline std::uint32_t list_capacity(const State& s) {

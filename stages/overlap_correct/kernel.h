@@ -230,6 +230,25 @@ inline std::uint64_t mix_sum(std::uint64_t count) {
   return s;
 }
 
+// The push rule's constants in a step, for both corrections' gathers (Overlaps here, the Verlet
+// variant's Gather in verlet/kernel.h): one definition, filled by params.h's push_rule, so that
+// the two variants push with the same numbers and give the same bits for the same pairs.
+struct PushRule {
+  PeriodicBox<double> box;
+  double factor;    // 1 = reflect, 0.5 = contact
+  double cap;       // fraction of σ_v
+  double tol;       // relative overlap that still counts as converged
+  double inv_unit;  // 1 / length unit (the largest diameter at configure)
+  // Every diameter when they are all equal (else 0): the gathers then read no diameters at all.
+  // At N = 2^20 a gather's three loads per neighbour (half-edge, position, diameter) do not fit
+  // in the GPU's L2, so one load fewer is traffic saved; the value is the same bits.
+  double uniform = 0;
+  // Walls (wall_term): the axis they cut (0: x, 1: y, 2: z; -1: none). Along that axis a pair's
+  // offset is the plain difference of the coordinates, not the minimum image: no pair interacts
+  // across a wall.
+  int wall_axis = -1;
+};
+
 // What one particle's gather found.
 struct VertexPush {
   double dx = 0, dy = 0;  // capped displacement
@@ -247,32 +266,19 @@ struct VertexPush {
 // are the code they were before walls existed: no wall branch in the gathers and checks, a
 // minimum image on both axes (the loops pick the variant once per step from the parameters).
 template <class R, bool Walls = false>
-struct Overlaps {
+struct Overlaps : PushRule {
   const R* pos;                // N x 2
   const R* diameter;           // N
   const std::int32_t* he;      // 2 x 6N: {origin, next}
   const std::int32_t* vedge;   // N
   std::int32_t n;              // particles (the mesh has 3n edges, 6n half-edges)
   double reach2;               // (largest diameter)²: no pair farther apart overlaps
-  PeriodicBox<double> box;
-  double factor;               // 1 = reflect, 0.5 = contact
-  double cap;                  // fraction of σ_v
-  double tol;                  // relative overlap that still counts as converged
-  double inv_unit;             // 1 / length unit (the largest diameter at configure)
-  // Every diameter when they are all equal (else 0): the walks then read no diameters at all.
-  // At N = 2^20 a gather's three loads per neighbour (half-edge, position, diameter) do not fit
-  // in the GPU's L2, so one load fewer is traffic saved; the value is the same bits.
-  double uniform = 0;
-  // Walls (wall_term): the axis they cut (0: x, 1: y; -1: none) and the image counts they read.
-  // Along that axis a pair's offset is the plain difference of the coordinates, not the minimum
-  // image: no pair interacts across a wall.
-  int wall_axis = -1;
-  const std::int32_t* image = nullptr;  // N x 2
+  const std::int32_t* image = nullptr;  // N x 2: image counts, read with walls
 
   // The same problem with the wall code compiled in (W) or out (the members are the same).
   template <bool W>
   FF_HD Overlaps<R, W> with_walls() const {
-    return {pos, diameter, he, vedge, n, reach2, box, factor, cap, tol, inv_unit, uniform, wall_axis, image};
+    return {static_cast<const PushRule&>(*this), pos, diameter, he, vedge, n, reach2, image};
   }
 
   FF_HD double diameter_of(int v) const { return uniform > 0 ? uniform : double(diameter[v]); }

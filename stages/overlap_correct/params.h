@@ -10,6 +10,7 @@
 
 #include "core/base/error.h"
 #include "core/stage/state.h"
+#include "stages/overlap_correct/kernel.h"
 
 namespace ff::overlap {
 
@@ -115,5 +116,18 @@ struct DiameterRange {
   }
   bool stale(State& s) const { return s.field(fields::diameter).version() != version; }
 };
+
+// The push rule of this step's gathers, the same for both corrections: tol from tolerance_for,
+// unit the largest diameter at configure, diam the diameters now, wall_axis from wall_axis_of.
+inline PushRule push_rule(const Params& p, const State& s, double tol, double unit, const DiameterRange& diam,
+                          int wall_axis) {
+  return {PeriodicBox<double>::make(s.box.L),
+          p.mode == "contact" ? 0.5 : 1.0,
+          p.cap,
+          tol,
+          1.0 / unit,
+          diam.min == diam.max ? diam.max : 0.0,  // all diameters equal: none is read
+          wall_axis};
+}
 
 }  // namespace ff::overlap

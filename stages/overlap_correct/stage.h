@@ -178,20 +178,13 @@ class OverlapCorrect final : public Stage {
         throw RunError("overlap_correct: step " + std::to_string(ctx.host_params.step) +
                        ": the diameters changed; the largest is now more than half the distance between the walls");
     }
-    const double uniform = diam_.min == diam_.max ? diam_.max : 0.0;  // all diameters equal: none is read
-    const Overlaps<R, true> overlaps{x,
+    const Overlaps<R, true> overlaps{push_rule(p_, s, tol_, unit_, diam_, wall_axis_),
+                                     x,
                                      diam,
                                      he,
                                      ve,
                                      std::int32_t(n),
                                      diam_.max * diam_.max,
-                                     PeriodicBox<double>::make(s.box.L),
-                                     p_.mode == "contact" ? 0.5 : 1.0,
-                                     p_.cap,
-                                     tol_,
-                                     1.0 / unit_,
-                                     uniform,
-                                     wall_axis_,
                                      wall_axis_ >= 0 ? img : nullptr};
     std::uint8_t* touched = p_.mark ? s.field(touched_field).data<std::uint8_t>(ctx) : nullptr;
     const Problem<R> prob{overlaps, x, img, PeriodicBox<R>::make(s.box.L), n, touched};

@@ -217,19 +217,14 @@ Reference reference(State& s, double factor, double cap, double tol, int wall) {
   Reference out{positions(s), images(s), std::vector<std::uint8_t>(n, 0)};
   for (const char* f : {fields::diameter, delaunay::fields::halfedge, delaunay::fields::vertex_edge})
     s.field(f).acquire(Where::host, Mode::read);
-  overlap::Overlaps<double, true> m{out.xy.data(),
-                                    s.field(fields::diameter).host<double>(),
-                                    s.field(delaunay::fields::halfedge).host<std::int32_t>(),
-                                    s.field(delaunay::fields::vertex_edge).host<std::int32_t>(),
-                                    std::int32_t(n),
-                                    1.0,
-                                    PeriodicBox<double>::make(s.box.L),
-                                    factor,
-                                    cap,
-                                    tol,
-                                    1.0};
-  m.wall_axis = wall;
-  m.image = out.image.data();
+  const overlap::Overlaps<double, true> m{{PeriodicBox<double>::make(s.box.L), factor, cap, tol, 1.0, 0.0, wall},
+                                          out.xy.data(),
+                                          s.field(fields::diameter).host<double>(),
+                                          s.field(delaunay::fields::halfedge).host<std::int32_t>(),
+                                          s.field(delaunay::fields::vertex_edge).host<std::int32_t>(),
+                                          std::int32_t(n),
+                                          1.0,
+                                          out.image.data()};
   std::vector<double> d(2 * n);
   for (;;) {
     std::uint64_t bad = 0, pairs = 0, broken = 0;

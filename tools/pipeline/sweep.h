@@ -1,5 +1,7 @@
-// `pipeline sweep`: the plan (grid axes, one run per combination and replica, folder names) and
-// the index CSV. The running of the plan is in cmd_sweep.cpp.
+// `pipeline sweep`: its command line and plan (sweep_args.cpp: options, grid axes, every run
+// resolved and dry-run), the combinations, folder names and index CSV (sweep_plan.cpp), the GPUs
+// and CUDA MPS (sweep_gpus.cpp). The running of the plan is sweep_scheduler.h; cmd_sweep.cpp ties
+// them together.
 #pragma once
 #include <cstdint>
 #include <map>
@@ -42,6 +44,32 @@ struct Run {
 // Seeds and sets are filled in by the caller (they need the resolved pipeline).
 std::vector<Run> combinations(const std::vector<Axis>& axes, int replicas);
 void name_folders(const std::vector<Axis>& axes, std::vector<Run>& runs, bool with_seed);
+
+// `pipeline sweep FILE --grid ...` as given (sweep_args.cpp). Flags as in main.cpp's usage.
+struct SweepArgs {
+  std::string file;                    // the pipeline
+  std::vector<std::string> sets;       // --set, for every run
+  std::string device = "auto";         // --device
+  std::vector<std::string> grid_args;  // --grid, as written (for messages and sweep.txt)
+  std::vector<Axis> axes;              // --grid, parsed; one per argument, keys distinct
+  int replicas = 1;                    // --replicas: runs per combination
+  int concurrent = 1;                  // --concurrent: runs at once per GPU (on the CPU: in all)
+  int threads = 0;                     // --threads per run; 0: the cores shared out
+  std::string out;                     // --out; empty: sweeps/<file stem>
+  std::string mps_mode = "auto";       // --mps: auto, on, off
+  std::string gpus;                    // --gpus; empty: every visible GPU
+  bool force = false;                  // --force: every run again from the start
+  bool in_process = false;             // --in-process: runs on threads, not child processes
+};
+
+// Parses and checks the flags and the --grid arguments. InputError (exit 2) on anything wrong.
+SweepArgs parse_args(const std::vector<std::string>& args);
+
+// Every run of the sweep (combinations, then folder names), each resolved through the loader
+// with its --set arguments and dry-run on the CPU as `pipeline validate` does, which fills in
+// its seed, sets, N and steps. Nothing is written. A bad key or value is an InputError naming
+// the --grid argument (and value) it comes from.
+std::vector<Run> plan(const SweepArgs& args);
 
 // The index: one row per run, written to a temporary file and renamed (readers never see half
 // a file). Columns: folder, one per axis (its key), replica, seed, status, exit_code,

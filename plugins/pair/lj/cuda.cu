@@ -6,9 +6,11 @@
 // and its diameter cost ~2.5 scattered sectors per list entry. Each step a first kernel copies
 // position and diameter into one record of 4 reals per particle (D coordinates, zeros, the
 // diameter last: 32 bytes in double, 16 in float, aligned), and the sum reads each neighbour as
-// that record: one sector. The terms and their order are the CPU's (the row, in list order),
-// so the bits are too. Measured against the functor's own loop and the variants that lost
-// (lanes per particle, a spatial order of the particles): bench/experiments/README.md.
+// that record: one sector, and the sum asks for the next neighbour's record before it adds the
+// current pair's terms, so that gather is in flight during the arithmetic. The terms and their
+// order are the CPU's (the row, in list order), so the bits are too. Measured against the
+// functor's own loop and the variants that lost (lanes per particle, a spatial order of the
+// particles): bench/experiments/README.md.
 #include <cuda_runtime.h>
 
 #include <cstdint>
@@ -58,8 +60,13 @@ __global__ void pack_kernel(std::size_t n, const R* __restrict__ x, const R* __r
   store4(record + 4 * i, v);
 }
 
-template <class R, int D>
-__global__ void __launch_bounds__(kBlock) force_kernel(std::size_t n, LJForce<R, D> f, const R* __restrict__ record) {
+// The sum reads its row one entry ahead: the next neighbour's record (an L2 gather, the loop's
+// latency) is in flight while the current pair's terms are computed. The terms are added in
+// row order as before. 4 blocks of kBlock threads per SM (at most 64 registers), as the plain
+// loop had.
+template <class R, int D, int N>
+__global__ void __launch_bounds__(kBlock, 4)
+    force_kernel(std::size_t n, LJForce<R, D> f, const R* __restrict__ record) {
   const std::size_t i = std::size_t(blockIdx.x) * blockDim.x + threadIdx.x;
   if (i >= n) return;
   R own[4], acc[D] = {}, u = 0, w = 0;
@@ -67,11 +74,18 @@ __global__ void __launch_bounds__(kBlock) force_kernel(std::size_t n, LJForce<R,
   const int ti = f.type ? __ldg(f.type + i) : 0;
   const std::uint32_t cnt = __ldg(f.count + i);
   const std::uint32_t* row = f.list + i * f.capacity;
+  std::uint32_t j = cnt ? __ldg(row) : 0;
+  R next[4];
+  if (cnt) load4(record + 4 * std::size_t(j), next);
   for (std::uint32_t a = 0; a < cnt; ++a) {
-    const std::uint32_t j = __ldg(row + a);
     R other[4];
-    load4(record + 4 * std::size_t(j), other);
-    f.add_pair(own, other, own[3], other[3], f.type ? ti * kMaxTypes + __ldg(f.type + j) : 0, acc, u, w);
+    for (int c = 0; c < 4; ++c) other[c] = next[c];
+    const std::uint32_t here = j;
+    if (a + 1 < cnt) {
+      j = __ldg(row + a + 1);
+      load4(record + 4 * std::size_t(j), next);
+    }
+    f.template add_pair<N>(own, other, own[3], other[3], f.type ? ti * kMaxTypes + __ldg(f.type + here) : 0, acc, u, w);
   }
   for (int c = 0; c < D; ++c) f.force[i * D + c] = acc[c];
   if (f.energy) {
@@ -86,7 +100,10 @@ void forces(std::size_t n, const LJForce<R, D>& f, LJScratch<R>& scratch, CUstre
   R* record = scratch.record.get(4 * n);
   pack_kernel<R, D><<<blocks(n), kBlock, 0, stream>>>(n, f.position, f.diameter, record);
   FF_CUDA_CHECK_LAUNCH("launching pair.lj's records");
-  force_kernel<R, D><<<blocks(n), kBlock, 0, stream>>>(n, f, record);
+  // The exponent as a template argument for the common 2n–n forms (kernel.h, add_pair).
+  if (f.n == 18) force_kernel<R, D, 18><<<blocks(n), kBlock, 0, stream>>>(n, f, record);
+  else if (f.n == 6) force_kernel<R, D, 6><<<blocks(n), kBlock, 0, stream>>>(n, f, record);
+  else force_kernel<R, D, 0><<<blocks(n), kBlock, 0, stream>>>(n, f, record);
   FF_CUDA_CHECK_LAUNCH("launching pair.lj");
 }
 

@@ -107,6 +107,9 @@ struct LJForce {
   // Adds the terms of the pair (i, j) to f (and u, w with energy): xi, xj their positions, di,
   // dj their diameters (read only when σ_ij comes from them), ab the table entry of their types.
   // operator() and the CUDA loops (cuda.cu) both sum through it, so they do the same operations.
+  // N > 0: the exponent n as a constant (the CUDA loop's for n = 6 and 18: power() unrolled into
+  // the same products).
+  template <int N = 0>
   FF_HD void add_pair(const R* xi, const R* xj, R di, R dj, int ab, R f[D], R& u, R& w) const {
     R d[D], r2 = 0;
     for (int c = 0; c < D; ++c) {
@@ -122,7 +125,7 @@ struct LJForce {
       inv_r2 = s / sig2;
     }
     const R eps = table.epsilon[ab];
-    const LJTerms<R> t = lj_terms(s, inv_r2, eps, n);
+    const LJTerms<R> t = lj_terms(s, inv_r2, eps, N > 0 ? N : n);
     for (int c = 0; c < D; ++c) f[c] += math::mul_rn(t.magnitude, d[c]);
     if (energy) {
       u += lj_energy(t, eps, shift);

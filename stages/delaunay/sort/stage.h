@@ -1,9 +1,14 @@
 // delaunay.sort: renumbers the particles along a Hilbert curve over the box, once, when the
-// pipeline is configured (before any step or output). Every field with one element per
+// pipeline is configured (before any step or output); in 2D the periodic curve of
+// common/hilbert.h, in 3D CGAL's (sort/hilbert3.cpp). Every field with one element per
 // particle (position, image, type, diameter, and whatever the stages listed before it added)
 // is permuted the same way, so the initial state is the same set of particles in another
 // order. Afterwards neighbours in space are neighbours in memory: the triangulation's edge loops
-// (and any per-particle loop that gathers from neighbours) hit the cache instead of memory.
+// and any per-particle loop that gathers from neighbours (Verlet rows: pair.lj, phoretic short
+// range, the 3D pipelines, which have no triangulation) hit the cache instead of memory. The
+// order is made once: over a long run particles diffuse away from it, and the gain fades with
+// the distance they travel relative to the box (neighbours stay near in memory while they stay
+// within a few diameters).
 //
 // List it first in `step:` (or at least before any stage that keeps per-particle data outside
 // State fields). It refuses to run on a state that already has a triangulation. Its per-step
@@ -19,7 +24,8 @@
 namespace ff::delaunay {
 
 // Permutes every per-particle field of `s` (count == N) into Hilbert order of the positions.
-// Returns the names of the fields permuted. InputError unless 2D, or if a triangulation exists.
+// Returns the names of the fields permuted. InputError unless 2D or 3D, or if a triangulation
+// exists.
 std::vector<std::string> sort_particles_hilbert(State& s);
 
 class Sort final : public Stage {
@@ -30,7 +36,7 @@ class Sort final : public Stage {
             "renumber the particles along a Hilbert curve once, at configure time (every per-particle field "
             "permuted alike), for memory locality; list it first",
             {},
-            {2},
+            {2, 3},
             false};
   }
   Sort(const ParamValues&, const RunInfo&) {}

@@ -1,9 +1,11 @@
 // delaunay.sort: at configure time the particles are renumbered along a Hilbert curve; every
 // per-particle field moves with its particle (other fields stay), the initial configuration is
 // the same set of particles, consecutive particles are close in space, and a pipeline that
-// starts with it maintains CGAL's triangulation as before. Refusals: 3D, or a triangulation
-// already built.
+// starts with it maintains CGAL's triangulation as before; in 3D the same along CGAL's Hilbert
+// curve. Refusal: a triangulation already built.
 #include <algorithm>
+#include <cmath>
+#include <random>
 
 #include "core/base/error.h"
 #include "core/run/simulation.h"
@@ -84,13 +86,56 @@ TEST_CASE("sort: every per-particle field moves with its particle, into Hilbert 
   CHECK(spread_after < 2);
 }
 
-TEST_CASE("sort: refusals", "[delaunay][sort]") {
-  SECTION("3D") {
-    State s(3, Precision::f64, 10);
-    for (int k = 0; k < 3; ++k) s.box.L[k] = 5;
-    auto st = make_stage("delaunay.sort", Backend::cpu);
-    CHECK_THROWS_AS(st->configure(s), InputError);
+TEST_CASE("sort: in 3D the particles move along CGAL's Hilbert curve, fields with them", "[delaunay][sort]") {
+  const std::size_t n = 20000;
+  const double L = 30;
+  State s(3, Precision::f64, n);
+  for (int k = 0; k < 3; ++k) s.box.L[k] = L;
+  Field& pos = s.field(fields::position);
+  double* x = pos.host<double>();
+  std::mt19937_64 rng(5);
+  std::uniform_real_distribution<double> u(0, L);
+  for (std::size_t k = 0; k < 3 * n; ++k) x[k] = u(rng);
+  const std::vector<double> before(x, x + 3 * n);
+  Field& tag = s.add_field("test.tag", DType::i32, 1, n);
+  for (std::size_t i = 0; i < n; ++i) tag.host<std::int32_t>()[i] = std::int32_t(i);
+  // Mean distance between particles i and i+1 (minimum image), in units of the mean spacing.
+  auto spread = [&](const double* p) {
+    double sum = 0;
+    for (std::size_t i = 0; i + 1 < n; ++i) {
+      double d2 = 0;
+      for (int k = 0; k < 3; ++k) {
+        double d = p[3 * i + 3 + k] - p[3 * i + k];
+        d -= L * std::rint(d / L);
+        d2 += d * d;
+      }
+      sum += std::sqrt(d2);
+    }
+    return sum / double(n - 1) / std::cbrt(L * L * L / double(n));
+  };
+  const double spread_before = spread(before.data());
+
+  auto st = make_stage("delaunay.sort", Backend::cpu);
+  st->configure(s);
+
+  std::vector<bool> seen(n, false);
+  bool rows_agree = true;
+  for (std::size_t r = 0; r < n; ++r) {
+    const std::int32_t i = s.field("test.tag").host<std::int32_t>()[r];
+    REQUIRE(i >= 0);
+    REQUIRE(std::size_t(i) < n);
+    seen[std::size_t(i)] = true;
+    for (int k = 0; k < 3; ++k) rows_agree = rows_agree && x[3 * r + k] == before[3 * std::size_t(i) + k];
   }
+  CHECK(rows_agree);
+  CHECK(std::all_of(seen.begin(), seen.end(), [](bool b) { return b; }));  // a permutation
+  const double spread_after = spread(x);
+  INFO("mean distance between consecutive particles / mean spacing: " << spread_before << " -> " << spread_after);
+  CHECK(spread_before > 10);  // random order: about the box's mean distance, ~ (N)^(1/3) spacings
+  CHECK(spread_after < 2);    // a space-filling curve: about one spacing
+}
+
+TEST_CASE("sort: refusals", "[delaunay][sort]") {
   SECTION("after a triangulation was built") {
     auto s = make_state(random_points(300, 20, 20, 2), 20, 20);
     auto build = make_stage("delaunay.build", Backend::cpu);

@@ -16,6 +16,7 @@
 #include "core/physics/overdamped.h"
 #include "core/physics/rng.h"
 #include "core/stage/step_params.h"
+#include "stages/neighbors/verlet/kernel.h"
 
 namespace ff::overdamped {
 
@@ -133,6 +134,12 @@ struct OverdampedStep {
   // stage then stops the run: a smaller Δt cannot mend a NaN force); null: no check.
   unsigned* too_far = nullptr;
   double max_step2 = 0;
+  // With max_step on CUDA, where a Verlet list is kept (stages/neighbors/list.h,
+  // neighbors.moved): its rebuild test on the new positions — neighbors.verlet's own functor,
+  // reading `position` after the move — counting the particles farther than skin/2 from their
+  // build positions in *moved. Null: no test.
+  unsigned* moved = nullptr;
+  neighbors::MovedTooFar<R, D> list_test{};
   // Particles whose position, or whose drift's own fields, are not finite after the step
   // (NonFiniteReport above; the stages always set it).
   NonFiniteReport non_finite;
@@ -182,6 +189,9 @@ struct OverdampedStep {
   FF_HD void operator()(std::size_t i) const {
     overdamped_step(*this, i);
     if (non_finite.counters && !finite(i, 1)) non_finite.report(i, params);
+    if constexpr (General) {
+      if (moved && list_test(i)) count_one(moved);
+    }
   }
   // The CPU loop's check, once per block of particles [first, first + count) after their moves
   // (core/physics/overdamped.h): one pass over values still in L1 whose compares vectorise,

@@ -15,6 +15,7 @@
 #include "core/stage/params.h"
 #include "core/stage/stage.h"
 #include "core/stage/stage_registration.h"
+#include "stages/neighbors/list.h"
 #include "stages/overdamped/integrate/finite_check.h"
 #include "stages/overdamped/integrate/kernel.h"
 
@@ -119,6 +120,18 @@ class OverdampedIntegrate final : public Stage {
     types_ = s.species.empty() ? 1 : s.species.size();
     check_per_type("D", p_.D);
     check_per_type("mobility", p_.mobility);
+    // A Verlet list made before this stage (neighbors.verlet): answer its rebuild test for the
+    // positions this step writes, where the counters are read back anyway (max_step) and the
+    // test would otherwise cost a kernel and a wait of its own (CUDA). skin/2 squared as
+    // ListBuild::moved_too_far computes it, so the answers are the same.
+    lists_moved_ = where_ == Where::device && p_.max_step > 0 && s.has_field(neighbors::kMoved) &&
+                   s.has_field(neighbors::kBuildParams);
+    if (lists_moved_) {
+      Field& bp = s.field(neighbors::kBuildParams);
+      bp.acquire(Where::host, Mode::read);
+      const R half = R(0.5 * bp.host<double>()[1]);
+      skin_half2_ = half * half;
+    }
   }
 
   // Every element of position and image is rewritten each step from its previous value, which
@@ -129,6 +142,10 @@ class OverdampedIntegrate final : public Stage {
     if (reads_velocity_) a.push_back({kVelocity, where_, Mode::read});
     if (reads_force_) a.push_back({kForce, where_, Mode::read});
     if (per_type()) a.push_back({fields::type, where_, Mode::read});
+    if (lists_moved_) {
+      a.push_back({neighbors::kPositionAtBuild, where_, Mode::read});
+      a.push_back({neighbors::kMoved, Where::host, Mode::write});
+    }
     return a;
   }
 
@@ -168,13 +185,17 @@ class OverdampedIntegrate final : public Stage {
       f.drift.velocity = reads_velocity_ ? ptr(kVelocity) : nullptr;
       f.drift.force = reads_force_ ? ptr(kForce) : nullptr;
       if (p_.max_step > 0) {
-        f.too_far = too_far_.ptr();
+        f.too_far = too_far_.ptr() + 1;
         f.max_step2 = p_.max_step * p_.max_step;
+      }
+      if (lists_moved_) {
+        f.moved = too_far_.ptr();
+        f.list_test = {f.position, ptr(neighbors::kPositionAtBuild), f.box, skin_half2_};
       }
       return f;
     };
     // Counts start at 0, first particles at ~0u (they keep a minimum): fills on the loop's side.
-    if (p_.max_step > 0) too_far_.reset(std::array<int, 2>{1, 3}, ctx.stream);
+    if (p_.max_step > 0) too_far_.reset(std::array<int, 2>{2, 4}, ctx.stream);
     if (in_place) launch(ctx, loops_.in_place, common, general);
     else launch(ctx, loops_.from_snapshot, common, general);
     const Outcome out = p_.max_step > 0 ? too_far(ctx) : Outcome::ok();
@@ -214,7 +235,13 @@ class OverdampedIntegrate final : public Stage {
 
  private:
   Outcome too_far(StepContext& ctx) {
-    const std::array<unsigned, 4>& c = too_far_.read(ctx.stream);
+    const std::array<unsigned, 5>& all = too_far_.read(ctx.stream);
+    if (lists_moved_) {  // the list's test for these positions (neighbors.moved)
+      std::uint64_t* moved = ctx.state.field(neighbors::kMoved).host<std::uint64_t>();
+      moved[0] = ctx.state.field(fields::position).version();
+      moved[1] = all[0] != 0 ? 1 : 0;
+    }
+    const unsigned* c = all.data() + 1;  // max_step's slots
     if (c[2]) {
       NonFiniteFound f;
       f.count = c[2];
@@ -274,10 +301,12 @@ class OverdampedIntegrate final : public Stage {
   IntegrateLoops<R> loops_;
   std::string id_;             // the stage's id, for messages
   State* state_ = nullptr;     // for save_state's message
-  Counters<4> too_far_;        // max_step's count and first particle; non-finite ones'
+  Counters<5> too_far_;        // the list's test (lists_moved_); max_step's count and first particle; non-finite ones'
   NonFiniteCheck finite_;      // every step's check of the positions (finite_check.h)
   bool reads_velocity_ = false, reads_force_ = false;
   std::size_t types_ = 1;
+  bool lists_moved_ = false;  // answers a Verlet list's rebuild test (configure)
+  R skin_half2_ = 0;          // (skin/2)² of that list
 };
 
 }  // namespace ff::overdamped

@@ -30,20 +30,13 @@ inline constexpr int kBadShift = 32;
 // true). Without them the gather is the code it was before they existed (the stage picks the
 // variant from its parameters).
 template <class R, int D, bool Walls = false, bool Mark = false>
-struct Gather {
+struct Gather : PushRule {
   const R* pos;                  // N x D
   const R* diameter;             // N
   const std::uint32_t* list;     // N x capacity, rows in ascending index order
   const std::uint32_t* count;    // N
   std::uint32_t capacity;
-  PeriodicBox<double> box;
-  double factor;                 // 1 = reflect, 0.5 = contact
-  double cap;                    // fraction of σ_v
-  double tol;                    // relative overlap that still counts as converged
-  double inv_unit;               // 1 / length unit (the largest diameter at configure)
-  double uniform;                // every diameter when all are equal (none is read then), else 0
   double* disp;                  // N x (D + 1): v's capped displacement and its length
-  int wall_axis = -1;            // walls: the axis they cut (Walls)
   const std::int32_t* image = nullptr;  // N x D, read with walls
   std::uint8_t* touched = nullptr;      // the touched field (Mark)
   bool first = false;                   // the step's first gather: it writes every touched entry

@@ -158,7 +158,6 @@ class OverlapCorrectVerlet final : public Stage {
                        ": the diameters changed; the largest is now more than half the distance between the walls");
     }
     std::uint8_t* touched = p_.mark ? s.field(touched_field).data<std::uint8_t>(ctx) : nullptr;
-    const double uniform = diam_.min == diam_.max ? diam_.max : 0.0;  // all diameters equal: none is read
     double* disp = disp_.get((D + 1) * n);
     std::int64_t iterations = 0, rebuilds = 0;
     std::uint64_t pairs = 0;
@@ -173,19 +172,13 @@ class OverlapCorrectVerlet final : public Stage {
                        "or skin of neighbors.verlet");
       R* x = s.field(fields::position).data<R>(ctx);
       std::int32_t* img = s.field(fields::image).data<std::int32_t>(ctx);
-      Gather<R, D, Walls, Mark> gather{x,
+      Gather<R, D, Walls, Mark> gather{push_rule(p_, s, tol_, unit_, diam_, wall_axis_),
+                                       x,
                                        s.field(fields::diameter).data<R>(ctx),
                                        s.field(kList).data<std::uint32_t>(ctx),
                                        s.field(kCount).data<std::uint32_t>(ctx),
                                        capacity,
-                                       PeriodicBox<double>::make(s.box.L),
-                                       p_.mode == "contact" ? 0.5 : 1.0,
-                                       p_.cap,
-                                       tol_,
-                                       1.0 / unit_,
-                                       uniform,
                                        disp,
-                                       wall_axis_,
                                        wall_axis_ >= 0 ? img : nullptr,
                                        touched};
       const Apply<R, D> apply{x, img, PeriodicBox<R>::make(s.box.L), disp, 1.0 / unit_};

@@ -6,6 +6,11 @@ namespace ff::voronoi {
 namespace {
 
 constexpr int kBlock = 256;
+// Four blocks (32 warps) per SM instead of the three that 74 registers allow: registers capped
+// at 64 (4 B spilled), more fan walks in flight to hide their chains of dependent loads. On an
+// H200 at 2^20: 0.148 ms per call against 0.159 (bench/experiments/README.md, "voronoi.geometry
+// CUDA variants").
+constexpr int kBlocksPerSm = 4;
 
 // One particle per thread. With metrics, each block adds its terms to sums.device with one
 // atomic per sum (integers: the total does not depend on the order), and the last block to
@@ -13,7 +18,7 @@ constexpr int kBlock = 256;
 // launch: no memset, no copy and no host wait on the stream (the stage reads sums.out after the
 // step, behind a fence).
 template <class R>
-__global__ void __launch_bounds__(kBlock) cells_kernel(std::size_t n, CellGeometry<R> f, MetricSums sums) {
+__global__ void __launch_bounds__(kBlock, kBlocksPerSm) cells_kernel(std::size_t n, CellGeometry<R> f, MetricSums sums) {
   const std::size_t i = std::size_t(blockIdx.x) * kBlock + threadIdx.x;
   MetricTerms t;
   if (i < n) t = f.cell(int(i));
