@@ -435,15 +435,15 @@ constexpr int kMinBlocks = 2;
 // Small systems: a team (team_sync) runs the iterations instead of the grid: one block of
 // kOneThreads for n ≤ kOneBlockMaxN, a cluster of kClusterBlocks blocks of kClusterThreads for
 // n ≤ kClusterMaxN. At 2^14 (bench-abp, H200) the grid's iteration costs ~15 µs for what is a few
-// µs of walks: three grid barriers and the cooperative launch are the time. Chosen here: no
-// one-block team, a cluster of 16 x 256 up to 2^16 (its bits checked on the H200: CPU == CUDA
-// and the reference loop). Its speed, and the other shapes (one block of 512, clusters of 16 x 512
-// and 8 x 512), are being measured: bench/overlap_correct-PERF.md, session 13, says what came back.
+// µs of walks: three grid barriers and the cooperative launch are the time. Chosen from the H200
+// A/B (bench/overlap_correct-PERF.md, session 13): a cluster of 16 x 512 up to 4096 particles,
+// where its cheap barrier wins; from 2^14 on the grid's 132 SMs do more than its 16 can save,
+// and one block of 512 loses at every size (it has one SM's worth of threads). No one-block team.
 constexpr int kOneThreads = 512;
 constexpr std::size_t kOneBlockMaxN = 0;
 constexpr int kClusterBlocks = 16;
-constexpr int kClusterThreads = 256;
-constexpr std::size_t kClusterMaxN = std::size_t(1) << 16;
+constexpr int kClusterThreads = 512;
+constexpr std::size_t kClusterMaxN = 4096;
 
 // A team's block size; 128 registers a thread, as the grid's kernel (kMinBlocks).
 template <int Team>
