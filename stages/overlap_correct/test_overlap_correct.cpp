@@ -516,24 +516,34 @@ TEST_CASE("overlap_correct: bit-identical results for 1, 2 and 4 threads", "[ove
   }
 }
 
+namespace {
+
+// One step of `spec` from its jiggled initial state on backend b: the positions after it and the
+// step's iteration and pair counts.
+struct OneStep {
+  std::vector<double> xy;
+  double iterations = 0, pairs = 0;
+};
+OneStep one_step(const PipelineSpec& spec, Backend b) {
+  auto state = make_initial_state(spec.system, spec.run.precision, spec.run.seed);
+  jiggle(*state, 0.1, 5);
+  Simulation sim(spec, registry(), dry(b), std::move(state));
+  sim.advance();
+  sim.synchronize();
+  return {positions(sim.state()), metric(sim, "iterations"), metric(sim, "pairs")};
+}
+
+}  // namespace
+
 TEST_CASE("overlap_correct: CPU and CUDA give the same bits (double) and agree in float", "[overlap][cuda]") {
   if (!test::have_cuda("overlap_correct CPU-vs-CUDA")) return;
   for (Precision p : {Precision::f64, Precision::f32})
     for (const char* mode : {"reflect", "contact"}) {
       INFO(to_string(p) << " " << mode);
       const auto spec = correct_spec(20000, 0.75, {{"mode", std::string(mode)}}, p);
-      std::vector<std::vector<double>> xy;
-      std::vector<double> iterations;
-      for (Backend b : {Backend::cpu, Backend::cuda}) {
-        auto state = make_initial_state(spec.system, spec.run.precision, spec.run.seed);
-        jiggle(*state, 0.1, 5);
-        Simulation sim(spec, registry(), dry(b), std::move(state));
-        sim.advance();
-        sim.synchronize();
-        xy.push_back(positions(sim.state()));
-        iterations.push_back(metric(sim, "iterations"));
-      }
-      CHECK(iterations[0] == iterations[1]);
+      const OneStep cpu = one_step(spec, Backend::cpu), cuda = one_step(spec, Backend::cuda);
+      const std::vector<std::vector<double>> xy{cpu.xy, cuda.xy};
+      CHECK(cpu.iterations == cuda.iterations);
       if (p == Precision::f64) {
         CHECK(std::memcmp(xy[0].data(), xy[1].data(), xy[0].size() * sizeof(double)) == 0);
       } else {
@@ -554,21 +564,11 @@ TEST_CASE("overlap_correct: CPU and CUDA give the same bits on either device pat
   for (std::uint64_t n : {3000u, 4096u, 65536u, 100000u}) {
     INFO("n " << n);
     const auto spec = correct_spec(n, 0.75, {});
-    std::vector<std::vector<double>> xy;
-    std::vector<double> iterations, pairs;
-    for (Backend b : {Backend::cpu, Backend::cuda}) {
-      auto state = make_initial_state(spec.system, spec.run.precision, spec.run.seed);
-      jiggle(*state, 0.1, 5);
-      Simulation sim(spec, registry(), dry(b), std::move(state));
-      sim.advance();
-      sim.synchronize();
-      xy.push_back(positions(sim.state()));
-      iterations.push_back(metric(sim, "iterations"));
-      pairs.push_back(metric(sim, "pairs"));
-    }
-    CHECK(iterations[0] >= 3);
-    CHECK(iterations[0] == iterations[1]);
-    CHECK(pairs[0] == pairs[1]);
+    const OneStep cpu = one_step(spec, Backend::cpu), cuda = one_step(spec, Backend::cuda);
+    const std::vector<std::vector<double>> xy{cpu.xy, cuda.xy};
+    CHECK(cpu.iterations >= 3);
+    CHECK(cpu.iterations == cuda.iterations);
+    CHECK(cpu.pairs == cuda.pairs);
     CHECK(std::memcmp(xy[0].data(), xy[1].data(), xy[0].size() * sizeof(double)) == 0);
   }
 }
