@@ -45,9 +45,8 @@
 // block sums the shards and takes the same decision (keeps_going). Integer sums do not depend
 // on the order, so neither does anything else.
 //
-// Small systems (team_for): the same kernel runs in a team of blocks instead of the grid, one
-// block (n ≤ kOneBlockMaxN; its barriers are __syncthreads) or a thread-block cluster (n ≤
-// kClusterMaxN; cluster.sync, and each block reads the others' block sums from their shared
+// Small systems (team_for): the same kernel runs in a thread-block cluster instead of the grid
+// (n ≤ kClusterMaxN; cluster.sync, and each block reads the others' block sums from their shared
 // memory instead of the sharded atomics). Who gathers a particle changes, not what it gathers, so
 // the bits and the iteration counts are the grid's (test_overlap_correct: CPU == CUDA on both
 // sides of the thresholds).
@@ -178,10 +177,9 @@ template <int Threads>
 constexpr int kGroupBelow = Threads / 2;
 
 // Who runs a launch's iterations (Team): the grid (kGrid: a cooperative launch of every block that
-// fits on the device, grid barriers between phases) or a team of Team blocks, all launched at
-// once: one block (Team = 1, __syncthreads) or a thread-block cluster (sm_90; cluster.sync(), a
-// barrier in the hardware, where a grid barrier is atomics on a global word and a spin, ~3 µs on
-// the H100 with 64 blocks, bench/overlap_correct-PERF.md). Team blocks do the work of the grid's
+// fits on the device, grid barriers between phases) or a thread-block cluster of Team blocks
+// (sm_90; cluster.sync(), a barrier in the hardware, where a grid barrier is atomics on a global
+// word and a spin: bench/overlap_correct-PERF.md has both's costs). Team blocks do the work of the grid's
 // with fewer threads; small systems (DeviceLoops::team_for) have too little work to fill the grid,
 // and there the barriers (three per iteration) and the cooperative launch are the time.
 constexpr int kGrid = 0;
@@ -193,8 +191,6 @@ template <int Team>
 __device__ void team_sync() {
   if constexpr (Team == kGrid) {
     cg::this_grid().sync();
-  } else if constexpr (Team == 1) {
-    __syncthreads();
   } else {
 #if defined(__CUDA_ARCH__) && __CUDA_ARCH__ >= 900
     cg::this_cluster().sync();
@@ -234,10 +230,9 @@ template <class R, int Threads, int MinBlocks, int Team, bool Walls, bool Mark>
 __global__ void __launch_bounds__(Threads, MinBlocks) correct_kernel(Args<R, Walls> a) {
   constexpr int kReported = Sums<Mark>::kReported, kMoved = Sums<Mark>::kMoved, kAll = Sums<Mark>::kAll;
   constexpr int kWarps = Threads / 32, kGroups = Threads / kGroup;
-  constexpr bool kOneBlock = Team == 1;  // counters summed in the block alone, barriers __syncthreads
   // A cluster's blocks sum the counters from each other's shared memory (s_part) instead of
   // global atomics and loads: no round trip to L2 between the barrier and the decision.
-  constexpr bool kCluster = Team > 1;
+  constexpr bool kCluster = Team != kGrid;
   __shared__ u64 s_part[kAll];  // (kCluster) this block's sums of the iteration
   __shared__ int s_warp[kWarps];
   __shared__ int s_seeds, s_moved, s_count;
@@ -335,14 +330,14 @@ __global__ void __launch_bounds__(Threads, MinBlocks) correct_kernel(Args<R, Wal
       } else {
         s = u64(s_moved);
       }
-      if (tail || kOneBlock)
+      if (tail)
         s_tot[threadIdx.x] = s;
       else if (kCluster)
         s_part[threadIdx.x] = s;
       else if (s)
         atomicAdd(a.slots + (std::size_t(j) * kAll + threadIdx.x) * kShards * kShardStride + shard, s);
     }
-    if (!tail && !kOneBlock) {
+    if (!tail) {
       team_sync<Team>();
       if (threadIdx.x < kAll) {
         u64 s = 0;
@@ -432,22 +427,19 @@ __global__ void __launch_bounds__(Threads, MinBlocks) correct_kernel(Args<R, Wal
 // bench/README.md, "Numbers formerly in source comments").
 constexpr int kMinBlocks = 2;
 
-// Small systems: a team (team_sync) runs the iterations instead of the grid: one block of
-// kOneThreads for n ≤ kOneBlockMaxN, a cluster of kClusterBlocks blocks of kClusterThreads for
-// n ≤ kClusterMaxN. At 2^14 (bench-abp, H200) the grid's iteration costs ~15 µs for what is a few
-// µs of walks: three grid barriers and the cooperative launch are the time. Chosen from the H200
-// A/B (bench/overlap_correct-PERF.md, session 13): a cluster of 16 x 512 up to 4096 particles,
-// where its cheap barrier wins; from 2^14 on the grid's 132 SMs do more than its 16 can save,
-// and one block of 512 loses at every size (it has one SM's worth of threads). No one-block team.
-constexpr int kOneThreads = 512;
-constexpr std::size_t kOneBlockMaxN = 0;
+// Small systems: a cluster of kClusterBlocks blocks of kClusterThreads runs the iterations
+// instead of the grid for n ≤ kClusterMaxN: there an iteration's walks are short, and the grid's
+// three barriers per iteration and its cooperative launch are the time. The shape and the
+// threshold come from the A/B in bench/overlap_correct-PERF.md (session 13): above the threshold
+// the grid's SMs do more than the cluster's barrier saves; one block alone (a variant there)
+// lost at every size.
 constexpr int kClusterBlocks = 16;
 constexpr int kClusterThreads = 512;
 constexpr std::size_t kClusterMaxN = 4096;
 
 // A team's block size; 128 registers a thread, as the grid's kernel (kMinBlocks).
 template <int Team>
-constexpr int threads_of = Team == kGrid ? kThreads : Team == 1 ? kOneThreads : kClusterThreads;
+constexpr int threads_of = Team == kGrid ? kThreads : kClusterThreads;
 template <int Team>
 constexpr int min_blocks_of = Team == kGrid ? kMinBlocks : std::max(1, 512 / threads_of<Team>);
 
@@ -456,7 +448,7 @@ void* kernel_ptr() {
   return reinterpret_cast<void*>(correct_kernel<R, threads_of<Team>, min_blocks_of<Team>, Team, Walls, Mark>);
 }
 
-// The launch's shape for a team of Team > 0 blocks (a cluster when Team > 1).
+// The launch's shape for a cluster of Team blocks.
 template <int Team>
 cudaLaunchConfig_t team_config(cudaLaunchAttribute* attr, CUstream_st* s) {
   cudaLaunchConfig_t cfg = {};
@@ -467,7 +459,7 @@ cudaLaunchConfig_t team_config(cudaLaunchAttribute* attr, CUstream_st* s) {
   attr[0].val.clusterDim.x = Team;
   attr[0].val.clusterDim.y = attr[0].val.clusterDim.z = 1;
   cfg.attrs = attr;
-  cfg.numAttrs = Team > 1 ? 1 : 0;
+  cfg.numAttrs = 1;
   return cfg;
 }
 
@@ -489,11 +481,10 @@ bool cluster_fits() {
   return clusters >= 1;
 }
 
-// The team for n particles (see kOneBlockMaxN): one block, the cluster where the device runs it,
-// else the grid.
+// The team for n particles: the cluster where the device runs it (n ≤ kClusterMaxN), else the
+// grid.
 template <class R, bool Walls, bool Mark>
 int team_for(std::size_t n) {
-  if (n <= kOneBlockMaxN) return 1;
   if (n <= kClusterMaxN && cluster_fits<R, Walls, Mark>()) return kClusterBlocks;
   return kGrid;
 }
@@ -573,8 +564,6 @@ class DeviceLoops final : public OverlapCorrectLoops<R> {
       FF_CUDA_CHECK(
           cudaLaunchCooperativeKernel(kernel_ptr<R, kGrid, Walls, Mark>(), dim3(grid_), dim3(kThreads), args, 0, s),
           "launching overlap_correct");
-    } else if (team_ == 1) {
-      launch_team<1, Walls, Mark>(args, s);
     } else {
       launch_team<kClusterBlocks, Walls, Mark>(args, s);
     }
@@ -588,7 +577,7 @@ class DeviceLoops final : public OverlapCorrectLoops<R> {
     }
   }
 
-  // A plain launch (one block) or a cluster launch of the team's blocks.
+  // A cluster launch of the team's blocks.
   template <int Team, bool Walls, bool Mark>
   static void launch_team(void** args, CUstream_st* s) {
     cudaLaunchAttribute attr[1];
