@@ -253,7 +253,9 @@ std::string Checkpointer::write() {
   ++written_;
   prune();
   write_seconds_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  last_bytes_ = fs::file_size(path, ec);
+  std::error_code size_ec;
+  const std::uintmax_t bytes = fs::file_size(path, size_ec);
+  last_bytes_ = size_ec ? 0 : std::uint64_t(bytes);  // (only reported)
   return path.string();
 }
 

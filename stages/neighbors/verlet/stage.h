@@ -5,7 +5,7 @@
 //
 // On CUDA the host must have the test's answer before it can launch (or skip) the build; a test
 // kernel of its own and the wait for its answer would drain the stream in the middle of the step
-// (~40 µs of a 0.3 ms step at 2^20). Where the stage that moved the particles has already
+// (bench/experiments/README.md, lj-s13). Where the stage that moved the particles has already
 // answered the test (neighbors.moved, list.h: overdamped.integrate with max_step does, in its own
 // kernel, read back with its own counters), run() takes that answer: the same test on the same
 // positions and build positions, so the same decisions. Else it tests itself. (Enqueuing the

@@ -7,9 +7,8 @@ namespace {
 
 constexpr int kBlock = 256;
 // Four blocks (32 warps) per SM instead of the three that 74 registers allow: registers capped
-// at 64 (4 B spilled), more fan walks in flight to hide their chains of dependent loads. On an
-// H200 at 2^20: 0.148 ms per call against 0.159 (bench/experiments/README.md, "voronoi.geometry
-// CUDA variants").
+// at 64 (4 B spilled), more fan walks in flight to hide their chains of dependent loads
+// (measured: bench/experiments/README.md, "voronoi.geometry CUDA variants").
 constexpr int kBlocksPerSm = 4;
 
 // One particle per thread. With metrics, each block adds its terms to sums.device with one
