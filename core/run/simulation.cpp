@@ -68,6 +68,10 @@ void Simulation::build(const Registry& registry) {
   if (in_team(options_.team)) check_team(observer);
   scheduler_ = std::make_unique<Scheduler>(*graph_, slots_, *state_, stats_, options_.backend);
   scheduler_->set_team(options_.team);
+  // No rank captures its step into a CUDA graph: a capture on one rank's thread would be broken
+  // by another rank's allocations or waits in the same process (as for `pipeline sweep
+  // --in-process`). The same bits, launched directly.
+  if (in_team(options_.team)) scheduler_->set_graph_capture(false);
   dt_ = std::make_unique<DtController>(spec_.run.dt, spec_.run.dt_min, spec_.run.dt_grow_after);
   stats_.dt = spec_.run.dt;
 

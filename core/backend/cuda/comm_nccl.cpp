@@ -118,10 +118,16 @@ struct OnDevice {
   int previous = 0;
 };
 
+// An abort must end waits on kernels that wait for a rank that will never come (ncclCommAbort),
+// but must not free a communicator while its rank's thread is inside an NCCL call on it. So each
+// rank marks its calls (in_call, under m); abort() aborts the communicators of ranks outside a
+// call, and a rank inside one aborts its own when the call returns. No lock is held during a
+// call: a first collective may wait for its peers (NCCL connects lazily).
 struct NcclTeamShared {
   std::vector<ncclComm_t> comms;
   std::vector<int> devices;
-  std::vector<bool> gone;  // aborted or destroyed
+  std::vector<bool> gone;     // aborted or destroyed
+  std::vector<bool> in_call;  // the rank's thread is inside an NCCL call
   std::mutex m;
   bool aborted = false;
   std::string why;
@@ -165,27 +171,28 @@ class NcclCommunicator final : public Communicator {
     if (offsets.size() != std::size_t(size()) + 1)
       throw RunError("Communicator::all_gather_slices: " + std::to_string(offsets.size()) + " offsets for " +
                      std::to_string(size()) + " ranks (give ranks + 1)");
-    check_not_aborted();
     auto* bytes = static_cast<unsigned char*>(data);
     const std::size_t first = offsets[1] - offsets[0];
     bool equal = offsets[0] == 0;
     for (int r = 0; r < size(); ++r) equal = equal && offsets[std::size_t(r) + 1] - offsets[std::size_t(r)] == first;
     const auto ev = begin_timed(stream);
-    if (equal) {
-      // Equal slices: one all-gather, in place (the send buffer is this rank's slice).
-      check(nccl().all_gather(bytes + offsets[std::size_t(rank_)], bytes, first, ncclUint8, comm_, stream),
-            "all-gather");
-    } else {
-      // Unequal slices (N not a multiple of the ranks): one broadcast per owner, grouped.
-      check(nccl().group_start(), "group start");
-      for (int r = 0; r < size(); ++r) {
-        unsigned char* slice = bytes + offsets[std::size_t(r)];
-        check(nccl().broadcast(slice, slice, offsets[std::size_t(r) + 1] - offsets[std::size_t(r)], ncclUint8, r,
-                               comm_, stream),
-              "broadcast");
+    guarded([&] {
+      if (equal) {
+        // Equal slices: one all-gather, in place (the send buffer is this rank's slice).
+        check(nccl().all_gather(bytes + offsets[std::size_t(rank_)], bytes, first, ncclUint8, comm_, stream),
+              "all-gather");
+      } else {
+        // Unequal slices (N not a multiple of the ranks): one broadcast per owner, grouped.
+        check(nccl().group_start(), "group start");
+        for (int r = 0; r < size(); ++r) {
+          unsigned char* slice = bytes + offsets[std::size_t(r)];
+          check(nccl().broadcast(slice, slice, offsets[std::size_t(r) + 1] - offsets[std::size_t(r)], ncclUint8, r,
+                                 comm_, stream),
+                "broadcast");
+        }
+        check(nccl().group_end(), "group end");
       }
-      check(nccl().group_end(), "group end");
-    }
+    });
     end_timed(ev, stream);
   }
 
@@ -193,14 +200,15 @@ class NcclCommunicator final : public Communicator {
   void all_reduce(std::int64_t* values, std::size_t n, ReduceOp op) override { reduce(values, n, op, ncclInt64); }
 
   void exchange(const std::vector<Transfer>& transfers, CUstream_st* stream) override {
-    check_not_aborted();
     const auto ev = begin_timed(stream);
-    check(nccl().group_start(), "group start");
-    for (const Transfer& x : transfers) {
-      if (x.send) check(nccl().send(x.data, x.bytes, ncclUint8, x.peer, comm_, stream), "send");
-      else check(nccl().recv(x.data, x.bytes, ncclUint8, x.peer, comm_, stream), "receive");
-    }
-    check(nccl().group_end(), "group end");
+    guarded([&] {
+      check(nccl().group_start(), "group start");
+      for (const Transfer& x : transfers) {
+        if (x.send) check(nccl().send(x.data, x.bytes, ncclUint8, x.peer, comm_, stream), "send");
+        else check(nccl().recv(x.data, x.bytes, ncclUint8, x.peer, comm_, stream), "receive");
+      }
+      check(nccl().group_end(), "group end");
+    });
     end_timed(ev, stream);
   }
 
@@ -216,10 +224,11 @@ class NcclCommunicator final : public Communicator {
     if (team_->aborted) return;
     team_->aborted = true;
     team_->why = "rank " + std::to_string(rank_) + ": " + why;
-    for (std::size_t r = 0; r < team_->comms.size(); ++r) {
-      nccl().abort(team_->comms[r]);
-      team_->gone[r] = true;
-    }
+    for (std::size_t r = 0; r < team_->comms.size(); ++r)
+      if (!team_->in_call[r] && !team_->gone[r]) {
+        nccl().abort(team_->comms[r]);
+        team_->gone[r] = true;
+      }
   }
 
   double communication_seconds() override {
@@ -235,9 +244,29 @@ class NcclCommunicator final : public Communicator {
   static constexpr std::size_t kScratchBytes = 64 * sizeof(double);
   using EventPair = std::pair<cudaEvent_t, cudaEvent_t>;
 
-  void check_not_aborted() {
-    std::lock_guard<std::mutex> lock(team_->m);
-    if (team_->aborted) throw RunError("team aborted: " + team_->why);
+  // An NCCL call on comm_ (NcclTeamShared says why it is marked).
+  template <class F>
+  void guarded(F&& call) {
+    {
+      std::lock_guard<std::mutex> lock(team_->m);
+      if (team_->aborted) throw RunError("team aborted: " + team_->why);
+      team_->in_call[std::size_t(rank_)] = true;
+    }
+    auto leave = [&] {
+      std::lock_guard<std::mutex> lock(team_->m);
+      team_->in_call[std::size_t(rank_)] = false;
+      if (team_->aborted && !team_->gone[std::size_t(rank_)]) {
+        nccl().abort(comm_);
+        team_->gone[std::size_t(rank_)] = true;
+      }
+    };
+    try {
+      call();
+    } catch (...) {
+      leave();
+      throw;
+    }
+    leave();
   }
 
   EventPair begin_timed(CUstream_st* stream) {
@@ -281,9 +310,8 @@ class NcclCommunicator final : public Communicator {
       const cudaError_t e = cudaStreamQuery(stream_);
       if (e == cudaSuccess) return;
       if (e != cudaErrorNotReady) FF_CUDA_CHECK(e, "NCCL team: waiting for a reduction");
-      check_not_aborted();
       ncclResult_t async = ncclSuccess;
-      check(nccl().async_error(comm_, &async), "asking for errors");
+      guarded([&] { check(nccl().async_error(comm_, &async), "asking for errors"); });
       check(async, "a reduction failed");
       std::this_thread::yield();
     }
@@ -294,13 +322,14 @@ class NcclCommunicator final : public Communicator {
     if (n * sizeof(T) > kScratchBytes)
       throw RunError("Communicator::all_reduce: " + std::to_string(n) + " values, at most " +
                      std::to_string(kScratchBytes / sizeof(T)) + " at once");
-    check_not_aborted();
     const auto t0 = std::chrono::steady_clock::now();
     std::memcpy(host_scratch_, values, n * sizeof(T));
     FF_CUDA_CHECK(cudaMemcpyAsync(scratch_, host_scratch_, n * sizeof(T), cudaMemcpyHostToDevice, stream_),
                   "NCCL team: reduction input");
-    check(nccl().all_reduce(scratch_, scratch_, n, type, op == ReduceOp::max ? ncclMax : ncclSum, comm_, stream_),
-          "all-reduce");
+    guarded([&] {
+      check(nccl().all_reduce(scratch_, scratch_, n, type, op == ReduceOp::max ? ncclMax : ncclSum, comm_, stream_),
+            "all-reduce");
+    });
     FF_CUDA_CHECK(cudaMemcpyAsync(host_scratch_, scratch_, n * sizeof(T), cudaMemcpyDeviceToHost, stream_),
                   "NCCL team: reduction output");
     wait_for_stream();
@@ -342,6 +371,7 @@ std::vector<std::unique_ptr<Communicator>> make_nccl_team(const std::vector<int>
                                             : ""));
   }
   shared->gone.assign(devices.size(), false);
+  shared->in_call.assign(devices.size(), false);
   std::vector<std::unique_ptr<Communicator>> team;
   for (std::size_t k = 0; k < devices.size(); ++k)
     team.push_back(std::make_unique<NcclCommunicator>(shared, int(k)));
