@@ -12,9 +12,14 @@
 //   the run matches one rank that requests it itself (so the snapshot of a rank that ran the
 //   whole step restores the stages after the requester too).
 // - Refusal: a team whose pipeline has no stage that splits.
+// - `pipeline run --gpus N`: rank 0's outputs equal a run alone, and a checkpoint written by 2
+//   ranks resumes on 4.
 #include <catch2/catch.hpp>
 
+#include <unistd.h>
+
 #include <cstring>
+#include <filesystem>
 #include <map>
 #include <mutex>
 #include <string>
@@ -345,4 +350,39 @@ TEST_CASE("team: long-range phoretic pipeline on 2 and 4 GPUs gives one GPU's bi
                  std::to_string(ranks) + " GPUs, N = " + std::to_string(c.n) + " " + c.precision);
     }
   }
+}
+
+TEST_CASE("team: pipeline run --gpus N writes one rank's outputs and resumes on another count") {
+  // On the CPU (thread team): 200 steps alone; 100 steps on 2 ranks with a checkpoint, resumed to
+  // 200 on 4 ranks. Rank 0's H5MD file must hold the same datasets, bit for bit (h5hash of every
+  // dataset but /parameters, which records the ranks and the time), as the run alone.
+  namespace fs = std::filesystem;
+  const fs::path dir = fs::temp_directory_path() / ("flipflow-team-" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  const std::string exe = test::pipeline_exe();
+  const std::string h5hash = (fs::path(exe).parent_path() / "h5hash").string();
+  const std::string common = exe + " run " + test::repo_file("pipelines/phoretic-c0.yaml").string() +
+                             " --device cpu --set system.N=256 --set 'run.checkpoint={every: 100}'";
+  auto run = [&](const std::string& args) {
+    const auto r = test::run_command(common + " " + args, dir / "log.txt");
+    INFO(r.out);
+    REQUIRE(r.code == 0);
+    return r.out;
+  };
+  fs::create_directories(dir);
+  run("--set run.steps=200 --out " + (dir / "alone").string());
+  run("--gpus 2 --set run.steps=100 --out " + (dir / "team").string());
+  const std::string resumed = run("--gpus 4 --set run.steps=200 --resume " + (dir / "team").string());
+  CHECK(resumed.find("a team of 4 ranks") != std::string::npos);
+  auto hashes = [&](const std::string& which) {
+    const auto r = test::run_command(h5hash + " " + (dir / which / "phoretic-c0.h5").string() +
+                                         " | grep -v ' /parameters' | awk '{print $1, $2}'",
+                                     dir / "hash.txt");
+    REQUIRE(r.code == 0);
+    return r.out;
+  };
+  const std::string alone = hashes("alone"), team = hashes("team");
+  CHECK(alone.find("/particles/all/position/value") != std::string::npos);
+  CHECK(alone == team);
+  fs::remove_all(dir);
 }
