@@ -231,6 +231,21 @@ class NcclCommunicator final : public Communicator {
       }
   }
 
+  // One all-reduce and one all-gather of a few bytes, enqueued on this rank's own stream: called
+  // for every rank inside one NCCL group from the thread that made the team (make_nccl_team),
+  // then waited for with wait_idle().
+  void enqueue_warm_up() {
+    OnDevice on(device_);
+    FF_CUDA_CHECK(cudaMemsetAsync(scratch_, 0, kScratchBytes, stream_), "NCCL team: clearing scratch");
+    check(nccl().all_reduce(scratch_, scratch_, 1, ncclFloat64, ncclSum, comm_, stream_), "warm-up all-reduce");
+    auto* bytes = static_cast<unsigned char*>(scratch_);
+    check(nccl().all_gather(bytes + 4 * rank_, bytes, 4, ncclUint8, comm_, stream_), "warm-up all-gather");
+  }
+  void wait_idle() {
+    OnDevice on(device_);
+    FF_CUDA_CHECK(cudaStreamSynchronize(stream_), "NCCL team: warming up the communicators");
+  }
+
   double communication_seconds() override {
     drain(true);
     return seconds_;
@@ -356,6 +371,10 @@ std::vector<std::unique_ptr<Communicator>> make_nccl_team(const std::vector<int>
   const NcclApi& api = nccl();
   // Never NVLink multicast (issue 21: on shared hosts it can take GPUs out of service).
   setenv("NCCL_NVLS_ENABLE", "0", 1);
+  // Connect the collectives' channels in ncclCommInitAll rather than in each rank's first
+  // collective (NCCL >= 2.22 connects lazily by default), where a first collective would wait
+  // inside the NCCL call for a rank that failed before it came.
+  setenv("NCCL_RUNTIME_CONNECT", "0", 0);
   auto shared = std::make_shared<NcclTeamShared>();
   shared->devices = devices;
   shared->comms.resize(devices.size());
@@ -375,6 +394,14 @@ std::vector<std::unique_ptr<Communicator>> make_nccl_team(const std::vector<int>
   std::vector<std::unique_ptr<Communicator>> team;
   for (std::size_t k = 0; k < devices.size(); ++k)
     team.push_back(std::make_unique<NcclCommunicator>(shared, int(k)));
+  if (4 * devices.size() > 64 * sizeof(double))
+    throw InputError("an NCCL team of more than 128 GPUs is not supported");
+  // Every rank's first collectives, from this thread, in one group (NCCL's pattern for one thread
+  // driving several GPUs): a team that cannot talk fails here, before any rank's thread starts.
+  check(api.group_start(), "group start");
+  for (auto& c : team) static_cast<NcclCommunicator&>(*c).enqueue_warm_up();
+  check(api.group_end(), "group end");
+  for (auto& c : team) static_cast<NcclCommunicator&>(*c).wait_idle();
   return team;
 }
 
