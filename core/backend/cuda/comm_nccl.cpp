@@ -122,7 +122,7 @@ struct OnDevice {
 // but must not free a communicator while its rank's thread is inside an NCCL call on it. So each
 // rank marks its calls (in_call, under m); abort() aborts the communicators of ranks outside a
 // call, and a rank inside one aborts its own when the call returns. No lock is held during a
-// call: a first collective may wait for its peers (NCCL connects lazily).
+// call: an NCCL call may wait for its peers.
 struct NcclTeamShared {
   std::vector<ncclComm_t> comms;
   std::vector<int> devices;
@@ -378,6 +378,8 @@ std::vector<std::unique_ptr<Communicator>> make_nccl_team(const std::vector<int>
   auto shared = std::make_shared<NcclTeamShared>();
   shared->devices = devices;
   shared->comms.resize(devices.size());
+  shared->gone.assign(devices.size(), false);
+  shared->in_call.assign(devices.size(), false);
   const ncclResult_t r = api.init_all(shared->comms.data(), int(devices.size()), devices.data());
   if (r != ncclSuccess) {
     shared->comms.clear();
@@ -389,8 +391,6 @@ std::vector<std::unique_ptr<Communicator>> make_nccl_team(const std::vector<int>
                                               "GPUs, or CUDA_VISIBLE_DEVICES)"
                                             : ""));
   }
-  shared->gone.assign(devices.size(), false);
-  shared->in_call.assign(devices.size(), false);
   std::vector<std::unique_ptr<Communicator>> team;
   for (std::size_t k = 0; k < devices.size(); ++k)
     team.push_back(std::make_unique<NcclCommunicator>(shared, int(k)));
