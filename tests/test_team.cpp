@@ -6,8 +6,9 @@
 //   waits, on the CPU thread team (1, 2, 4 ranks) and, with GPUs, on NCCL.
 // - The long-range phoretic pipeline (phoretic-c0: all-pairs forces split by target, then the
 //   Delaunay stages run redundantly): 2 and 4 ranks give every rank the bits of one rank alone
-//   after 10³ steps (every field but the two test_cpu_cuda_bits.cpp compares by meaning), on the
-//   CPU in CI and on 2 and 4 GPUs where there are that many (otherwise skipped, visibly).
+//   (every field but the two test_cpu_cuda_bits.cpp compares by meaning), after 10³ steps in
+//   double and float on the CPU in CI, and on 2 and 4 GPUs where there are that many
+//   (otherwise skipped, visibly).
 // - Agreement: a rollback or a Δt limit requested on one rank only is taken by every rank, and
 //   the run matches one rank that requests it itself (so the snapshot of a rank that ran the
 //   whole step restores the stages after the requester too).
@@ -283,11 +284,16 @@ TEST_CASE("team: NCCL puts at most one rank on a GPU (so one GPU runs no team)")
 }
 
 TEST_CASE("team: long-range phoretic pipeline, 2 and 4 CPU ranks give one rank's bits after 10^3 steps") {
-  // N = 300: not a multiple of 4, so the shares are unequal (75 targets each, but 300/8 blocks
-  // of 64 in the CPU loop end mid-share), double as shipped.
-  auto l = phoretic_long(300, "double");
-  const auto alone = run_ranks(l, Backend::cpu, 1, 1000);
-  for (int ranks : {2, 4}) check_same(run_ranks(l, Backend::cpu, ranks, 1000), alone[0], std::to_string(ranks) + " CPU ranks");
+  // N = 302: not a multiple of 4, so the shares are unequal (75 or 76 targets), and the CPU
+  // loop's blocks of 64 targets start at each share's first target instead of at multiples of
+  // 64. Double as shipped, and float.
+  for (const char* precision : {"double", "float"}) {
+    auto l = phoretic_long(302, precision);
+    const auto alone = run_ranks(l, Backend::cpu, 1, 1000);
+    for (int ranks : {2, 4})
+      check_same(run_ranks(l, Backend::cpu, ranks, 1000), alone[0],
+                 std::to_string(ranks) + " CPU ranks, " + precision);
+  }
 }
 
 TEST_CASE("team: a rollback or a Δt limit requested on one rank is taken by every rank") {
