@@ -348,6 +348,11 @@ class NcclCommunicator final : public Communicator {
     FF_CUDA_CHECK(cudaMemcpyAsync(host_scratch_, scratch_, n * sizeof(T), cudaMemcpyDeviceToHost, stream_),
                   "NCCL team: reduction output");
     wait_for_stream();
+    {
+      // An abort ends NCCL's kernels early: what they left is not a reduction.
+      std::lock_guard<std::mutex> lock(team_->m);
+      if (team_->aborted) throw RunError("team aborted: " + team_->why);
+    }
     std::memcpy(values, host_scratch_, n * sizeof(T));
     seconds_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   }
