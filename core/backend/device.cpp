@@ -43,6 +43,29 @@ std::string cuda_device_description() {
 #endif
 }
 
+int cuda_device_count() {
+#ifdef FLIPFLOW_HAVE_CUDA
+  int n = 0;
+  if (cudaGetDeviceCount(&n) != cudaSuccess) {
+    cudaGetLastError();
+    return 0;
+  }
+  return n;
+#else
+  return 0;
+#endif
+}
+
+void use_cuda_device(int device) {
+#ifdef FLIPFLOW_HAVE_CUDA
+  const cudaError_t e = cudaSetDevice(device);
+  if (e != cudaSuccess)
+    throw RunError("cannot use CUDA device " + std::to_string(device) + ": " + cudaGetErrorString(e));
+#else
+  throw RunError("CUDA device " + std::to_string(device) + " asked for in a build without CUDA");
+#endif
+}
+
 Backend resolve_backend(const std::string& choice) {
   if (choice == "cpu") return Backend::cpu;
   if (choice == "cuda") {

@@ -1,5 +1,7 @@
 #include "core/run/scheduler.h"
 
+#include "core/backend/comm.h"
+
 #include <oneapi/tbb/flow_graph.h>
 
 #include <algorithm>
@@ -148,6 +150,7 @@ StepContext Scheduler::context(int i, CUstream_st* stream, std::uint64_t step, s
 std::optional<RollbackRequest> Scheduler::run_compute(std::uint64_t step, std::uint32_t attempt, double dt,
                                                       double time) {
   abort_.store(false);
+  agreed_ = false;
   error_ = nullptr;
   has_error_.store(false);
   impl_->step = step;
@@ -177,12 +180,12 @@ std::optional<RollbackRequest> Scheduler::run_compute(std::uint64_t step, std::u
     // Stages that may request a rollback on the device report through flags read once here.
     // A replayed graph joined its own forks (its events exist only inside the graph).
     if (!captured) impl_->streams->join_all();
-    if (auto req = impl_->streams->read_rollback_flags(graph_, slots_)) return req;
+    if (auto req = impl_->streams->read_rollback_flags(graph_, slots_)) return agree(std::move(req));
   }
 #endif
   for (int i : impl_->compute)
-    if (slots_[i].ran && slots_[i].outcome.rollback) return RollbackRequest{i, slots_[i].outcome};
-  if (auto limit = exceeded_dt_limit(dt)) return limit;
+    if (slots_[i].ran && slots_[i].outcome.rollback) return agree(RollbackRequest{i, slots_[i].outcome});
+  if (auto limit = agree(exceeded_dt_limit(dt))) return limit;
 #ifdef FLIPFLOW_HAVE_CUDA
   if (captured) {
     // A replayed step is accepted (no stage of a captured step may request a rollback); stages
@@ -214,7 +217,35 @@ std::optional<RollbackRequest> Scheduler::exceeded_dt_limit(double dt) const {
   return std::nullopt;
 }
 
+std::optional<RollbackRequest> Scheduler::agree(std::optional<RollbackRequest> mine) {
+  if (!in_team(team_) || !snapshot_) return mine;  // alone, or nothing can request
+  constexpr double inf = std::numeric_limits<double>::infinity();
+  // One all-reduce (max) of: a rollback request, minus the Δt limit exceeded, minus the
+  // smallest limit reported (so max gives the smallest limit).
+  double v[3] = {mine && mine->outcome.rollback ? 1.0 : 0.0, mine && mine->limits_dt() ? -mine->outcome.dt_limit : -inf,
+                 -reported_dt_limit()};
+  team_->all_reduce(v, 3, ReduceOp::max);
+  agreed_ = true;
+  agreed_dt_limit_ = -v[2];
+  const bool rollback = v[0] > 0, limit = v[1] > -inf;
+  if (!rollback && !limit) return std::nullopt;
+  if (mine && mine->outcome.rollback == rollback && (rollback || mine->outcome.dt_limit == -v[1])) return mine;
+  // Another rank's request: this rank acts on it in the name of its first stage that could have made it.
+  int node = impl_->compute.empty() ? 0 : impl_->compute.front();
+  for (int i : impl_->compute) {
+    const Scheduling sch = slots_[i].stage->scheduling();
+    if (rollback ? sch.may_request_rollback : sch.may_limit_dt) {
+      node = i;
+      break;
+    }
+  }
+  const std::string who = "another rank of the team (" + std::to_string(team_->size()) + " ranks) ";
+  if (rollback) return RollbackRequest{node, Outcome::request_rollback(who + "requested a rollback")};
+  return RollbackRequest{node, Outcome::limit_dt(-v[1], who + "limited Δt")};
+}
+
 double Scheduler::reported_dt_limit() const {
+  if (agreed_) return agreed_dt_limit_;
   double limit = std::numeric_limits<double>::infinity();
   for (int i : impl_->compute)
     if (slots_[i].ran) limit = std::min(limit, slots_[i].outcome.dt_limit);

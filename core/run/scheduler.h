@@ -75,6 +75,13 @@ class Scheduler {
     snapshot_ = snapshot;
     snapshot_undone_ = std::move(undone);
   }
+  // A rank of a team (core/backend/comm.h; null or one rank: alone). When the run has a rollback
+  // snapshot (some stage may request a rollback or limit Δt), the ranks agree at the end of each
+  // attempt by one all-reduce: any rollback request rolls every rank back, else the smallest Δt
+  // limit any rank exceeded limits every rank, else the step is accepted with the smallest
+  // limit reported on any rank. A rank that did not request itself gets a request naming its
+  // first stage that may request, with the reason "another rank of the team requested ...".
+  void set_team(Communicator* team) { team_ = team; }
   void reset_timers();
   // True once the steady-state step replays a captured CUDA graph (the last step did).
   bool step_is_captured() const;
@@ -91,6 +98,11 @@ class Scheduler {
   // The first stage that ran and limited Δt below `dt` (Outcome::limit_dt), if any.
   std::optional<RollbackRequest> exceeded_dt_limit(double dt) const;
   bool run_captured();     // CUDA: replay (capturing first if needed) the step graph
+  // In a team: the request every rank acts on (set_team), from this rank's own.
+  std::optional<RollbackRequest> agree(std::optional<RollbackRequest> mine);
+  Communicator* team_ = nullptr;
+  double agreed_dt_limit_ = 0;  // after agree(): the team's reported limit
+  bool agreed_ = false;
   std::unique_ptr<Impl> impl_;
   const StepGraph& graph_;
   std::vector<StageSlot>& slots_;

@@ -4,6 +4,7 @@
 #include <set>
 #include <sstream>
 
+#include "core/backend/comm.h"
 #include "core/base/error.h"
 #include "core/input/init.h"
 
@@ -32,6 +33,14 @@ Simulation::~Simulation() {
 }
 
 void Simulation::build(const Registry& registry) {
+  // In a team, observers (and so every output) live on rank 0 only; the other ranks run the
+  // compute stages on their copies of the state.
+  if (in_team(options_.team) && options_.team->rank() != 0) {
+    std::vector<StepEntry> compute;
+    for (auto& e : spec_.step)
+      if (!registry.get(e.stage).decl.observer) compute.push_back(e);
+    spec_.step = std::move(compute);
+  }
   std::vector<std::vector<Access>> accesses;
   std::vector<bool> observer;
   slots_.resize(spec_.step.size());
@@ -39,7 +48,8 @@ void Simulation::build(const Registry& registry) {
     const StepEntry& e = spec_.step[i];
     StageSlot& slot = slots_[i];
     slot.info = RunInfo{state_->dim(), spec_.run.precision, options_.backend, spec_.run.seed, spec_.run.steps,
-                        spec_.run.dt,  options_.out_dir,    spec_.file,       e.id,  options_.record};
+                        spec_.run.dt,  options_.out_dir,    spec_.file,       e.id,  options_.record,
+                        options_.team};
     slot.rng = make_rng_key(spec_.run.seed, e.id.c_str());
     try {
       slot.stage = registry.create(e.stage, options_.backend, e.params, slot.info);
@@ -55,11 +65,41 @@ void Simulation::build(const Registry& registry) {
     observer.push_back(registry.get(e.stage).decl.observer);
   }
   graph_ = std::make_unique<StepGraph>(spec_, std::move(accesses), observer);
+  if (in_team(options_.team)) check_team(observer);
   scheduler_ = std::make_unique<Scheduler>(*graph_, slots_, *state_, stats_, options_.backend);
+  scheduler_->set_team(options_.team);
+  // No rank captures its step into a CUDA graph: a capture on one rank's thread would be broken
+  // by another rank's allocations or waits in the same process (as for `pipeline sweep
+  // --in-process`). The same bits, launched directly.
+  if (in_team(options_.team)) scheduler_->set_graph_capture(false);
   dt_ = std::make_unique<DtController>(spec_.run.dt, spec_.run.dt_min, spec_.run.dt_grow_after);
   stats_.dt = spec_.run.dt;
 
   make_snapshot();
+}
+
+// What a team of ranks can run (RunOptions::team, TeamWork in core/stage/stage.h): every stage
+// runs on every rank, redundantly on the replicated state or splitting its work. Refused: a
+// compute stage that writes files (each rank would write them), and a pipeline in which no
+// stage splits (N ranks would compute the same run N times).
+void Simulation::check_team(const std::vector<bool>& observer) const {
+  const int ranks = options_.team->size();
+  std::string redundant;
+  bool splits = false;
+  for (std::size_t i = 0; i < slots_.size(); ++i) {
+    if (observer[i]) continue;
+    const StepEntry& e = spec_.step[i];
+    if (!slots_[i].stage->outputs().empty())
+      throw InputError(e.where.str() + ": step '" + e.id + "' (" + e.stage + ") writes files, and with " +
+                       std::to_string(ranks) + " ranks every rank would write them; run it with one GPU");
+    if (slots_[i].stage->scheduling().team == TeamWork::split) splits = true;
+    else redundant += (redundant.empty() ? "" : ", ") + e.stage;
+  }
+  if (!splits)
+    throw InputError("no stage of " + spec_.file + " divides its work among " + std::to_string(ranks) +
+                     " ranks (" + redundant +
+                     " cannot split; they would run the same simulation on every rank): run it on one GPU. Stages "
+                     "that split: phoretic.forces with range: long (docs/multi-gpu.md)");
 }
 
 // What a rollback must restore: the writes of every stage that can run before a rollback
@@ -81,7 +121,12 @@ void Simulation::make_snapshot() {
       device_requests = device_requests || slots_[i].stage->scheduling().requests_rollback_on_device;
     }
   if (requesters.empty()) return;
-  const bool host_requests_only = options_.backend == Backend::cpu || !device_requests;
+  // In a team every rank rolls back when any rank requests (the scheduler agrees by an
+  // all-reduce at the end of the attempt), so a rank that ran the whole step must be able to
+  // undo the writes of the stages after the requester too: then, as for device requests, every
+  // stage counts.
+  const bool host_requests_only =
+      (options_.backend == Backend::cpu || !device_requests) && !in_team(options_.team);
   std::set<std::string> every_step, on_demand;
   std::vector<bool> undone(graph_->nodes().size(), false);
   for (int j : graph_->compute_nodes()) {

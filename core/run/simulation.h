@@ -33,6 +33,11 @@ struct RunOptions {
   bool resume = false;
   // What produced the run, handed to every stage (RunInfo::record) for outputs to record.
   RunRecord record;
+  // This rank's communicator when the run is one of a team (core/run/team.h, `--gpus N`): every
+  // rank holds the whole state; stages that split their work use it (RunInfo::team), the
+  // ranks agree on every rollback and Δt limit by an all-reduce, and observers (hence every
+  // output) exist on rank 0 only. Null: alone.
+  Communicator* team = nullptr;
 };
 
 class Simulation {
@@ -78,6 +83,7 @@ class Simulation {
 
  private:
   void build(const Registry& registry);
+  void check_team(const std::vector<bool>& observer) const;
   void make_snapshot();
   void prepare_outputs();
   void collect_metrics(int node);

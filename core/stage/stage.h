@@ -96,6 +96,8 @@ struct RunRecord {
   std::string changes;
 };
 
+class Communicator;  // core/backend/comm.h
+
 // What the core knows about the run as a whole; given to factories and to every step.
 struct RunInfo {
   int dim = 2;
@@ -108,6 +110,10 @@ struct RunInfo {
   std::string pipeline_file;     // the YAML the run came from (recorded in outputs)
   std::string stage_id;          // this stage's id in the step graph
   RunRecord record;              // what produced the run (outputs record it)
+  // The team this rank belongs to (`pipeline run --gpus N`, core/backend/comm.h), or null when
+  // the run is alone. Every rank holds the whole state; a stage whose Scheduling::team is
+  // TeamWork::split divides its work through it.
+  Communicator* team = nullptr;
 };
 
 // Whole-run observables the core keeps (observe stages write them out).
@@ -199,6 +205,19 @@ struct StepContext {
   Field* at_step_start(const std::string& field) const;
 };
 
+// How a stage runs in a team of ranks (`pipeline run --gpus N`; core/backend/comm.h), where
+// every rank holds the whole state and runs every compute stage (observers run on rank 0 only):
+//  - redundant: each rank runs the stage on its own copy of the state and gets the same bits as
+//    the others (the default: every stage is deterministic for any thread count, so this holds
+//    for any stage that writes no files);
+//  - split: the stage does a 1/N share of its work on each rank and exchanges the results
+//    (RunInfo::team), so every rank ends the stage with the same state one rank alone would
+//    have (phoretic.forces, range: long: each rank sums its slice of targets, the velocities
+//    are all-gathered).
+// The core refuses a team in which no stage splits (N copies of one run) and a compute stage
+// that writes files (all ranks would write them).
+enum class TeamWork { redundant, split };
+
 // What a stage tells the core about how it may be scheduled. Everything defaults to "no".
 struct Scheduling {
   // run() can return request_rollback: only then does the core snapshot the state.
@@ -222,6 +241,8 @@ struct Scheduling {
   // the step again at the limited Δt) what the stages that can run before this one write, as it
   // does for a rollback request from run(); placed first in the step, the stage costs no copy.
   bool may_limit_dt = false;
+  // In a team of ranks: TeamWork above.
+  TeamWork team = TeamWork::redundant;
   // Not a hint but the core's answer, per attempt: whether a stage may defer reading its results
   // back to after_step is StepContext::may_defer_read_back().
 };

@@ -5,8 +5,10 @@
 #include <chrono>
 #include <cmath>
 #include <thread>
+#include <type_traits>
 #include <vector>
 
+#include "core/backend/comm.h"
 #include "core/stage/plugin_api.h"
 
 namespace {
@@ -19,11 +21,15 @@ using namespace ff;
 // run(); with device_requests it says it may also request from kernels on CUDA (as a stage
 // using StepContext::device_rollback would), so the core snapshots the stages after it there.
 // With scramble_undeclared it also scrambles `type`, which it does not declare: a broken stage
-// that only RunOptions::check_rollbacks can catch.
+// that only RunOptions::check_rollbacks can catch. With rank >= 0 it acts only on that rank of a
+// team (RunInfo::team; alone, a run is rank 0), so the other ranks must follow the agreement.
+int rank_of(const RunInfo& info) { return info.team ? info.team->rank() : 0; }
+
 class RequestRollback final : public Stage {
  public:
-  explicit RequestRollback(const ParamValues& v)
-      : steps_(v.reals("steps")),
+  RequestRollback(const ParamValues& v, const RunInfo& info)
+      : active_(v.integer("rank") < 0 || v.integer("rank") == rank_of(info)),
+        steps_(v.reals("steps")),
         fail_attempts_(v.integer("fail_attempts")),
         dt_above_(v.real("dt_above")),
         device_requests_(v.boolean("device_requests")),
@@ -33,8 +39,8 @@ class RequestRollback final : public Stage {
   Outcome run(StepContext& ctx) override {
     bool listed = false;
     for (double s : steps_) listed = listed || std::uint64_t(s) == ctx.host_params.step;
-    const bool fail = (listed && ctx.host_params.attempt < std::uint32_t(fail_attempts_)) ||
-                      (dt_above_ > 0 && ctx.host_params.dt > dt_above_);
+    const bool fail = active_ && ((listed && ctx.host_params.attempt < std::uint32_t(fail_attempts_)) ||
+                                  (dt_above_ > 0 && ctx.host_params.dt > dt_above_));
     ctx.metrics.set("attempt", ctx.host_params.attempt);
     if (!fail) return Outcome::ok();
     Field& f = ctx.state.field(fields::position);
@@ -51,6 +57,7 @@ class RequestRollback final : public Stage {
   }
 
  private:
+  bool active_;
   std::vector<double> steps_;
   std::int64_t fail_attempts_;
   double dt_above_;
@@ -148,7 +155,10 @@ class Count final : public Stage {
 // list is empty), writes nothing. Metrics: `attempt` and `dt` of each run, `runs` counts them.
 class LimitDt final : public Stage {
  public:
-  explicit LimitDt(const ParamValues& v) : steps_(v.reals("steps")), dt_max_(v.real("dt_max")) {}
+  LimitDt(const ParamValues& v, const RunInfo& info)
+      : active_(v.integer("rank") < 0 || v.integer("rank") == rank_of(info)),
+        steps_(v.reals("steps")),
+        dt_max_(v.real("dt_max")) {}
   std::vector<Access> accesses() const override { return {{fields::position, Where::host, Mode::read}}; }
   Scheduling scheduling() const override {
     Scheduling s;
@@ -161,11 +171,12 @@ class LimitDt final : public Stage {
     ctx.metrics.set("runs", double(++runs_));
     bool listed = steps_.empty();
     for (double s : steps_) listed = listed || std::uint64_t(s) == ctx.host_params.step;
-    if (!listed) return Outcome::ok();
+    if (!listed || !active_) return Outcome::ok();
     return Outcome::limit_dt(dt_max_, "testing.limit_dt asked for it", {2, 7});
   }
 
  private:
+  bool active_;
   std::vector<double> steps_;
   double dt_max_;
   std::uint64_t runs_ = 0;
@@ -173,7 +184,10 @@ class LimitDt final : public Stage {
 
 template <class S>
 StageFactory factory() {
-  return [](const ParamValues& v, const RunInfo&) { return std::make_unique<S>(v); };
+  return [](const ParamValues& v, const RunInfo& info) {
+    if constexpr (std::is_constructible_v<S, const ParamValues&, const RunInfo&>) return std::make_unique<S>(v, info);
+    else return std::make_unique<S>(v);
+  };
 }
 
 void register_testing(Registry& r) {
@@ -182,7 +196,8 @@ void register_testing(Registry& r) {
               ParamSpec::integer("fail_attempts", 1, "attempts that fail on those steps").at_least(0),
               ParamSpec::real("dt_above", 0.0, "also fail whenever dt > this (0: never)").at_least(0),
               ParamSpec::boolean("device_requests", true, "may also request from kernels on CUDA"),
-              ParamSpec::boolean("scramble_undeclared", false, "also scramble `type` without declaring it")},
+              ParamSpec::boolean("scramble_undeclared", false, "also scramble `type` without declaring it"),
+              ParamSpec::integer("rank", -1, "only on this rank of a team (-1: every rank; alone: rank 0)").at_least(-1)},
              {2, 3}, false});
   // rollback and count act on host fields; on CUDA too (the core keeps host and device coherent).
   r.implement("testing.rollback", Backend::cpu, factory<RequestRollback>());
@@ -207,7 +222,8 @@ void register_testing(Registry& r) {
   r.declare({"testing.limit_dt", "limits Δt on cue (tests only)",
              {ParamSpec{"steps", ParamType::real_list, ParamValue(std::vector<double>{}), {}, {}, false, {},
                         "steps to limit (empty: every step)"},
-              ParamSpec::real("dt_max", 1.0, "the limit reported").at_least(0)},
+              ParamSpec::real("dt_max", 1.0, "the limit reported").at_least(0),
+              ParamSpec::integer("rank", -1, "only on this rank of a team (-1: every rank; alone: rank 0)").at_least(-1)},
              {2, 3}, false});
   r.implement("testing.limit_dt", Backend::cpu, factory<LimitDt>());
   r.implement("testing.limit_dt", Backend::cuda, factory<LimitDt>());

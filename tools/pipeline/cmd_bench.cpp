@@ -3,6 +3,9 @@
 // compute step. Three passes of `steps` steps each: throughput (steps in a row, one wait at the
 // end: how a run behaves), latency (each step waited for; the median is reported), and
 // per-stage times (each stage waited for, so device work is charged to the stage that did it).
+// With --gpus N each size runs on a team of N ranks (core/run/team.h): the table shows rank 0's
+// times (the ranks meet every step), then each rank's communication per step, its share of the
+// step and its per-stage times.
 #include <oneapi/tbb/global_control.h>
 #include <oneapi/tbb/info.h>
 
@@ -14,11 +17,14 @@
 #include <iomanip>
 #include <iostream>
 #include <map>
+#include <mutex>
 #include <sstream>
 
 #include "core/backend/device.h"
 #include "core/base/error.h"
+#include "core/backend/comm.h"
 #include "core/run/simulation.h"
+#include "core/run/team.h"
 #include "tools/pipeline/commands.h"
 #include "tools/pipeline/common.h"
 #include "tools/pipeline/options.h"
@@ -59,9 +65,15 @@ struct Result {
   std::map<std::string, double> metrics_mean;   // per step
   double rollbacks_per_step = 0;
   double dt_limits_per_step = 0;  // steps run again at a Δt a stage limited (Outcome::limit_dt)
+  // In a team (--gpus N): this rank's time in communication per step over the throughput pass
+  // (Communicator::communication_seconds: on CUDA device time of the collectives, waiting for
+  // the slowest rank included, plus the host wait of the per-step agreement).
+  double comm_ms = 0;
 };
 
-Result bench_one(const Loaded& loaded, std::uint64_t n, Backend backend, std::uint64_t steps, std::uint64_t warmup) {
+// One rank's passes (team null: alone). Ranks meet at a barrier before each timed pass.
+Result bench_rank(const Loaded& loaded, std::uint64_t n, Backend backend, std::uint64_t steps, std::uint64_t warmup,
+                  Communicator* team, std::mutex* setup) {
   PipelineSpec spec = loaded.spec;
   spec.system.N = n;
   spec.run.steps = warmup + 3 * steps;
@@ -73,18 +85,30 @@ Result bench_one(const Loaded& loaded, std::uint64_t n, Backend backend, std::ui
   RunOptions o;
   o.backend = backend;
   o.dry_run = true;
-  Simulation sim(spec, *loaded.registry, o);
+  o.team = team;
+  auto meet = [&] {
+    if (team) team->barrier();
+  };
+  std::unique_lock<std::mutex> setting_up;
+  if (setup) setting_up = std::unique_lock<std::mutex>(*setup);
+  auto owned = std::make_unique<Simulation>(spec, *loaded.registry, o);
+  if (setup) setting_up.unlock();
+  Simulation& sim = *owned;
   for (std::uint64_t i = 0; i < warmup; ++i) sim.advance();
   sim.synchronize();
 
   Result r;
   r.n = n;
   {
+    meet();
+    if (team) team->reset_communication_seconds();
     const auto t0 = std::chrono::steady_clock::now();
     for (std::uint64_t i = 0; i < steps; ++i) sim.advance();
     sim.synchronize();
     r.throughput = double(steps) / std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    if (team) r.comm_ms = 1e3 * team->communication_seconds() / double(steps);
   }
+  meet();
   std::vector<double> ms;
   const auto rollbacks0 = sim.stats().rollbacks;
   const auto dt_limits0 = sim.stats().dt_limits;
@@ -104,6 +128,7 @@ Result bench_one(const Loaded& loaded, std::uint64_t n, Backend backend, std::ui
   r.dt_limits_per_step = double(sim.stats().dt_limits - dt_limits0) / double(steps);
   for (auto& kv : metric_sum) r.metrics_mean[kv.first] = kv.second / double(steps);
 
+  meet();
   sim.scheduler().set_profiling(true);
   sim.scheduler().reset_timers();
   for (std::uint64_t i = 0; i < steps; ++i) sim.advance();
@@ -112,6 +137,20 @@ Result bench_one(const Loaded& loaded, std::uint64_t n, Backend backend, std::ui
     if (slot.calls) r.stage_ms[slot.info.stage_id] = 1e3 * slot.seconds / double(steps);
   sim.finish(true);
   return r;
+}
+
+// Every rank's result (one when gpus == 1). A team is made per size: NCCL communicators are
+// cheap next to a size's passes, and a failed size leaves nothing behind.
+std::vector<Result> bench_one(const Loaded& loaded, std::uint64_t n, Backend backend, std::uint64_t steps,
+                              std::uint64_t warmup, int gpus) {
+  if (gpus == 1) return {bench_rank(loaded, n, backend, steps, warmup, nullptr, nullptr)};
+  Team team = make_team(backend, gpus);
+  std::vector<Result> results = std::vector<Result>(std::size_t(gpus));
+  std::mutex setup;  // Simulation set-up one rank at a time (as in `pipeline run`)
+  run_team(team, [&](Communicator& comm) {
+    results[std::size_t(comm.rank())] = bench_rank(loaded, n, backend, steps, warmup, &comm, &setup);
+  });
+  return results;
 }
 
 std::string json_escape(const std::string& s) {
@@ -125,15 +164,19 @@ int cmd_bench(const std::vector<std::string>& args) {
   CommonOptions common;
   std::string sizes_arg, results_dir;
   std::uint64_t steps = 200, warmup = 20;
-  int threads = 0;
+  int threads = 0, gpus = 1;
   po::options_description extra;
   extra.add_options()("sizes", po::value<std::string>(&sizes_arg), "comma-separated N (default: the file's N)")(
       "steps", po::value<std::uint64_t>(&steps)->default_value(200), "timed steps per size")(
       "warmup", po::value<std::uint64_t>(&warmup)->default_value(20), "untimed steps first")(
       "threads", po::value<int>(&threads)->default_value(0), "CPU threads (0 = all cores)")(
+      "gpus", po::value<int>(&gpus)->default_value(1),
+      "ranks sharing each run (GPUs 0..N-1 through NCCL; N threads on the CPU): per-rank times and the "
+      "communication share are reported")(
       "results", po::value<std::string>(&results_dir)->default_value("bench/results"), "where JSON lines go");
   parse_options(args, extra, common);
   if (steps == 0) throw InputError("--steps must be at least 1");
+  if (gpus < 1) throw InputError("--gpus must be at least 1 (got " + std::to_string(gpus) + ")");
   const Backend backend = resolve_backend(common.device);
   Loaded loaded = load(common.file, common.overrides);
   std::optional<tbb::global_control> limit;
@@ -145,7 +188,11 @@ int cmd_bench(const std::vector<std::string>& args) {
   const std::string stem = fs::path(common.file).stem().string();
   // One file per pipeline and backend, so CPU and GPU results never mix.
   std::ofstream jsonl(fs::path(results_dir) / (stem + "-" + to_string(backend) + ".jsonl"), std::ios::app);
-  const std::string device = backend == Backend::cuda ? cuda_device_description() : std::to_string(cores) + " CPU threads";
+  std::string device = backend == Backend::cuda ? cuda_device_description() : std::to_string(cores) + " CPU threads";
+  if (gpus > 1)
+    device = std::to_string(gpus) + " ranks: " +
+             (backend == Backend::cuda ? std::to_string(gpus) + " x " + device + ", " + nccl_description()
+                                       : "threads sharing " + device);
   const std::time_t now = std::time(nullptr);
   char date[32];
   std::strftime(date, sizeof date, "%Y-%m-%dT%H:%M:%SZ", std::gmtime(&now));
@@ -155,19 +202,44 @@ int cmd_bench(const std::vector<std::string>& args) {
   std::cout << std::left << std::setw(10) << "N" << std::setw(14) << "median ms" << std::setw(14) << "steps/s"
             << std::setw(18) << "particle-steps/s" << "  per stage (ms)\n";
   for (auto n : sizes) {
-    Result r = bench_one(loaded, n, backend, steps, warmup);
+    const std::vector<Result> all = bench_one(loaded, n, backend, steps, warmup, gpus);
+    const Result& r = all.front();  // rank 0: the step as the run sees it (ranks meet every step)
     std::ostringstream stages;
     for (auto& kv : r.stage_ms) stages << " " << kv.first << "=" << std::setprecision(3) << kv.second;
     std::cout << std::left << std::setw(10) << n << std::setw(14) << std::setprecision(4) << r.median_ms
               << std::setw(14) << std::setprecision(5) << r.throughput << std::setw(18) << std::setprecision(4)
               << double(n) * r.throughput << " " << stages.str() << "\n";
     for (auto& kv : r.metrics_mean) std::cout << "            " << kv.first << " per step: " << kv.second << "\n";
+    if (gpus > 1)
+      for (std::size_t k = 0; k < all.size(); ++k) {
+        std::cout << "            rank " << k << ": communication " << std::setprecision(4) << all[k].comm_ms
+                  << " ms/step (" << std::setprecision(3) << 100 * all[k].comm_ms * all[k].throughput / 1e3
+                  << " % of the step), per stage (ms):";
+        for (auto& kv : all[k].stage_ms) std::cout << " " << kv.first << "=" << std::setprecision(3) << kv.second;
+        std::cout << "\n";
+      }
     jsonl << "{\"date\":\"" << date << "\",\"pipeline\":\"" << json_escape(common.file) << "\",\"backend\":\""
           << to_string(backend) << "\",\"device\":\"" << json_escape(device) << "\",\"N\":" << n
           << ",\"steps\":" << steps << ",\"median_ms\":" << r.median_ms << ",\"mean_ms\":" << r.mean_ms
           << ",\"steps_per_s\":" << r.throughput << ",\"particle_steps_per_s\":" << double(n) * r.throughput
           << ",\"rollbacks_per_step\":" << r.rollbacks_per_step
-          << ",\"dt_limits_per_step\":" << r.dt_limits_per_step << ",\"stage_ms\":{";
+          << ",\"dt_limits_per_step\":" << r.dt_limits_per_step << ",\"ranks\":" << gpus;
+    if (gpus > 1) {
+      // Per rank: communication per step and its share of the step, the profiled stage times.
+      jsonl << ",\"per_rank\":[";
+      for (std::size_t k = 0; k < all.size(); ++k) {
+        jsonl << (k ? "," : "") << "{\"comm_ms\":" << all[k].comm_ms
+              << ",\"comm_share\":" << all[k].comm_ms * all[k].throughput / 1e3 << ",\"stage_ms\":{";
+        bool f = true;
+        for (auto& kv : all[k].stage_ms) {
+          jsonl << (f ? "" : ",") << "\"" << json_escape(kv.first) << "\":" << kv.second;
+          f = false;
+        }
+        jsonl << "}}";
+      }
+      jsonl << "]";
+    }
+    jsonl << ",\"stage_ms\":{";
     bool first = true;
     for (auto& kv : r.stage_ms) {
       jsonl << (first ? "" : ",") << "\"" << json_escape(kv.first) << "\":" << kv.second;

@@ -14,7 +14,9 @@
 #include <fstream>
 #include <iostream>
 #include <memory>
+#include <mutex>
 #include <optional>
+#include <streambuf>
 #include <thread>
 
 #include "core/backend/device.h"
@@ -22,6 +24,7 @@
 #include "core/base/version.h"
 #include "core/run/checkpoint.h"
 #include "core/run/simulation.h"
+#include "core/run/team.h"
 #include "tools/pipeline/commands.h"
 #include "tools/pipeline/common.h"
 #include "tools/pipeline/options.h"
@@ -84,11 +87,20 @@ std::string lines(const std::vector<std::string>& v) {
 }
 }  // namespace
 
-int run_pipeline(const RunRequest& req, std::ostream& log, const std::atomic<int>& stop,
-                 const std::function<void()>& before_steps) {
-  if (req.resuming && req.force) throw InputError("--resume continues the outputs of a run; --force would overwrite them");
-  const Backend backend = resolve_backend(req.device);
-  Loaded loaded = load(req.file, req.overrides);
+namespace {
+// A stream that writes nowhere: the messages of ranks other than 0.
+struct NullBuffer : std::streambuf {
+  int overflow(int c) override { return c; }
+};
+
+// The run of one rank (`team` null: alone). In a team every rank builds its Simulation from
+// the same loaded pipeline (one after another, under `setup`: HDF5 and the plugins' set-up are
+// not meant for several threads at once), rank 0 alone logs, writes checkpoints and outputs,
+// and the ranks agree every step on whether to stop (a signal seen by any rank).
+int run_rank(const RunRequest& req, const Loaded& loaded, Backend backend, std::ostream& log,
+             const std::atomic<int>& stop, const std::function<void()>& before_steps, Communicator* team,
+             std::mutex& setup) {
+  const bool lead = !team || team->rank() == 0;
   std::string out = req.out;
   const std::string& resume_where = req.resume_where;
   if (out.empty()) {
@@ -97,8 +109,6 @@ int run_pipeline(const RunRequest& req, std::ostream& log, const std::atomic<int
     else
       out = "runs/" + fs::path(req.file).stem().string();
   }
-  std::optional<tbb::global_control> limit;
-  if (req.threads > 0) limit.emplace(tbb::global_control::max_allowed_parallelism, std::size_t(req.threads));
   const auto& spec = loaded.spec;
 
   // What produced this run, recorded in the H5MD file and in checkpoints.
@@ -114,10 +124,14 @@ int run_pipeline(const RunRequest& req, std::ostream& log, const std::atomic<int
                        {"threads", std::to_string(req.threads > 0 ? req.threads : int(std::thread::hardware_concurrency()))},
                        {"started", utc_now()}};
 
+  if (team) record.attributes.push_back({"ranks", std::to_string(team->size())});
+
   RunOptions options{backend, out, req.force, loaded.text};
   options.check_rollbacks = req.check_rollbacks;
+  options.team = team;
   std::unique_ptr<Simulation> sim;
   std::string history;
+  std::unique_lock<std::mutex> setting_up(setup);
   if (req.resuming) {
     ResumePoint rp = find_resume_point(resume_where.empty() ? out : resume_where);
     const PipelineChanges changes = compare_with_checkpoint(rp.data, spec);
@@ -149,21 +163,32 @@ int run_pipeline(const RunRequest& req, std::ostream& log, const std::atomic<int
     options.record = record;
     sim = std::make_unique<Simulation>(spec, *loaded.registry, options);
   }
+  setting_up.unlock();
   log << "flipflow: " << req.file << " — " << spec.system.dimensions << "D, N = " << spec.system.N << ", "
       << spec.run.steps << " steps of Δt = " << spec.run.dt << ", " << to_string(spec.run.precision) << " on "
       << to_string(backend) << (backend == Backend::cuda ? " (" + device + ")" : "") << ", output in " << out
       << "/\n";
+  if (team)
+    log << "flipflow: a team of " << team->size() << " ranks"
+        << (backend == Backend::cuda ? " on GPUs 0-" + std::to_string(team->size() - 1) + ", " + nccl_description()
+                                     : " (CPU threads)")
+        << "; rank 0 writes the outputs\n";
 
   if (req.no_graph_capture) sim->scheduler().set_graph_capture(false);
-  Checkpointer checkpoints(*sim, out, spec.run.checkpoint_every, spec.run.checkpoint_keep, record, history);
-  if (before_steps) before_steps();
+  // Rank 0 alone writes checkpoints (every rank holds the same state).
+  std::optional<Checkpointer> checkpoints;
+  if (lead) checkpoints.emplace(*sim, out, spec.run.checkpoint_every, spec.run.checkpoint_keep, record, history);
+  if (before_steps && lead) before_steps();
   const std::uint64_t first = sim->state().step;
+  if (team) team->reset_communication_seconds();
   const auto t0 = std::chrono::steady_clock::now();
   try {
     while (sim->state().step < spec.run.steps) {
-      if (const int sig = stop.load()) {
+      std::int64_t sig = stop.load();
+      if (team) team->all_reduce(&sig, 1, ReduceOp::max);  // every rank stops after the same step
+      if (sig) {
         // The step under way was finished: keep it in a checkpoint and stop.
-        const std::string path = checkpoints.write();
+        const std::string path = lead ? checkpoints->write() : std::string();
         sim->finish(false);
         log << "flipflow: stopped by " << (sig == SIGINT ? "SIGINT" : "SIGTERM") << " after step "
             << sim->state().step << "; checkpoint " << path << "; continue with: pipeline run " << req.file
@@ -171,10 +196,10 @@ int run_pipeline(const RunRequest& req, std::ostream& log, const std::atomic<int
         return kExitInterrupted;
       }
       sim->advance();
-      checkpoints.after_step();
+      if (lead) checkpoints->after_step();
     }
     sim->synchronize();
-    if (spec.run.checkpoint) checkpoints.write();
+    if (spec.run.checkpoint && lead) checkpoints->write();
   } catch (...) {
     sim->finish(false);
     throw;
@@ -186,15 +211,46 @@ int run_pipeline(const RunRequest& req, std::ostream& log, const std::atomic<int
       << " steps/s), simulated time " << sim->state().time << ", rollbacks " << sim->stats().rollbacks;
   // Attempts run again at a smaller Δt because a stage limited it (Outcome::limit_dt).
   if (sim->stats().dt_limits) log << ", Δt limited " << sim->stats().dt_limits;
-  if (const std::uint64_t n = checkpoints.written()) {
+  if (const std::uint64_t n = lead ? checkpoints->written() : 0) {
     // What checkpointing cost this run: mean write time (the device idle) and the file size.
     char buf[96];
     std::snprintf(buf, sizeof buf, ", checkpoints %llu (%.1f MB, %.1f ms each)", static_cast<unsigned long long>(n),
-                  double(checkpoints.last_bytes()) / 1e6, 1e3 * checkpoints.write_seconds() / double(n));
+                  double(checkpoints->last_bytes()) / 1e6, 1e3 * checkpoints->write_seconds() / double(n));
+    log << buf;
+  }
+  if (team) {
+    // Rank 0's time in collectives (on CUDA device time, waiting for the slowest rank included).
+    char buf[96];
+    std::snprintf(buf, sizeof buf, ", communication %.3g s on rank 0 (%.1f %%)", team->communication_seconds(),
+                  100 * team->communication_seconds() / secs);
     log << buf;
   }
   log << "\n";
   return 0;
+}
+}  // namespace
+
+int run_pipeline(const RunRequest& req, std::ostream& log, const std::atomic<int>& stop,
+                 const std::function<void()>& before_steps) {
+  if (req.resuming && req.force) throw InputError("--resume continues the outputs of a run; --force would overwrite them");
+  const Backend backend = resolve_backend(req.device);
+  if (req.gpus < 1) throw InputError("--gpus must be at least 1 (got " + std::to_string(req.gpus) + ")");
+  const Loaded loaded = load(req.file, req.overrides);
+  std::optional<tbb::global_control> limit;
+  if (req.threads > 0) limit.emplace(tbb::global_control::max_allowed_parallelism, std::size_t(req.threads));
+  std::mutex setup;
+  if (req.gpus == 1) return run_rank(req, loaded, backend, log, stop, before_steps, nullptr, setup);
+  // A team: one thread per rank (on the CPU backend, threads sharing the cores; --gpus N there
+  // tests the split, it does not add cores).
+  Team team = make_team(backend, req.gpus);
+  NullBuffer nowhere;
+  std::ostream quiet(&nowhere);
+  int rc = 0;
+  run_team(team, [&](Communicator& comm) {
+    const int r = run_rank(req, loaded, backend, comm.rank() == 0 ? log : quiet, stop, before_steps, &comm, setup);
+    if (comm.rank() == 0) rc = r;
+  });
+  return rc;
 }
 
 int cmd_run(const std::vector<std::string>& raw_args) {
@@ -206,6 +262,9 @@ int cmd_run(const std::vector<std::string>& raw_args) {
   extra.add_options()("out", po::value<std::string>(&req.out), "output directory (default runs/<file stem>)")(
       "force", po::bool_switch(&req.force), "overwrite existing outputs")(
       "threads", po::value<int>(&req.threads)->default_value(0), "CPU threads (0 = all cores)")(
+      "gpus", po::value<int>(&req.gpus)->default_value(1),
+      "ranks sharing the run: GPUs 0..N-1 through NCCL on CUDA, N threads on the CPU; every rank holds the state, "
+      "stages that can split their work do (docs/multi-gpu.md)")(
       "allow-changes", po::bool_switch(&req.allow_changes),
       "with --resume: continue with changed parameters (recorded in the H5MD file's /parameters/history)")(
       "check-rollbacks", po::bool_switch(&req.check_rollbacks),

@@ -21,6 +21,7 @@ struct RunRequest {
   bool allow_changes = false;
   bool check_rollbacks = false;
   int threads = 0;                     // > 0: limit oneTBB (process-wide) for the run's duration
+  int gpus = 1;                        // > 1: a team of ranks (core/run/team.h), one thread each
   // Launch every step's work directly, never from a captured CUDA graph (same bits): for runs
   // sharing a process, where a device-wide wait of one would break another's capture.
   bool no_graph_capture = false;

@@ -1,4 +1,5 @@
-// CPU loops of phoretic.forces. Long range: a blocked all-pairs loop. A block of 64 targets
+// CPU loops of phoretic.forces. Long range: a blocked all-pairs loop over the call's targets
+// (all, or a rank's share). A block of 64 targets
 // (one oneTBB task) keeps its coordinates and accumulators in small arrays; the sources stream
 // past once per block, and each source updates the 64 independent accumulators, so the loop
 // is throughput- rather than latency-bound and vectorizes over targets. Each target still adds
@@ -20,13 +21,14 @@ namespace {
 template <class R, int D>
 void cpu_long_range(const LongRangeVelocity<R, D>& f, CUstream_st* /*stream*/) {
   constexpr std::size_t kTargets = 64;
-  const std::size_t n = f.n;
+  const std::size_t n = f.n, first = f.first_target, end = f.end_target();
+  if (end <= first) return;
   std::vector<R> alpha(n);
   for (std::size_t k = 0; k < n; ++k) alpha[k] = f.alpha_of(k);
-  const std::size_t blocks = (n + kTargets - 1) / kTargets;
+  const std::size_t blocks = (end - first + kTargets - 1) / kTargets;
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, blocks), [&](const tbb::blocked_range<std::size_t>& r) {
     for (std::size_t b = r.begin(); b != r.end(); ++b) {
-      const std::size_t i0 = b * kTargets, m = std::min(n, i0 + kTargets) - i0;
+      const std::size_t i0 = first + b * kTargets, m = std::min(end, i0 + kTargets) - i0;
       R xt[D][kTargets] = {}, acc[D][kTargets] = {};
       for (std::size_t t = 0; t < m; ++t)
         for (int c = 0; c < D; ++c) xt[c][t] = f.position[(i0 + t) * D + c];

@@ -6,7 +6,8 @@
 // 32-byte load each, read back as a broadcast), then every thread adds them to its P targets.
 // Each target adds its sources in ascending order, k = i included (it adds zero), exactly as
 // LongRangeVelocity::operator() and the CPU loop do; the pair term is kernel.h's.
-// Targets past N compute on zeros and store nothing; the last tile's loop stops at N.
+// The targets are the call's (all, or a rank's share in a team: first_target on); those past
+// the end compute on zeros and store nothing; the last tile's loop stops at N.
 // In float a pair costs 18 instructions (kernel.h: one compare per image, one MUFU.RSQ); the
 // pairs per second measured on the H100 are in bench/README.md.
 // Short range: the element loop over Verlet rows.
@@ -37,15 +38,15 @@ __device__ __forceinline__ void add_source(const LongRangeVelocity<R, D>& f, con
 template <class R, int D, int P>
 __global__ void __launch_bounds__(kBlock) long_range_kernel(LongRangeVelocity<R, D> f) {
   __shared__ Source<R> tile[kBlock];
-  const std::size_t n = f.n;
-  const std::size_t first = std::size_t(blockIdx.x) * (kBlock * P) + threadIdx.x;  // targets first + j kBlock
+  const std::size_t n = f.n, end = f.end_target();
+  const std::size_t first = f.first_target + std::size_t(blockIdx.x) * (kBlock * P) + threadIdx.x;  // targets first + j kBlock
   R xi[P][D], acc[P][D];
 #pragma unroll
   for (int j = 0; j < P; ++j) {
     const std::size_t i = first + std::size_t(j) * kBlock;
 #pragma unroll
     for (int c = 0; c < D; ++c) {
-      xi[j][c] = i < n ? f.position[i * D + c] : R(0);
+      xi[j][c] = i < end ? f.position[i * D + c] : R(0);
       acc[j][c] = R(0);
     }
   }
@@ -71,13 +72,13 @@ __global__ void __launch_bounds__(kBlock) long_range_kernel(LongRangeVelocity<R,
 #pragma unroll
   for (int j = 0; j < P; ++j) {
     const std::size_t i = first + std::size_t(j) * kBlock;
-    if (i < n) f.store(i, acc[j]);
+    if (i < end) f.store(i, acc[j]);
   }
 }
 
 template <class R, int D, int P>
 void launch_long_range(const LongRangeVelocity<R, D>& f, CUstream_st* stream) {
-  const unsigned grid = unsigned((f.n + kBlock * P - 1) / (kBlock * P));
+  const unsigned grid = unsigned((f.end_target() - f.first_target + kBlock * P - 1) / (kBlock * P));
   long_range_kernel<R, D, P><<<grid, kBlock, 0, stream>>>(f);
   FF_CUDA_CHECK_LAUNCH("launching the long-range phoretic kernel");
 }
@@ -96,10 +97,13 @@ std::size_t multiprocessors() {
 // thread would leave half of them idle). In double, 1 is the fastest at every size measured.
 template <class R, int D>
 void cuda_long_range(const LongRangeVelocity<R, D>& f, CUstream_st* stream) {
-  if (f.n == 0) return;
+  if (f.end_target() <= f.first_target) return;
   if constexpr (std::is_same_v<R, float>) {
-    const std::size_t sms = multiprocessors();
-    const std::size_t blocks = (f.n + 4 * kBlock - 1) / (4 * kBlock), waves = (blocks + sms - 1) / sms;
+    // Chosen by the targets of this call (a rank's share in a team); the sum of each target is
+    // the same for P = 1 and 4 (the same add() in the same order; tests/test_team.cpp compares
+    // 2 and 4 GPUs, whose shares choose differently, with one).
+    const std::size_t sms = multiprocessors(), targets = f.end_target() - f.first_target;
+    const std::size_t blocks = (targets + 4 * kBlock - 1) / (4 * kBlock), waves = (blocks + sms - 1) / sms;
     if (10 * blocks >= 9 * waves * sms) return launch_long_range<R, D, 4>(f, stream);
   }
   launch_long_range<R, D, 1>(f, stream);

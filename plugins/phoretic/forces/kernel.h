@@ -99,7 +99,13 @@ struct LongRangeVelocity {
   Charges<R> q;
   PeriodicBox<R> box;
   std::size_t n;
+  // The targets this call computes, [first_target, end_target()): all by default; in a team of
+  // ranks each rank its share (core/backend/comm.h share_of). Sources are always all n, in
+  // ascending order, so a target's sum is the same whichever rank computes it.
+  std::size_t first_target = 0;
+  std::size_t last_target = ~std::size_t(0);
 
+  FF_HD std::size_t end_target() const { return last_target < n ? last_target : n; }
   FF_HD R alpha_of(std::size_t k) const { return q.alpha[type[k]]; }
   FF_HD void add(R* acc, const R* xi, const R* xk, R alpha_k) const {
     add_long_range<R, D>(acc, xi, xk, alpha_k, box);

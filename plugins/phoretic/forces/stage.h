@@ -1,11 +1,19 @@
 // phoretic.forces: pair velocities v_i = Σ_k μ_i α_k f(r_i - r_k) into the `velocity` field.
 // range: long  -> f = r/r³, all pairs, exact O(N²) with minimum image
 // range: short -> f = r/r⁷ up to `cutoff`, through the list of a neighbors.verlet stage before it
+// In a team of ranks (`pipeline run --gpus N`, core/backend/comm.h) the long range splits its
+// work (TeamWork::split): each rank sums its contiguous share of targets over all sources, then
+// the velocities are all-gathered in place, so every rank holds the whole field with the bits
+// one rank computes (each target's sum is unchanged). O(N²/P) work per rank for O(N) data.
+// The short range runs redundantly (its work is O(N), like the integrator's).
 #pragma once
 #include <algorithm>
 #include <string>
+#include <tuple>
+#include <vector>
 
 #include "core/base/error.h"
+#include "core/backend/comm.h"
 #include "core/backend/exec.h"
 #include "core/stage/params.h"
 #include "core/stage/stage.h"
@@ -64,8 +72,8 @@ class Forces final : public Stage {
   }
 
   template <class Exec>
-  Forces(const ParamValues& v, const RunInfo&, Exec)
-      : p_(params_from<ForcesParams>(v)), where_(Exec::where), loops_(forces_loops<R>(Exec{})) {
+  Forces(const ParamValues& v, const RunInfo& info, Exec)
+      : p_(params_from<ForcesParams>(v)), where_(Exec::where), loops_(forces_loops<R>(Exec{})), team_(info.team) {
     if (p_.alpha.size() != p_.mu.size())
       throw InputError("phoretic.forces: alpha has " + std::to_string(p_.alpha.size()) + " entries and mu has " +
                        std::to_string(p_.mu.size()) + "; give one of each per particle type");
@@ -116,6 +124,12 @@ class Forces final : public Stage {
     s.add_particle_field(kVelocity, s.real(), s.dim());
   }
 
+  Scheduling scheduling() const override {
+    Scheduling s;
+    s.team = p_.long_range() ? TeamWork::split : TeamWork::redundant;
+    return s;
+  }
+
   Outcome run(StepContext& ctx) override {
     State& s = ctx.state;
     if (s.dim() == 2) run_d<2>(ctx);
@@ -132,9 +146,18 @@ class Forces final : public Stage {
     R* v = s.field(kVelocity).data<R>(ctx);
     const auto box = PeriodicBox<R>::make(s.box.L);
     if (p_.long_range()) {
-      const LongRangeVelocity<R, D> f{x, type, v, q_, box, s.n()};
+      LongRangeVelocity<R, D> f{x, type, v, q_, box, s.n()};
+      if (in_team(team_)) std::tie(f.first_target, f.last_target) = share_of(s.n(), team_->rank(), team_->size());
       if constexpr (D == 2) loops_.long2(f, ctx.stream);
       else loops_.long3(f, ctx.stream);
+      if (in_team(team_)) {
+        // Every rank's share of `velocity`, in place (stream-ordered on CUDA: the integrator
+        // after this stage, on the same stream, reads the whole field).
+        std::vector<std::size_t> bytes(std::size_t(team_->size()) + 1);
+        for (int r = 0; r <= team_->size(); ++r)
+          bytes[std::size_t(r)] = share_of(s.n(), r, team_->size()).first * D * sizeof(R);
+        team_->all_gather_slices(v, bytes, ctx.stream);
+      }
     } else {
       const ShortRangeVelocity<R, D> f{x, type, v, q_, box,
                                        s.field(neighbors::kList).data<std::uint32_t>(ctx),
@@ -148,6 +171,7 @@ class Forces final : public Stage {
   ForcesParams p_;
   Where where_;
   ForcesLoops<R> loops_;
+  Communicator* team_;  // null or one rank: alone
   Charges<R> q_{};
 };
 
