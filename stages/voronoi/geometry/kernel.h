@@ -116,16 +116,47 @@ struct CellGeometry {
 #endif
   }
 
-  FF_HD V2 absolute(int v, V2 rel) const {
-    const double x = double(pts.p[2 * v]) + rel.x, y = double(pts.p[2 * v + 1]) + rel.y;
+  // Particle j's position: on the device one 16-byte (double) or 8-byte (float) read-only load,
+  // the two coordinates being adjacent; the same values as pts.p[2j], pts.p[2j + 1].
+  FF_HD V2 position(int j) const {
+#if defined(__CUDA_ARCH__)
+    if constexpr (sizeof(R) == 8) {
+      const double2 q = __ldg(reinterpret_cast<const double2*>(pts.p) + j);
+      return {q.x, q.y};
+    } else {
+      const float2 q = __ldg(reinterpret_cast<const float2*>(pts.p) + j);
+      return {double(q.x), double(q.y)};
+    }
+#else
+    return {double(pts.p[2 * j]), double(pts.p[2 * j + 1])};
+#endif
+  }
+  // Minimum-image vector from v (at pv) to u: pts.rel(v, u) with v's position read once per cell.
+  FF_HD V2 rel(V2 pv, int u) const {
+    const V2 pu = position(u);
+    return {pts.image(pu.x - pv.x, 0), pts.image(pu.y - pv.y, 1)};
+  }
+  // pv + rel wrapped into the box.
+  FF_HD V2 absolute(V2 pv, V2 rel) const {
+    const double x = pv.x + rel.x, y = pv.y + rel.y;
     return {wrap_into(x, pts.box.L[0], pts.box.inv_L[0]), wrap_into(y, pts.box.L[1], pts.box.inv_L[1])};
+  }
+  // Element i of a two-component field (x, y adjacent): one vector store on the device.
+  FF_HD static void store2(R* a, std::size_t i, V2 w) {
+#if defined(__CUDA_ARCH__)
+    if constexpr (sizeof(R) == 8) reinterpret_cast<double2*>(a)[i] = double2{w.x, w.y};
+    else reinterpret_cast<float2*>(a)[i] = float2{float(w.x), float(w.y)};
+#else
+    a[2 * i] = R(w.x);
+    a[2 * i + 1] = R(w.y);
+#endif
   }
 
   // What one face adds to its cell (face k: half-edge h = v -> u at d = u − v, from o_R to o_L).
   struct Sums {
     double area = 0, perimeter = 0, gx = 0, gy = 0;
   };
-  FF_HD void face(int v, int h, V2 d, V2 oR, V2 oL, Sums& s) const {
+  FF_HD void face(V2 pv, int h, V2 d, V2 oR, V2 oL, Sums& s) const {
     const double r = std::sqrt(d.x * d.x + d.y * d.y);
     // A = (o_L − o_R)·n̂ with n̂ = (v -> u)/r turned by +90°: ≥ 0 on a Delaunay edge.
     const double A = ((oL.x - oR.x) * -d.y + (oL.y - oR.y) * d.x) / r;
@@ -138,15 +169,9 @@ struct CellGeometry {
     if (face_length && (h & 1) == 0) {
       const int e = h >> 1;
       face_length[e] = R(A);
-      const V2 m = absolute(v, {0.5 * (oR.x + oL.x), 0.5 * (oR.y + oL.y)});
-      face_midpoint[2 * e] = R(m.x);
-      face_midpoint[2 * e + 1] = R(m.y);
+      store2(face_midpoint, e, absolute(pv, {0.5 * (oR.x + oL.x), 0.5 * (oR.y + oL.y)}));
     }
-    if (circumcenter) {
-      const V2 o = absolute(v, oL);
-      circumcenter[2 * h] = R(o.x);
-      circumcenter[2 * h + 1] = R(o.y);
-    }
+    if (circumcenter) store2(circumcenter, h, absolute(pv, oL));
   }
 
   // The stored area (rounded to R, as the field holds it) and the fan's size as metric terms.
@@ -187,7 +212,8 @@ struct CellGeometry {
     // (which needs o_{deg-1}) is summed last.
     int u, hk = hmin, hnext;
     turn(hk, u, hnext);
-    const V2 d_first = pts.rel(v, u);
+    const V2 pv = position(v);
+    const V2 d_first = rel(pv, u);
     V2 dk = d_first, o_first{0, 0}, o_prev{0, 0};
     Sums s;
     for (int k = 0; k < deg; ++k) {
@@ -195,24 +221,22 @@ struct CellGeometry {
       int hafter = hnext;
       if (k + 1 < deg) {
         turn(hnext, u, hafter);
-        dn = pts.rel(v, u);
+        dn = rel(pv, u);
       }
       const V2 o = circumcentre(dn, dk);
       if (k == 0) o_first = o;
-      else face(v, hk, dk, o, o_prev, s);
+      else face(pv, hk, dk, o, o_prev, s);
       o_prev = o;
       dk = dn;
       hk = hnext;
       hnext = hafter;
     }
-    face(v, hmin, d_first, o_first, o_prev, s);
+    face(pv, hmin, d_first, o_first, o_prev, s);
     sides[v] = deg;
     const R a = R(s.area);
     area[v] = a;
     perimeter[v] = R(s.perimeter);
-    const V2 g = absolute(v, {s.gx / (3.0 * s.area), s.gy / (3.0 * s.area)});
-    centroid[2 * v] = R(g.x);
-    centroid[2 * v + 1] = R(g.y);
+    store2(centroid, std::size_t(v), absolute(pv, {s.gx / (3.0 * s.area), s.gy / (3.0 * s.area)}));
     return terms(a, deg);
   }
 };
