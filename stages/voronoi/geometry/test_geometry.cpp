@@ -47,6 +47,9 @@ std::unique_ptr<State> built(const std::vector<double>& xy, double Lx, double Ly
   return s;
 }
 
+// The settings that write the per-edge faces (off by default), for the tests that read them.
+const test::ParamSettings with_faces{{"faces", true}};
+
 // voronoi.geometry once on backend b; its metrics.
 std::map<std::string, double> cells(State& s, Backend b, const test::ParamSettings& set = {}) {
   auto g = make("voronoi.geometry", b, s.precision(), set);
@@ -140,7 +143,7 @@ TEST_CASE("voronoi.geometry: triangular lattice — area √3/2 a², faces a/√
   const int nx = 16, ny = 16;
   const double a = 1.7;
   auto s = built(dl::triangular_lattice(nx, ny, a), nx * a, ny * a * std::sqrt(3.0) / 2);
-  const auto m = cells(*s, b);
+  const auto m = cells(*s, b, with_faces);
   const auto x = dl::positions(*s);
   const auto area = values(*s, vf::area), per = values(*s, vf::perimeter), g = values(*s, vf::centroid);
   const auto faces = values(*s, vf::face_length);
@@ -165,7 +168,7 @@ TEST_CASE("voronoi.geometry: square lattice — area a² whatever diagonals Laws
   const int n = 12;
   const double a = 1.3;
   auto s = built(dl::square_lattice(n, n, a), n * a, n * a);
-  cells(*s, b);
+  cells(*s, b, with_faces);
   const auto x = dl::positions(*s);
   const auto he = dl::topology(*s).he;
   const auto area = values(*s, vf::area), per = values(*s, vf::perimeter), faces = values(*s, vf::face_length);
@@ -195,7 +198,7 @@ TEST_CASE("voronoi.geometry: random states equal CGAL's periodic Voronoi cells; 
   const double L = std::sqrt(double(n));
   const auto xy = dl::random_points(n, L, L, seed);
   auto s = built(xy, L, L);
-  const auto m = cells(*s, b);
+  const auto m = cells(*s, b, with_faces);
   const auto x = dl::positions(*s);
   const CgalCells ref = cgal_cells(x, L);
   const auto area = values(*s, vf::area), per = values(*s, vf::perimeter), g = values(*s, vf::centroid);
@@ -258,7 +261,7 @@ TEST_CASE("voronoi.geometry: positions delaunay (position_prev) or current", "[v
   dl::set_positions(*s, xy);
   cells(*s, b);
   CHECK(values(*s, vf::area) == before);  // the cells of delaunay.position_prev, bit for bit
-  const auto m = cells(*s, b, {{"positions", std::string("current")}});
+  const auto m = cells(*s, b, {{"positions", std::string("current")}, {"faces", true}});
   const auto now = values(*s, vf::area);
   CHECK(now != before);
   CHECK(std::fabs(m.at("area_sum_error")) < 1e-12);  // the cells of the moved points still tile the box
@@ -340,19 +343,24 @@ TEST_CASE("voronoi.geometry: CPU and CUDA give the same bits", "[voronoi][cuda]"
   const std::size_t n = 5000;
   const double L = std::sqrt(double(n));
   const auto xy = dl::random_points(n, L, L, 8);
-  for (Precision p : {Precision::f64, Precision::f32}) {
-    auto cpu = built(xy, L, L, p), gpu = built(xy, L, L, p);
-    const test::ParamSettings all{{"circumcenters", true}};
-    const auto mc = cells(*cpu, Backend::cpu, all), mg = cells(*gpu, Backend::cuda, all);
-    CHECK(mc == mg);
-    for (const char* f : {vf::area, vf::perimeter, vf::centroid, vf::sides, vf::face_length, vf::face_midpoint,
-                          vf::circumcenter}) {
-      INFO(f);
-      Field &a = cpu->field(f), &c = gpu->field(f);
-      a.acquire(Where::host, Mode::read);
-      c.acquire(Where::host, Mode::read);
-      REQUIRE(a.bytes() == c.bytes());
-      REQUIRE(std::memcmp(a.host_raw(), c.host_raw(), a.bytes()) == 0);
+  // The cells alone (the default) and with every per-edge output: the CUDA loop may take another
+  // path when it writes nothing per edge.
+  for (const bool edges : {false, true})
+    for (Precision p : {Precision::f64, Precision::f32}) {
+      INFO((edges ? "faces and circumcentres" : "cells only") << (p == Precision::f64 ? ", double" : ", float"));
+      const test::ParamSettings set{{"faces", edges}, {"circumcenters", edges}};
+      auto cpu = built(xy, L, L, p), gpu = built(xy, L, L, p);
+      const auto mc = cells(*cpu, Backend::cpu, set), mg = cells(*gpu, Backend::cuda, set);
+      CHECK(mc == mg);
+      std::vector<const char*> names{vf::area, vf::perimeter, vf::centroid, vf::sides};
+      if (edges) names.insert(names.end(), {vf::face_length, vf::face_midpoint, vf::circumcenter});
+      for (const char* f : names) {
+        INFO(f);
+        Field &a = cpu->field(f), &c = gpu->field(f);
+        a.acquire(Where::host, Mode::read);
+        c.acquire(Where::host, Mode::read);
+        REQUIRE(a.bytes() == c.bytes());
+        REQUIRE(std::memcmp(a.host_raw(), c.host_raw(), a.bytes()) == 0);
+      }
     }
-  }
 }
