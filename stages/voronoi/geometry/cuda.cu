@@ -11,6 +11,16 @@ constexpr int kBlock = 256;
 // (measured: bench/experiments/README.md, "voronoi.geometry CUDA variants").
 constexpr int kBlocksPerSm = 4;
 
+// The far ends of each thread's fan, kept between its two walks (kernel.h, cell()): up to
+// kFanCache of them (12 KB a block), slot k of thread t at fan[k][t] (consecutive threads,
+// consecutive banks). A longer fan (rare: the mean is 6) walks its records again.
+struct SharedFan {
+  static constexpr int capacity = kFanCache;
+  int* slot0;  // &fan[0][threadIdx.x]
+  __device__ void put(int k, int u) const { slot0[k * kBlock] = u; }
+  __device__ int get(int k) const { return slot0[k * kBlock]; }
+};
+
 // One particle per thread. With metrics, each block adds its terms to sums.device with one
 // atomic per sum (integers: the total does not depend on the order), and the last block to
 // finish moves the totals to sums.out (pinned host memory) and zeroes the words for the next
@@ -19,8 +29,9 @@ constexpr int kBlocksPerSm = 4;
 template <class R>
 __global__ void __launch_bounds__(kBlock, kBlocksPerSm) cells_kernel(std::size_t n, CellGeometry<R> f, MetricSums sums) {
   const std::size_t i = std::size_t(blockIdx.x) * kBlock + threadIdx.x;
+  __shared__ int fan[kFanCache][kBlock];
   MetricTerms t;
-  if (i < n) t = f.cell(int(i));
+  if (i < n) t = f.cell(int(i), SharedFan{&fan[0][threadIdx.x]});
   if (!sums.device) return;
   unsigned long long v[3] = {t.area, t.area2, t.sides2};
   __shared__ unsigned long long warps[3][kBlock / 32];

@@ -89,6 +89,16 @@ struct MetricSums {
   std::uint64_t* out = nullptr;
 };
 
+// Where cell() may keep the far ends of a fan between its two walks: none (the CPU loop; the
+// second walk reads the half-edge records again, from cache). geometry/cuda.cu keeps up to
+// kFanCache of them per thread in shared memory (a longer fan, rare, walks again).
+inline constexpr int kFanCache = 12;
+struct NoFanCache {
+  static constexpr int capacity = 0;
+  FF_HD void put(int, int) const {}
+  FF_HD int get(int) const { return 0; }
+};
+
 template <class R>
 struct CellGeometry {
   const std::int32_t* he;     // 2 x 6N: {origin, next} (delaunay.halfedge)
@@ -188,19 +198,32 @@ struct CellGeometry {
   FF_HD void operator()(std::size_t i) const { cell(int(i)); }
 
   // Writes particle v's cell (and its faces and circumcentres); returns its metric terms.
-  FF_HD MetricTerms cell(int v) const {
+  FF_HD MetricTerms cell(int v) const { return cell(v, NoFanCache{}); }
+
+  // The same, keeping the fan's far ends in `fan` (FanCache) during the first walk: the second
+  // then reads them there instead of walking the half-edge records again, when the fan fits and
+  // nothing is written per half-edge (the faces and circumcentres need the half-edges' indices).
+  template <class Fan>
+  FF_HD MetricTerms cell(int v, Fan fan) const {
     const unsigned nh = 6u * unsigned(n);
     // Pass 1: the fan closes within kMaxSides half-edges, every index in range; its lowest
-    // half-edge starts pass 2.
+    // half-edge (the kmin-th from h0) starts pass 2.
     const int h0 = vedge[v];
-    int deg = 0, hmin = h0;
+    int deg = 0, hmin = h0, kmin = 0;
     bool ok = unsigned(h0) < nh;
     for (int h = h0; ok;) {
       int u, hn;
       turn(h, u, hn);
-      if (unsigned(u) >= unsigned(n) || u == v || unsigned(hn) >= nh || ++deg > kMaxSides) ok = false;
-      else if ((h = hn) == h0) break;
-      else if (h < hmin) hmin = h;
+      if (unsigned(u) >= unsigned(n) || u == v || unsigned(hn) >= nh || ++deg > kMaxSides) {
+        ok = false;
+      } else {
+        if (deg <= Fan::capacity) fan.put(deg - 1, u);
+        if ((h = hn) == h0) break;
+        if (h < hmin) {
+          hmin = h;
+          kmin = deg;
+        }
+      }
     }
     if (!ok || deg < 3) {
       sides[v] = 0;
@@ -210,8 +233,11 @@ struct CellGeometry {
     }
     // Pass 2: o_k = circumcentre of (v, u_{k+1}, u_k); face k needs o_{k-1} and o_k, so face 0
     // (which needs o_{deg-1}) is summed last.
-    int u, hk = hmin, hnext;
-    turn(hk, u, hnext);
+    // The k-th far end from the cache (index kmin + k modulo deg) or by one step of the walk.
+    const bool cached = deg <= Fan::capacity && !face_length && !circumcenter;
+    int u, hk = hmin, hnext = hmin, j = kmin;
+    if (cached) u = fan.get(j);
+    else turn(hk, u, hnext);
     const V2 pv = position(v);
     const V2 d_first = rel(pv, u);
     V2 dk = d_first, o_first{0, 0}, o_prev{0, 0};
@@ -220,7 +246,12 @@ struct CellGeometry {
       V2 dn = d_first;
       int hafter = hnext;
       if (k + 1 < deg) {
-        turn(hnext, u, hafter);
+        if (!cached) {
+          turn(hnext, u, hafter);
+        } else {
+          if (++j == deg) j = 0;
+          u = fan.get(j);
+        }
         dn = rel(pv, u);
       }
       const V2 o = circumcentre(dn, dk);
