@@ -142,10 +142,8 @@ struct CellGeometry {
 #endif
   }
   // Minimum-image vector from v (at pv) to u: pts.rel(v, u) with v's position read once per cell.
-  FF_HD V2 rel(V2 pv, int u) const {
-    const V2 pu = position(u);
-    return {pts.image(pu.x - pv.x, 0), pts.image(pu.y - pv.y, 1)};
-  }
+  FF_HD V2 rel(V2 pv, int u) const { return rel(pv, position(u)); }
+  FF_HD V2 rel(V2 pv, V2 pu) const { return {pts.image(pu.x - pv.x, 0), pts.image(pu.y - pv.y, 1)}; }
   // pv + rel wrapped into the box.
   FF_HD V2 absolute(V2 pv, V2 rel) const {
     const double x = pv.x + rel.x, y = pv.y + rel.y;
@@ -240,6 +238,10 @@ struct CellGeometry {
     else turn(hk, u, hnext);
     const V2 pv = position(v);
     const V2 d_first = rel(pv, u);
+    // From the cache the next far end's position is loaded a face ahead: its load is in flight
+    // while the current face is summed.
+    V2 p_ahead{0, 0};
+    if (cached && deg > 1) p_ahead = position(fan.get(j + 1 == deg ? 0 : j + 1));
     V2 dk = d_first, o_first{0, 0}, o_prev{0, 0};
     Sums s;
     for (int k = 0; k < deg; ++k) {
@@ -248,11 +250,12 @@ struct CellGeometry {
       if (k + 1 < deg) {
         if (!cached) {
           turn(hnext, u, hafter);
+          dn = rel(pv, u);
         } else {
+          dn = rel(pv, p_ahead);
           if (++j == deg) j = 0;
-          u = fan.get(j);
+          if (k + 2 < deg) p_ahead = position(fan.get(j + 1 == deg ? 0 : j + 1));
         }
-        dn = rel(pv, u);
       }
       const V2 o = circumcentre(dn, dk);
       if (k == 0) o_first = o;
