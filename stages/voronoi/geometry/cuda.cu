@@ -26,12 +26,13 @@ struct SharedFan {
 // finish moves the totals to sums.out (pinned host memory) and zeroes the words for the next
 // launch: no memset, no copy and no host wait on the stream (the stage reads sums.out after the
 // step, behind a fence).
-template <class R>
+// Edges: whether f writes faces or circumcentres (without, the per-edge code is left out).
+template <class R, bool Edges>
 __global__ void __launch_bounds__(kBlock, kBlocksPerSm) cells_kernel(std::size_t n, CellGeometry<R> f, MetricSums sums) {
   const std::size_t i = std::size_t(blockIdx.x) * kBlock + threadIdx.x;
   __shared__ int fan[kFanCache][kBlock];
   MetricTerms t;
-  if (i < n) t = f.cell(int(i), SharedFan{&fan[0][threadIdx.x]});
+  if (i < n) t = f.template cell<Edges>(int(i), SharedFan{&fan[0][threadIdx.x]});
   if (!sums.device) return;
   unsigned long long v[3] = {t.area, t.area2, t.sides2};
   __shared__ unsigned long long warps[3][kBlock / 32];
@@ -60,7 +61,9 @@ __global__ void __launch_bounds__(kBlock, kBlocksPerSm) cells_kernel(std::size_t
 template <class R>
 void cells(std::size_t n, const CellGeometry<R>& f, MetricSums sums, CUstream_st* s) {
   if (n == 0) return;
-  cells_kernel<R><<<unsigned((n + kBlock - 1) / kBlock), kBlock, 0, s>>>(n, f, sums);
+  const unsigned blocks = unsigned((n + kBlock - 1) / kBlock);
+  if (f.face_length || f.circumcenter) cells_kernel<R, true><<<blocks, kBlock, 0, s>>>(n, f, sums);
+  else cells_kernel<R, false><<<blocks, kBlock, 0, s>>>(n, f, sums);
   FF_CUDA_CHECK_LAUNCH("launching voronoi.geometry's cells");
 }
 

@@ -164,6 +164,7 @@ struct CellGeometry {
   struct Sums {
     double area = 0, perimeter = 0, gx = 0, gy = 0;
   };
+  template <bool Edges>
   FF_HD void face(V2 pv, int h, V2 d, V2 oR, V2 oL, Sums& s) const {
     const double r = std::sqrt(d.x * d.x + d.y * d.y);
     // A = (o_L − o_R)·n̂ with n̂ = (v -> u)/r turned by +90°: ≥ 0 on a Delaunay edge.
@@ -174,12 +175,12 @@ struct CellGeometry {
     s.perimeter += A;
     s.gx += a * (oR.x + oL.x);  // × 1/3 (the triangle's centroid) once, at the end
     s.gy += a * (oR.y + oL.y);
-    if (face_length && (h & 1) == 0) {
+    if (Edges && face_length && (h & 1) == 0) {
       const int e = h >> 1;
       face_length[e] = R(A);
       store2(face_midpoint, e, absolute(pv, {0.5 * (oR.x + oL.x), 0.5 * (oR.y + oL.y)}));
     }
-    if (circumcenter) store2(circumcenter, h, absolute(pv, oL));
+    if (Edges && circumcenter) store2(circumcenter, h, absolute(pv, oL));
   }
 
   // The stored area (rounded to R, as the field holds it) and the fan's size as metric terms.
@@ -196,12 +197,14 @@ struct CellGeometry {
   FF_HD void operator()(std::size_t i) const { cell(int(i)); }
 
   // Writes particle v's cell (and its faces and circumcentres); returns its metric terms.
-  FF_HD MetricTerms cell(int v) const { return cell(v, NoFanCache{}); }
+  FF_HD MetricTerms cell(int v) const { return cell<true>(v, NoFanCache{}); }
 
   // The same, keeping the fan's far ends in `fan` (FanCache) during the first walk: the second
   // then reads them there instead of walking the half-edge records again, when the fan fits and
   // nothing is written per half-edge (the faces and circumcentres need the half-edges' indices).
-  template <class Fan>
+  // Edges = false: the caller knows that face_length and circumcenter are null (the per-edge
+  // code is left out of the loop).
+  template <bool Edges, class Fan>
   FF_HD MetricTerms cell(int v, Fan fan) const {
     const unsigned nh = 6u * unsigned(n);
     // Pass 1: the fan closes within kMaxSides half-edges, every index in range; its lowest
@@ -232,7 +235,7 @@ struct CellGeometry {
     // Pass 2: o_k = circumcentre of (v, u_{k+1}, u_k); face k needs o_{k-1} and o_k, so face 0
     // (which needs o_{deg-1}) is summed last.
     // The k-th far end from the cache (index kmin + k modulo deg) or by one step of the walk.
-    const bool cached = deg <= Fan::capacity && !face_length && !circumcenter;
+    const bool cached = deg <= Fan::capacity && !(Edges && (face_length || circumcenter));
     int u, hk = hmin, hnext = hmin, j = kmin;
     if (cached) u = fan.get(j);
     else turn(hk, u, hnext);
@@ -259,13 +262,13 @@ struct CellGeometry {
       }
       const V2 o = circumcentre(dn, dk);
       if (k == 0) o_first = o;
-      else face(pv, hk, dk, o, o_prev, s);
+      else face<Edges>(pv, hk, dk, o, o_prev, s);
       o_prev = o;
       dk = dn;
       hk = hnext;
       hnext = hafter;
     }
-    face(pv, hmin, d_first, o_first, o_prev, s);
+    face<Edges>(pv, hmin, d_first, o_first, o_prev, s);
     sides[v] = deg;
     const R a = R(s.area);
     area[v] = a;
