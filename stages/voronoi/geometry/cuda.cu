@@ -6,13 +6,13 @@ namespace ff::voronoi {
 namespace {
 
 constexpr int kBlock = 256;
-// Three blocks (24 warps, 48 first walks in flight) per SM: registers capped at 80 (36 B
-// spilled; capped at 64 for four blocks, 142 B). One walk a thread ran best at four blocks
-// (bench/experiments/README.md, "voronoi.geometry CUDA variants").
-constexpr int kBlocksPerSm = 3;
+// Four blocks (32 warps) per SM instead of the three that 74 registers allow: registers capped
+// at 64 (4 B spilled), more fan walks in flight to hide their chains of dependent loads
+// (measured: bench/experiments/README.md, "voronoi.geometry CUDA variants").
+constexpr int kBlocksPerSm = 4;
 
 // The far ends of each thread's fan, kept between its two walks (kernel.h, cell()): up to
-// kFanCache of them (12 KB a block and particle a thread), slot k of thread t at fan[k][t] (consecutive threads,
+// kFanCache of them (12 KB a block), slot k of thread t at fan[k][t] (consecutive threads,
 // consecutive banks). A longer fan (rare: the mean is 6) walks its records again.
 struct SharedFan {
   static constexpr int capacity = kFanCache;
@@ -27,33 +27,12 @@ struct SharedFan {
 // launch: no memset, no copy and no host wait on the stream (the stage reads sums.out after the
 // step, behind a fence).
 // Edges: whether f writes faces or circumcentres (without, the per-edge code is left out).
-// Each thread takes two particles, i and i + kBlock of its block's 2 kBlock, and advances their
-// first walks in turn: two chains of dependent half-edge loads in flight per thread instead of
-// one. Their second walks and stores follow one after the other.
 template <class R, bool Edges>
 __global__ void __launch_bounds__(kBlock, kBlocksPerSm) cells_kernel(std::size_t n, CellGeometry<R> f, MetricSums sums) {
-  const std::size_t i = std::size_t(blockIdx.x) * (2 * kBlock) + threadIdx.x;
-  __shared__ int fan[2][kFanCache][kBlock];
-  const SharedFan fan_a{&fan[0][0][threadIdx.x]}, fan_b{&fan[1][0][threadIdx.x]};
-  using Walk = typename CellGeometry<R>::FirstWalk;
-  const bool has_a = i < n, has_b = i + kBlock < n;
-  Walk a = has_a ? f.first_walk(int(i)) : Walk{0, 0, 0, 0, 0, 0, false, true};
-  Walk b = has_b ? f.first_walk(int(i + kBlock)) : Walk{0, 0, 0, 0, 0, 0, false, true};
-  while (!a.done || !b.done) {
-    if (!a.done) f.step(a, fan_a);
-    if (!b.done) f.step(b, fan_b);
-  }
+  const std::size_t i = std::size_t(blockIdx.x) * kBlock + threadIdx.x;
+  __shared__ int fan[kFanCache][kBlock];
   MetricTerms t;
-  Walk w = a;
-  SharedFan fan_w = fan_a;
-  bool has = has_a;
-#pragma unroll 1
-  for (int k = 0; k < 2; ++k) {  // one copy of the second walk's code (registers)
-    if (has) t += f.template second_walk<Edges>(w, fan_w);
-    w = b;
-    fan_w = fan_b;
-    has = has_b;
-  }
+  if (i < n) t = f.template cell<Edges>(int(i), SharedFan{&fan[0][threadIdx.x]});
   if (!sums.device) return;
   unsigned long long v[3] = {t.area, t.area2, t.sides2};
   __shared__ unsigned long long warps[3][kBlock / 32];
@@ -82,7 +61,7 @@ __global__ void __launch_bounds__(kBlock, kBlocksPerSm) cells_kernel(std::size_t
 template <class R>
 void cells(std::size_t n, const CellGeometry<R>& f, MetricSums sums, CUstream_st* s) {
   if (n == 0) return;
-  const unsigned blocks = unsigned((n + 2 * kBlock - 1) / (2 * kBlock));
+  const unsigned blocks = unsigned((n + kBlock - 1) / kBlock);
   if (f.face_length || f.circumcenter) cells_kernel<R, true><<<blocks, kBlock, 0, s>>>(n, f, sums);
   else cells_kernel<R, false><<<blocks, kBlock, 0, s>>>(n, f, sums);
   FF_CUDA_CHECK_LAUNCH("launching voronoi.geometry's cells");

@@ -206,46 +206,27 @@ struct CellGeometry {
   // code is left out of the loop).
   template <bool Edges, class Fan>
   FF_HD MetricTerms cell(int v, Fan fan) const {
-    FirstWalk w = first_walk(v);
-    while (!w.done) step(w, fan);
-    return second_walk<Edges>(w, fan);
-  }
-
-  // Pass 1, one half-edge a step (so that a loop may advance several walks in turn, their loads
-  // in flight together): the fan closes within kMaxSides half-edges, every index in range; its
-  // lowest half-edge (the kmin-th from h0) starts pass 2.
-  struct FirstWalk {
-    int v, h0, h, deg, hmin, kmin;
-    bool ok, done;
-  };
-  FF_HD FirstWalk first_walk(int v) const {
+    const unsigned nh = 6u * unsigned(n);
+    // Pass 1: the fan closes within kMaxSides half-edges, every index in range; its lowest
+    // half-edge (the kmin-th from h0) starts pass 2.
     const int h0 = vedge[v];
-    const bool ok = unsigned(h0) < 6u * unsigned(n);
-    return {v, h0, h0, 0, h0, 0, ok, !ok};
-  }
-  template <class Fan>
-  FF_HD void step(FirstWalk& w, Fan fan) const {
-    int u, hn;
-    turn(w.h, u, hn);
-    if (unsigned(u) >= unsigned(n) || u == w.v || unsigned(hn) >= 6u * unsigned(n) || ++w.deg > kMaxSides) {
-      w.ok = false;
-      w.done = true;
-    } else {
-      if (w.deg <= Fan::capacity) fan.put(w.deg - 1, u);
-      if ((w.h = hn) == w.h0) {
-        w.done = true;
-      } else if (w.h < w.hmin) {
-        w.hmin = w.h;
-        w.kmin = w.deg;
+    int deg = 0, hmin = h0, kmin = 0;
+    bool ok = unsigned(h0) < nh;
+    for (int h = h0; ok;) {
+      int u, hn;
+      turn(h, u, hn);
+      if (unsigned(u) >= unsigned(n) || u == v || unsigned(hn) >= nh || ++deg > kMaxSides) {
+        ok = false;
+      } else {
+        if (deg <= Fan::capacity) fan.put(deg - 1, u);
+        if ((h = hn) == h0) break;
+        if (h < hmin) {
+          hmin = h;
+          kmin = deg;
+        }
       }
     }
-  }
-
-  // Pass 2 and the stores, after a finished first walk.
-  template <bool Edges, class Fan>
-  FF_HD MetricTerms second_walk(const FirstWalk& w, Fan fan) const {
-    const int v = w.v, deg = w.deg, hmin = w.hmin, kmin = w.kmin;
-    if (!w.ok || deg < 3) {
+    if (!ok || deg < 3) {
       sides[v] = 0;
       area[v] = perimeter[v] = R(0);
       centroid[2 * v] = centroid[2 * v + 1] = R(0);
