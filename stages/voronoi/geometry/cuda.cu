@@ -30,9 +30,16 @@ struct SharedFan {
 template <class R, bool Edges>
 __global__ void __launch_bounds__(kBlock, kBlocksPerSm) cells_kernel(std::size_t n, CellGeometry<R> f, MetricSums sums) {
   const std::size_t i = std::size_t(blockIdx.x) * kBlock + threadIdx.x;
-  __shared__ int fan[kFanCache][kBlock];
   MetricTerms t;
-  if (i < n) t = f.template cell<Edges>(int(i), SharedFan{&fan[0][threadIdx.x]});
+  if constexpr (Edges) {
+    // The faces and circumcentres need the half-edges' indices: the second walk follows the
+    // records again, and without the cache's code the kernel keeps the plain walk's registers
+    // (with it, 64 B spilled and the call was slower than main's: bench/experiments/README.md).
+    if (i < n) t = f.template cell<true>(int(i), NoFanCache{});
+  } else {
+    __shared__ int fan[kFanCache][kBlock];
+    if (i < n) t = f.template cell<false>(int(i), SharedFan{&fan[0][threadIdx.x]});
+  }
   if (!sums.device) return;
   unsigned long long v[3] = {t.area, t.area2, t.sides2};
   __shared__ unsigned long long warps[3][kBlock / 32];
