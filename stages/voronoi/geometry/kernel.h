@@ -141,15 +141,6 @@ struct CellGeometry {
     return {double(pts.p[2 * j]), double(pts.p[2 * j + 1])};
 #endif
   }
-  // Asks for particle j's position to be brought into L1 without waiting for it: the first walk
-  // names each far end well before the second reads its position. Nothing on the CPU.
-  FF_HD void prefetch_position(int j) const {
-#if defined(__CUDA_ARCH__)
-    asm volatile("prefetch.global.L1 [%0];" ::"l"(pts.p + 2 * std::size_t(j)));
-#else
-    (void)j;
-#endif
-  }
   // Minimum-image vector from v (at pv) to u: pts.rel(v, u) with v's position read once per cell.
   FF_HD V2 rel(V2 pv, int u) const { return rel(pv, position(u)); }
   FF_HD V2 rel(V2 pv, V2 pu) const { return {pts.image(pu.x - pv.x, 0), pts.image(pu.y - pv.y, 1)}; }
@@ -227,10 +218,7 @@ struct CellGeometry {
       if (unsigned(u) >= unsigned(n) || u == v || unsigned(hn) >= nh || ++deg > kMaxSides) {
         ok = false;
       } else {
-        if (deg <= Fan::capacity) {
-          fan.put(deg - 1, u);
-          prefetch_position(u);
-        }
+        if (deg <= Fan::capacity) fan.put(deg - 1, u);
         if ((h = hn) == h0) break;
         if (h < hmin) {
           hmin = h;
