@@ -7,8 +7,9 @@ namespace {
 
 constexpr int kBlock = 256;
 // Four blocks (32 warps) per SM instead of the three that 74 registers allow: registers capped
-// at 64 (4 B spilled), more fan walks in flight to hide their chains of dependent loads
-// (measured: bench/experiments/README.md, "voronoi.geometry CUDA variants").
+// at 64 (the cells-only kernel spills 24 B, the faces kernel 8 B), more fan walks in flight to
+// hide their chains of dependent loads (measured: bench/experiments/README.md, "voronoi.geometry
+// CUDA variants"; two particles a thread at three blocks lost).
 constexpr int kBlocksPerSm = 4;
 
 // The far ends of each thread's fan, kept between its two walks (kernel.h, cell()): up to
@@ -21,12 +22,13 @@ struct SharedFan {
   __device__ int get(int k) const { return slot0[k * kBlock]; }
 };
 
-// One particle per thread. With metrics, each block adds its terms to sums.device with one
+// One particle per thread; the cells-only kernel (Edges = false, the default outputs) keeps each
+// fan's far ends in shared memory between the walks. With metrics, each block adds its terms to sums.device with one
 // atomic per sum (integers: the total does not depend on the order), and the last block to
 // finish moves the totals to sums.out (pinned host memory) and zeroes the words for the next
 // launch: no memset, no copy and no host wait on the stream (the stage reads sums.out after the
-// step, behind a fence).
-// Edges: whether f writes faces or circumcentres (without, the per-edge code is left out).
+// step, behind a fence). Edges: whether f writes faces or circumcentres (without, the per-edge
+// code is left out).
 template <class R, bool Edges>
 __global__ void __launch_bounds__(kBlock, kBlocksPerSm) cells_kernel(std::size_t n, CellGeometry<R> f, MetricSums sums) {
   const std::size_t i = std::size_t(blockIdx.x) * kBlock + threadIdx.x;

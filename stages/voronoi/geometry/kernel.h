@@ -8,7 +8,9 @@
 // the backend or which half-edge delaunay.vertex_edge happens to name: the same bits on the CPU
 // and on CUDA (no contraction into fma: cmake/flipflow_plugin.cmake). Each face (Delaunay edge e)
 // is written by the walk of origin(2e) only, each circumcentre copy (one per half-edge) by the
-// walk of that half-edge's origin: no two threads write the same element.
+// walk of that half-edge's origin: no two threads write the same element. The second walk may
+// read the far ends from a cache that the first filled (cell(v, fan): geometry/cuda.cu keeps
+// them in shared memory) instead of the half-edge records: the same values in the same order.
 //
 // Walk order: next(twin(h)) is the half-edge leaving v clockwise after h (overlap_correct walks
 // the same way). With u_k the far end of the k-th half-edge h_k, the triangle between h_k and
