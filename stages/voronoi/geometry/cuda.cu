@@ -7,20 +7,41 @@ namespace {
 
 constexpr int kBlock = 256;
 // Four blocks (32 warps) per SM instead of the three that 74 registers allow: registers capped
-// at 64 (4 B spilled), more fan walks in flight to hide their chains of dependent loads
-// (measured: bench/experiments/README.md, "voronoi.geometry CUDA variants").
+// at 64 (the cells-only kernel spills 24 B, the faces kernel 8 B), more fan walks in flight to
+// hide their chains of dependent loads (measured: bench/experiments/README.md, "voronoi.geometry
+// CUDA variants"; two particles a thread at three blocks lost).
 constexpr int kBlocksPerSm = 4;
 
-// One particle per thread. With metrics, each block adds its terms to sums.device with one
+// The far ends of each thread's fan, kept between its two walks (kernel.h, cell()): up to
+// kFanCache of them (12 KB a block), slot k of thread t at fan[k][t] (consecutive threads,
+// consecutive banks). A longer fan (rare: the mean is 6) walks its records again.
+struct SharedFan {
+  static constexpr int capacity = kFanCache;
+  int* slot0;  // &fan[0][threadIdx.x]
+  __device__ void put(int k, int u) const { slot0[k * kBlock] = u; }
+  __device__ int get(int k) const { return slot0[k * kBlock]; }
+};
+
+// One particle per thread; the cells-only kernel (Edges = false, the default outputs) keeps each
+// fan's far ends in shared memory between the walks. With metrics, each block adds its terms to sums.device with one
 // atomic per sum (integers: the total does not depend on the order), and the last block to
 // finish moves the totals to sums.out (pinned host memory) and zeroes the words for the next
 // launch: no memset, no copy and no host wait on the stream (the stage reads sums.out after the
-// step, behind a fence).
-template <class R>
+// step, behind a fence). Edges: whether f writes faces or circumcentres (without, the per-edge
+// code is left out).
+template <class R, bool Edges>
 __global__ void __launch_bounds__(kBlock, kBlocksPerSm) cells_kernel(std::size_t n, CellGeometry<R> f, MetricSums sums) {
   const std::size_t i = std::size_t(blockIdx.x) * kBlock + threadIdx.x;
   MetricTerms t;
-  if (i < n) t = f.cell(int(i));
+  if constexpr (Edges) {
+    // The faces and circumcentres need the half-edges' indices: the second walk follows the
+    // records again, and without the cache's code the kernel keeps the plain walk's registers
+    // (with it, 64 B spilled and the call was slower than main's: bench/experiments/README.md).
+    if (i < n) t = f.template cell<true>(int(i), NoFanCache{});
+  } else {
+    __shared__ int fan[kFanCache][kBlock];
+    if (i < n) t = f.template cell<false>(int(i), SharedFan{&fan[0][threadIdx.x]});
+  }
   if (!sums.device) return;
   unsigned long long v[3] = {t.area, t.area2, t.sides2};
   __shared__ unsigned long long warps[3][kBlock / 32];
@@ -49,7 +70,9 @@ __global__ void __launch_bounds__(kBlock, kBlocksPerSm) cells_kernel(std::size_t
 template <class R>
 void cells(std::size_t n, const CellGeometry<R>& f, MetricSums sums, CUstream_st* s) {
   if (n == 0) return;
-  cells_kernel<R><<<unsigned((n + kBlock - 1) / kBlock), kBlock, 0, s>>>(n, f, sums);
+  const unsigned blocks = unsigned((n + kBlock - 1) / kBlock);
+  if (f.face_length || f.circumcenter) cells_kernel<R, true><<<blocks, kBlock, 0, s>>>(n, f, sums);
+  else cells_kernel<R, false><<<blocks, kBlock, 0, s>>>(n, f, sums);
   FF_CUDA_CHECK_LAUNCH("launching voronoi.geometry's cells");
 }
 

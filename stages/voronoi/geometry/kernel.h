@@ -8,7 +8,9 @@
 // the backend or which half-edge delaunay.vertex_edge happens to name: the same bits on the CPU
 // and on CUDA (no contraction into fma: cmake/flipflow_plugin.cmake). Each face (Delaunay edge e)
 // is written by the walk of origin(2e) only, each circumcentre copy (one per half-edge) by the
-// walk of that half-edge's origin: no two threads write the same element.
+// walk of that half-edge's origin: no two threads write the same element. The second walk may
+// read the far ends from a cache that the first filled (cell(v, fan): geometry/cuda.cu keeps
+// them in shared memory) instead of the half-edge records: the same values in the same order.
 //
 // Walk order: next(twin(h)) is the half-edge leaving v clockwise after h (overlap_correct walks
 // the same way). With u_k the far end of the k-th half-edge h_k, the triangle between h_k and
@@ -89,6 +91,16 @@ struct MetricSums {
   std::uint64_t* out = nullptr;
 };
 
+// Where cell() may keep the far ends of a fan between its two walks: none (the CPU loop; the
+// second walk reads the half-edge records again, from cache). geometry/cuda.cu keeps up to
+// kFanCache of them per thread in shared memory (a longer fan, rare, walks again).
+inline constexpr int kFanCache = 12;
+struct NoFanCache {
+  static constexpr int capacity = 0;
+  FF_HD void put(int, int) const {}
+  FF_HD int get(int) const { return 0; }
+};
+
 template <class R>
 struct CellGeometry {
   const std::int32_t* he;     // 2 x 6N: {origin, next} (delaunay.halfedge)
@@ -116,16 +128,46 @@ struct CellGeometry {
 #endif
   }
 
-  FF_HD V2 absolute(int v, V2 rel) const {
-    const double x = double(pts.p[2 * v]) + rel.x, y = double(pts.p[2 * v + 1]) + rel.y;
+  // Particle j's position: on the device one 16-byte (double) or 8-byte (float) read-only load,
+  // the two coordinates being adjacent; the same values as pts.p[2j], pts.p[2j + 1].
+  FF_HD V2 position(int j) const {
+#if defined(__CUDA_ARCH__)
+    if constexpr (sizeof(R) == 8) {
+      const double2 q = __ldg(reinterpret_cast<const double2*>(pts.p) + j);
+      return {q.x, q.y};
+    } else {
+      const float2 q = __ldg(reinterpret_cast<const float2*>(pts.p) + j);
+      return {double(q.x), double(q.y)};
+    }
+#else
+    return {double(pts.p[2 * j]), double(pts.p[2 * j + 1])};
+#endif
+  }
+  // Minimum-image vector from v (at pv) to u: pts.rel(v, u) with v's position read once per cell.
+  FF_HD V2 rel(V2 pv, int u) const { return rel(pv, position(u)); }
+  FF_HD V2 rel(V2 pv, V2 pu) const { return {pts.image(pu.x - pv.x, 0), pts.image(pu.y - pv.y, 1)}; }
+  // pv + rel wrapped into the box.
+  FF_HD V2 absolute(V2 pv, V2 rel) const {
+    const double x = pv.x + rel.x, y = pv.y + rel.y;
     return {wrap_into(x, pts.box.L[0], pts.box.inv_L[0]), wrap_into(y, pts.box.L[1], pts.box.inv_L[1])};
+  }
+  // Element i of a two-component field (x, y adjacent): one vector store on the device.
+  FF_HD static void store2(R* a, std::size_t i, V2 w) {
+#if defined(__CUDA_ARCH__)
+    if constexpr (sizeof(R) == 8) reinterpret_cast<double2*>(a)[i] = double2{w.x, w.y};
+    else reinterpret_cast<float2*>(a)[i] = float2{float(w.x), float(w.y)};
+#else
+    a[2 * i] = R(w.x);
+    a[2 * i + 1] = R(w.y);
+#endif
   }
 
   // What one face adds to its cell (face k: half-edge h = v -> u at d = u − v, from o_R to o_L).
   struct Sums {
     double area = 0, perimeter = 0, gx = 0, gy = 0;
   };
-  FF_HD void face(int v, int h, V2 d, V2 oR, V2 oL, Sums& s) const {
+  template <bool Edges>
+  FF_HD void face(V2 pv, int h, V2 d, V2 oR, V2 oL, Sums& s) const {
     const double r = std::sqrt(d.x * d.x + d.y * d.y);
     // A = (o_L − o_R)·n̂ with n̂ = (v -> u)/r turned by +90°: ≥ 0 on a Delaunay edge.
     const double A = ((oL.x - oR.x) * -d.y + (oL.y - oR.y) * d.x) / r;
@@ -135,18 +177,12 @@ struct CellGeometry {
     s.perimeter += A;
     s.gx += a * (oR.x + oL.x);  // × 1/3 (the triangle's centroid) once, at the end
     s.gy += a * (oR.y + oL.y);
-    if (face_length && (h & 1) == 0) {
+    if (Edges && face_length && (h & 1) == 0) {
       const int e = h >> 1;
       face_length[e] = R(A);
-      const V2 m = absolute(v, {0.5 * (oR.x + oL.x), 0.5 * (oR.y + oL.y)});
-      face_midpoint[2 * e] = R(m.x);
-      face_midpoint[2 * e + 1] = R(m.y);
+      store2(face_midpoint, e, absolute(pv, {0.5 * (oR.x + oL.x), 0.5 * (oR.y + oL.y)}));
     }
-    if (circumcenter) {
-      const V2 o = absolute(v, oL);
-      circumcenter[2 * h] = R(o.x);
-      circumcenter[2 * h + 1] = R(o.y);
-    }
+    if (Edges && circumcenter) store2(circumcenter, h, absolute(pv, oL));
   }
 
   // The stored area (rounded to R, as the field holds it) and the fan's size as metric terms.
@@ -163,19 +199,34 @@ struct CellGeometry {
   FF_HD void operator()(std::size_t i) const { cell(int(i)); }
 
   // Writes particle v's cell (and its faces and circumcentres); returns its metric terms.
-  FF_HD MetricTerms cell(int v) const {
+  FF_HD MetricTerms cell(int v) const { return cell<true>(v, NoFanCache{}); }
+
+  // The same, keeping the fan's far ends in `fan` (FanCache) during the first walk: the second
+  // then reads them there instead of walking the half-edge records again, when the fan fits and
+  // nothing is written per half-edge (the faces and circumcentres need the half-edges' indices).
+  // Edges = false: the caller knows that face_length and circumcenter are null (the per-edge
+  // code is left out of the loop).
+  template <bool Edges, class Fan>
+  FF_HD MetricTerms cell(int v, Fan fan) const {
     const unsigned nh = 6u * unsigned(n);
     // Pass 1: the fan closes within kMaxSides half-edges, every index in range; its lowest
-    // half-edge starts pass 2.
+    // half-edge (the kmin-th from h0) starts pass 2.
     const int h0 = vedge[v];
-    int deg = 0, hmin = h0;
+    int deg = 0, hmin = h0, kmin = 0;
     bool ok = unsigned(h0) < nh;
     for (int h = h0; ok;) {
       int u, hn;
       turn(h, u, hn);
-      if (unsigned(u) >= unsigned(n) || u == v || unsigned(hn) >= nh || ++deg > kMaxSides) ok = false;
-      else if ((h = hn) == h0) break;
-      else if (h < hmin) hmin = h;
+      if (unsigned(u) >= unsigned(n) || u == v || unsigned(hn) >= nh || ++deg > kMaxSides) {
+        ok = false;
+      } else {
+        if (deg <= Fan::capacity) fan.put(deg - 1, u);
+        if ((h = hn) == h0) break;
+        if (h < hmin) {
+          hmin = h;
+          kmin = deg;
+        }
+      }
     }
     if (!ok || deg < 3) {
       sides[v] = 0;
@@ -185,34 +236,46 @@ struct CellGeometry {
     }
     // Pass 2: o_k = circumcentre of (v, u_{k+1}, u_k); face k needs o_{k-1} and o_k, so face 0
     // (which needs o_{deg-1}) is summed last.
-    int u, hk = hmin, hnext;
-    turn(hk, u, hnext);
-    const V2 d_first = pts.rel(v, u);
+    // The k-th far end from the cache (index kmin + k modulo deg) or by one step of the walk.
+    const bool cached = deg <= Fan::capacity && !(Edges && (face_length || circumcenter));
+    int u, hk = hmin, hnext = hmin, j = kmin;
+    if (cached) u = fan.get(j);
+    else turn(hk, u, hnext);
+    const V2 pv = position(v);
+    const V2 d_first = rel(pv, u);
+    // From the cache the next far end's position is loaded a face ahead: its load is in flight
+    // while the current face is summed.
+    V2 p_ahead{0, 0};
+    if (cached && deg > 1) p_ahead = position(fan.get(j + 1 == deg ? 0 : j + 1));
     V2 dk = d_first, o_first{0, 0}, o_prev{0, 0};
     Sums s;
     for (int k = 0; k < deg; ++k) {
       V2 dn = d_first;
       int hafter = hnext;
       if (k + 1 < deg) {
-        turn(hnext, u, hafter);
-        dn = pts.rel(v, u);
+        if (!cached) {
+          turn(hnext, u, hafter);
+          dn = rel(pv, u);
+        } else {
+          dn = rel(pv, p_ahead);
+          if (++j == deg) j = 0;
+          if (k + 2 < deg) p_ahead = position(fan.get(j + 1 == deg ? 0 : j + 1));
+        }
       }
       const V2 o = circumcentre(dn, dk);
       if (k == 0) o_first = o;
-      else face(v, hk, dk, o, o_prev, s);
+      else face<Edges>(pv, hk, dk, o, o_prev, s);
       o_prev = o;
       dk = dn;
       hk = hnext;
       hnext = hafter;
     }
-    face(v, hmin, d_first, o_first, o_prev, s);
+    face<Edges>(pv, hmin, d_first, o_first, o_prev, s);
     sides[v] = deg;
     const R a = R(s.area);
     area[v] = a;
     perimeter[v] = R(s.perimeter);
-    const V2 g = absolute(v, {s.gx / (3.0 * s.area), s.gy / (3.0 * s.area)});
-    centroid[2 * v] = R(g.x);
-    centroid[2 * v + 1] = R(g.y);
+    store2(centroid, std::size_t(v), absolute(pv, {s.gx / (3.0 * s.area), s.gy / (3.0 * s.area)}));
     return terms(a, deg);
   }
 };

@@ -1,11 +1,11 @@
 // voronoi.geometry: the Voronoi cells of the particles, read off the maintained periodic
 // Delaunay triangulation (2D; De Fabritiis & Coveney §2, spec D1): per particle the cell's area,
-// perimeter, centroid and number of sides; per Delaunay edge the length and midpoint of its
-// Voronoi face; optionally every circumcentre (Voronoi vertex). One pass over the particles
-// (kernel.h), each summing its own cell in a fixed order: the same bits on both backends. The
-// same pass sums the metrics' integer terms (geometry/cpu.cpp, geometry/cuda.cu); the host reads
-// them after the step (after_step), so on CUDA the stages after this one queue behind its
-// kernel instead of waiting for the host.
+// perimeter, centroid and number of sides; optionally per Delaunay edge the length and midpoint
+// of its Voronoi face (`faces: true`) and every circumcentre (Voronoi vertex). One pass over the
+// particles (kernel.h), each summing its own cell in a fixed order: the same bits on both
+// backends. The same pass sums the metrics' integer terms (geometry/cpu.cpp, geometry/cuda.cu);
+// the host reads them after the step (after_step), so on CUDA the stages after this one queue
+// behind its kernel instead of waiting for the host.
 // List it after delaunay.lawson:
 //
 //   - {stage: delaunay.lawson}
@@ -36,7 +36,7 @@ namespace ff::voronoi {
 
 struct GeometryParams {
   std::string positions = "delaunay";
-  bool faces = true;
+  bool faces = false;  // no pipeline reads them (bench/README.md, voronoi.geometry: what they cost)
   bool circumcenters = false;
   bool metrics = true;
 
@@ -47,7 +47,10 @@ struct GeometryParams {
       "the cells of `position` on the maintained triangulation (after overlap_correct possibly slightly "
       "non-Delaunay: faces of small negative length)")
         .one_of({"delaunay", "current"});
-    p(faces, "faces", "write each Delaunay edge's Voronoi face: voronoi.face_length (3N) and voronoi.face_midpoint (3N x 2)");
+    p(faces, "faces",
+      "write each Delaunay edge's Voronoi face: voronoi.face_length (3N) and voronoi.face_midpoint (3N x 2). Off "
+      "by default: in double they add 72 bytes a particle to the 104 the cells move, and on CUDA the cells alone "
+      "take a faster kernel");
     p(circumcenters, "circumcenters",
       "write voronoi.circumcenter (6N x 2): per half-edge h, the circumcentre of the triangle left of h (each "
       "Voronoi vertex three times, once per corner of its triangle)");
@@ -74,7 +77,7 @@ class Geometry final : public Stage {
   static StageDecl declaration() {
     return {"voronoi.geometry",
             "Voronoi cells from the maintained Delaunay triangulation: area, perimeter, centroid, sides per particle; "
-            "face length and midpoint per edge (list it after delaunay.lawson)",
+            "with faces: true face length and midpoint per edge (list it after delaunay.lawson)",
             schema_of<GeometryParams>(), {2}, false};
   }
 

@@ -47,6 +47,9 @@ std::unique_ptr<State> built(const std::vector<double>& xy, double Lx, double Ly
   return s;
 }
 
+// The settings that write the per-edge faces (off by default), for the tests that read them.
+const test::ParamSettings with_faces{{"faces", true}};
+
 // voronoi.geometry once on backend b; its metrics.
 std::map<std::string, double> cells(State& s, Backend b, const test::ParamSettings& set = {}) {
   auto g = make("voronoi.geometry", b, s.precision(), set);
@@ -140,7 +143,7 @@ TEST_CASE("voronoi.geometry: triangular lattice — area √3/2 a², faces a/√
   const int nx = 16, ny = 16;
   const double a = 1.7;
   auto s = built(dl::triangular_lattice(nx, ny, a), nx * a, ny * a * std::sqrt(3.0) / 2);
-  const auto m = cells(*s, b);
+  const auto m = cells(*s, b, with_faces);
   const auto x = dl::positions(*s);
   const auto area = values(*s, vf::area), per = values(*s, vf::perimeter), g = values(*s, vf::centroid);
   const auto faces = values(*s, vf::face_length);
@@ -165,7 +168,7 @@ TEST_CASE("voronoi.geometry: square lattice — area a² whatever diagonals Laws
   const int n = 12;
   const double a = 1.3;
   auto s = built(dl::square_lattice(n, n, a), n * a, n * a);
-  cells(*s, b);
+  cells(*s, b, with_faces);
   const auto x = dl::positions(*s);
   const auto he = dl::topology(*s).he;
   const auto area = values(*s, vf::area), per = values(*s, vf::perimeter), faces = values(*s, vf::face_length);
@@ -195,7 +198,7 @@ TEST_CASE("voronoi.geometry: random states equal CGAL's periodic Voronoi cells; 
   const double L = std::sqrt(double(n));
   const auto xy = dl::random_points(n, L, L, seed);
   auto s = built(xy, L, L);
-  const auto m = cells(*s, b);
+  const auto m = cells(*s, b, with_faces);
   const auto x = dl::positions(*s);
   const CgalCells ref = cgal_cells(x, L);
   const auto area = values(*s, vf::area), per = values(*s, vf::perimeter), g = values(*s, vf::centroid);
@@ -258,7 +261,7 @@ TEST_CASE("voronoi.geometry: positions delaunay (position_prev) or current", "[v
   dl::set_positions(*s, xy);
   cells(*s, b);
   CHECK(values(*s, vf::area) == before);  // the cells of delaunay.position_prev, bit for bit
-  const auto m = cells(*s, b, {{"positions", std::string("current")}});
+  const auto m = cells(*s, b, {{"positions", std::string("current")}, {"faces", true}});
   const auto now = values(*s, vf::area);
   CHECK(now != before);
   CHECK(std::fabs(m.at("area_sum_error")) < 1e-12);  // the cells of the moved points still tile the box
@@ -335,24 +338,164 @@ TEST_CASE("voronoi.geometry: a fan that does not close stops the run (metrics on
   CHECK_THROWS_WITH(d.run(*g, *s), Catch::Contains("1 particle(s) do not form a closed fan"));
 }
 
-TEST_CASE("voronoi.geometry: CPU and CUDA give the same bits", "[voronoi][cuda]") {
-  if (!test::have_cuda("voronoi.geometry CPU vs CUDA")) return;
-  const std::size_t n = 5000;
+// delaunay.build names each vertex's lowest half-edge, where the cells' second walk starts:
+// name another (v mod 4 steps on in the fan), as after flips, so that it starts mid-fan.
+void start_walks_mid_fan(State& s) {
+  Field& he = s.field(ff::delaunay::fields::halfedge);
+  Field& ve = s.field(ff::delaunay::fields::vertex_edge);
+  he.acquire(Where::host, Mode::read);
+  ve.acquire(Where::host, Mode::readwrite);
+  const std::int32_t* h = he.host<std::int32_t>();
+  std::int32_t* vedge = ve.host<std::int32_t>();
+  for (std::size_t v = 0; v < s.n(); ++v)
+    for (std::size_t k = 0; k < v % 4; ++k) vedge[v] = h[2 * (vedge[v] ^ 1) + 1];
+}
+
+// cell() as geometry/cuda.cu runs it, the fan's far ends kept between its two walks (here in a
+// host array), must give the bits of the plain cell(), for fans that fit the cache and for
+// longer ones (which walk again): every output and the metric terms.
+template <int K>
+struct HostFan {
+  static constexpr int capacity = K;
+  int* slots;
+  void put(int k, int u) const { slots[k] = u; }
+  int get(int k) const { return slots[k]; }
+};
+
+// Returns how many fans fit the cache.
+template <int K>
+int same_cells_with_cache(State& s) {
+  const std::size_t n = s.n();
+  const auto x = dl::positions(s);
+  start_walks_mid_fan(s);
+  const auto t = dl::topology(s);
+  struct Out {
+    std::vector<double> area, per, g, A, m, o;
+    std::vector<std::int32_t> sides;
+    std::vector<voronoi::MetricTerms> terms;
+    explicit Out(std::size_t n)
+        : area(n), per(n), g(2 * n), A(3 * n), m(6 * n), o(12 * n), sides(n), terms(n) {}
+  };
+  int fits = 0;
+  for (const bool edges : {false, true}) {
+    INFO((edges ? "faces and circumcentres" : "cells only") << ", cache of " << K);
+    Out plain(n), cached(n);
+    auto geometry = [&](Out& out) {
+      return voronoi::CellGeometry<double>{t.he.data(), t.vedge.data(), {x.data(), PeriodicBox<double>::make(s.box.L)},
+                                           int(n), out.area.data(), out.per.data(), out.g.data(), out.sides.data(),
+                                           edges ? out.A.data() : nullptr, edges ? out.m.data() : nullptr,
+                                           edges ? out.o.data() : nullptr, {1e6, 1.0, 1e6}};
+    };
+    const auto f = geometry(plain), fc = geometry(cached);
+    int slots[K];
+    fits = 0;
+    for (std::size_t v = 0; v < n; ++v) {
+      plain.terms[v] = f.cell(int(v));
+      // Edges = false as geometry/cuda.cu instantiates it when nothing is written per edge.
+      cached.terms[v] = edges ? fc.template cell<true>(int(v), HostFan<K>{slots})
+                              : fc.template cell<false>(int(v), HostFan<K>{slots});
+      fits += plain.sides[v] <= K;
+    }
+    CHECK(std::memcmp(plain.area.data(), cached.area.data(), n * sizeof(double)) == 0);
+    CHECK(std::memcmp(plain.per.data(), cached.per.data(), n * sizeof(double)) == 0);
+    CHECK(std::memcmp(plain.g.data(), cached.g.data(), 2 * n * sizeof(double)) == 0);
+    CHECK(plain.sides == cached.sides);
+    CHECK(plain.A == cached.A);
+    CHECK(plain.m == cached.m);
+    CHECK(plain.o == cached.o);
+    for (std::size_t v = 0; v < n; ++v) {
+      REQUIRE(plain.terms[v].area == cached.terms[v].area);
+      REQUIRE(plain.terms[v].area2 == cached.terms[v].area2);
+      REQUIRE(plain.terms[v].sides2 == cached.terms[v].sides2);
+    }
+  }
+  return fits;
+}
+
+TEST_CASE("voronoi.geometry: cell() with the far ends cached gives the bits of cell() without", "[voronoi]") {
+  const std::size_t n = 3000;
   const double L = std::sqrt(double(n));
-  const auto xy = dl::random_points(n, L, L, 8);
-  for (Precision p : {Precision::f64, Precision::f32}) {
-    auto cpu = built(xy, L, L, p), gpu = built(xy, L, L, p);
-    const test::ParamSettings all{{"circumcenters", true}};
-    const auto mc = cells(*cpu, Backend::cpu, all), mg = cells(*gpu, Backend::cuda, all);
-    CHECK(mc == mg);
-    for (const char* f : {vf::area, vf::perimeter, vf::centroid, vf::sides, vf::face_length, vf::face_midpoint,
-                          vf::circumcenter}) {
+  auto s = built(dl::random_points(n, L, L, 31), L, L);
+  const int fit6 = same_cells_with_cache<6>(*s);
+  CHECK(fit6 > int(n) / 4);  // both walks taken
+  CHECK(fit6 < int(n) * 3 / 4);
+  CHECK(same_cells_with_cache<voronoi::kFanCache>(*s) > int(n) * 99 / 100);
+}
+
+// A site ringed by m points has a cell of m sides, a regular m-gon of apothem r/2: fans around
+// kFanCache (CUDA keeps the far ends of at most that many) and a long one, on every backend, and
+// on CUDA the CPU's bits with the cells only (the cached walk) and with every per-edge output.
+TEST_CASE("voronoi.geometry: fans longer than the CUDA loop's cache give the same cells", "[voronoi]") {
+  const Backend b = GENERATE(from_range(test::backends()));
+  const int m = GENERATE(voronoi::kFanCache - 1, voronoi::kFanCache, voronoi::kFanCache + 1, 40);
+  const std::size_t n = 1500;
+  const double L = std::sqrt(double(n)), cx = 0.5 * L, cy = 0.5 * L, r = 1.5;
+  std::vector<double> xy{cx, cy};  // the site first: particle 0
+  const RngKey key = make_rng_key(17, "voronoi-ring");
+  for (int k = 0; k < m; ++k) {  // radii jittered by 1e-4: no four points on one circle
+    const double t = 2 * M_PI * k / m, rk = r * (1 + 1e-4 * (uniform01(key, std::uint32_t(k), 0, 0, 0) - 0.5));
+    xy.push_back(cx + rk * std::cos(t));
+    xy.push_back(cy + rk * std::sin(t));
+  }
+  for (std::size_t i = 0; xy.size() < 2 * n; ++i) {  // the rest at least 2r from the site
+    const auto p = dl::random_points(1, L, L, 100 + i);
+    if (std::hypot(p[0] - cx, p[1] - cy) > 2 * r) xy.insert(xy.end(), p.begin(), p.end());
+  }
+  for (const bool edges : {false, true}) {
+    INFO(m << " sides, " << (edges ? "faces and circumcentres" : "cells only"));
+    const test::ParamSettings set{{"faces", edges}, {"circumcenters", edges}};
+    auto s = built(xy, L, L);
+    const auto met = cells(*s, b, set);
+    const auto area = values(*s, vf::area), per = values(*s, vf::perimeter);
+    const auto sides = ints(*s, vf::sides);
+    CHECK(sides[0] == m);
+    const double apothem = 0.5 * r, side = 2 * apothem * std::tan(M_PI / m);
+    CHECK(area[0] == Approx(0.5 * m * side * apothem).epsilon(1e-3));
+    CHECK(per[0] == Approx(m * side).epsilon(1e-3));
+    CHECK(std::fabs(met.at("area_sum_error")) < 1e-12);
+    if (edges)
+      for (double c : closure(*s)) REQUIRE(std::fabs(c) < 1e-12);
+    if (b != Backend::cuda) continue;
+    auto cpu = built(xy, L, L);
+    CHECK(cells(*cpu, Backend::cpu, set) == met);
+    std::vector<const char*> names{vf::area, vf::perimeter, vf::centroid, vf::sides};
+    if (edges) names.insert(names.end(), {vf::face_length, vf::face_midpoint, vf::circumcenter});
+    for (const char* f : names) {
       INFO(f);
-      Field &a = cpu->field(f), &c = gpu->field(f);
+      Field &a = cpu->field(f), &c = s->field(f);
       a.acquire(Where::host, Mode::read);
       c.acquire(Where::host, Mode::read);
       REQUIRE(a.bytes() == c.bytes());
       REQUIRE(std::memcmp(a.host_raw(), c.host_raw(), a.bytes()) == 0);
     }
   }
+}
+
+TEST_CASE("voronoi.geometry: CPU and CUDA give the same bits", "[voronoi][cuda]") {
+  if (!test::have_cuda("voronoi.geometry CPU vs CUDA")) return;
+  const std::size_t n = 5000;
+  const double L = std::sqrt(double(n));
+  const auto xy = dl::random_points(n, L, L, 8);
+  // The cells alone (the default) and with every per-edge output: the CUDA loop may take another
+  // path when it writes nothing per edge.
+  for (const bool edges : {false, true})
+    for (Precision p : {Precision::f64, Precision::f32}) {
+      INFO((edges ? "faces and circumcentres" : "cells only") << (p == Precision::f64 ? ", double" : ", float"));
+      const test::ParamSettings set{{"faces", edges}, {"circumcenters", edges}};
+      auto cpu = built(xy, L, L, p), gpu = built(xy, L, L, p);
+      start_walks_mid_fan(*cpu);
+      start_walks_mid_fan(*gpu);
+      const auto mc = cells(*cpu, Backend::cpu, set), mg = cells(*gpu, Backend::cuda, set);
+      CHECK(mc == mg);
+      std::vector<const char*> names{vf::area, vf::perimeter, vf::centroid, vf::sides};
+      if (edges) names.insert(names.end(), {vf::face_length, vf::face_midpoint, vf::circumcenter});
+      for (const char* f : names) {
+        INFO(f);
+        Field &a = cpu->field(f), &c = gpu->field(f);
+        a.acquire(Where::host, Mode::read);
+        c.acquire(Where::host, Mode::read);
+        REQUIRE(a.bytes() == c.bytes());
+        REQUIRE(std::memcmp(a.host_raw(), c.host_raw(), a.bytes()) == 0);
+      }
+    }
 }
