@@ -9,13 +9,13 @@
 # script has run BUDGET seconds (default 170):
 #   1. tests: main's test_neighbors_delaunay (brute force on CUDA, CPU == CUDA rows, the 10^3-step
 #      hard-disk run against neighbors.verlet, capacity growth) with each variant's
-#      libflipflow_stage_neighbors.so (csr, tile8, tile4, occ), the four at once;
-#   2. speed: frnn-ab.yaml = bench-frnn.yaml with all five searches (main, csr, tile8, tile4, occ)
+#      libflipflow_stage_neighbors.so (csr, tile8, tile4, f32), the four at once;
+#   2. speed: frnn-ab.yaml = bench-frnn.yaml with all five searches (main, csr, tile8, tile4, f32)
 #      as stages frnn_ab.<v> of one plugin, one after another on the same state every step, at
 #      2^16, 2^18, 2^20; round 2 in the reverse order (frnn-ab-rev.yaml);
 #   3. the baseline: bundle's bench-frnn-verlet.yaml (neighbors.verlet rebuilt every step, r = 2σ);
 #   4. a CUPTI trace of frnn-ab.yaml at 2^20 (30 steps): gather vs search kernel per variant;
-#   5. if time is left: the real plugins, bench-frnn.yaml at 2^20, main (-) vs csr vs tile8.
+#   5. if time is left: the real plugins, bench-frnn.yaml at 2^20, main (-) vs csr.
 # Everything lands in $OUT/frnn3/; summary.txt collects the lines to read.
 set -uo pipefail
 SECONDS=0
@@ -31,12 +31,12 @@ nvidia-smi --query-gpu=name,clocks.sm,clocks.max.sm --format=csv | tee "$S"
 left() { ((SECONDS < BUDGET)) || { echo "== skipped ($1): ${SECONDS} s spent" | tee -a "$S"; return 1; }; }
 
 # 1. tests (in parallel; the CPU cases run too)
-for v in csr tile8 tile4 occ; do
+for v in csr tile8 tile4 f32; do
   (FLIPFLOW_TEST_DEVICE=cuda FLIPFLOW_PLUGIN_PATH=$V/$v:$B/plugins timeout 90 "$B/bin/test_neighbors_delaunay" \
      > "$O/test-$v.log" 2>&1; echo "rc=$?" >> "$O/test-$v.log") &
 done
 wait
-for v in csr tile8 tile4 occ; do echo "== test_neighbors_delaunay $v: $(tail -n 3 "$O/test-$v.log" | tr '\n' ' ')"; done | tee -a "$S"
+for v in csr tile8 tile4 f32; do echo "== test_neighbors_delaunay $v: $(tail -n 3 "$O/test-$v.log" | tr '\n' ' ')"; done | tee -a "$S"
 echo "tests done at ${SECONDS} s" | tee -a "$S"
 
 # 2. A/B in one process (the stages' ms: the neighbors.delaunay-like columns frnn_ab.<v>)
@@ -73,7 +73,7 @@ fi
 # 5. the real plugins in the real pipeline (confirms the one-process A/B)
 if left real; then
   SIZES=2^20 ROUNDS=1 STEPS=100 WARMUP=20 SHOW="max_visited|capacity" PIPELINE_BIN=$B/bin/pipeline timeout 120 \
-    tools/bench/plugin_ab.sh "$B/pipelines/bench-frnn.yaml" - "$V/csr" "$V/tile8" > "$O/real.txt" 2>&1
+    tools/bench/plugin_ab.sh "$B/pipelines/bench-frnn.yaml" - "$V/csr" > "$O/real.txt" 2>&1
   echo "== real rc=$? at ${SECONDS} s" | tee -a "$S"
   cat "$O/real.txt" >> "$S"
 fi
