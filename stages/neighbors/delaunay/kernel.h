@@ -9,7 +9,7 @@
 //
 // The triangulation is Delaunay for delaunay.position_prev (the positions delaunay.lawson
 // worked on), and overlap correction may have moved particles since. With m the largest move
-// since (GatherRing returns each vertex's), a pair within r now was within r + 2m then, so the
+// since (GatherRing::move_bits gives each vertex's), a pair within r now was within r + 2m then, so the
 // search walks the old positions expanding vertices within r_expand = r + 2m (plus a relative
 // margin for Lawson's co-circular tolerance and rounding; expand_radius), and a vertex it
 // reaches is accepted when its current distance is within r, by the same formula as
@@ -17,9 +17,12 @@
 // bit). The search reads m from the word the gather's max-reduction left in memory, so the host
 // does not wait between the two loops.
 //
-// Layout: GatherRing copies each vertex's one-ring (its neighbours, turning CCW from
-// vertex_edge) into a padded array of `width` slots per vertex, ended by kRingEnd when shorter,
-// written and read four slots at a time, so the search reads each ring in one or two loads.
+// Layout: GatherRing writes a table of one-rings each step: vertex u's neighbours (turning CCW
+// from vertex_edge) in one row of the table, padded to a multiple of 4 slots and read four at a
+// time, and a 16-byte record of u (its position as the search needs it, float; its row's start;
+// its degree), so the search touches ~6 slots and one record per vertex: ~48 bytes a vertex in
+// all, which the GPU's L2 holds at 2^20 particles where per-vertex padded rows with positions
+// beside them (192 bytes) did not.
 //   visited  breadth-first with a queue that is also the visited set: the first kFastSlots
 //            entries in fast memory (CUDA: the thread's column of shared memory; CPU: the
 //            stack), beyond that the row of neighbors.list. A 128-bit filter in registers
@@ -29,13 +32,14 @@
 //   parent   depth-first without a visited set: q's parent is its ring member closest to p
 //            (ties: lower index), which the lemma makes closer to p than q, so the parent links
 //            form a tree rooted at p; the search descends from u to w iff parent(w) = u. The
-//            row holds the tree's vertices from its front and the depth-first stack (ring slots
-//            to resume at) from its back.
+//            row holds the tree's vertices from its front and the depth-first stack (pairs of a
+//            vertex and the table slot to resume its scan at) from its back.
 // Both write the row's slots up to the next multiple of 4 past the count (kRingEnd after the
 // last neighbour), the same slots on both backends. Either returns (through a max-reduction)
-// the most slots it held at once, or capacity + 1 when the row overflowed, with kRingOverflow
-// set when p's degree exceeds `width` and kTooFar when r_expand reaches half the box: the stage
-// then grows the row or the ring and searches again, or stops, so an overflow is never silent.
+// the most slots it held at once, or capacity + 1 when the row overflowed, kRingOverflow when
+// the one-rings did not fit in the table (only a corrupt triangulation: a periodic one has 6N
+// half-edges) and kTooFar when r_expand reaches half the box: the stage then grows the row and
+// searches again, or stops, so an overflow is never silent.
 // nvcc-clean.
 #pragma once
 #include <cmath>
@@ -50,12 +54,13 @@ namespace ff::neighbors {
 
 using delaunay::load_halfedge;
 
-// Set in a search's result when the vertex has more ring members than the ring array's width.
+// Set in the gather's word when the one-rings did not fit in the table, and then in every
+// search's result.
 inline constexpr std::uint32_t kRingOverflow = 0x80000000u;
 // Set in a search's result when the radius to expand reaches half the smallest box edge.
 inline constexpr std::uint32_t kTooFar = 0x40000000u;
-// After the last member of a ring shorter than the ring array's width, and after the last
-// neighbour of a row.
+// The padding after the last member of a ring's row in the table, and after the last
+// neighbour of a row of the list.
 inline constexpr std::uint32_t kRingEnd = 0xFFFFFFFFu;
 // Queue slots of the visited search kept out of the list (shared memory on CUDA).
 inline constexpr std::uint32_t kFastSlots = 32;
