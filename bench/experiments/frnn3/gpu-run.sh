@@ -6,15 +6,16 @@
 #
 # (CARRY=<this folder> if it is not at /work/main/gpu-carry/frnn3.) Copies this folder to
 # $BUNDLE/frnn3/ (the .so files carry rpath $ORIGIN/../../lib). Steps, each skipped once the
-# script has run BUDGET seconds (default 170):
+# script has run BUDGET seconds (default 170), in this order of value:
 #   1. tests: main's test_neighbors_delaunay (brute force on CUDA, CPU == CUDA rows, the 10^3-step
 #      hard-disk run against neighbors.verlet, capacity growth) with each variant's
 #      libflipflow_stage_neighbors.so (csr, tile8, tile4, f32), the four at once;
 #   2. speed: frnn-ab.yaml = bench-frnn.yaml with all five searches (main, csr, tile8, tile4, f32)
 #      as stages frnn_ab.<v> of one plugin, one after another on the same state every step, at
-#      2^16, 2^18, 2^20; round 2 in the reverse order (frnn-ab-rev.yaml);
-#   3. the baseline: bundle's bench-frnn-verlet.yaml (neighbors.verlet rebuilt every step, r = 2σ);
-#   4. a CUPTI trace of frnn-ab.yaml at 2^20 (30 steps): gather vs search kernel per variant;
+#      2^16, 2^18, 2^20;
+#   3. a CUPTI trace of frnn-ab.yaml at 2^20 (30 steps): gather vs search kernel per variant;
+#   4. the baseline: bundle's bench-frnn-verlet.yaml (neighbors.verlet rebuilt every step, r = 2σ);
+#   2b. round 2 of step 2 in the reverse order (frnn-ab-rev.yaml);
 #   5. if time is left: the real plugins, bench-frnn.yaml at 2^20, main (-) vs csr.
 # Everything lands in $OUT/frnn3/; summary.txt collects the lines to read.
 set -uo pipefail
@@ -40,25 +41,17 @@ for v in csr tile8 tile4 f32; do echo "== test_neighbors_delaunay $v: $(tail -n 
 echo "tests done at ${SECONDS} s" | tee -a "$S"
 
 # 2. A/B in one process (the stages' ms: the neighbors.delaunay-like columns frnn_ab.<v>)
-export FLIPFLOW_PLUGIN_PATH=$V/ab
-for y in frnn-ab frnn-ab-rev; do
-  left "$y" || break
-  timeout 150 "$B/bin/pipeline" bench "$V/$y.yaml" --device cuda --sizes 2^16,2^18,2^20 --steps 100 --warmup 20 \
-    --results "$O/results" > "$O/$y.txt" 2>&1
+ab_round() {
+  local y=$1
+  left "$y" || return
+  FLIPFLOW_PLUGIN_PATH=$V/ab timeout 150 "$B/bin/pipeline" bench "$V/$y.yaml" --device cuda --sizes 2^16,2^18,2^20 \
+    --steps 100 --warmup 20 --results "$O/results" > "$O/$y.txt" 2>&1
   echo "== $y rc=$? at ${SECONDS} s" | tee -a "$S"
   grep -E "^[0-9]|max_visited|capacity" "$O/$y.txt" | tee -a "$S"
-done
-unset FLIPFLOW_PLUGIN_PATH
+}
+ab_round frnn-ab
 
-# 3. Verlet rebuilt every step, same radius
-if left verlet; then
-  timeout 90 "$B/bin/pipeline" bench "$B/pipelines/bench-frnn-verlet.yaml" --device cuda --sizes 2^16,2^18,2^20 \
-    --steps 100 --warmup 20 --results "$O/results" > "$O/verlet.txt" 2>&1
-  echo "== verlet rc=$? at ${SECONDS} s" | tee -a "$S"
-  grep -E "^[0-9]|rebuilds|max_neighbors" "$O/verlet.txt" | tee -a "$S"
-fi
-
-# 4. kernel breakdown at 2^20
+# 3. kernel breakdown at 2^20 (per-kernel medians)
 if left trace && [[ -f $B/lib/libflipflow_gpu_trace.so ]]; then
   FLIPFLOW_PLUGIN_PATH=$V/ab CUDA_INJECTION64_PATH=$B/lib/libflipflow_gpu_trace.so FLIPFLOW_GPU_TRACE=$O/trace.csv \
     timeout 60 "$B/bin/pipeline" bench "$V/frnn-ab.yaml" --device cuda --sizes 2^20 --steps 30 --warmup 5 \
@@ -69,6 +62,17 @@ if left trace && [[ -f $B/lib/libflipflow_gpu_trace.so ]]; then
   echo "== trace at ${SECONDS} s" | tee -a "$S"
   grep -iE "frnn_ab|name" "$O/trace.txt" | tail -n 30 | cut -c1-220 | tee -a "$S"
 fi
+
+# 4. Verlet rebuilt every step, same radius
+if left verlet; then
+  timeout 90 "$B/bin/pipeline" bench "$B/pipelines/bench-frnn-verlet.yaml" --device cuda --sizes 2^16,2^18,2^20 \
+    --steps 100 --warmup 20 --results "$O/results" > "$O/verlet.txt" 2>&1
+  echo "== verlet rc=$? at ${SECONDS} s" | tee -a "$S"
+  grep -E "^[0-9]|rebuilds|max_neighbors" "$O/verlet.txt" | tee -a "$S"
+fi
+
+# 2b. the second round, in the reverse order
+ab_round frnn-ab-rev
 
 # 5. the real plugins in the real pipeline (confirms the one-process A/B)
 if left real; then
