@@ -9,8 +9,8 @@
 # script has run BUDGET seconds (default 170), in this order of value:
 #   1. tests: main's test_neighbors_delaunay (brute force on CUDA, CPU == CUDA rows, the 10^3-step
 #      hard-disk run against neighbors.verlet, capacity growth) with each variant's
-#      libflipflow_stage_neighbors.so (csr, tile8, tile4, f32), the four at once;
-#   2. speed: frnn-ab.yaml = bench-frnn.yaml with all five searches (main, csr, tile8, tile4, f32)
+#      libflipflow_stage_neighbors.so (csr, tile8, tile8pf, f32), the four at once;
+#   2. speed: frnn-ab.yaml = bench-frnn.yaml with all five searches (main, csr, tile8, tile8pf, f32)
 #      as stages frnn_ab.<v> of one plugin, one after another on the same state every step, at
 #      2^16, 2^18, 2^20;
 #   3. a CUPTI trace of frnn-ab.yaml at 2^20 (30 steps): gather vs search kernel per variant;
@@ -32,12 +32,12 @@ nvidia-smi --query-gpu=name,clocks.sm,clocks.max.sm --format=csv | tee "$S"
 left() { ((SECONDS < BUDGET)) || { echo "== skipped ($1): ${SECONDS} s spent" | tee -a "$S"; return 1; }; }
 
 # 1. tests (in parallel; the CPU cases run too)
-for v in csr tile8 tile4 f32; do
+for v in csr tile8 tile8pf f32; do
   (FLIPFLOW_TEST_DEVICE=cuda FLIPFLOW_PLUGIN_PATH=$V/$v:$B/plugins timeout 90 "$B/bin/test_neighbors_delaunay" \
      > "$O/test-$v.log" 2>&1; echo "rc=$?" >> "$O/test-$v.log") &
 done
 wait
-for v in csr tile8 tile4 f32; do echo "== test_neighbors_delaunay $v: $(tail -n 3 "$O/test-$v.log" | tr '\n' ' ')"; done | tee -a "$S"
+for v in csr tile8 tile8pf f32; do echo "== test_neighbors_delaunay $v: $(tail -n 3 "$O/test-$v.log" | tr '\n' ' ')"; done | tee -a "$S"
 echo "tests done at ${SECONDS} s" | tee -a "$S"
 
 # 2. A/B in one process (the stages' ms: the neighbors.delaunay-like columns frnn_ab.<v>)
