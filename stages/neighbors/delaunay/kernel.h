@@ -283,6 +283,13 @@ struct GatherRing {
   }
 };
 
+// d (a difference of two coordinates in [0, L]) shifted by L once when beyond L/2: its
+// minimum image up to the rounding float_expand2 allows for.
+FF_HD float image_once(float d, float l) {
+  const float h = 0.5f * l;
+  return d > h ? d - l : (d < -h ? d + l : d);
+}
+
 // What both traversals share: the radii, the two position sets, the ring table and the output.
 template <class R>
 struct SearchBase {
@@ -305,6 +312,20 @@ struct SearchBase {
   FF_HD double expand2() const {
     const double re = expand_radius(*move2, radius, margin);
     return 2 * re < lmin ? re * re : -1.0;
+  }
+
+  // The bound of the expansion test computed in float from two records' positions (wrapped
+  // into [0, L], so a difference is within ±L and one shift of L gives its minimum image): per
+  // axis the two roundings of the differences and L's own rounding to float cost at most
+  // 1.25 eps_f L, so the distance at most 2 eps_f L, and the squares and their sum at most
+  // 2 eps_f relative. r_expand² (e2) widened by that, rounded up to a float.
+  FF_HD float float_expand2(double e2) const {
+    constexpr double eps_f = 1.1920928955078125e-07;
+    const double lmax = old.box.L[0] > old.box.L[1] ? old.box.L[0] : old.box.L[1];
+    const double re = std::sqrt(e2) + 2 * eps_f * lmax;
+    const double w = re * re * (1 + 4 * eps_f);
+    const float f = float(w);
+    return double(f) < w ? bits_float(float_bits(f) + 1) : f;
   }
 
   // Squared distance from p (its old position (px, py)) to vertex w, in the old positions.
@@ -391,8 +412,10 @@ struct SearchVisited : SearchBase<R> {
     Queue<Stride> q(fast, this->list + std::size_t(p) * this->capacity, this->capacity);
     RingRecord ru = load_record(this->record, p);
     // p where its record has it (wrapped, float), as its ring members are: the margin covers
-    // the rounding of both ends.
-    const double px = double(ru.x), py = double(ru.y);
+    // the rounding of both ends. The expansion test runs in float (float_expand2).
+    const float px = ru.x, py = ru.y;
+    const float e2f = this->float_expand2(e2);
+    const float lx = float(this->old.box.L[0]), ly = float(this->old.box.L[1]);
     // Bit (hash of w) set for every w in the queue: 128 bits in two named words (an indexed pair
     // would live in local memory on the device).
     std::uint64_t filter_lo = 0, filter_hi = 0;
@@ -418,9 +441,9 @@ struct SearchVisited : SearchBase<R> {
           }
           if (w == p) continue;
           const RingRecord rw = load_record(this->record, w);
-          const double dx = this->old.image(double(rw.x) - px, 0);
-          const double dy = this->old.image(double(rw.y) - py, 1);
-          if (dx * dx + dy * dy > e2) continue;
+          const float dx = image_once(rw.x - px, lx);
+          const float dy = image_once(rw.y - py, ly);
+          if (dx * dx + dy * dy > e2f) continue;
           if (n == q.limit() && !q.spill(n)) return this->overflow(p);
           if (hi) filter_hi |= bit;
           else filter_lo |= bit;
