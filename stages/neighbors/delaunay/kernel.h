@@ -9,7 +9,7 @@
 //
 // The triangulation is Delaunay for delaunay.position_prev (the positions delaunay.lawson
 // worked on), and overlap correction may have moved particles since. With m the largest move
-// since (GatherRing returns each vertex's), a pair within r now was within r + 2m then, so the
+// since (GatherRing::move_bits gives each vertex's), a pair within r now was within r + 2m then, so the
 // search walks the old positions expanding vertices within r_expand = r + 2m (plus a relative
 // margin for Lawson's co-circular tolerance and rounding; expand_radius), and a vertex it
 // reaches is accepted when its current distance is within r, by the same formula as
@@ -17,9 +17,12 @@
 // bit). The search reads m from the word the gather's max-reduction left in memory, so the host
 // does not wait between the two loops.
 //
-// Layout: GatherRing copies each vertex's one-ring (its neighbours, turning CCW from
-// vertex_edge) into a padded array of `width` slots per vertex, ended by kRingEnd when shorter,
-// written and read four slots at a time, so the search reads each ring in one or two loads.
+// Layout: GatherRing writes a table of one-rings each step: vertex u's neighbours (turning CCW
+// from vertex_edge) in one row of the table, padded to a multiple of 4 slots and read four at a
+// time, and a 16-byte record of u (its position as the search needs it, float; its row's start;
+// its degree), so the search touches ~6 slots and one record per vertex: ~48 bytes a vertex in
+// all, which the GPU's L2 holds at 2^20 particles where per-vertex padded rows with positions
+// beside them (192 bytes) did not.
 //   visited  breadth-first with a queue that is also the visited set: the first kFastSlots
 //            entries in fast memory (CUDA: the thread's column of shared memory; CPU: the
 //            stack), beyond that the row of neighbors.list. A 128-bit filter in registers
@@ -29,13 +32,14 @@
 //   parent   depth-first without a visited set: q's parent is its ring member closest to p
 //            (ties: lower index), which the lemma makes closer to p than q, so the parent links
 //            form a tree rooted at p; the search descends from u to w iff parent(w) = u. The
-//            row holds the tree's vertices from its front and the depth-first stack (ring slots
-//            to resume at) from its back.
+//            row holds the tree's vertices from its front and the depth-first stack (pairs of a
+//            vertex and the table slot to resume its scan at) from its back.
 // Both write the row's slots up to the next multiple of 4 past the count (kRingEnd after the
 // last neighbour), the same slots on both backends. Either returns (through a max-reduction)
-// the most slots it held at once, or capacity + 1 when the row overflowed, with kRingOverflow
-// set when p's degree exceeds `width` and kTooFar when r_expand reaches half the box: the stage
-// then grows the row or the ring and searches again, or stops, so an overflow is never silent.
+// the most slots it held at once, or capacity + 1 when the row overflowed, kRingOverflow when
+// the one-rings did not fit in the table (only a corrupt triangulation: a periodic one has 6N
+// half-edges) and kTooFar when r_expand reaches half the box: the stage then grows the row and
+// searches again, or stops, so an overflow is never silent.
 // nvcc-clean.
 #pragma once
 #include <cmath>
@@ -50,12 +54,13 @@ namespace ff::neighbors {
 
 using delaunay::load_halfedge;
 
-// Set in a search's result when the vertex has more ring members than the ring array's width.
+// Set in the gather's word when the one-rings did not fit in the table, and then in every
+// search's result.
 inline constexpr std::uint32_t kRingOverflow = 0x80000000u;
 // Set in a search's result when the radius to expand reaches half the smallest box edge.
 inline constexpr std::uint32_t kTooFar = 0x40000000u;
-// After the last member of a ring shorter than the ring array's width, and after the last
-// neighbour of a row.
+// The padding after the last member of a ring's row in the table, and after the last
+// neighbour of a row of the list.
 inline constexpr std::uint32_t kRingEnd = 0xFFFFFFFFu;
 // Queue slots of the visited search kept out of the list (shared memory on CUDA).
 inline constexpr std::uint32_t kFastSlots = 32;
@@ -157,77 +162,109 @@ FF_HD void load_xy(const R* pos, std::size_t i, R& x, R& y) {
 #endif
 }
 
-// Vertex u's one-ring into ring[u·width ...] in CCW order from vertex_edge[u], then kRingEnd up
-// to the next multiple of 4 when it is shorter than width; degree[u] = its true degree (more
-// than width: the search reports kRingOverflow and the stage widens the ring); and beside each
-// member its position in the triangulation's positions, wrapped into the box and rounded to
-// float (ring_xy, 2 floats per slot), so that the visited search reads a vertex's ring and
-// where its members are in a few contiguous loads instead of one scattered load each (the
-// rounding is within the expansion margin: SearchBase::expand2). Returns the bits
-// of u's squared minimum-image move since the triangulation's positions, rounded up to a float,
-// so an integer max-reduction gives an upper bound of m² (all the expansion radius needs).
+// Where the table of one-rings (GatherRing) keeps vertex u: 4 words at record[4u], read in one
+// vector load: its position in the triangulation's positions, wrapped into the box and rounded
+// to float (the bits of x and y), the first slot of its ring in the table, and its degree.
+// (A candidate's position and its ring's place come from one record: the search touches two
+// compact arrays, ~6 table slots and 16 bytes a vertex, instead of per-vertex padded rows.)
+struct RingRecord {
+  float x, y;
+  std::uint32_t start, degree;
+};
+FF_HD RingRecord load_record(const std::uint32_t* record, std::uint32_t u) {
+  std::uint32_t v[4];
+  load4(record + 4 * std::size_t(u), v);
+  return {bits_float(v[0]), bits_float(v[1]), v[2], v[3]};
+}
+
+// Table slots of a ring of d members: rows start on a multiple of 4 (read four slots a load).
+FF_HD std::uint32_t ring_slots(std::uint32_t d) { return (d + 3) & ~3u; }
+
+// The first members of a ring, in registers (named, not indexed: an indexed array would live in
+// local memory on the device): GatherRing::walk fills them, GatherRing::write stores them.
+inline constexpr std::uint32_t kHeldMembers = 8;
+struct HeldRing {
+  std::uint32_t degree = 0;
+  std::uint32_t c0 = kRingEnd, c1 = kRingEnd, c2 = kRingEnd, c3 = kRingEnd;
+  std::uint32_t c4 = kRingEnd, c5 = kRingEnd, c6 = kRingEnd, c7 = kRingEnd;
+  FF_HD void hold(std::uint32_t k, std::uint32_t e) {
+    switch (k) {
+      case 0: c0 = e; break;
+      case 1: c1 = e; break;
+      case 2: c2 = e; break;
+      case 3: c3 = e; break;
+      case 4: c4 = e; break;
+      case 5: c5 = e; break;
+      case 6: c6 = e; break;
+      case 7: c7 = e; break;
+      default: break;
+    }
+  }
+};
+
+// The table of one-rings, rebuilt each step from the half-edges: vertex u's ring (its
+// neighbours turning CCW from vertex_edge[u]) in table[start, start + degree), the row padded
+// with kRingEnd to a multiple of 4 slots, and u's record (RingRecord). A periodic triangulation
+// has 6N half-edges, so the rows take at most 6N + 3N slots. The rows are placed by the loop
+// (loops.h: each block of vertices takes its rows' space with one atomic add, so their order
+// in the table is not the vertices' order; only `start` says where a row is).
+//   walk(u)        u's degree and first kHeldMembers members (the walk of its half-edges)
+//   write(u, ...)  u's row at `start` (walking again only past kHeldMembers members) and record
+//   move_bits(u)   the bits of u's squared minimum-image move since the triangulation's
+//                  positions, rounded up to a float, so an integer max-reduction gives an upper
+//                  bound of m² (all the expansion radius needs)
 template <class R>
 struct GatherRing {
   const std::int32_t* he;     // delaunay.halfedge: {origin, next} per half-edge
   const std::int32_t* vedge;  // delaunay.vertex_edge
-  std::uint32_t width;        // a multiple of 4
   std::uint32_t n;            // vertices: no valid ring is longer (guards a corrupt mesh)
-  std::uint32_t* ring;        // n x width
-  std::uint32_t* degree;      // n
-  float* ring_xy;             // n x width x 2
+  std::uint32_t* table;       // the rows, table_slots long
+  std::uint32_t table_slots;
+  std::uint32_t* record;      // 4 words per vertex
   delaunay::Points<R> now;    // position
   const R* prev;              // delaunay.position_prev
 
-  FF_HD std::uint32_t operator()(std::size_t u) const {
+  FF_HD HeldRing walk(std::size_t u) const {
+    HeldRing r;
     const int h0 = vedge[u];
     int h = h0;
-    // The chunk of 4 slots being filled and the pair of positions, in registers (named, not
-    // indexed: an indexed array would live in local memory on the device).
-    std::uint32_t k = 0, c0 = kRingEnd, c1 = kRingEnd, c2 = kRingEnd, c3 = kRingEnd;
-    float x0 = 0, y0 = 0, x1 = 0, y1 = 0;
-    std::uint32_t* row = ring + u * width;
-    float* row_xy = ring_xy + 2 * u * width;
+    std::uint32_t k = 0;
     do {
       // The other end of h is the origin of next(h), whose next is next(next(h)), and
       // twin(next(next(h))) is the next half-edge CCW around u.
       int origin, next, end, next2;
       load_halfedge(he, h, origin, next);
       load_halfedge(he, next, end, next2);
-      if (k < width) {
-        const std::uint32_t e = std::uint32_t(end);
-        switch (k & 3) {
-          case 0: c0 = e; break;
-          case 1: c1 = e; break;
-          case 2: c2 = e; break;
-          default:
-            c3 = e;
-            store4(row + (k & ~3u), c0, c1, c2, c3);
-        }
-        R ex, ey;
-        load_xy(prev, std::size_t(end), ex, ey);
-        if (k & 1) {
-          x1 = wrapped(ex, 0);
-          y1 = wrapped(ey, 1);
-          store4(row_xy + 2 * (k & ~1u), x0, y0, x1, y1);
-        } else {
-          x0 = wrapped(ex, 0);
-          y0 = wrapped(ey, 1);
-        }
-      }
+      r.hold(k, std::uint32_t(end));
       ++k;
       h = next2 ^ 1;
     } while (h != h0 && k < n);
-    if (k < width) {  // kRingEnd to the end of the chunk (a whole chunk of them after a full one)
-      const std::uint32_t r = k & 3;
-      if (r == 0) c0 = kRingEnd;
-      if (r <= 1) c1 = kRingEnd;
-      if (r <= 2) c2 = kRingEnd;
-      c3 = kRingEnd;
-      store4(row + (k & ~3u), c0, c1, c2, c3);
-      if (k & 1) store4(row_xy + 2 * (k & ~1u), x0, y0, x1, y1);  // the last member's pair
-    }
-    degree[u] = k;
+    r.degree = k;
+    return r;
+  }
 
+  FF_HD void write(std::size_t u, std::uint32_t start, const HeldRing& r) const {
+    std::uint32_t* row = table + start;
+    store4(row, r.c0, r.c1, r.c2, r.c3);
+    if (r.degree > 4) store4(row + 4, r.c4, r.c5, r.c6, r.c7);
+    if (r.degree > kHeldMembers) {  // rare: walk again for the members past the held ones
+      const int h0 = vedge[u];
+      int h = h0;
+      for (std::uint32_t k = 0; k < r.degree; ++k) {
+        int origin, next, end, next2;
+        load_halfedge(he, h, origin, next);
+        load_halfedge(he, next, end, next2);
+        if (k >= kHeldMembers) row[k] = std::uint32_t(end);
+        h = next2 ^ 1;
+      }
+      for (std::uint32_t k = r.degree; k < ring_slots(r.degree); ++k) row[k] = kRingEnd;
+    }
+    R ux, uy;
+    load_xy(prev, u, ux, uy);
+    store4(record + 4 * u, float_bits(wrapped(ux, 0)), float_bits(wrapped(uy, 1)), start, r.degree);
+  }
+
+  FF_HD std::uint32_t move_bits(std::size_t u) const {
     R xu, yu, pu, qu;
     load_xy(now.p, u, xu, yu);
     load_xy(prev, u, pu, qu);
@@ -246,7 +283,14 @@ struct GatherRing {
   }
 };
 
-// What both traversals share: the radii, the two position sets, the rings and the output.
+// d (a difference of two coordinates in [0, L]) shifted by L once when beyond L/2: its
+// minimum image up to the rounding float_expand2 allows for.
+FF_HD float image_once(float d, float l) {
+  const float h = 0.5f * l;
+  return d > h ? d - l : (d < -h ? d + l : d);
+}
+
+// What both traversals share: the radii, the two position sets, the ring table and the output.
 template <class R>
 struct SearchBase {
   delaunay::Points<R> old;      // delaunay.position_prev: the positions the mesh is Delaunay for
@@ -254,13 +298,11 @@ struct SearchBase {
   PeriodicBox<R> box;           // the acceptance test's minimum image (BuildList's)
   R accept2;                    // r², in the run's precision
   double radius;                // r, and expand_radius's margin, which covers the float rounding
-  double margin;                // of ring_xy too: ≤ half an ulp of the box edge per coordinate
+  double margin;                // of the records' positions too: ≤ half an ulp of the box edge
   double lmin;                  // the smallest box edge
   const std::uint32_t* move2;   // GatherRing's max-reduction: the bits of an upper bound of m²
-  const std::uint32_t* ring;    // GatherRing's
-  const std::uint32_t* degree;
-  const float* ring_xy;
-  std::uint32_t width;
+  const std::uint32_t* table;   // GatherRing's
+  const std::uint32_t* record;
   std::uint32_t capacity;       // row length of the list, a multiple of 4
   std::uint32_t* list;          // n x capacity
   std::uint32_t* count;         // accepted neighbours per row
@@ -272,7 +314,19 @@ struct SearchBase {
     return 2 * re < lmin ? re * re : -1.0;
   }
 
-  FF_HD std::uint32_t ring_size(std::uint32_t u) const { return degree[u] < width ? degree[u] : width; }
+  // The bound of the expansion test computed in float from two records' positions (wrapped
+  // into [0, L], so a difference is within ±L and one shift of L gives its minimum image): per
+  // axis the two roundings of the differences and L's own rounding to float cost at most
+  // 1.25 eps_f L, so the distance at most 2 eps_f L, and the squares and their sum at most
+  // 2 eps_f relative. r_expand² (e2) widened by that, rounded up to a float.
+  FF_HD float float_expand2(double e2) const {
+    constexpr double eps_f = 1.1920928955078125e-07;
+    const double lmax = old.box.L[0] > old.box.L[1] ? old.box.L[0] : old.box.L[1];
+    const double re = std::sqrt(e2) + 2 * eps_f * lmax;
+    const double w = re * re * (1 + 4 * eps_f);
+    const float f = float(w);
+    return double(f) < w ? bits_float(float_bits(f) + 1) : f;
+  }
 
   // Squared distance from p (its old position (px, py)) to vertex w, in the old positions.
   FF_HD double old_d2(double px, double py, std::uint32_t w) const {
@@ -352,38 +406,31 @@ struct SearchVisited : SearchBase<R> {
   template <std::uint32_t Stride>
   FF_HD std::uint32_t search(std::size_t pi, std::uint32_t* fast) const {
     const std::uint32_t p = std::uint32_t(pi);
+    if (*this->move2 & kRingOverflow) return kRingOverflow;
     const double e2 = this->expand2();
     if (e2 < 0) return kTooFar;
-    if (this->degree[p] > this->width) return this->overflow(p) | kRingOverflow;
     Queue<Stride> q(fast, this->list + std::size_t(p) * this->capacity, this->capacity);
-    R ox, oy;
-    load_xy(this->old.p, p, ox, oy);
-    // p where ring_xy has it: wrapped (in double; ring_xy's members are rounded to float).
-    const double px = double(ox) - this->old.box.L[0] * std::floor(double(ox) * this->old.box.inv_L[0]);
-    const double py = double(oy) - this->old.box.L[1] * std::floor(double(oy) * this->old.box.inv_L[1]);
+    RingRecord ru = load_record(this->record, p);
+    // p where its record has it (wrapped, float), as its ring members are: the margin covers
+    // the rounding of both ends. The expansion test runs in float (float_expand2).
+    const float px = ru.x, py = ru.y;
+    const float e2f = this->float_expand2(e2);
+    const float lx = float(this->old.box.L[0]), ly = float(this->old.box.L[1]);
     // Bit (hash of w) set for every w in the queue: 128 bits in two named words (an indexed pair
     // would live in local memory on the device).
     std::uint64_t filter_lo = 0, filter_hi = 0;
-    std::uint32_t n = 0, head = 0, u = p;
+    std::uint32_t n = 0, head = 0;
     for (;;) {
-      const std::uint32_t* ru = this->ring + std::size_t(u) * this->width;
-      const float* xu = this->ring_xy + 2 * std::size_t(u) * this->width;
-      bool end = false;
-      for (std::uint32_t k = 0; k < this->width && !end; k += 4) {
+      for (std::uint32_t k = 0; k < ru.degree; k += 4) {
         std::uint32_t c[4];
-        float cx[8];
-        load4(ru + k, c);
-        load4(xu + 2 * k, cx);
-        if (c[2] != kRingEnd) load4(xu + 2 * k + 4, cx + 4);
-        else cx[4] = cx[5] = cx[6] = cx[7] = 0;  // not read: the ring ends before them
-        // Unrolled with constant indices, so that c and cx stay in registers on the device.
+        load4(this->table + ru.start + k, c);
+        // Unrolled with constant indices, so that c stays in registers on the device.
 #if defined(__CUDA_ARCH__)
 #pragma unroll
 #endif
-        for (int j = 0; j < 4; ++j) {
+        for (std::uint32_t j = 0; j < 4; ++j) {
           const std::uint32_t w = c[j];
-          end = end || w == kRingEnd;
-          if (end) continue;
+          if (k + j >= ru.degree) continue;
           const std::uint32_t hash = (w * 0x9E3779B1u) >> 25;  // 7 bits
           const std::uint64_t bit = std::uint64_t(1) << (hash & 63);
           const bool hi = (hash >> 6) != 0;
@@ -392,9 +439,11 @@ struct SearchVisited : SearchBase<R> {
             for (std::uint32_t a = 0; a < n && !seen; ++a) seen = q.get(a) == w;
             if (seen) continue;
           }
-          const double dx = this->old.image(double(cx[2 * j]) - px, 0);
-          const double dy = this->old.image(double(cx[2 * j + 1]) - py, 1);
-          if (w == p || dx * dx + dy * dy > e2) continue;
+          if (w == p) continue;
+          const RingRecord rw = load_record(this->record, w);
+          const float dx = image_once(rw.x - px, lx);
+          const float dy = image_once(rw.y - py, ly);
+          if (dx * dx + dy * dy > e2f) continue;
           if (n == q.limit() && !q.spill(n)) return this->overflow(p);
           if (hi) filter_hi |= bit;
           else filter_lo |= bit;
@@ -402,7 +451,7 @@ struct SearchVisited : SearchBase<R> {
         }
       }
       if (head == n) break;
-      u = q.get(head++);
+      ru = load_record(this->record, q.get(head++));
     }
     // The accepted ones, compacted to the front in queue order, then sorted (rows are short).
     R x0, y0;
@@ -428,12 +477,12 @@ template <class R>
 struct SearchParent : SearchBase<R> {
   // The ring member of w closest to p in the old positions (ties: the lower index).
   FF_HD std::uint32_t parent(double px, double py, std::uint32_t w) const {
-    const std::uint32_t* rw = this->ring + std::size_t(w) * this->width;
-    const std::uint32_t dw = this->ring_size(w);
-    std::uint32_t best = rw[0];
+    const RingRecord rw = load_record(this->record, w);
+    const std::uint32_t* ring = this->table + rw.start;
+    std::uint32_t best = ring[0];
     double best_d2 = this->old_d2(px, py, best);
-    for (std::uint32_t k = 1; k < dw; ++k) {
-      const std::uint32_t v = rw[k];
+    for (std::uint32_t k = 1; k < rw.degree; ++k) {
+      const std::uint32_t v = ring[k];
       const double d2 = this->old_d2(px, py, v);
       if (d2 < best_d2 || (d2 == best_d2 && v < best)) {
         best = v;
@@ -445,36 +494,42 @@ struct SearchParent : SearchBase<R> {
 
   FF_HD std::uint32_t operator()(std::size_t pi) const {
     const std::uint32_t p = std::uint32_t(pi);
+    if (*this->move2 & kRingOverflow) return kRingOverflow;
     const double e2 = this->expand2();
     if (e2 < 0) return kTooFar;
-    if (this->degree[p] > this->width) return this->overflow(p) | kRingOverflow;
-    const std::uint32_t W = this->width, cap = this->capacity;
+    const std::uint32_t cap = this->capacity;
     std::uint32_t* row = this->list + std::size_t(p) * cap;
     R ox, oy;
     load_xy(this->old.p, p, ox, oy);
     const double px = double(ox), py = double(oy);
-    // Ring slots (u·W + k) of the vertex being scanned: the next one and the end.
-    std::uint32_t slot = p * W, end = p * W + this->ring_size(p);
-    std::uint32_t n = 0, top = cap;  // tree vertices in row[0, n), the stack in row[top, cap)
-    std::uint32_t used = 0;          // the most slots held at once
+    // The vertex being scanned, its next table slot and its end.
+    std::uint32_t u = p;
+    RingRecord ru = load_record(this->record, p);
+    std::uint32_t slot = ru.start, end = ru.start + ru.degree;
+    // Tree vertices in row[0, n); from the back, the stack of (vertex, slot to resume at) pairs.
+    std::uint32_t n = 0, top = cap;
+    std::uint32_t used = 0;  // the most slots held at once
     for (;;) {
       if (slot == end) {
         if (top == cap) break;
-        slot = row[top++];  // resume the parent's scan after the child it descended into
-        const std::uint32_t u = (slot - 1) / W;
-        end = u * W + this->ring_size(u);
+        u = row[top++];  // resume the parent's scan after the child it descended into
+        slot = row[top++];
+        ru = load_record(this->record, u);
+        end = ru.start + ru.degree;
         continue;
       }
-      const std::uint32_t u = slot / W;
-      const std::uint32_t w = this->ring[slot++];
+      const std::uint32_t w = this->table[slot++];
       if (w == p || this->old_d2(px, py, w) > e2) continue;
       if (parent(px, py, w) != u) continue;
-      if (n + 2 > top) return this->overflow(p);  // w and the resume slot must both fit
+      if (n + 3 > top) return this->overflow(p);  // w and the resume pair must fit
       row[n++] = w;
       row[--top] = slot;
+      row[--top] = u;
       used = used > n + (cap - top) ? used : n + (cap - top);
-      slot = w * W;
-      end = w * W + this->ring_size(w);
+      u = w;
+      ru = load_record(this->record, w);
+      slot = ru.start;
+      end = ru.start + ru.degree;
     }
     R x0, y0;
     load_xy(this->x, p, x0, y0);

@@ -1,9 +1,12 @@
 // The loops of neighbors.delaunay, one set per backend (cpu.cpp, cuda.cu). They leave their
-// results in two words of the backend's memory instead of returning them, so the search can read
-// the gather's result on the device and the host reads both once, after the search:
-//   words[0]  max over vertices of GatherRing (the bits of an upper bound of m²)
+// results in words of the backend's memory instead of returning them, so the search can read
+// the gather's result on the device and the host reads them once, after the search:
+//   words[0]  max over vertices of GatherRing::move_bits (the bits of an upper bound of m²),
+//             with kRingOverflow set when the rows did not fit in the table
 //   words[1]  max over particles of the search's result (slots held, or the overflow flags)
-// Each loop combines into its word (max), so the stage zeroes the words before a step's loops.
+//   words[2]  the gather's fill counter: table slots taken so far
+// The gather places each group of consecutive vertices' rows (a CUDA block, a CPU chunk) with
+// one atomic add to words[2]. The stage zeroes the words before a step's loops.
 // nvcc-clean.
 #pragma once
 #include <cstddef>

@@ -16,10 +16,11 @@
 // delaunay.detect_inversion and delaunay.lawson. It searches the positions the triangulation was
 // made Delaunay for (delaunay.position_prev), widened by twice the largest move since (moves of
 // the overlap correction, or of the integrator when it runs at the start of the step). Each
-// step: the one-ring gather, which also reduces the largest move, and the search, which reads
-// that move where the gather left it and reduces the row slots it needed (loops.h); the host
-// reads both results once, after the search. A row or ring that overflowed is grown and the
-// search repeated (metrics `max_visited`, `capacity`).
+// step: the gather of the table of one-rings (compact rows and a 16-byte record per vertex),
+// which also reduces the largest move, and the search, which reads that move where the gather
+// left it and reduces the row slots it needed (loops.h); the host reads the results once, after
+// the search. A row that overflowed is grown and the search repeated (metrics `max_visited`,
+// `capacity`).
 #pragma once
 #include <algorithm>
 #include <array>
@@ -75,9 +76,8 @@ class DelaunaySearch final : public Stage {
         where_(Exec::where),
         loops_(delaunay_loops<R>(exec)),
         words_(exec),
-        ring_(exec),
-        degree_(exec),
-        ring_xy_(exec) {}
+        table_(exec),
+        record_(exec) {}
 
   std::vector<Access> accesses() const override {
     namespace df = delaunay::fields;
@@ -106,9 +106,9 @@ class DelaunaySearch final : public Stage {
                        " is not less than half the smallest box edge (" + std::to_string(lmin) +
                        "); the minimum image would miss pairs: use a larger box or a smaller radius");
     const std::size_t n = s.n();
-    if (n * std::size_t(kMaxWidth) >= (std::size_t(1) << 32))
+    if (table_slots(n) >= (std::size_t(1) << 32))
       throw InputError("neighbors.delaunay: " + std::to_string(n) + " particles are more than its 32-bit ring "
-                       "slots address (2^32 / 64): use neighbors.verlet");
+                       "table addresses (2^32 / 9): use neighbors.verlet");
     s.add_field(kList, DType::u32, 1, n * initial_capacity(s));
     s.add_particle_field(kCount, DType::u32, 1);
     s.add_particle_field(kPositionAtBuild, s.real(), 2);
@@ -140,8 +140,8 @@ class DelaunaySearch final : public Stage {
     const R* prev = s.field(df::position_prev).data<R>(ctx);
     const auto box = PeriodicBox<double>::make(s.box.L);
     const double lmax = std::max(s.box.L[0], s.box.L[1]), lmin = std::min(s.box.L[0], s.box.L[1]);
-    // expand_radius's margin, and the float rounding of GatherRing's ring_xy (half an ulp of the
-    // box edge per coordinate, wrapped positions).
+    // expand_radius's margin, and the float rounding of the positions in GatherRing's records
+    // (half an ulp of the box edge per coordinate, wrapped positions, at both ends of a distance).
     const double margin = 16 * double(std::numeric_limits<R>::epsilon()) * lmax +
                           4 * double(std::numeric_limits<float>::epsilon()) * lmax;
     const delaunay::Points<R> old{prev, box};
@@ -152,34 +152,23 @@ class DelaunaySearch final : public Stage {
     R* at_build = s.field(kPositionAtBuild).data<R>(ctx);
     words_.reset(std::array<int, 0>{}, st);
     std::uint32_t* words = words_.ptr();
-    bool gathered = false;
+    const std::uint32_t slots = std::uint32_t(table_slots(n));
+    std::uint32_t* table = table_.get(slots);
+    std::uint32_t* record = record_.get(4 * n);
+    loops_.gather(n, GatherRing<R>{he, ve, std::uint32_t(n), table, slots, record, {x, box}, prev}, words, st);
     std::uint32_t m2_bits = 0, result = 0;
     for (;;) {
-      std::uint32_t* ring = ring_.get(n * width_);
-      std::uint32_t* degree = degree_.get(n);
-      float* ring_xy = ring_xy_.get(2 * n * width_);
-      if (!gathered)
-        loops_.gather(n, GatherRing<R>{he, ve, width_, std::uint32_t(n), ring, degree, ring_xy, {x, box}, prev}, words,
-                      st);
-      gathered = true;
       const std::uint32_t cap = list_capacity(s);
-      SearchBase<R> base{old,    x,        PeriodicBox<R>::make(s.box.L), R(p_.radius * p_.radius), p_.radius, margin,
-                         lmin,   words,    ring, degree, ring_xy, width_, cap, list.data<std::uint32_t>(ctx), count, at_build};
+      SearchBase<R> base{old,   x,     PeriodicBox<R>::make(s.box.L), R(p_.radius * p_.radius), p_.radius, margin,
+                         lmin,  words, table, record, cap, list.data<std::uint32_t>(ctx), count, at_build};
       if (p_.traversal == "parent") loops_.parent(n, SearchParent<R>{base}, words, st);
       else loops_.visited(n, SearchVisited<R>{base}, words, st);
       const auto& w = words_.read(st);  // the step's one wait for the device
       m2_bits = w[0];
       result = w[1];
-      if (result & kRingOverflow) {  // some vertex has more neighbours than the ring holds
-        if (width_ >= kMaxWidth)
-          throw RunError(at + "a particle has more than " + std::to_string(kMaxWidth) +
-                         " Delaunay neighbours (many particles on one circle around it, or a corrupt triangulation, "
-                         "which delaunay.check reports)");
-        width_ *= 2;
-        gathered = false;
-        words_.zero(1, 1, st);
-        continue;
-      }
+      if (result & kRingOverflow)  // more than the 6N half-edges of a periodic triangulation
+        throw RunError(at + "the one-rings of the triangulation hold more than its 6N half-edges, which a valid "
+                            "triangulation never does; run delaunay.check to find what is wrong with it");
       if (result & kTooFar) {
         const double m = std::sqrt(double(bits_float(m2_bits)));
         throw RunError(at + "particles moved up to " + std::to_string(m) +
@@ -204,8 +193,9 @@ class DelaunaySearch final : public Stage {
   }
 
  private:
-  // Widest one-ring the ring array takes (a Delaunay vertex of a physical state has ~6).
-  static constexpr std::uint32_t kMaxWidth = 64;
+  // Slots of the ring table: a periodic triangulation's rings hold its 6N half-edges, and each
+  // row is padded to a multiple of 4 (at most 3 more per vertex).
+  static std::size_t table_slots(std::size_t n) { return 9 * n; }
 
   // n rounded up to a multiple of 4 (rows are written four slots at a time).
   static std::size_t round4(std::size_t n) { return (n + 3) & ~std::size_t(3); }
@@ -222,11 +212,9 @@ class DelaunaySearch final : public Stage {
   DelaunaySearchParams p_;
   Where where_;
   DelaunayLoops<R> loops_;
-  Counters<2> words_;                // the loops' two result words (loops.h)
-  Scratch<std::uint32_t> ring_;      // n x width_: each vertex's one-ring (GatherRing)
-  Scratch<std::uint32_t> degree_;    // n: each vertex's degree
-  Scratch<float> ring_xy_;           // n x width_ x 2: where the ring members are (GatherRing)
-  std::uint32_t width_ = 16;         // ring slots per vertex, doubled when a vertex has more
+  Counters<3> words_;                // the loops' result words (loops.h)
+  Scratch<std::uint32_t> table_;     // 9n: the one-rings (GatherRing)
+  Scratch<std::uint32_t> record_;    // 4n: each vertex's position, row start and degree
 };
 
 }  // namespace ff::neighbors

@@ -1,7 +1,7 @@
 // neighbors.delaunay: rows against a brute-force O(N²) search (set equality, same acceptance
 // arithmetic) on uniform random points, the triangular lattice, the degenerate square lattice and
 // a clustered state, r from 0.5 to 5 mean spacings, both traversals, f64 and f32; on a
-// triangulation made stale by moves after it was built (the 2m widening); row and ring growth;
+// triangulation made stale by moves after it was built (the 2m widening); row growth, long rings;
 // inside a running hard-disk pipeline (stale by overlap_correct) against neighbors.verlet at the
 // same cutoff every step for 10³ steps; a phoretic short-range run bit-identical with either
 // source; CPU vs CUDA; the refusals.
@@ -240,7 +240,7 @@ TEST_CASE("neighbors.delaunay: exact on a triangulation made stale by moves sinc
   }
 }
 
-TEST_CASE("neighbors.delaunay: rows and rings grow when they overflow, never silently", "[neighbors][delaunay][capacity]") {
+TEST_CASE("neighbors.delaunay: rows grow when they overflow, never silently; long one-rings", "[neighbors][delaunay][capacity]") {
   const Backend b = GENERATE(from_range(test::backends()));
   const std::string traversal = GENERATE("visited", "parent");
   SECTION("rows: capacity 1 to start") {
@@ -251,7 +251,7 @@ TEST_CASE("neighbors.delaunay: rows and rings grow when they overflow, never sil
     CHECK(run.driver.metric("max_visited") <= run.driver.metric("capacity"));
     CHECK(rows(*run.s) == brute_force(*run.s, 3.0));
   }
-  SECTION("rings: a vertex with 40 Delaunay neighbours (the ring array starts at 16 slots)") {
+  SECTION("rings: a vertex with 40 Delaunay neighbours (past the 8 members the gather holds in registers)") {
     // A centre with 40 points on a circle of radius 3 around it and a uniform background outside
     // the circle: the centre's one-ring is the 40 circle points.
     PointSet pts = uniform_points(1600, 9);
