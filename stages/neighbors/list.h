@@ -11,9 +11,9 @@
 //                     particle has moved skin/2 since the build; a stage that moves particles
 //                     after the build checks that and rebuilds the same list (verlet/build.h)
 //   neighbors.moved   u64, 2 values, on the host: the rebuild test answered ahead by the stage
-//                     that moved the particles last (overdamped.integrate with max_step, on CUDA:
-//                     in its kernel and its counters' read-back, so neighbors.verlet needs no
-//                     kernel and no wait of its own): [0] the position field's Field::version()
+//                     that moved the particles last (overdamped.integrate with max_step: in its
+//                     loop and its counters' read-back, so neighbors.verlet needs no pass over
+//                     the positions, and on CUDA no kernel and no wait of its own): [0] the position field's Field::version()
 //                     right after that write (0: nothing published), [1] 1 when some particle is
 //                     then farther than skin/2 (minimum image) from its position at build, else
 //                     0. neighbors.verlet takes [1] as its test while the positions' version is

@@ -15,6 +15,7 @@
 #include "support/backends.h"
 #include "support/spec.h"
 #include "support/test_plugins.h"
+#include "stages/neighbors/verlet/kernel.h"
 
 using namespace ff;
 using test::entry;
@@ -86,4 +87,52 @@ TEST_CASE("pair.lj with neighbors.verlet and max_step: CUDA gives the CPU's bits
     REQUIRE(kv.second.size() == other.size());
     CHECK(std::memcmp(kv.second.data(), other.data(), other.size()) == 0);
   }
+}
+
+// On either backend overdamped.integrate (with max_step) answers neighbors.verlet's rebuild test
+// for the positions it wrote (neighbors.moved), and neighbors.verlet takes that answer instead
+// of testing itself. Checked against the test made here, after every accepted step, on the
+// fields themselves (neighbors.verlet's own functor on position and position_at_build): the
+// next step rebuilds exactly when some particle is then farther than skin/2 from its position
+// at the build — rolled-back attempts included, which must not leave their answer behind.
+TEST_CASE("overdamped.integrate's answer to the Verlet rebuild test is the test made on the accepted positions",
+          "[pair][verlet][rollback]") {
+  const Backend b = GENERATE(from_range(test::backends()));
+  INFO(to_string(b));
+  const double skin = 0.3;
+  auto spec = test::spec(3, 2000, 0.15, 600, 2e-4,
+                         {entry(registry(), "neighbors.verlet", {{"cutoff", 1.5}, {"skin", skin}}),
+                          entry(registry(), "pair.lj",
+                                {{"epsilon", std::vector<double>{14}}, {"n", std::int64_t(18)}, {"r_cut", 1.5}}),
+                          entry(registry(), "overdamped.integrate", {{"max_step", 0.1}})});
+  Simulation sim(spec, registry(), test::dry(b));
+  auto host = [&](const char* name) {
+    Field& f = sim.state().field(name);
+    f.acquire(Where::host, Mode::read);
+    return f.host<double>();
+  };
+  int expected = -1, rebuilds = 0, agreed = 0;
+  std::uint64_t rollbacks = 0;
+  for (std::uint64_t k = 0; k < spec.run.steps; ++k) {
+    sim.advance();
+    sim.synchronize();
+    const int rebuilt = int(sim.stats().metrics.at("neighbors.verlet/rebuilds"));
+    INFO("step " << k);
+    if (expected >= 0) {
+      REQUIRE(rebuilt == expected);
+      ++agreed;
+    }
+    rebuilds += rebuilt;
+    const neighbors::MovedTooFar<double, 3> test{host(fields::position), host("neighbors.position_at_build"),
+                                                  PeriodicBox<double>::make(sim.state().box.L),
+                                                  (0.5 * skin) * (0.5 * skin)};
+    expected = 0;
+    for (std::size_t i = 0; i < sim.state().n(); ++i) expected |= int(test(i));
+    rollbacks = sim.stats().rollbacks;
+  }
+  // What the run went through (else the agreement proves little).
+  INFO("rebuilds " << rebuilds << ", rollbacks " << rollbacks);
+  CHECK(rebuilds >= 5);
+  CHECK(rollbacks >= 1);
+  CHECK(agreed == int(spec.run.steps) - 1);
 }

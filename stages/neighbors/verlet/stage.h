@@ -7,7 +7,7 @@
 // kernel of its own and the wait for its answer would drain the stream in the middle of the step
 // (bench/experiments/README.md, lj-s13). Where the stage that moved the particles has already
 // answered the test (neighbors.moved, list.h: overdamped.integrate with max_step does, in its own
-// kernel, read back with its own counters), run() takes that answer: the same test on the same
+// loop, read back with its own counters; on the CPU too, saving a pass), run() takes that answer: the same test on the same
 // positions and build positions, so the same decisions. Else it tests itself. (Enqueuing the
 // test at the end of the step before instead, in after_step, gained less: bench/experiments.)
 #pragma once

@@ -134,10 +134,10 @@ struct OverdampedStep {
   // stage then stops the run: a smaller Δt cannot mend a NaN force); null: no check.
   unsigned* too_far = nullptr;
   double max_step2 = 0;
-  // With max_step on CUDA, where a Verlet list is kept (stages/neighbors/list.h,
-  // neighbors.moved): its rebuild test on the new positions — neighbors.verlet's own functor,
-  // reading `position` after the move — counting the particles farther than skin/2 from their
-  // build positions in *moved. Null: no test.
+  // With max_step, where a Verlet list is kept (stages/neighbors/list.h, neighbors.moved): its
+  // rebuild test on the new positions — neighbors.verlet's own functor, reading `position` after
+  // the move — counting particles farther than skin/2 from their build positions in *moved (on
+  // the CPU at most one a block: after_moves). Null: no test.
   unsigned* moved = nullptr;
   neighbors::MovedTooFar<R, D> list_test{};
   // Particles whose position, or whose drift's own fields, are not finite after the step
@@ -196,7 +196,18 @@ struct OverdampedStep {
   // The CPU loop's check, once per block of particles [first, first + count) after their moves
   // (core/physics/overdamped.h): one pass over values still in L1 whose compares vectorise,
   // where a branch inside move() would keep the compiler from vectorising the moves.
+  // With a Verlet list's test (moved), the block's particles are tested there too, while they
+  // are in L1; only whether the count is zero is read (neighbors.moved), so a block stops
+  // counting at its first particle beyond skin/2.
   void after_moves(std::size_t first, std::size_t count) const {
+    if constexpr (General) {
+      if (moved)
+        for (std::size_t l = 0; l < count; ++l)
+          if (list_test(first + l)) {
+            count_one(moved);
+            break;
+          }
+    }
     if (!non_finite.counters || finite(first, count)) return;
     for (std::size_t l = 0; l < count; ++l)
       if (!finite(first + l, 1)) non_finite.report(first + l, params);

@@ -122,9 +122,10 @@ class OverdampedIntegrate final : public Stage {
     check_per_type("mobility", p_.mobility);
     // A Verlet list made before this stage (neighbors.verlet): answer its rebuild test for the
     // positions this step writes, where the counters are read back anyway (max_step) and the
-    // test would otherwise cost a kernel and a wait of its own (CUDA). skin/2 squared as
-    // ListBuild::moved_too_far computes it, so the answers are the same.
-    lists_moved_ = where_ == Where::device && p_.max_step > 0 && s.has_field(neighbors::kMoved) &&
+    // test would otherwise cost a pass over the positions (CPU) or a kernel and a wait of its
+    // own (CUDA). skin/2 squared as ListBuild::moved_too_far computes it, so the answers are the
+    // same.
+    lists_moved_ = p_.max_step > 0 && s.has_field(neighbors::kMoved) &&
                    s.has_field(neighbors::kBuildParams);
     if (lists_moved_) {
       Field& bp = s.field(neighbors::kBuildParams);
