@@ -111,8 +111,8 @@ struct RunInfo {
   std::string stage_id;          // this stage's id in the step graph
   RunRecord record;              // what produced the run (outputs record it)
   // The team this rank belongs to (`pipeline run --gpus N`, core/backend/comm.h), or null when
-  // the run is alone. Every rank holds the whole state; a stage whose Scheduling::team is
-  // TeamWork::split divides its work through it.
+  // the run is alone. A stage whose Scheduling::team is TeamWork::split divides its work through
+  // it; in a decomposed team the core does every exchange (TeamWork).
   Communicator* team = nullptr;
 };
 
@@ -216,7 +216,17 @@ struct StepContext {
 //    are all-gathered).
 // The core refuses a team in which no stage splits (N copies of one run) and a compute stage
 // that writes files (all ranks would write them).
-enum class TeamWork { redundant, split };
+// A team can also be *decomposed* (core/run/domain.h, docs/multi-gpu.md): each rank holds only
+// the particles of its slab along x plus ghosts, copies of the particles near it, and every
+// compute stage must say it can work so:
+//  - decomposed: the stage computes results for the owned particles [0, State::n_owned()) only;
+//    it may read the ghosts' values of what it reads (Scheduling::reads_ghosts). The core
+//    refreshes the ghosts' entries of every particle field it writes at the start of each step;
+//  - local: the stage computes this rank's own data from every particle it holds, owned and
+//    ghost (a Verlet list, indexed by the rank's particle numbers): never exchanged, rebuilt
+//    when the particles held change (State::particles_version()). Scheduling::ghost_band says how
+//    far from the slab ghosts must reach for its data to be exact for the owned particles.
+enum class TeamWork { redundant, split, decomposed, local };
 
 // What a stage tells the core about how it may be scheduled. Everything defaults to "no".
 struct Scheduling {
@@ -243,6 +253,16 @@ struct Scheduling {
   bool may_limit_dt = false;
   // In a team of ranks: TeamWork above.
   TeamWork team = TeamWork::redundant;
+  // A decomposed stage that reads values of particles other than its owned ones (neighbours):
+  // the ghosts then hold the values of the start of the step, so no stage before it in the step
+  // may write a particle field it reads (checked).
+  bool reads_ghosts = false;
+  // A local stage (TeamWork::local): its data for the owned particles is exact while every
+  // particle within ghost_band (along x) of the rank's slab, as it was at the last migration, is
+  // held, and no particle has moved more than ghost_slack since then (the core migrates, and
+  // renews the ghosts, before any particle has). A Verlet list: cutoff + skin and skin/2.
+  double ghost_band = 0;
+  double ghost_slack = 0;
   // Not a hint but the core's answer, per attempt: whether a stage may defer reading its results
   // back to after_step is StepContext::may_defer_read_back().
 };

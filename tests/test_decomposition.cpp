@@ -1,0 +1,240 @@
+// Decomposed teams (issue 21 items 2-3; core/run/domain.h, docs/multi-gpu.md): each rank holds
+// the particles of its slab along x plus ghosts, on the CPU thread team (1, 2, 4 ranks).
+//
+// - Bits: a Verlet-list pipeline (tests/data/decomp-lj.yaml: neighbors.verlet, pair.lj,
+//   overdamped.integrate with max_step) on 2 and 4 ranks gives, gathered by particle id, every
+//   particle field one rank alone has after 400 steps (position, image, force, energy, virial,
+//   row lengths), in double and float, with list rebuilds, migrations and rollbacks on the way
+//   (each counted, so a run in which none happened would fail).
+// - Ghost completeness: every owned particle's Verlet row, as global ids, equals the row of the
+//   same particle alone (entry for entry, so also in the same order).
+// - Rollback agreement: the max_step rollbacks (requested on the rank that owns the fast
+//   particle) are taken by every rank: the team's count equals the count alone.
+// - Refusals naming the stage: a stage that cannot run on a slab (delaunay.sort), a stage that
+//   reads ghosts after another wrote them in the step.
+// - `pipeline run --gpus N --device cpu`: rank 0's H5MD file equals the file of a run alone.
+#include <catch2/catch.hpp>
+
+#include <unistd.h>
+
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <mutex>
+#include <string>
+#include <vector>
+
+#include "core/backend/comm.h"
+#include "core/base/error.h"
+#include "core/run/simulation.h"
+#include "core/run/team.h"
+#include "stages/neighbors/list.h"
+#include "support/cli.h"
+#include "support/pipeline.h"
+
+using namespace ff;
+
+namespace {
+
+// Particle fields compared between a team and one rank: what the stages compute per particle.
+// (neighbors.order, .cell and .position_at_build are the list builder's per-rank scratch.)
+const char* const kCompared[] = {"position", "image", "force", "pair.energy", "pair.virial", "type", "diameter",
+                                 "neighbors.count"};
+
+using Rows = std::vector<std::vector<std::uint32_t>>;  // by particle id: its Verlet row as ids
+
+struct End {
+  std::map<std::string, std::vector<unsigned char>> fields;  // the whole system, by particle id
+  std::uint64_t rollbacks = 0, step = 0, migrations = 0, changed_owner = 0;
+  double dt = 0, time = 0;
+  Rows rows;                       // alone: every particle's row
+  std::vector<std::string> failures;  // team: owned rows that differ from `alone`
+};
+
+std::vector<unsigned char> bytes_of(State& s, const std::string& name) {
+  Field& f = s.field(name);
+  f.acquire(Where::host, Mode::read);
+  const auto* p = static_cast<const unsigned char*>(f.host_raw());
+  return {p, p + f.bytes()};
+}
+
+// The Verlet rows of the owned particles of `s` as global ids, keyed by id.
+std::map<std::uint32_t, std::vector<std::uint32_t>> owned_rows(State& s) {
+  Field& list = s.field(neighbors::kList);
+  Field& count = s.field(neighbors::kCount);
+  list.acquire(Where::host, Mode::read);
+  count.acquire(Where::host, Mode::read);
+  const std::uint32_t cap = neighbors::list_capacity(s);
+  const bool has_id = s.has_field(fields::particle_id);
+  const std::uint32_t* id = has_id ? s.field(fields::particle_id).host<std::uint32_t>() : nullptr;
+  std::map<std::uint32_t, std::vector<std::uint32_t>> out;
+  for (std::size_t i = 0; i < s.n_owned(); ++i) {
+    auto& row = out[id ? id[i] : std::uint32_t(i)];
+    for (std::uint32_t k = 0; k < count.host<std::uint32_t>()[i]; ++k) {
+      const std::uint32_t j = list.host<std::uint32_t>()[i * cap + k];
+      row.push_back(id ? id[j] : j);
+    }
+  }
+  return out;
+}
+
+// `steps` steps on `ranks` ranks (1: alone, no team). With `alone` given, every rank checks its
+// owned rows against it.
+End run(const test::LoadedPipeline& l, int ranks, std::uint64_t steps, const End* alone = nullptr) {
+  End end;
+  std::mutex m;
+  auto body = [&](Communicator* comm) {
+    RunOptions o;
+    o.backend = Backend::cpu;
+    o.dry_run = true;
+    o.team = comm;
+    static std::mutex setup;  // set-up one rank at a time, as `pipeline run` does
+    std::unique_lock<std::mutex> lock(setup);
+    Simulation sim(l.spec, *l.registry, o);
+    lock.unlock();
+    for (std::uint64_t i = 0; i < steps; ++i) sim.advance();
+    const auto rows = owned_rows(sim.state());
+    sim.gather();
+    std::lock_guard<std::mutex> hold(m);
+    if (sim.domain()) {
+      end.migrations = sim.domain()->migrations();  // the same on every rank
+      end.changed_owner += sim.domain()->changed_owner();
+    }
+    if (alone) {
+      for (auto& [id, row] : rows)
+        if (row != alone->rows[id]) {
+          end.failures.push_back("rank " + std::to_string(comm ? comm->rank() : 0) + ": the row of particle " +
+                                 std::to_string(id) + " has " + std::to_string(row.size()) + " entries, alone " +
+                                 std::to_string(alone->rows[id].size()));
+          if (end.failures.size() > 5) break;
+        }
+    } else {
+      end.rows.resize(sim.state().n());
+      for (auto& [id, row] : rows) end.rows[id] = row;
+    }
+    if (comm && comm->rank() != 0) return;
+    State& whole = sim.gathered_state() ? *sim.gathered_state() : sim.state();
+    for (const char* f : kCompared) end.fields[f] = bytes_of(whole, f);
+    end.rollbacks = sim.stats().rollbacks;
+    end.dt = sim.stats().dt;
+    end.step = sim.state().step;
+    end.time = sim.state().time;
+    sim.finish(true);
+  };
+  if (ranks == 1) {
+    body(nullptr);
+  } else {
+    Team team = make_team(Backend::cpu, ranks);
+    run_team(team, [&](Communicator& comm) { body(&comm); });
+  }
+  return end;
+}
+
+test::LoadedPipeline lj(const std::string& precision, std::vector<std::string> more = {}) {
+  more.push_back("run.precision=" + precision);
+  return test::load_compute_steps(test::repo_file("tests/data/decomp-lj.yaml").string(), more);
+}
+
+}  // namespace
+
+TEST_CASE("decomposition: 2 and 4 CPU ranks give one rank's bits, rows and rollbacks after 400 steps") {
+  for (const char* precision : {"double", "float"}) {
+    auto l = lj(precision);
+    const End alone = run(l, 1, 400);
+    // The run must exercise what it tests: rollbacks (max_step) and several list rebuilds.
+    CHECK(alone.rollbacks >= 1);
+    for (int ranks : {2, 4}) {
+      INFO(ranks << " ranks, " << precision);
+      const End team = run(l, ranks, 400, &alone);
+      for (auto& f : team.failures) FAIL_CHECK(f);
+      CHECK(team.failures.empty());
+      CHECK(team.migrations >= 3);
+      CHECK(team.changed_owner >= 1);  // particles crossed slab boundaries
+      CHECK(team.rollbacks == alone.rollbacks);
+      CHECK(team.step == alone.step);
+      CHECK(team.dt == alone.dt);
+      CHECK(team.time == alone.time);
+      for (auto& [name, bytes] : alone.fields) {
+        INFO("field " << name);
+        CHECK(team.fields.at(name) == bytes);
+      }
+    }
+  }
+}
+
+TEST_CASE("decomposition: a stage that cannot run on a slab, or reads stale ghosts, is refused by name") {
+  // pipelines/lj-aggregation.yaml as shipped: delaunay.sort renumbers the whole system.
+  {
+    auto l = test::load_compute_steps(test::repo_file("pipelines/lj-aggregation.yaml").string(), {"system.N=256"});
+    try {
+      run(l, 2, 1);
+      FAIL("a decomposed team ran delaunay.sort");
+    } catch (const InputError& e) {
+      INFO(e.what());
+      CHECK(std::string(e.what()).find("'delaunay.sort'") != std::string::npos);
+      CHECK(std::string(e.what()).find("cannot run on a rank's share") != std::string::npos);
+    }
+  }
+  // The integrator before the list (as pipelines/hard-spheres.yaml orders them): the list would
+  // read ghosts that hold the positions of the start of the step.
+  {
+    const std::string yaml = test::repo_file("tests/data/decomp-lj.yaml").string();
+    auto doc_text = [&] {
+      std::ifstream in(yaml);
+      std::string t((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+      return t;
+    }();
+    const std::string moved = "  - {stage: overdamped.integrate, D: 1, mobility: 1, max_step: 0.1}\n";
+    const auto at = doc_text.find(moved);
+    REQUIRE(at != std::string::npos);
+    doc_text.erase(at, moved.size());
+    doc_text.insert(doc_text.find("  - {stage: neighbors.verlet"), moved);
+    const auto path = std::filesystem::temp_directory_path() / ("flipflow-decomp-" + std::to_string(::getpid()) + ".yaml");
+    {
+      std::ofstream out(path);
+      out << doc_text;
+    }
+    auto l = test::load_compute_steps(path.string(), {});
+    std::filesystem::remove(path);
+    try {
+      run(l, 2, 1);
+      FAIL("a decomposed team let a stage read ghosts written earlier in the step");
+    } catch (const InputError& e) {
+      INFO(e.what());
+      CHECK(std::string(e.what()).find("step 'neighbors.verlet' reads the ghosts' `position`") != std::string::npos);
+      CHECK(std::string(e.what()).find("'overdamped.integrate'") != std::string::npos);
+    }
+  }
+}
+
+TEST_CASE("decomposition: pipeline run --gpus N --device cpu writes one rank's H5MD file") {
+  namespace fs = std::filesystem;
+  const fs::path dir = fs::temp_directory_path() / ("flipflow-decomp-" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  const std::string exe = test::pipeline_exe();
+  const std::string h5hash = (fs::path(exe).parent_path() / "h5hash").string();
+  const std::string common = exe + " run " + test::repo_file("tests/data/decomp-lj.yaml").string() +
+                             " --device cpu --set run.steps=200 --set system.N=500";
+  auto run_cli = [&](const std::string& args) {
+    const auto r = test::run_command(common + " " + args, dir / "log.txt");
+    INFO(r.out);
+    REQUIRE(r.code == 0);
+    return r.out;
+  };
+  run_cli("--out " + (dir / "alone").string());
+  const std::string out = run_cli("--gpus 3 --out " + (dir / "team").string());
+  CHECK(out.find("a team of 3 ranks") != std::string::npos);
+  auto hashes = [&](const std::string& which) {
+    const auto r = test::run_command(h5hash + " " + (dir / which / "decomp-lj.h5").string() +
+                                         " | grep -v ' /parameters' | awk '{print $1, $2}'",
+                                     dir / "hash.txt");
+    REQUIRE(r.code == 0);
+    return r.out;
+  };
+  const std::string alone = hashes("alone"), team = hashes("team");
+  CHECK(alone.find("/particles/all/position/value") != std::string::npos);
+  CHECK(alone == team);
+  fs::remove_all(dir);
+}
