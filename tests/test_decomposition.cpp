@@ -163,6 +163,31 @@ TEST_CASE("decomposition: 2 and 4 CPU ranks give one rank's bits, rows and rollb
   }
 }
 
+TEST_CASE("decomposition: 2D on 3 ranks, and 3D on 12 ranks, whose slabs are narrower than the band") {
+  // 12 slabs of 1.27 σ in a box of 15.2 σ with a band of 1.8 σ: ghosts come from ranks two slabs
+  // away. 2D: a box of 72 σ cut in 3. Double.
+  struct Case {
+    std::vector<std::string> set;
+    int ranks;
+  };
+  for (const Case& c : {Case{{"system.dimensions=2", "run.seed=5"}, 3}, Case{{}, 12}}) {
+    auto l = lj("double", c.set);
+    const End alone = run(l, 1, 300);
+    INFO(c.ranks << " ranks" << (c.set.empty() ? ", 3D" : ", 2D"));
+    const End team = run(l, c.ranks, 300, &alone);
+    for (auto& f : team.failures) FAIL_CHECK(f);
+    CHECK(team.failures.empty());
+    CHECK(team.migrations >= 3);
+    CHECK(team.changed_owner >= 1);
+    CHECK(team.rollbacks == alone.rollbacks);
+    CHECK(team.time == alone.time);
+    for (auto& [name, bytes] : alone.fields) {
+      INFO("field " << name);
+      CHECK(team.fields.at(name) == bytes);
+    }
+  }
+}
+
 TEST_CASE("decomposition: a stage that cannot run on a slab, or reads stale ghosts, is refused by name") {
   // pipelines/lj-aggregation.yaml as shipped: delaunay.sort renumbers the whole system.
   {
