@@ -47,20 +47,22 @@ Domain::Domain(Communicator& comm, State& s, double band, double slack, std::vec
   std::iota(id.host<std::uint32_t>(), id.host<std::uint32_t>() + s.n(), 0u);
   const Layout lay = layout_of(s, s.particle_field_names());
   std::vector<std::uint32_t> mine;
-  for (std::size_t i = 0; i < s.n(); ++i) {
-    const double x = x_of(s, i);
-    if (owner_of(x) == rank_ || ghost_of(rank_, x)) mine.push_back(std::uint32_t(i));
-  }
+  const std::vector<double> x = xs(s);
+  for (std::size_t i = 0; i < s.n(); ++i)
+    if (owner_of(x[i]) == rank_ || ghost_of(rank_, x[i])) mine.push_back(std::uint32_t(i));
   std::vector<unsigned char> records;
   pack(s, lay, mine, records);
   rebuild(s, lay, std::move(records));
 }
 
-double Domain::x_of(State& s, std::size_t i) const {
+std::vector<double> Domain::xs(State& s) const {
   Field& pos = s.field(fields::position);
   pos.acquire(Where::host, Mode::read);
-  return s.real() == DType::f32 ? double(pos.host<float>()[i * std::size_t(s.dim())])
-                                : pos.host<double>()[i * std::size_t(s.dim())];
+  const std::size_t D = std::size_t(s.dim());
+  std::vector<double> x(s.n());
+  for (std::size_t i = 0; i < s.n(); ++i)
+    x[i] = s.real() == DType::f32 ? double(pos.host<float>()[i * D]) : pos.host<double>()[i * D];
+  return x;
 }
 
 int Domain::owner_of(double x) const {
@@ -161,13 +163,13 @@ void Domain::rebuild(State& s, const Layout& lay, std::vector<unsigned char> rec
 void Domain::set_lists(State& s) {
   for (auto& l : send_) l.clear();
   for (auto& l : recv_) l.clear();
+  const std::vector<double> x = xs(s);
   for (std::size_t i = 0; i < s.n(); ++i) {
-    const double x = x_of(s, i);
     if (i < s.n_owned()) {
       for (int q = 0; q < ranks_; ++q)
-        if (q != rank_ && ghost_of(q, x)) send_[std::size_t(q)].push_back(std::uint32_t(i));
+        if (q != rank_ && ghost_of(q, x[i])) send_[std::size_t(q)].push_back(std::uint32_t(i));
     } else {
-      recv_[std::size_t(owner_of(x))].push_back(std::uint32_t(i));
+      recv_[std::size_t(owner_of(x[i]))].push_back(std::uint32_t(i));
     }
   }
 }
@@ -198,12 +200,12 @@ void Domain::begin_step(State& s) {
   if (due(s)) {
     const Layout lay = layout_of(s, s.particle_field_names());
     auto to = std::vector<std::vector<std::uint32_t>>(std::size_t(ranks_));
+    const std::vector<double> x = xs(s);
     for (std::size_t i = 0; i < s.n_owned(); ++i) {
-      const double x = x_of(s, i);
-      const int o = owner_of(x);
+      const int o = owner_of(x[i]);
       if (o != rank_) ++changed_owner_;
       for (int q = 0; q < ranks_; ++q)
-        if (q == o || ghost_of(q, x)) to[std::size_t(q)].push_back(std::uint32_t(i));
+        if (q == o || ghost_of(q, x[i])) to[std::size_t(q)].push_back(std::uint32_t(i));
     }
     std::vector<std::uint64_t> counts(std::size_t(ranks_), 0), incoming;
     for (int q = 0; q < ranks_; ++q) counts[std::size_t(q)] = to[std::size_t(q)].size();

@@ -72,7 +72,7 @@ class Domain {
   void rebuild(State& s, const Layout& lay, std::vector<unsigned char> records);
   void set_lists(State& s);
   void exchange_counts(const std::vector<std::uint64_t>& send, std::vector<std::uint64_t>& recv);
-  double x_of(State& s, std::size_t i) const;
+  std::vector<double> xs(State& s) const;  // every held particle's x
 
   Communicator& comm_;
   int rank_, ranks_;

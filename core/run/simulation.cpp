@@ -164,14 +164,17 @@ void Simulation::decompose(const std::vector<bool>& observer) {
     throw InputError(where + " writes no checkpoints yet (each rank holds a part of the state): remove run.checkpoint");
   const std::vector<int> compute = graph_->compute_nodes();
   double band = 0, slack = 0;
-  std::set<std::string> refreshed, written_by_compute;
+  // Refreshed on ghosts every step: what decomposed stages write (for their owned particles) and
+  // some stage reads of the ghosts (the positions, in the Verlet pipelines: not the forces).
+  std::set<std::string> written_owned, ghost_reads, written_by_compute;
   for (std::size_t a = 0; a < compute.size(); ++a) {
     const int j = compute[a];
     const Scheduling sch = slots_[std::size_t(j)].stage->scheduling();
     for (auto& acc : graph_->nodes()[std::size_t(j)].accesses) {
       if (writes(acc.mode)) written_by_compute.insert(acc.field);
-      if (sch.team == TeamWork::decomposed && writes(acc.mode) && state_->is_particle_field(acc.field))
-        refreshed.insert(acc.field);
+      if (!state_->is_particle_field(acc.field)) continue;
+      if (sch.team == TeamWork::decomposed && writes(acc.mode)) written_owned.insert(acc.field);
+      if (sch.reads_ghosts || sch.team == TeamWork::local) ghost_reads.insert(acc.field);
     }
     if (sch.team == TeamWork::local && sch.ghost_band > 0) {
       band = std::max(band, sch.ghost_band);
@@ -208,9 +211,10 @@ void Simulation::decompose(const std::vector<bool>& observer) {
     gathered_ = clone_state(*state_);
     scheduler_->set_observer_state(gathered_.get());
   }
-  refreshed.erase(fields::particle_id);
-  domain_ = std::make_unique<Domain>(*options_.team, *state_, band, slack,
-                                     std::vector<std::string>(refreshed.begin(), refreshed.end()));
+  std::vector<std::string> refreshed;
+  for (auto& f : written_owned)
+    if (ghost_reads.count(f)) refreshed.push_back(f);
+  domain_ = std::make_unique<Domain>(*options_.team, *state_, band, slack, refreshed);
 }
 
 bool Simulation::observer_due(std::uint64_t step) const {
