@@ -17,6 +17,7 @@
 
 #include <unistd.h>
 
+#include <algorithm>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -37,15 +38,14 @@ using namespace ff;
 
 namespace {
 
-// Particle fields compared between a team and one rank: what the stages compute per particle.
-// (neighbors.order, .cell and .position_at_build are the list builder's per-rank scratch.)
-const char* const kCompared[] = {"position", "image", "force", "pair.energy", "pair.virial", "type", "diameter",
-                                 "neighbors.count"};
+// Particle fields not compared between a team and one rank: the list builder's per-rank scratch.
+const char* const kLocal[] = {"neighbors.order", "neighbors.cell", "neighbors.position_at_build"};
 
 using Rows = std::vector<std::vector<std::uint32_t>>;  // by particle id: its Verlet row as ids
 
 struct End {
   std::map<std::string, std::vector<unsigned char>> fields;  // the whole system, by particle id
+  std::map<std::string, double> metrics;                      // the last step's (rank 0: reduced)
   std::uint64_t rollbacks = 0, step = 0, migrations = 0, changed_owner = 0;
   double dt = 0, time = 0;
   Rows rows;                       // alone: every particle's row
@@ -115,7 +115,9 @@ End run(const test::LoadedPipeline& l, int ranks, std::uint64_t steps, const End
     }
     if (comm && comm->rank() != 0) return;
     State& whole = sim.gathered_state() ? *sim.gathered_state() : sim.state();
-    for (const char* f : kCompared) end.fields[f] = bytes_of(whole, f);
+    for (auto& f : whole.particle_field_names())
+      if (std::find(std::begin(kLocal), std::end(kLocal), f) == std::end(kLocal)) end.fields[f] = bytes_of(whole, f);
+    end.metrics = sim.stats().metrics;
     end.rollbacks = sim.stats().rollbacks;
     end.dt = sim.stats().dt;
     end.step = sim.state().step;
@@ -129,6 +131,30 @@ End run(const test::LoadedPipeline& l, int ranks, std::uint64_t steps, const End
     run_team(team, [&](Communicator& comm) { body(&comm); });
   }
   return end;
+}
+
+// The team ended as `alone` did: every particle field, bit for bit, and the metrics.
+void check_same(const End& team, const End& alone) {
+  for (auto& f : team.failures) FAIL_CHECK(f);
+  CHECK(team.failures.empty());
+  CHECK(team.migrations >= 3);
+  CHECK(team.changed_owner >= 1);  // particles crossed slab boundaries
+  CHECK(team.rollbacks == alone.rollbacks);
+  CHECK(team.step == alone.step);
+  CHECK(team.dt == alone.dt);
+  CHECK(team.time == alone.time);
+  CHECK(alone.fields.count("position"));
+  CHECK(team.fields.size() == alone.fields.size());
+  for (auto& [name, bytes] : alone.fields) {
+    INFO("field " << name);
+    REQUIRE(team.fields.count(name));
+    CHECK(team.fields.at(name) == bytes);
+  }
+  for (auto& [name, value] : alone.metrics) {
+    INFO("metric " << name);
+    REQUIRE(team.metrics.count(name));
+    CHECK(team.metrics.at(name) == value);
+  }
 }
 
 test::LoadedPipeline lj(const std::string& precision, std::vector<std::string> more = {}) {
@@ -146,19 +172,7 @@ TEST_CASE("decomposition: 2 and 4 CPU ranks give one rank's bits, rows and rollb
     CHECK(alone.rollbacks >= 1);
     for (int ranks : {2, 4}) {
       INFO(ranks << " ranks, " << precision);
-      const End team = run(l, ranks, 400, &alone);
-      for (auto& f : team.failures) FAIL_CHECK(f);
-      CHECK(team.failures.empty());
-      CHECK(team.migrations >= 3);
-      CHECK(team.changed_owner >= 1);  // particles crossed slab boundaries
-      CHECK(team.rollbacks == alone.rollbacks);
-      CHECK(team.step == alone.step);
-      CHECK(team.dt == alone.dt);
-      CHECK(team.time == alone.time);
-      for (auto& [name, bytes] : alone.fields) {
-        INFO("field " << name);
-        CHECK(team.fields.at(name) == bytes);
-      }
+      check_same(run(l, ranks, 400, &alone), alone);
     }
   }
 }
@@ -174,17 +188,28 @@ TEST_CASE("decomposition: 2D on 3 ranks, and 3D on 12 ranks, whose slabs are nar
     auto l = lj("double", c.set);
     const End alone = run(l, 1, 300);
     INFO(c.ranks << " ranks" << (c.set.empty() ? ", 3D" : ", 2D"));
-    const End team = run(l, c.ranks, 300, &alone);
-    for (auto& f : team.failures) FAIL_CHECK(f);
-    CHECK(team.failures.empty());
-    CHECK(team.migrations >= 3);
-    CHECK(team.changed_owner >= 1);
-    CHECK(team.rollbacks == alone.rollbacks);
-    CHECK(team.time == alone.time);
-    for (auto& [name, bytes] : alone.fields) {
-      INFO("field " << name);
-      CHECK(team.fields.at(name) == bytes);
+    check_same(run(l, c.ranks, 300, &alone), alone);
+  }
+}
+
+TEST_CASE("decomposition: phoretic short range with harmonic contacts, and pipelines/harmonic.yaml as shipped") {
+  // The phoretic velocities (drift: velocity+force), the harmonic forces and their `pairs` metric
+  // (summed over the ranks: a pair across two ranks is counted once) equal one rank's.
+  {
+    auto l = test::load_compute_steps(test::repo_file("tests/data/decomp-phoretic-short.yaml").string(), {});
+    const End alone = run(l, 1, 300);
+    CHECK(alone.rollbacks >= 1);
+    CHECK(alone.metrics.at("harmonic.forces/pairs") > 0);
+    for (int ranks : {2, 4}) {
+      INFO(ranks << " ranks, phoretic short range");
+      check_same(run(l, ranks, 300, &alone), alone);
     }
+  }
+  {
+    auto l = test::load_compute_steps(test::repo_file("pipelines/harmonic.yaml").string(), {"system.N=1024"});
+    const End alone = run(l, 1, 200);
+    INFO("3 ranks, pipelines/harmonic.yaml");
+    check_same(run(l, 3, 200, &alone), alone);
   }
 }
 

@@ -413,9 +413,41 @@ void Simulation::advance() {
       ++attempt;
     }
   }
+  if (domain_) reduce_metrics();
   for (int i : graph_->compute_nodes())
     if (slots_[i].ran) collect_metrics(i);
   observe(stats_.dt);
+}
+
+// A decomposed team's compute stages measured their own particles: every rank takes the sum
+// (Metrics::set_sum) or the largest value over the ranks, so rank 0 reports what one rank alone
+// would. Every rank has the same metrics (the same stages ran and set them).
+void Simulation::reduce_metrics() {
+  std::vector<double> sums, maxima;
+  for (int i : graph_->compute_nodes()) {
+    if (!slots_[i].ran) continue;
+    const Metrics& m = slots_[i].metrics;
+    for (auto& [name, value] : m.values()) (m.is_sum(name) ? sums : maxima).push_back(value);
+  }
+  double shape[2] = {double(sums.size()) + 1e6 * double(maxima.size()),
+                     -(double(sums.size()) + 1e6 * double(maxima.size()))};
+  options_.team->all_reduce(shape, 2, ReduceOp::max);
+  if (shape[0] != -shape[1])
+    throw RunError("step " + std::to_string(state_->step) +
+                   ": the ranks of a decomposed team report different metrics (a stage sets a metric on some "
+                   "ranks only)");
+  if (!sums.empty()) options_.team->all_reduce(sums.data(), sums.size(), ReduceOp::sum);
+  if (!maxima.empty()) options_.team->all_reduce(maxima.data(), maxima.size(), ReduceOp::max);
+  std::size_t a = 0, b = 0;
+  for (int i : graph_->compute_nodes()) {
+    if (!slots_[i].ran) continue;
+    Metrics& m = slots_[i].metrics;
+    const Metrics measured = m;
+    for (auto& [name, value] : measured.values()) {
+      if (measured.is_sum(name)) m.set_sum(name, sums[a++]);
+      else m.set(name, maxima[b++]);
+    }
+  }
 }
 
 void Simulation::run() {

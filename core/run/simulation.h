@@ -98,6 +98,7 @@ class Simulation {
   bool wants_decomposition(const std::vector<bool>& observer) const;
   void decompose(const std::vector<bool>& observer);
   bool observer_due(std::uint64_t step) const;
+  void reduce_metrics();
   void make_snapshot();
   void prepare_outputs();
   void collect_metrics(int node);

@@ -7,6 +7,7 @@
 #include <cstdint>
 #include <limits>
 #include <map>
+#include <set>
 #include <memory>
 #include <string>
 #include <utility>
@@ -73,11 +74,23 @@ struct Outcome {
 class Metrics {
  public:
   void set(const std::string& name, double value) { values_[name] = value; }
+  // A count over particles or pairs (pairs felt): in a decomposed team each rank counts its own
+  // particles' and the core sums the ranks' values; every other metric takes the largest value
+  // over the ranks (a maximum, or a decision every rank shares).
+  void set_sum(const std::string& name, double value) {
+    values_[name] = value;
+    sums_.insert(name);
+  }
+  bool is_sum(const std::string& name) const { return sums_.count(name) != 0; }
   const std::map<std::string, double>& values() const { return values_; }
-  void clear() { values_.clear(); }
+  void clear() {
+    values_.clear();
+    sums_.clear();
+  }
 
  private:
   std::map<std::string, double> values_;
+  std::set<std::string> sums_;
 };
 
 // What produced a run, for outputs to record (observe.h5md writes it under /parameters): the
