@@ -227,9 +227,13 @@ void Domain::begin_step(State& s) {
     ++migrations_;
     return;
   }
-  if (refreshed_.empty()) return;
+  refresh(s, refreshed_);
+}
+
+void Domain::refresh(State& s, const std::vector<std::string>& fields) {
+  if (fields.empty()) return;
   Layout lay;
-  for (auto& n : refreshed_) {
+  for (auto& n : fields) {
     lay.names.push_back(n);
     lay.offset.push_back(lay.bytes);
     lay.size.push_back(entry_bytes(s.field(n)));

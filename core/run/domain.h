@@ -28,11 +28,12 @@
 #include <vector>
 
 #include "core/backend/comm.h"
+#include "core/stage/stage.h"
 #include "core/stage/state.h"
 
 namespace ff {
 
-class Domain {
+class Domain final : public GhostExchange {
  public:
   // `state`: the whole state, the same bits on every rank, every stage configured. Adds the
   // particle field `particle.id` (0 .. N-1) and cuts the state down to this rank's particles.
@@ -42,6 +43,10 @@ class Domain {
 
   // Before the step's snapshot: migrate when due, else refresh the ghosts. Every rank calls it.
   void begin_step(State& state);
+
+  // The owners' entries of `fields` to the ranks holding them as ghosts (one point-to-point
+  // batch). Every rank calls it; begin_step does for `refreshed`, a stage may within its step.
+  void refresh(State& state, const std::vector<std::string>& fields) override;
 
   // The `names` particle fields of every rank's owned particles into `into` (rank 0: the whole
   // state, indexed by particle id; other ranks pass null). Every rank calls it.

@@ -143,8 +143,10 @@ StepContext Scheduler::context(int i, CUstream_st* stream, std::uint64_t step, s
     params = impl_->device_params ? impl_->device_params->device() : nullptr;
   }
 #endif
-  return StepContext{state_of(i), slot.info, stats_, step, attempt, dt, time, backend_, stream, slot.rng, slot.metrics,
-                     flag,   params, snapshot_undone_.size() > std::size_t(i) && snapshot_undone_[i] ? snapshot_ : nullptr};
+  StepContext ctx{state_of(i), slot.info, stats_, step, attempt, dt, time, backend_, stream, slot.rng, slot.metrics,
+                 flag,   params, snapshot_undone_.size() > std::size_t(i) && snapshot_undone_[i] ? snapshot_ : nullptr};
+  if (!graph_.nodes()[i].observer) ctx.ghosts = ghosts_;
+  return ctx;
 }
 
 std::optional<RollbackRequest> Scheduler::run_compute(std::uint64_t step, std::uint32_t attempt, double dt,

@@ -163,7 +163,8 @@ void Simulation::decompose(const std::vector<bool>& observer) {
   if (spec_.run.checkpoint)
     throw InputError(where + " writes no checkpoints yet (each rank holds a part of the state): remove run.checkpoint");
   const std::vector<int> compute = graph_->compute_nodes();
-  double band = 0, slack = 0;
+  double band = 0, slack = 0, reserve = 0;
+  bool requester_before = false;  // a stage that may stop a rank's step (rollback, Δt limit) so far
   // Refreshed on ghosts every step: what decomposed stages write (for their owned particles) and
   // some stage reads of the ghosts (the positions, in the Verlet pipelines: not the forces).
   std::set<std::string> written_owned, ghost_reads, written_by_compute;
@@ -176,6 +177,13 @@ void Simulation::decompose(const std::vector<bool>& observer) {
       if (sch.team == TeamWork::decomposed && writes(acc.mode)) written_owned.insert(acc.field);
       if (sch.reads_ghosts || sch.team == TeamWork::local) ghost_reads.insert(acc.field);
     }
+    reserve = std::max(reserve, sch.ghost_reserve);
+    if (sch.communicates && requester_before)
+      throw InputError(spec_.step[std::size_t(j)].where.str() + ": step '" + spec_.step[std::size_t(j)].id +
+                       "' exchanges with the other ranks of a decomposed team within the step, and a stage before "
+                       "it may roll the step back or limit Δt on one rank only (which then skips the rest of its "
+                       "step): put '" + spec_.step[std::size_t(j)].id + "' before it");
+    requester_before = requester_before || sch.may_request_rollback || sch.may_limit_dt;
     if (sch.team == TeamWork::local && sch.ghost_band > 0) {
       band = std::max(band, sch.ghost_band);
       slack = slack > 0 ? std::min(slack, sch.ghost_slack) : sch.ghost_slack;
@@ -214,7 +222,15 @@ void Simulation::decompose(const std::vector<bool>& observer) {
   std::vector<std::string> refreshed;
   for (auto& f : written_owned)
     if (ghost_reads.count(f)) refreshed.push_back(f);
+  if (reserve > 0) {
+    if (!(slack > reserve))
+      throw InputError(where + ": the stages that move particles after the list was built within a step may move one " +
+                       std::to_string(reserve) + ", not less than the list's slack " + std::to_string(slack) +
+                       " (skin/2): raise neighbors.verlet's skin");
+    slack -= reserve;
+  }
   domain_ = std::make_unique<Domain>(*options_.team, *state_, band, slack, refreshed);
+  scheduler_->set_ghosts(domain_.get());
 }
 
 bool Simulation::observer_due(std::uint64_t step) const {

@@ -163,6 +163,16 @@ struct DeviceRollbackFlag {
 //  - `host_params`, the same values on the host, for host logic only: messages, observers, what
 //    run() decides on the host. Never pass them to a kernel: a captured graph would replay the
 //    values of the step it was captured in.
+// A decomposed team's ghost exchange (core/run/domain.h), for a stage that moves its owned
+// particles and must read the ghosts' new values within its own step (overlap_correct.verlet's
+// iterations): sends the owners' entries of `fields` to the ranks that hold them as ghosts.
+// Every rank must call it at the same point (Scheduling::communicates).
+class GhostExchange {
+ public:
+  virtual ~GhostExchange() = default;
+  virtual void refresh(State& state, const std::vector<std::string>& fields) = 0;
+};
+
 struct StepContext {
   // step, attempt, dt and time fill host_params; the rest are the members of the same names.
   StepContext(State& s, const RunInfo& info, const RunStats& st, std::uint64_t step, std::uint32_t attempt, double dt,
@@ -188,6 +198,8 @@ struct StepContext {
   // stage may request a rollback, or every one that may runs before this stage and requests
   // only from run(): always so on the CPU).
   Snapshot* snapshot;
+  // In a decomposed team: the ghost exchange (null alone and in a replicated team).
+  GhostExchange* ghosts = nullptr;
 
   // Whether the stage may leave reading its results back (and announcing the on-demand writes
   // that depend on them) to after_step, so that the stages after it queue behind its kernels
@@ -276,6 +288,14 @@ struct Scheduling {
   // renews the ghosts, before any particle has). A Verlet list: cutoff + skin and skin/2.
   double ghost_band = 0;
   double ghost_slack = 0;
+  // A decomposed stage that moves particles after the list was built, within the step (the
+  // overlap correction): how far it may move one. The core migrates that much earlier (the local
+  // stages' slack less this), so the ghosts still cover every pair after its moves.
+  double ghost_reserve = 0;
+  // A decomposed stage that exchanges with the other ranks inside run() (StepContext::ghosts, an
+  // all-reduce through RunInfo::team): every rank must reach it, so no stage before it in the
+  // step may request a rollback or limit Δt (a rank whose stage did stops its step there).
+  bool communicates = false;
   // Not a hint but the core's answer, per attempt: whether a stage may defer reading its results
   // back to after_step is StepContext::may_defer_read_back().
 };
