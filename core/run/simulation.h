@@ -35,7 +35,8 @@ struct RunOptions {
   // What produced the run, handed to every stage (RunInfo::record) for outputs to record.
   RunRecord record;
   // This rank's communicator when the run is one of a team (core/run/team.h, `--gpus N`): every
-  // rank holds the whole state; stages that split their work use it (RunInfo::team), the
+  // rank holds the whole state, or, when every compute stage can run on a slab of particles, its
+  // slab and ghosts (core/run/domain.h); stages that split their work use it (RunInfo::team), the
   // ranks agree on every rollback and Δt limit by an all-reduce, and observers (hence every
   // output) exist on rank 0 only. Null: alone.
   Communicator* team = nullptr;
