@@ -162,6 +162,9 @@ void Simulation::decompose(const std::vector<bool>& observer) {
                              "NCCL wants device ones): use --device cpu, or one GPU");
   if (spec_.run.checkpoint)
     throw InputError(where + " writes no checkpoints yet (each rank holds a part of the state): remove run.checkpoint");
+  if (options_.resume)
+    throw InputError(where + " cannot continue a checkpoint yet (it would restore the whole state into a rank's "
+                             "part): resume on one GPU");
   const std::vector<int> compute = graph_->compute_nodes();
   double band = 0, slack = 0, reserve = 0;
   bool requester_before = false;  // a stage that may stop a rank's step (rollback, Δt limit) so far
