@@ -13,6 +13,7 @@
 // - Refusals naming the stage: a stage that cannot run on a slab (delaunay.sort), a stage that
 //   reads ghosts after another wrote them in the step.
 // - `pipeline run --gpus N --device cpu`: rank 0's H5MD file equals the file of a run alone.
+// - With 2 or more GPUs (NCCL; skipped visibly otherwise): 2 and 4 GPUs give one GPU's bits.
 #include <catch2/catch.hpp>
 
 #include <unistd.h>
@@ -28,6 +29,7 @@
 #include <vector>
 
 #include "core/backend/comm.h"
+#include "core/backend/device.h"
 #include "core/base/error.h"
 #include "core/run/simulation.h"
 #include "core/run/team.h"
@@ -82,12 +84,13 @@ std::map<std::uint32_t, std::vector<std::uint32_t>> owned_rows(State& s) {
 
 // `steps` steps on `ranks` ranks (1: alone, no team). With `alone` given, every rank checks its
 // owned rows against it.
-End run(const test::LoadedPipeline& l, int ranks, std::uint64_t steps, const End* alone = nullptr) {
+End run(const test::LoadedPipeline& l, int ranks, std::uint64_t steps, const End* alone = nullptr,
+        Backend backend = Backend::cpu) {
   End end;
   std::mutex m;
   auto body = [&](Communicator* comm) {
     RunOptions o;
-    o.backend = Backend::cpu;
+    o.backend = backend;
     o.dry_run = true;
     o.team = comm;
     static std::mutex setup;  // set-up one rank at a time, as `pipeline run` does
@@ -128,7 +131,7 @@ End run(const test::LoadedPipeline& l, int ranks, std::uint64_t steps, const End
   if (ranks == 1) {
     body(nullptr);
   } else {
-    Team team = make_team(Backend::cpu, ranks);
+    Team team = make_team(backend, ranks);
     run_team(team, [&](Communicator& comm) { body(&comm); });
   }
   return end;
@@ -308,4 +311,31 @@ TEST_CASE("decomposition: pipeline run --gpus N --device cpu writes one rank's H
   CHECK(alone.find("/particles/all/position/value") != std::string::npos);
   CHECK(alone == team);
   fs::remove_all(dir);
+}
+
+TEST_CASE("decomposition: 2 and 4 GPUs give one GPU's bits (Lennard-Jones, hard spheres)") {
+  const int gpus = cuda_device_count();
+  if (gpus < 2) {
+    WARN("SKIPPED (" << gpus << " CUDA device(s); " << nccl_description()
+                     << "): a decomposed team of GPUs needs 2 or more (NCCL refuses two ranks on one GPU)");
+    return;
+  }
+  for (int ranks : {2, 4}) {
+    if (ranks > gpus) {
+      WARN("SKIPPED: " << ranks << " GPUs asked, " << gpus << " present");
+      continue;
+    }
+    for (const char* precision : {"double", "float"}) {
+      INFO(ranks << " GPUs, Lennard-Jones, " << precision);
+      auto l = lj(precision);
+      const End alone = run(l, 1, 400, nullptr, Backend::cuda);
+      check_same(run(l, ranks, 400, &alone, Backend::cuda), alone);
+    }
+    INFO(ranks << " GPUs, hard spheres");
+    auto l = test::load_compute_steps(test::repo_file("tests/data/decomp-hard-spheres.yaml").string(), {});
+    const End alone = run(l, 1, 300, nullptr, Backend::cuda);
+    check_same(run(l, ranks, 300, nullptr, Backend::cuda), alone,
+               {"neighbors.count", "neighbors.verlet/rebuilds", "neighbors.verlet/max_neighbors",
+                "overlap_correct.verlet/list_rebuilds"});
+  }
 }

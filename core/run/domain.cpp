@@ -7,8 +7,47 @@
 
 #include "core/base/error.h"
 #include "core/physics/box.h"
+#ifdef FLIPFLOW_HAVE_CUDA
+#include "core/backend/cuda/device_buffer.h"
+#endif
 
 namespace ff {
+
+struct Domain::Staging {
+#ifdef FLIPFLOW_HAVE_CUDA
+  std::vector<std::unique_ptr<DeviceBuffer>> buffers;  // one per transfer slot, grown as needed
+#endif
+};
+
+Domain::~Domain() = default;
+
+void Domain::transfer(const std::vector<Communicator::Transfer>& t) {
+  if (backend_ != Backend::cuda) {
+    comm_.exchange(t, nullptr);
+    return;
+  }
+#ifdef FLIPFLOW_HAVE_CUDA
+  auto& buf = staging_->buffers;
+  if (buf.size() < t.size()) buf.resize(t.size());
+  std::vector<Communicator::Transfer> on_device = t;
+  for (std::size_t k = 0; k < t.size(); ++k) {
+    if (!buf[k] || buf[k]->bytes() < t[k].bytes)
+      buf[k] = std::make_unique<DeviceBuffer>(t[k].bytes, "a decomposed team's exchange buffer");
+    on_device[k].data = buf[k]->data();
+    if (t[k].send) buf[k]->upload(t[k].data, t[k].bytes, nullptr);
+  }
+  comm_.exchange(on_device, nullptr);  // the legacy stream: ordered after the uploads
+  for (std::size_t k = 0; k < t.size(); ++k)
+    if (!t[k].send) buf[k]->download(t[k].data, t[k].bytes, nullptr);
+#else
+  throw RunError("a decomposed team on CUDA in a build without CUDA");
+#endif
+}
+
+void Domain::to_device(State& s, const std::vector<std::string>& names) const {
+  if (backend_ != Backend::cuda) return;
+  for (auto& n : names) s.field(n).acquire(Where::device, Mode::read);
+}
 
 namespace {
 
@@ -38,9 +77,11 @@ std::size_t entry_bytes(const Field& f) { return dtype_size(f.dtype()) * std::si
 
 }  // namespace
 
-Domain::Domain(Communicator& comm, State& s, double band, double slack, std::vector<std::string> refreshed)
+Domain::Domain(Communicator& comm, State& s, double band, double slack, std::vector<std::string> refreshed,
+               Backend backend)
     : comm_(comm), rank_(comm.rank()), ranks_(comm.size()), L_(s.box.L[0]), band_(band), slack_(slack),
-      refreshed_(std::move(refreshed)), send_(std::size_t(ranks_)), recv_(std::size_t(ranks_)) {
+      refreshed_(std::move(refreshed)), send_(std::size_t(ranks_)), recv_(std::size_t(ranks_)), backend_(backend),
+      staging_(std::make_unique<Staging>()) {
   // Global ids, then this rank's share of the whole state (the same on every rank: no message).
   Field& id = s.add_particle_field(fields::particle_id, DType::u32, 1);
   id.acquire(Where::host, Mode::write);
@@ -150,6 +191,7 @@ void Domain::rebuild(State& s, const Layout& lay, std::vector<unsigned char> rec
     for (std::size_t k = 0; k < n; ++k) std::memcpy(dst + k * sz, &records[order[k] * lay.bytes + lay.offset[f]], sz);
   }
   s.set_particles(n, n_owned);
+  to_device(s, {fields::particle_id});  // read by the stages' kernels without an Access of their own
   Field& pos = s.field(fields::position);
   const std::size_t D = std::size_t(s.dim());
   x0_.resize(n_owned * D);
@@ -183,7 +225,7 @@ void Domain::exchange_counts(const std::vector<std::uint64_t>& send, std::vector
     t.push_back({q, &out[std::size_t(q)], sizeof(std::uint64_t), true});
     t.push_back({q, &recv[std::size_t(q)], sizeof(std::uint64_t), false});
   }
-  comm_.exchange(t, nullptr);
+  transfer(t);
 }
 
 bool Domain::due(State& s) {
@@ -219,7 +261,7 @@ void Domain::begin_step(State& s) {
       if (!out[std::size_t(q)].empty()) t.push_back({q, out[std::size_t(q)].data(), out[std::size_t(q)].size(), true});
       if (!in[std::size_t(q)].empty()) t.push_back({q, in[std::size_t(q)].data(), in[std::size_t(q)].size(), false});
     }
-    comm_.exchange(t, nullptr);
+    transfer(t);
     std::vector<unsigned char> records;
     pack(s, lay, to[std::size_t(rank_)], records);
     for (int q = 0; q < ranks_; ++q) records.insert(records.end(), in[std::size_t(q)].begin(), in[std::size_t(q)].end());
@@ -248,7 +290,7 @@ void Domain::refresh(State& s, const std::vector<std::string>& fields) {
     if (!out[std::size_t(q)].empty()) t.push_back({q, out[std::size_t(q)].data(), out[std::size_t(q)].size(), true});
     if (!in[std::size_t(q)].empty()) t.push_back({q, in[std::size_t(q)].data(), in[std::size_t(q)].size(), false});
   }
-  comm_.exchange(t, nullptr);
+  transfer(t);
   for (std::size_t f = 0; f < lay.names.size(); ++f) {
     Field& field = s.field(lay.names[f]);
     field.acquire(Where::host, Mode::write);  // after pack's reads: the host copy is current
@@ -260,6 +302,7 @@ void Domain::refresh(State& s, const std::vector<std::string>& fields) {
         std::memcpy(dst + std::size_t(idx[k]) * sz, &in[std::size_t(q)][k * lay.bytes + lay.offset[f]], sz);
     }
   }
+  to_device(s, fields);
 }
 
 void Domain::gather(State& s, State* into, const std::vector<std::string>& names) {
@@ -281,7 +324,7 @@ void Domain::gather(State& s, State* into, const std::vector<std::string>& names
       if (!in[std::size_t(q)].empty()) t.push_back({q, in[std::size_t(q)].data(), in[std::size_t(q)].size(), false});
     }
   }
-  comm_.exchange(t, nullptr);
+  transfer(t);
   if (rank_ != 0 || !into) return;
   in[0] = std::move(mine);
   for (std::size_t f = 0; f < lay.names.size(); ++f) {

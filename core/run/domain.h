@@ -19,11 +19,13 @@
 // held particles (a Verlet list of radius band) is, for the owned particles, what one rank alone
 // builds (the proof and the conditions for bitwise equality: docs/multi-gpu.md).
 //
-// Buffers are host memory: on CUDA the Communicator wants device buffers (core/backend/comm.h),
-// so a decomposed team runs on the CPU thread team today (Simulation refuses it on CUDA).
+// Packing and unpacking happen on the host (fields acquired there; on CUDA that copies whole
+// fields each step, a first version: device pack kernels are the next step); on CUDA the packed
+// buffers travel through device staging buffers, as NCCL wants (core/backend/comm.h).
 #pragma once
 #include <cstddef>
 #include <cstdint>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -39,7 +41,9 @@ class Domain final : public GhostExchange {
   // particle field `particle.id` (0 .. N-1) and cuts the state down to this rank's particles.
   // band: how far ghosts reach from the slab; slack: how far a particle may move before the
   // next migration (0: never migrate). refreshed: the particle fields sent to ghosts each step.
-  Domain(Communicator& comm, State& state, double band, double slack, std::vector<std::string> refreshed);
+  Domain(Communicator& comm, State& state, double band, double slack, std::vector<std::string> refreshed,
+         Backend backend);
+  ~Domain() override;
 
   // Before the step's snapshot: migrate when due, else refresh the ghosts. Every rank calls it.
   void begin_step(State& state);
@@ -77,6 +81,12 @@ class Domain final : public GhostExchange {
   void rebuild(State& s, const Layout& lay, std::vector<unsigned char> records);
   void set_lists(State& s);
   void exchange_counts(const std::vector<std::uint64_t>& send, std::vector<std::uint64_t>& recv);
+  // comm_.exchange of host buffers: on the CPU directly; on CUDA through device staging buffers
+  // (NCCL wants device memory), the receives copied back before it returns.
+  void transfer(const std::vector<Communicator::Transfer>& t);
+  // On CUDA: bring the device copies of `names` up to date after the host wrote them (a stage
+  // holds device pointers across a refresh within its step).
+  void to_device(State& s, const std::vector<std::string>& names) const;
   std::vector<double> xs(State& s) const;  // every held particle's x
 
   Communicator& comm_;
@@ -87,6 +97,9 @@ class Domain final : public GhostExchange {
   std::vector<std::vector<std::uint32_t>> send_, recv_;  // per peer: local indices (refresh)
   std::vector<double> x0_;                                // owned positions at the last migration
   std::uint64_t migrations_ = 0, changed_owner_ = 0;
+  Backend backend_;
+  struct Staging;  // CUDA builds: the device buffers transfer() stages through
+  std::unique_ptr<Staging> staging_;
 };
 
 }  // namespace ff

@@ -157,9 +157,6 @@ bool Simulation::wants_decomposition(const std::vector<bool>& observer) const {
 
 void Simulation::decompose(const std::vector<bool>& observer) {
   const std::string where = spec_.file + ": a decomposed team of " + std::to_string(options_.team->size()) + " ranks";
-  if (options_.backend != Backend::cpu)
-    throw InputError(where + " runs on the CPU thread team only in this version (its exchanges use host buffers, "
-                             "NCCL wants device ones): use --device cpu, or one GPU");
   if (spec_.run.checkpoint)
     throw InputError(where + " writes no checkpoints yet (each rank holds a part of the state): remove run.checkpoint");
   if (options_.resume)
@@ -232,7 +229,7 @@ void Simulation::decompose(const std::vector<bool>& observer) {
                        " (skin/2): raise neighbors.verlet's skin");
     slack -= reserve;
   }
-  domain_ = std::make_unique<Domain>(*options_.team, *state_, band, slack, refreshed);
+  domain_ = std::make_unique<Domain>(*options_.team, *state_, band, slack, refreshed, options_.backend);
   scheduler_->set_ghosts(domain_.get());
 }
 
