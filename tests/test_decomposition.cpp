@@ -237,6 +237,64 @@ TEST_CASE("decomposition: hard spheres (overlap_correct.verlet) on 2 and 4 ranks
   }
 }
 
+namespace {
+
+// The steps of a team run (rank 0's view) on which the team migrated, and those on which it
+// migrated and rolled back.
+struct MigrationSteps {
+  std::vector<std::uint64_t> migrated, migrated_and_rolled_back;
+};
+
+MigrationSteps migration_steps(const test::LoadedPipeline& l, int ranks, std::uint64_t steps) {
+  MigrationSteps out;
+  Team team = make_team(Backend::cpu, ranks);
+  run_team(team, [&](Communicator& comm) {
+    RunOptions o;
+    o.dry_run = true;
+    o.team = &comm;
+    static std::mutex setup;
+    std::unique_lock<std::mutex> lock(setup);
+    Simulation sim(l.spec, *l.registry, o);
+    lock.unlock();
+    for (std::uint64_t i = 0; i < steps; ++i) {
+      const std::uint64_t step = sim.state().step, before = sim.domain()->migrations();
+      sim.advance();
+      if (comm.rank() != 0 || sim.domain()->migrations() == before) continue;
+      out.migrated.push_back(step);
+      if (sim.stats().step_rollbacks > 0) out.migrated_and_rolled_back.push_back(step);
+    }
+    sim.finish(true);
+  });
+  return out;
+}
+
+}  // namespace
+
+TEST_CASE("decomposition: a rollback requested on one rank on a migration step is taken by every rank") {
+  // testing.rollback scrambles the positions of the rank it runs on and requests a rollback, on
+  // the steps where the team migrates (so the attempt it undoes rebuilt the list for the new
+  // particles: the retry must rebuild it again, not take the restored list of the old ones).
+  // Every rank must roll back, and the run must equal one rank alone that requests the same.
+  const std::string yaml = test::repo_file("tests/data/decomp-lj-agreement.yaml").string();
+  auto load = [&](int rank, const std::string& steps) {
+    return test::load_compute_steps(yaml, {"step.ask_rollback.rank=" + std::to_string(rank),
+                                           "step.ask_rollback.steps=" + steps}, {"testing"});
+  };
+  const MigrationSteps found = migration_steps(load(-1, "[]"), 2, 400);
+  REQUIRE(found.migrated.size() >= 4);
+  std::string steps = "[";
+  for (std::size_t k = 0; k < 8 && k < found.migrated.size(); ++k) steps += (k ? ", " : "") + std::to_string(found.migrated[k]);
+  steps += "]";
+  INFO("rollbacks requested on steps " << steps);
+  const End alone = run(load(0, steps), 1, 400);
+  for (int ranks : {2, 4}) {
+    INFO(ranks << " ranks, requests on rank " << ranks - 1);
+    auto l = load(ranks - 1, steps);
+    check_same(run(l, ranks, 400, &alone), alone);
+    if (ranks == 2) CHECK(!migration_steps(l, 2, 400).migrated_and_rolled_back.empty());
+  }
+}
+
 TEST_CASE("decomposition: a stage that cannot run on a slab, or reads stale ghosts, is refused by name") {
   // pipelines/lj-aggregation.yaml as shipped: delaunay.sort renumbers the whole system.
   {
