@@ -138,10 +138,11 @@ End run(const test::LoadedPipeline& l, int ranks, std::uint64_t steps, const End
 }
 
 // The team ended as `alone` did: every particle field, bit for bit, and the metrics.
-void check_same(const End& team, const End& alone, const std::set<std::string>& not_compared = {}) {
+void check_same(const End& team, const End& alone, const std::set<std::string>& not_compared = {},
+                std::uint64_t min_migrations = 3) {
   for (auto& f : team.failures) FAIL_CHECK(f);
   CHECK(team.failures.empty());
-  CHECK(team.migrations >= 3);
+  CHECK(team.migrations >= min_migrations);
   CHECK(team.changed_owner >= 1);  // particles crossed slab boundaries
   CHECK(team.rollbacks == alone.rollbacks);
   CHECK(team.step == alone.step);
@@ -290,7 +291,8 @@ TEST_CASE("decomposition: a rollback requested on one rank on a migration step i
   for (int ranks : {2, 4}) {
     INFO(ranks << " ranks, requests on rank " << ranks - 1);
     auto l = load(ranks - 1, steps);
-    check_same(run(l, ranks, 400, &alone), alone);
+    // (The rollbacks halve Δt, so the particles move less and the team migrates less often.)
+    check_same(run(l, ranks, 400, &alone), alone, {}, 2);
     if (ranks == 2) CHECK(!migration_steps(l, 2, 400).migrated_and_rolled_back.empty());
   }
 }
