@@ -106,7 +106,8 @@ void Simulation::check_team(const std::vector<bool>& observer) const {
                      " ranks (" + redundant +
                      " cannot split; they would run the same simulation on every rank): run it on one GPU. Stages "
                      "that split: phoretic.forces with range: long; a decomposed team needs every compute stage to "
-                     "run on a slab of particles: neighbors.verlet, pair.lj, overdamped.integrate (docs/multi-gpu.md)");
+                     "run on a slab of particles: neighbors.verlet, the Verlet-list forces (pair.lj, harmonic.forces, "
+                     "phoretic.forces with range: short), overlap_correct.verlet, overdamped.integrate (docs/multi-gpu.md)");
 }
 
 namespace {
