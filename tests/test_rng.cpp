@@ -112,6 +112,33 @@ TEST_CASE("the lanes of gaussian_pair_lanes equal gaussian_pair, redraws include
   CHECK(redrawn > 1000);  // ≈ 0.5 % of the 2^18 pairs took the redraw path
 }
 
+TEST_CASE("gaussian_pair_lanes_of: lanes for any particle numbers equal gaussian_pair", "[rng]") {
+  // A decomposed team's rank draws for its particles' global ids, in no particular pattern.
+  const RngKey key = make_rng_key(7, "overdamped.integrate");
+  std::size_t mismatches = 0, redrawn = 0;
+  std::uint32_t next = 12345;
+  for (int block = 0; block < (1 << 14); ++block) {
+    std::uint32_t ids[16];
+    for (auto& id : ids) id = next = next * 1664525u + 1013904223u;  // scattered, any value
+    for (GaussianTail tail : {GaussianTail::rescaled, GaussianTail::clamped}) {
+      double z0[16], z1[16];
+      gaussian_pair_lanes_of<16>(key, ids, 99, 1, 2, z0, z1, tail);
+      for (int l = 0; l < 16; ++l) {
+        double a0, a1;
+        gaussian_pair(key, ids[l], 99, 1, 2, a0, a1, tail);
+        mismatches += (a0 != z0[l]) || (a1 != z1[l]);
+        if (tail == GaussianTail::rescaled) {
+          const auto r = rng_detail::raw(key, ids[l], 99, 1, 2);
+          rng_detail::box_muller(r[0], r[1], r[2], r[3], a0, a1);
+          redrawn += !rng_detail::inside_truncation(a0, a1);
+        }
+      }
+    }
+  }
+  CHECK(mismatches == 0);
+  CHECK(redrawn > 500);  // ≈ 0.5 % of the 2^18 pairs took the redraw path
+}
+
 TEST_CASE("clamped Gaussians (Carter's variant): ±3 point masses, variance 0.99501, lanes = scalar", "[rng]") {
   // GaussianTail::clamped: Box–Muller's numbers clamped to ±3, not redrawn, not rescaled. Where
   // the first draw is inside ±3 it is the rescaled variant's number before its scaling.

@@ -29,10 +29,18 @@ void cpu_overdamped_for_each(std::size_t n, const F& f, CUstream_st* /*stream*/)
     for (std::size_t b = b0; b < b1; ++b) {
       const std::size_t first = b * kLanes;
       double z[2 * P][kLanes];
-      for (int j = 0; j < P; ++j)
-        gaussian_pair_lanes<int(kLanes)>(c.key, std::uint32_t(first), c.step, c.attempt, local.noise_pair(j), z[2 * j],
-                                         z[2 * j + 1], c.tail);
       const std::size_t m = std::min(kLanes, n - first);
+      if (c.id) {  // particles numbered by id (NoiseCounter::id): the lanes draw for those numbers
+        std::uint32_t ids[kLanes] = {};  // the last block's extra lanes draw for particle 0, unused
+        for (std::size_t l = 0; l < m; ++l) ids[l] = c.id[first + l];
+        for (int j = 0; j < P; ++j)
+          gaussian_pair_lanes_of<int(kLanes)>(c.key, ids, c.step, c.attempt, local.noise_pair(j), z[2 * j],
+                                              z[2 * j + 1], c.tail);
+      } else {
+        for (int j = 0; j < P; ++j)
+          gaussian_pair_lanes<int(kLanes)>(c.key, std::uint32_t(first), c.step, c.attempt, local.noise_pair(j),
+                                           z[2 * j], z[2 * j + 1], c.tail);
+      }
       for (std::size_t l = 0; l < m; ++l) {
         double zl[2 * P];
         for (int k = 0; k < 2 * P; ++k) zl[k] = z[k][l];

@@ -34,6 +34,10 @@ struct NoiseCounter {
   std::uint64_t step;
   std::uint32_t attempt;
   GaussianTail tail = GaussianTail::rescaled;  // how the Gaussians are kept within ±3 (rng.h)
+  // The particle numbers the noise is keyed by: particle i draws as particle id[i]. Null: as i.
+  // A decomposed team's rank holds some particles in its own order (core/run/domain.h); keyed by
+  // their global ids they draw the numbers they draw alone.
+  const std::uint32_t* id = nullptr;
 };
 
 // Reads particle i from (position_in, image_in) and writes it to (position, image): the same
@@ -90,7 +94,7 @@ FF_HD void overdamped_step(const F& f, std::size_t i) {
   const NoiseCounter c = f.noise_counter();
   double z[2 * F::kNoisePairs];
   for (int j = 0; j < F::kNoisePairs; ++j)
-    gaussian_pair(c.key, std::uint32_t(i), c.step, c.attempt, f.noise_pair(j), z[2 * j], z[2 * j + 1], c.tail);
+    gaussian_pair(c.key, c.id ? c.id[i] : std::uint32_t(i), c.step, c.attempt, f.noise_pair(j), z[2 * j], z[2 * j + 1], c.tail);
   f.move(i, z);
 }
 

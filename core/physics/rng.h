@@ -157,12 +157,13 @@ FF_HD void gaussian_pair(RngKey key, std::uint32_t particle, std::uint64_t step,
 
 namespace rng_detail {
 // Philox4x32-10 (Random123's round and key schedule) of the counters (first + l, step, attempt
-// << 16 | draw) for the lanes l < W, as plain loops over the lanes; c[word][lane].
+// << 16 | draw) for the lanes l < W, as plain loops over the lanes; c[word][lane]. With
+// `particle` set, lane l's particle is particle[l] instead of first + l.
 template <int W>
 inline void philox_lanes(RngKey key, std::uint32_t first, std::uint64_t step, std::uint32_t attempt,
-                         std::uint32_t draw, std::uint32_t (&c)[4][W]) {
+                         std::uint32_t draw, std::uint32_t (&c)[4][W], const std::uint32_t* particle = nullptr) {
   for (int l = 0; l < W; ++l) {
-    c[0][l] = first + std::uint32_t(l);
+    c[0][l] = particle ? particle[l] : first + std::uint32_t(l);
     c[1][l] = std::uint32_t(step);
     c[2][l] = std::uint32_t(step >> 32);
     c[3][l] = (attempt << 16) | draw;
@@ -192,12 +193,13 @@ inline void philox_lanes(RngKey key, std::uint32_t first, std::uint64_t step, st
 // shuffles): even and odd lanes multiplied by vpmuludq, high and low halves put back by blends.
 template <>
 inline void philox_lanes<16>(RngKey key, std::uint32_t first, std::uint64_t step, std::uint32_t attempt,
-                             std::uint32_t draw, std::uint32_t (&c)[4][16]) {
+                             std::uint32_t draw, std::uint32_t (&c)[4][16], const std::uint32_t* particle) {
   const __m256i m0 = _mm256_set1_epi32(int(0xD2511F53u)), m1 = _mm256_set1_epi32(int(0xCD9E8D57u));
   const __m256i lane = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
   __m256i a[2], b[2], d[2], e[2];  // counter words 0..3, lanes 0-7 and 8-15
   for (int h = 0; h < 2; ++h) {
-    a[h] = _mm256_add_epi32(_mm256_set1_epi32(int(first + 8u * h)), lane);
+    a[h] = particle ? _mm256_loadu_si256(reinterpret_cast<const __m256i*>(particle + 8 * h))
+                    : _mm256_add_epi32(_mm256_set1_epi32(int(first + 8u * h)), lane);
     b[h] = _mm256_set1_epi32(int(std::uint32_t(step)));
     d[h] = _mm256_set1_epi32(int(std::uint32_t(step >> 32)));
     e[h] = _mm256_set1_epi32(int((attempt << 16) | draw));
@@ -230,17 +232,13 @@ inline void philox_lanes<16>(RngKey key, std::uint32_t first, std::uint64_t step
 #endif
 }  // namespace rng_detail
 
-// gaussian_pair for the W particles first .. first + W − 1, for CPU loops: Philox4x32-10 and
-// Box–Muller as loops over the lanes with no branches (the compiler vectorizes them), then the
-// rare lane that needs a truncation redraw (≈ 0.5 %) finished one at a time. Same numbers as
-// gaussian_pair (checked in tests/test_rng.cpp).
+namespace rng_detail {
 template <int W>
-inline void gaussian_pair_lanes(RngKey key, std::uint32_t first, std::uint64_t step, std::uint32_t attempt,
-                                std::uint32_t pair, double* z0, double* z1,
-                                GaussianTail tail = GaussianTail::rescaled) {
-  using namespace rng_detail;
+inline void gaussian_pair_lanes_impl(RngKey key, std::uint32_t first, const std::uint32_t* particle,
+                                     std::uint64_t step, std::uint32_t attempt, std::uint32_t pair, double* z0,
+                                     double* z1, GaussianTail tail) {
   std::uint32_t c[4][W];
-  philox_lanes<W>(key, first, step, attempt, pair, c);
+  philox_lanes<W>(key, first, step, attempt, pair, c, particle);
   double a0[W], a1[W];
   for (int l = 0; l < W; ++l) box_muller(c[0][l], c[1][l], c[2][l], c[3][l], a0[l], a1[l]);
   if (tail == GaussianTail::clamped) {
@@ -254,11 +252,33 @@ inline void gaussian_pair_lanes(RngKey key, std::uint32_t first, std::uint64_t s
   for (int l = 0; l < W; ++l) outside |= int(!inside_truncation(a0[l], a1[l]));
   if (outside)
     for (int l = 0; l < W; ++l)
-      if (!inside_truncation(a0[l], a1[l])) redraw_pair(key, first + std::uint32_t(l), step, attempt, pair, a0[l], a1[l]);
+      if (!inside_truncation(a0[l], a1[l]))
+        redraw_pair(key, particle ? particle[l] : first + std::uint32_t(l), step, attempt, pair, a0[l], a1[l]);
   for (int l = 0; l < W; ++l) {
     z0[l] = a0[l] * kTruncatedVarianceScale;
     z1[l] = a1[l] * kTruncatedVarianceScale;
   }
+}
+}  // namespace rng_detail
+
+// gaussian_pair for the W particles first .. first + W − 1, for CPU loops: Philox4x32-10 and
+// Box–Muller as loops over the lanes with no branches (the compiler vectorizes them), then the
+// rare lane that needs a truncation redraw (≈ 0.5 %) finished one at a time. Same numbers as
+// gaussian_pair (checked in tests/test_rng.cpp).
+template <int W>
+inline void gaussian_pair_lanes(RngKey key, std::uint32_t first, std::uint64_t step, std::uint32_t attempt,
+                                std::uint32_t pair, double* z0, double* z1,
+                                GaussianTail tail = GaussianTail::rescaled) {
+  rng_detail::gaussian_pair_lanes_impl<W>(key, first, nullptr, step, attempt, pair, z0, z1, tail);
+}
+
+// The same for the W particles particle[0 .. W − 1], any numbers (a decomposed team's rank draws
+// for its particles' global ids, core/physics/overdamped.h's NoiseCounter::id).
+template <int W>
+inline void gaussian_pair_lanes_of(RngKey key, const std::uint32_t* particle, std::uint64_t step,
+                                   std::uint32_t attempt, std::uint32_t pair, double* z0, double* z1,
+                                   GaussianTail tail = GaussianTail::rescaled) {
+  rng_detail::gaussian_pair_lanes_impl<W>(key, 0, particle, step, attempt, pair, z0, z1, tail);
 }
 
 // `count` (≤ 4) truncated unit Gaussians for one particle, starting at pair `first_pair`.

@@ -107,7 +107,7 @@ void Scheduler::run_node(int i, std::uint64_t step, std::uint32_t attempt, doubl
       stream = impl_->streams->stream(i);
     }
 #endif
-    for (auto& a : node.accesses) state_.field(a.field).acquire(a.where, a.mode, stream);
+    for (auto& a : node.accesses) state_of(i).field(a.field).acquire(a.where, a.mode, stream);
     slot.metrics.clear();
     StepContext ctx = context(i, stream, step, attempt, dt, time);
     const auto t0 = std::chrono::steady_clock::now();
@@ -143,8 +143,10 @@ StepContext Scheduler::context(int i, CUstream_st* stream, std::uint64_t step, s
     params = impl_->device_params ? impl_->device_params->device() : nullptr;
   }
 #endif
-  return StepContext{state_, slot.info, stats_, step, attempt, dt, time, backend_, stream, slot.rng, slot.metrics,
-                     flag,   params, snapshot_undone_.size() > std::size_t(i) && snapshot_undone_[i] ? snapshot_ : nullptr};
+  StepContext ctx{state_of(i), slot.info, stats_, step, attempt, dt, time, backend_, stream, slot.rng, slot.metrics,
+                 flag,   params, snapshot_undone_.size() > std::size_t(i) && snapshot_undone_[i] ? snapshot_ : nullptr};
+  if (!graph_.nodes()[i].observer) ctx.ghosts = ghosts_;
+  return ctx;
 }
 
 std::optional<RollbackRequest> Scheduler::run_compute(std::uint64_t step, std::uint32_t attempt, double dt,
@@ -311,6 +313,10 @@ bool Scheduler::step_is_captured() const {
 #else
   return false;
 #endif
+}
+
+State& Scheduler::state_of(int node) {
+  return observer_state_ && graph_.nodes()[node].observer ? *observer_state_ : state_;
 }
 
 void Scheduler::run_observers(std::uint64_t step, double dt, double time,

@@ -82,6 +82,11 @@ class Scheduler {
   // limit reported on any rank. A rank that did not request itself gets a request naming its
   // first stage that may request, with the reason "another rank of the team requested ...".
   void set_team(Communicator* team) { team_ = team; }
+  // A decomposed team's rank 0 (core/run/domain.h): observers run on the whole state gathered
+  // from every rank, not on the rank's own part.
+  void set_observer_state(State* s) { observer_state_ = s; }
+  // A decomposed team's ghost exchange, handed to the compute stages (StepContext::ghosts).
+  void set_ghosts(GhostExchange* g) { ghosts_ = g; }
   void reset_timers();
   // True once the steady-state step replays a captured CUDA graph (the last step did).
   bool step_is_captured() const;
@@ -107,6 +112,9 @@ class Scheduler {
   const StepGraph& graph_;
   std::vector<StageSlot>& slots_;
   State& state_;
+  State* observer_state_ = nullptr;
+  GhostExchange* ghosts_ = nullptr;
+  State& state_of(int node);
   const RunStats& stats_;
   Backend backend_;
   bool profiling_ = false;

@@ -1,5 +1,7 @@
 #include "core/run/simulation.h"
 
+#include <algorithm>
+#include <cstring>
 #include <filesystem>
 #include <set>
 #include <sstream>
@@ -35,6 +37,8 @@ Simulation::~Simulation() {
 void Simulation::build(const Registry& registry) {
   // In a team, observers (and so every output) live on rank 0 only; the other ranks run the
   // compute stages on their copies of the state.
+  for (auto& e : spec_.step)
+    if (registry.get(e.stage).decl.observer) observer_schedules_.push_back(e.schedule);
   if (in_team(options_.team) && options_.team->rank() != 0) {
     std::vector<StepEntry> compute;
     for (auto& e : spec_.step)
@@ -65,9 +69,11 @@ void Simulation::build(const Registry& registry) {
     observer.push_back(registry.get(e.stage).decl.observer);
   }
   graph_ = std::make_unique<StepGraph>(spec_, std::move(accesses), observer);
-  if (in_team(options_.team)) check_team(observer);
+  const bool decomposed = in_team(options_.team) && wants_decomposition(observer);
+  if (in_team(options_.team) && !decomposed) check_team(observer);
   scheduler_ = std::make_unique<Scheduler>(*graph_, slots_, *state_, stats_, options_.backend);
   scheduler_->set_team(options_.team);
+  if (decomposed) decompose(observer);
   // No rank captures its step into a CUDA graph: a capture on one rank's thread would be broken
   // by another rank's allocations or waits in the same process (as for `pipeline sweep
   // --in-process`). The same bits, launched directly.
@@ -99,7 +105,144 @@ void Simulation::check_team(const std::vector<bool>& observer) const {
     throw InputError("no stage of " + spec_.file + " divides its work among " + std::to_string(ranks) +
                      " ranks (" + redundant +
                      " cannot split; they would run the same simulation on every rank): run it on one GPU. Stages "
-                     "that split: phoretic.forces with range: long (docs/multi-gpu.md)");
+                     "that split: phoretic.forces with range: long; a decomposed team needs every compute stage to "
+                     "run on a slab of particles: neighbors.verlet, the Verlet-list forces (pair.lj, harmonic.forces, "
+                     "phoretic.forces with range: short), overlap_correct.verlet, overdamped.integrate (docs/multi-gpu.md)");
+}
+
+namespace {
+
+bool decomposable(TeamWork w) { return w == TeamWork::decomposed || w == TeamWork::local; }
+
+// A deep copy (rank 0's whole state for its observers in a decomposed team).
+std::unique_ptr<State> clone_state(State& s) {
+  auto c = std::make_unique<State>(s.dim(), s.precision(), s.n());
+  c->box = s.box;
+  c->species = s.species;
+  c->species_diameter = s.species_diameter;
+  c->step = s.step;
+  c->time = s.time;
+  for (auto& name : s.field_names()) {
+    Field& f = s.field(name);
+    Field& g = s.is_particle_field(name) ? c->add_particle_field(name, f.dtype(), f.components())
+                                         : c->add_field(name, f.dtype(), f.components(), f.count());
+    f.acquire(Where::host, Mode::read);
+    g.acquire(Where::host, Mode::write);
+    if (f.bytes()) std::memcpy(g.host_raw(), f.host_raw(), f.bytes());
+  }
+  return c;
+}
+
+}  // namespace
+
+// A team in which no stage splits but some run on a slab of particles (TeamWork::decomposed or
+// local) is decomposed; then every compute stage must, or the team is refused naming those
+// that cannot.
+bool Simulation::wants_decomposition(const std::vector<bool>& observer) const {
+  std::string cannot;
+  bool any = false, splits = false;
+  for (std::size_t i = 0; i < slots_.size(); ++i) {
+    if (observer[i]) continue;
+    const TeamWork w = slots_[i].stage->scheduling().team;
+    splits = splits || w == TeamWork::split;
+    if (decomposable(w)) any = true;
+    else cannot += (cannot.empty() ? "" : ", ") + ("'" + spec_.step[i].id + "' (" + spec_.step[i].stage + ")");
+  }
+  if (!any || splits) return false;
+  if (!cannot.empty())
+    throw InputError(spec_.file + ": a team of " + std::to_string(options_.team->size()) +
+                     " ranks decomposes the particles into slabs (docs/multi-gpu.md), and step(s) " + cannot +
+                     " cannot run on a rank's share of the particles: remove them or run on one GPU");
+  return true;
+}
+
+void Simulation::decompose(const std::vector<bool>& observer) {
+  const std::string where = spec_.file + ": a decomposed team of " + std::to_string(options_.team->size()) + " ranks";
+  if (spec_.run.checkpoint)
+    throw InputError(where + " writes no checkpoints yet (each rank holds a part of the state): remove run.checkpoint");
+  if (options_.resume)
+    throw InputError(where + " cannot continue a checkpoint yet (it would restore the whole state into a rank's "
+                             "part): resume on one GPU");
+  const std::vector<int> compute = graph_->compute_nodes();
+  double band = 0, slack = 0, reserve = 0;
+  bool requester_before = false;  // a stage that may stop a rank's step (rollback, Δt limit) so far
+  // Refreshed on ghosts every step: what decomposed stages write (for their owned particles) and
+  // some stage reads of the ghosts (the positions, in the Verlet pipelines: not the forces).
+  std::set<std::string> written_owned, ghost_reads, written_by_compute;
+  for (std::size_t a = 0; a < compute.size(); ++a) {
+    const int j = compute[a];
+    const Scheduling sch = slots_[std::size_t(j)].stage->scheduling();
+    for (auto& acc : graph_->nodes()[std::size_t(j)].accesses) {
+      if (writes(acc.mode)) written_by_compute.insert(acc.field);
+      if (!state_->is_particle_field(acc.field)) continue;
+      if (sch.team == TeamWork::decomposed && writes(acc.mode)) written_owned.insert(acc.field);
+      if (sch.reads_ghosts || sch.team == TeamWork::local) ghost_reads.insert(acc.field);
+    }
+    reserve = std::max(reserve, sch.ghost_reserve);
+    if (sch.communicates && requester_before)
+      throw InputError(spec_.step[std::size_t(j)].where.str() + ": step '" + spec_.step[std::size_t(j)].id +
+                       "' exchanges with the other ranks of a decomposed team within the step, and a stage before "
+                       "it may roll the step back or limit Δt on one rank only (which then skips the rest of its "
+                       "step): put '" + spec_.step[std::size_t(j)].id + "' before it");
+    requester_before = requester_before || sch.may_request_rollback || sch.may_limit_dt;
+    if (sch.team == TeamWork::local && sch.ghost_band > 0) {
+      band = std::max(band, sch.ghost_band);
+      slack = slack > 0 ? std::min(slack, sch.ghost_slack) : sch.ghost_slack;
+    }
+    // Ghosts hold the values of the start of the step: a stage that reads them must come before
+    // every decomposed stage that writes what it reads (for its owned particles only; a local
+    // stage writes every particle the rank holds).
+    if (!(sch.reads_ghosts || sch.team == TeamWork::local)) continue;
+    for (auto& acc : graph_->nodes()[std::size_t(j)].accesses) {
+      if (writes(acc.mode) || !state_->is_particle_field(acc.field)) continue;
+      for (std::size_t b = 0; b < a; ++b)
+        for (auto& w : graph_->nodes()[std::size_t(compute[b])].accesses)
+          if (w.field == acc.field && writes(w.mode) &&
+              slots_[std::size_t(compute[b])].stage->scheduling().team == TeamWork::decomposed)
+            throw InputError(spec_.step[std::size_t(j)].where.str() + ": step '" + spec_.step[std::size_t(j)].id +
+                             "' reads the ghosts' `" + acc.field + "`, which step '" +
+                             spec_.step[std::size_t(compute[b])].id +
+                             "' writes before it in the step; in a decomposed team ghosts hold the values of the "
+                             "start of the step: put '" + spec_.step[std::size_t(j)].id + "' before '" +
+                             spec_.step[std::size_t(compute[b])].id + "' (the same dynamics, one half step apart)");
+    }
+  }
+  // Rank 0's observers read the whole state gathered from every rank: particle fields only.
+  for (std::size_t i = 0; i < slots_.size(); ++i) {
+    if (!observer[i]) continue;
+    for (auto& acc : slots_[i].stage->accesses())
+      if (written_by_compute.count(acc.field) && !state_->is_particle_field(acc.field))
+        throw InputError(spec_.step[i].where.str() + ": step '" + spec_.step[i].id + "' (" + spec_.step[i].stage +
+                         ") reads `" + acc.field + "`, which each rank of a decomposed team holds for its own "
+                         "particles only (not per particle, so it cannot be gathered): drop it or run on one GPU");
+  }
+  if (options_.team->rank() == 0) {
+    gathered_ = clone_state(*state_);
+    scheduler_->set_observer_state(gathered_.get());
+  }
+  std::vector<std::string> refreshed;
+  for (auto& f : written_owned)
+    if (ghost_reads.count(f)) refreshed.push_back(f);
+  if (reserve > 0) {
+    if (!(slack > reserve))
+      throw InputError(where + ": the stages that move particles after the list was built within a step may move one " +
+                       std::to_string(reserve) + ", not less than the list's slack " + std::to_string(slack) +
+                       " (skin/2): raise neighbors.verlet's skin");
+    slack -= reserve;
+  }
+  domain_ = std::make_unique<Domain>(*options_.team, *state_, band, slack, refreshed, options_.backend);
+  scheduler_->set_ghosts(domain_.get());
+}
+
+bool Simulation::observer_due(std::uint64_t step) const {
+  for (auto& sch : observer_schedules_) {
+    if (!sch.log ? step % sch.every == 0 : [&] {
+          const auto steps = sch.log_steps(spec_.run.steps);
+          return std::binary_search(steps.begin(), steps.end(), step);
+        }())
+      return true;
+  }
+  return false;
 }
 
 // What a rollback must restore: the writes of every stage that can run before a rollback
@@ -183,7 +326,17 @@ void Simulation::collect_metrics(int node) {
   for (auto& kv : slots_[node].metrics.values()) stats_.metrics[slots_[node].info.stage_id + "/" + kv.first] = kv.second;
 }
 
+void Simulation::gather() {
+  if (!domain_) return;
+  domain_->gather(*state_, gathered_.get(), state_->particle_field_names());
+  if (gathered_) {
+    gathered_->step = state_->step;
+    gathered_->time = state_->time;
+  }
+}
+
 void Simulation::observe(double dt) {
+  if (domain_ && observer_due(state_->step)) gather();
   scheduler_->run_observers(state_->step, dt, state_->time, [this](int node) { collect_metrics(node); });
 }
 
@@ -244,6 +397,9 @@ void Simulation::advance() {
     observe(dt_->dt());
     observed_initial_ = true;
   }
+  // A decomposed team migrates particles or refreshes its ghosts here, before the snapshot: a
+  // rollback never undoes either.
+  if (domain_) domain_->begin_step(*state_);
   const std::uint64_t step = state_->step;
   stats_.step_rollbacks = 0;
   stats_.step_dt_limits = 0;
@@ -274,9 +430,41 @@ void Simulation::advance() {
       ++attempt;
     }
   }
+  if (domain_) reduce_metrics();
   for (int i : graph_->compute_nodes())
     if (slots_[i].ran) collect_metrics(i);
   observe(stats_.dt);
+}
+
+// A decomposed team's compute stages measured their own particles: every rank takes the sum
+// (Metrics::set_sum) or the largest value over the ranks, so rank 0 reports what one rank alone
+// would. Every rank has the same metrics (the same stages ran and set them).
+void Simulation::reduce_metrics() {
+  std::vector<double> sums, maxima;
+  for (int i : graph_->compute_nodes()) {
+    if (!slots_[i].ran) continue;
+    const Metrics& m = slots_[i].metrics;
+    for (auto& [name, value] : m.values()) (m.is_sum(name) ? sums : maxima).push_back(value);
+  }
+  double shape[2] = {double(sums.size()) + 1e6 * double(maxima.size()),
+                     -(double(sums.size()) + 1e6 * double(maxima.size()))};
+  options_.team->all_reduce(shape, 2, ReduceOp::max);
+  if (shape[0] != -shape[1])
+    throw RunError("step " + std::to_string(state_->step) +
+                   ": the ranks of a decomposed team report different metrics (a stage sets a metric on some "
+                   "ranks only)");
+  if (!sums.empty()) options_.team->all_reduce(sums.data(), sums.size(), ReduceOp::sum);
+  if (!maxima.empty()) options_.team->all_reduce(maxima.data(), maxima.size(), ReduceOp::max);
+  std::size_t a = 0, b = 0;
+  for (int i : graph_->compute_nodes()) {
+    if (!slots_[i].ran) continue;
+    Metrics& m = slots_[i].metrics;
+    const Metrics measured = m;
+    for (auto& [name, value] : measured.values()) {
+      if (measured.is_sum(name)) m.set_sum(name, sums[a++]);
+      else m.set(name, maxima[b++]);
+    }
+  }
 }
 
 void Simulation::run() {
@@ -302,9 +490,11 @@ void Simulation::finish(bool completed) {
   finished_ = true;
   if (completed) scheduler_->synchronize();
   std::exception_ptr first;
-  for (auto& s : slots_) {
+  for (std::size_t i = 0; i < slots_.size(); ++i) {
+    auto& s = slots_[i];
     try {
-      s.stage->finish(*state_, completed);
+      // Rank 0's observers in a decomposed team finish on the state they observed.
+      s.stage->finish(gathered_ && graph_->nodes()[i].observer ? *gathered_ : *state_, completed);
     } catch (...) {
       if (!first) first = std::current_exception();
     }

@@ -11,6 +11,7 @@
 
 #include "core/input/pipeline_spec.h"
 #include "core/stage/registry.h"
+#include "core/run/domain.h"
 #include "core/run/rollback.h"
 #include "core/run/scheduler.h"
 #include "core/stage/state.h"
@@ -34,7 +35,8 @@ struct RunOptions {
   // What produced the run, handed to every stage (RunInfo::record) for outputs to record.
   RunRecord record;
   // This rank's communicator when the run is one of a team (core/run/team.h, `--gpus N`): every
-  // rank holds the whole state; stages that split their work use it (RunInfo::team), the
+  // rank holds the whole state, or, when every compute stage can run on a slab of particles, its
+  // slab and ghosts (core/run/domain.h); stages that split their work use it (RunInfo::team), the
   // ranks agree on every rollback and Δt limit by an all-reduce, and observers (hence every
   // output) exist on rank 0 only. Null: alone.
   Communicator* team = nullptr;
@@ -80,10 +82,24 @@ class Simulation {
   RunStats& run_stats() { return stats_; }
   // A continued run: its first frame was observed by the run that wrote the checkpoint.
   void set_observed_initial() { observed_initial_ = true; }
+  // A decomposed team (core/run/domain.h): this rank holds its slab's particles and ghosts; null
+  // alone and in a replicated team.
+  const Domain* domain() const { return domain_.get(); }
+  // Rank 0 of a decomposed team: the whole state its observers see, gathered when one runs.
+  State* gathered_state() { return gathered_.get(); }
+  // Gathers every particle field into rank 0's gathered_state() now (observers do it on their
+  // steps). Every rank of the team calls it; nothing alone.
+  void gather();
 
  private:
   void build(const Registry& registry);
   void check_team(const std::vector<bool>& observer) const;
+  // Whether every compute stage can run decomposed (TeamWork::decomposed or local); refuses a
+  // mixture, naming the stages.
+  bool wants_decomposition(const std::vector<bool>& observer) const;
+  void decompose(const std::vector<bool>& observer);
+  bool observer_due(std::uint64_t step) const;
+  void reduce_metrics();
   void make_snapshot();
   void prepare_outputs();
   void collect_metrics(int node);
@@ -106,6 +122,10 @@ class Simulation {
   std::unique_ptr<Snapshot> snapshot_;
   std::unique_ptr<DtController> dt_;
   RunStats stats_;
+  std::unique_ptr<Domain> domain_;
+  std::unique_ptr<State> gathered_;
+  std::vector<std::string> gathered_fields_;  // the particle fields rank 0's observers read
+  std::vector<Schedule> observer_schedules_;   // every rank's: when rank 0 gathers
   bool observed_initial_ = false;
   bool finished_ = false;
 };

@@ -1,8 +1,9 @@
 // A team of ranks running one simulation in one process (issue 21, `pipeline run --gpus N`):
 // one thread per rank, each with its own Simulation built on its own device, talking through
-// its Communicator (core/backend/comm.h). Every rank holds the whole state; the stages that
-// split their work (TeamWork::split) exchange their results so that every rank ends each step
-// with the bits one rank alone would have. Rank 0 writes every output.
+// its Communicator (core/backend/comm.h). Either every rank holds the whole state and the stages
+// that split their work (TeamWork::split) exchange their results so that every rank ends each
+// step with the bits one rank alone would have, or the team is decomposed (core/run/domain.h):
+// each rank holds a slab of particles and ghosts. Rank 0 writes every output.
 #pragma once
 #include <functional>
 #include <memory>

@@ -7,6 +7,7 @@
 #include <cstdint>
 #include <limits>
 #include <map>
+#include <set>
 #include <memory>
 #include <string>
 #include <utility>
@@ -73,11 +74,23 @@ struct Outcome {
 class Metrics {
  public:
   void set(const std::string& name, double value) { values_[name] = value; }
+  // A count over particles or pairs (pairs felt): in a decomposed team each rank counts its own
+  // particles' and the core sums the ranks' values; every other metric takes the largest value
+  // over the ranks (a maximum, or a decision every rank shares).
+  void set_sum(const std::string& name, double value) {
+    values_[name] = value;
+    sums_.insert(name);
+  }
+  bool is_sum(const std::string& name) const { return sums_.count(name) != 0; }
   const std::map<std::string, double>& values() const { return values_; }
-  void clear() { values_.clear(); }
+  void clear() {
+    values_.clear();
+    sums_.clear();
+  }
 
  private:
   std::map<std::string, double> values_;
+  std::set<std::string> sums_;
 };
 
 // What produced a run, for outputs to record (observe.h5md writes it under /parameters): the
@@ -111,8 +124,8 @@ struct RunInfo {
   std::string stage_id;          // this stage's id in the step graph
   RunRecord record;              // what produced the run (outputs record it)
   // The team this rank belongs to (`pipeline run --gpus N`, core/backend/comm.h), or null when
-  // the run is alone. Every rank holds the whole state; a stage whose Scheduling::team is
-  // TeamWork::split divides its work through it.
+  // the run is alone. A stage whose Scheduling::team is TeamWork::split divides its work through
+  // it; in a decomposed team the core does every exchange (TeamWork).
   Communicator* team = nullptr;
 };
 
@@ -150,6 +163,16 @@ struct DeviceRollbackFlag {
 //  - `host_params`, the same values on the host, for host logic only: messages, observers, what
 //    run() decides on the host. Never pass them to a kernel: a captured graph would replay the
 //    values of the step it was captured in.
+// A decomposed team's ghost exchange (core/run/domain.h), for a stage that moves its owned
+// particles and must read the ghosts' new values within its own step (overlap_correct.verlet's
+// iterations): sends the owners' entries of `fields` to the ranks that hold them as ghosts.
+// Every rank must call it at the same point (Scheduling::communicates).
+class GhostExchange {
+ public:
+  virtual ~GhostExchange() = default;
+  virtual void refresh(State& state, const std::vector<std::string>& fields) = 0;
+};
+
 struct StepContext {
   // step, attempt, dt and time fill host_params; the rest are the members of the same names.
   StepContext(State& s, const RunInfo& info, const RunStats& st, std::uint64_t step, std::uint32_t attempt, double dt,
@@ -175,6 +198,8 @@ struct StepContext {
   // stage may request a rollback, or every one that may runs before this stage and requests
   // only from run(): always so on the CPU).
   Snapshot* snapshot;
+  // In a decomposed team: the ghost exchange (null alone and in a replicated team).
+  GhostExchange* ghosts = nullptr;
 
   // Whether the stage may leave reading its results back (and announcing the on-demand writes
   // that depend on them) to after_step, so that the stages after it queue behind its kernels
@@ -216,7 +241,17 @@ struct StepContext {
 //    are all-gathered).
 // The core refuses a team in which no stage splits (N copies of one run) and a compute stage
 // that writes files (all ranks would write them).
-enum class TeamWork { redundant, split };
+// A team can also be *decomposed* (core/run/domain.h, docs/multi-gpu.md): each rank holds only
+// the particles of its slab along x plus ghosts, copies of the particles near it, and every
+// compute stage must say it can work so:
+//  - decomposed: the stage computes results for the owned particles [0, State::n_owned()) only;
+//    it may read the ghosts' values of what it reads (Scheduling::reads_ghosts). The core
+//    refreshes the ghosts' entries of every particle field it writes at the start of each step;
+//  - local: the stage computes this rank's own data from every particle it holds, owned and
+//    ghost (a Verlet list, indexed by the rank's particle numbers): never exchanged, rebuilt
+//    when the particles held change (State::particles_version()). Scheduling::ghost_band says how
+//    far from the slab ghosts must reach for its data to be exact for the owned particles.
+enum class TeamWork { redundant, split, decomposed, local };
 
 // What a stage tells the core about how it may be scheduled. Everything defaults to "no".
 struct Scheduling {
@@ -243,6 +278,24 @@ struct Scheduling {
   bool may_limit_dt = false;
   // In a team of ranks: TeamWork above.
   TeamWork team = TeamWork::redundant;
+  // A decomposed stage that reads values of particles other than its owned ones (neighbours):
+  // the ghosts then hold the values of the start of the step, so no stage before it in the step
+  // may write a particle field it reads (checked).
+  bool reads_ghosts = false;
+  // A local stage (TeamWork::local): its data for the owned particles is exact while every
+  // particle within ghost_band (along x) of the rank's slab, as it was at the last migration, is
+  // held, and no particle has moved more than ghost_slack since then (the core migrates, and
+  // renews the ghosts, before any particle has). A Verlet list: cutoff + skin and skin/2.
+  double ghost_band = 0;
+  double ghost_slack = 0;
+  // A decomposed stage that moves particles after the list was built, within the step (the
+  // overlap correction): how far it may move one. The core migrates that much earlier (the local
+  // stages' slack less this), so the ghosts still cover every pair after its moves.
+  double ghost_reserve = 0;
+  // A decomposed stage that exchanges with the other ranks inside run() (StepContext::ghosts, an
+  // all-reduce through RunInfo::team): every rank must reach it, so no stage before it in the
+  // step may request a rollback or limit Δt (a rank whose stage did stops its step there).
+  bool communicates = false;
   // Not a hint but the core's answer, per attempt: whether a stage may defer reading its results
   // back to after_step is StepContext::may_defer_read_back().
 };

@@ -4,7 +4,7 @@
 
 namespace ff {
 
-State::State(int dim, Precision precision, std::size_t n) : dim_(dim), precision_(precision), n_(n) {
+State::State(int dim, Precision precision, std::size_t n) : dim_(dim), precision_(precision), n_(n), n_owned_(n) {
   if (dim != 2 && dim != 3) throw std::invalid_argument("dimensions must be 2 or 3");
   box.dim = dim;
   add_particle_field(fields::position, real(), dim);
@@ -26,6 +26,27 @@ Field& State::add_field(const std::string& name, DType dtype, int components, st
   auto& slot = fields_[name];
   slot = std::make_unique<Field>(name, dtype, components, count);
   return *slot;
+}
+
+Field& State::add_particle_field(const std::string& name, DType dtype, int components) {
+  Field& f = add_field(name, dtype, components, n_);
+  particle_fields_.insert(name);
+  return f;
+}
+
+std::vector<std::string> State::particle_field_names() const {
+  return std::vector<std::string>(particle_fields_.begin(), particle_fields_.end());
+}
+
+void State::set_particles(std::size_t n, std::size_t owned) {
+  if (owned > n) throw std::logic_error("State::set_particles: more owned particles than particles");
+  for (auto& name : particle_fields_)
+    if (field(name).count() != n)
+      throw std::logic_error("State::set_particles: field '" + name + "' holds " + std::to_string(field(name).count()) +
+                             " entries, not " + std::to_string(n));
+  n_ = n;
+  n_owned_ = owned;
+  ++particles_version_;
 }
 
 Field& State::field(const std::string& name) {

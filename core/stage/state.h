@@ -5,6 +5,7 @@
 #include <cstdint>
 #include <map>
 #include <memory>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -25,6 +26,9 @@ inline constexpr const char* position = "position";  // real, dim components, wr
 inline constexpr const char* image = "image";        // i32, dim components: box crossings
 inline constexpr const char* type = "type";          // i32, 1 component: species index
 inline constexpr const char* diameter = "diameter";  // real, 1 component: sigma of the species
+// u32, 1 component: the particle's number in the whole system, in a decomposed team only (core/run/domain.h),
+// where a rank holds some particles in its own order; alone a particle's index is its id.
+inline constexpr const char* particle_id = "particle.id";
 }  // namespace fields
 
 class State {
@@ -35,6 +39,14 @@ class State {
   Precision precision() const { return precision_; }
   DType real() const { return real_dtype(precision_); }
   std::size_t n() const { return n_; }
+  // Particles [0, n_owned()) are this rank's own; [n_owned(), n()) are ghosts, copies of other
+  // ranks' particles near this rank's slab (a decomposed team, core/run/domain.h). Alone, and in a
+  // replicated team, every particle is owned: n_owned() == n(). A stage whose Scheduling::team
+  // is TeamWork::decomposed computes results for the owned particles only.
+  std::size_t n_owned() const { return n_owned_; }
+  // Bumped whenever the particles held change (a decomposed team's migration, which renumbers
+  // them): per-rank data derived from particle indices (a Verlet list) must be rebuilt then.
+  std::uint64_t particles_version() const { return particles_version_; }
 
   Box box;
   std::vector<std::string> species;  // names, indexed by the `type` field
@@ -47,9 +59,14 @@ class State {
   // Add a field; adding an existing name with the same dtype/components/count returns it,
   // anything else is an error (two stages disagree about a field).
   Field& add_field(const std::string& name, DType dtype, int components, std::size_t count);
-  Field& add_particle_field(const std::string& name, DType dtype, int components) {
-    return add_field(name, dtype, components, n_);
-  }
+  // A field with one entry per particle: recorded as such, so a decomposed team moves its
+  // entries with the particles (migration, ghosts, gathering for observers).
+  Field& add_particle_field(const std::string& name, DType dtype, int components);
+  bool is_particle_field(const std::string& name) const { return particle_fields_.count(name) != 0; }
+  std::vector<std::string> particle_field_names() const;
+  // A decomposed team's migration (core/run/domain.cpp) after it resized and rewrote every
+  // particle field to hold n particles, the first `owned` of them this rank's.
+  void set_particles(std::size_t n, std::size_t owned);
   Field& field(const std::string& name);
   const Field& field(const std::string& name) const;
   bool has_field(const std::string& name) const { return fields_.count(name) != 0; }
@@ -59,6 +76,9 @@ class State {
   int dim_;
   Precision precision_;
   std::size_t n_;
+  std::size_t n_owned_;
+  std::uint64_t particles_version_ = 0;
+  std::set<std::string> particle_fields_;
   std::map<std::string, std::unique_ptr<Field>> fields_;
 };
 

@@ -61,15 +61,17 @@ struct PairSystem {
   ListView verlet;    // the Verlet list (list.h)
   PeriodicBox<R> box;
   unsigned* pairs;    // the `pairs` metric
+  const std::uint32_t* id = nullptr;  // global ids in a decomposed team (core/run/domain.h); null: the index
 
   // The neighbors j of particle i: every particle closer than the list's cutoff, and some farther.
   FF_HD Row neighbors(std::size_t i) const {
     const std::uint32_t* row = verlet.list + i * verlet.capacity;
     return {row, row + verlet.count[i]};
   }
-  // Counts a pair that feels the force once (from its lower index) into the `pairs` metric.
+  // Counts a pair that feels the force once (from its lower index, or id: a pair across two
+  // ranks of a decomposed team is in a row on each) into the `pairs` metric.
   FF_HD void count_pair(std::size_t i, std::size_t j) const {
-    if (j > i) count_one(pairs);
+    if (id ? id[j] > id[i] : j > i) count_one(pairs);
   }
 };
 
@@ -121,7 +123,16 @@ class PairForceStage final : public Stage {
     pairs_.start_read(ctx.stream);
     return Outcome::ok();
   }
-  void after_step(StepContext& ctx) override { ctx.metrics.set("pairs", pairs_.finish_read()[0]); }
+  void after_step(StepContext& ctx) override { ctx.metrics.set_sum("pairs", pairs_.finish_read()[0]); }
+
+  // In a decomposed team each owned particle sums its row, which names ghosts (sorted by global
+  // id, as alone); `pairs` is then summed over the ranks.
+  Scheduling scheduling() const override {
+    Scheduling s;
+    s.team = TeamWork::decomposed;
+    s.reads_ghosts = true;
+    return s;
+  }
 
  private:
   template <int D>
@@ -133,8 +144,9 @@ class PairForceStage final : public Stage {
              data<R>(s, kForce),
              {data<std::uint32_t>(s, kList), data<std::uint32_t>(s, kCount), list_capacity(s)},
              PeriodicBox<R>::make(s.box.L),
-             pairs_.ptr()};
-    loop(s.n(), f, ctx.stream);
+             pairs_.ptr(),
+             s.has_field(fields::particle_id) ? data<std::uint32_t>(s, fields::particle_id) : nullptr};
+    loop(s.n_owned(), f, ctx.stream);  // the rows of the owned particles (all, alone)
   }
   template <class T>
   T* data(State& s, const std::string& name) const {

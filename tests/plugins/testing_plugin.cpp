@@ -35,7 +35,13 @@ class RequestRollback final : public Stage {
         device_requests_(v.boolean("device_requests")),
         scramble_undeclared_(v.boolean("scramble_undeclared")) {}
   std::vector<Access> accesses() const override { return {{fields::position, Where::host, Mode::readwrite}}; }
-  Scheduling scheduling() const override { return {true, device_requests_, false, false}; }
+  // Decomposed: it touches only what its rank holds (and a rollback undoes it), so a decomposed
+  // team may run it too (tests/test_decomposition.cpp).
+  Scheduling scheduling() const override {
+    Scheduling s{true, device_requests_, false, false};
+    s.team = TeamWork::decomposed;
+    return s;
+  }
   Outcome run(StepContext& ctx) override {
     bool listed = false;
     for (double s : steps_) listed = listed || std::uint64_t(s) == ctx.host_params.step;

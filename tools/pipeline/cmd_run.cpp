@@ -175,9 +175,10 @@ int run_rank(const RunRequest& req, const Loaded& loaded, Backend backend, std::
         << "; rank 0 writes the outputs\n";
 
   if (req.no_graph_capture) sim->scheduler().set_graph_capture(false);
-  // Rank 0 alone writes checkpoints (every rank holds the same state).
+  // Rank 0 alone writes checkpoints (every rank holds the same state); a decomposed team none
+  // (each rank holds a part: Simulation refuses run.checkpoint there).
   std::optional<Checkpointer> checkpoints;
-  if (lead) checkpoints.emplace(*sim, out, spec.run.checkpoint_every, spec.run.checkpoint_keep, record, history);
+  if (lead && !sim->domain()) checkpoints.emplace(*sim, out, spec.run.checkpoint_every, spec.run.checkpoint_keep, record, history);
   if (before_steps && lead) before_steps();
   const std::uint64_t first = sim->state().step;
   if (team) team->reset_communication_seconds();
@@ -188,7 +189,7 @@ int run_rank(const RunRequest& req, const Loaded& loaded, Backend backend, std::
       if (team) team->all_reduce(&sig, 1, ReduceOp::max);  // every rank stops after the same step
       if (sig) {
         // The step under way was finished: keep it in a checkpoint and stop.
-        const std::string path = lead ? checkpoints->write() : std::string();
+        const std::string path = checkpoints ? checkpoints->write() : std::string("(none)");
         sim->finish(false);
         log << "flipflow: stopped by " << (sig == SIGINT ? "SIGINT" : "SIGTERM") << " after step "
             << sim->state().step << "; checkpoint " << path << "; continue with: pipeline run " << req.file
@@ -196,10 +197,10 @@ int run_rank(const RunRequest& req, const Loaded& loaded, Backend backend, std::
         return kExitInterrupted;
       }
       sim->advance();
-      if (lead) checkpoints->after_step();
+      if (checkpoints) checkpoints->after_step();
     }
     sim->synchronize();
-    if (spec.run.checkpoint && lead) checkpoints->write();
+    if (spec.run.checkpoint && checkpoints) checkpoints->write();
   } catch (...) {
     sim->finish(false);
     throw;
@@ -211,7 +212,7 @@ int run_rank(const RunRequest& req, const Loaded& loaded, Backend backend, std::
       << " steps/s), simulated time " << sim->state().time << ", rollbacks " << sim->stats().rollbacks;
   // Attempts run again at a smaller Δt because a stage limited it (Outcome::limit_dt).
   if (sim->stats().dt_limits) log << ", Δt limited " << sim->stats().dt_limits;
-  if (const std::uint64_t n = lead ? checkpoints->written() : 0) {
+  if (const std::uint64_t n = checkpoints ? checkpoints->written() : 0) {
     // What checkpointing cost this run: mean write time (the device idle) and the file size.
     char buf[96];
     std::snprintf(buf, sizeof buf, ", checkpoints %llu (%.1f MB, %.1f ms each)", static_cast<unsigned long long>(n),

@@ -95,10 +95,11 @@ __global__ void __launch_bounds__(kBlock, 4)
 }
 
 template <class R, int D>
-void forces(std::size_t n, const LJForce<R, D>& f, LJScratch<R>& scratch, CUstream_st* stream) {
+void forces(std::size_t n, std::size_t held, const LJForce<R, D>& f, LJScratch<R>& scratch, CUstream_st* stream) {
   if (n == 0) return;
-  R* record = scratch.record.get(4 * n);
-  pack_kernel<R, D><<<blocks(n), kBlock, 0, stream>>>(n, f.position, f.diameter, record);
+  // Records of every particle a row may name (a decomposed team's ghosts too), rows of the first n.
+  R* record = scratch.record.get(4 * held);
+  pack_kernel<R, D><<<blocks(held), kBlock, 0, stream>>>(held, f.position, f.diameter, record);
   FF_CUDA_CHECK_LAUNCH("launching pair.lj's records");
   // The exponent as a template argument for the common 2n–n forms (kernel.h, add_pair).
   if (f.n == 18) force_kernel<R, D, 18><<<blocks(n), kBlock, 0, stream>>>(n, f, record);

@@ -19,8 +19,11 @@ struct LJScratch {
 
 template <class R>
 struct LJLoops {
-  void (*d2)(std::size_t n, const LJForce<R, 2>& f, LJScratch<R>& scratch, CUstream_st* stream) = nullptr;
-  void (*d3)(std::size_t n, const LJForce<R, 3>& f, LJScratch<R>& scratch, CUstream_st* stream) = nullptr;
+  // Rows [0, n) (a decomposed team's owned particles), reading any of the `held` particles.
+  void (*d2)(std::size_t n, std::size_t held, const LJForce<R, 2>& f, LJScratch<R>& scratch,
+             CUstream_st* stream) = nullptr;
+  void (*d3)(std::size_t n, std::size_t held, const LJForce<R, 3>& f, LJScratch<R>& scratch,
+             CUstream_st* stream) = nullptr;
 };
 
 template <class R>

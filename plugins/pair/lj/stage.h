@@ -122,14 +122,25 @@ class LJ final : public Stage {
 
   Outcome run(StepContext& ctx) override {
     State& s = ctx.state;
+    // The rows of the owned particles (all, alone); a decomposed team's ghosts appear in them.
+    const std::size_t rows = s.n_owned();
     if (s.dim() == 2) {
-      if (cuda_.d2) cuda_.d2(s.n(), functor<2>(ctx), scratch_, ctx.stream);
-      else loop2_(s.n(), functor<2>(ctx), ctx.stream);
+      if (cuda_.d2) cuda_.d2(rows, s.n(), functor<2>(ctx), scratch_, ctx.stream);
+      else loop2_(rows, functor<2>(ctx), ctx.stream);
     } else {
-      if (cuda_.d3) cuda_.d3(s.n(), functor<3>(ctx), scratch_, ctx.stream);
-      else loop3_(s.n(), functor<3>(ctx), ctx.stream);
+      if (cuda_.d3) cuda_.d3(rows, s.n(), functor<3>(ctx), scratch_, ctx.stream);
+      else loop3_(rows, functor<3>(ctx), ctx.stream);
     }
     return Outcome::ok();
+  }
+
+  // In a decomposed team each owned particle sums its Verlet row, which names ghosts: rows sorted
+  // by global id (neighbors.verlet), so the terms and their order are those of one rank alone.
+  Scheduling scheduling() const override {
+    Scheduling s;
+    s.team = TeamWork::decomposed;
+    s.reads_ghosts = true;
+    return s;
   }
 
  private:

@@ -5,7 +5,7 @@
 // work (TeamWork::split): each rank sums its contiguous share of targets over all sources, then
 // the velocities are all-gathered in place, so every rank holds the whole field with the bits
 // one rank computes (each target's sum is unchanged). O(N²/P) work per rank for O(N) data.
-// The short range runs redundantly (its work is O(N), like the integrator's).
+// The short range runs decomposed: a rank sums the rows of its own particles (docs/multi-gpu.md).
 #pragma once
 #include <algorithm>
 #include <string>
@@ -126,7 +126,10 @@ class Forces final : public Stage {
 
   Scheduling scheduling() const override {
     Scheduling s;
-    s.team = p_.long_range() ? TeamWork::split : TeamWork::redundant;
+    // Long range: split by target over the replicated state. Short range: in a decomposed team
+    // each owned particle sums its Verlet row (ghosts among them), sorted by global id.
+    s.team = p_.long_range() ? TeamWork::split : TeamWork::decomposed;
+    s.reads_ghosts = !p_.long_range();
     return s;
   }
 
@@ -163,8 +166,8 @@ class Forces final : public Stage {
                                        s.field(neighbors::kList).data<std::uint32_t>(ctx),
                                        s.field(neighbors::kCount).data<std::uint32_t>(ctx),
                                        neighbors::list_capacity(s), R(p_.cutoff * p_.cutoff)};
-      if constexpr (D == 2) loops_.short2(s.n(), f, ctx.stream);
-      else loops_.short3(s.n(), f, ctx.stream);
+      if constexpr (D == 2) loops_.short2(s.n_owned(), f, ctx.stream);
+      else loops_.short3(s.n_owned(), f, ctx.stream);
     }
   }
 

@@ -109,13 +109,15 @@ class ListBuild {
     std::uint32_t* start = start_f.data<std::uint32_t>(ctx);
     std::uint32_t* end = s.field(kCellEnd).data<std::uint32_t>(ctx);
     std::uint32_t* count = s.field(kCount).data<std::uint32_t>(ctx);
+    const std::uint32_t* id =
+        s.has_field(fields::particle_id) ? s.field(fields::particle_id).data<std::uint32_t>(ctx) : nullptr;
     L.assign(n, AssignCell<R, D>{x, cell, grid}, ctx.stream);
     loops_.sort(n, std::uint32_t(start_f.count()), cell, order, start, end, sort_scratch_, ctx.stream);
 
     Field& list = s.field(kList);
     for (;;) {
       const std::uint32_t cap = list_capacity(s);
-      BuildList<R, D> f{x, order, start, end, grid, R(rl * rl), cap, list.data<std::uint32_t>(ctx), count, at_build};
+      BuildList<R, D> f{x, order, start, end, grid, R(rl * rl), cap, list.data<std::uint32_t>(ctx), count, at_build, id};
       L.build(n, f, ctx.stream);
       max_neighbors_ = n ? loops_.max_count(n, CountOf{count}, max_, ctx.stream) : 0;
       if (max_neighbors_ <= cap) break;

@@ -83,6 +83,10 @@ struct BuildList {
   std::uint32_t* list;              // N x capacity
   std::uint32_t* count;             // true number of neighbours (may exceed capacity: then grow)
   R* at_build;                      // positions the list was built from
+  // The particles' global ids in a decomposed team (core/run/domain.h), whose ranks hold their
+  // particles in an order of their own: rows are then sorted by id, the order one rank alone
+  // sorts them in. Null: by index (= id).
+  const std::uint32_t* id = nullptr;
 
   FF_HD void operator()(std::size_t p) const {
     const std::uint32_t i = order[p];
@@ -122,11 +126,15 @@ struct BuildList {
         }
     count[i] = n;
     for (int k = 0; k < D; ++k) at_build[std::size_t(i) * D + k] = xi[k];
-    if (n <= capacity) {  // ascending index order (insertion sort: rows are short)
+    if (n <= capacity) {  // ascending index (or id) order (insertion sort: rows are short)
       for (std::uint32_t a = 1; a < n; ++a) {
         const std::uint32_t v = row[a];
         std::uint32_t b = a;
-        for (; b > 0 && row[b - 1] > v; --b) row[b] = row[b - 1];
+        if (id) {
+          for (; b > 0 && id[row[b - 1]] > id[v]; --b) row[b] = row[b - 1];
+        } else {
+          for (; b > 0 && row[b - 1] > v; --b) row[b] = row[b - 1];
+        }
         row[b] = v;
       }
     }

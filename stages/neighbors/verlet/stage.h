@@ -63,6 +63,19 @@ class Verlet final : public Stage {
     return a;
   }
 
+  // In a decomposed team: built from every particle the rank holds, owned or ghost (the rows of
+  // ghosts are incomplete, and no stage reads them), never exchanged. Exact for the owned
+  // particles while every particle within cutoff + skin of the slab at the last migration is held
+  // and none has moved skin/2 since: then every pair closer than the cutoff is listed, and the
+  // rows, sorted by global id, are those one rank alone builds.
+  Scheduling scheduling() const override {
+    Scheduling s;
+    s.team = TeamWork::local;
+    s.ghost_band = p_.cutoff + p_.skin;
+    s.ghost_slack = 0.5 * p_.skin;
+    return s;
+  }
+
   void configure(State& s) override {
     const double rl = p_.cutoff + p_.skin;
     double lmin = s.box.L[0];
@@ -104,6 +117,9 @@ class Verlet final : public Stage {
   // The list itself is in the state's fields. A continued run must not rebuild it at its first
   // step (a list built from other positions lists pairs in another order, and the forces summed
   // over it round differently): keep "built" and the longest row (the metric).
+  // The step is accepted: its build (if any) stands.
+  void after_step(StepContext&) override { accepted_particles_ = built_particles_; }
+
   void save_state(StageState& out) override {
     out.put("built", std::uint8_t(built_ ? 1 : 0));
     out.put("max_neighbors", builder_.max_neighbors());
@@ -138,17 +154,23 @@ class Verlet final : public Stage {
   template <int D>
   Outcome run_d(StepContext& ctx) {
     State& s = ctx.state;
-    bool rebuild = !built_;
+    // A decomposed team's migration renumbered the particles this rank holds: the list's
+    // indices are stale (State::particles_version). Compared with the version of the last
+    // accepted build: a rollback restores the list an attempt rebuilt, so the retry rebuilds.
+    bool rebuild = !built_ || s.particles_version() != accepted_particles_;
     if (!rebuild && published_applies(s)) rebuild = s.field(kMoved).host<std::uint64_t>()[1] != 0;
     else if (!rebuild) rebuild = builder_.template moved_too_far<D>(ctx, p_.skin);
     if (rebuild) builder_.template build<D>(ctx, p_.cutoff + p_.skin, where_);
     built_ = true;
+    if (rebuild) built_particles_ = s.particles_version();
     ctx.metrics.set("rebuilds", rebuild ? 1.0 : 0.0);
     ctx.metrics.set("max_neighbors", double(builder_.max_neighbors()));
     return Outcome::ok();
   }
 
   VerletParams p_;
+  std::uint64_t built_particles_ = 0;     // State::particles_version() at the last build
+  std::uint64_t accepted_particles_ = 0;  // the same, of the last build in an accepted step
   Where where_;
   ListBuild<R> builder_;
   bool built_ = false;

@@ -126,6 +126,7 @@ struct OverdampedStep {
   PeriodicBox<R> box;
   RngKey key;
   GaussianTail tail = GaussianTail::rescaled;  // `noise`: rescaled, or clamped as Carter et al.
+  const std::uint32_t* id = nullptr;  // the noise's particle numbers (NoiseCounter::id); null: the index
   const StepParams* params;
   G drift;
   // With max_step (General only): steps longer than it are counted in too_far[0], the lowest
@@ -149,7 +150,7 @@ struct OverdampedStep {
   FF_HD std::uint32_t noise_pair(int j) const {
     return j < kTranslationPairs ? std::uint32_t(j) : drift.noise_pair(j - kTranslationPairs);
   }
-  FF_HD NoiseCounter noise_counter() const { return {key, params->step, params->attempt, tail}; }
+  FF_HD NoiseCounter noise_counter() const { return {key, params->step, params->attempt, tail, id}; }
 
   // z: the particle's Gaussians, z[k] for component k, then the drift's pairs.
   FF_HD void move(std::size_t i, const double* z) const {

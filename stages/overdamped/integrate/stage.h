@@ -171,6 +171,8 @@ class OverdampedIntegrate final : public Stage {
       f.two_D[0] = 2 * p_.D[0];
       f.box = PeriodicBox<R>::make(s.box.L);
       f.key = ctx.rng;
+      // In a decomposed team the rank's particles draw as their global ids (as they do alone).
+      f.id = s.has_field(fields::particle_id) ? s.field(fields::particle_id).data<std::uint32_t>(where_) : nullptr;
       f.tail = p_.noise == "clamp" ? GaussianTail::clamped : GaussianTail::rescaled;
       f.params = ctx.params;
       f.non_finite = finite_.kernel_side(ctx.stream);
@@ -213,7 +215,7 @@ class OverdampedIntegrate final : public Stage {
 
   template <bool InPlace, class Common, class General>
   void launch(StepContext& ctx, const IntegrateLoopsOf<R, InPlace>& loops, Common common, General general) const {
-    const std::size_t n = ctx.state.n();
+    const std::size_t n = ctx.state.n_owned();  // a decomposed team's ghosts move with their owners
     if (ctx.state.dim() == 2) {
       if (is_general()) loops.general2(n, general(OverdampedStep<R, 2, true, FieldDrift<R, 2>, InPlace>{}), ctx.stream);
       else loops.plain2(n, common(OverdampedStep<R, 2, false, NoDrift, InPlace>{}), ctx.stream);
@@ -231,6 +233,7 @@ class OverdampedIntegrate final : public Stage {
     s.may_request_rollback = p_.max_step > 0;
     s.graph_capturable = p_.max_step == 0;
     s.reads_step_params = true;
+    s.team = TeamWork::decomposed;  // each particle's step reads only its own entries
     return s;
   }
 

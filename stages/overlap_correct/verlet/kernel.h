@@ -40,11 +40,14 @@ struct Gather : PushRule {
   const std::int32_t* image = nullptr;  // N x D, read with walls
   std::uint8_t* touched = nullptr;      // the touched field (Mark)
   bool first = false;                   // the step's first gather: it writes every touched entry
+  // Global ids in a decomposed team (core/run/domain.h): a pair's direction when its particles
+  // coincide, and which of its two rows counts it, go by id as they go by index alone. Null: index.
+  const std::uint32_t* id = nullptr;
 
   FF_HD double diameter_of(std::size_t v) const { return uniform > 0 ? uniform : double(diameter[v]); }
 
   FF_HD std::uint64_t operator()(std::size_t i) const {
-    const int v = int(i);
+    const int v = int(id ? id[i] : i);
     double xv[D];
     for (int k = 0; k < D; ++k) xv[k] = double(pos[D * i + k]);
     const double sv = diameter_of(i);
@@ -61,11 +64,12 @@ struct Gather : PushRule {
         const double dk = double(pos[D * std::size_t(u) + k]) - xv[k];
         r[k] = Walls && k == wall_axis ? dk + 0.0 : box.min_image(dk, k);
       }
-      const double o = pair_term_d<D>(r, sv, diameter_of(u), factor, v, int(u), t);
+      const int w = int(id ? id[u] : u);
+      const double o = pair_term_d<D>(r, sv, diameter_of(u), factor, v, w, t);
       if (o == kNoOverlap) continue;
       any = true;
       for (int k = 0; k < D; ++k) q[k] -= fixed_push(t[k], inv_unit);
-      if (v < int(u) && o > 0) {
+      if (v < w && o > 0) {
         ++pairs;
         if (o > tol) ++bad;
       }

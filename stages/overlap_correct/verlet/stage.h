@@ -28,6 +28,7 @@
 #include <sstream>
 #include <string>
 
+#include "core/backend/comm.h"
 #include "core/backend/exec.h"
 #include "core/base/error.h"
 #include "core/stage/params.h"
@@ -78,8 +79,9 @@ class OverlapCorrectVerlet final : public Stage {
   }
 
   template <class Exec>
-  OverlapCorrectVerlet(const ParamValues& v, const RunInfo&, Exec exec)
+  OverlapCorrectVerlet(const ParamValues& v, const RunInfo& info, Exec exec)
       : p_(params_from<Params>(v)),
+        team_(info.team),
         where_(Exec::where),
         d2_(VerletCorrectVariants<R, 2>::template make<Exec>()),
         d3_(VerletCorrectVariants<R, 3>::template make<Exec>()),
@@ -129,6 +131,22 @@ class OverlapCorrectVerlet final : public Stage {
                        "and skin give; the list was made by another stage than neighbors.verlet");
   }
 
+  // In a decomposed team (docs/multi-gpu.md) each rank corrects its owned particles from their
+  // rows (ghosts among them): every iteration's pair counts are summed over the ranks (so all
+  // iterate alike) and the moved positions sent to the ghosts (StepContext::ghosts) before the
+  // next gather. Displacements are fixed-point sums over each particle's overlapping pairs, whose
+  // order does not matter, so the bits are one rank's. The list is not rebuilt within the step
+  // there (that would need a migration): the core migrates skin/4 early instead, and a step whose
+  // pushes exceed that stops the run.
+  Scheduling scheduling() const override {
+    Scheduling s;
+    s.team = TeamWork::decomposed;
+    s.reads_ghosts = true;
+    s.communicates = true;
+    s.ghost_reserve = 0.25 * skin_;
+    return s;
+  }
+
   Outcome run(StepContext& ctx) override {
     if (ctx.state.dim() == 2) return run_variant<2>(ctx, d2_);
     return run_variant<3>(ctx, d3_);
@@ -150,6 +168,15 @@ class OverlapCorrectVerlet final : public Stage {
     State& s = ctx.state;
     CUstream_st* st = ctx.stream;
     const std::size_t n = s.n();
+    const std::size_t rows = s.n_owned();  // a decomposed team's own particles (all, alone)
+    GhostExchange* ghosts = ctx.ghosts;
+    const bool team = in_team(team_) && ghosts;
+    auto team_sum = [&](std::uint64_t v) {
+      if (!team) return v;
+      std::int64_t x = std::int64_t(v);
+      team_->all_reduce(&x, 1, ReduceOp::sum);
+      return std::uint64_t(x);
+    };
     if (diam_.stale(s)) {  // written since: measure again
       diam_.template measure<R>(s, st);
       check_cutoff(true, ctx.host_params.step);
@@ -181,18 +208,31 @@ class OverlapCorrectVerlet final : public Stage {
                                        disp,
                                        wall_axis_ >= 0 ? img : nullptr,
                                        touched};
+      gather.id = s.has_field(fields::particle_id) ? s.field(fields::particle_id).data<std::uint32_t>(ctx) : nullptr;
       const Apply<R, D> apply{x, img, PeriodicBox<R>::make(s.box.L), disp, 1.0 / unit_};
       for (;;) {  // the correction loop on this list
         gather.first = iterations == 0 && rebuilds == 0;
-        const std::uint64_t c = loops.gather(n, gather, sum_, st);
+        const std::uint64_t c = team_sum(loops.gather(rows, gather, sum_, st));
         const std::uint64_t bad = c >> kBadShift;
         if (!bad) break;
         if (iterations == p_.max_iterations) give_up<D>(ctx, bad);
         pairs += c & ((std::uint64_t(1) << kBadShift) - 1);
-        correction += double(loops.apply(n, apply, sum_, st)) / kFixedOne * unit_;
+        correction += double(team_sum(loops.apply(rows, apply, sum_, st))) / kFixedOne * unit_;
+        if (team) ghosts->refresh(s, {fields::position, fields::image});
         ++iterations;
       }
-      if (!builder_.template moved_too_far<D>(ctx, skin_)) break;
+      bool moved = builder_.template moved_too_far<D>(ctx, skin_);
+      if (team) {
+        std::int64_t m = moved ? 1 : 0;
+        team_->all_reduce(&m, 1, ReduceOp::max);
+        moved = m != 0;
+        if (moved)
+          throw RunError("overlap_correct.verlet: step " + std::to_string(ctx.host_params.step) +
+                         ": the pushes moved a particle farther than skin/4 within the step, past what the ghosts of a "
+                         "decomposed team cover (it migrates particles only at the start of a step): raise "
+                         "neighbors.verlet's skin, or lower run.dt");
+      }
+      if (!moved) break;
       // A pair the list leaves out may overlap now: rebuild from the positions now, correct again.
       builder_.template build<D>(ctx, cutoff_ + skin_, where_);
       ++rebuilds;
@@ -202,9 +242,9 @@ class OverlapCorrectVerlet final : public Stage {
     ctx.metrics.set("correction", correction);
     ctx.metrics.set("list_rebuilds", double(rebuilds));
     if (p_.mark) {
-      const double count = double(count_touched_(n, CountTouched{touched}, sum_, st));
+      const double count = double(team_sum(count_touched_(rows, CountTouched{touched}, sum_, st)));
       ctx.metrics.set("touched", count);
-      ctx.metrics.set("touched_fraction", count / double(n));
+      ctx.metrics.set("touched_fraction", count / double(team ? std::uint64_t(team_sum(rows)) : n));
     }
     return Outcome::ok();
   }
@@ -263,6 +303,7 @@ class OverlapCorrectVerlet final : public Stage {
   }
 
   Params p_;
+  Communicator* team_;  // a decomposed team's rank (with StepContext::ghosts); else alone
   Where where_;
   VerletCorrectVariants<R, 2> d2_;
   VerletCorrectVariants<R, 3> d3_;

@@ -1,0 +1,345 @@
+#include "core/run/domain.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <numeric>
+
+#include "core/base/error.h"
+#include "core/physics/box.h"
+#ifdef FLIPFLOW_HAVE_CUDA
+#include "core/backend/cuda/device_buffer.h"
+#endif
+
+namespace ff {
+
+struct Domain::Staging {
+#ifdef FLIPFLOW_HAVE_CUDA
+  std::vector<std::unique_ptr<DeviceBuffer>> buffers;  // one per transfer slot, grown as needed
+#endif
+};
+
+Domain::~Domain() = default;
+
+void Domain::transfer(const std::vector<Communicator::Transfer>& t) {
+  if (backend_ != Backend::cuda) {
+    comm_.exchange(t, nullptr);
+    return;
+  }
+#ifdef FLIPFLOW_HAVE_CUDA
+  auto& buf = staging_->buffers;
+  if (buf.size() < t.size()) buf.resize(t.size());
+  std::vector<Communicator::Transfer> on_device = t;
+  for (std::size_t k = 0; k < t.size(); ++k) {
+    if (!buf[k] || buf[k]->bytes() < t[k].bytes)
+      buf[k] = std::make_unique<DeviceBuffer>(t[k].bytes, "a decomposed team's exchange buffer");
+    on_device[k].data = buf[k]->data();
+    if (t[k].send) buf[k]->upload(t[k].data, t[k].bytes, nullptr);
+  }
+  comm_.exchange(on_device, nullptr);  // the legacy stream: ordered after the uploads
+  for (std::size_t k = 0; k < t.size(); ++k)
+    if (!t[k].send) buf[k]->download(t[k].data, t[k].bytes, nullptr);
+#else
+  throw RunError("a decomposed team on CUDA in a build without CUDA");
+#endif
+}
+
+void Domain::to_device(State& s, const std::vector<std::string>& names) const {
+  if (backend_ != Backend::cuda) return;
+  for (auto& n : names) s.field(n).acquire(Where::device, Mode::read);
+}
+
+namespace {
+
+// Whether some particle [0, owned) moved more than `slack` (minimum image) from x0: the
+// arithmetic of neighbors.verlet's rebuild test (MovedTooFar) in the state's precision.
+template <class R>
+bool moved_beyond(State& s, const std::vector<double>& x0, double slack) {
+  const int D = s.dim();
+  Field& pos = s.field(fields::position);
+  pos.acquire(Where::host, Mode::read);
+  const R* x = pos.host<R>();
+  const PeriodicBox<R> box = PeriodicBox<R>::make(s.box.L);
+  const R half = R(slack);
+  const R limit2 = half * half;
+  for (std::size_t i = 0; i < s.n_owned(); ++i) {
+    R d2 = 0;
+    for (int k = 0; k < D; ++k) {
+      const R d = box.min_image(x[i * D + k] - R(x0[i * D + k]), k);
+      d2 += d * d;
+    }
+    if (d2 > limit2) return true;
+  }
+  return false;
+}
+
+std::size_t entry_bytes(const Field& f) { return dtype_size(f.dtype()) * std::size_t(f.components()); }
+
+}  // namespace
+
+Domain::Domain(Communicator& comm, State& s, double band, double slack, std::vector<std::string> refreshed,
+               Backend backend)
+    : comm_(comm), rank_(comm.rank()), ranks_(comm.size()), L_(s.box.L[0]), band_(band), slack_(slack),
+      refreshed_(std::move(refreshed)), send_(std::size_t(ranks_)), recv_(std::size_t(ranks_)), backend_(backend),
+      staging_(std::make_unique<Staging>()) {
+  // Global ids, then this rank's share of the whole state (the same on every rank: no message).
+  Field& id = s.add_particle_field(fields::particle_id, DType::u32, 1);
+  id.acquire(Where::host, Mode::write);
+  std::iota(id.host<std::uint32_t>(), id.host<std::uint32_t>() + s.n(), 0u);
+  const Layout lay = layout_of(s, s.particle_field_names());
+  std::vector<std::uint32_t> mine;
+  const std::vector<double> x = xs(s);
+  for (std::size_t i = 0; i < s.n(); ++i)
+    if (owner_of(x[i]) == rank_ || ghost_of(rank_, x[i])) mine.push_back(std::uint32_t(i));
+  std::vector<unsigned char> records;
+  pack(s, lay, mine, records);
+  rebuild(s, lay, std::move(records));
+}
+
+std::vector<double> Domain::xs(State& s) const {
+  Field& pos = s.field(fields::position);
+  pos.acquire(Where::host, Mode::read);
+  const std::size_t D = std::size_t(s.dim());
+  std::vector<double> x(s.n());
+  for (std::size_t i = 0; i < s.n(); ++i)
+    x[i] = s.real() == DType::f32 ? double(pos.host<float>()[i * D]) : pos.host<double>()[i * D];
+  return x;
+}
+
+int Domain::owner_of(double x) const {
+  const int r = int(std::floor(x / L_ * double(ranks_)));
+  return std::min(std::max(r, 0), ranks_ - 1);
+}
+
+bool Domain::ghost_of(int q, double x) const {
+  const double lo = L_ * double(q) / double(ranks_), hi = L_ * double(q + 1) / double(ranks_);
+  // The distance along x from x, or one of its periodic images, to [lo, hi]; a particle on the
+  // slab's edge (rounding may give it to the neighbour) is at distance 0: a ghost.
+  double best = L_;
+  for (int k = -1; k <= 1; ++k) {
+    const double y = x + double(k) * L_;
+    best = std::min(best, std::max({lo - y, y - hi, 0.0}));
+  }
+  return best <= band_ + 1e-9 * L_;  // a margin for the rounding of positions near a slab's edge
+}
+
+Domain::Layout Domain::layout_of(const State& s, const std::vector<std::string>& names) const {
+  Layout lay;
+  lay.names = names;
+  if (std::find(lay.names.begin(), lay.names.end(), fields::particle_id) == lay.names.end())
+    lay.names.push_back(fields::particle_id);
+  for (auto& n : lay.names) {
+    if (n == fields::particle_id) lay.id_offset = lay.bytes;
+    lay.offset.push_back(lay.bytes);
+    lay.size.push_back(entry_bytes(s.field(n)));
+    lay.bytes += lay.size.back();
+  }
+  return lay;
+}
+
+void Domain::pack(State& s, const Layout& lay, const std::vector<std::uint32_t>& which,
+                  std::vector<unsigned char>& out) const {
+  const std::size_t start = out.size();
+  out.resize(start + which.size() * lay.bytes);
+  for (std::size_t f = 0; f < lay.names.size(); ++f) {
+    Field& field = s.field(lay.names[f]);
+    field.acquire(Where::host, Mode::read);
+    const auto* src = static_cast<const unsigned char*>(field.host_raw());
+    const std::size_t sz = lay.size[f];
+    for (std::size_t k = 0; k < which.size(); ++k)
+      std::memcpy(&out[start + k * lay.bytes + lay.offset[f]], src + std::size_t(which[k]) * sz, sz);
+  }
+}
+
+void Domain::rebuild(State& s, const Layout& lay, std::vector<unsigned char> records) {
+  const std::size_t n = lay.bytes ? records.size() / lay.bytes : 0;
+  auto id_of = [&](std::size_t k) {
+    std::uint32_t v;
+    std::memcpy(&v, &records[k * lay.bytes + lay.id_offset], sizeof v);
+    return v;
+  };
+  auto x_of_record = [&](std::size_t k) {
+    const std::size_t at = k * lay.bytes +
+                           lay.offset[std::size_t(std::find(lay.names.begin(), lay.names.end(), fields::position) -
+                                                  lay.names.begin())];
+    if (s.real() == DType::f32) {
+      float v;
+      std::memcpy(&v, &records[at], sizeof v);
+      return double(v);
+    }
+    double v;
+    std::memcpy(&v, &records[at], sizeof v);
+    return v;
+  };
+  // Owned first, then ghosts; each by id. A particle arrives once: from its one previous owner.
+  std::vector<std::size_t> order(n);
+  std::iota(order.begin(), order.end(), std::size_t(0));
+  std::vector<char> owned(n);
+  for (std::size_t k = 0; k < n; ++k) owned[k] = owner_of(x_of_record(k)) == rank_;
+  std::sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) {
+    if (owned[a] != owned[b]) return owned[a] > owned[b];
+    return id_of(a) < id_of(b);
+  });
+  std::size_t n_owned = 0;
+  for (std::size_t k = 0; k < n; ++k) n_owned += owned[k] ? 1 : 0;
+  for (std::size_t f = 0; f < lay.names.size(); ++f) {
+    Field& field = s.field(lay.names[f]);
+    field.resize(n);
+    field.acquire(Where::host, Mode::write);
+    auto* dst = static_cast<unsigned char*>(field.host_raw());
+    const std::size_t sz = lay.size[f];
+    for (std::size_t k = 0; k < n; ++k) std::memcpy(dst + k * sz, &records[order[k] * lay.bytes + lay.offset[f]], sz);
+  }
+  s.set_particles(n, n_owned);
+  to_device(s, {fields::particle_id});  // read by the stages' kernels without an Access of their own
+  Field& pos = s.field(fields::position);
+  const std::size_t D = std::size_t(s.dim());
+  x0_.resize(n_owned * D);
+  for (std::size_t i = 0; i < n_owned * D; ++i)
+    x0_[i] = s.real() == DType::f32 ? double(pos.host<float>()[i]) : pos.host<double>()[i];
+  set_lists(s);
+}
+
+// Who sends what to whom in a refresh: the owner of a ghost decides from the same position
+// bits the migration did, so both sides list the same particles in the same (id) order.
+void Domain::set_lists(State& s) {
+  for (auto& l : send_) l.clear();
+  for (auto& l : recv_) l.clear();
+  const std::vector<double> x = xs(s);
+  for (std::size_t i = 0; i < s.n(); ++i) {
+    if (i < s.n_owned()) {
+      for (int q = 0; q < ranks_; ++q)
+        if (q != rank_ && ghost_of(q, x[i])) send_[std::size_t(q)].push_back(std::uint32_t(i));
+    } else {
+      recv_[std::size_t(owner_of(x[i]))].push_back(std::uint32_t(i));
+    }
+  }
+}
+
+void Domain::exchange_counts(const std::vector<std::uint64_t>& send, std::vector<std::uint64_t>& recv) {
+  recv.assign(std::size_t(ranks_), 0);
+  std::vector<std::uint64_t> out(send);
+  std::vector<Communicator::Transfer> t;
+  for (int q = 0; q < ranks_; ++q) {
+    if (q == rank_) continue;
+    t.push_back({q, &out[std::size_t(q)], sizeof(std::uint64_t), true});
+    t.push_back({q, &recv[std::size_t(q)], sizeof(std::uint64_t), false});
+  }
+  transfer(t);
+}
+
+bool Domain::due(State& s) {
+  if (!(slack_ > 0)) return false;
+  std::int64_t mine = (s.real() == DType::f32 ? moved_beyond<float>(s, x0_, slack_)
+                                              : moved_beyond<double>(s, x0_, slack_))
+                          ? 1
+                          : 0;
+  comm_.all_reduce(&mine, 1, ReduceOp::max);
+  return mine != 0;
+}
+
+void Domain::begin_step(State& s) {
+  if (due(s)) {
+    const Layout lay = layout_of(s, s.particle_field_names());
+    auto to = std::vector<std::vector<std::uint32_t>>(std::size_t(ranks_));
+    const std::vector<double> x = xs(s);
+    for (std::size_t i = 0; i < s.n_owned(); ++i) {
+      const int o = owner_of(x[i]);
+      if (o != rank_) ++changed_owner_;
+      for (int q = 0; q < ranks_; ++q)
+        if (q == o || ghost_of(q, x[i])) to[std::size_t(q)].push_back(std::uint32_t(i));
+    }
+    std::vector<std::uint64_t> counts(std::size_t(ranks_), 0), incoming;
+    for (int q = 0; q < ranks_; ++q) counts[std::size_t(q)] = to[std::size_t(q)].size();
+    exchange_counts(counts, incoming);
+    auto out = std::vector<std::vector<unsigned char>>(std::size_t(ranks_)), in = out;
+    std::vector<Communicator::Transfer> t;
+    for (int q = 0; q < ranks_; ++q) {
+      if (q == rank_) continue;
+      pack(s, lay, to[std::size_t(q)], out[std::size_t(q)]);
+      in[std::size_t(q)].resize(incoming[std::size_t(q)] * lay.bytes);
+      if (!out[std::size_t(q)].empty()) t.push_back({q, out[std::size_t(q)].data(), out[std::size_t(q)].size(), true});
+      if (!in[std::size_t(q)].empty()) t.push_back({q, in[std::size_t(q)].data(), in[std::size_t(q)].size(), false});
+    }
+    transfer(t);
+    std::vector<unsigned char> records;
+    pack(s, lay, to[std::size_t(rank_)], records);
+    for (int q = 0; q < ranks_; ++q) records.insert(records.end(), in[std::size_t(q)].begin(), in[std::size_t(q)].end());
+    rebuild(s, lay, std::move(records));
+    ++migrations_;
+    return;
+  }
+  refresh(s, refreshed_);
+}
+
+void Domain::refresh(State& s, const std::vector<std::string>& fields) {
+  if (fields.empty()) return;
+  Layout lay;
+  for (auto& n : fields) {
+    lay.names.push_back(n);
+    lay.offset.push_back(lay.bytes);
+    lay.size.push_back(entry_bytes(s.field(n)));
+    lay.bytes += lay.size.back();
+  }
+  auto out = std::vector<std::vector<unsigned char>>(std::size_t(ranks_)), in = out;
+  std::vector<Communicator::Transfer> t;
+  for (int q = 0; q < ranks_; ++q) {
+    if (q == rank_) continue;
+    pack(s, lay, send_[std::size_t(q)], out[std::size_t(q)]);
+    in[std::size_t(q)].resize(recv_[std::size_t(q)].size() * lay.bytes);
+    if (!out[std::size_t(q)].empty()) t.push_back({q, out[std::size_t(q)].data(), out[std::size_t(q)].size(), true});
+    if (!in[std::size_t(q)].empty()) t.push_back({q, in[std::size_t(q)].data(), in[std::size_t(q)].size(), false});
+  }
+  transfer(t);
+  for (std::size_t f = 0; f < lay.names.size(); ++f) {
+    Field& field = s.field(lay.names[f]);
+    field.acquire(Where::host, Mode::write);  // after pack's reads: the host copy is current
+    auto* dst = static_cast<unsigned char*>(field.host_raw());
+    const std::size_t sz = lay.size[f];
+    for (int q = 0; q < ranks_; ++q) {
+      const auto& idx = recv_[std::size_t(q)];
+      for (std::size_t k = 0; k < idx.size(); ++k)
+        std::memcpy(dst + std::size_t(idx[k]) * sz, &in[std::size_t(q)][k * lay.bytes + lay.offset[f]], sz);
+    }
+  }
+  to_device(s, fields);
+}
+
+void Domain::gather(State& s, State* into, const std::vector<std::string>& names) {
+  const Layout lay = layout_of(s, names);
+  std::vector<std::uint32_t> owned(s.n_owned());
+  std::iota(owned.begin(), owned.end(), 0u);
+  std::vector<unsigned char> mine;
+  pack(s, lay, owned, mine);
+  std::vector<std::uint64_t> counts(std::size_t(ranks_), 0), incoming;
+  if (rank_ != 0) counts[0] = s.n_owned();
+  exchange_counts(counts, incoming);
+  auto in = std::vector<std::vector<unsigned char>>(std::size_t(ranks_));
+  std::vector<Communicator::Transfer> t;
+  if (rank_ != 0) {
+    if (!mine.empty()) t.push_back({0, mine.data(), mine.size(), true});
+  } else {
+    for (int q = 1; q < ranks_; ++q) {
+      in[std::size_t(q)].resize(incoming[std::size_t(q)] * lay.bytes);
+      if (!in[std::size_t(q)].empty()) t.push_back({q, in[std::size_t(q)].data(), in[std::size_t(q)].size(), false});
+    }
+  }
+  transfer(t);
+  if (rank_ != 0 || !into) return;
+  in[0] = std::move(mine);
+  for (std::size_t f = 0; f < lay.names.size(); ++f) {
+    if (!into->has_field(lay.names[f])) continue;
+    Field& field = into->field(lay.names[f]);
+    field.acquire(Where::host, Mode::write);
+    auto* dst = static_cast<unsigned char*>(field.host_raw());
+    const std::size_t sz = lay.size[f];
+    for (auto& rec : in)
+      for (std::size_t k = 0; k < rec.size() / lay.bytes; ++k) {
+        std::uint32_t id;
+        std::memcpy(&id, &rec[k * lay.bytes + lay.id_offset], sizeof id);
+        std::memcpy(dst + std::size_t(id) * sz, &rec[k * lay.bytes + lay.offset[f]], sz);
+      }
+  }
+}
+
+}  // namespace ff

@@ -1,0 +1,105 @@
+// A decomposed team (issue 21 items 2-3, ../shared/specs/seed-gaps.md D4, docs/multi-gpu.md):
+// rank r of P owns the particles in slab r along x, [r L/P, (r+1) L/P) as they were at the last
+// migration, and holds ghosts, copies of the other ranks' particles within `band` (along x,
+// periodic) of that slab. The rank's State holds only those: owned first, then ghosts, each in
+// ascending global particle id (the field `particle.id`), with their coordinates in the global
+// box, so the minimum image, and so every distance, is computed as by one rank alone.
+//
+// At the start of every step (before the rollback snapshot is taken, so a rollback never undoes
+// a migration):
+//  - migration, when some owned particle has moved more than `slack` since the last one (one
+//    all-reduce decides it for every rank): every rank sends each of its owned particles, every
+//    particle field's entries, to its new owner and to every rank whose band it lies in, and
+//    rebuilds its State from what it receives (point-to-point, counts first);
+//  - otherwise a ghost refresh: each owner sends the `refreshed` fields of its particles to the
+//    ranks that hold them as ghosts (one point-to-point batch), so ghosts hold the values of the
+//    start of the step.
+// A particle within `band` - 2·slack of an owned one at any time between migrations was within
+// `band` of the slab at the last one, so it is held: what a TeamWork::local stage builds from the
+// held particles (a Verlet list of radius band) is, for the owned particles, what one rank alone
+// builds (the proof and the conditions for bitwise equality: docs/multi-gpu.md).
+//
+// Packing and unpacking happen on the host (fields acquired there; on CUDA that copies whole
+// fields each step, a first version: device pack kernels are the next step); on CUDA the packed
+// buffers travel through device staging buffers, as NCCL wants (core/backend/comm.h).
+#pragma once
+#include <cstddef>
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "core/backend/comm.h"
+#include "core/stage/stage.h"
+#include "core/stage/state.h"
+
+namespace ff {
+
+class Domain final : public GhostExchange {
+ public:
+  // `state`: the whole state, the same bits on every rank, every stage configured. Adds the
+  // particle field `particle.id` (0 .. N-1) and cuts the state down to this rank's particles.
+  // band: how far ghosts reach from the slab; slack: how far a particle may move before the
+  // next migration (0: never migrate). refreshed: the particle fields sent to ghosts each step.
+  Domain(Communicator& comm, State& state, double band, double slack, std::vector<std::string> refreshed,
+         Backend backend);
+  ~Domain() override;
+
+  // Before the step's snapshot: migrate when due, else refresh the ghosts. Every rank calls it.
+  void begin_step(State& state);
+
+  // The owners' entries of `fields` to the ranks holding them as ghosts (one point-to-point
+  // batch). Every rank calls it; begin_step does for `refreshed`, a stage may within its step.
+  void refresh(State& state, const std::vector<std::string>& fields) override;
+
+  // The `names` particle fields of every rank's owned particles into `into` (rank 0: the whole
+  // state, indexed by particle id; other ranks pass null). Every rank calls it.
+  void gather(State& state, State* into, const std::vector<std::string>& names);
+
+  std::uint64_t migrations() const { return migrations_; }
+  std::uint64_t changed_owner() const { return changed_owner_; }  // particles, summed over migrations (this rank's sends)
+  double band() const { return band_; }
+
+  // The slab (rank) that owns a particle at x (along axis 0), and whether a particle at x not
+  // owned by rank q lies within the band of q's slab.
+  int owner_of(double x) const;
+  bool ghost_of(int q, double x) const;
+
+ private:
+  // The bytes of one particle: every particle field's entry, fields in name order.
+  struct Layout {
+    std::vector<std::string> names;
+    std::vector<std::size_t> offset, size;  // within a record
+    std::size_t bytes = 0;
+    std::size_t id_offset = 0;
+  };
+  Layout layout_of(const State& s, const std::vector<std::string>& names) const;
+  void pack(State& s, const Layout& lay, const std::vector<std::uint32_t>& which, std::vector<unsigned char>& out) const;
+
+  bool due(State& s);
+  // Rebuilds the state from records (every field of `full`), owned first, then ghosts, by id.
+  void rebuild(State& s, const Layout& lay, std::vector<unsigned char> records);
+  void set_lists(State& s);
+  void exchange_counts(const std::vector<std::uint64_t>& send, std::vector<std::uint64_t>& recv);
+  // comm_.exchange of host buffers: on the CPU directly; on CUDA through device staging buffers
+  // (NCCL wants device memory), the receives copied back before it returns.
+  void transfer(const std::vector<Communicator::Transfer>& t);
+  // On CUDA: bring the device copies of `names` up to date after the host wrote them (a stage
+  // holds device pointers across a refresh within its step).
+  void to_device(State& s, const std::vector<std::string>& names) const;
+  std::vector<double> xs(State& s) const;  // every held particle's x
+
+  Communicator& comm_;
+  int rank_, ranks_;
+  double L_;
+  double band_, slack_;
+  std::vector<std::string> refreshed_;
+  std::vector<std::vector<std::uint32_t>> send_, recv_;  // per peer: local indices (refresh)
+  std::vector<double> x0_;                                // owned positions at the last migration
+  std::uint64_t migrations_ = 0, changed_owner_ = 0;
+  Backend backend_;
+  struct Staging;  // CUDA builds: the device buffers transfer() stages through
+  std::unique_ptr<Staging> staging_;
+};
+
+}  // namespace ff
