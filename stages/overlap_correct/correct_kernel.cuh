@@ -1,0 +1,521 @@
+// overlap_correct's CUDA kernels (the persistent iteration kernel and its launch shapes),
+// included by cuda.cu, the host launch code, only: one translation unit, compiled with
+// -fmad=false as cuda.cu is (CMakeLists.txt). What the kernel does and why:
+//
+// CUDA loop of overlap_correct: one persistent cooperative kernel per step runs the whole
+// iteration (gather, grid barrier, decide, apply, grid barrier, check, ...) on the device and
+// reports every gather's counters with one read-back. Compiled with -fmad=false
+// (CMakeLists.txt): without contracted multiply-adds the per-particle math (kernel.h) rounds
+// exactly as on the CPU, so both backends produce the same bits in double.
+//
+// Work lists (the CPU's rule, cpu.cpp). Block b owns the particles [b·T, (b+1)·T). Iteration 0
+// gathers all of them. Each gather lists, block-private, the particles it touched (an
+// overlapping edge): those that moved, with their displacements, and those that did not (d = 0).
+// After the apply and a grid barrier, the check marks the candidates of iteration k + 1:
+//   - each touched particle that did not move;
+//   - both ends of each edge of a moved particle that overlaps at the new positions (tested
+//     with r² < σ²·(1 + 1e-9), a superset of the gather's own test r² < σ², whose r² is the same
+//     bits from either end, so rounding can only add particles), and a moved particle that
+//     overlaps a wall (walls: kernel.h's wall_term, a term of the particle's own gather).
+// An edge that overlaps at k + 1 either has a moved end (then the check of that end marks both)
+// or had both ends fixed, so it overlapped at k already, both ends were touched, and an end
+// that did not move is marked as such (an end that moved was checked). So every particle left
+// out would have gathered d = 0 and no pairs: the result is the same as gathering everyone, the
+// CPU loop's result (kernel.h: pushes are summed in 64-bit fixed point, so the CPU's edge passes
+// and these walks give the same bits). The rule before (every neighbour of a moved particle)
+// gathered 2.3x as many in iteration 1 at 2^20 (988k against 429k; bench/overlap_correct-PERF.md);
+// the check costs a third grid barrier per iteration and walks each moved particle once, as the
+// flagging did.
+//
+// Marks are one byte per particle. While many particles move, they are plain stores, and after a
+// grid barrier each block compacts the marks of its tile (in index order, clearing them). Once an
+// iteration moves at most kTailMoved particles, the remaining iterations run in block 0 alone with
+// __syncthreads only (an iteration of a few hundred particles is faster in one block, whose time
+// is then the chains of dependent loads of its walks, than on the grid with its barriers): the
+// check of that iteration (all blocks, then one last grid barrier) and each one after claims a
+// mark with a word atomic and lists the particle that claimed it first in one global list, which
+// block 0 gathers (clearing each mark) without scanning every tile. Block 0's lists then span the
+// whole arrays (grid·tile ≥ N entries; a particle is listed once an iteration).
+// The same particles are gathered either way; only who gathers them differs. Iteration 0's walks
+// copy each particle's neighbours to a per-step list that the later gathers and checks read
+// instead of walking the fan again (kCached below): one thread per particle, its neighbours'
+// positions loaded kInFlight at a time, or, when a block has at most kGroupBelow particles to
+// do (the late iterations), a group of 8 lanes per particle, one neighbour each. (Tried and not in,
+// being slower: edge passes, and the check fused with the next gather: bench/experiments/README.md,
+// bench/overlap_correct-PERF.md.)
+//
+// Counters: per-thread sums, a block reduction, then one integer atomic per block into one of
+// kShards copies of each counter (spreading same-address atomics); after the barrier every
+// block sums the shards and takes the same decision (keeps_going). Integer sums do not depend
+// on the order, so neither does anything else.
+//
+// Small systems (team_for): the same kernel runs in a thread-block cluster instead of the grid
+// (n ≤ kClusterMaxN; cluster.sync, and each block reads the others' block sums from their shared
+// memory instead of the sharded atomics). Who gathers a particle changes, not what it gathers, so
+// the bits and the iteration counts are the grid's (test_overlap_correct: CPU == CUDA on both
+// sides of the thresholds).
+#pragma once
+#include <cooperative_groups.h>
+#include <cuda_runtime.h>
+
+#include <algorithm>
+
+#include "core/backend/cuda/check.h"
+#include "core/backend/cuda/loop.cuh"
+#include "stages/overlap_correct/stage.h"
+#include "stages/overlap_correct/neighbor_lists.cuh"
+
+namespace cg = cooperative_groups;
+
+namespace ff::overlap {
+
+namespace {
+
+constexpr int kThreads = 256;  // the grid kernel's block size
+constexpr int kShards = 8;
+constexpr int kShardStride = 4;  // u64 between shards: one 32-byte sector each
+// The counters a kernel sums: kernel.h's, kTouched (the last) only with the touched field (Mark),
+// then one device-side counter: particles moved (summed over the blocks like the others; decides
+// when the tail starts, not reported to the host).
+template <bool Mark>
+struct Sums {
+  static constexpr int kReported = Mark ? kCounters : kTouched;
+  static constexpr int kMoved = kReported, kAll = kReported + 1;
+};
+static_assert(kTouched == kCounters - 1, "kTouched is the counter left out without the touched field");
+constexpr int kDevCounters = kCounters + 1;  // the most a kernel sums (the slots' layout)
+constexpr std::size_t kSlotWords = std::size_t(kBatch) * kDevCounters * kShards * kShardStride;
+constexpr std::size_t kResultWords = std::size_t(kBatch) * kCounters + 1;  // + gathers run
+// Iterations after one that moved at most this many particles run in block 0 alone
+// (bench/overlap_correct-PERF.md).
+constexpr int kTailMoved = 512;
+
+using u64 = unsigned long long;
+
+template <class R, bool Walls>
+struct Args {
+  Problem<R> p;
+  Overlaps<R, Walls> ov;   // p.overlaps with the wall code compiled in or out
+  std::uint8_t* marks;     // grid·tile bytes, one per particle (padding never set): next candidates
+  int* cand;               // grid·tile: each block's candidates, tile-private; in the tail, the claimed
+  int* seed;               // grid·tile: each block's touched particles, v if it moved, ~v if not
+  double2* disp;           // grid·tile: the displacements of the moved ones
+  int* nb;                 // kCached x grid·tile: each particle's neighbours, filled in iteration 0
+  std::uint8_t* degree;    // grid·tile: how many (kWalk: more than kCached, walk the fan)
+  u64* slots;              // kBatch x Sums::kAll x kShards (sharded counters, zero at launch)
+  u64* claims;             // entries of cand claimed for the tail (zero at launch)
+  u64* next_slots;         // the other launch's slots and claims (kSlotWords + 1): zeroed here
+  u64* result;             // kBatch x kCounters + 1 (block 0 writes the sums and the gather count):
+                           // pinned host memory, written directly (no copy after the kernel)
+  int tile;                // particles per block, a multiple of 16
+  long long k0;
+  long long max_iterations;
+};
+
+// Exclusive block-wide prefix sum of c; *total gets the sum. Every thread must call it.
+template <int Threads>
+__device__ int block_scan(int c, int* total, int* s_warp) {
+  constexpr int kWarps = Threads / 32;
+  const int lane = threadIdx.x & 31, warp = threadIdx.x >> 5;
+  int x = c;
+#pragma unroll
+  for (int o = 1; o < 32; o <<= 1) {
+    const int y = __shfl_up_sync(0xffffffffu, x, o);
+    if (lane >= o) x += y;
+  }
+  if (lane == 31) s_warp[warp] = x;
+  __syncthreads();
+  int before = 0, sum = 0;
+#pragma unroll
+  for (int w = 0; w < kWarps; ++w) {
+    const int t = s_warp[w];
+    if (w < warp) before += t;
+    sum += t;
+  }
+  __syncthreads();
+  *total = sum;
+  return before + x - c;
+}
+
+// The marked particles of [t0, t0 + tile) into cand, in index order; clears those marks.
+template <int Threads>
+__device__ int compact(std::uint8_t* marks, int t0, int tile, int* cand, int* s_warp) {
+  int count = 0;
+  for (int base = 0; base < tile; base += 16 * Threads) {
+    const int off = base + 16 * int(threadIdx.x);
+    uint4 w = make_uint4(0, 0, 0, 0);
+    auto* p = reinterpret_cast<uint4*>(marks + t0 + off);
+    if (off < tile) w = __ldcg(p);
+    const int c = __popc(w.x) + __popc(w.y) + __popc(w.z) + __popc(w.w);  // bytes are 0 or 1
+    int total;
+    int at = count + block_scan<Threads>(c, &total, s_warp);
+    if (c) {
+      const unsigned words[4] = {w.x, w.y, w.z, w.w};
+#pragma unroll
+      for (int q = 0; q < 4; ++q)
+#pragma unroll
+        for (int b = 0; b < 4; ++b)
+          if ((words[q] >> (8 * b)) & 0xffu) cand[at++] = t0 + off + 4 * q + b;
+      *p = make_uint4(0, 0, 0, 0);
+    }
+    count += total;
+  }
+  return count;
+}
+
+// Marks u as a candidate of the next iteration: a plain store, or (claim) a word atomic whose
+// first taker lists u in cand.
+__device__ void mark(std::uint8_t* marks, int u, bool claim, int* cand, u64* claims) {
+  if (!claim) {
+    marks[u] = 1;
+    return;
+  }
+  const unsigned bit = 1u << (8 * (u & 3));
+  if (!(atomicOr(reinterpret_cast<unsigned*>(marks) + (u >> 2), bit) & bit)) cand[atomicAdd(claims, 1ull)] = int(u);
+}
+
+// A block's gathers (checks) go to lane groups when it has at most this many particles to do
+// (half its threads: 128 in the grid's blocks), else one thread each: a group shortens one
+// particle's chain of loads, but puts 8x fewer particles in flight (measured on the H100 with
+// blocks of 256, bench/overlap_correct-PERF.md).
+template <int Threads>
+constexpr int kGroupBelow = Threads / 2;
+
+// Who runs a launch's iterations (Team): the grid (kGrid: a cooperative launch of every block that
+// fits on the device, grid barriers between phases) or a thread-block cluster of Team blocks
+// (sm_90; cluster.sync(), a barrier in the hardware, where a grid barrier is atomics on a global
+// word and a spin: bench/overlap_correct-PERF.md has both's costs). Team blocks do the work of the grid's
+// with fewer threads; small systems (DeviceLoops::team_for) have too little work to fill the grid,
+// and there the barriers (three per iteration) and the cooperative launch are the time.
+constexpr int kGrid = 0;
+
+// A barrier among the launch's blocks, with the memory ordering of grid.sync: writes before it
+// (positions, marks, counters) are seen by every read after it. The cluster's barrier is a
+// release (arrive) and an acquire (wait) at cluster scope, which order global memory too.
+template <int Team>
+__device__ void team_sync() {
+  if constexpr (Team == kGrid) {
+    cg::this_grid().sync();
+  } else {
+#if defined(__CUDA_ARCH__) && __CUDA_ARCH__ >= 900
+    cg::this_cluster().sync();
+#else
+    __trap();  // never launched: the host launches clusters only on devices that have them
+#endif
+  }
+}
+
+// The u64 at p (in this block's shared memory) in the shared memory of the cluster's block
+// `rank` (sm_90's distributed shared memory): mapa and ld.shared::cluster. (cg's
+// cluster.map_shared_rank goes through a generic address, and cost this kernel up to 128
+// registers with 8-32 B of spills, against ~100-112 and none.)
+__device__ u64 load_in_block(const u64* p, int rank) {
+#if defined(__CUDA_ARCH__) && __CUDA_ARCH__ >= 900
+  const unsigned local = unsigned(__cvta_generic_to_shared(p));
+  unsigned remote;
+  u64 v;
+  asm volatile("mapa.shared::cluster.u32 %0, %1, %2;" : "=r"(remote) : "r"(local), "r"(rank));
+  asm volatile("ld.shared::cluster.u64 %0, [%1];" : "=l"(v) : "r"(remote) : "memory");
+  return v;
+#else
+  __trap();
+  return 0;
+#endif
+}
+
+__device__ u64 warp_sum(u64 x) {
+#pragma unroll
+  for (int o = 16; o > 0; o >>= 1) x += __shfl_down_sync(0xffffffffu, x, o);
+  return x;
+}
+
+// Walls: the wall code compiled in (walls: x | y); Mark: the touched field written (mark: true);
+// Team: who runs the iterations (team_sync); Threads: the block size.
+template <class R, int Threads, int MinBlocks, int Team, bool Walls, bool Mark>
+__global__ void __launch_bounds__(Threads, MinBlocks) correct_kernel(Args<R, Walls> a) {
+  constexpr int kReported = Sums<Mark>::kReported, kMoved = Sums<Mark>::kMoved, kAll = Sums<Mark>::kAll;
+  constexpr int kWarps = Threads / 32, kGroups = Threads / kGroup;
+  // A cluster's blocks sum the counters from each other's shared memory (s_part) instead of
+  // global atomics and loads: no round trip to L2 between the barrier and the decision.
+  constexpr bool kCluster = Team != kGrid;
+  __shared__ u64 s_part[kAll];  // (kCluster) this block's sums of the iteration
+  __shared__ int s_warp[kWarps];
+  __shared__ int s_seeds, s_moved, s_count;
+  __shared__ u64 s_red[kReported][kWarps];
+  __shared__ u64 s_tot[kAll];
+
+  const Overlaps<R, Walls>& ov = a.ov;
+  const int n = int(a.p.n);
+  const int t0 = int(blockIdx.x) * a.tile;
+  const int t1 = min(n, t0 + a.tile);
+  const std::size_t mine = std::size_t(blockIdx.x) * a.tile;  // 0 for block 0: its tail lists span all
+  int* cand = a.cand + mine;
+  int* seed = a.seed + mine;
+  double2* disp = a.disp + mine;
+  const int lane = threadIdx.x & 31, warp = threadIdx.x >> 5;
+  const int shard = int(blockIdx.x % kShards) * kShardStride;
+  bool tail = false;  // block 0 alone runs the iterations
+  // The next launch's counters, zeroed here instead of by a memset before it (a host call on
+  // the step's critical path, between Lawson's wait and this launch). No one reads them now.
+  for (int w = int(blockIdx.x * Threads + threadIdx.x); w < int(kSlotWords + 1); w += int(gridDim.x) * Threads)
+    a.next_slots[w] = 0;
+
+  for (int j = 0; j < kBatch; ++j) {
+    const long long k = a.k0 + j;
+    int count;
+    if (k == 0) {
+      count = max(0, t1 - t0);
+    } else if (!tail) {
+      count = compact<Threads>(a.marks, t0, a.tile, cand, s_warp);
+    } else {
+      if (threadIdx.x == 0) {
+        s_count = int(__ldcg(a.claims));
+        *a.claims = 0;
+      }
+      __syncthreads();
+      count = s_count;
+    }
+    if (threadIdx.x == 0) s_seeds = s_moved = 0;
+    __syncthreads();
+
+    u64 c[kReported] = {};
+    // What a gather found: counted, and the particle listed when it touched an overlap. The
+    // touched field (Mark): iteration 0 gathers every particle and writes each entry, later ones
+    // set those they touch (only v's gatherer writes v's entry in an iteration).
+    auto take = [&](int v, const VertexPush& q) {
+      c[kBad] += q.bad;
+      c[kPairs] += q.pairs;
+      c[kCorrection] += ov.fixed_len(q.len);
+      c[kBroken] += q.broken;
+      if constexpr (Mark) {
+        if (q.touched && (k == 0 || !a.p.touched[v])) ++c[kTouched];
+        if (q.touched || k == 0) a.p.touched[v] = std::uint8_t(q.touched);
+      }
+      if (q.touched) {
+        const bool moves = q.dx != 0 || q.dy != 0;
+        const int m = atomicAdd(&s_seeds, 1);
+        seed[m] = moves ? v : ~v;
+        if (moves) {
+          disp[m] = make_double2(q.dx, q.dy);
+          atomicAdd(&s_moved, 1);
+        }
+      }
+    };
+    if (k == 0 || count > kGroupBelow<Threads>) {  // one thread per particle
+      for (int i = int(threadIdx.x); i < count; i += Threads) {
+        const int v = k == 0 ? t0 + i : __ldcg(cand + i);
+        if (tail)  // its claim: cleared for the next check
+          atomicAnd(reinterpret_cast<unsigned*>(a.marks) + (v >> 2), ~(1u << (8 * (v & 3))));
+        int ids[kCached], d;
+        take(v, neighbor_ids(ov, v, k == 0, a.nb, a.degree, ids, d) ? gather_ids(ov, v, ids, d) : ov.gather(v));
+      }
+    } else {  // one lane group per particle (the loop is uniform over the block: shuffles)
+      const int l = int(threadIdx.x) % kGroup;
+      for (int base = 0; base < count; base += kGroups) {
+        const int i = base + int(threadIdx.x) / kGroup;
+        const bool has = i < count;
+        const int v = has ? __ldcg(cand + i) : 0;
+        if (tail && has && l == 0)  // its claim: cleared for the next check
+          atomicAnd(reinterpret_cast<unsigned*>(a.marks) + (v >> 2), ~(1u << (8 * (v & 3))));
+        const VertexPush q = group_gather(ov, v, has, l, a.nb, a.degree);
+        if (has && l == 0) take(v, q);
+      }
+    }
+#pragma unroll
+    for (int q = 0; q < kReported; ++q) {
+      const u64 s = warp_sum(c[q]);
+      if (lane == 0) s_red[q][warp] = s;
+    }
+    __syncthreads();
+    if (threadIdx.x < kAll) {
+      u64 s = 0;
+      if (threadIdx.x < kReported) {
+#pragma unroll
+        for (int w = 0; w < kWarps; ++w) s += s_red[threadIdx.x][w];
+      } else {
+        s = u64(s_moved);
+      }
+      if (tail)
+        s_tot[threadIdx.x] = s;
+      else if (kCluster)
+        s_part[threadIdx.x] = s;
+      else if (s)
+        atomicAdd(a.slots + (std::size_t(j) * kAll + threadIdx.x) * kShards * kShardStride + shard, s);
+    }
+    if (!tail) {
+      team_sync<Team>();
+      if (threadIdx.x < kAll) {
+        u64 s = 0;
+        if constexpr (kCluster) {
+          // Read here, between the barrier and the next one (the apply's): s_part is written
+          // again only after that, and a block returns only after one more barrier (below).
+          for (int r = 0; r < Team; ++r) s += load_in_block(s_part + threadIdx.x, r);
+        } else {
+          const u64* p = a.slots + (std::size_t(j) * kAll + threadIdx.x) * kShards * kShardStride;
+#pragma unroll
+          for (int h = 0; h < kShards; ++h) s += __ldcg(p + h * kShardStride);
+        }
+        s_tot[threadIdx.x] = s;
+      }
+    }
+    __syncthreads();
+    if (blockIdx.x == 0 && threadIdx.x < kReported)
+      a.result[std::size_t(j) * kCounters + threadIdx.x] = s_tot[threadIdx.x];
+    if (blockIdx.x == 0 && threadIdx.x == 0) a.result[std::size_t(kBatch) * kCounters] = u64(j + 1);
+    std::uint64_t tot[kReported];
+#pragma unroll
+    for (int q = 0; q < kReported; ++q) tot[q] = s_tot[q];
+    // The step ends here. Every mark is clear: the compaction or the gather cleared each one,
+    // and none is set before the check that follows an apply.
+    if (!keeps_going(tot, k, a.max_iterations)) {
+      // A cluster's block keeps its shared memory until the others have read its sums.
+      if (kCluster && !tail) team_sync<Team>();
+      return;
+    }
+
+    const int ns = s_seeds;
+    for (int i = int(threadIdx.x); i < ns; i += Threads) {
+      const int v = seed[i];
+      if (v >= 0) {
+        const double2 d = disp[i];
+        apply_one(a.p.pos, a.p.image, a.p.box, std::size_t(v), d.x, d.y);
+      }
+    }
+    if (tail)
+      __syncthreads();
+    else
+      team_sync<Team>();
+
+    // The check (positions are the new ones now): marks the next iteration's candidates. The
+    // last iteration of a batch leaves plain marks, which the next launch compacts.
+    const bool last = j + 1 == kBatch;
+    const bool to_tail = !tail && s_tot[kMoved] <= u64(kTailMoved);
+    const bool claim = (tail || to_tail) && !last;
+    auto mark_it = [&](int u) { mark(a.marks, u, claim, a.cand, a.claims); };
+    if (ns > kGroupBelow<Threads>) {  // one thread per listed particle
+      for (int i = int(threadIdx.x); i < ns; i += Threads) {
+        const int v = seed[i];
+        if (v < 0)
+          mark_it(~v);
+        else if (thread_check(ov, v, a.nb, a.degree, mark_it))  // (the fan closed in iteration 0)
+          mark_it(v);
+      }
+    } else {
+      const int l = int(threadIdx.x) % kGroup;
+      for (int base = 0; base < ns; base += kGroups) {  // one lane group per listed particle
+        const int i = base + int(threadIdx.x) / kGroup;
+        const int v = i < ns ? seed[i] : ~0;
+        if (i < ns && v < 0 && l == 0) mark_it(~v);
+        // The fan closed in iteration 0 (else the step ended there), and the walk is range-checked.
+        if (group_check(ov, v, i < ns && v >= 0, l, a.nb, a.degree, mark_it) && l == 0) mark_it(v);
+      }
+    }
+    if (last) return;  // the host launches the next batch
+    if (tail) {
+      __syncthreads();
+    } else {
+      team_sync<Team>();
+      if (to_tail) {
+        if (blockIdx.x != 0) return;
+        tail = true;
+      }
+    }
+  }
+}
+
+// Blocks and tile for n particles: at most what fits on the device at once (a cooperative
+// launch needs every block resident), tiles of at least 256 particles, a multiple of 16.
+// 2 blocks of 256 per SM (128 registers), the fastest measured on the H100 (bench-abp) with the
+// gathers' loads kInFlight at a time: 3 blocks get 80 registers and spill, and 8 loads in flight
+// gain nothing. The best count changed with the kernel (3 with one load after the other, 4 with
+// fan walks only), so measure again after changing it (bench/overlap_correct-PERF.md and
+// bench/README.md, "Numbers formerly in source comments").
+constexpr int kMinBlocks = 2;
+
+// Small systems: a cluster of kClusterBlocks blocks of kClusterThreads runs the iterations
+// instead of the grid for n ≤ kClusterMaxN: there an iteration's walks are short, and the grid's
+// three barriers per iteration and its cooperative launch are the time. The shape and the
+// threshold come from the A/B in bench/overlap_correct-PERF.md (session 13): above the threshold
+// the grid's SMs do more than the cluster's barrier saves; one block alone (a variant there)
+// lost at every size.
+constexpr int kClusterBlocks = 16;
+constexpr int kClusterThreads = 512;
+constexpr std::size_t kClusterMaxN = 4096;
+
+// A team's block size; 128 registers a thread, as the grid's kernel (kMinBlocks).
+template <int Team>
+constexpr int threads_of = Team == kGrid ? kThreads : kClusterThreads;
+template <int Team>
+constexpr int min_blocks_of = Team == kGrid ? kMinBlocks : std::max(1, 512 / threads_of<Team>);
+
+template <class R, int Team, bool Walls, bool Mark>
+void* kernel_ptr() {
+  return reinterpret_cast<void*>(correct_kernel<R, threads_of<Team>, min_blocks_of<Team>, Team, Walls, Mark>);
+}
+
+// The launch's shape for a cluster of Team blocks.
+template <int Team>
+cudaLaunchConfig_t team_config(cudaLaunchAttribute* attr, CUstream_st* s) {
+  cudaLaunchConfig_t cfg = {};
+  cfg.gridDim = dim3(Team);
+  cfg.blockDim = dim3(threads_of<Team>);
+  cfg.stream = s;
+  attr[0].id = cudaLaunchAttributeClusterDimension;
+  attr[0].val.clusterDim.x = Team;
+  attr[0].val.clusterDim.y = attr[0].val.clusterDim.z = 1;
+  cfg.attrs = attr;
+  cfg.numAttrs = 1;
+  return cfg;
+}
+
+// Whether the device can run the cluster team: sm_90 clusters, and its blocks in one GPC at once.
+template <class R, bool Walls, bool Mark>
+bool cluster_fits() {
+  int dev = 0, cluster = 0;
+  FF_CUDA_CHECK(cudaGetDevice(&dev), "overlap_correct: current device");
+  FF_CUDA_CHECK(cudaDeviceGetAttribute(&cluster, cudaDevAttrClusterLaunch, dev), "overlap_correct: clusters");
+  if (!cluster) return false;
+  void* f = kernel_ptr<R, kClusterBlocks, Walls, Mark>();
+  if (kClusterBlocks > 8)  // 8 is the portable cluster size; sm_90 runs 16
+    FF_CUDA_CHECK(cudaFuncSetAttribute(f, cudaFuncAttributeNonPortableClusterSizeAllowed, 1),
+                  "overlap_correct: cluster size");
+  cudaLaunchAttribute attr[1];
+  const cudaLaunchConfig_t cfg = team_config<kClusterBlocks>(attr, nullptr);
+  int clusters = 0;
+  FF_CUDA_CHECK(cudaOccupancyMaxActiveClusters(&clusters, f, &cfg), "overlap_correct: cluster occupancy");
+  return clusters >= 1;
+}
+
+// The team for n particles: the cluster where the device runs it (n ≤ kClusterMaxN), else the
+// grid.
+template <class R, bool Walls, bool Mark>
+int team_for(std::size_t n) {
+  if (n <= kClusterMaxN && cluster_fits<R, Walls, Mark>()) return kClusterBlocks;
+  return kGrid;
+}
+
+template <class R, bool Walls, bool Mark>
+void shape(std::size_t n, int team, int& grid, int& tile) {
+  if (team != kGrid) {  // the team's blocks share the particles in tiles
+    grid = team;
+    const std::size_t t = (n + grid - 1) / grid;
+    tile = int(std::max<std::size_t>(16, (t + 15) / 16 * 16));
+    return;
+  }
+  int dev = 0, sms = 0, per_sm = 0, coop = 0;
+  FF_CUDA_CHECK(cudaGetDevice(&dev), "overlap_correct: current device");
+  FF_CUDA_CHECK(cudaDeviceGetAttribute(&sms, cudaDevAttrMultiProcessorCount, dev), "overlap_correct: SM count");
+  FF_CUDA_CHECK(cudaDeviceGetAttribute(&coop, cudaDevAttrCooperativeLaunch, dev), "overlap_correct: cooperative");
+  if (!coop) throw RunError("overlap_correct: the CUDA device does not support cooperative launches");
+  FF_CUDA_CHECK(cudaOccupancyMaxActiveBlocksPerMultiprocessor(&per_sm, kernel_ptr<R, kGrid, Walls, Mark>(), kThreads, 0),
+                "overlap_correct: occupancy");
+  const std::size_t most = std::size_t(std::max(1, per_sm)) * std::size_t(sms);
+  const std::size_t want = std::max<std::size_t>(1, (n + 255) / 256);
+  grid = int(std::min(most, want));
+  const std::size_t t = (n + grid - 1) / grid;
+  tile = int(std::max<std::size_t>(16, (t + 15) / 16 * 16));
+}
+
+}  // namespace
+
+}  // namespace ff::overlap
