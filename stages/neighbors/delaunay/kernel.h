@@ -17,7 +17,7 @@
 // bit). The search reads m from the word the gather's max-reduction left in memory, so the host
 // does not wait between the two loops.
 //
-// Layout: GatherRing writes a table of one-rings each step: vertex u's neighbours (turning CCW
+// Layout: GatherRing writes a table of one-rings each step: vertex u's neighbours (turning clockwise
 // from vertex_edge) in one row of the table, padded to a multiple of 4 slots and read four at a
 // time, and a 16-byte record of u (its position as the search needs it, float; its row's start;
 // its degree), so the search touches ~6 slots and one record per vertex: ~48 bytes a vertex in
@@ -27,8 +27,11 @@
 //            entries in fast memory (CUDA: the thread's column of shared memory; CPU: the
 //            stack), beyond that the row of neighbors.list. A 128-bit filter in registers
 //            answers "not seen" for most new vertices without a scan of the queue, and a vertex
-//            seen before is skipped before its distance is computed again. The accepted entries
-//            are then compacted, sorted and written to the row.
+//            seen before is skipped before its distance is computed again. The expansion of a
+//            queued vertex skips its parent and the parent's two neighbours in its ring, which
+//            the parent's expansion tested (apex_mask): 3 of ~6 members, most of the queue
+//            scans. The accepted entries are then compacted, sorted (up to 16 by a sorting
+//            network in registers) and written to the row.
 //   parent   depth-first without a visited set: q's parent is its ring member closest to p
 //            (ties: lower index), which the lemma makes closer to p than q, so the parent links
 //            form a tree rooted at p; the search descends from u to w iff parent(w) = u. The
@@ -62,8 +65,10 @@ inline constexpr std::uint32_t kTooFar = 0x40000000u;
 // The padding after the last member of a ring's row in the table, and after the last
 // neighbour of a row of the list.
 inline constexpr std::uint32_t kRingEnd = 0xFFFFFFFFu;
-// Queue slots of the visited search kept out of the list (shared memory on CUDA).
-inline constexpr std::uint32_t kFastSlots = 32;
+// Queue slots of the visited search kept out of the list (shared memory on CUDA). At r = 2σ a
+// search queues at most ~14; 16 slots (8 KB a block) leave the SM more L1 than 32 did (3 %
+// faster at 2^20 on an H200), 8 spill to the row too often (8 % slower).
+inline constexpr std::uint32_t kFastSlots = 16;
 
 // The bits of a non-negative float as an unsigned integer, which order as the floats do.
 FF_HD std::uint32_t float_bits(float f) {
@@ -203,7 +208,7 @@ struct HeldRing {
 };
 
 // The table of one-rings, rebuilt each step from the half-edges: vertex u's ring (its
-// neighbours turning CCW from vertex_edge[u]) in table[start, start + degree), the row padded
+// neighbours turning clockwise from vertex_edge[u]) in table[start, start + degree), the row padded
 // with kRingEnd to a multiple of 4 slots, and u's record (RingRecord). A periodic triangulation
 // has 6N half-edges, so the rows take at most 6N + 3N slots. The rows are placed by the loop
 // (loops.h: each block of vertices takes its rows' space with one atomic add, so their order
@@ -230,14 +235,13 @@ struct GatherRing {
     int h = h0;
     std::uint32_t k = 0;
     do {
-      // The other end of h is the origin of next(h), whose next is next(next(h)), and
-      // twin(next(next(h))) is the next half-edge CCW around u.
-      int origin, next, end, next2;
-      load_halfedge(he, h, origin, next);
-      load_halfedge(he, next, end, next2);
+      // One load a member: twin(h) = h ^ 1 starts at h's other end, and its next is the next
+      // half-edge out of u clockwise (the search needs the members, not their order).
+      int end, next;
+      load_halfedge(he, h ^ 1, end, next);
       r.hold(k, std::uint32_t(end));
       ++k;
-      h = next2 ^ 1;
+      h = next;
     } while (h != h0 && k < n);
     r.degree = k;
     return r;
@@ -251,11 +255,10 @@ struct GatherRing {
       const int h0 = vedge[u];
       int h = h0;
       for (std::uint32_t k = 0; k < r.degree; ++k) {
-        int origin, next, end, next2;
-        load_halfedge(he, h, origin, next);
-        load_halfedge(he, next, end, next2);
+        int end, next;
+        load_halfedge(he, h ^ 1, end, next);
         if (k >= kHeldMembers) row[k] = std::uint32_t(end);
-        h = next2 ^ 1;
+        h = next;
       }
       for (std::uint32_t k = r.degree; k < ring_slots(r.degree); ++k) row[k] = kRingEnd;
     }
@@ -282,6 +285,29 @@ struct GatherRing {
     return float(d - now.box.L[k] * std::floor(d * now.box.inv_L[k]));
   }
 };
+
+// The slots of a ring row (bit k: slot k) that the expansion of its vertex u need not test when
+// v, a vertex expanded before u (the search uses the entry whose expansion queued u), is in u's
+// ring: v itself and v's two neighbours in u's ring, the apexes of the two triangles on edge uv.
+// Both apexes are in v's ring too, so v's expansion tested them (queued them, or found them
+// beyond the radius: the same test would reject them again). Skipping them saves the test and,
+// for queued ones, the scan of the queue. 0 when v is not among the first 32 slots.
+FF_HD std::uint32_t apex_mask(const std::uint32_t* row, std::uint32_t degree, std::uint32_t v) {
+  if (degree > 32) return 0;
+  std::uint32_t at = degree;
+  for (std::uint32_t k = 0; k < degree && at == degree; k += 4) {
+    std::uint32_t c[4];
+    load4(row + k, c);
+#if defined(__CUDA_ARCH__)
+#pragma unroll
+#endif
+    for (std::uint32_t j = 0; j < 4; ++j)
+      if (k + j < degree && at == degree && c[j] == v) at = k + j;
+  }
+  if (at == degree) return 0;
+  const std::uint32_t before = at == 0 ? degree - 1 : at - 1, after = at + 1 == degree ? 0 : at + 1;
+  return (1u << before) | (1u << at) | (1u << after);
+}
 
 // d (a difference of two coordinates in [0, L]) shifted by L once when beyond L/2: its
 // minimum image up to the rounding float_expand2 allows for.
@@ -354,14 +380,137 @@ struct SearchBase {
   template <class Get>
   FF_HD void write_row(std::uint32_t p, R px, R py, std::uint32_t m, const Get& sorted) const {
     std::uint32_t* row = list + std::size_t(p) * capacity;
+    // Streaming stores (evict first): the rows, counts and positions written here (~80 MB at
+    // 2^20) are read by the next stages, not by this search, and would push the ring table and
+    // records out of the L2 that the searches of the other particles read them from.
     for (std::uint32_t a = 0; a < m; a += 4) {
       std::uint32_t v[4];
       for (std::uint32_t b = 0; b < 4; ++b) v[b] = a + b < m ? sorted(a + b) : kRingEnd;
+#if defined(__CUDA_ARCH__)
+      __stcs(reinterpret_cast<uint4*>(row + a), make_uint4(v[0], v[1], v[2], v[3]));
+#else
       store4(row + a, v);
+#endif
     }
+#if defined(__CUDA_ARCH__)
+    __stcs(count + p, m);
+    __stcs(at_build + 2 * std::size_t(p), px);
+    __stcs(at_build + 2 * std::size_t(p) + 1, py);
+#else
     count[p] = m;
     at_build[2 * std::size_t(p)] = px;
     at_build[2 * std::size_t(p) + 1] = py;
+#endif
+  }
+
+  // A row of m ≤ 16 entries (get(a) for a < m; kRingEnd past m), sorted by Batcher's odd-even
+  // merge network of 16 (63 compare-exchanges) in registers: no data-dependent loop (an
+  // insertion sort's loops diverge within a warp and chain shared-memory loads). The kRingEnd
+  // entries sort last and are the row's padding. Writes what write_row writes.
+  template <class Get>
+  FF_HD void write_sorted16(std::uint32_t p, R px, R py, std::uint32_t m, const Get& get) const {
+    std::uint32_t r0 = get(0);
+    std::uint32_t r1 = get(1);
+    std::uint32_t r2 = get(2);
+    std::uint32_t r3 = get(3);
+    std::uint32_t r4 = get(4);
+    std::uint32_t r5 = get(5);
+    std::uint32_t r6 = get(6);
+    std::uint32_t r7 = get(7);
+    std::uint32_t r8 = get(8);
+    std::uint32_t r9 = get(9);
+    std::uint32_t r10 = get(10);
+    std::uint32_t r11 = get(11);
+    std::uint32_t r12 = get(12);
+    std::uint32_t r13 = get(13);
+    std::uint32_t r14 = get(14);
+    std::uint32_t r15 = get(15);
+    const auto ce = [](std::uint32_t& a, std::uint32_t& b) {
+      const std::uint32_t lo = a < b ? a : b;
+      b = a < b ? b : a;
+      a = lo;
+    };
+    ce(r0, r1);
+    ce(r2, r3);
+    ce(r0, r2);
+    ce(r1, r3);
+    ce(r1, r2);
+    ce(r4, r5);
+    ce(r6, r7);
+    ce(r4, r6);
+    ce(r5, r7);
+    ce(r5, r6);
+    ce(r0, r4);
+    ce(r2, r6);
+    ce(r2, r4);
+    ce(r1, r5);
+    ce(r3, r7);
+    ce(r3, r5);
+    ce(r1, r2);
+    ce(r3, r4);
+    ce(r5, r6);
+    ce(r8, r9);
+    ce(r10, r11);
+    ce(r8, r10);
+    ce(r9, r11);
+    ce(r9, r10);
+    ce(r12, r13);
+    ce(r14, r15);
+    ce(r12, r14);
+    ce(r13, r15);
+    ce(r13, r14);
+    ce(r8, r12);
+    ce(r10, r14);
+    ce(r10, r12);
+    ce(r9, r13);
+    ce(r11, r15);
+    ce(r11, r13);
+    ce(r9, r10);
+    ce(r11, r12);
+    ce(r13, r14);
+    ce(r0, r8);
+    ce(r4, r12);
+    ce(r4, r8);
+    ce(r2, r10);
+    ce(r6, r14);
+    ce(r6, r10);
+    ce(r2, r4);
+    ce(r6, r8);
+    ce(r10, r12);
+    ce(r1, r9);
+    ce(r5, r13);
+    ce(r5, r9);
+    ce(r3, r11);
+    ce(r7, r15);
+    ce(r7, r11);
+    ce(r3, r5);
+    ce(r7, r9);
+    ce(r11, r13);
+    ce(r1, r2);
+    ce(r3, r4);
+    ce(r5, r6);
+    ce(r7, r8);
+    ce(r9, r10);
+    ce(r11, r12);
+    ce(r13, r14);
+    std::uint32_t* row = list + std::size_t(p) * capacity;
+#if defined(__CUDA_ARCH__)
+    if (m > 0) __stcs(reinterpret_cast<uint4*>(row), make_uint4(r0, r1, r2, r3));
+    if (m > 4) __stcs(reinterpret_cast<uint4*>(row + 4), make_uint4(r4, r5, r6, r7));
+    if (m > 8) __stcs(reinterpret_cast<uint4*>(row + 8), make_uint4(r8, r9, r10, r11));
+    if (m > 12) __stcs(reinterpret_cast<uint4*>(row + 12), make_uint4(r12, r13, r14, r15));
+    __stcs(count + p, m);
+    __stcs(at_build + 2 * std::size_t(p), px);
+    __stcs(at_build + 2 * std::size_t(p) + 1, py);
+#else
+    if (m > 0) store4(row, r0, r1, r2, r3);
+    if (m > 4) store4(row + 4, r4, r5, r6, r7);
+    if (m > 8) store4(row + 8, r8, r9, r10, r11);
+    if (m > 12) store4(row + 12, r12, r13, r14, r15);
+    count[p] = m;
+    at_build[2 * std::size_t(p)] = px;
+    at_build[2 * std::size_t(p) + 1] = py;
+#endif
   }
 
   // Row overflow: nothing valid in the row; the stage grows it and searches again.
@@ -420,6 +569,11 @@ struct SearchVisited : SearchBase<R> {
     // would live in local memory on the device).
     std::uint64_t filter_lo = 0, filter_hi = 0;
     std::uint32_t n = 0, head = 0;
+    // Ring slots the expansion skips (apex_mask), and which entry queued each of the first 16
+    // queue entries (4 bits each: queue index + 1 of the parent, 0 for p; an entry queued by
+    // entry i has a queue index above i, so it fits). Later entries skip nothing.
+    std::uint32_t skip = 0, cur = 0;
+    std::uint64_t parents = 0;
     for (;;) {
       for (std::uint32_t k = 0; k < ru.degree; k += 4) {
         std::uint32_t c[4];
@@ -431,6 +585,7 @@ struct SearchVisited : SearchBase<R> {
         for (std::uint32_t j = 0; j < 4; ++j) {
           const std::uint32_t w = c[j];
           if (k + j >= ru.degree) continue;
+          if (k + j < 32 && ((skip >> (k + j)) & 1u)) continue;
           const std::uint32_t hash = (w * 0x9E3779B1u) >> 25;  // 7 bits
           const std::uint64_t bit = std::uint64_t(1) << (hash & 63);
           const bool hi = (hash >> 6) != 0;
@@ -447,11 +602,18 @@ struct SearchVisited : SearchBase<R> {
           if (n == q.limit() && !q.spill(n)) return this->overflow(p);
           if (hi) filter_hi |= bit;
           else filter_lo |= bit;
+          if (n < 16) parents |= std::uint64_t(cur) << (4 * n);
           q.set(n++, w);
         }
       }
       if (head == n) break;
-      ru = load_record(this->record, q.get(head++));
+      ru = load_record(this->record, q.get(head));
+      skip = 0;
+      if (head < 16) {
+        const std::uint32_t f = std::uint32_t((parents >> (4 * head)) & 15u);
+        skip = apex_mask(this->table + ru.start, ru.degree, f == 0 ? p : q.get(f - 1));
+      }
+      cur = ++head;
     }
     // The accepted ones, compacted to the front in queue order, then sorted (rows are short).
     R x0, y0;
@@ -460,6 +622,10 @@ struct SearchVisited : SearchBase<R> {
     for (std::uint32_t a = 0; a < n; ++a) {
       const std::uint32_t w = q.get(a);
       if (this->accepted(x0, y0, w)) q.set(m++, w);
+    }
+    if (m <= 16) {
+      this->write_sorted16(p, x0, y0, m, [&](std::uint32_t a) { return a < m ? q.get(a) : kRingEnd; });
+      return n;
     }
     for (std::uint32_t a = 1; a < m; ++a) {
       const std::uint32_t v = q.get(a);

@@ -55,7 +55,7 @@ struct DelaunaySearchParams {
         .one_of({"visited", "parent"});
     p(capacity, "capacity",
       "initial row length of the list, rounded up to a multiple of 4, which is also the search's working memory "
-      "beyond 32 queue slots (0: from the density); grown when a search overflows it")
+      "beyond 16 queue slots (0: from the density); grown when a search overflows it")
         .at_least(0);
   }
 };
