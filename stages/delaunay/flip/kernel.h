@@ -2,7 +2,8 @@
 // by the detection pass of delaunay.detect_inversion (MarkInversions, without the r⁰·r¹ test),
 // which re-marks whatever inverted triangles remain. For `on_unrepairable: substep` (Porro et
 // al. §3, "intermediate position"), two per-vertex passes: which particles have an inverted
-// triangle around them, then move those half way back to where the triangulation was valid.
+// triangle around them or an edge whose vector reversed since the valid positions (r⁰·r¹ < 0),
+// then move those half way back to where the triangulation was valid.
 // FF_HD; nvcc-clean.
 #pragma once
 #include <cstdint>
@@ -12,7 +13,9 @@
 
 namespace ff::delaunay {
 
-// Per vertex v: moving[v] = 1 when a triangle around v is inverted. Each triangle's orientation
+// Per vertex v: moving[v] = 1 when a triangle around v is inverted, or when the vector of an
+// edge at v reversed since `valid` (MarkInversions' r⁰·r¹ test, the same formula from either
+// end: a pair passing each other closer than the step's move). Each triangle's orientation
 // is computed from its canonical half-edge exactly as MarkInversions / CheckInverted compute it,
 // so a near-flat triangle is judged the same way by every pass (and by all three of its vertices).
 // Per vertex (reads only) so that no two threads write the same byte.
@@ -20,6 +23,7 @@ template <class R>
 struct MarkInvertedVertices {
   Mesh mesh;
   Points<R> pts;
+  Points<R> valid;  // where the triangulation was valid (delaunay.position_prev)
   std::uint8_t* moving;
 
   FF_HD bool inverted(int h) const {
@@ -37,6 +41,8 @@ struct MarkInvertedVertices {
     std::uint8_t m = 0;
     do {  // CCW around the vertex: the half-edges leaving it, one per triangle
       if (inverted(h)) m = 1;
+      const int j = mesh.origin(mesh.next(h));
+      if (dot(valid.rel(int(i), j), pts.rel(int(i), j)) < 0) m = 1;
       h = twin(mesh.next(mesh.next(h)));
     } while (h != h0);
     moving[i] = m;

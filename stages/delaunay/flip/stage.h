@@ -4,7 +4,8 @@
 // inverted triangle into two positive ones and touches nothing else, so the number of inverted
 // triangles drops every round. Whatever cannot be repaired this way requests a rollback, or,
 // with `on_unrepairable: substep`, is untangled through intermediate positions (untangle below;
-// Porro et al. §3) so that the step still ends at the integrator's targets.
+// Porro et al. §3) so that the step still ends at the integrator's targets; so are particles
+// that passed each other (an edge vector reversed), which detect_inversion leaves to it then.
 #pragma once
 #include <array>
 #include <string>
@@ -77,7 +78,8 @@ class Flip final : public Stage {
         counters_(exec),
         go_(exec),
         target_(exec),
-        moving_(exec) {}
+        moving_(exec),
+        topology_(exec) {}
 
   std::vector<Access> accesses() const override {
     std::vector<Access> a{{ff::fields::position, where_, Mode::read},
@@ -118,7 +120,12 @@ class Flip final : public Stage {
     rounds_ = 0;
     const Mesh m = mesh_view(s, where_);
     // Detect's marks when it made any; else (only unrepairable triangles) nothing to flip yet.
-    auto h = repair(s, m, points_view<R>(s, ff::fields::position, where_), nullptr, status(s)[kPending] == 0, st);
+    // Substep mode (kept) marks again with the r⁰·r¹ test against position_prev: detect left
+    // reversed edges to the untangling, which must see them.
+    const Points<R> now = points_view<R>(s, ff::fields::position, where_);
+    if (kept) topology(s, true, st);  // valid at position_prev: untangle's halvings start from it
+    auto h = kept ? repair(s, m, now, s.field(fields::position_prev).data<R>(where_), true, st)
+                  : repair(s, m, now, nullptr, status(s)[kPending] == 0, st);
     status(s)[kPending] = 0;
     Outcome out = Outcome::ok();
     if (kept) {
@@ -140,7 +147,9 @@ class Flip final : public Stage {
 
   // Repair rounds (decide → apply → re-mark) while something is marked, up to max_rounds.
   // `mark_first`: the positions changed since the marks were made, so mark them first, with the
-  // r⁰·r¹ test against `prev` when given (returns at once when that fires). The last counters.
+  // r⁰·r¹ test against `prev` when given (substep mode). The last counters, with the first
+  // marking's reversed edges (kThrough, kThroughAt): the rounds repair what single flips can
+  // around a pair that passed each other, and untangle halves what is left.
   Tally repair(State& s, const Mesh& m, const Points<R>& pts, const R* prev, bool mark_first, CUstream_st* st) {
     std::uint8_t* mark = s.field(fields::flip_mark).data<std::uint8_t>(where_);
     const std::size_t E = edge_count(s.n());
@@ -152,8 +161,9 @@ class Flip final : public Stage {
       loops_.mark(E, MarkInversions<R>{m, pts, prev, mark, c}, st);
       h = counters_.read(st);
       throw_if_too_long(s, where_, mem_, h[kTooLong], h[kTooLongAt], st, "delaunay.flip");
-      if (h[kThrough] || !h[kMarked]) return h;
+      if (!h[kMarked]) return h;
     }
+    const unsigned through = h[kThrough], through_at = h[kThroughAt];
     std::int64_t rounds = 0;
     do {
       counters_.reset(kMinSlots, st);
@@ -166,6 +176,8 @@ class Flip final : public Stage {
       throw_if_too_long(s, where_, mem_, h[kTooLong], h[kTooLongAt], st, "delaunay.flip");
     } while (h[kMarked] && rounds < p_.max_rounds);
     rounds_ += rounds;
+    h[kThrough] = through;
+    h[kThroughAt] = through_at;
     return h;
   }
 
@@ -175,8 +187,11 @@ class Flip final : public Stage {
   // toward where they are now, and the rounds run again; once nothing is inverted the
   // positions become the new V and every particle goes to T again. Each halving counts; after
   // max_substeps the step is rolled back. The last positions tried are T itself (a copy), so
-  // an accepted step ends exactly at the integrator's targets. Particles whose edge vector
-  // reverses between V and an attempt (r⁰·r¹ < 0) passed through each other: rollback.
+  // an accepted step ends exactly at the integrator's targets. An edge whose vector reverses
+  // between V and an attempt (r⁰·r¹ < 0: its particles passed each other) counts as not
+  // repaired: its two particles are halved too. Points on straight paths that miss each other
+  // by b > 0 give r⁰·r¹ > 0 once the remaining relative move is below ~b, so only a collision
+  // (b = 0) runs out of max_substeps.
   Outcome untangle(StepContext& ctx, const Mesh& m, Tally h) {
     State& s = ctx.state;
     CUstream_st* st = ctx.stream;
@@ -194,23 +209,26 @@ class Flip final : public Stage {
                                        std::move(who));
     };
     while (true) {
-      if (h[kThrough]) {
-        auto ids = edge_vertices(s, where_, mem_, int(h[kThroughAt]), st);
-        return stop("particles " + list_ids(ids) + " passed through each other between intermediate positions (r0.r1 < 0)",
-                    ids);
-      }
       R* x = s.field(ff::fields::position).data<R>(ctx);
       R* v = s.field(fields::position_prev).data<R>(ctx);
-      if (!h[kInverted]) {
+      if (!h[kInverted] && !h[kThrough]) {
         if (at_target) break;
         mem_.copy(v, x, bytes, st);  // valid here: the next reference
+        topology(s, true, st);
         mem_.copy(x, target, bytes, st);
         at_target = true;
       } else {
-        if (halvings == p_.max_substeps)
+        if (halvings == p_.max_substeps) {
+          if (h[kThrough]) {
+            auto ids = edge_vertices(s, where_, mem_, int(h[kThroughAt]), st);
+            return stop("particles " + list_ids(ids) + " passed through each other (r0.r1 < 0) even after halving the "
+                            "moves " + std::to_string(halvings) + " time(s) (max_substeps)",
+                        ids);
+          }
           return stop(std::to_string(h[kInverted]) + " inverted triangle(s) remain after halving the moves " +
                           std::to_string(halvings) + " time(s) (max_substeps)",
                       {});
+        }
         if (!announced) {  // the first intermediate position: keep T and V for a rollback
           ctx.will_write(ff::fields::position);
           ctx.will_write(fields::position_prev);
@@ -220,8 +238,11 @@ class Flip final : public Stage {
           mem_.copy(target, x, bytes, st);
         }
         ++halvings;
-        loops_.moving(n, MarkInvertedVertices<R>{m, Points<R>{x, box}, moving}, st);
+        loops_.moving(n, MarkInvertedVertices<R>{m, Points<R>{x, box}, Points<R>{v, box}, moving}, st);
         loops_.halfway(n, MoveHalfway<R>{Points<R>{v, box}, x, moving}, st);
+        // The flips made for the positions farther out need not be valid nearer V (a flipped
+        // triangle can stay inverted however close to V its vertices come): repair from V's.
+        topology(s, false, st);
         at_target = false;
       }
       h = repair(s, m, Points<R>{x, box}, v, true, st);
@@ -234,6 +255,21 @@ class Flip final : public Stage {
     return Outcome::ok();
   }
 
+  // Substep mode: keep (`keep`) the topology where the triangulation is valid (V), or put it
+  // back (the three topology fields, one after another in topology_).
+  void topology(State& s, bool keep, CUstream_st* st) {
+    std::size_t words = 0;
+    for (const char* f : {fields::halfedge, fields::opposite, fields::vertex_edge}) words += s.field(f).size();
+    std::int32_t* kept = topology_.get(words);
+    for (const char* f : {fields::halfedge, fields::opposite, fields::vertex_edge}) {
+      Field& fl = s.field(f);
+      std::int32_t* d = fl.data<std::int32_t>(where_);
+      if (keep) mem_.copy(kept, d, fl.bytes(), st);
+      else mem_.copy(d, kept, fl.bytes(), st);
+      kept += fl.bytes() / sizeof(std::int32_t);
+    }
+  }
+
   static constexpr std::array<int, 4> kMinSlots{kThroughAt, kTwiceAt, kUnrepairableAt, kTooLongAt};
   FlipParams p_;
   bool substep_;
@@ -244,6 +280,7 @@ class Flip final : public Stage {
   Scratch<std::uint8_t> go_;
   Scratch<R> target_;            // substep: the integrator's targets T
   Scratch<std::uint8_t> moving_; // substep: particles with an inverted triangle around them
+  Scratch<std::int32_t> topology_; // substep: the topology valid at V (halfedge, opposite, vertex_edge)
   unsigned flips_ = 0;
   std::int64_t rounds_ = 0;
 };
