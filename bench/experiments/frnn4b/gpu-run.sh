@@ -11,15 +11,16 @@
 #  A. neighbors.delaunay: does staging a block's own vertices' records and ring rows in shared
 #     memory (bc16: 16 queue slots + 2 KB records + 5 KB rows = 15 KB a block; bc8: 8 queue
 #     slots) make the search faster than main and than s16 (16 queue slots only, frnn4's patch)?
-#     On the CPU at 2^16, 75 % of the member records and 83 % of the expanded rows a search reads
-#     are its own block's (Hilbert order).
+#     bc256: bc16 with blocks of 256 (30 KB a block). On the CPU at 2^16, 75 % of the member
+#     records and 83 % of the expanded rows a search reads are its own block's of 128 (Hilbert
+#     order), 84 % and 89 % of 256.
 #  B. boids with neighbors.delaunay (pipelines/bench-boids-delaunay.yaml: flip with
 #     on_unrepairable: substep, which now sub-steps pairs that pass each other): does it run at
 #     2^20 on the GPU (it stopped at step 19 before), and at what ms per step?
-#   1. tests: main's test_neighbors_delaunay with bc16 / bc8 (CUDA: brute force, CPU == CUDA
+#   1. tests: main's test_neighbors_delaunay with bc16 / bc8 / bc256 (CUDA: brute force, CPU == CUDA
 #      rows, 10^3 hard-disk steps vs neighbors.verlet); the branch's test_delaunay_flip and main's
 #      test_delaunay_detect_inversion and test_boids_delaunay with the branch's delaunay stages;
-#   2. speed A: frnn-ab-fwd.yaml (frnn_ab.main, .s16, .bc16, .bc8 one after another on the same
+#   2. speed A: frnn-ab-fwd.yaml (frnn_ab.main, .s16, .bc16, .bc8, .bc256 one after another on the same
 #      state every step) at 2^18 and 2^20;
 #   3. speed B: bench-boids-delaunay.yaml at 2^20, 30 steps after 5 (stage ms, substeps per step);
 #   4. speed A again in reverse order (frnn-ab-rev.yaml) at 2^20.
@@ -38,7 +39,7 @@ nvidia-smi --query-gpu=name,clocks.sm,clocks.max.sm --format=csv | tee "$S"
 left() { ((SECONDS < BUDGET)) || { echo "== skipped ($1): ${SECONDS} s spent" | tee -a "$S"; return 1; }; }
 
 # 1. tests, all at once
-for v in bc16 bc8; do
+for v in bc16 bc8 bc256; do
   (FLIPFLOW_TEST_DEVICE=cuda FLIPFLOW_PLUGIN_PATH=$V/$v:$B/plugins timeout 80 "$B/bin/test_neighbors_delaunay" \
      > "$O/test-neighbors-$v.log" 2>&1; echo "rc=$?" >> "$O/test-neighbors-$v.log") &
 done
