@@ -29,8 +29,9 @@ struct FlipParams {
     p(max_rounds, "max_rounds", "repair rounds before the step is rolled back").at_least(1);
     p(on_unrepairable, "on_unrepairable",
       "what to do with triangles no single flip repairs (a vertex across several edges, an edge crossed from "
-      "both sides): rollback = retry the step with a smaller time step (new noise); substep = move their "
-      "particles half way back, repair, then on to the targets (Porro et al. 3; keeps the trajectory)")
+      "both sides) and with particles that passed each other: rollback = retry the step with a smaller time step "
+      "(new noise); substep = move their particles half way back, repair, then on to the targets (Porro et al. "
+      "3; keeps the trajectory; for points such as boids, which pass each other closely)")
         .one_of({"rollback", "substep"});
     p(max_substeps, "max_substeps",
       "with on_unrepairable: substep, how many times a step may halve the remaining moves before it is rolled "
@@ -45,7 +46,8 @@ struct FlipLoops {
   ElementLoop<ApplyFlips> apply;
   ElementLoop<MarkInversions<R>> mark;
   ElementLoop<MarkInvertedVertices<R>> moving;
-  ElementLoop<MoveHalfway<R>> halfway;
+  ElementLoop<Deepen<R>> deepen;
+  ElementLoop<Shallower<R>> shallower;
 };
 
 // The plain element loops of the backend object (CpuExec or CudaExec) this stage.h is compiled
@@ -54,7 +56,7 @@ template <class R, class Exec>
 FlipLoops<R> flip_loops(Exec) {
   return {&Exec::template for_each<DecideFlips>, &Exec::template for_each<ApplyFlips>,
           &Exec::template for_each<MarkInversions<R>>, &Exec::template for_each<MarkInvertedVertices<R>>,
-          &Exec::template for_each<MoveHalfway<R>>};
+          &Exec::template for_each<Deepen<R>>, &Exec::template for_each<Shallower<R>>};
 }
 
 template <class R>
@@ -79,7 +81,9 @@ class Flip final : public Stage {
         go_(exec),
         target_(exec),
         moving_(exec),
-        topology_(exec) {}
+        topology_(exec),
+        depth_(exec),
+        deep_(exec) {}
 
   std::vector<Access> accesses() const override {
     std::vector<Access> a{{ff::fields::position, where_, Mode::read},
@@ -182,12 +186,16 @@ class Flip final : public Stage {
   }
 
   // Substep untangling (Porro et al. §3, "intermediate position"). The triangulation is valid
-  // at V = position_prev and the integrator's targets T are in `position`. While triangles stay
-  // inverted after the repair rounds, the particles of those triangles go half way from V
-  // toward where they are now, and the rounds run again; once nothing is inverted the
-  // positions become the new V and every particle goes to T again. Each halving counts; after
-  // max_substeps the step is rolled back. The last positions tried are T itself (a copy), so
-  // an accepted step ends exactly at the integrator's targets. An edge whose vector reverses
+  // at V = position_prev and the integrator's targets T are in `position`. Each particle has a
+  // depth d (0 at first) and is tried at V + 2^-d (T − V) (place_at_depth). While triangles stay
+  // inverted after the repair rounds, the particles of those triangles go a level deeper (half
+  // as far from V) and the rounds run again from V's topology; once nothing is inverted the
+  // positions become the new V and every particle goes a level shallower: twice as far along
+  // the rest of its way as the try that worked (a particle that needed k halvings to pass a
+  // neighbour tries k − 1 next, not 0: going back to T at once would cost the k halvings again
+  // at every sub-step). Each deepening counts; after max_substeps the step is rolled back. The
+  // last positions tried are T itself (depth 0 copies it), so an accepted step ends exactly at
+  // the integrator's targets. An edge whose vector reverses
   // between V and an attempt (r⁰·r¹ < 0: its particles passed each other) counts as not
   // repaired: its two particles are halved too. Points on straight paths that miss each other
   // by b > 0 give r⁰·r¹ > 0 once the remaining relative move is below ~b, so only a collision
@@ -200,6 +208,7 @@ class Flip final : public Stage {
     const auto box = PeriodicBox<double>::make(s.box.L);
     R* target = target_.get(2 * n);
     std::uint8_t* moving = moving_.get(n);
+    std::uint32_t* depth = depth_.get(n);
     bool at_target = true, announced = false;
     std::int64_t halvings = 0;
     const auto stop = [&](std::string why, std::vector<std::uint64_t> who) {
@@ -215,8 +224,9 @@ class Flip final : public Stage {
         if (at_target) break;
         mem_.copy(v, x, bytes, st);  // valid here: the next reference
         topology(s, true, st);
-        mem_.copy(x, target, bytes, st);
-        at_target = true;
+        deep_.reset(std::array<int, 0>{}, st);
+        loops_.shallower(n, Shallower<R>{Points<R>{v, box}, target, x, depth, deep_.ptr()}, st);
+        at_target = deep_.read(st)[0] == 0;
       } else {
         if (halvings == p_.max_substeps) {
           if (h[kThrough]) {
@@ -236,10 +246,11 @@ class Flip final : public Stage {
           x = s.field(ff::fields::position).data<R>(ctx);
           v = s.field(fields::position_prev).data<R>(ctx);
           mem_.copy(target, x, bytes, st);
+          mem_.fill(depth, 0, n * sizeof(std::uint32_t), st);
         }
         ++halvings;
         loops_.moving(n, MarkInvertedVertices<R>{m, Points<R>{x, box}, Points<R>{v, box}, moving}, st);
-        loops_.halfway(n, MoveHalfway<R>{Points<R>{v, box}, x, moving}, st);
+        loops_.deepen(n, Deepen<R>{Points<R>{v, box}, target, x, moving, depth}, st);
         // The flips made for the positions farther out need not be valid nearer V (a flipped
         // triangle can stay inverted however close to V its vertices come): repair from V's.
         topology(s, false, st);
@@ -281,6 +292,8 @@ class Flip final : public Stage {
   Scratch<R> target_;            // substep: the integrator's targets T
   Scratch<std::uint8_t> moving_; // substep: particles with an inverted triangle around them
   Scratch<std::int32_t> topology_; // substep: the topology valid at V (halfedge, opposite, vertex_edge)
+  Scratch<std::uint32_t> depth_;   // substep: each particle's depth (Deepen, Shallower)
+  Counters<1> deep_;               // substep: particles not yet at their target after Shallower
   unsigned flips_ = 0;
   std::int64_t rounds_ = 0;
 };
