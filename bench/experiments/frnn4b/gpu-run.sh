@@ -1,12 +1,14 @@
 #!/bin/bash
-# frnn4b, batch 1 (issue 17; branch frnn4b, worktree /work/wt/frnn4b). Run with a bundle of main
-# (fe5950a/84b0f59, ABI 3):
+# frnn4b, batch 1 (issue 17; branch frnn4b, worktree /work/wt/frnn4b). Run with a bundle of main,
+# either ABI: abi3.tar.xz holds the plugins and tests built on 84b0f59 (ABI 3, bundle-head.tar.gz
+# of fe5950a), abi4.tar.xz the same built on 13326de (ABI 4, after the decomp merge); the script
+# unpacks the one the bundle's pipeline loads.
 #
 #   BUNDLE=/path/to/bundle OUT=$OUT bash /work/main/gpu-carry/frnn4b/run.sh
 #
-# (CARRY=<this folder> if it is not at /work/main/gpu-carry/frnn4b.) Copies the folder to
-# $BUNDLE/frnn4b/ (the .so files and the test binary carry rpath $ORIGIN/../../lib). Under 3
-# minutes: each step after the tests is skipped once BUDGET seconds (default 165) have passed.
+# (CARRY=<this folder> if it is not at /work/main/gpu-carry/frnn4b.) Unpacks into $BUNDLE/frnn4b/
+# (the .so files and test binaries carry rpath $ORIGIN/../../lib). Under 3 minutes: each step
+# after the tests is skipped once BUDGET seconds (default 165) have passed.
 # Two questions:
 #  A. neighbors.delaunay: does staging a block's own vertices' records and ring rows in shared
 #     memory (bc16: 16 queue slots + 2 KB records + 5 KB rows = 15 KB a block; bc8: 8 queue
@@ -18,8 +20,10 @@
 #     on_unrepairable: substep, which now sub-steps pairs that pass each other): does it run at
 #     2^20 on the GPU (it stopped at step 19 before), and at what ms per step?
 #   1. tests: main's test_neighbors_delaunay with bc16 / bc8 / bc256 (CUDA: brute force, CPU == CUDA
-#      rows, 10^3 hard-disk steps vs neighbors.verlet); the branch's test_delaunay_flip and main's
-#      test_delaunay_detect_inversion and test_boids_delaunay with the branch's delaunay stages;
+#      rows, 10^3 hard-disk steps vs neighbors.verlet); the branch's test_delaunay_flip and
+#      test_boids_delaunay (its new case: boids with Delaunay neighbours + substep follow the
+#      Verlet-only run bit for bit) and main's test_delaunay_detect_inversion with the branch's
+#      delaunay stages;
 #   2. speed A: frnn-ab-fwd.yaml (frnn_ab.main, .s16, .bc16, .bc8, .bc256 one after another on the same
 #      state every step) at 2^18 and 2^20;
 #   3. speed B: bench-boids-delaunay.yaml at 2^20, 30 steps after 5 (stage ms, substeps per step);
@@ -33,9 +37,15 @@ O=${OUT:-out}/frnn4b
 BUDGET=${BUDGET:-165}
 V=$B/frnn4b
 mkdir -p "$O" "$V"
-cp -r "$C"/. "$V/"
+cp "$C"/*.yaml "$V/"
 S=$O/summary.txt
 nvidia-smi --query-gpu=name,clocks.sm,clocks.max.sm --format=csv | tee "$S"
+for abi in 3 4; do
+  rm -rf "$V/ab" "$V/bc16" "$V/bc8" "$V/bc256" "$V/delaunay" "$V/bin"
+  tar xJf "$C/abi$abi.tar.xz" -C "$V"
+  FLIPFLOW_PLUGIN_PATH=$V/delaunay "$B/bin/pipeline" describe delaunay.flip > "$O/abi$abi.txt" 2>&1 && break
+done
+echo "plugins of ABI $abi ($(grep -c 'passed each other' "$O/abi$abi.txt") = the branch's delaunay.flip)" | tee -a "$S"
 left() { ((SECONDS < BUDGET)) || { echo "== skipped ($1): ${SECONDS} s spent" | tee -a "$S"; return 1; }; }
 
 # 1. tests, all at once
@@ -45,10 +55,10 @@ for v in bc16 bc8 bc256; do
 done
 (FLIPFLOW_TEST_DEVICE=cuda FLIPFLOW_PLUGIN_PATH=$V/delaunay:$B/plugins timeout 80 "$V/bin/test_delaunay_flip" \
    > "$O/test-flip.log" 2>&1; echo "rc=$?" >> "$O/test-flip.log") &
-for t in test_delaunay_detect_inversion test_boids_delaunay; do
-  (FLIPFLOW_TEST_DEVICE=cuda FLIPFLOW_PLUGIN_PATH=$V/delaunay:$B/plugins timeout 80 "$B/bin/$t" \
-     > "$O/$t.log" 2>&1; echo "rc=$?" >> "$O/$t.log") &
-done
+(FLIPFLOW_TEST_DEVICE=cuda FLIPFLOW_PLUGIN_PATH=$V/delaunay:$B/plugins timeout 80 "$V/bin/test_boids_delaunay" \
+   > "$O/test-boids.log" 2>&1; echo "rc=$?" >> "$O/test-boids.log") &
+(FLIPFLOW_TEST_DEVICE=cuda FLIPFLOW_PLUGIN_PATH=$V/delaunay:$B/plugins timeout 80 "$B/bin/test_delaunay_detect_inversion" \
+   > "$O/test_delaunay_detect_inversion.log" 2>&1; echo "rc=$?" >> "$O/test_delaunay_detect_inversion.log") &
 wait
 for f in "$O"/test-*.log "$O"/test_*.log; do echo "== $(basename "$f"): $(tail -n 3 "$f" | tr '\n' ' ')"; done | tee -a "$S"
 echo "tests done at ${SECONDS} s" | tee -a "$S"
