@@ -118,7 +118,7 @@ TEST_CASE("boids: neighbors.delaunay and neighbors.verlet give the same trajecto
   CHECK(turned > n / 2);
 }
 
-TEST_CASE("boids: with on_unrepairable: substep, neighbors.delaunay keeps the Verlet list's trajectory at dt = 1",
+TEST_CASE("boids: with flip's passing: substep, neighbors.delaunay keeps the Verlet list's trajectory at dt = 1",
           "[boids][delaunay][substep]") {
   // Points that pass each other closely reverse their edge vector within a step; in the default
   // mode that rolls the step back (the case above), here delaunay.flip sub-steps them and the
@@ -134,7 +134,9 @@ TEST_CASE("boids: with on_unrepairable: substep, neighbors.delaunay keeps the Ve
                               entry(r, "neighbors.delaunay", {{"radius", kViewRadius}}), forces(), integrate(v0),
                               entry(r, "delaunay.detect_inversion"),
                               entry(r, "delaunay.flip",
-                                    {{"on_unrepairable", std::string("substep")}, {"max_substeps", std::int64_t(1000)}}),
+                                    {{"on_unrepairable", std::string("substep")},
+                                     {"passing", std::string("substep")},
+                                     {"max_substeps", std::int64_t(1000)}}),
                               entry(r, "delaunay.lawson")};
   Simulation by_delaunay(boids_spec(step, n, steps, 5), r, dry(b));
   double substeps = 0, most = 0;

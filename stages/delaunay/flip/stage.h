@@ -22,6 +22,7 @@ namespace ff::delaunay {
 struct FlipParams {
   std::int64_t max_rounds = 64;
   std::string on_unrepairable = "rollback";
+  std::string passing = "rollback";
   std::int64_t max_substeps = 8;
 
   template <class P>
@@ -29,9 +30,15 @@ struct FlipParams {
     p(max_rounds, "max_rounds", "repair rounds before the step is rolled back").at_least(1);
     p(on_unrepairable, "on_unrepairable",
       "what to do with triangles no single flip repairs (a vertex across several edges, an edge crossed from "
-      "both sides) and with particles that passed each other: rollback = retry the step with a smaller time step "
-      "(new noise); substep = move their particles half way back, repair, then on to the targets (Porro et al. "
-      "3; keeps the trajectory; for points such as boids, which pass each other closely)")
+      "both sides): rollback = retry the step with a smaller time step (new noise); substep = move their "
+      "particles half way back, repair, then on to the targets (Porro et al. 3; keeps the trajectory)")
+        .one_of({"rollback", "substep"});
+    p(passing, "passing",
+      "what to do with two particles whose edge vector reversed in the step (they passed each other closer "
+      "than their move): rollback = retry with a smaller time step (hard disks: they would have gone through "
+      "each other); substep (needs on_unrepairable: substep) = move them part of the way as above until no "
+      "sub-step reverses an edge (points such as boids, which may pass each other at any distance; a "
+      "collision exhausts max_substeps and rolls back)")
         .one_of({"rollback", "substep"});
     p(max_substeps, "max_substeps",
       "with on_unrepairable: substep, how many times a step may halve the remaining moves before it is rolled "
@@ -74,6 +81,7 @@ class Flip final : public Stage {
   Flip(const ParamValues& v, const RunInfo&, Exec exec)
       : p_(params_from<FlipParams>(v)),
         substep_(p_.on_unrepairable == "substep"),
+        passing_(p_.passing == "substep"),
         where_(Exec::where),
         loops_(flip_loops<R>(exec)),
         mem_(exec.memory()),
@@ -102,7 +110,11 @@ class Flip final : public Stage {
     add_topology_fields(s, "delaunay.flip");
     Field& f = s.field(fields::status);
     f.acquire(Where::host, Mode::readwrite);
-    status(s)[kSubstep] = substep_ ? 1 : 0;  // tells delaunay.detect_inversion to leave them to us
+    if (passing_ && !substep_)
+      throw InputError("delaunay.flip: passing: substep sub-steps pairs as on_unrepairable: substep does; set "
+                       "on_unrepairable: substep too");
+    // Tells delaunay.detect_inversion what to leave to us.
+    status(s)[kSubstep] = substep_ ? (passing_ ? 2 : 1) : 0;
   }
   // Requests come from run(), after reading the counters.
   Scheduling scheduling() const override { return {true, false, false, false}; }
@@ -196,8 +208,8 @@ class Flip final : public Stage {
   // at every sub-step). Each deepening counts; after max_substeps the step is rolled back. The
   // last positions tried are T itself (depth 0 copies it), so an accepted step ends exactly at
   // the integrator's targets. An edge whose vector reverses
-  // between V and an attempt (r⁰·r¹ < 0: its particles passed each other) counts as not
-  // repaired: its two particles are halved too. Points on straight paths that miss each other
+  // between V and an attempt (r⁰·r¹ < 0: its particles passed each other) rolls back, or with
+  // `passing: substep` counts as not repaired: its two particles are halved too. Points on straight paths that miss each other
   // by b > 0 give r⁰·r¹ > 0 once the remaining relative move is below ~b, so only a collision
   // (b = 0) runs out of max_substeps.
   Outcome untangle(StepContext& ctx, const Mesh& m, Tally h) {
@@ -218,6 +230,11 @@ class Flip final : public Stage {
                                        std::move(who));
     };
     while (true) {
+      if (h[kThrough] && !passing_) {
+        auto ids = edge_vertices(s, where_, mem_, int(h[kThroughAt]), st);
+        return stop("particles " + list_ids(ids) + " passed through each other between intermediate positions (r0.r1 < 0)",
+                    ids);
+      }
       R* x = s.field(ff::fields::position).data<R>(ctx);
       R* v = s.field(fields::position_prev).data<R>(ctx);
       if (!h[kInverted] && !h[kThrough]) {
@@ -284,6 +301,7 @@ class Flip final : public Stage {
   static constexpr std::array<int, 4> kMinSlots{kThroughAt, kTwiceAt, kUnrepairableAt, kTooLongAt};
   FlipParams p_;
   bool substep_;
+  bool passing_;
   Where where_;
   FlipLoops<R> loops_;
   const MemoryOps& mem_;

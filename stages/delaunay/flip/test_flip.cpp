@@ -2,8 +2,9 @@
 // conflict-free flips; conflicting repairs on one triangle take two rounds; with detection in
 // front, random large moves either end in a valid triangulation or in a rollback, never in an
 // inverted triangle; with `on_unrepairable: substep`, vertices across two edges (fig. 6) end at
-// the integrator's targets, alone and inside a running pipeline, and so does a pair passing each other
-// closer than its step's move, while a collision still rolls back.
+// the integrator's targets, alone and inside a running pipeline; a pair passing each other closer
+// than its step's move rolls back, unless `passing: substep` (then it ends at its targets too,
+// while a collision still rolls back).
 #include <algorithm>
 #include <map>
 #include <random>
@@ -306,27 +307,32 @@ void pass_by(Scene& sc, const Scene::Fan& f, double miss) {
   sc.move(f.v, {pp[0] + 0.3 * dx - miss * dy, pp[1] + 0.3 * dy + miss * dx});
 }
 
-TEST_CASE("flip substep: a collision rolls back after max_substeps, a near miss ends at its targets",
+TEST_CASE("flip substep: passing pairs roll back, or with passing: substep a near miss ends at its targets",
           "[delaunay][flip][substep]") {
-  // v jumps past its neighbour p: the edge vector (v, p) reverses (r0.r1 < 0). Straight through
-  // p no sub-step can separate them (each halving brings v closer to p on the line); a path
-  // that misses p by 10^-3 of their distance is sub-stepped until no sub-step reverses the
-  // edge, and ends at the targets. The default mode rolls both back.
+  // v jumps past its neighbour p: the edge vector (v, p) reverses (r0.r1 < 0). By default, and
+  // with on_unrepairable: substep alone (hard disks must not go through each other), that rolls
+  // back. With passing: substep a path that misses p by 10^-3 of their distance is sub-stepped
+  // until no sub-step reverses the edge, and ends at the targets; straight through p no
+  // sub-step can separate them (each halving brings v closer to p on the line): max_substeps,
+  // then a rollback.
   const Backend b = GENERATE(from_range(ff::test::backends()));
   for (const double miss : {0.0, 1e-3}) {
     INFO("miss " << miss << ", backend " << int(b));
-    for (const bool substep : {false, true}) {
+    for (const int mode : {0, 1, 2}) {  // default; on_unrepairable: substep; and passing: substep
+      INFO("mode " << mode);
       Scene sc;
       const auto f = sc.fan(45);
       pass_by(sc, f, miss);
       const auto targets = sc.xy;
       ff::test::ParamSettings set;
-      if (substep) set = {kSubstepMode[0], {"max_substeps", ParamValue(std::int64_t(64))}};
+      if (mode >= 1) set = {kSubstepMode[0], {"max_substeps", ParamValue(std::int64_t(64))}};
+      if (mode == 2) set.emplace_back("passing", ParamValue(std::string("substep")));
+      const bool substep = mode == 2;
       auto detect = make_stage("delaunay.detect_inversion", b);
       auto flip = make_stage("delaunay.flip", b, Precision::f64, set);
       detect->configure(*sc.s);
       flip->configure(*sc.s);
-      REQUIRE(status_of(*sc.s)[ff::delaunay::kSubstep] == int(substep));
+      REQUIRE(status_of(*sc.s)[ff::delaunay::kSubstep] == mode);
       Runner r(*sc.s, b);
       const Outcome od = r.run(*detect);
       INFO(od.reason);
