@@ -47,7 +47,8 @@ enum Status : int {
   kPositionVersionHi = 4,
   // 1 when delaunay.flip has `on_unrepairable: substep` (set by its configure): then
   // detect_inversion leaves triangles no single flip repairs to delaunay.flip instead of
-  // requesting a rollback (particles through each other still roll back).
+  // requesting a rollback; 2 when it also has `passing: substep`: then particles that passed
+  // each other (an edge vector reversed) are left to it too (else they still roll back).
   kSubstep = 5,
   // 1 when, in that mode, detect_inversion found inverted triangles this step and left
   // position_prev at the positions where the triangulation was valid (delaunay.flip's

@@ -6,7 +6,7 @@
 // restores the old position_prev; the copy costs the snapshot nothing: will_overwrite).
 // When delaunay.flip has `on_unrepairable: substep` (status kSubstep), inverted triangles that
 // single flips cannot repair are left to it instead, together with position_prev (not yet
-// overwritten, status kPrevKept); only particles through each other still roll back here.
+// overwritten, status kPrevKept), and with `passing: substep` particles through each other too.
 #pragma once
 #include <algorithm>
 #include <array>
@@ -84,6 +84,7 @@ class DetectInversion final : public Stage {
     // was valid when something is inverted: position_prev is then written after the counters
     // are read (by this stage when nothing is inverted, else by delaunay.flip).
     const bool substep = status(s)[kSubstep] != 0;
+    const bool passing = status(s)[kSubstep] == 2;  // flip's `passing: substep`
     status(s)[kPrevKept] = 0;
     auto h = inspect(ctx, fresh, !substep);
     // A rollback helps only if this step broke the triangulation: retried with a smaller Δt,
@@ -111,17 +112,22 @@ class DetectInversion final : public Stage {
     ctx.metrics.set("lawson_candidates", h[kCandidateCount]);
 
     const char* retry = "; the step is retried with a smaller time step";
-    if (h[kThrough]) {
+    if (h[kThrough] && !passing) {
       auto ids = edge_vertices(s, where_, mem_, int(h[kThroughAt]), st);
       return Outcome::request_rollback("delaunay.detect_inversion: particles " + list_ids(ids) +
                                            " passed through each other (their separation vector reversed, r0.r1 < 0; " +
                                            std::to_string(h[kThrough]) + " such pair(s))" + moved(ctx, ids) + retry,
                                        ids);
     }
-    // Substep mode: an edge crossed from both sides or a vertex across several edges is left
-    // to delaunay.flip, which moves the particles of the triangles that stay inverted part of
-    // the way back (Porro et al. §3). Particles through each other (above) still roll back.
-    if (substep && h[kInverted]) {
+    // Substep mode: an edge crossed from both sides, a vertex across several edges, or (with
+    // flip's `passing: substep`) an edge whose vector reversed is left to delaunay.flip, which
+    // moves the particles of the triangles that stay inverted and of the reversed edges part of
+    // the way back (Porro et al. §3).
+    // A reversed edge is what two points passing each other closer than their step's move leave
+    // (boids meeting nearly head on): on straight paths that miss by b > 0 it is no longer
+    // reversed once the remaining move is short enough, so the halving resolves it; a true
+    // collision (b = 0) exhausts max_substeps and rolls back.
+    if (substep && (h[kInverted] || (passing && h[kThrough]))) {
       status(s)[kPending] = std::int32_t(h[kMarked]);
       status(s)[kPrevKept] = 1;
       ctx.metrics.set("unrepairable", h[kUnrepairable] + h[kTwice]);

@@ -4,7 +4,8 @@
 // inverted triangle into two positive ones and touches nothing else, so the number of inverted
 // triangles drops every round. Whatever cannot be repaired this way requests a rollback, or,
 // with `on_unrepairable: substep`, is untangled through intermediate positions (untangle below;
-// Porro et al. §3) so that the step still ends at the integrator's targets.
+// Porro et al. §3) so that the step still ends at the integrator's targets; so are particles
+// that passed each other (an edge vector reversed), which detect_inversion leaves to it then.
 #pragma once
 #include <array>
 #include <string>
@@ -21,6 +22,7 @@ namespace ff::delaunay {
 struct FlipParams {
   std::int64_t max_rounds = 64;
   std::string on_unrepairable = "rollback";
+  std::string passing = "rollback";
   std::int64_t max_substeps = 8;
 
   template <class P>
@@ -30,6 +32,13 @@ struct FlipParams {
       "what to do with triangles no single flip repairs (a vertex across several edges, an edge crossed from "
       "both sides): rollback = retry the step with a smaller time step (new noise); substep = move their "
       "particles half way back, repair, then on to the targets (Porro et al. 3; keeps the trajectory)")
+        .one_of({"rollback", "substep"});
+    p(passing, "passing",
+      "what to do with two particles whose edge vector reversed in the step (they passed each other closer "
+      "than their move): rollback = retry with a smaller time step (hard disks: they would have gone through "
+      "each other); substep (needs on_unrepairable: substep) = move them part of the way as above until no "
+      "sub-step reverses an edge (points such as boids, which may pass each other at any distance; a "
+      "collision exhausts max_substeps and rolls back)")
         .one_of({"rollback", "substep"});
     p(max_substeps, "max_substeps",
       "with on_unrepairable: substep, how many times a step may halve the remaining moves before it is rolled "
@@ -44,7 +53,8 @@ struct FlipLoops {
   ElementLoop<ApplyFlips> apply;
   ElementLoop<MarkInversions<R>> mark;
   ElementLoop<MarkInvertedVertices<R>> moving;
-  ElementLoop<MoveHalfway<R>> halfway;
+  ElementLoop<Deepen<R>> deepen;
+  ElementLoop<Shallower<R>> shallower;
 };
 
 // The plain element loops of the backend object (CpuExec or CudaExec) this stage.h is compiled
@@ -53,7 +63,7 @@ template <class R, class Exec>
 FlipLoops<R> flip_loops(Exec) {
   return {&Exec::template for_each<DecideFlips>, &Exec::template for_each<ApplyFlips>,
           &Exec::template for_each<MarkInversions<R>>, &Exec::template for_each<MarkInvertedVertices<R>>,
-          &Exec::template for_each<MoveHalfway<R>>};
+          &Exec::template for_each<Deepen<R>>, &Exec::template for_each<Shallower<R>>};
 }
 
 template <class R>
@@ -71,13 +81,17 @@ class Flip final : public Stage {
   Flip(const ParamValues& v, const RunInfo&, Exec exec)
       : p_(params_from<FlipParams>(v)),
         substep_(p_.on_unrepairable == "substep"),
+        passing_(p_.passing == "substep"),
         where_(Exec::where),
         loops_(flip_loops<R>(exec)),
         mem_(exec.memory()),
         counters_(exec),
         go_(exec),
         target_(exec),
-        moving_(exec) {}
+        moving_(exec),
+        topology_(exec),
+        depth_(exec),
+        deep_(exec) {}
 
   std::vector<Access> accesses() const override {
     std::vector<Access> a{{ff::fields::position, where_, Mode::read},
@@ -96,7 +110,11 @@ class Flip final : public Stage {
     add_topology_fields(s, "delaunay.flip");
     Field& f = s.field(fields::status);
     f.acquire(Where::host, Mode::readwrite);
-    status(s)[kSubstep] = substep_ ? 1 : 0;  // tells delaunay.detect_inversion to leave them to us
+    if (passing_ && !substep_)
+      throw InputError("delaunay.flip: passing: substep sub-steps pairs as on_unrepairable: substep does; set "
+                       "on_unrepairable: substep too");
+    // Tells delaunay.detect_inversion what to leave to us.
+    status(s)[kSubstep] = substep_ ? (passing_ ? 2 : 1) : 0;
   }
   // Requests come from run(), after reading the counters.
   Scheduling scheduling() const override { return {true, false, false, false}; }
@@ -118,7 +136,12 @@ class Flip final : public Stage {
     rounds_ = 0;
     const Mesh m = mesh_view(s, where_);
     // Detect's marks when it made any; else (only unrepairable triangles) nothing to flip yet.
-    auto h = repair(s, m, points_view<R>(s, ff::fields::position, where_), nullptr, status(s)[kPending] == 0, st);
+    // Substep mode (kept) marks again with the r⁰·r¹ test against position_prev: detect left
+    // reversed edges to the untangling, which must see them.
+    const Points<R> now = points_view<R>(s, ff::fields::position, where_);
+    if (kept) topology(s, true, st);  // valid at position_prev: untangle's halvings start from it
+    auto h = kept ? repair(s, m, now, s.field(fields::position_prev).data<R>(where_), true, st)
+                  : repair(s, m, now, nullptr, status(s)[kPending] == 0, st);
     status(s)[kPending] = 0;
     Outcome out = Outcome::ok();
     if (kept) {
@@ -140,7 +163,9 @@ class Flip final : public Stage {
 
   // Repair rounds (decide → apply → re-mark) while something is marked, up to max_rounds.
   // `mark_first`: the positions changed since the marks were made, so mark them first, with the
-  // r⁰·r¹ test against `prev` when given (returns at once when that fires). The last counters.
+  // r⁰·r¹ test against `prev` when given (substep mode). The last counters, with the first
+  // marking's reversed edges (kThrough, kThroughAt): the rounds repair what single flips can
+  // around a pair that passed each other, and untangle halves what is left.
   Tally repair(State& s, const Mesh& m, const Points<R>& pts, const R* prev, bool mark_first, CUstream_st* st) {
     std::uint8_t* mark = s.field(fields::flip_mark).data<std::uint8_t>(where_);
     const std::size_t E = edge_count(s.n());
@@ -152,8 +177,9 @@ class Flip final : public Stage {
       loops_.mark(E, MarkInversions<R>{m, pts, prev, mark, c}, st);
       h = counters_.read(st);
       throw_if_too_long(s, where_, mem_, h[kTooLong], h[kTooLongAt], st, "delaunay.flip");
-      if (h[kThrough] || !h[kMarked]) return h;
+      if (!h[kMarked]) return h;
     }
+    const unsigned through = h[kThrough], through_at = h[kThroughAt];
     std::int64_t rounds = 0;
     do {
       counters_.reset(kMinSlots, st);
@@ -166,17 +192,26 @@ class Flip final : public Stage {
       throw_if_too_long(s, where_, mem_, h[kTooLong], h[kTooLongAt], st, "delaunay.flip");
     } while (h[kMarked] && rounds < p_.max_rounds);
     rounds_ += rounds;
+    h[kThrough] = through;
+    h[kThroughAt] = through_at;
     return h;
   }
 
   // Substep untangling (Porro et al. §3, "intermediate position"). The triangulation is valid
-  // at V = position_prev and the integrator's targets T are in `position`. While triangles stay
-  // inverted after the repair rounds, the particles of those triangles go half way from V
-  // toward where they are now, and the rounds run again; once nothing is inverted the
-  // positions become the new V and every particle goes to T again. Each halving counts; after
-  // max_substeps the step is rolled back. The last positions tried are T itself (a copy), so
-  // an accepted step ends exactly at the integrator's targets. Particles whose edge vector
-  // reverses between V and an attempt (r⁰·r¹ < 0) passed through each other: rollback.
+  // at V = position_prev and the integrator's targets T are in `position`. Each particle has a
+  // depth d (0 at first) and is tried at V + 2^-d (T − V) (place_at_depth). While triangles stay
+  // inverted after the repair rounds, the particles of those triangles go a level deeper (half
+  // as far from V) and the rounds run again from V's topology; once nothing is inverted the
+  // positions become the new V and every particle goes a level shallower: twice as far along
+  // the rest of its way as the try that worked (a particle that needed k halvings to pass a
+  // neighbour tries k − 1 next, not 0: going back to T at once would cost the k halvings again
+  // at every sub-step). Each deepening counts; after max_substeps the step is rolled back. The
+  // last positions tried are T itself (depth 0 copies it), so an accepted step ends exactly at
+  // the integrator's targets. An edge whose vector reverses
+  // between V and an attempt (r⁰·r¹ < 0: its particles passed each other) rolls back, or with
+  // `passing: substep` counts as not repaired: its two particles are halved too. Points on straight paths that miss each other
+  // by b > 0 give r⁰·r¹ > 0 once the remaining relative move is below ~b, so only a collision
+  // (b = 0) runs out of max_substeps.
   Outcome untangle(StepContext& ctx, const Mesh& m, Tally h) {
     State& s = ctx.state;
     CUstream_st* st = ctx.stream;
@@ -185,6 +220,7 @@ class Flip final : public Stage {
     const auto box = PeriodicBox<double>::make(s.box.L);
     R* target = target_.get(2 * n);
     std::uint8_t* moving = moving_.get(n);
+    std::uint32_t* depth = depth_.get(n);
     bool at_target = true, announced = false;
     std::int64_t halvings = 0;
     const auto stop = [&](std::string why, std::vector<std::uint64_t> who) {
@@ -194,23 +230,32 @@ class Flip final : public Stage {
                                        std::move(who));
     };
     while (true) {
-      if (h[kThrough]) {
+      if (h[kThrough] && !passing_) {
         auto ids = edge_vertices(s, where_, mem_, int(h[kThroughAt]), st);
         return stop("particles " + list_ids(ids) + " passed through each other between intermediate positions (r0.r1 < 0)",
                     ids);
       }
       R* x = s.field(ff::fields::position).data<R>(ctx);
       R* v = s.field(fields::position_prev).data<R>(ctx);
-      if (!h[kInverted]) {
+      if (!h[kInverted] && !h[kThrough]) {
         if (at_target) break;
         mem_.copy(v, x, bytes, st);  // valid here: the next reference
-        mem_.copy(x, target, bytes, st);
-        at_target = true;
+        topology(s, true, st);
+        deep_.reset(std::array<int, 0>{}, st);
+        loops_.shallower(n, Shallower<R>{Points<R>{v, box}, target, x, depth, deep_.ptr()}, st);
+        at_target = deep_.read(st)[0] == 0;
       } else {
-        if (halvings == p_.max_substeps)
+        if (halvings == p_.max_substeps) {
+          if (h[kThrough]) {
+            auto ids = edge_vertices(s, where_, mem_, int(h[kThroughAt]), st);
+            return stop("particles " + list_ids(ids) + " passed through each other (r0.r1 < 0) even after halving the "
+                            "moves " + std::to_string(halvings) + " time(s) (max_substeps)",
+                        ids);
+          }
           return stop(std::to_string(h[kInverted]) + " inverted triangle(s) remain after halving the moves " +
                           std::to_string(halvings) + " time(s) (max_substeps)",
                       {});
+        }
         if (!announced) {  // the first intermediate position: keep T and V for a rollback
           ctx.will_write(ff::fields::position);
           ctx.will_write(fields::position_prev);
@@ -218,10 +263,14 @@ class Flip final : public Stage {
           x = s.field(ff::fields::position).data<R>(ctx);
           v = s.field(fields::position_prev).data<R>(ctx);
           mem_.copy(target, x, bytes, st);
+          mem_.fill(depth, 0, n * sizeof(std::uint32_t), st);
         }
         ++halvings;
-        loops_.moving(n, MarkInvertedVertices<R>{m, Points<R>{x, box}, moving}, st);
-        loops_.halfway(n, MoveHalfway<R>{Points<R>{v, box}, x, moving}, st);
+        loops_.moving(n, MarkInvertedVertices<R>{m, Points<R>{x, box}, Points<R>{v, box}, moving}, st);
+        loops_.deepen(n, Deepen<R>{Points<R>{v, box}, target, x, moving, depth}, st);
+        // The flips made for the positions farther out need not be valid nearer V (a flipped
+        // triangle can stay inverted however close to V its vertices come): repair from V's.
+        topology(s, false, st);
         at_target = false;
       }
       h = repair(s, m, Points<R>{x, box}, v, true, st);
@@ -234,9 +283,25 @@ class Flip final : public Stage {
     return Outcome::ok();
   }
 
+  // Substep mode: keep (`keep`) the topology where the triangulation is valid (V), or put it
+  // back (the three topology fields, one after another in topology_).
+  void topology(State& s, bool keep, CUstream_st* st) {
+    std::size_t words = 0;
+    for (const char* f : {fields::halfedge, fields::opposite, fields::vertex_edge}) words += s.field(f).size();
+    std::int32_t* kept = topology_.get(words);
+    for (const char* f : {fields::halfedge, fields::opposite, fields::vertex_edge}) {
+      Field& fl = s.field(f);
+      std::int32_t* d = fl.data<std::int32_t>(where_);
+      if (keep) mem_.copy(kept, d, fl.bytes(), st);
+      else mem_.copy(d, kept, fl.bytes(), st);
+      kept += fl.bytes() / sizeof(std::int32_t);
+    }
+  }
+
   static constexpr std::array<int, 4> kMinSlots{kThroughAt, kTwiceAt, kUnrepairableAt, kTooLongAt};
   FlipParams p_;
   bool substep_;
+  bool passing_;
   Where where_;
   FlipLoops<R> loops_;
   const MemoryOps& mem_;
@@ -244,6 +309,9 @@ class Flip final : public Stage {
   Scratch<std::uint8_t> go_;
   Scratch<R> target_;            // substep: the integrator's targets T
   Scratch<std::uint8_t> moving_; // substep: particles with an inverted triangle around them
+  Scratch<std::int32_t> topology_; // substep: the topology valid at V (halfedge, opposite, vertex_edge)
+  Scratch<std::uint32_t> depth_;   // substep: each particle's depth (Deepen, Shallower)
+  Counters<1> deep_;               // substep: particles not yet at their target after Shallower
   unsigned flips_ = 0;
   std::int64_t rounds_ = 0;
 };

@@ -2,7 +2,10 @@
 // conflict-free flips; conflicting repairs on one triangle take two rounds; with detection in
 // front, random large moves either end in a valid triangulation or in a rollback, never in an
 // inverted triangle; with `on_unrepairable: substep`, vertices across two edges (fig. 6) end at
-// the integrator's targets, alone and inside a running pipeline, and pass-throughs still roll back.
+// the integrator's targets, alone and inside a running pipeline; a pair passing each other closer
+// than its step's move rolls back, unless `passing: substep` (then it ends at its targets too,
+// while a collision still rolls back).
+#include <algorithm>
 #include <map>
 #include <random>
 
@@ -296,23 +299,68 @@ TEST_CASE("flip substep: a case deeper than max_substeps falls back to rollback"
   CHECK(deep >= 3);
 }
 
-TEST_CASE("flip substep: particles through each other still roll back", "[delaunay][flip][substep]") {
-  const Backend b = GENERATE(from_range(ff::test::backends()));
-  Scene sc;
-  const auto f = sc.fan(45);
+// v and p both reach the step's targets; v's path runs past p at `miss` times their distance
+// (0: straight through p).
+void pass_by(Scene& sc, const Scene::Fan& f, double miss) {
   const auto v = sc.near(f.p, f.v), pp = sc.near(f.p, f.p);
-  sc.move(f.v, {pp[0] + 0.3 * (pp[0] - v[0]), pp[1] + 0.3 * (pp[1] - v[1])});  // v jumps over p
-  auto detect = make_stage("delaunay.detect_inversion", b);
-  auto flip = make_stage("delaunay.flip", b, Precision::f64, kSubstepMode);
-  detect->configure(*sc.s);
-  flip->configure(*sc.s);
-  REQUIRE(status_of(*sc.s)[ff::delaunay::kSubstep] == 1);
-  Runner r(*sc.s, b);
-  const Outcome o = r.run(*detect);
-  INFO(o.reason);
-  REQUIRE(o.rollback);
-  CHECK_THAT(o.reason, Catch::Contains("passed through each other"));
-  CHECK(status_of(*sc.s)[ff::delaunay::kPrevKept] == 0);
+  const double dx = pp[0] - v[0], dy = pp[1] - v[1];
+  sc.move(f.v, {pp[0] + 0.3 * dx - miss * dy, pp[1] + 0.3 * dy + miss * dx});
+}
+
+TEST_CASE("flip substep: passing pairs roll back, or with passing: substep a near miss ends at its targets",
+          "[delaunay][flip][substep]") {
+  // v jumps past its neighbour p: the edge vector (v, p) reverses (r0.r1 < 0). By default, and
+  // with on_unrepairable: substep alone (hard disks must not go through each other), that rolls
+  // back. With passing: substep a path that misses p by 10^-3 of their distance is sub-stepped
+  // until no sub-step reverses the edge, and ends at the targets; straight through p no
+  // sub-step can separate them (each halving brings v closer to p on the line): max_substeps,
+  // then a rollback.
+  const Backend b = GENERATE(from_range(ff::test::backends()));
+  for (const double miss : {0.0, 1e-3}) {
+    INFO("miss " << miss << ", backend " << int(b));
+    for (const int mode : {0, 1, 2}) {  // default; on_unrepairable: substep; and passing: substep
+      INFO("mode " << mode);
+      Scene sc;
+      const auto f = sc.fan(45);
+      pass_by(sc, f, miss);
+      const auto targets = sc.xy;
+      ff::test::ParamSettings set;
+      if (mode >= 1) set = {kSubstepMode[0], {"max_substeps", ParamValue(std::int64_t(64))}};
+      if (mode == 2) set.emplace_back("passing", ParamValue(std::string("substep")));
+      const bool substep = mode == 2;
+      auto detect = make_stage("delaunay.detect_inversion", b);
+      auto flip = make_stage("delaunay.flip", b, Precision::f64, set);
+      detect->configure(*sc.s);
+      flip->configure(*sc.s);
+      REQUIRE(status_of(*sc.s)[ff::delaunay::kSubstep] == mode);
+      Runner r(*sc.s, b);
+      const Outcome od = r.run(*detect);
+      INFO(od.reason);
+      if (!substep) {
+        REQUIRE(od.rollback);
+        CHECK_THAT(od.reason, Catch::Contains("passed through each other"));
+        continue;
+      }
+      REQUIRE_FALSE(od.rollback);
+      CHECK(status_of(*sc.s)[ff::delaunay::kPrevKept] == 1);
+      const Outcome o = r.run(*flip);
+      INFO(o.reason);
+      CHECK(positions(*sc.s) == targets);  // the targets, whether accepted or left for the rollback
+      if (miss == 0) {
+        REQUIRE(o.rollback);
+        CHECK_THAT(o.reason, Catch::Contains("passed through each other") && Catch::Contains("(max_substeps)"));
+        CHECK(r.metric("substeps") == 64);
+        const auto named = [&](int i) { return std::count(o.particles.begin(), o.particles.end(), std::uint64_t(i)) > 0; };
+        CHECK(named(f.v));
+        CHECK(named(f.p));
+      } else {
+        REQUIRE_FALSE(o.rollback);
+        CHECK(r.metric("substeps") >= 2);
+        CHECK(status_of(*sc.s)[ff::delaunay::kPrevKept] == 0);
+        require_valid(*sc.s);
+      }
+    }
+  }
 }
 
 // --- sub-steps in a running pipeline (the core's Simulation) -------------------------------
