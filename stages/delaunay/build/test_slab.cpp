@@ -6,6 +6,8 @@
 // slabs; and a band below that rule loses owned stars.
 #include <cmath>
 #include <cstdint>
+#include <memory>
+#include <string>
 #include <vector>
 
 #include "core/base/error.h"
@@ -163,4 +165,207 @@ TEST_CASE("decomposed Delaunay: slab selection and refusal", "[delaunay][slab]")
   CHECK(edge.local_x(9.5) == Approx(0.5));
   const Slab one{0, 1, L, L, 1.0};
   CHECK_THROWS_AS(ff::delaunay::slab_points(one, random_points(100, L, L, 1)), InputError);
+}
+
+namespace {
+
+// The incremental kernels of the Delaunay pipelines, run unchanged on a state.
+struct Maintain {
+  std::unique_ptr<Stage> detect, flip, lawson;
+  explicit Maintain(State& s) {
+    detect = make_stage("delaunay.detect_inversion", Backend::cpu);
+    flip = make_stage("delaunay.flip", Backend::cpu);
+    lawson = make_stage("delaunay.lawson", Backend::cpu);
+    for (Stage* st : {detect.get(), flip.get(), lawson.get()}) st->configure(s);
+  }
+  // detect + flip; true when the state asks for a rollback (Lawson runs only on acceptance).
+  bool repair(Runner& r, std::uint64_t k) {
+    if (r.run(*detect, k).rollback) return true;
+    inversions = std::size_t(r.metric("inversions"));
+    return r.run(*flip, k).rollback;
+  }
+  std::size_t inversions = 0;  // the last repair's
+  void finish(Runner& r, std::uint64_t k) { REQUIRE_FALSE(r.run(*lawson, k).rollback); }
+};
+
+// The fields the core's rollback snapshot holds for these stages (their writes).
+struct Snapshot {
+  std::vector<std::vector<unsigned char>> data;
+  const std::vector<std::string> names{fields::position,
+                                       ff::delaunay::fields::halfedge,
+                                       ff::delaunay::fields::opposite,
+                                       ff::delaunay::fields::vertex_edge,
+                                       ff::delaunay::fields::position_prev,
+                                       ff::delaunay::fields::flip_mark,
+                                       ff::delaunay::fields::status};
+  void take(State& s) {
+    data.clear();
+    for (auto& n : names) {
+      Field& f = s.field(n);
+      f.acquire(Where::host, Mode::read);
+      auto* p = static_cast<unsigned char*>(f.host_raw());
+      data.emplace_back(p, p + f.bytes());
+    }
+  }
+  void restore(State& s) {
+    for (std::size_t k = 0; k < names.size(); ++k) {
+      Field& f = s.field(names[k]);
+      f.acquire(Where::host, Mode::write);
+      std::copy(data[k].begin(), data[k].end(), static_cast<unsigned char*>(f.host_raw()));
+    }
+  }
+};
+
+// A state run by delaunay.build, detect_inversion, flip and Lawson, as one rank would.
+struct Run {
+  std::unique_ptr<State> s;
+  std::unique_ptr<Maintain> m;
+  std::unique_ptr<Runner> r;
+  Snapshot snap;
+  Run(const std::vector<double>& xy, double Lx, double Ly) {
+    s = make_state(xy, Lx, Ly);
+    auto build = make_stage("delaunay.build", Backend::cpu);
+    build->configure(*s);
+    r = std::make_unique<Runner>(*s, Backend::cpu);
+    REQUIRE_FALSE(r->run(*build).rollback);
+    m = std::make_unique<Maintain>(*s);
+  }
+  Built topo() {
+    const Topo t = topology(*s);
+    return {t.he, t.vedge};
+  }
+};
+
+}  // namespace
+
+TEST_CASE("decomposed Delaunay: detect/flip/Lawson on each local torus keep the owned stars global",
+          "[delaunay][slab]") {
+  // Ideal Brownian points (D = 1, density 1, Δt = 10^-3: a few inversions per step and Lawson
+  // flips every step) moved by noise keyed by the global index, the same numbers for the global
+  // state and for every slab's copy of a particle. Between rebuilds the held set is fixed; a
+  // particle not held was beyond g of the slab and has moved at most δ (the largest displacement
+  // since the rebuild), owned ones at most δ out of it, so the owned stars stay exact while
+  // 2R_max < g - 2δ (D4's rule with the skin: δ ≤ s/2). Rebuild (re-select the owners and
+  // ghosts, delaunay.build on each local torus, the band widened by the rule) when δ > s/2 or
+  // the rule fails. A rollback anywhere rolls every state back (the team's agreement).
+  const std::size_t n = 2000;
+  const double L = std::sqrt(double(n)), D = 1.0, skin = 0.6;
+  const int steps = 150;
+  const int ranks = GENERATE(2, 3);
+  INFO("ranks " << ranks);
+  std::vector<double> xy = random_points(n, L, L, 5);
+  Run global(xy, L, L);
+
+  std::vector<std::unique_ptr<Run>> local;
+  std::vector<ff::delaunay::SlabPoints> held;
+  std::vector<double> at_rebuild;
+  double g = 2.0;
+  std::size_t rebuilds = 0, compared = 0, lawson_flips = 0, inversions = 0, rollbacks = 0;
+  auto rebuild = [&]() {
+    for (int round = 0;; ++round) {
+      REQUIRE(round < 8);
+      local.clear();
+      held.clear();
+      double worst = 0;
+      for (int r = 0; r < ranks; ++r) {
+        held.push_back(ff::delaunay::slab_points(Slab{r, ranks, L, L, g}, xy));
+        local.push_back(std::make_unique<Run>(held.back().xy, Slab{r, ranks, L, L, g}.width(), L));
+        const Built t = local.back()->topo();
+        worst = std::max(worst, ff::delaunay::max_owned_circumdiameter(t.he.data(), held.back().id.size(),
+                                                                       held.back().n_owned, held.back().xy.data(),
+                                                                       Slab{r, ranks, L, L, g}.width(), L));
+      }
+      if (worst < g - skin) break;
+      g = 1.25 * worst + skin;
+    }
+    at_rebuild = xy;
+    ++rebuilds;
+  };
+  auto local_positions = [&](int r) {
+    const Slab slab{r, ranks, L, L, g};
+    std::vector<double> lxy;
+    for (std::uint32_t id : held[std::size_t(r)].id) {
+      lxy.push_back(slab.local_x(xy[2 * id]));
+      lxy.push_back(xy[2 * id + 1]);
+    }
+    return lxy;
+  };
+  rebuild();
+
+  for (int k = 0; k < steps; ++k) {
+    const std::uint64_t step = std::uint64_t(k);
+    const std::vector<double> start = xy;
+    global.snap.take(*global.s);
+    for (auto& lr : local) lr->snap.take(*lr->s);
+    double dt = 1e-3;
+    for (std::uint32_t attempt = 0;; ++attempt) {
+      REQUIRE(attempt < 20);
+      const RngKey key = make_rng_key(9, "slab-brownian");
+      const double amp = std::sqrt(2 * D * dt);
+      xy = start;
+      for (std::size_t i = 0; i < n; ++i) {
+        double z[2];
+        gaussians(key, std::uint32_t(i), step, attempt, 0, 2, z);
+        for (int c = 0; c < 2; ++c) {
+          double& x = xy[2 * i + std::size_t(c)];
+          x += amp * z[c];
+          x -= L * std::floor(x / L);
+          if (x >= L) x -= L;
+        }
+      }
+      set_positions(*global.s, xy);
+      bool rollback = global.m->repair(*global.r, step);
+      inversions += global.m->inversions;
+      for (int r = 0; r < ranks; ++r) {
+        set_positions(*local[std::size_t(r)]->s, local_positions(r));
+        rollback = local[std::size_t(r)]->m->repair(*local[std::size_t(r)]->r, step) || rollback;
+      }
+      if (!rollback) break;
+      ++rollbacks;
+      global.snap.restore(*global.s);
+      for (auto& lr : local) lr->snap.restore(*lr->s);
+      dt /= 2;
+    }
+    global.m->finish(*global.r, step);
+    lawson_flips += std::size_t(global.r->metric("lawson_flips"));
+    for (auto& lr : local) lr->m->finish(*lr->r, step);
+
+    // δ: the largest displacement since the rebuild (minimum image).
+    double delta = 0;
+    for (std::size_t i = 0; i < n; ++i) {
+      double dx = xy[2 * i] - at_rebuild[2 * i], dy = xy[2 * i + 1] - at_rebuild[2 * i + 1];
+      dx -= L * std::rint(dx / L);
+      dy -= L * std::rint(dy / L);
+      delta = std::max(delta, std::hypot(dx, dy));
+    }
+    const Built gt = global.topo();
+    bool rule = true;
+    for (int r = 0; r < ranks; ++r) {
+      const auto& h = held[std::size_t(r)];
+      const Built lt = local[std::size_t(r)]->topo();
+      const auto lxy = local_positions(r);
+      const double worst = ff::delaunay::max_owned_circumdiameter(lt.he.data(), h.id.size(), h.n_owned, lxy.data(),
+                                                                  Slab{r, ranks, L, L, g}.width(), L);
+      if (!(worst < g - 2 * delta)) {
+        rule = false;
+        continue;
+      }
+      std::size_t wrong = 0;
+      for (std::size_t v = 0; v < h.n_owned; ++v)
+        if (ff::delaunay::star(lt.he.data(), lt.vedge.data(), int(v), h.id.data()) !=
+            ff::delaunay::star(gt.he.data(), gt.vedge.data(), int(h.id[v])))
+          ++wrong;
+      INFO("step " << k << ", rank " << r << ", band " << g << ", 2R_max " << worst << ", delta " << delta);
+      CHECK(wrong == 0);
+      ++compared;
+    }
+    if (!rule || delta > skin / 2) rebuild();
+  }
+  INFO("rebuilds " << rebuilds << ", band " << g << ", inversions " << inversions << ", Lawson flips "
+                   << lawson_flips << ", rollbacks " << rollbacks << ", slab-steps compared " << compared);
+  CHECK(lawson_flips > 0);
+  CHECK(rebuilds > 1);
+  CHECK(compared > std::size_t(steps * ranks * 3 / 4));  // the rule held on most steps
+  WARN("rebuilds " << rebuilds << ", band " << g << ", inversions " << inversions << ", Lawson flips "
+                   << lawson_flips << ", rollbacks " << rollbacks << ", compared " << compared);
 }
