@@ -17,6 +17,7 @@
 using namespace ff;
 using namespace ff::test::dl;
 using ff::delaunay::Slab;
+using ff::delaunay::SlabCoordinates;
 
 namespace {
 
@@ -41,14 +42,14 @@ struct SlabResult {
   double max_diameter = 0;  // 2R_max over the local triangles with an owned vertex
 };
 
-SlabResult check_slab(const Slab& slab, const std::vector<double>& xy, const Built& global) {
-  const auto sp = ff::delaunay::slab_points(slab, xy);
-  const Built local = build(sp.xy, slab.width(), slab.Ly);
+SlabResult check_slab(const Slab& slab, const std::vector<double>& xy, const Built& global, SlabCoordinates c) {
+  const auto sp = ff::delaunay::slab_points(slab, xy, c);
+  const Built local = build(sp.xy, sp.box_x, slab.Ly);
   SlabResult r;
   r.owned = sp.n_owned;
-  r.ghosts = sp.id.size() - sp.n_owned;
+  r.ghosts = sp.n_held - sp.n_owned;
   r.max_diameter = ff::delaunay::max_owned_circumdiameter(local.he.data(), sp.id.size(), sp.n_owned, sp.xy.data(),
-                                                          slab.width(), slab.Ly);
+                                                          sp.box_x, slab.Ly);
   for (std::size_t v = 0; v < sp.n_owned; ++v) {
     const auto mine = ff::delaunay::star(local.he.data(), local.vedge.data(), int(v), sp.id.data());
     const auto ref = ff::delaunay::star(global.he.data(), global.vedge.data(), int(sp.id[v]));
@@ -60,14 +61,14 @@ SlabResult check_slab(const Slab& slab, const std::vector<double>& xy, const Bui
 // Every slab with the band the rule asks for: start at two mean spacings and widen to 1.25 x the
 // largest owned circumdiameter until every slab satisfies 2R_max < g (what a rank does at a
 // rebuild). Then every owned star must be the global one.
-void check_rule(const std::vector<double>& xy, double L, int ranks) {
+void check_rule(const std::vector<double>& xy, double L, int ranks, SlabCoordinates c) {
   const Built global = build(xy, L, L);
   double g = 2 * L / std::sqrt(double(xy.size() / 2));
   for (int round = 0; round < 8; ++round) {
     std::vector<SlabResult> res;
     double worst = 0;
     for (int r = 0; r < ranks; ++r) {
-      res.push_back(check_slab(Slab{r, ranks, L, L, g}, xy, global));
+      res.push_back(check_slab(Slab{r, ranks, L, L, g}, xy, global, c));
       worst = std::max(worst, res.back().max_diameter);
     }
     if (worst < g) {
@@ -117,21 +118,23 @@ TEST_CASE("decomposed Delaunay: owned stars are global with the band rule (rando
   const std::size_t n = 4000;
   const double L = std::sqrt(double(n));  // density 1
   const auto xy = random_points(n, L, L, 41);
-  for (int ranks : {2, 3, 4}) check_rule(xy, L, ranks);
+  const auto c = GENERATE(SlabCoordinates::local_torus, SlabCoordinates::global_with_gap);
+  for (int ranks : {2, 3, 4}) check_rule(xy, L, ranks, c);
 }
 
 TEST_CASE("decomposed Delaunay: owned stars are global with the band rule (clustered, dilute)", "[delaunay][slab]") {
+  const auto c = GENERATE(SlabCoordinates::local_torus, SlabCoordinates::global_with_gap);
   SECTION("clusters in a dilute gas") {
     const std::size_t n = 3000;
     const double L = 100;  // mean density 0.3: 6 clusters of ~220 at density 3, the rest at ~0.18
     const auto xy = clustered(n, L, 6, 5.0, 7);
-    for (int ranks : {2, 3, 4}) check_rule(xy, L, ranks);
+    for (int ranks : {2, 3, 4}) check_rule(xy, L, ranks, c);
   }
   SECTION("dilute (density 0.05)") {
     const std::size_t n = 1500;
     const double L = std::sqrt(double(n) / 0.05);
     const auto xy = random_points(n, L, L, 43);
-    for (int ranks : {2, 4}) check_rule(xy, L, ranks);
+    for (int ranks : {2, 4}) check_rule(xy, L, ranks, c);
   }
 }
 
@@ -140,10 +143,11 @@ TEST_CASE("decomposed Delaunay: a band below the rule loses owned stars", "[dela
   const double L = std::sqrt(double(n));
   const auto xy = random_points(n, L, L, 41);
   const Built global = build(xy, L, L);
+  const auto c = GENERATE(SlabCoordinates::local_torus, SlabCoordinates::global_with_gap);
   for (int ranks : {2, 4}) {
     // Half a mean spacing: the owned particles on a slab's face miss neighbours beyond the band.
     const Slab slab{0, ranks, L, L, 0.5};
-    const SlabResult r = check_slab(slab, xy, global);
+    const SlabResult r = check_slab(slab, xy, global, c);
     INFO("ranks " << ranks << ", 2R_max " << r.max_diameter << ", ghosts " << r.ghosts);
     CHECK(r.max_diameter >= slab.band);  // the check sees it
     CHECK(r.wrong_stars > 0);            // and the stars are wrong
@@ -165,6 +169,19 @@ TEST_CASE("decomposed Delaunay: slab selection and refusal", "[delaunay][slab]")
   CHECK(edge.local_x(9.5) == Approx(0.5));
   const Slab one{0, 1, L, L, 1.0};
   CHECK_THROWS_AS(ff::delaunay::slab_points(one, random_points(100, L, L, 1)), InputError);
+  // Global coordinates need no torus: one slab holds everything, with no dummies.
+  const auto all = ff::delaunay::slab_points(one, random_points(100, L, L, 1), SlabCoordinates::global_with_gap);
+  CHECK(all.n_owned == 100);
+  CHECK(all.id.size() == 100);
+  // Two slabs of 5 with g = 1: a gap of 3 beyond each band, dummies strictly inside it.
+  const auto two = ff::delaunay::slab_points(Slab{0, 2, L, L, 1.0}, random_points(100, L, L, 1),
+                                             SlabCoordinates::global_with_gap);
+  REQUIRE(two.id.size() > two.n_held);
+  for (std::size_t k = two.n_held; k < two.id.size(); ++k) {
+    CHECK(two.id[k] == ff::delaunay::SlabPoints::kDummy);
+    CHECK(two.xy[2 * k] > 6.0);
+    CHECK(two.xy[2 * k] < 9.0);
+  }
 }
 
 namespace {
@@ -252,7 +269,8 @@ TEST_CASE("decomposed Delaunay: detect/flip/Lawson on each local torus keep the 
   const double L = std::sqrt(double(n)), D = 1.0, skin = 0.6;
   const int steps = 150;
   const int ranks = GENERATE(2, 3);
-  INFO("ranks " << ranks);
+  const auto c = GENERATE(SlabCoordinates::local_torus, SlabCoordinates::global_with_gap);
+  INFO("ranks " << ranks << (c == SlabCoordinates::local_torus ? ", local torus" : ", global with gap"));
   std::vector<double> xy = random_points(n, L, L, 5);
   Run global(xy, L, L);
 
@@ -268,12 +286,12 @@ TEST_CASE("decomposed Delaunay: detect/flip/Lawson on each local torus keep the 
       held.clear();
       double worst = 0;
       for (int r = 0; r < ranks; ++r) {
-        held.push_back(ff::delaunay::slab_points(Slab{r, ranks, L, L, g}, xy));
-        local.push_back(std::make_unique<Run>(held.back().xy, Slab{r, ranks, L, L, g}.width(), L));
+        held.push_back(ff::delaunay::slab_points(Slab{r, ranks, L, L, g}, xy, c));
+        local.push_back(std::make_unique<Run>(held.back().xy, held.back().box_x, L));
         const Built t = local.back()->topo();
         worst = std::max(worst, ff::delaunay::max_owned_circumdiameter(t.he.data(), held.back().id.size(),
                                                                        held.back().n_owned, held.back().xy.data(),
-                                                                       Slab{r, ranks, L, L, g}.width(), L));
+                                                                       held.back().box_x, L));
       }
       if (worst < g - skin) break;
       g = 1.25 * worst + skin;
@@ -283,10 +301,12 @@ TEST_CASE("decomposed Delaunay: detect/flip/Lawson on each local torus keep the 
   };
   auto local_positions = [&](int r) {
     const Slab slab{r, ranks, L, L, g};
-    std::vector<double> lxy;
-    for (std::uint32_t id : held[std::size_t(r)].id) {
-      lxy.push_back(slab.local_x(xy[2 * id]));
-      lxy.push_back(xy[2 * id + 1]);
+    const auto& h = held[std::size_t(r)];
+    std::vector<double> lxy = h.xy;  // the dummies stay where they are
+    for (std::size_t k = 0; k < h.n_held; ++k) {
+      const std::uint32_t id = h.id[k];
+      lxy[2 * k] = c == SlabCoordinates::local_torus ? slab.local_x(xy[2 * id]) : xy[2 * id];
+      lxy[2 * k + 1] = xy[2 * id + 1];
     }
     return lxy;
   };
@@ -345,7 +365,7 @@ TEST_CASE("decomposed Delaunay: detect/flip/Lawson on each local torus keep the 
       const Built lt = local[std::size_t(r)]->topo();
       const auto lxy = local_positions(r);
       const double worst = ff::delaunay::max_owned_circumdiameter(lt.he.data(), h.id.size(), h.n_owned, lxy.data(),
-                                                                  Slab{r, ranks, L, L, g}.width(), L);
+                                                                  h.box_x, L);
       if (!(worst < g - 2 * delta)) {
         rule = false;
         continue;

@@ -70,33 +70,68 @@ struct Slab {
   }
 };
 
-// The particles a slab holds: owned first, then ghosts, each in ascending global index, and their
-// coordinates on the local torus (x local, y global).
+// How a slab's held particles are placed in a periodic box the Delaunay kernels run on.
+//  - local_torus: D4's design, x shifted onto the torus of width W. x - shift is not exact in
+//    floating point, so stages that move particles in these coordinates do not give the bits of
+//    one rank.
+//  - global_with_gap: the coordinates stay the global ones, in the global box, and the gap beyond
+//    the band (x-distance > g from the slab) is filled with fixed dummy vertices on a staggered
+//    lattice, so that no Delaunay edge spans it (edges stay shorter than half the box). The same
+//    proof holds (a disk within the band holds no dummy); every difference of held positions,
+//    and its minimum image, is then the one alone, and no band is too wide (W ≥ L: no gap).
+enum class SlabCoordinates { local_torus, global_with_gap };
+
+// The particles a slab holds: owned first, then ghosts, each in ascending global index, then (in
+// global_with_gap) the dummies, whose id is kDummy; their coordinates in the box box_x x Ly.
 struct SlabPoints {
+  static constexpr std::uint32_t kDummy = 0xffffffffu;
   std::vector<std::uint32_t> id;  // global index of each held particle
-  std::size_t n_owned = 0;
-  std::vector<double> xy;         // local torus coordinates, x0 y0 x1 y1 ...
+  std::size_t n_owned = 0, n_held = 0;
+  std::vector<double> xy;         // x0 y0 x1 y1 ...
+  double box_x = 0;
 };
 
-// xy: the global positions (wrapped into the box). InputError when the local torus would not be
-// smaller than the box (W ≥ Lx: a particle would be held twice; use fewer ranks).
-inline SlabPoints slab_points(const Slab& slab, const std::vector<double>& xy) {
-  if (!(slab.width() < slab.Lx))
+// Dummy vertices in the gap beyond the band: columns at most `spacing` apart strictly inside
+// (hi + g, lo - g + Lx) (periodic), rows at most `spacing` apart, odd columns shifted half a row.
+inline void fill_gap(const Slab& slab, double spacing, SlabPoints& out) {
+  const double gap = slab.Lx - slab.width();
+  if (!(gap > 0)) return;
+  const int nx = std::max(1, int(std::ceil(gap / spacing))), ny = std::max(3, int(std::ceil(slab.Ly / spacing)));
+  for (int i = 0; i < nx; ++i)
+    for (int j = 0; j < ny; ++j) {
+      double x = slab.hi() + slab.band + (i + 0.5) * gap / nx;
+      x -= slab.Lx * std::floor(x / slab.Lx);
+      out.id.push_back(SlabPoints::kDummy);
+      out.xy.push_back(x);
+      out.xy.push_back((j + 0.25 + 0.5 * (i % 2)) * slab.Ly / ny);
+    }
+}
+
+// xy: the global positions (wrapped into the box). local_torus: InputError when the torus would
+// not be smaller than the box (W ≥ Lx: a particle would be held twice; use fewer ranks).
+// gap_spacing: the dummies' spacing (global_with_gap; the band g when 0).
+inline SlabPoints slab_points(const Slab& slab, const std::vector<double>& xy,
+                              SlabCoordinates c = SlabCoordinates::local_torus, double gap_spacing = 0) {
+  const bool local = c == SlabCoordinates::local_torus;
+  if (local && !(slab.width() < slab.Lx))
     throw InputError("decomposed Delaunay: the band " + std::to_string(slab.band) + " on both sides of a slab of " +
                      std::to_string(slab.hi() - slab.lo()) + " is as wide as the box (" + std::to_string(slab.Lx) +
                      "): use fewer ranks");
   const std::size_t n = xy.size() / 2;
   SlabPoints out;
+  out.box_x = local ? slab.width() : slab.Lx;
   for (int pass = 0; pass < 2; ++pass)
     for (std::size_t i = 0; i < n; ++i) {
       const double x = xy[2 * i];
       const bool owned = slab.owner_of(x) == slab.rank;
       if (pass == 0 ? !owned : (owned || !slab.in_band(x))) continue;
       out.id.push_back(std::uint32_t(i));
-      out.xy.push_back(slab.local_x(x));
+      out.xy.push_back(local ? slab.local_x(x) : x);
       out.xy.push_back(xy[2 * i + 1]);
       if (pass == 0) ++out.n_owned;
     }
+  out.n_held = out.id.size();
+  if (!local) fill_gap(slab, gap_spacing > 0 ? gap_spacing : slab.band, out);
   return out;
 }
 
