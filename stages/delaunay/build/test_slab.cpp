@@ -42,8 +42,9 @@ struct SlabResult {
   double max_diameter = 0;  // 2R_max over the local triangles with an owned vertex
 };
 
-SlabResult check_slab(const Slab& slab, const std::vector<double>& xy, const Built& global, SlabCoordinates c) {
-  const auto sp = ff::delaunay::slab_points(slab, xy, c);
+SlabResult check_slab(const Slab& slab, const std::vector<double>& xy, const Built& global, SlabCoordinates c,
+                      double gap_spacing = 0) {
+  const auto sp = ff::delaunay::slab_points(slab, xy, c, gap_spacing);
   const Built local = build(sp.xy, sp.box_x, slab.Ly);
   SlabResult r;
   r.owned = sp.n_owned;
@@ -61,14 +62,14 @@ SlabResult check_slab(const Slab& slab, const std::vector<double>& xy, const Bui
 // Every slab with the band the rule asks for: start at two mean spacings and widen to 1.25 x the
 // largest owned circumdiameter until every slab satisfies 2R_max < g (what a rank does at a
 // rebuild). Then every owned star must be the global one.
-void check_rule(const std::vector<double>& xy, double L, int ranks, SlabCoordinates c) {
+void check_rule(const std::vector<double>& xy, double L, int ranks, SlabCoordinates c, double gap_spacing = 0) {
   const Built global = build(xy, L, L);
   double g = 2 * L / std::sqrt(double(xy.size() / 2));
   for (int round = 0; round < 8; ++round) {
     std::vector<SlabResult> res;
     double worst = 0;
     for (int r = 0; r < ranks; ++r) {
-      res.push_back(check_slab(Slab{r, ranks, L, L, g}, xy, global, c));
+      res.push_back(check_slab(Slab{r, ranks, L, L, g}, xy, global, c, gap_spacing));
       worst = std::max(worst, res.back().max_diameter);
     }
     if (worst < g) {
@@ -120,6 +121,9 @@ TEST_CASE("decomposed Delaunay: owned stars are global with the band rule (rando
   const auto xy = random_points(n, L, L, 41);
   const auto c = GENERATE(SlabCoordinates::local_torus, SlabCoordinates::global_with_gap);
   for (int ranks : {2, 3, 4}) check_rule(xy, L, ranks, c);
+  // A coarse fill: dummies L/6 apart (edges must stay below L/2), a few dozen per slab.
+  if (c == SlabCoordinates::global_with_gap)
+    for (int ranks : {2, 4}) check_rule(xy, L, ranks, c, L / 6);
 }
 
 TEST_CASE("decomposed Delaunay: owned stars are global with the band rule (clustered, dilute)", "[delaunay][slab]") {
@@ -269,8 +273,11 @@ TEST_CASE("decomposed Delaunay: detect/flip/Lawson on each local torus keep the 
   const double L = std::sqrt(double(n)), D = 1.0, skin = 0.6;
   const int steps = 150;
   const int ranks = GENERATE(2, 3);
-  const auto c = GENERATE(SlabCoordinates::local_torus, SlabCoordinates::global_with_gap);
-  INFO("ranks " << ranks << (c == SlabCoordinates::local_torus ? ", local torus" : ", global with gap"));
+  // 0: local torus; 1: global coordinates, dummies g apart; 2: dummies L/6 apart.
+  const int variant = GENERATE(0, 1, 2);
+  const auto c = variant == 0 ? SlabCoordinates::local_torus : SlabCoordinates::global_with_gap;
+  const double gap_spacing = variant == 2 ? L / 6 : 0;
+  INFO("ranks " << ranks << ", variant " << variant);
   std::vector<double> xy = random_points(n, L, L, 5);
   Run global(xy, L, L);
 
@@ -291,7 +298,7 @@ TEST_CASE("decomposed Delaunay: detect/flip/Lawson on each local torus keep the 
       held.clear();
       double worst = 0;
       for (int r = 0; r < ranks; ++r) {
-        held.push_back(ff::delaunay::slab_points(Slab{r, ranks, L, L, g}, xy, c));
+        held.push_back(ff::delaunay::slab_points(Slab{r, ranks, L, L, g}, xy, c, gap_spacing));
         local.push_back(std::make_unique<Run>(held.back().xy, held.back().box_x, L));
         const Built t = local.back()->topo();
         worst = std::max(worst, ff::delaunay::max_owned_circumdiameter(t.he.data(), held.back().id.size(),
@@ -395,7 +402,7 @@ TEST_CASE("decomposed Delaunay: detect/flip/Lawson on each local torus keep the 
   CHECK(rebuilds > 1);
   CHECK(missed == 0);
   CHECK(compared > std::size_t(steps * ranks * 3 / 4));  // the rule held on most steps
-  WARN("rebuilds " << rebuilds << ", band " << g << ", inversions " << inversions << ", Lawson flips "
+  WARN("ranks " << ranks << ", variant " << variant << ": rebuilds " << rebuilds << ", band " << g << ", inversions " << inversions << ", Lawson flips "
                    << lawson_flips << ", rollbacks " << rollbacks << " (" << extra << " requested by a slab only), compared "
                    << compared);
 }
