@@ -406,3 +406,115 @@ TEST_CASE("decomposed Delaunay: detect/flip/Lawson on each local torus keep the 
                    << lawson_flips << ", rollbacks " << rollbacks << " (" << extra << " requested by a slab only), compared "
                    << compared);
 }
+
+namespace {
+
+// Overlapping pairs (distance < sigma) of a triangulation and how many of them are not strict
+// Gabriel edges (an opposite vertex on or inside the circle with the pair as diameter) or not
+// edges at all.
+struct GabrielCount {
+  std::size_t overlaps = 0, not_edges = 0, not_gabriel = 0;
+};
+
+GabrielCount gabriel(const std::vector<double>& xy, double L, double sigma) {
+  const Built t = build(xy, L, L);
+  const std::size_t n = xy.size() / 2;
+  auto rel = [&](std::size_t i, std::size_t j, double& dx, double& dy) {
+    dx = xy[2 * j] - xy[2 * i];
+    dy = xy[2 * j + 1] - xy[2 * i + 1];
+    dx -= L * std::rint(dx / L);
+    dy -= L * std::rint(dy / L);
+  };
+  // Every edge with its two opposite vertices: half-edge h = a -> b, its triangle's third vertex.
+  std::vector<std::vector<std::pair<std::uint32_t, std::uint32_t>>> edge_of(n);  // (other end, opposite)
+  for (std::size_t h = 0; h < 6 * n; ++h) {
+    const int a = t.he[2 * h], h1 = t.he[2 * h + 1], b = t.he[2 * h1], c = t.he[2 * t.he[2 * h1 + 1]];
+    edge_of[std::size_t(a)].emplace_back(std::uint32_t(b), std::uint32_t(c));
+  }
+  GabrielCount g;
+  for (std::size_t i = 0; i < n; ++i)
+    for (std::size_t j = i + 1; j < n; ++j) {
+      double dx, dy;
+      rel(i, j, dx, dy);
+      if (dx * dx + dy * dy >= sigma * sigma) continue;
+      ++g.overlaps;
+      std::size_t sides = 0;
+      bool strict = true;
+      for (auto [b, c] : edge_of[i]) {
+        if (b != j) continue;
+        ++sides;
+        double cx, cy, ex, ey;  // c -> i, c -> j
+        rel(c, i, cx, cy);
+        rel(c, j, ex, ey);
+        strict = strict && cx * ex + cy * ey > 0;  // the angle at c is acute: c outside the circle
+      }
+      for (auto [b, c] : edge_of[j]) {
+        if (b != i) continue;
+        ++sides;
+        double cx, cy, ex, ey;
+        rel(c, i, cx, cy);
+        rel(c, j, ex, ey);
+        strict = strict && cx * ex + cy * ey > 0;
+      }
+      if (sides != 2) ++g.not_edges;
+      else if (!strict) ++g.not_gabriel;
+    }
+  return g;
+}
+
+// Random sequential addition with a minimum distance: n points, none closer than d_min.
+std::vector<double> rsa(std::size_t n, double L, double d_min, std::uint64_t seed) {
+  const RngKey key = make_rng_key(seed, "slab-rsa");
+  std::vector<double> xy;
+  for (std::uint32_t trial = 0; xy.size() < 2 * n; ++trial) {
+    if (trial >= 100 * n) FAIL("random sequential addition did not place " << n << " points");
+    const double x = L * uniform01(key, trial, 0, 0, 0), y = L * uniform01(key, trial, 0, 0, 1);
+    bool free = true;
+    for (std::size_t k = 0; k < xy.size() / 2 && free; ++k) {
+      double dx = x - xy[2 * k], dy = y - xy[2 * k + 1];
+      dx -= L * std::rint(dx / L);
+      dy -= L * std::rint(dy / L);
+      free = dx * dx + dy * dy >= d_min * d_min;
+    }
+    if (free) {
+      xy.push_back(x);
+      xy.push_back(y);
+    }
+  }
+  return xy;
+}
+
+}  // namespace
+
+TEST_CASE("decomposed Delaunay: overlaps shallower than (1 - 1/sqrt 2) sigma are strict Gabriel edges",
+          "[delaunay][slab]") {
+  // D4's condition (ii) for bitwise positions: the overlap correction reads only the overlapping
+  // pairs, and a strict Gabriel edge is an edge of every Delaunay triangulation of the points, so
+  // slabs and the whole box (and Lawson's tie-breaking) agree on them. A point inside the circle
+  // with diameter ij (|ij| < sigma) is closer than sigma/sqrt 2 to i or j, so when no pair is
+  // that close every overlapping pair is strict Gabriel.
+  const double sigma = 1, L = 40;
+  const auto xy = rsa(1400, L, 0.72 * sigma, 3);  // every pair > 0.72 sigma > sigma/sqrt 2
+  const GabrielCount g = gabriel(xy, L, sigma);
+  INFO("overlapping pairs " << g.overlaps);
+  CHECK(g.overlaps > 100);
+  CHECK(g.not_edges == 0);
+  CHECK(g.not_gabriel == 0);
+
+  // A deeper overlap breaks it: k at 0.45 sigma from both ends of a pair 0.9 sigma apart lies
+  // inside its circle; the pair is then no Delaunay edge, yet it overlaps.
+  std::vector<double> deep = xy;
+  const double x0 = 20.3, y0 = 20.3;
+  std::vector<double> kept;
+  for (std::size_t k = 0; k < deep.size() / 2; ++k)
+    if (std::hypot(deep[2 * k] - x0, deep[2 * k + 1] - y0) > 1.5) {
+      kept.push_back(deep[2 * k]);
+      kept.push_back(deep[2 * k + 1]);
+    }
+  for (double v : {x0 - 0.45, y0, x0 + 0.45, y0, x0, y0 + 0.05}) kept.push_back(v);
+  const GabrielCount d = gabriel(kept, L, sigma);
+  INFO("overlapping pairs " << d.overlaps << ", not edges " << d.not_edges << ", not strict Gabriel " << d.not_gabriel);
+  CHECK(d.not_edges + d.not_gabriel > 0);
+  WARN("RSA at 0.72 sigma: " << g.overlaps << " overlapping pairs, all strict Gabriel; with one deep overlap: "
+                             << d.not_edges << " not an edge, " << d.not_gabriel << " not strict Gabriel");
+}
