@@ -7,6 +7,9 @@
 // triangulation is the periodic Delaunay triangulation of the held particles in a box of width
 // W = L/P + 2g (and the global height): x is shifted so that the slab lies in [g, W - g). Every
 // Delaunay kernel then runs unchanged on the local state (it is just a smaller periodic box).
+// Or (SlabCoordinates::global_with_gap) the held particles keep their global coordinates in the
+// global box and fixed dummy vertices fill the gap beyond the band: kernels unchanged too, and
+// every difference of held positions is the bits of one rank alone.
 //
 // Why owned stars are exact when every local triangle with an owned vertex v has circumdiameter
 // 2R < g: the triangle's circumdisk contains v and has diameter < g, so every point of it lies
