@@ -310,6 +310,22 @@ TEST_CASE("decomposition: a stage that cannot run on a slab, or reads stale ghos
       CHECK(std::string(e.what()).find("cannot run on a rank's share") != std::string::npos);
     }
   }
+  // pipelines/hard-disks.yaml: the Delaunay stages need the slab triangulation of docs/multi-gpu.md
+  // ("The Delaunay pipelines"), whose geometry exists (stages/delaunay/common/slab.h) but which no
+  // team runs yet: refused by name, the integrator (which can run on a slab) not named.
+  {
+    auto l = test::load_compute_steps(test::repo_file("pipelines/hard-disks.yaml").string(), {"system.N=256"});
+    try {
+      run(l, 2, 1);
+      FAIL("a decomposed team ran the Delaunay stages");
+    } catch (const InputError& e) {
+      const std::string m = e.what();
+      INFO(m);
+      for (const char* id : {"'delaunay.detect_inversion'", "'delaunay.flip'", "'delaunay.lawson'", "'overlap_correct'"})
+        CHECK(m.find(id) != std::string::npos);
+      CHECK(m.find("brownian.integrate") == std::string::npos);
+    }
+  }
   // The integrator before the list (as pipelines/hard-spheres.yaml orders them): the list would
   // read ghosts that hold the positions of the start of the step.
   {
