@@ -297,20 +297,32 @@ __attribute__((flatten)) void edge_pass(const Overlaps<R, Walls>& ov, Tile& tl, 
     const __m256d quarter_x = _mm256_set1_pd(0.25 * m.box.L[0]), quarter_y = _mm256_set1_pd(0.25 * m.box.L[1]);
     const __m256d reach2 = _mm256_set1_pd(m.reach2);
     __m256i mixes = _mm256_setzero_si256();
+    // The edges left over, listed without a branch on the outcome and then taken in a second loop
+    // of mostly overlapping edges, so that neither loop mispredicts at every overlap.
+    constexpr std::size_t kBuffer = 256;
+    std::uint32_t left[kBuffer + 4];
+    std::size_t nleft = 0;
+    auto drain = [&] {
+      for (std::size_t i = 0; i < nleft; ++i) one(left[i], std::false_type{});
+      nleft = 0;
+    };
     for (; e + 4 <= e1; e += 4) {
       const EdgeQuad q = load_edge_quad(m.he, e);
       if (!edge_quad_valid(q, lim)) {  // a corrupt record: every check on the scalar path
+        drain();  // (edges in order, as the scalar loop takes them)
         for (std::size_t k = 0; k < 4; ++k) one(e + k, std::integral_constant<bool, Check>{});
         continue;
       }
       if (Check) mixes = add_next_mix(q, mixes);
-      int rest = ~apart4(m.pos, m.he, e, quarter_x, quarter_y, reach2) & 0xF;
-      while (rest) {  // valid records: edge() without the checks gives edge<Check>()'s answer
-        const int k = __builtin_ctz(unsigned(rest));
-        rest &= rest - 1;
-        one(e + std::size_t(k), std::false_type{});
+      const unsigned rest = ~unsigned(apart4(m.pos, m.he, e, quarter_x, quarter_y, reach2));
+      // valid records: edge() without the checks gives edge<Check>()'s answer
+      for (unsigned k = 0; k < 4; ++k) {
+        left[nleft] = std::uint32_t(e + k);
+        nleft += rest >> k & 1u;
       }
+      if (nleft >= kBuffer) drain();
     }
+    drain();
     if (Check) {
       alignas(32) std::uint64_t lanes[4];
       _mm256_store_si256(reinterpret_cast<__m256i*>(lanes), mixes);
