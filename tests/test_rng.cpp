@@ -237,7 +237,7 @@ TEST_CASE("the CPU overdamped loop gives every particle its own noise for any N 
   // Both builds of the block loop: the build's own ISA, and x86-64-v4 where this CPU has it
   // (core/backend/overdamped_cpu.h); the default above is the second on such a CPU.
   for (const bool v4 : {false, true}) {
-    if (v4 && !cpu_overdamped_v4()) {
+    if (v4 && !cpu_has_x86_64_v4()) {
       WARN("no x86-64-v4 (AVX-512) on this CPU, or FLIPFLOW_NO_AVX512 set: its block loop is not tested here");
       continue;
     }

@@ -7,23 +7,17 @@
 // gets each block after its moves (the overdamped integrators' non-finite check).
 //
 // In a build for x86-64-v3 (AVX2) the block loop is compiled a second time for x86-64-v4
-// (AVX-512) and taken on a CPU that has it: the same operations (no fma contraction in either),
-// so the same bits, and Box–Muller's lanes ~17 % faster on an AMD EPYC (Zen 5) (bench/README.md).
+// (AVX-512) and taken on a CPU that has it (core/backend/cpu_isa.h): the same bits, and
+// Box–Muller's lanes ~17 % faster on an AMD EPYC (Zen 5) (bench/README.md).
 #pragma once
 #include <oneapi/tbb/blocked_range.h>
 #include <oneapi/tbb/parallel_for.h>
 
 #include <algorithm>
-#include <cstdlib>
 
+#include "core/backend/cpu_isa.h"
 #include "core/backend/exec.h"
 #include "core/physics/overdamped.h"
-
-#if defined(__AVX2__) && defined(__x86_64__) && defined(__GNUC__) && !defined(__CUDACC__)
-#define FF_OVERDAMPED_V4 1
-#else
-#define FF_OVERDAMPED_V4 0
-#endif
 
 namespace ff {
 
@@ -60,36 +54,23 @@ __attribute__((flatten)) void blocks_build_isa(const F& f, const NoiseCounter& c
   blocks(f, c, n, b0, b1);
 }
 
-#if FF_OVERDAMPED_V4
+#if FF_CPU_V4_DISPATCH
 template <class F>
-__attribute__((target("arch=x86-64-v4"), flatten)) void blocks_v4(const F& f, const NoiseCounter& c, std::size_t n,
+FF_TARGET_X86_64_V4 __attribute__((flatten)) void blocks_v4(const F& f, const NoiseCounter& c, std::size_t n,
                                                                    std::size_t b0, std::size_t b1) {
   blocks(f, c, n, b0, b1);
 }
 #endif
 }  // namespace overdamped_cpu_detail
 
-// Whether the x86-64-v4 block loop can run here (AVX-512 F, BW, CD, DQ, VL, as -march=x86-64-v4
-// assumes), unless FLIPFLOW_NO_AVX512 is set in the environment. Asked once per library.
-inline bool cpu_overdamped_v4() {
-#if FF_OVERDAMPED_V4
-  static const bool yes = __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512bw") &&
-                          __builtin_cpu_supports("avx512cd") && __builtin_cpu_supports("avx512dq") &&
-                          __builtin_cpu_supports("avx512vl") && !std::getenv("FLIPFLOW_NO_AVX512");
-  return yes;
-#else
-  return false;
-#endif
-}
-
-// The loop with the x86-64-v4 blocks (v4: only where cpu_overdamped_v4()) or the build's own.
+// The loop with the x86-64-v4 blocks (v4: only where cpu_has_x86_64_v4()) or the build's own.
 template <class F>
 void cpu_overdamped_loop(std::size_t n, const F& f, bool v4) {
   using namespace overdamped_cpu_detail;
   constexpr std::size_t kGrain = 2048 / kLanes;  // lane blocks per task at least
   const NoiseCounter c = f.noise_counter();
   auto run = [&](std::size_t b0, std::size_t b1) {
-#if FF_OVERDAMPED_V4
+#if FF_CPU_V4_DISPATCH
     if (v4) return blocks_v4(f, c, n, b0, b1);
 #else
     (void)v4;
@@ -107,7 +88,7 @@ void cpu_overdamped_loop(std::size_t n, const F& f, bool v4) {
 
 template <class F>
 void cpu_overdamped_for_each(std::size_t n, const F& f, CUstream_st* /*stream*/) {
-  cpu_overdamped_loop(n, f, cpu_overdamped_v4());
+  cpu_overdamped_loop(n, f, cpu_has_x86_64_v4());
 }
 
 }  // namespace ff
