@@ -59,6 +59,9 @@ constexpr std::size_t kTile = 2048;
 // the apply) and their gathers (measured, hard disks at η = 0.5, 2^16).
 constexpr std::size_t kEdgeMode = 8;
 
+// How many touched particles ahead an edge pass's finish prefetches.
+constexpr std::size_t kFinishAhead = 8;
+
 // A push for a particle of another tile, from an edge pass.
 struct Remote {
   int v;
@@ -408,6 +411,13 @@ void host_iterate(HostWorkspace* w, const Problem<R>& p, std::int64_t k0, std::i
         std::size_t nm = 0;
         for (std::size_t i = 0; i < tl.ntouched; ++i) {
           const Touched& tp = tl.touched[i];
+          // The tile's particles left the cache while the other tiles were passed: ask for the
+          // position and image a few particles ahead of the apply.
+          if (i + kFinishAhead < tl.ntouched) {
+            const std::size_t u = std::size_t(tl.touched[i + kFinishAhead].v);
+            __builtin_prefetch(p.pos + 2 * u, 1);
+            __builtin_prefetch(p.image + 2 * u, 1);
+          }
           w->slot[std::size_t(tp.v)] = -1;
           if constexpr (Mark) first += touch(p.touched, tp.v);
           if (!go) continue;
