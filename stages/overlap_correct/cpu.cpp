@@ -9,6 +9,8 @@
 //     both ends: directly to an end in the tile's own particles, else through a list: for the
 //     tile before or after (taken by that tile when it finishes), or for any other (one thread
 //     adds those; ~7 % of them). No atomics: a locked add per push cost more than the edge test.
+//     With AVX2 the pass settles four edges at a time where the lanes find them apart (nearly
+//     all), lists the others without a branch and takes them one by one after (edge_pass).
 //     Each tile lists its touched particles once, with their sums. When the counts say to go
 //     on, each tile finishes its touched particles (Overlaps::from_sum) and moves them at once
 //     (nothing reads positions then). Iteration 0's pass also checks the mesh (indices in
