@@ -261,4 +261,18 @@ TEST_CASE("the CPU overdamped loop gives every particle its own noise for any N 
     INFO("threads " << threads);
     CHECK(mismatches == 0);
   }
+  // Both builds of the block loop: the build's own ISA, and x86-64-v4 where this CPU has it
+  // (core/backend/overdamped_cpu.h); the default above is the second on such a CPU.
+  for (const bool v4 : {false, true}) {
+    if (v4 && !cpu_has_x86_64_v4()) {
+      WARN("no x86-64-v4 (AVX-512) on this CPU, or FLIPFLOW_NO_AVX512 set: its block loop is not tested here");
+      continue;
+    }
+    std::vector<double> got(4 * n, -100.0);
+    cpu_overdamped_loop(n, RecordNoise{got.data(), ref.key, ref.step, ref.attempt}, v4);
+    std::size_t mismatches = 0;
+    for (std::size_t k = 0; k < 4 * n; ++k) mismatches += got[k] != expect[k];
+    INFO("x86-64-v4 blocks " << v4);
+    CHECK(mismatches == 0);
+  }
 }

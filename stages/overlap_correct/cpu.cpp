@@ -9,6 +9,8 @@
 //     both ends: directly to an end in the tile's own particles, else through a list: for the
 //     tile before or after (taken by that tile when it finishes), or for any other (one thread
 //     adds those; ~7 % of them). No atomics: a locked add per push cost more than the edge test.
+//     With AVX2 the pass settles four edges at a time where the lanes find them apart (nearly
+//     all), lists the others without a branch and takes them one by one after (edge_pass).
 //     Each tile lists its touched particles once, with their sums. When the counts say to go
 //     on, each tile finishes its touched particles (Overlaps::from_sum) and moves them at once
 //     (nothing reads positions then). Iteration 0's pass also checks the mesh (indices in
@@ -37,7 +39,11 @@
 #include <algorithm>
 #include <cstdlib>
 #include <cstring>
+#include <type_traits>
 #include <vector>
+#if defined(__AVX2__)
+#include <immintrin.h>
+#endif
 
 #include "core/backend/exec_cpu.h"
 #include "stages/overlap_correct/stage.h"
@@ -54,6 +60,9 @@ constexpr std::size_t kTile = 2048;
 // over the 3N edges costs about as much as the walks of n / 6 moved particles (the check after
 // the apply) and their gathers (measured, hard disks at η = 0.5, 2^16).
 constexpr std::size_t kEdgeMode = 8;
+
+// How many touched particles ahead an edge pass's finish prefetches.
+constexpr std::size_t kFinishAhead = 8;
 
 // A push for a particle of another tile, from an edge pass.
 struct Remote {
@@ -177,10 +186,80 @@ void for_each_tile(std::size_t nt, const F& f, bool serial = false) {
       tbb::simple_partitioner());
 }
 
+#if defined(__AVX2__)
+// Four edges at a time (AVX2): nearly all edges of a pass are apart (at η = 0.5 about one in 18
+// overlaps in iteration 0, one in 60 in iteration 1), and settling those four to a vector is
+// cheaper than the scalar test's branch per edge. Only the outcome "apart" is decided here, by
+// Overlaps::edge's own test with its operations in its order (no fma in this file): both
+// components within a quarter box and !(r² < reach²); any other edge goes through edge().
+//
+// Edge e's record {a, na, b, nb} (kernel.h, load_edge), four of them in two vectors.
+struct EdgeQuad {
+  __m256i r01, r23;  // the records of edges e, e + 1 and e + 2, e + 3
+};
+inline EdgeQuad load_edge_quad(const std::int32_t* he, std::size_t e) {
+  return {_mm256_loadu_si256(reinterpret_cast<const __m256i*>(he + 4 * e)),
+          _mm256_loadu_si256(reinterpret_cast<const __m256i*>(he + 4 * e + 8))};
+}
+
+// Whether all four records pass edge()'s index checks: a, b < n and a != b, and with Check
+// na, nb < 6n. lim holds {n − 1, 6n − 1 (or ~0 without Check), n − 1, 6n − 1} twice.
+inline bool edge_quad_valid(const EdgeQuad& q, __m256i lim) {
+  const __m256i ok01 = _mm256_cmpeq_epi32(_mm256_min_epu32(q.r01, lim), q.r01);
+  const __m256i ok23 = _mm256_cmpeq_epi32(_mm256_min_epu32(q.r23, lim), q.r23);
+  // a == b: the record with its 64-bit halves swapped compares equal in the a lane.
+  const __m256i loop01 = _mm256_cmpeq_epi32(_mm256_shuffle_epi32(q.r01, _MM_SHUFFLE(1, 0, 3, 2)), q.r01);
+  const __m256i loop23 = _mm256_cmpeq_epi32(_mm256_shuffle_epi32(q.r23, _MM_SHUFFLE(1, 0, 3, 2)), q.r23);
+  const __m256i bad = _mm256_or_si256(_mm256_andnot_si256(ok01, _mm256_set1_epi32(-1)),
+                                      _mm256_andnot_si256(ok23, _mm256_set1_epi32(-1)));
+  // only the a lanes (0 and 4) of the loop tests count: the others compare na with nb
+  const __m256i a_lanes = _mm256_setr_epi32(-1, 0, 0, 0, -1, 0, 0, 0);
+  const __m256i loops = _mm256_and_si256(_mm256_or_si256(loop01, loop23), a_lanes);
+  return _mm256_testz_si256(_mm256_or_si256(bad, loops), _mm256_or_si256(bad, loops)) != 0;
+}
+
+// Σ mix(na) + mix(nb) over the four records (the permutation check's terms, kernel.h's mix, in
+// 64-bit lanes: x·C mod 2^64 = x·C_lo + (x·C_hi mod 2^32)·2^32 for 32-bit x), added to acc.
+inline __m256i add_next_mix(const EdgeQuad& q, __m256i acc) {
+  const __m256i c_lo = _mm256_set1_epi64x(0x7f4a7c15), c_hi = _mm256_set1_epi64x(0x9e3779b9);
+  for (const __m256i r : {q.r01, q.r23}) {
+    const __m256i x = _mm256_srli_epi64(r, 32);  // na, nb zero-extended
+    const __m256i p = _mm256_add_epi64(_mm256_mul_epu32(x, c_lo), _mm256_slli_epi64(_mm256_mul_epu32(x, c_hi), 32));
+    acc = _mm256_add_epi64(acc, _mm256_xor_si256(p, _mm256_srli_epi64(p, 29)));
+  }
+  return acc;
+}
+
+// Point i's (x, y) in double (exact for float positions, as load_xy converts them).
+inline __m128d load_xy2(const double* p, int i) { return _mm_loadu_pd(p + 2 * i); }
+inline __m128d load_xy2(const float* p, int i) {
+  return _mm_cvtps_pd(_mm_castsi128_ps(_mm_loadl_epi64(reinterpret_cast<const __m128i*>(p + 2 * i))));
+}
+
+// Bit k set: edge e + k is apart, exactly as edge() would find (valid records assumed).
+template <class R>
+__attribute__((always_inline)) inline int apart4(const R* pos, const std::int32_t* he, std::size_t e, __m256d quarter_x, __m256d quarter_y,
+                  __m256d reach2) {
+  const std::int32_t* r = he + 4 * e;
+  const __m256d a02 = _mm256_insertf128_pd(_mm256_castpd128_pd256(load_xy2(pos, r[0])), load_xy2(pos, r[8]), 1);
+  const __m256d a13 = _mm256_insertf128_pd(_mm256_castpd128_pd256(load_xy2(pos, r[4])), load_xy2(pos, r[12]), 1);
+  const __m256d b02 = _mm256_insertf128_pd(_mm256_castpd128_pd256(load_xy2(pos, r[2])), load_xy2(pos, r[10]), 1);
+  const __m256d b13 = _mm256_insertf128_pd(_mm256_castpd128_pd256(load_xy2(pos, r[6])), load_xy2(pos, r[14]), 1);
+  // lanes in edge order: unpacklo of (0, 2 | 1, 3) gives (x0, x1 | x2, x3)
+  const __m256d rx = _mm256_sub_pd(_mm256_unpacklo_pd(b02, b13), _mm256_unpacklo_pd(a02, a13));
+  const __m256d ry = _mm256_sub_pd(_mm256_unpackhi_pd(b02, b13), _mm256_unpackhi_pd(a02, a13));
+  const __m256d sign = _mm256_set1_pd(-0.0);
+  const __m256d near = _mm256_and_pd(_mm256_cmp_pd(_mm256_andnot_pd(sign, rx), quarter_x, _CMP_LE_OQ),
+                                     _mm256_cmp_pd(_mm256_andnot_pd(sign, ry), quarter_y, _CMP_LE_OQ));
+  const __m256d r2 = _mm256_add_pd(_mm256_mul_pd(rx, rx), _mm256_mul_pd(ry, ry));
+  return _mm256_movemask_pd(_mm256_and_pd(near, _mm256_cmp_pd(r2, reach2, _CMP_NLT_UQ)));
+}
+#endif
+
 // One tile's share of an edge pass (Check: iteration 0, with the mesh checks): adds the pushes
 // of its overlapping edges to its own particles and lists the others', counts pairs into tl.c.
 template <bool Check, class R, bool Walls>
-void edge_pass(const Overlaps<R, Walls>& ov, Tile& tl, std::int32_t* slot) {
+__attribute__((flatten)) void edge_pass(const Overlaps<R, Walls>& ov, Tile& tl, std::int32_t* slot) {
   const Overlaps<R, Walls> m = ov;  // a local copy: the stores below cannot alias its fields
   std::uint64_t pairs = 0, bad = 0, broken = 0, hash = 0;
   const unsigned t0 = unsigned(tl.t0), size = unsigned(tl.t1 - tl.t0);
@@ -194,15 +273,16 @@ void edge_pass(const Overlaps<R, Walls>& ov, Tile& tl, std::int32_t* slot) {
       tl.remote[side][nremote[side]++] = Remote{v, qx, qy};
     }
   };
-  for (std::size_t e = 3 * tl.t0, e1 = 3 * tl.t1; e < e1; ++e) {
+  // Edge e, settled by the scalar test (C: with the mesh checks).
+  auto one = [&](std::size_t e, auto check) {
     int a, b;
     std::int64_t qx, qy;
     double o;
-    const int r = m.template edge<Check>(e, a, b, qx, qy, o, hash);
-    if (r == kEdgeApart) continue;
+    const int r = m.template edge<decltype(check)::value>(e, a, b, qx, qy, o, hash);
+    if (r == kEdgeApart) return;
     if (r == kEdgeCorrupt) {
       ++broken;
-      continue;
+      return;
     }
     if (o > 0) {
       ++pairs;
@@ -210,7 +290,52 @@ void edge_pass(const Overlaps<R, Walls>& ov, Tile& tl, std::int32_t* slot) {
     }
     add(a, qx, qy);
     add(b, -qx, -qy);
+  };
+  std::size_t e = 3 * tl.t0;
+  const std::size_t e1 = 3 * tl.t1;
+#if defined(__AVX2__)
+  {
+    const unsigned n = unsigned(m.n);
+    const int lim_next = Check ? int(6u * n - 1u) : -1;
+    const __m256i lim = _mm256_setr_epi32(int(n - 1u), lim_next, int(n - 1u), lim_next, int(n - 1u), lim_next,
+                                          int(n - 1u), lim_next);
+    const __m256d quarter_x = _mm256_set1_pd(0.25 * m.box.L[0]), quarter_y = _mm256_set1_pd(0.25 * m.box.L[1]);
+    const __m256d reach2 = _mm256_set1_pd(m.reach2);
+    __m256i mixes = _mm256_setzero_si256();
+    // The edges left over, listed without a branch on the outcome and then taken in a second loop
+    // of mostly overlapping edges, so that neither loop mispredicts at every overlap.
+    constexpr std::size_t kBuffer = 256;
+    std::uint32_t left[kBuffer + 4];
+    std::size_t nleft = 0;
+    auto drain = [&] {
+      for (std::size_t i = 0; i < nleft; ++i) one(left[i], std::false_type{});
+      nleft = 0;
+    };
+    for (; e + 4 <= e1; e += 4) {
+      const EdgeQuad q = load_edge_quad(m.he, e);
+      if (!edge_quad_valid(q, lim)) {  // a corrupt record: every check on the scalar path
+        drain();  // (edges in order, as the scalar loop takes them)
+        for (std::size_t k = 0; k < 4; ++k) one(e + k, std::integral_constant<bool, Check>{});
+        continue;
+      }
+      if (Check) mixes = add_next_mix(q, mixes);
+      const unsigned rest = ~unsigned(apart4(m.pos, m.he, e, quarter_x, quarter_y, reach2));
+      // valid records: edge() without the checks gives edge<Check>()'s answer
+      for (unsigned k = 0; k < 4; ++k) {
+        left[nleft] = std::uint32_t(e + k);
+        nleft += rest >> k & 1u;
+      }
+      if (nleft >= kBuffer) drain();
+    }
+    drain();
+    if (Check) {
+      alignas(32) std::uint64_t lanes[4];
+      _mm256_store_si256(reinterpret_cast<__m256i*>(lanes), mixes);
+      hash += lanes[0] + lanes[1] + lanes[2] + lanes[3];
+    }
   }
+#endif
+  for (; e < e1; ++e) one(e, std::integral_constant<bool, Check>{});
   if constexpr (Walls)  // the walls: a term per particle of the tile, deposited like an edge's
     for (std::size_t v = tl.t0; v < tl.t1; ++v) {
       double x, y;
@@ -288,6 +413,13 @@ void host_iterate(HostWorkspace* w, const Problem<R>& p, std::int64_t k0, std::i
         std::size_t nm = 0;
         for (std::size_t i = 0; i < tl.ntouched; ++i) {
           const Touched& tp = tl.touched[i];
+          // The tile's particles left the cache while the other tiles were passed: ask for the
+          // position and image a few particles ahead of the apply.
+          if (i + kFinishAhead < tl.ntouched) {
+            const std::size_t u = std::size_t(tl.touched[i + kFinishAhead].v);
+            __builtin_prefetch(p.pos + 2 * u, 1);
+            __builtin_prefetch(p.image + 2 * u, 1);
+          }
           w->slot[std::size_t(tp.v)] = -1;
           if constexpr (Mark) first += touch(p.touched, tp.v);
           if (!go) continue;

@@ -133,7 +133,7 @@ for dt in sorted({r["dt"] for r in rows}, reverse=True):
           f"{m.get('overlap_correct/pairs', float('nan')):.4g}, overlap iterations {m.get('overlap_correct/iterations', float('nan')):.3g}, "
           f"Lawson flips {m.get('delaunay.lawson/lawson_flips', float('nan')):.4g}; warm-up {last['warmup']} steps, {last['steps']} timed")
 EOF
-say "   target: ratio >= 5 at N = 2^16"
+say "   target: ratio >= 8 at N = 2^16 (issue 20)"
 
 mkdir -p "$(dirname "$OUT")"
 { cat "$report"; echo; } >> "$OUT"

@@ -129,7 +129,9 @@ inline int quiet4(const MarkInversions<R>& f, const Box4& box, int e) {
 
 // MarkInversions over the edges, each task appending its Lawson candidates in batches of up to
 // kBatch (one update of the shared counter per batch instead of per candidate). With AVX2, four
-// edges at a time where all four are quiet (quiet4).
+// edges at a time where all four are quiet (quiet4), without the scalar test's software prefetch:
+// the edges go along a Hilbert curve, so their points are near the ones just read, and the six
+// prefetches an edge (with their index loads) cost more than they hid (bench/README.md).
 template <class R>
 void mark(std::size_t n, const MarkInversions<R>& f, CUstream_st*) {
   constexpr std::size_t kGrain = 2048, kBatch = 256;
@@ -151,9 +153,6 @@ void mark(std::size_t n, const MarkInversions<R>& f, CUstream_st*) {
     {  // four at a time
       const Box4 box(local.pts.box);
       for (; i + 4 <= end; i += 4) {
-        for (int j = 0; j < 4; ++j)
-          if (int(i) + j + kPrefetchAhead < local.edges)
-            prefetch_quad_points(local.mesh, local.pts.p, local.prev, int(i) + j + kPrefetchAhead);
         const int quiet = quiet4(local, box, int(i));
         if (quiet == 0xF) {
           std::memset(local.mark + i, 0, 4);
