@@ -36,6 +36,7 @@
 #include "stages/neighbors/list.h"
 #include "support/cli.h"
 #include "support/pipeline.h"
+#include "support/team.h"
 
 using namespace ff;
 
@@ -89,14 +90,8 @@ End run(const test::LoadedPipeline& l, int ranks, std::uint64_t steps, const End
   End end;
   std::mutex m;
   auto body = [&](Communicator* comm) {
-    RunOptions o;
-    o.backend = backend;
-    o.dry_run = true;
-    o.team = comm;
-    static std::mutex setup;  // set-up one rank at a time, as `pipeline run` does
-    std::unique_lock<std::mutex> lock(setup);
-    Simulation sim(l.spec, *l.registry, o);
-    lock.unlock();
+    const auto simulation = test::rank_simulation(l, backend, comm);
+    Simulation& sim = *simulation;
     for (std::uint64_t i = 0; i < steps; ++i) sim.advance();
     const auto rows = owned_rows(sim.state());
     sim.gather();
@@ -128,12 +123,7 @@ End run(const test::LoadedPipeline& l, int ranks, std::uint64_t steps, const End
     end.time = sim.state().time;
     sim.finish(true);
   };
-  if (ranks == 1) {
-    body(nullptr);
-  } else {
-    Team team = make_team(backend, ranks);
-    run_team(team, [&](Communicator& comm) { body(&comm); });
-  }
+  test::on_ranks(backend, ranks, body);
   return end;
 }
 
@@ -250,13 +240,8 @@ MigrationSteps migration_steps(const test::LoadedPipeline& l, int ranks, std::ui
   MigrationSteps out;
   Team team = make_team(Backend::cpu, ranks);
   run_team(team, [&](Communicator& comm) {
-    RunOptions o;
-    o.dry_run = true;
-    o.team = &comm;
-    static std::mutex setup;
-    std::unique_lock<std::mutex> lock(setup);
-    Simulation sim(l.spec, *l.registry, o);
-    lock.unlock();
+    const auto simulation = test::rank_simulation(l, Backend::cpu, &comm);
+    Simulation& sim = *simulation;
     for (std::uint64_t i = 0; i < steps; ++i) {
       const std::uint64_t step = sim.state().step, before = sim.domain()->migrations();
       sim.advance();

@@ -33,6 +33,7 @@
 #include "core/run/team.h"
 #include "support/cli.h"
 #include "support/pipeline.h"
+#include "support/team.h"
 
 #ifdef FLIPFLOW_HAVE_CUDA
 #include <cuda_runtime.h>
@@ -188,14 +189,8 @@ struct RankEnd {
 std::vector<RankEnd> run_ranks(const test::LoadedPipeline& l, Backend backend, int ranks, std::uint64_t steps) {
   auto ends = std::vector<RankEnd>(std::size_t(ranks));
   auto body = [&](Communicator* comm) {
-    RunOptions o;
-    o.backend = backend;
-    o.dry_run = true;
-    o.team = comm;
-    static std::mutex setup;  // set-up one rank at a time, as `pipeline run` does
-    std::unique_lock<std::mutex> lock(setup);
-    Simulation sim(l.spec, *l.registry, o);
-    lock.unlock();
+    const auto simulation = test::rank_simulation(l, backend, comm);
+    Simulation& sim = *simulation;
     for (std::uint64_t i = 0; i < steps; ++i) sim.advance();
     sim.synchronize();
     RankEnd& e = ends[std::size_t(comm ? comm->rank() : 0)];
@@ -207,12 +202,7 @@ std::vector<RankEnd> run_ranks(const test::LoadedPipeline& l, Backend backend, i
     e.time = sim.state().time;
     sim.finish(true);
   };
-  if (ranks == 1) {
-    body(nullptr);
-  } else {
-    Team team = make_team(backend, ranks);
-    run_team(team, [&](Communicator& comm) { body(&comm); });
-  }
+  test::on_ranks(backend, ranks, body);
   return ends;
 }
 
