@@ -249,4 +249,33 @@ inline std::int32_t* status_of(State& s) {
   return f.host<std::int32_t>();
 }
 
+// What the core's rollback snapshot holds for the Delaunay maintenance stages (detect_inversion,
+// flip, Lawson: their declared writes), taken and restored on the host as a test drives them.
+struct TopologySnapshot {
+  std::vector<std::vector<unsigned char>> data;
+  const std::vector<std::string> names{fields::position,
+                                       dfields::halfedge,
+                                       dfields::opposite,
+                                       dfields::vertex_edge,
+                                       dfields::position_prev,
+                                       dfields::flip_mark,
+                                       dfields::status};
+  void take(State& s) {
+    data.clear();
+    for (auto& n : names) {
+      Field& f = s.field(n);
+      f.acquire(Where::host, Mode::read);
+      auto* p = static_cast<unsigned char*>(f.host_raw());
+      data.emplace_back(p, p + f.bytes());
+    }
+  }
+  void restore(State& s) {
+    for (std::size_t k = 0; k < names.size(); ++k) {
+      Field& f = s.field(names[k]);
+      f.acquire(Where::host, Mode::write);
+      std::copy(data[k].begin(), data[k].end(), static_cast<unsigned char*>(f.host_raw()));
+    }
+  }
+};
+
 }  // namespace ff::test::dl

@@ -209,40 +209,13 @@ struct Maintain {
   void finish(Runner& r, std::uint64_t k) { REQUIRE_FALSE(r.run(*lawson, k).rollback); }
 };
 
-// The fields the core's rollback snapshot holds for these stages (their writes).
-struct Snapshot {
-  std::vector<std::vector<unsigned char>> data;
-  const std::vector<std::string> names{fields::position,
-                                       ff::delaunay::fields::halfedge,
-                                       ff::delaunay::fields::opposite,
-                                       ff::delaunay::fields::vertex_edge,
-                                       ff::delaunay::fields::position_prev,
-                                       ff::delaunay::fields::flip_mark,
-                                       ff::delaunay::fields::status};
-  void take(State& s) {
-    data.clear();
-    for (auto& n : names) {
-      Field& f = s.field(n);
-      f.acquire(Where::host, Mode::read);
-      auto* p = static_cast<unsigned char*>(f.host_raw());
-      data.emplace_back(p, p + f.bytes());
-    }
-  }
-  void restore(State& s) {
-    for (std::size_t k = 0; k < names.size(); ++k) {
-      Field& f = s.field(names[k]);
-      f.acquire(Where::host, Mode::write);
-      std::copy(data[k].begin(), data[k].end(), static_cast<unsigned char*>(f.host_raw()));
-    }
-  }
-};
 
 // A state run by delaunay.build, detect_inversion, flip and Lawson, as one rank would.
 struct Run {
   std::unique_ptr<State> s;
   std::unique_ptr<Maintain> m;
   std::unique_ptr<Runner> r;
-  Snapshot snap;
+  TopologySnapshot snap;
   Run(const std::vector<double>& xy, double Lx, double Ly) {
     s = make_state(xy, Lx, Ly);
     auto build = make_stage("delaunay.build", Backend::cpu);

@@ -100,33 +100,6 @@ TEST_CASE("lawson: Brownian steps keep CGAL's Delaunay triangulation", "[delauna
 }
 
 namespace {
-// What the core's rollback snapshot holds for these stages (their declared writes).
-struct TopologySnapshot {
-  std::vector<std::vector<unsigned char>> data;
-  const std::vector<std::string> names{fields::position,
-                                       ff::delaunay::fields::halfedge,
-                                       ff::delaunay::fields::opposite,
-                                       ff::delaunay::fields::vertex_edge,
-                                       ff::delaunay::fields::position_prev,
-                                       ff::delaunay::fields::flip_mark,
-                                       ff::delaunay::fields::status};
-  void take(State& s) {
-    data.clear();
-    for (auto& n : names) {
-      Field& f = s.field(n);
-      f.acquire(Where::host, Mode::read);
-      auto* p = static_cast<unsigned char*>(f.host_raw());
-      data.emplace_back(p, p + f.bytes());
-    }
-  }
-  void restore(State& s) {
-    for (std::size_t k = 0; k < names.size(); ++k) {
-      Field& f = s.field(names[k]);
-      f.acquire(Where::host, Mode::write);
-      std::copy(data[k].begin(), data[k].end(), static_cast<unsigned char*>(f.host_raw()));
-    }
-  }
-};
 
 // One accepted step as the core takes it: a Brownian move of Δt = dt, detect + flip; a rollback
 // restores the snapshot and retries at Δt/2 with the next attempt's noise; then Lawson. Adds
