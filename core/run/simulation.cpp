@@ -38,7 +38,12 @@ void Simulation::build(const Registry& registry) {
   // In a team, observers (and so every output) live on rank 0 only; the other ranks run the
   // compute stages on their copies of the state.
   for (auto& e : spec_.step)
-    if (registry.get(e.stage).decl.observer) observer_schedules_.push_back(e.schedule);
+    if (registry.get(e.stage).decl.observer) {
+      GraphNode when;  // only its schedule: GraphNode::runs_at answers for every rank
+      when.schedule = e.schedule;
+      if (e.schedule.log) when.steps = e.schedule.log_steps(spec_.run.steps + 1);  // as StepGraph: observers see the last step
+      observer_schedules_.push_back(std::move(when));
+    }
   if (in_team(options_.team) && options_.team->rank() != 0) {
     std::vector<StepEntry> compute;
     for (auto& e : spec_.step)
@@ -235,14 +240,8 @@ void Simulation::decompose(const std::vector<bool>& observer) {
 }
 
 bool Simulation::observer_due(std::uint64_t step) const {
-  for (auto& sch : observer_schedules_) {
-    if (!sch.log ? step % sch.every == 0 : [&] {
-          const auto steps = sch.log_steps(spec_.run.steps);
-          return std::binary_search(steps.begin(), steps.end(), step);
-        }())
-      return true;
-  }
-  return false;
+  return std::any_of(observer_schedules_.begin(), observer_schedules_.end(),
+                     [&](const GraphNode& when) { return when.runs_at(step); });
 }
 
 // What a rollback must restore: the writes of every stage that can run before a rollback

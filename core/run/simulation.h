@@ -125,7 +125,7 @@ class Simulation {
   std::unique_ptr<Domain> domain_;
   std::unique_ptr<State> gathered_;
   std::vector<std::string> gathered_fields_;  // the particle fields rank 0's observers read
-  std::vector<Schedule> observer_schedules_;   // every rank's: when rank 0 gathers
+  std::vector<GraphNode> observer_schedules_;  // every rank's: when rank 0 gathers (schedule, log steps)
   bool observed_initial_ = false;
   bool finished_ = false;
 };
