@@ -19,8 +19,8 @@
 //
 // Layout (ring_table.h): GatherRing writes a table of one-rings each step: vertex u's neighbours
 // (turning clockwise from vertex_edge) in one row of the table, padded to a multiple of 4 slots
-// and read four at a time, and a 16-byte record of u (its position as the search needs it, float; its row's start;
-// its degree), so the search touches ~6 slots and one record per vertex: ~48 bytes a vertex in
+// and read four at a time, and a 16-byte record of u (its position as the search needs it,
+// float; its row's start; its degree), so the search touches ~6 slots and one record per vertex: ~48 bytes a vertex in
 // all, which the GPU's L2 holds at 2^20 particles where per-vertex padded rows with positions
 // beside them (192 bytes) did not.
 //   visited  breadth-first with a queue that is also the visited set: the first kFastSlots
