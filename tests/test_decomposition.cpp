@@ -349,7 +349,6 @@ TEST_CASE("decomposition: pipeline run --gpus N --device cpu writes one rank's H
   fs::remove_all(dir);
   fs::create_directories(dir);
   const std::string exe = test::pipeline_exe();
-  const std::string h5hash = (fs::path(exe).parent_path() / "h5hash").string();
   const std::string common = exe + " run " + test::repo_file("tests/data/decomp-lj.yaml").string() +
                              " --device cpu --set run.steps=200 --set system.N=500";
   auto run_cli = [&](const std::string& args) {
@@ -362,9 +361,7 @@ TEST_CASE("decomposition: pipeline run --gpus N --device cpu writes one rank's H
   const std::string out = run_cli("--gpus 3 --out " + (dir / "team").string());
   CHECK(out.find("a team of 3 ranks") != std::string::npos);
   auto hashes = [&](const std::string& which) {
-    const auto r = test::run_command(h5hash + " " + (dir / which / "decomp-lj.h5").string() +
-                                         " | grep -v ' /parameters' | awk '{print $1, $2}'",
-                                     dir / "hash.txt");
+    const auto r = test::dataset_hashes(dir / which / "decomp-lj.h5", dir / "hash.txt");
     REQUIRE(r.code == 0);
     return r.out;
   };

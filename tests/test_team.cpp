@@ -356,7 +356,6 @@ TEST_CASE("team: pipeline run --gpus N writes one rank's outputs and resumes on 
   const fs::path dir = fs::temp_directory_path() / ("flipflow-team-" + std::to_string(::getpid()));
   fs::remove_all(dir);
   const std::string exe = test::pipeline_exe();
-  const std::string h5hash = (fs::path(exe).parent_path() / "h5hash").string();
   const std::string common = exe + " run " + test::repo_file("pipelines/phoretic-c0.yaml").string() +
                              " --device cpu --set system.N=256 --set 'run.checkpoint={every: 100}'";
   auto run = [&](const std::string& args) {
@@ -371,9 +370,7 @@ TEST_CASE("team: pipeline run --gpus N writes one rank's outputs and resumes on 
   const std::string resumed = run("--gpus 4 --set run.steps=200 --resume " + (dir / "team").string());
   CHECK(resumed.find("a team of 4 ranks") != std::string::npos);
   auto hashes = [&](const std::string& which) {
-    const auto r = test::run_command(h5hash + " " + (dir / which / "phoretic-c0.h5").string() +
-                                         " | grep -v ' /parameters' | awk '{print $1, $2}'",
-                                     dir / "hash.txt");
+    const auto r = test::dataset_hashes(dir / which / "phoretic-c0.h5", dir / "hash.txt");
     REQUIRE(r.code == 0);
     return r.out;
   };

@@ -62,4 +62,11 @@ inline CommandResult run_command(const std::string& cmd, const std::filesystem::
   return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, ss.str()};
 }
 
+// Every dataset of an H5MD file but /parameters with its hash (`h5hash`, built beside
+// `pipeline`), one "name hash" line each: two runs that wrote the same bits give the same text.
+inline CommandResult dataset_hashes(const std::filesystem::path& h5, const std::filesystem::path& log) {
+  const std::string h5hash = (std::filesystem::path(pipeline_exe()).parent_path() / "h5hash").string();
+  return run_command(h5hash + " " + h5.string() + " | grep -v ' /parameters' | awk '{print $1, $2}'", log);
+}
+
 }  // namespace ff::test
