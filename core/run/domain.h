@@ -24,6 +24,7 @@
 // buffers travel through device staging buffers, as NCCL wants (core/backend/comm.h).
 #pragma once
 #include <cstddef>
+#include <algorithm>
 #include <cstdint>
 #include <memory>
 #include <string>
@@ -41,8 +42,10 @@ class Domain final : public GhostExchange {
   // particle field `particle.id` (0 .. N-1) and cuts the state down to this rank's particles.
   // band: how far ghosts reach from the slab; slack: how far a particle may move before the
   // next migration (0: never migrate). refreshed: the particle fields sent to ghosts each step.
+  // fill_gap (2D): fixed vertices fill the gap beyond the band (Scheduling::fills_gap), after
+  // the ghosts, renewed at every migration.
   Domain(Communicator& comm, State& state, double band, double slack, std::vector<std::string> refreshed,
-         Backend backend);
+         Backend backend, bool fill_gap = false);
   ~Domain() override;
 
   // Before the step's snapshot: migrate when due, else refresh the ghosts. Every rank calls it.
@@ -51,6 +54,8 @@ class Domain final : public GhostExchange {
   // The owners' entries of `fields` to the ranks holding them as ghosts (one point-to-point
   // batch). Every rank calls it; begin_step does for `refreshed`, a stage may within its step.
   void refresh(State& state, const std::vector<std::string>& fields) override;
+  // The largest request of any rank takes effect at the next begin_step (a migration).
+  void request_band(double band) override { requested_band_ = std::max(requested_band_, band); }
 
   // The `names` particle fields of every rank's owned particles into `into` (rank 0: the whole
   // state, indexed by particle id; other ranks pass null). Every rank calls it.
@@ -58,7 +63,9 @@ class Domain final : public GhostExchange {
 
   std::uint64_t migrations() const { return migrations_; }
   std::uint64_t changed_owner() const { return changed_owner_; }  // particles, summed over migrations (this rank's sends)
-  double band() const { return band_; }
+  double band() const override { return band_; }
+  double slack() const override { return slack_; }
+  std::size_t n_held() const { return n_held_; }  // owned and ghosts: the fill vertices come after
 
   // The slab (rank) that owns a particle at x (along axis 0), and whether a particle at x not
   // owned by rank q lies within the band of q's slab.
@@ -88,11 +95,18 @@ class Domain final : public GhostExchange {
   // holds device pointers across a refresh within its step).
   void to_device(State& s, const std::vector<std::string>& names) const;
   std::vector<double> xs(State& s) const;  // every held particle's x
+  // The fill vertices of this rank's gap: x y pairs, columns at most `band` apart strictly
+  // inside the gap (x farther than band from the slab), rows at most `band` apart, odd columns
+  // shifted half a row (stages/delaunay/common/slab.h's fill_gap, the layout its tests check).
+  std::vector<double> fill_points(const State& s) const;
 
   Communicator& comm_;
   int rank_, ranks_;
   double L_;
   double band_, slack_;
+  bool fill_gap_ = false;
+  std::size_t n_held_ = 0;
+  double requested_band_ = 0;
   std::vector<std::string> refreshed_;
   std::vector<std::vector<std::uint32_t>> send_, recv_;  // per peer: local indices (refresh)
   std::vector<double> x0_;                                // owned positions at the last migration
