@@ -34,7 +34,7 @@ struct DetectInversionParams {
   template <class P>
   void describe(P& p) {
     p(band, "band",
-      "decomposed team only: how far ghosts reach beyond a rank's slab along x (0: six mean particle spacings); "
+      "decomposed team only: how far ghosts reach beyond a rank's slab along x (0: ten mean particle spacings); "
       "widened while the run goes when the triangles near the slab grow")
         .at_least(0);
     p(slack, "slack",
@@ -92,7 +92,7 @@ class DetectInversion final : public Stage {
     add_topology_fields(s, "delaunay.detect_inversion");
     // A decomposed team's band and slack in mean particle spacings (the whole state here).
     const double spacing = std::sqrt(s.box.L[0] * s.box.L[1] / double(s.n()));
-    band_ = p_.band > 0 ? p_.band : 6 * spacing;
+    band_ = p_.band > 0 ? p_.band : 10 * spacing;
     slack_ = p_.slack > 0 ? p_.slack : spacing;
     if (team_ && !(2 * slack_ < band_))
       throw InputError("delaunay.detect_inversion: the slack " + std::to_string(slack_) +
