@@ -16,6 +16,9 @@
 // - A band too narrow for the triangles near the slab stops the run naming the parameter; a band
 //   close to that grows (the domain's band at the end is wider than configured) and the bits
 //   still equal one rank's.
+// - With 2 or more GPUs (NCCL; skipped visibly otherwise): hard disks and ABP on 2 and 4 GPUs
+//   give one GPU's bits (written without a machine to run it: the host parts of the team path
+//   copy the fields they read, docs/multi-gpu.md).
 // - Refusals: delaunay.flip's substep mode, an observer that reads the triangulation.
 #include <catch2/catch.hpp>
 
@@ -28,6 +31,7 @@
 #include <vector>
 
 #include "core/backend/comm.h"
+#include "core/backend/device.h"
 #include "core/base/error.h"
 #include "core/run/domain.h"
 #include "core/run/simulation.h"
@@ -81,11 +85,12 @@ struct End {
 
 // `steps` steps on `ranks` ranks (1: alone). Every `every` steps the owned stars are recorded
 // (alone) or compared with `alone`'s.
-End run(const test::LoadedPipeline& l, int ranks, std::uint64_t steps, std::uint64_t every, const End* alone = nullptr) {
+End run(const test::LoadedPipeline& l, int ranks, std::uint64_t steps, std::uint64_t every, const End* alone = nullptr,
+        Backend backend = Backend::cpu) {
   End end;
   std::mutex m;
-  test::on_ranks(Backend::cpu, ranks, [&](Communicator* comm) {
-    const auto simulation = test::rank_simulation(l, Backend::cpu, comm);
+  test::on_ranks(backend, ranks, [&](Communicator* comm) {
+    const auto simulation = test::rank_simulation(l, backend, comm);
     Simulation& sim = *simulation;
     for (std::uint64_t i = 1; i <= steps; ++i) {
       sim.advance();
@@ -226,5 +231,30 @@ TEST_CASE("decomposed Delaunay: what does not run in a team is refused naming it
     Team team = make_team(Backend::cpu, 2);
     CHECK_THROWS_WITH(run_team(team, [&](Communicator& comm) { test::rank_simulation(l, Backend::cpu, &comm); }),
                       Catch::Contains("substep") && Catch::Contains("team"));
+  }
+}
+
+TEST_CASE("decomposed Delaunay: 2 and 4 GPUs give one GPU's bits (hard disks, ABP)") {
+  const int gpus = cuda_device_count();
+  if (gpus < 2) {
+    WARN("SKIPPED (" << gpus << " CUDA device(s); " << nccl_description()
+                     << "): a decomposed team of GPUs needs 2 or more (NCCL refuses two ranks on one GPU)");
+    return;
+  }
+  for (int ranks : {2, 4}) {
+    if (ranks > gpus) {
+      WARN("SKIPPED: " << ranks << " GPUs asked, " << gpus << " present");
+      continue;
+    }
+    struct Case {
+      const char* file;
+      const char* dt;
+    };
+    for (const Case& c : {Case{"pipelines/hard-disks.yaml", "run.dt=0.03"}, Case{"pipelines/abp.yaml", "run.dt=0.01"}}) {
+      INFO(ranks << " GPUs, " << c.file);
+      auto l = pipeline(c.file, {"system.N=1024", c.dt});
+      const End alone = run(l, 1, 1000, 100, nullptr, Backend::cuda);
+      check_same(run(l, ranks, 1000, 100, &alone, Backend::cuda), alone);
+    }
   }
 }

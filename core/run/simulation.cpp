@@ -113,7 +113,9 @@ void Simulation::check_team(const std::vector<bool>& observer) const {
                      " cannot split; they would run the same simulation on every rank): run it on one GPU. Stages "
                      "that split: phoretic.forces with range: long; a decomposed team needs every compute stage to "
                      "run on a slab of particles: neighbors.verlet, the Verlet-list forces (pair.lj, harmonic.forces, "
-                     "phoretic.forces with range: short), overlap_correct.verlet, overdamped.integrate (docs/multi-gpu.md)");
+                     "phoretic.forces with range: short), overlap_correct.verlet, overdamped.integrate, abp.integrate, "
+                     "the Delaunay stages (delaunay.sort, detect_inversion, flip, lawson) and overlap_correct "
+                     "(docs/multi-gpu.md)");
 }
 
 namespace {
