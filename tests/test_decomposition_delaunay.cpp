@@ -19,11 +19,18 @@
 // - With 2 or more GPUs (NCCL; skipped visibly otherwise): hard disks and ABP on 2 and 4 GPUs
 //   give one GPU's bits (written without a machine to run it: the host parts of the team path
 //   copy the fields they read, docs/multi-gpu.md).
+// - `pipeline run pipelines/hard-disks.yaml --gpus 4 --device cpu` writes the positions, images,
+//   rollbacks, Δt and correction metrics of the run alone into trajectory.h5, and its gr.csv.
 // - Refusals: delaunay.flip's substep mode, an observer that reads the triangulation.
 #include <catch2/catch.hpp>
 
+#include <unistd.h>
+
 #include <algorithm>
 #include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
 #include <map>
 #include <mutex>
 #include <set>
@@ -225,12 +232,68 @@ TEST_CASE("decomposed Delaunay: the band grows when the triangles near a slab do
   CHECK(team.band > 28);
 }
 
+TEST_CASE("decomposed Delaunay: pipeline run pipelines/hard-disks.yaml --gpus 4 --device cpu writes one rank's outputs") {
+  namespace fs = std::filesystem;
+  const fs::path dir = fs::temp_directory_path() / ("flipflow-decomp-delaunay-" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  const std::string common = test::pipeline_exe() + " run " + test::repo_file("pipelines/hard-disks.yaml").string() +
+                             " --device cpu --set system.N=1024 --set run.steps=1000 --set run.dt=0.03"
+                             " --set step.observe.gr.from_step=0 --set step.observe.h5md.every=250";
+  auto run_cli = [&](const std::string& args) {
+    const auto r = test::run_command(common + " " + args, dir / "log.txt");
+    INFO(r.out);
+    REQUIRE(r.code == 0);
+    return r.out;
+  };
+  run_cli("--out " + (dir / "alone").string());
+  CHECK(run_cli("--gpus 4 --out " + (dir / "team").string()).find("a team of 4 ranks") != std::string::npos);
+  // The datasets that must match: the particles and the metrics that are not a rank's own counts.
+  auto hashes = [&](const std::string& which) {
+    const auto r = test::dataset_hashes(dir / which / "trajectory.h5", dir / "hash.txt");
+    REQUIRE(r.code == 0);
+    std::istringstream in(r.out);
+    std::string line, kept;
+    for (; std::getline(in, line);)
+      for (const char* path : {"/particles/", "/observables/overlap_correct/", "/observables/rollbacks/", "/observables/dt/"})
+        if (line.find(path) != std::string::npos) kept += line + "\n";
+    return kept;
+  };
+  const std::string alone = hashes("alone"), team = hashes("team");
+  CHECK(alone.find("/particles/all/position/value") != std::string::npos);
+  CHECK(alone == team);
+  auto text = [&](const fs::path& p) {
+    std::ifstream in(p);
+    return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  };
+  CHECK(text(dir / "alone" / "gr.csv").size() > 100);
+  CHECK(text(dir / "alone" / "gr.csv") == text(dir / "team" / "gr.csv"));
+  fs::remove_all(dir);
+}
+
 TEST_CASE("decomposed Delaunay: what does not run in a team is refused naming it") {
   {
     auto l = pipeline("pipelines/hard-disks.yaml", {"system.N=1024", "step.delaunay.flip.on_unrepairable=substep"});
     Team team = make_team(Backend::cpu, 2);
     CHECK_THROWS_WITH(run_team(team, [&](Communicator& comm) { test::rank_simulation(l, Backend::cpu, &comm); }),
                       Catch::Contains("substep") && Catch::Contains("team"));
+  }
+  // pipelines/brownian-delaunay.yaml: delaunay.check compares the triangulation with CGAL's of
+  // the whole state; a rank's triangulation is its own.
+  {
+    const auto log = std::filesystem::temp_directory_path() / ("flipflow-decomp-delaunay-" + std::to_string(::getpid()) + ".txt");
+    const auto out = std::filesystem::temp_directory_path() / ("flipflow-decomp-delaunay-out-" + std::to_string(::getpid()));
+    const auto r = test::run_command(test::pipeline_exe() + " run " +
+                                         test::repo_file("pipelines/brownian-delaunay.yaml").string() +
+                                         " --device cpu --gpus 2 --set system.N=1024 --set run.steps=1 --out " +
+                                         out.string(),
+                                     log);
+    std::filesystem::remove(log);
+    std::filesystem::remove_all(out);
+    INFO(r.out);
+    CHECK(r.code == 2);
+    CHECK(r.out.find("delaunay.check") != std::string::npos);
+    CHECK(r.out.find("drop it or run on one GPU") != std::string::npos);
   }
 }
 
