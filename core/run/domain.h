@@ -19,6 +19,12 @@
 // held particles (a Verlet list of radius band) is, for the owned particles, what one rank alone
 // builds (the proof and the conditions for bitwise equality: docs/multi-gpu.md).
 //
+// A pipeline that triangulates (Scheduling::fills_gap, the Delaunay stages) also gets fixed fill
+// vertices after the ghosts, on a lattice of spacing `band` in the gap beyond the band, so that
+// the rank's triangulation of what it holds has no edge across that gap; they are renewed at
+// every migration and never sent. A stage may ask for a wider band (request_band): the next
+// begin_step takes the widest request of any rank and migrates with it.
+//
 // Packing and unpacking happen on the host (fields acquired there; on CUDA that copies whole
 // fields each step, a first version: device pack kernels are the next step); on CUDA the packed
 // buffers travel through device staging buffers, as NCCL wants (core/backend/comm.h).

@@ -7,6 +7,8 @@
 // When delaunay.flip has `on_unrepairable: substep` (status kSubstep), inverted triangles that
 // single flips cannot repair are left to it instead, together with position_prev (not yet
 // overwritten, status kPrevKept), and with `passing: substep` particles through each other too.
+// In a decomposed team (run_team; docs/multi-gpu.md "The Delaunay pipelines") it keeps the
+// rank's triangulation of the particles it holds and decides with the other ranks.
 #pragma once
 #include <algorithm>
 #include <array>
@@ -308,7 +310,6 @@ class DetectInversion final : public Stage {
               st);
     return counters_.read(st)[kInverted] == 0;
   }
-
 
   // A decomposed team (docs/multi-gpu.md "The Delaunay pipelines"): the rank's triangulation of
   // its held particles, judged as alone, but only the elements it can trust (common/team.h) may
