@@ -27,20 +27,20 @@
 
 namespace ff::delaunay {
 
-// The local triangulation on the host (the fields acquired there for reading).
+// The local triangulation on the host (the fields acquired there for reading; nothing here
+// writes through the view).
 struct HostMesh {
-  const std::int32_t* he;
-  const std::int32_t* opp;
-  const std::int32_t* vedge;
+  Mesh view;
   std::size_t n;  // vertices held (particles and fill)
 
   static HostMesh of(State& s, CUstream_st* stream) {
     for (const char* f : {fields::halfedge, fields::opposite, fields::vertex_edge})
       s.field(f).acquire(Where::host, Mode::read, stream);
-    return {s.field(fields::halfedge).host<std::int32_t>(), s.field(fields::opposite).host<std::int32_t>(),
-            s.field(fields::vertex_edge).host<std::int32_t>(), s.n()};
+    return {{s.field(fields::halfedge).host<std::int32_t>(), s.field(fields::vertex_edge).host<std::int32_t>(),
+             s.field(fields::opposite).host<std::int32_t>()},
+            s.n()};
   }
-  Mesh mesh() const { return {const_cast<std::int32_t*>(he), const_cast<std::int32_t*>(vedge), const_cast<std::int32_t*>(opp)}; }
+  const Mesh& mesh() const { return view; }
 };
 
 template <class R>
