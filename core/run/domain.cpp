@@ -269,6 +269,33 @@ bool Domain::due(State& s) {
   return mine[0] != 0 || widen;
 }
 
+double Domain::displacement(State& s, const std::string& field) {
+  const std::vector<double> x = owned_values(s, field);
+  const int D = s.dim();
+  const PeriodicBox<double> box = PeriodicBox<double>::make(s.box.L);
+  double worst = 0;
+  for (std::size_t i = 0; i < s.n_owned(); ++i) {
+    double d2 = 0;
+    for (int k = 0; k < D; ++k) {
+      const double d = box.min_image(x[i * std::size_t(D) + std::size_t(k)] - x0_[i * std::size_t(D) + std::size_t(k)], k);
+      d2 += d * d;
+    }
+    worst = std::max(worst, d2);
+  }
+  worst = std::sqrt(worst);
+  comm_.all_reduce(&worst, 1, ReduceOp::max);
+  return worst;
+}
+
+std::vector<double> Domain::owned_values(State& s, const std::string& field) const {
+  Field& pos = s.field(field);
+  pos.acquire(Where::host, Mode::read);
+  const std::size_t m = s.n_owned() * std::size_t(s.dim());
+  std::vector<double> x(m);
+  for (std::size_t i = 0; i < m; ++i) x[i] = s.real() == DType::f32 ? double(pos.host<float>()[i]) : pos.host<double>()[i];
+  return x;
+}
+
 std::vector<double> Domain::fill_points(const State& s) const {
   std::vector<double> out;
   const double lo = L_ * double(rank_) / double(ranks_), hi = L_ * double(rank_ + 1) / double(ranks_);

@@ -70,7 +70,7 @@ class Domain final : public GhostExchange {
   std::uint64_t migrations() const { return migrations_; }
   std::uint64_t changed_owner() const { return changed_owner_; }  // particles, summed over migrations (this rank's sends)
   double band() const override { return band_; }
-  double slack() const override { return slack_; }
+  double displacement(State& state, const std::string& field) override;
   std::size_t n_held() const { return n_held_; }  // owned and ghosts: the fill vertices come after
 
   // The slab (rank) that owns a particle at x (along axis 0), and whether a particle at x not
@@ -101,6 +101,7 @@ class Domain final : public GhostExchange {
   // holds device pointers across a refresh within its step).
   void to_device(State& s, const std::vector<std::string>& names) const;
   std::vector<double> xs(State& s) const;  // every held particle's x
+  std::vector<double> owned_values(State& s, const std::string& field) const;  // real x dim, in double
   // The fill vertices of this rank's gap: x y pairs, columns at most `band` apart strictly
   // inside the gap (x farther than band from the slab), rows at most `band` apart, odd columns
   // shifted half a row (stages/delaunay/common/slab.h's fill_gap, the layout its tests check).

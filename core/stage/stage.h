@@ -176,10 +176,12 @@ class GhostExchange {
   // (delaunay.detect_inversion, when the triangles near the owned particles grow). Local: no
   // message, every rank may call it or not.
   virtual void request_band(double band) = 0;
-  // How far ghosts reach beyond the slab now (it only grows), and how far a particle may move
-  // between migrations.
+  // How far ghosts reach beyond the slab now (it only grows).
   virtual double band() const = 0;
-  virtual double slack() const = 0;
+  // The largest distance between any particle's entry of `field` (positions, real x dim) and its
+  // position at the last migration, over the team (minimum image; one all-reduce: every rank
+  // calls it at the same point).
+  virtual double displacement(State& state, const std::string& field) = 0;
 };
 
 struct StepContext {

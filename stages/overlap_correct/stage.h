@@ -281,7 +281,7 @@ class OverlapCorrect final : public Stage {
     Field& idf = s.field(fields::particle_id);
     idf.acquire(Where::host, Mode::read, st);
     const std::uint32_t* id = idf.host<std::uint32_t>();
-    delaunay::band_check<R>(ctx, "overlap_correct", x, ctx.ghosts->band(), ctx.ghosts->slack());
+    delaunay::band_check<R>(ctx, "overlap_correct", fields::position);  // where Lawson left it Delaunay
     if (diam_.stale(s)) diam_.template measure<R>(s, st);
     const Overlaps<R, true> ov{push_rule(p_, s, tol_, unit_, diam_, wall_axis_),
                                x,

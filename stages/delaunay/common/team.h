@@ -4,14 +4,15 @@
 // coordinates: common/slab.h's global_with_gap).
 //
 // Which local elements a rank may trust: a triangle with an owned vertex is a triangle of the
-// global triangulation when its circumdiameter is below the band less twice the slack (slab.h's
-// proof, with particles moved at most the slack since the migration). detect_inversion's
+// global triangulation when its circumdiameter is below the band less twice the distance δ the
+// particles moved since the migration (slab.h's proof). detect_inversion's
 // decisions also read the marks of every edge of such a triangle, whose quads reach one triangle
 // further: the triangles with a vertex that is owned or a neighbour of an owned one ("near").
-// Their circumdisks lie within D_owned + D_near of the slab, so with
-//     D_owned + D_near + 2 slack < band
-// (the largest circumdiameters over the two sets) every element those decisions read is the
-// global one (for points in general position). band_check measures it.
+// Their circumdisks lie within D_owned + D_near of an owned particle, so with
+//     D_owned + D_near + 2 δ < band
+// (the largest circumdiameters over the two sets; δ the largest distance any particle moved
+// since the migration, which chose the held particles) every element those decisions read is
+// the global one (for points in general position). band_check measures it.
 #pragma once
 #include <algorithm>
 #include <cmath>
@@ -83,23 +84,28 @@ BandMeasure band_measure(const HostMesh& hm, const R* p, std::size_t n_owned, co
   return out;
 }
 
-// The band condition for the triangulation at positions p (see the top of this file): a RunError
-// when it fails (the owned stars may not be the global ones), and a request for a wider band
-// when it holds with less than a fifth of the band to spare (the next step migrates with it).
+// The band condition for the triangulation at `positions` (a field where it is Delaunay: see the
+// top of this file), δ the largest distance of those positions from the migration's
+// (GhostExchange::displacement: one all-reduce, so every rank calls this at the same point): a
+// RunError when it fails (the owned stars may not be the global ones), and a request for a wider
+// band when it holds with less than a fifth of the band to spare (the next step migrates with it).
 template <class R>
-void band_check(StepContext& ctx, const char* stage, const R* p, double band, double slack) {
+void band_check(StepContext& ctx, const char* stage, const char* positions) {
   State& s = ctx.state;
+  const double band = ctx.ghosts->band();
+  const double moved = ctx.ghosts->displacement(s, positions);
+  const R* p = host_positions<R>(s, s.field(positions), ctx.stream);
   const BandMeasure b =
       band_measure<R>(HostMesh::of(s, ctx.stream), p, s.n_owned(), PeriodicBox<double>::make(s.box.L));
-  const double need = b.owned + b.near + 2 * slack;
+  const double need = b.owned + b.near + 2 * moved;
   if (!(need < band))
     throw RunError(std::string(stage) + ": step " + std::to_string(ctx.host_params.step) +
                    ": in a decomposed team the triangles near a rank's particles grew too large for its ghosts "
                    "(largest circumdiameters " + std::to_string(b.owned) + " with an owned vertex, " +
-                   std::to_string(b.near) + " one ring further, slack " + std::to_string(slack) +
-                   ": they need a band wider than " + std::to_string(need) + ", the band is " + std::to_string(band) +
-                   "); raise delaunay.detect_inversion's band");
-  if (need > 0.8 * band && ctx.ghosts) ctx.ghosts->request_band(1.5 * need);
+                   std::to_string(b.near) + " one ring further, particles moved up to " + std::to_string(moved) +
+                   " since the migration: they need a band wider than " + std::to_string(need) + ", the band is " +
+                   std::to_string(band) + "); raise delaunay.detect_inversion's band");
+  if (need > 0.8 * band) ctx.ghosts->request_band(1.5 * need);
 }
 
 // Whether this rank's detect_inversion found a reason to roll back in an element it can trust:

@@ -348,9 +348,7 @@ class DetectInversion final : public Stage {
       for (const Access& a : accesses()) s.field(a.field).acquire(a.where, a.mode, st);
     }
     status(s)[kPrevKept] = 0;
-    band_check<R>(ctx, "delaunay.detect_inversion",
-                  host_positions<R>(s, s.field(fresh ? ff::fields::position : fields::position_prev), st),
-                  ctx.ghosts->band(), slack_);
+    band_check<R>(ctx, "delaunay.detect_inversion", fresh ? ff::fields::position : fields::position_prev);
     auto h = inspect(ctx, fresh, false);
     auto trusted = [&](bool judged) {
       if (!asks_rollback(h)) return false;
