@@ -5,7 +5,8 @@
 // - Bits: pipelines/hard-disks.yaml (Brownian hard disks at η = 0.5, overlap correction on the
 //   Delaunay edges) at a Δt that makes the detection roll steps back, and pipelines/abp.yaml
 //   (active Brownian particles at φ = 0.4, clustering), in double and float, give on 2 and 4
-//   ranks, gathered by particle id, the position, image, orientation and position_prev of one
+//   ranks (and pipelines/bench-abp.yaml, φ = 0.7 from a lattice sample, on 4 ranks), gathered
+//   by particle id, the position, image, orientation and position_prev of one
 //   rank alone after 1000 steps, the same rollbacks, Δt and overlap-correction metrics, with
 //   migrations and particles changing owner on the way (counted).
 // - Ghost completeness along the run: every 100 steps every rank's star of every owned particle,
@@ -205,6 +206,11 @@ TEST_CASE("decomposed Delaunay: ABP on 2 and 4 ranks, double and float, give one
       check_same(run(l, ranks, 1000, 100, &alone), alone);
     }
   }
+  // pipelines/bench-abp.yaml: φ = 0.7 from a lattice sample, dense clusters (motility-induced).
+  auto l = pipeline("pipelines/bench-abp.yaml", {"system.N=1024"});
+  const End alone = run(l, 1, 1000, 100);
+  INFO("4 ranks, bench-abp.yaml");
+  check_same(run(l, 4, 1000, 100, &alone), alone);
 }
 
 TEST_CASE("decomposed Delaunay: the band grows when the triangles near a slab do, and stops the run when too narrow") {
