@@ -10,7 +10,7 @@
 //   same particle alone (entry for entry, so also in the same order).
 // - Rollback agreement: the max_step rollbacks (requested on the rank that owns the fast
 //   particle) are taken by every rank: the team's count equals the count alone.
-// - Refusals naming the stage: a stage that cannot run on a slab (delaunay.sort), a stage that
+// - Refusals naming the stage: a stage that cannot run on a slab (delaunay.dt_bound), a stage that
 //   reads ghosts after another wrote them in the step.
 // - `pipeline run --gpus N --device cpu`: rank 0's H5MD file equals the file of a run alone.
 // - With 2 or more GPUs (NCCL; skipped visibly otherwise): 2 and 4 GPUs give one GPU's bits.
@@ -210,6 +210,15 @@ TEST_CASE("decomposition: phoretic short range with harmonic contacts, and pipel
   }
 }
 
+TEST_CASE("decomposition: delaunay.sort sorts the whole state before the split (pipelines/lj-aggregation.yaml)") {
+  // The sort renumbers the particles at configure time, before the domain numbers them: the team
+  // and one rank alone number them alike.
+  auto l = test::load_compute_steps(test::repo_file("pipelines/lj-aggregation.yaml").string(), {"system.N=512"});
+  const End alone = run(l, 1, 200);
+  INFO("2 ranks, pipelines/lj-aggregation.yaml");
+  check_same(run(l, 2, 200, &alone), alone, {}, 0);
+}
+
 TEST_CASE("decomposition: hard spheres (overlap_correct.verlet) on 2 and 4 ranks") {
   // The correction iterates with its pair counts summed over the ranks and the moved positions
   // sent to the ghosts after every iteration. The team migrates, and so rebuilds the list, at
@@ -283,32 +292,24 @@ TEST_CASE("decomposition: a rollback requested on one rank on a migration step i
 }
 
 TEST_CASE("decomposition: a stage that cannot run on a slab, or reads stale ghosts, is refused by name") {
-  // pipelines/lj-aggregation.yaml as shipped: delaunay.sort renumbers the whole system.
+  // pipelines/brownian-points-dt-bound.yaml: delaunay.dt_bound (a Δt limit from every particle's
+  // nearest neighbour) does not run on a slab; refused by name, the Delaunay stages that do not
+  // named. (delaunay.sort, refused here before, sorts the whole state at configure time, before
+  // the particles are split: it runs; the Delaunay pipelines run decomposed:
+  // tests/test_decomposition_delaunay.cpp.)
   {
-    auto l = test::load_compute_steps(test::repo_file("pipelines/lj-aggregation.yaml").string(), {"system.N=256"});
+    auto l = test::load_compute_steps(test::repo_file("pipelines/brownian-points-dt-bound.yaml").string(),
+                                      {"system.N=256"});
     try {
       run(l, 2, 1);
-      FAIL("a decomposed team ran delaunay.sort");
-    } catch (const InputError& e) {
-      INFO(e.what());
-      CHECK(std::string(e.what()).find("'delaunay.sort'") != std::string::npos);
-      CHECK(std::string(e.what()).find("cannot run on a rank's share") != std::string::npos);
-    }
-  }
-  // pipelines/hard-disks.yaml: the Delaunay stages need the slab triangulation of docs/multi-gpu.md
-  // ("The Delaunay pipelines"), whose geometry exists (stages/delaunay/common/slab.h) but which no
-  // team runs yet: refused by name, the integrator (which can run on a slab) not named.
-  {
-    auto l = test::load_compute_steps(test::repo_file("pipelines/hard-disks.yaml").string(), {"system.N=256"});
-    try {
-      run(l, 2, 1);
-      FAIL("a decomposed team ran the Delaunay stages");
+      FAIL("a decomposed team ran delaunay.dt_bound");
     } catch (const InputError& e) {
       const std::string m = e.what();
       INFO(m);
-      for (const char* id : {"'delaunay.detect_inversion'", "'delaunay.flip'", "'delaunay.lawson'", "'overlap_correct'"})
-        CHECK(m.find(id) != std::string::npos);
-      CHECK(m.find("brownian.integrate") == std::string::npos);
+      CHECK(m.find("'delaunay.dt_bound'") != std::string::npos);
+      CHECK(m.find("cannot run on a rank's share") != std::string::npos);
+      for (const char* id : {"'delaunay.detect_inversion'", "'delaunay.flip'", "'delaunay.lawson'", "'delaunay.sort'"})
+        CHECK(m.find(id) == std::string::npos);
     }
   }
   // The integrator before the list (as pipelines/hard-spheres.yaml orders them): the list would

@@ -78,10 +78,13 @@ std::size_t entry_bytes(const Field& f) { return dtype_size(f.dtype()) * std::si
 }  // namespace
 
 Domain::Domain(Communicator& comm, State& s, double band, double slack, std::vector<std::string> refreshed,
-               Backend backend)
+               Backend backend, bool fill_gap)
     : comm_(comm), rank_(comm.rank()), ranks_(comm.size()), L_(s.box.L[0]), band_(band), slack_(slack),
-      refreshed_(std::move(refreshed)), send_(std::size_t(ranks_)), recv_(std::size_t(ranks_)), backend_(backend),
-      staging_(std::make_unique<Staging>()) {
+      fill_gap_(fill_gap), refreshed_(std::move(refreshed)), send_(std::size_t(ranks_)), recv_(std::size_t(ranks_)),
+      backend_(backend), staging_(std::make_unique<Staging>()) {
+  if (fill_gap_ && s.dim() != 2)
+    throw InputError("a decomposed team fills the gap beyond the band with fixed vertices in 2D only");
+  if (fill_gap_ && !(band_ > 0)) throw InputError("a decomposed team that fills the gap needs a band > 0");
   // Global ids, then this rank's share of the whole state (the same on every rank: no message).
   Field& id = s.add_particle_field(fields::particle_id, DType::u32, 1);
   id.acquire(Where::host, Mode::write);
@@ -182,15 +185,40 @@ void Domain::rebuild(State& s, const Layout& lay, std::vector<unsigned char> rec
   });
   std::size_t n_owned = 0;
   for (std::size_t k = 0; k < n; ++k) n_owned += owned[k] ? 1 : 0;
+  // The fill vertices: each a copy of the first held particle's record (so a type and a
+  // diameter that exist), with its own position and particle.id kFillId.
+  const std::vector<double> fill = fill_gap_ ? fill_points(s) : std::vector<double>{};
+  const std::size_t n_fill = fill.size() / 2;
+  if (n_fill && n == 0) throw RunError("a rank of a decomposed team holds no particle: use fewer ranks");
+  const std::size_t pos_f =
+      std::size_t(std::find(lay.names.begin(), lay.names.end(), fields::position) - lay.names.begin());
   for (std::size_t f = 0; f < lay.names.size(); ++f) {
     Field& field = s.field(lay.names[f]);
-    field.resize(n);
+    field.resize(n + n_fill);
     field.acquire(Where::host, Mode::write);
     auto* dst = static_cast<unsigned char*>(field.host_raw());
     const std::size_t sz = lay.size[f];
     for (std::size_t k = 0; k < n; ++k) std::memcpy(dst + k * sz, &records[order[k] * lay.bytes + lay.offset[f]], sz);
+    for (std::size_t k = 0; k < n_fill; ++k) {
+      unsigned char* d = dst + (n + k) * sz;
+      if (f == pos_f) {
+        for (int c = 0; c < 2; ++c) {
+          if (s.real() == DType::f32) {
+            const float v = float(fill[2 * k + std::size_t(c)]);
+            std::memcpy(d + std::size_t(c) * sizeof v, &v, sizeof v);
+          } else {
+            std::memcpy(d + std::size_t(c) * sizeof(double), &fill[2 * k + std::size_t(c)], sizeof(double));
+          }
+        }
+      } else if (lay.names[f] == fields::particle_id) {
+        std::memcpy(d, &fields::kFillId, sizeof fields::kFillId);
+      } else {
+        std::memcpy(d, &records[order[0] * lay.bytes + lay.offset[f]], sz);
+      }
+    }
   }
-  s.set_particles(n, n_owned);
+  n_held_ = n;
+  s.set_particles(n + n_fill, n_owned);
   to_device(s, {fields::particle_id});  // read by the stages' kernels without an Access of their own
   Field& pos = s.field(fields::position);
   const std::size_t D = std::size_t(s.dim());
@@ -206,7 +234,7 @@ void Domain::set_lists(State& s) {
   for (auto& l : send_) l.clear();
   for (auto& l : recv_) l.clear();
   const std::vector<double> x = xs(s);
-  for (std::size_t i = 0; i < s.n(); ++i) {
+  for (std::size_t i = 0; i < n_held_; ++i) {
     if (i < s.n_owned()) {
       for (int q = 0; q < ranks_; ++q)
         if (q != rank_ && ghost_of(q, x[i])) send_[std::size_t(q)].push_back(std::uint32_t(i));
@@ -228,14 +256,61 @@ void Domain::exchange_counts(const std::vector<std::uint64_t>& send, std::vector
   transfer(t);
 }
 
+// One all-reduce: whether some owned particle moved more than the slack, and the widest band
+// a rank's stage asked for (request_band), which takes effect now.
 bool Domain::due(State& s) {
-  if (!(slack_ > 0)) return false;
-  std::int64_t mine = (s.real() == DType::f32 ? moved_beyond<float>(s, x0_, slack_)
-                                              : moved_beyond<double>(s, x0_, slack_))
-                          ? 1
-                          : 0;
-  comm_.all_reduce(&mine, 1, ReduceOp::max);
-  return mine != 0;
+  double mine[2] = {0, requested_band_};
+  if (slack_ > 0 && (s.real() == DType::f32 ? moved_beyond<float>(s, x0_, slack_) : moved_beyond<double>(s, x0_, slack_)))
+    mine[0] = 1;
+  comm_.all_reduce(mine, 2, ReduceOp::max);
+  requested_band_ = 0;
+  const bool widen = mine[1] > band_;
+  if (widen) band_ = mine[1];
+  return mine[0] != 0 || widen;
+}
+
+double Domain::displacement(State& s, const std::string& field) {
+  const std::vector<double> x = owned_values(s, field);
+  const int D = s.dim();
+  const PeriodicBox<double> box = PeriodicBox<double>::make(s.box.L);
+  double worst = 0;
+  for (std::size_t i = 0; i < s.n_owned(); ++i) {
+    double d2 = 0;
+    for (int k = 0; k < D; ++k) {
+      const double d = box.min_image(x[i * std::size_t(D) + std::size_t(k)] - x0_[i * std::size_t(D) + std::size_t(k)], k);
+      d2 += d * d;
+    }
+    worst = std::max(worst, d2);
+  }
+  worst = std::sqrt(worst);
+  comm_.all_reduce(&worst, 1, ReduceOp::max);
+  return worst;
+}
+
+std::vector<double> Domain::owned_values(State& s, const std::string& field) const {
+  Field& pos = s.field(field);
+  pos.acquire(Where::host, Mode::read);
+  const std::size_t m = s.n_owned() * std::size_t(s.dim());
+  std::vector<double> x(m);
+  for (std::size_t i = 0; i < m; ++i) x[i] = s.real() == DType::f32 ? double(pos.host<float>()[i]) : pos.host<double>()[i];
+  return x;
+}
+
+std::vector<double> Domain::fill_points(const State& s) const {
+  std::vector<double> out;
+  const double lo = L_ * double(rank_) / double(ranks_), hi = L_ * double(rank_ + 1) / double(ranks_);
+  const double Ly = s.box.L[1];
+  const double gap = L_ - (hi - lo + 2 * band_);
+  if (!(gap > 0)) return out;
+  const int nx = std::max(1, int(std::ceil(gap / band_))), ny = std::max(3, int(std::ceil(Ly / band_)));
+  for (int i = 0; i < nx; ++i)
+    for (int j = 0; j < ny; ++j) {
+      double x = hi + band_ + (i + 0.5) * gap / nx;
+      x -= L_ * std::floor(x / L_);
+      out.push_back(x);
+      out.push_back((j + 0.25 + 0.5 * (i % 2)) * Ly / ny);
+    }
+  return out;
 }
 
 void Domain::begin_step(State& s) {

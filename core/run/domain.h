@@ -19,11 +19,18 @@
 // held particles (a Verlet list of radius band) is, for the owned particles, what one rank alone
 // builds (the proof and the conditions for bitwise equality: docs/multi-gpu.md).
 //
+// A pipeline that triangulates (Scheduling::fills_gap, the Delaunay stages) also gets fixed fill
+// vertices after the ghosts, on a lattice of spacing `band` in the gap beyond the band, so that
+// the rank's triangulation of what it holds has no edge across that gap; they are renewed at
+// every migration and never sent. A stage may ask for a wider band (request_band): the next
+// begin_step takes the widest request of any rank and migrates with it.
+//
 // Packing and unpacking happen on the host (fields acquired there; on CUDA that copies whole
 // fields each step, a first version: device pack kernels are the next step); on CUDA the packed
 // buffers travel through device staging buffers, as NCCL wants (core/backend/comm.h).
 #pragma once
 #include <cstddef>
+#include <algorithm>
 #include <cstdint>
 #include <memory>
 #include <string>
@@ -41,8 +48,10 @@ class Domain final : public GhostExchange {
   // particle field `particle.id` (0 .. N-1) and cuts the state down to this rank's particles.
   // band: how far ghosts reach from the slab; slack: how far a particle may move before the
   // next migration (0: never migrate). refreshed: the particle fields sent to ghosts each step.
+  // fill_gap (2D): fixed vertices fill the gap beyond the band (Scheduling::fills_gap), after
+  // the ghosts, renewed at every migration.
   Domain(Communicator& comm, State& state, double band, double slack, std::vector<std::string> refreshed,
-         Backend backend);
+         Backend backend, bool fill_gap = false);
   ~Domain() override;
 
   // Before the step's snapshot: migrate when due, else refresh the ghosts. Every rank calls it.
@@ -51,6 +60,8 @@ class Domain final : public GhostExchange {
   // The owners' entries of `fields` to the ranks holding them as ghosts (one point-to-point
   // batch). Every rank calls it; begin_step does for `refreshed`, a stage may within its step.
   void refresh(State& state, const std::vector<std::string>& fields) override;
+  // The largest request of any rank takes effect at the next begin_step (a migration).
+  void request_band(double band) override { requested_band_ = std::max(requested_band_, band); }
 
   // The `names` particle fields of every rank's owned particles into `into` (rank 0: the whole
   // state, indexed by particle id; other ranks pass null). Every rank calls it.
@@ -58,7 +69,9 @@ class Domain final : public GhostExchange {
 
   std::uint64_t migrations() const { return migrations_; }
   std::uint64_t changed_owner() const { return changed_owner_; }  // particles, summed over migrations (this rank's sends)
-  double band() const { return band_; }
+  double band() const override { return band_; }
+  double displacement(State& state, const std::string& field) override;
+  std::size_t n_held() const { return n_held_; }  // owned and ghosts: the fill vertices come after
 
   // The slab (rank) that owns a particle at x (along axis 0), and whether a particle at x not
   // owned by rank q lies within the band of q's slab.
@@ -88,11 +101,19 @@ class Domain final : public GhostExchange {
   // holds device pointers across a refresh within its step).
   void to_device(State& s, const std::vector<std::string>& names) const;
   std::vector<double> xs(State& s) const;  // every held particle's x
+  std::vector<double> owned_values(State& s, const std::string& field) const;  // real x dim, in double
+  // The fill vertices of this rank's gap: x y pairs, columns at most `band` apart strictly
+  // inside the gap (x farther than band from the slab), rows at most `band` apart, odd columns
+  // shifted half a row (stages/delaunay/common/slab.h's fill_gap, the layout its tests check).
+  std::vector<double> fill_points(const State& s) const;
 
   Communicator& comm_;
   int rank_, ranks_;
   double L_;
   double band_, slack_;
+  bool fill_gap_ = false;
+  std::size_t n_held_ = 0;
+  double requested_band_ = 0;
   std::vector<std::string> refreshed_;
   std::vector<std::vector<std::uint32_t>> send_, recv_;  // per peer: local indices (refresh)
   std::vector<double> x0_;                                // owned positions at the last migration

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cstring>
 #include <filesystem>
+#include <map>
 #include <set>
 #include <sstream>
 
@@ -112,7 +113,9 @@ void Simulation::check_team(const std::vector<bool>& observer) const {
                      " cannot split; they would run the same simulation on every rank): run it on one GPU. Stages "
                      "that split: phoretic.forces with range: long; a decomposed team needs every compute stage to "
                      "run on a slab of particles: neighbors.verlet, the Verlet-list forces (pair.lj, harmonic.forces, "
-                     "phoretic.forces with range: short), overlap_correct.verlet, overdamped.integrate (docs/multi-gpu.md)");
+                     "phoretic.forces with range: short), overlap_correct.verlet, overdamped.integrate, abp.integrate, "
+                     "the Delaunay stages (delaunay.sort, detect_inversion, flip, lawson) and overlap_correct "
+                     "(docs/multi-gpu.md)");
 }
 
 namespace {
@@ -170,47 +173,60 @@ void Simulation::decompose(const std::vector<bool>& observer) {
                              "part): resume on one GPU");
   const std::vector<int> compute = graph_->compute_nodes();
   double band = 0, slack = 0, reserve = 0;
+  bool fill_gap = false;
   bool requester_before = false;  // a stage that may stop a rank's step (rollback, Δt limit) so far
   // Refreshed on ghosts every step: what decomposed stages write (for their owned particles) and
   // some stage reads of the ghosts (the positions, in the Verlet pipelines: not the forces).
   std::set<std::string> written_owned, ghost_reads, written_by_compute;
+  // Particle fields decomposed stages wrote so far in the step and no stage refreshed since,
+  // with the stage that wrote them: their ghosts still hold the values of the start of the step.
+  std::map<std::string, int> stale;
   for (std::size_t a = 0; a < compute.size(); ++a) {
     const int j = compute[a];
+    const StepEntry& e = spec_.step[std::size_t(j)];
     const Scheduling sch = slots_[std::size_t(j)].stage->scheduling();
-    for (auto& acc : graph_->nodes()[std::size_t(j)].accesses) {
+    const auto& accesses = graph_->nodes()[std::size_t(j)].accesses;
+    for (auto& acc : accesses) {
       if (writes(acc.mode)) written_by_compute.insert(acc.field);
       if (!state_->is_particle_field(acc.field)) continue;
       if (sch.team == TeamWork::decomposed && writes(acc.mode)) written_owned.insert(acc.field);
       if (sch.reads_ghosts || sch.team == TeamWork::local) ghost_reads.insert(acc.field);
     }
     reserve = std::max(reserve, sch.ghost_reserve);
-    if (sch.communicates && requester_before)
-      throw InputError(spec_.step[std::size_t(j)].where.str() + ": step '" + spec_.step[std::size_t(j)].id +
+    if ((sch.communicates || sch.refreshes_ghosts) && requester_before)
+      throw InputError(e.where.str() + ": step '" + e.id +
                        "' exchanges with the other ranks of a decomposed team within the step, and a stage before "
                        "it may roll the step back or limit Δt on one rank only (which then skips the rest of its "
-                       "step): put '" + spec_.step[std::size_t(j)].id + "' before it");
-    requester_before = requester_before || sch.may_request_rollback || sch.may_limit_dt;
+                       "step): put '" + e.id + "' before it");
+    // A communicating stage agrees on its requests (Scheduling::communicates): every rank stops or none.
+    requester_before = requester_before || ((sch.may_request_rollback || sch.may_limit_dt) && !sch.communicates);
     if (sch.team == TeamWork::local && sch.ghost_band > 0) {
       band = std::max(band, sch.ghost_band);
       slack = slack > 0 ? std::min(slack, sch.ghost_slack) : sch.ghost_slack;
     }
-    // Ghosts hold the values of the start of the step: a stage that reads them must come before
-    // every decomposed stage that writes what it reads (for its owned particles only; a local
-    // stage writes every particle the rank holds).
-    if (!(sch.reads_ghosts || sch.team == TeamWork::local)) continue;
-    for (auto& acc : graph_->nodes()[std::size_t(j)].accesses) {
-      if (writes(acc.mode) || !state_->is_particle_field(acc.field)) continue;
-      for (std::size_t b = 0; b < a; ++b)
-        for (auto& w : graph_->nodes()[std::size_t(compute[b])].accesses)
-          if (w.field == acc.field && writes(w.mode) &&
-              slots_[std::size_t(compute[b])].stage->scheduling().team == TeamWork::decomposed)
-            throw InputError(spec_.step[std::size_t(j)].where.str() + ": step '" + spec_.step[std::size_t(j)].id +
-                             "' reads the ghosts' `" + acc.field + "`, which step '" +
-                             spec_.step[std::size_t(compute[b])].id +
-                             "' writes before it in the step; in a decomposed team ghosts hold the values of the "
-                             "start of the step: put '" + spec_.step[std::size_t(j)].id + "' before '" +
-                             spec_.step[std::size_t(compute[b])].id + "' (the same dynamics, one half step apart)");
+    fill_gap = fill_gap || (sch.team == TeamWork::local && sch.fills_gap);
+    // A stage that reads ghosts must come before every decomposed stage that writes what it
+    // reads (for its owned particles only; a local stage writes every particle the rank holds),
+    // unless it, or a stage between, refreshes the ghosts first (Scheduling::refreshes_ghosts).
+    if (sch.reads_ghosts || sch.team == TeamWork::local) {
+      for (auto& acc : accesses) {
+        if (writes(acc.mode) || !state_->is_particle_field(acc.field)) continue;
+        auto it = stale.find(acc.field);
+        if (it == stale.end()) continue;
+        if (sch.refreshes_ghosts) {
+          stale.erase(it);
+          continue;
+        }
+        const StepEntry& w = spec_.step[std::size_t(it->second)];
+        throw InputError(e.where.str() + ": step '" + e.id + "' reads the ghosts' `" + acc.field + "`, which step '" +
+                         w.id + "' writes before it in the step; in a decomposed team ghosts hold the values of the "
+                         "start of the step: put '" + e.id + "' before '" + w.id +
+                         "' (the same dynamics, one half step apart)");
+      }
     }
+    if (sch.team == TeamWork::decomposed)
+      for (auto& acc : accesses)
+        if (writes(acc.mode) && state_->is_particle_field(acc.field)) stale.emplace(acc.field, j);
   }
   // Rank 0's observers read the whole state gathered from every rank: particle fields only.
   for (std::size_t i = 0; i < slots_.size(); ++i) {
@@ -235,7 +251,7 @@ void Simulation::decompose(const std::vector<bool>& observer) {
                        " (skin/2): raise neighbors.verlet's skin");
     slack -= reserve;
   }
-  domain_ = std::make_unique<Domain>(*options_.team, *state_, band, slack, refreshed, options_.backend);
+  domain_ = std::make_unique<Domain>(*options_.team, *state_, band, slack, refreshed, options_.backend, fill_gap);
   scheduler_->set_ghosts(domain_.get());
 }
 

@@ -171,6 +171,17 @@ class GhostExchange {
  public:
   virtual ~GhostExchange() = default;
   virtual void refresh(State& state, const std::vector<std::string>& fields) = 0;
+  // Asks for ghosts within at least `band` of the slab from the next step on: the core takes the
+  // largest request of any rank at the start of the next step and migrates with the wider band
+  // (delaunay.detect_inversion, when the triangles near the owned particles grow). Local: no
+  // message, every rank may call it or not.
+  virtual void request_band(double band) = 0;
+  // How far ghosts reach beyond the slab now (it only grows).
+  virtual double band() const = 0;
+  // The largest distance between any particle's entry of `field` (positions, real x dim) and its
+  // position at the last migration, over the team (minimum image; one all-reduce: every rank
+  // calls it at the same point).
+  virtual double displacement(State& state, const std::string& field) = 0;
 };
 
 struct StepContext {
@@ -295,7 +306,21 @@ struct Scheduling {
   // A decomposed stage that exchanges with the other ranks inside run() (StepContext::ghosts, an
   // all-reduce through RunInfo::team): every rank must reach it, so no stage before it in the
   // step may request a rollback or limit Δt (a rank whose stage did stops its step there).
+  // A communicating stage that may request a rollback agrees on it within run() (an all-reduce):
+  // every rank returns the same request or none, so it does not count as a stage that may stop
+  // one rank's step (delaunay.detect_inversion and delaunay.flip in a decomposed team).
   bool communicates = false;
+  // A local stage that reads the ghosts' values of particle fields that decomposed stages wrote
+  // earlier in the step: its run() first refreshes them (StepContext::ghosts), so it and the
+  // stages after it read current ghosts (delaunay.detect_inversion refreshes `position` after the
+  // integrator). It exchanges, so it counts as communicating for the checks above.
+  bool refreshes_ghosts = false;
+  // A local stage that triangulates the held particles (the Delaunay stages): the core adds
+  // fixed vertices after the ghosts that fill the gap beyond the band (x farther than
+  // ghost_band from the slab), so that no edge of the rank's triangulation spans it
+  // (stages/delaunay/common/slab.h: global coordinates with a gap). Their particle.id is
+  // kFillId; no stage moves them and no one owns them.
+  bool fills_gap = false;
   // Not a hint but the core's answer, per attempt: whether a stage may defer reading its results
   // back to after_step is StepContext::may_defer_read_back().
 };

@@ -29,6 +29,8 @@ inline constexpr const char* diameter = "diameter";  // real, 1 component: sigma
 // u32, 1 component: the particle's number in the whole system, in a decomposed team only (core/run/domain.h),
 // where a rank holds some particles in its own order; alone a particle's index is its id.
 inline constexpr const char* particle_id = "particle.id";
+// The particle.id of the fixed vertices a decomposed team adds beyond the band (Scheduling::fills_gap).
+inline constexpr std::uint32_t kFillId = 0xffffffffu;
 }  // namespace fields
 
 class State {

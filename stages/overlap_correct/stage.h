@@ -39,6 +39,7 @@
 #include "core/stage/stage.h"
 #include "core/stage/stage_registration.h"
 #include "stages/delaunay/common/fields.h"
+#include "stages/delaunay/common/team.h"
 #include "stages/overlap_correct/kernel.h"
 #include "stages/overlap_correct/params.h"
 
@@ -115,8 +116,9 @@ class OverlapCorrect final : public Stage {
   }
 
   template <class Exec>
-  OverlapCorrect(const ParamValues& v, const RunInfo&, Exec exec)
+  OverlapCorrect(const ParamValues& v, const RunInfo& info, Exec exec)
       : p_(params_from<DelaunayParams>(v)),
+        team_(in_team(info.team) ? info.team : nullptr),
         where_(Exec::where),
         wall_axis_(wall_axis_of(p_.walls)),
         loops_(overlap_correct_loops<R>(exec)) {}
@@ -150,6 +152,8 @@ class OverlapCorrect final : public Stage {
     check_walls(s, wall_axis_, diam_.max, "overlap_correct");
     unit_ = diam_.max;
     tol_ = tolerance_for(p_, s, diam_.min);
+    if (team_ && (p_.mark || wall_axis_ >= 0))
+      throw InputError("overlap_correct: mark: true and walls do not run in a team of ranks yet: run on one GPU");
     if (p_.mark) {
       Field& f = s.add_particle_field(touched_field, DType::u8, 1);
       f.acquire(Where::host, Mode::write);
@@ -157,7 +161,19 @@ class OverlapCorrect final : public Stage {
     }
   }
 
+  // In a decomposed team each rank corrects its owned particles from their stars in its own
+  // triangulation (exact: common/team.h's band condition, checked here for the triangulation
+  // Lawson left), reading the ghosts' positions, which every iteration's exchange keeps current.
+  Scheduling scheduling() const override {
+    Scheduling sch;
+    sch.team = TeamWork::decomposed;
+    sch.reads_ghosts = true;
+    sch.communicates = true;
+    return sch;
+  }
+
   Outcome run(StepContext& ctx) override {
+    if (team_ && ctx.ghosts) return run_team(ctx);
     State& s = ctx.state;
     CUstream_st* st = ctx.stream;
     if (!s.field(delaunay::fields::status).host<std::int32_t>()[delaunay::kBuilt])
@@ -245,6 +261,101 @@ class OverlapCorrect final : public Stage {
     return os.str();
   }
 
+
+  // The team's loop, on the host: every iteration gathers each owned particle around its fan
+  // (Overlaps::gather, the walk the device loop makes: the same fixed-point sums, so the same
+  // displacement bits as the edge passes and work lists alone, whose result is that of
+  // gathering every particle), sums the counts over the ranks (all iterate alike), applies the
+  // owned displacements and sends the moved positions to the ghosts before the next gather.
+  // Pairs are counted once over the team: an owned particle counts a neighbour of higher id.
+  Outcome run_team(StepContext& ctx) {
+    State& s = ctx.state;
+    CUstream_st* st = ctx.stream;
+    for (const Access& a : accesses()) s.field(a.field).acquire(Where::host, a.mode, st);
+    if (!s.field(delaunay::fields::status).host<std::int32_t>()[delaunay::kBuilt])
+      throw RunError("overlap_correct: no Delaunay triangulation has been built yet");
+    const std::size_t n = s.n(), owned = s.n_owned();
+    R* x = s.field(fields::position).host<R>();
+    std::int32_t* img = s.field(fields::image).host<std::int32_t>();
+    const R* diam = s.field(fields::diameter).host<R>();
+    Field& idf = s.field(fields::particle_id);
+    idf.acquire(Where::host, Mode::read, st);
+    const std::uint32_t* id = idf.host<std::uint32_t>();
+    delaunay::band_check<R>(ctx, "overlap_correct", fields::position);  // where Lawson left it Delaunay
+    if (diam_.stale(s)) diam_.template measure<R>(s, st);
+    const Overlaps<R, true> ov{push_rule(p_, s, tol_, unit_, diam_, wall_axis_),
+                               x,
+                               diam,
+                               s.field(delaunay::fields::halfedge).host<std::int32_t>(),
+                               s.field(delaunay::fields::vertex_edge).host<std::int32_t>(),
+                               std::int32_t(n),
+                               diam_.max * diam_.max,
+                               wall_axis_ >= 0 ? img : nullptr};
+    return iterate_team(ctx, ov.template with_walls<false>(), id, owned);
+  }
+
+  template <bool W>
+  Outcome iterate_team(StepContext& ctx, const Overlaps<R, W>& ov, const std::uint32_t* id, std::size_t owned) {
+    State& s = ctx.state;
+    R* x = s.field(fields::position).host<R>();
+    std::int32_t* img = s.field(fields::image).host<std::int32_t>();
+    const PeriodicBox<R> box = PeriodicBox<R>::make(s.box.L);
+    std::vector<VertexPush> push(owned);
+    std::int64_t iterations = 0;
+    std::uint64_t pairs = 0;
+    double correction = 0;
+    for (;;) {
+      // bad, pairs, broken: each pair once over the team (the owned end of lower id counts it)
+      std::int64_t c[3] = {0, 0, 0};
+      for (std::size_t v = 0; v < owned; ++v) {
+        VertexPush& p = push[v];
+        p = ov.gather(int(v));
+        c[2] += p.broken ? 1 : 0;
+        if (!p.touched) continue;
+        // gather counted the overlapping neighbours of higher index: every ghost (they come
+        // after the owned particles); count those of higher id instead.
+        double xv, yv;
+        load_xy(x, int(v), xv, yv);
+        const double sv = ov.diameter_of(int(v));
+        unsigned pv = 0, bv = 0;
+        ov.for_each_neighbor(int(v), [&](int u, int) {
+          if (!(id[u] > id[v])) return;
+          double xu, yu, tx, ty;
+          load_xy(x, u, xu, yu);
+          const double o = pair_term(ov.min_image(xu - xv, 0), ov.min_image(yu - yv, 1), sv, ov.diameter_of(u),
+                                     ov.factor, int(v), u, tx, ty);
+          if (o == kNoOverlap || !(o > 0)) return;
+          ++pv;
+          if (o > ov.tol) ++bv;
+        });
+        c[0] += bv;
+        c[1] += pv;
+      }
+      team_->all_reduce(c, 3, ReduceOp::sum);
+      if (c[2])
+        throw RunError("overlap_correct: step " + std::to_string(ctx.host_params.step) +
+                       ": the triangulation is corrupt on a rank of the team (a fan that does not close)");
+      if (!c[0]) break;
+      if (iterations == p_.max_iterations) give_up(ctx, std::uint64_t(c[0]));
+      std::int64_t moved = 0;
+      for (std::size_t v = 0; v < owned; ++v) {
+        const VertexPush& p = push[v];
+        if (p.dx == 0 && p.dy == 0) continue;
+        apply_one(x, img, box, v, p.dx, p.dy);
+        moved += std::int64_t(ov.fixed_len(p.len));
+      }
+      team_->all_reduce(&moved, 1, ReduceOp::sum);
+      ctx.ghosts->refresh(s, {fields::position, fields::image});
+      x = s.field(fields::position).host<R>();  // refresh wrote the ghosts' entries on the host
+      pairs += std::uint64_t(c[1]);
+      correction += double(moved) / kFixedOne * unit_;
+      ++iterations;
+    }
+    ctx.metrics.set("iterations", double(iterations));
+    ctx.metrics.set("pairs", double(pairs));
+    ctx.metrics.set("correction", correction);
+    return Outcome::ok();
+  }
  private:
   // The error path: find the worst pair on the host (fields are copied there) and stop.
   [[noreturn]] void give_up(StepContext& ctx, std::uint64_t bad) {
@@ -280,6 +391,7 @@ class OverlapCorrect final : public Stage {
   }
 
   DelaunayParams p_;
+  Communicator* team_;  // a decomposed team's rank (with StepContext::ghosts); null alone
   Where where_;
   int wall_axis_;  // walls: 0 (x) or 1 (y); -1: none
   std::unique_ptr<OverlapCorrectLoops<R>> loops_;

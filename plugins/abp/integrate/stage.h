@@ -16,6 +16,7 @@
 #include "core/stage/stage_registration.h"
 #include "plugins/abp/integrate/kernel.h"
 #include "stages/overdamped/integrate/finite_check.h"
+#include "stages/overdamped/integrate/held.h"
 
 namespace ff::abp {
 
@@ -46,8 +47,9 @@ class AbpIntegrate final : public Stage {
   }
 
   template <class Exec>
-  AbpIntegrate(const ParamValues& v, const RunInfo& info, Exec)
+  AbpIntegrate(const ParamValues& v, const RunInfo& info, Exec exec)
       : p_(params_from<IntegrateParams>(v)),
+        mem_(exec.memory()),
         seed_(info.seed),
         where_(Exec::where),
         id_(info.stage_id),
@@ -97,6 +99,9 @@ class AbpIntegrate final : public Stage {
     Field& pos_in = ctx.will_overwrite(fields::position);
     Field& img_in = ctx.will_overwrite(fields::image);
     Field& ori_in = ctx.will_overwrite(kOrientation);
+    overdamped::keep_unowned(s, pos_in, fields::position, where_, mem_, ctx.stream);
+    overdamped::keep_unowned(s, img_in, fields::image, where_, mem_, ctx.stream);
+    overdamped::keep_unowned(s, ori_in, kOrientation, where_, mem_, ctx.stream);
     Field& pos = s.field(fields::position);
     Field& img = s.field(fields::image);
     Field& ori = s.field(kOrientation);
@@ -117,13 +122,16 @@ class AbpIntegrate final : public Stage {
       f.two_D[0] = 2.0 * p_.D;
       f.box = box;
       f.key = ctx.rng;
+      // In a decomposed team the rank's particles draw as their global ids (as they do alone).
+      f.id = s.has_field(fields::particle_id) ? s.field(fields::particle_id).data<std::uint32_t>(where_) : nullptr;
       f.params = ctx.params;
       f.drift = {o0, o, p_.v0, 2.0 * p_.Dr};
       f.non_finite = finite_.kernel_side(ctx.stream);
       return f;
     };
-    if (s.dim() == 2) loop2_(s.n(), step(AbpStep<R, 2>{}), ctx.stream);
-    else loop3_(s.n(), step(AbpStep<R, 3>{}), ctx.stream);
+    // A decomposed team's ghosts move with their owners: the owned particles only.
+    if (s.dim() == 2) loop2_(s.n_owned(), step(AbpStep<R, 2>{}), ctx.stream);
+    else loop3_(s.n_owned(), step(AbpStep<R, 3>{}), ctx.stream);
     finite_.after_loop(s, ctx.stream);  // on the CPU; on CUDA after_step looks
     return Outcome::ok();
   }
@@ -139,6 +147,7 @@ class AbpIntegrate final : public Stage {
     Scheduling s;
     s.graph_capturable = true;
     s.reads_step_params = true;
+    s.team = TeamWork::decomposed;  // owned particles only, noise keyed by particle id
     return s;
   }
 
@@ -174,6 +183,7 @@ class AbpIntegrate final : public Stage {
 
 
   IntegrateParams p_;
+  const MemoryOps& mem_;
   std::uint64_t seed_;
   Where where_;
   std::string id_;           // the stage's id, for messages

@@ -97,8 +97,10 @@ std::string build_topology(State& s, Field& pos, CUstream_st* stream) {
   ve.acquire(Where::host, Mode::write, stream);
   std::memcpy(ve.host<std::int32_t>(), h.vedge.data(), h.vedge.size() * sizeof(std::int32_t));
   Field& prev = s.field(fields::position_prev);
-  prev.acquire(Where::host, Mode::write, stream);
-  std::memcpy(prev.host_raw(), pos.host_raw(), pos.bytes());
+  if (&prev != &pos) {  // a decomposed team's rank builds at position_prev itself (detect_inversion)
+    prev.acquire(Where::host, Mode::write, stream);
+    std::memcpy(prev.host_raw(), pos.host_raw(), pos.bytes());
+  }
   Field& st = s.field(fields::status);
   st.acquire(Where::host, Mode::readwrite, stream);
   st.host<std::int32_t>()[kBuilt] = 1;

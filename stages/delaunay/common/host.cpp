@@ -13,13 +13,20 @@ void add_topology_fields(State& s, const char* stage_name) {
     throw InputError(std::string(stage_name) + ": a triangulation needs at least 3 particles (N = " +
                      std::to_string(s.n()) + ")");
   const std::size_t n = s.n();
-  s.add_field(fields::halfedge, DType::i32, 2, halfedge_count(n));
-  s.add_field(fields::opposite, DType::i32, 1, halfedge_count(n));
-  s.add_field(fields::vertex_edge, DType::i32, 1, n);
-  s.add_field(fields::position_prev, s.real(), 2, n);
-  s.add_field(fields::flip_mark, DType::u8, 1, edge_count(n));
+  // In a decomposed team the particles a rank holds change at every migration: the fields sized
+  // by them follow (the next build fills them). position_prev is per particle: it moves with
+  // them, so a rank can triangulate its new particles where the triangulation alone is Delaunay.
+  auto sized = [&](const char* name, DType t, int components, std::size_t count) {
+    if (s.has_field(name) && s.field(name).count() != count) s.field(name).resize(count);
+    s.add_field(name, t, components, count);
+  };
+  sized(fields::halfedge, DType::i32, 2, halfedge_count(n));
+  sized(fields::opposite, DType::i32, 1, halfedge_count(n));
+  sized(fields::vertex_edge, DType::i32, 1, n);
+  s.add_particle_field(fields::position_prev, s.real(), 2);
+  sized(fields::flip_mark, DType::u8, 1, edge_count(n));
   s.add_field(fields::status, DType::i32, kStatusSize, 1);
-  s.add_field(fields::lawson_candidates, DType::i32, 1, candidate_capacity(n));
+  sized(fields::lawson_candidates, DType::i32, 1, candidate_capacity(n));
 }
 
 std::int32_t* status(State& s) { return s.field(fields::status).host<std::int32_t>(); }

@@ -7,6 +7,8 @@
 // When delaunay.flip has `on_unrepairable: substep` (status kSubstep), inverted triangles that
 // single flips cannot repair are left to it instead, together with position_prev (not yet
 // overwritten, status kPrevKept), and with `passing: substep` particles through each other too.
+// In a decomposed team (run_team; docs/multi-gpu.md "The Delaunay pipelines") it keeps the
+// rank's triangulation of the particles it holds and decides with the other ranks.
 #pragma once
 #include <algorithm>
 #include <array>
@@ -21,9 +23,28 @@
 #include "core/stage/stage_registration.h"
 #include "stages/delaunay/build/build.h"
 #include "stages/delaunay/common/host.h"
+#include "stages/delaunay/common/team.h"
 #include "stages/delaunay/detect_inversion/kernel.h"
 
 namespace ff::delaunay {
+
+// Only a decomposed team (`pipeline run --gpus N`, docs/multi-gpu.md) reads these.
+struct DetectInversionParams {
+  double band = 0;
+  double slack = 0;
+
+  template <class P>
+  void describe(P& p) {
+    p(band, "band",
+      "decomposed team only: how far ghosts reach beyond a rank's slab along x (0: ten mean particle spacings); "
+      "widened while the run goes when the triangles near the slab grow")
+        .at_least(0);
+    p(slack, "slack",
+      "decomposed team only: how far a particle may move before the particles are migrated and the triangulations "
+      "rebuilt (0: one mean particle spacing)")
+        .at_least(0);
+  }
+};
 
 template <class R>
 struct DetectInversionLoops {
@@ -43,14 +64,19 @@ class DetectInversion final : public Stage {
   static StageDecl declaration() {
     return {"delaunay.detect_inversion",
             "find inverted triangles after integration; mark single-flip repairs or request a rollback",
-            {},
+            schema_of<DetectInversionParams>(),
             {2},
             false};
   }
 
   template <class Exec>
-  DetectInversion(const ParamValues&, const RunInfo&, Exec exec)
-      : where_(Exec::where), loops_(detect_inversion_loops<R>(exec)), mem_(exec.memory()), counters_(exec) {}
+  DetectInversion(const ParamValues& v, const RunInfo& info, Exec exec)
+      : p_(params_from<DetectInversionParams>(v)),
+        team_(in_team(info.team) ? info.team : nullptr),
+        where_(Exec::where),
+        loops_(detect_inversion_loops<R>(exec)),
+        mem_(exec.memory()),
+        counters_(exec) {}
 
   std::vector<Access> accesses() const override {
     // halfedge/vertex_edge are written only when no triangulation exists yet (first step).
@@ -64,11 +90,41 @@ class DetectInversion final : public Stage {
             Access::step_local_write(fields::lawson_candidates, where_),
             {fields::status, Where::host, Mode::readwrite}};
   }
-  void configure(State& s) override { add_topology_fields(s, "delaunay.detect_inversion"); }
-  // Requests come from run(), after reading the counters.
-  Scheduling scheduling() const override { return {true, false, false, false}; }
+  void configure(State& s) override {
+    add_topology_fields(s, "delaunay.detect_inversion");
+    // A decomposed team's band and slack in mean particle spacings (the whole state here).
+    const double spacing = std::sqrt(s.box.L[0] * s.box.L[1] / double(s.n()));
+    band_ = p_.band > 0 ? p_.band : 10 * spacing;
+    slack_ = p_.slack > 0 ? p_.slack : spacing;
+    if (team_ && !(2 * slack_ < band_))
+      throw InputError("delaunay.detect_inversion: the slack " + std::to_string(slack_) +
+                       " must be less than half the band " + std::to_string(band_));
+  }
+  // Requests come from run(), after reading the counters. In a decomposed team the stage keeps
+  // the rank's triangulation of its held particles (TeamWork::local), refreshes the ghosts'
+  // positions the integrator moved, and agrees on its requests with the other ranks.
+  Scheduling scheduling() const override {
+    Scheduling sch{true, false, false, false};
+    sch.team = TeamWork::local;
+    sch.ghost_band = band_;
+    sch.ghost_slack = slack_;
+    sch.fills_gap = true;
+    sch.refreshes_ghosts = true;
+    sch.communicates = true;
+    return sch;
+  }
+
+  // The triangulation of the held particles is current (a retry after a rollback rebuilds it
+  // again: this is not called then).
+  void after_step(StepContext& ctx) override { built_for_ = ctx.state.particles_version(); }
 
   Outcome run(StepContext& ctx) override {
+    if (team_ && ctx.ghosts) return run_team(ctx);
+    return run_alone(ctx);
+  }
+
+ private:
+  Outcome run_alone(StepContext& ctx) {
     State& s = ctx.state;
     CUstream_st* st = ctx.stream;
     // Whether the triangulation is the one this step started with: not when a stage before this
@@ -162,7 +218,6 @@ class DetectInversion final : public Stage {
     return Outcome::ok();
   }
 
- private:
   template <class H>
   static bool asks_rollback(const H& h) {
     return h[kThrough] || h[kTwice] || h[kUnrepairable];
@@ -256,7 +311,107 @@ class DetectInversion final : public Stage {
     return counters_.read(st)[kInverted] == 0;
   }
 
+  // A decomposed team (docs/multi-gpu.md "The Delaunay pipelines"): the rank's triangulation of
+  // its held particles, judged as alone, but only the elements it can trust (common/team.h) may
+  // roll the step back; the ranks agree (any request rolls every rank back). Elements it cannot
+  // trust (near the band's outer edge, where the local triangulation is not the global one)
+  // that break are rebuilt for the current positions instead.
+  Outcome run_team(StepContext& ctx) {
+    State& s = ctx.state;
+    CUstream_st* st = ctx.stream;
+    if (status(s)[kSubstep])
+      throw RunError("delaunay.detect_inversion: delaunay.flip's on_unrepairable: substep does not run in a "
+                     "decomposed team yet");
+    ctx.ghosts->refresh(s, {ff::fields::position});  // the integrator moved the owned particles
+    add_topology_fields(s, "delaunay.detect_inversion");  // sized for the particles held now
+    const auto box = PeriodicBox<double>::make(s.box.L);
+    Field* prev_at_start = ctx.at_step_start(fields::position_prev);
+    const bool inherited = prev_at_start == &s.field(fields::position_prev);
+    bool fresh = false;
+    if (!status(s)[kBuilt]) {
+      fresh = ensure_topology(ctx, accesses());  // the first step: at the moved positions, as alone
+    } else if (built_for_ != s.particles_version()) {
+      // A migration changed the particles held: triangulate them at position_prev, where the
+      // triangulation one rank alone inherits is Delaunay (the fields moved with the particles).
+      // The fill vertices beyond the band (Scheduling::fills_gap) came as copies of a particle:
+      // they never move, so their position_prev is where they are.
+      will_build(ctx);
+      Field& prev = s.field(fields::position_prev);
+      Field& pos = s.field(ff::fields::position);
+      Field& id = s.field(ff::fields::particle_id);
+      for (Field* f : {&pos, &id}) f->acquire(Where::host, Mode::read, st);
+      prev.acquire(Where::host, Mode::readwrite, st);
+      for (std::size_t i = s.n_owned(); i < s.n(); ++i)
+        if (id.host<std::uint32_t>()[i] == ff::fields::kFillId)
+          for (int k = 0; k < 2; ++k) prev.host<R>()[2 * i + std::size_t(k)] = pos.host<R>()[2 * i + std::size_t(k)];
+      build_topology(s, prev, st);
+      for (const Access& a : accesses()) s.field(a.field).acquire(a.where, a.mode, st);
+    }
+    status(s)[kPrevKept] = 0;
+    band_check<R>(ctx, "delaunay.detect_inversion", fresh ? ff::fields::position : fields::position_prev);
+    auto h = inspect(ctx, fresh, false);
+    auto trusted = [&](bool judged) {
+      if (!asks_rollback(h)) return false;
+      s.field(fields::flip_mark).acquire(Where::host, Mode::read, st);
+      const R* prev = judged ? host_positions<R>(s, s.field(fields::position_prev), st) : nullptr;
+      return owned_rollback_reason<R>(HostMesh::of(s, st), host_positions<R>(s, s.field(ff::fields::position), st),
+                                      prev, s.field(fields::flip_mark).host<std::uint8_t>(), s.n_owned(), box);
+    };
+    bool mine = trusted(!fresh);
+    bool any = any_rank(team_, mine);
+    bool rebuilt = false;
+    // As alone: a request against an inherited triangulation that is not valid where the step
+    // started rebuilds it there and judges again; valid means valid on every rank's trusted part.
+    Field* start = nullptr;
+    if (any && !fresh && inherited && (start = ctx.at_step_start(ff::fields::position))) {
+      const bool invalid = owned_inverted<R>(HostMesh::of(s, st), host_positions<R>(s, *start, st), s.n_owned(), box);
+      if (any_rank(team_, invalid)) {
+        will_build(ctx);
+        build_topology(s, *start, st);
+        for (const Access& a : accesses()) s.field(a.field).acquire(a.where, a.mode, st);
+        h = inspect(ctx, false, false);
+        mine = trusted(true);
+        any = any_rank(team_, mine);
+        rebuilt = true;
+      }
+    }
+    bool local_rebuild = false;
+    if (!any && asks_rollback(h)) {
+      will_build(ctx);
+      build_topology(s, st);  // position_prev = position too
+      for (const Access& a : accesses()) s.field(a.field).acquire(a.where, a.mode, st);
+      local_rebuild = true;
+    } else {
+      copy_prev(ctx);
+    }
+    ctx.metrics.set("rebuilds", rebuilt ? 1 : 0);
+    ctx.metrics.set("local_rebuilds", local_rebuild ? 1 : 0);
+    ctx.metrics.set("inversions", h[kInverted]);
+    ctx.metrics.set("repairable", h[kMarked]);
+    ctx.metrics.set("lawson_candidates", h[kCandidateCount]);
+    if (any)
+      return Outcome::request_rollback(
+          mine ? "delaunay.detect_inversion: on this rank of the team, " + std::to_string(h[kThrough]) +
+                     " pair(s) of particles passed through each other, " + std::to_string(h[kTwice]) +
+                     " edge(s) were crossed from both sides or " + std::to_string(h[kUnrepairable]) +
+                     " inverted triangle(s) cannot be repaired by single flips; the step is retried with a smaller "
+                     "time step"
+               : "delaunay.detect_inversion: another rank of the team found inverted triangles that single flips "
+                 "cannot repair; the step is retried with a smaller time step");
+    if (local_rebuild) return Outcome::ok();  // nothing pending: built for these positions
+    status(s)[kPending] = std::int32_t(h[kMarked]);
+    if (h[kMarked] == 0 && h[kInverted] == 0 && h[kCandidateCount] <= s.field(fields::lawson_candidates).count()) {
+      status(s)[kCandidates] = std::int32_t(h[kCandidateCount]) + 1;
+      set_position_version(status(s), s.field(ff::fields::position).version());
+    }
+    return Outcome::ok();
+  }
+
   static constexpr std::array<int, 4> kMinSlots{kThroughAt, kTwiceAt, kUnrepairableAt, kTooLongAt};
+  DetectInversionParams p_;
+  Communicator* team_;  // a decomposed team's rank; null alone
+  double band_ = 0, slack_ = 0;
+  std::uint64_t built_for_ = ~std::uint64_t(0);  // particles_version of the last accepted step's triangulation
   Where where_;
   DetectInversionLoops<R> loops_;
   const MemoryOps& mem_;

@@ -14,7 +14,9 @@
 #include "core/backend/exec.h"
 #include "core/stage/stage.h"
 #include "core/stage/stage_registration.h"
+#include "stages/delaunay/build/build.h"
 #include "stages/delaunay/common/host.h"
+#include "stages/delaunay/common/team.h"
 #include "stages/delaunay/flip/kernel.h"
 
 namespace ff::delaunay {
@@ -78,8 +80,9 @@ class Flip final : public Stage {
   }
 
   template <class Exec>
-  Flip(const ParamValues& v, const RunInfo&, Exec exec)
+  Flip(const ParamValues& v, const RunInfo& info, Exec exec)
       : p_(params_from<FlipParams>(v)),
+        team_(in_team(info.team) ? info.team : nullptr),
         substep_(p_.on_unrepairable == "substep"),
         passing_(p_.passing == "substep"),
         where_(Exec::where),
@@ -113,13 +116,23 @@ class Flip final : public Stage {
     if (passing_ && !substep_)
       throw InputError("delaunay.flip: passing: substep sub-steps pairs as on_unrepairable: substep does; set "
                        "on_unrepairable: substep too");
+    if (team_ && substep_)
+      throw InputError("delaunay.flip: on_unrepairable: substep does not run in a team of ranks yet (it moves "
+                       "particles of several ranks within the step): run on one GPU");
     // Tells delaunay.detect_inversion what to leave to us.
     status(s)[kSubstep] = substep_ ? (passing_ ? 2 : 1) : 0;
   }
-  // Requests come from run(), after reading the counters.
-  Scheduling scheduling() const override { return {true, false, false, false}; }
+  // Requests come from run(), after reading the counters. In a decomposed team: the rank's own
+  // triangulation (TeamWork::local), requests agreed with the other ranks.
+  Scheduling scheduling() const override {
+    Scheduling sch{true, false, false, false};
+    sch.team = TeamWork::local;
+    sch.communicates = true;
+    return sch;
+  }
 
   Outcome run(StepContext& ctx) override {
+    if (team_ && ctx.ghosts) return run_team(ctx);
     State& s = ctx.state;
     CUstream_st* st = ctx.stream;
     ensure_topology(ctx, accesses());
@@ -160,6 +173,46 @@ class Flip final : public Stage {
 
  private:
   using Tally = std::array<unsigned, kInversionCounters>;
+
+  // A decomposed team (docs/multi-gpu.md "The Delaunay pipelines"): the repair rounds on the
+  // rank's triangulation; a triangle left inverted rolls the step back only where the rank can
+  // trust it (an owned vertex: common/team.h), and then on every rank (one all-reduce, whether
+  // or not this rank had anything to repair); elsewhere the rank rebuilds its triangulation for
+  // the current positions.
+  Outcome run_team(StepContext& ctx) {
+    State& s = ctx.state;
+    CUstream_st* st = ctx.stream;
+    ensure_topology(ctx, accesses());
+    flips_ = 0;
+    rounds_ = 0;
+    bool left = false;
+    if (status(s)[kPending] != 0) {
+      will_flip(ctx);
+      const Points<R> now = points_view<R>(s, ff::fields::position, where_);
+      const Tally h = repair(s, mesh_view(s, where_), now, nullptr, false, st);
+      status(s)[kPending] = 0;
+      left = h[kInverted] != 0;
+    }
+    const bool mine = left && owned_inverted<R>(HostMesh::of(s, st), host_positions<R>(s, s.field(ff::fields::position), st),
+                                                s.n_owned(), PeriodicBox<double>::make(s.box.L));
+    const bool any = any_rank(team_, mine);
+    if (flips_) status(s)[kCandidates] = 0;  // quads changed: Lawson tests every edge
+    bool local_rebuild = false;
+    if (!any && left) {
+      will_build(ctx);
+      build_topology(s, st);
+      for (const Access& a : accesses()) s.field(a.field).acquire(a.where, a.mode, st);
+      local_rebuild = true;
+    }
+    ctx.metrics.set("flips", flips_);
+    ctx.metrics.set("flip_rounds", double(rounds_));
+    ctx.metrics.set("local_rebuilds", local_rebuild ? 1 : 0);
+    if (any)
+      return Outcome::request_rollback(std::string("delaunay.flip: ") +
+                                       (mine ? "inverted triangles remain on this rank" : "inverted triangles remain on another rank") +
+                                       " after the repair flips; the step is retried with a smaller time step");
+    return Outcome::ok();
+  }
 
   // Repair rounds (decide → apply → re-mark) while something is marked, up to max_rounds.
   // `mark_first`: the positions changed since the marks were made, so mark them first, with the
@@ -300,6 +353,7 @@ class Flip final : public Stage {
 
   static constexpr std::array<int, 4> kMinSlots{kThroughAt, kTwiceAt, kUnrepairableAt, kTooLongAt};
   FlipParams p_;
+  Communicator* team_;  // a decomposed team's rank; null alone
   bool substep_;
   bool passing_;
   Where where_;

@@ -94,6 +94,13 @@ class Lawson final : public Stage {
             {fields::status, Where::host, Mode::readwrite}};
   }
   void configure(State& s) override { add_topology_fields(s, "delaunay.lawson"); }
+  // In a decomposed team it flips the rank's own triangulation of its held particles (built by
+  // delaunay.detect_inversion, which says how far the ghosts must reach).
+  Scheduling scheduling() const override {
+    Scheduling sch;
+    sch.team = TeamWork::local;
+    return sch;
+  }
 
   Outcome run(StepContext& ctx) override {
     State& s = ctx.state;

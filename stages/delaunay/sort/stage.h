@@ -44,7 +44,13 @@ class Sort final : public Stage {
   std::vector<Access> accesses() const override { return {}; }
   void configure(State& s) override { sorted_ = sort_particles_hilbert(s); }
   Outcome run(StepContext&) override { return Outcome::ok(); }
-  Scheduling scheduling() const override { return {false, false, /*graph_capturable=*/true, false}; }
+  // In a decomposed team it has sorted the whole state before the particles are split among the
+  // ranks (configure runs first), so every rank, and one rank alone, numbers them alike.
+  Scheduling scheduling() const override {
+    Scheduling sch{false, false, /*graph_capturable=*/true, false};
+    sch.team = TeamWork::local;
+    return sch;
+  }
   const std::vector<std::string>& sorted_fields() const { return sorted_; }
 
  private:

@@ -17,6 +17,7 @@
 #include "core/stage/stage_registration.h"
 #include "stages/neighbors/list.h"
 #include "stages/overdamped/integrate/finite_check.h"
+#include "stages/overdamped/integrate/held.h"
 #include "stages/overdamped/integrate/kernel.h"
 
 namespace ff::overdamped {
@@ -91,8 +92,9 @@ class OverdampedIntegrate final : public Stage {
   }
 
   template <class Exec>
-  OverdampedIntegrate(const ParamValues& v, const RunInfo& info, Exec)
+  OverdampedIntegrate(const ParamValues& v, const RunInfo& info, Exec exec)
       : p_(params_from<IntegrateParams>(v)),
+        mem_(exec.memory()),
         where_(Exec::where),
         loops_(integrate_loops<R>(Exec{})),
         id_(info.stage_id),
@@ -156,6 +158,8 @@ class OverdampedIntegrate final : public Stage {
     // Where the previous values are now: the snapshot's copy, or the field itself (in place).
     Field& pos_in = ctx.will_overwrite(fields::position);
     Field& img_in = ctx.will_overwrite(fields::image);
+    overdamped::keep_unowned(s, pos_in, fields::position, where_, mem_, ctx.stream);
+    overdamped::keep_unowned(s, img_in, fields::image, where_, mem_, ctx.stream);
     auto ptr = [&](const char* f) { return s.field(f).data<R>(where_); };
     Field& img = s.field(fields::image);
     const bool in_place = &pos_in == &s.field(fields::position) && &img_in == &img;
@@ -301,6 +305,7 @@ class OverdampedIntegrate final : public Stage {
   }
 
   IntegrateParams p_;
+  const MemoryOps& mem_;
   Where where_;
   IntegrateLoops<R> loops_;
   std::string id_;             // the stage's id, for messages
