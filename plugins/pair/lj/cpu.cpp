@@ -15,6 +15,7 @@
 #include <immintrin.h>
 
 #include <algorithm>
+#include <cmath>
 #include <cstdint>
 #include <limits>
 #include <type_traits>
@@ -120,6 +121,21 @@ inline F8 gather(const float* base, __m256i idx) { return (F8::raw)_mm256_i32gat
 // An int32 lane mask (all ones or zero) as the reals' lane mask.
 inline D4::mask widen(D4*, __m128i m) { return (D4::mask)_mm256_cvtepi32_epi64(m); }
 inline F8::mask widen(F8*, __m256i m) { return (F8::mask)m; }
+// Records (double): each particle's position (D reals, zeros up to 3) and diameter, 32 bytes
+// (lj_cpu_forces packs them every step). load_records turns the records of particles j[0 .. W − 1]
+// into x, y, z, d of W lanes: W loads and a transpose instead of four gathers.
+inline void load_records(const double* rec, const std::int32_t* j, D4 out[4]) {
+  const __m256d r0 = _mm256_loadu_pd(rec + 4 * std::size_t(j[0])), r1 = _mm256_loadu_pd(rec + 4 * std::size_t(j[1]));
+  const __m256d r2 = _mm256_loadu_pd(rec + 4 * std::size_t(j[2])), r3 = _mm256_loadu_pd(rec + 4 * std::size_t(j[3]));
+  const __m256d t0 = _mm256_unpacklo_pd(r0, r1);  // x0 x1 | z0 z1
+  const __m256d t1 = _mm256_unpackhi_pd(r0, r1);  // y0 y1 | d0 d1
+  const __m256d t2 = _mm256_unpacklo_pd(r2, r3);  // x2 x3 | z2 z3
+  const __m256d t3 = _mm256_unpackhi_pd(r2, r3);  // y2 y3 | d2 d3
+  out[0] = (D4::raw)_mm256_permute2f128_pd(t0, t2, 0x20);
+  out[1] = (D4::raw)_mm256_permute2f128_pd(t1, t3, 0x20);
+  out[2] = (D4::raw)_mm256_permute2f128_pd(t0, t2, 0x31);
+  out[3] = (D4::raw)_mm256_permute2f128_pd(t1, t3, 0x31);
+}
 
 #if FF_CPU_V4_DISPATCH
 // GCC warns that 512-bit vectors passed by value change the ABI of a function built without
@@ -127,11 +143,19 @@ inline F8::mask widen(F8*, __m256i m) { return (F8::mask)m; }
 #pragma GCC diagnostic ignored "-Wpsabi"
 // AVX-512: 8 doubles or 16 floats. Built for x86-64-v4 and not always_inline: only the x86-64-v4
 // entry point (flatten) inlines them (GCC refuses an always_inline function of a wider target
-// inside the generic block template).
+// inside the generic block template). Each must be inlined there: a 512-bit vector passed
+// between functions of different targets does not keep its bits (test_pair_lj's lane test
+// catches that; `objdump -d` of range_avx512 shows no call).
 using D8 = V<double, 64>;
 using F16 = V<float, 64>;
-FF_TARGET_X86_64_V4 inline D8 sqrt(D8 a) { return (D8::raw)_mm512_sqrt_pd((__m512d)a.v); }
-FF_TARGET_X86_64_V4 inline F16 sqrt(F16 a) { return (F16::raw)_mm512_sqrt_ps((__m512)a.v); }
+// sqrt lane by lane in plain C++ (GCC 12 leaves it scalar: slower, only for odd n and geometric
+// mixing): kernel.h's lj_terms, a template of no target, calls it, and GCC kept an x86-64-v4
+// sqrt called from there out of line.
+template <class R>
+inline V<R, 64> sqrt(V<R, 64> a) {
+  for (int l = 0; l < V<R, 64>::W; ++l) a.v[l] = std::sqrt(a.v[l]);
+  return a;
+}
 FF_TARGET_X86_64_V4 inline D8 rint(D8 a) {
   return (D8::raw)_mm512_roundscale_pd((__m512d)a.v, _MM_FROUND_TO_NEAREST_INT | _MM_FROUND_NO_EXC);
 }
@@ -158,13 +182,44 @@ FF_TARGET_X86_64_V4 inline D8 gather(const double* base, __m256i idx) { return (
 FF_TARGET_X86_64_V4 inline F16 gather(const float* base, __m512i idx) { return (F16::raw)_mm512_i32gather_ps(idx, base, 4); }
 FF_TARGET_X86_64_V4 inline D8::mask widen(D8*, __m256i m) { return (D8::mask)_mm512_cvtepi32_epi64(m); }
 inline F16::mask widen(F16*, __m512i m) { return (F16::mask)m; }
+// Records j[l] and j[l + 4] in the two halves of one vector. (Helpers, not lambdas: a lambda
+// would not take the x86-64-v4 target.)
+FF_TARGET_X86_64_V4 inline __m512d record_pair(const double* rec, std::int32_t a, std::int32_t b) {
+  return _mm512_insertf64x4(_mm512_castpd256_pd512(_mm256_loadu_pd(rec + 4 * std::size_t(a))),
+                            _mm256_loadu_pd(rec + 4 * std::size_t(b)), 1);
+}
+FF_TARGET_X86_64_V4 inline void load_records(const double* rec, const std::int32_t* j, D8 out[4]) {
+  const __m512d A = record_pair(rec, j[0], j[4]), B = record_pair(rec, j[1], j[5]);
+  const __m512d C = record_pair(rec, j[2], j[6]), E = record_pair(rec, j[3], j[7]);
+  const __m512d t0 = _mm512_unpacklo_pd(A, B);  // x0 x1 | z0 z1 | x4 x5 | z4 z5
+  const __m512d t1 = _mm512_unpackhi_pd(A, B);  // y0 y1 | d0 d1 | y4 y5 | d4 d5
+  const __m512d t2 = _mm512_unpacklo_pd(C, E);  // x2 x3 | z2 z3 | x6 x7 | z6 z7
+  const __m512d t3 = _mm512_unpackhi_pd(C, E);  // y2 y3 | d2 d3 | y6 y7 | d6 d7
+  const __m512i lo = _mm512_setr_epi64(0, 1, 8, 9, 4, 5, 12, 13), hi = _mm512_setr_epi64(2, 3, 10, 11, 6, 7, 14, 15);
+  out[0] = (D8::raw)_mm512_permutex2var_pd(t0, lo, t2);
+  out[1] = (D8::raw)_mm512_permutex2var_pd(t1, lo, t3);
+  out[2] = (D8::raw)_mm512_permutex2var_pd(t0, hi, t2);
+  out[3] = (D8::raw)_mm512_permutex2var_pd(t1, hi, t3);
+}
 #endif
+// Float lanes read positions and diameters by gathers (no records).
+template <class L>
+inline void load_records(const void*, const std::int32_t*, L*) {}
+
+// Entry a of the rows starting at row (lanes i, count entries each) into to[0 .. W − 1]; the
+// lanes whose row has ended take their own particle i.
+template <class L, class I>
+inline void entries(L* tag, const std::uint32_t* list, I i, I row, I count, std::uint32_t a, std::int32_t* to) {
+  const auto a_lanes = splat_index(tag, int(a));
+  store_index(to, gather_masked(i, list, add(row, a_lanes), greater(count, a_lanes)));
+}
 
 // Particles who[0 .. W − 1] (each < n): LJForce::operator() for each, one per lane of L. kEnergy
 // is f.energy != nullptr; kN is f.n, or 0 for an n known only at run time (a constant n unrolls
-// power()'s loop).
+// power()'s loop). record: the records of load_records (double), or null (float).
 template <class L, class R, int D, bool kEnergy, int kN>
-inline __attribute__((always_inline)) void block(const LJForce<R, D>& f, const std::uint32_t* who) {
+inline __attribute__((always_inline)) void block(const LJForce<R, D>& f, const R* record, const std::uint32_t* who) {
+  constexpr bool kRecords = std::is_same_v<R, double>;
   using M = typename L::mask;
   constexpr int W = L::W;
   L* const tag = nullptr;  // picks the index width of L
@@ -182,23 +237,29 @@ inline __attribute__((always_inline)) void block(const LJForce<R, D>& f, const s
   const L r_cut2(f.r_cut2), shift(f.shift);
   L force[D], u(R(0)), w(R(0));
   for (int c = 0; c < D; ++c) force[c] = L(R(0));
+  // Each lane's list entry a (finished rows: their own particle, then masked out, never an unset
+  // entry), gathered two entries ahead into a ring of three: its neighbours' records (or
+  // positions) are fetched then, since at N = 2^16 they miss the core's cache.
+  alignas(64) std::int32_t ring[3][W];
+  entries(tag, list, i, row, count, 0, ring[0]);
+  entries(tag, list, i, row, count, 1, ring[1]);
   for (std::uint32_t a = 0; a < longest; ++a) {
-    // The neighbours two entries ahead: fetch their positions now. At N = 2^16 the positions
-    // (1.5 MB) miss the core's cache, and a gather waits for all its lanes.
     {
-      const auto ahead = splat_index(tag, int(a + 2));
-      alignas(64) std::int32_t next[W];
-      store_index(next, gather_masked(i, list, add(row, ahead), greater(count, ahead)));
-      for (int l = 0; l < W; ++l) _mm_prefetch((const char*)(f.position + std::size_t(next[l]) * D), _MM_HINT_T0);
+      std::int32_t* const next = ring[(a + 2) % 3];
+      entries(tag, list, i, row, count, a + 2, next);
+      for (int l = 0; l < W; ++l)
+        _mm_prefetch((const char*)(kRecords ? record + 4 * std::size_t(next[l]) : f.position + std::size_t(next[l]) * D),
+                     _MM_HINT_T0);
     }
-    const auto a_lanes = splat_index(tag, int(a));
-    const auto active = greater(count, a_lanes);
-    // Finished rows read their own particle (then masked out), never an unset list entry.
-    const auto j = gather_masked(i, list, add(row, a_lanes), active);
+    const std::int32_t* const here = ring[a % 3];
+    const auto active = greater(count, splat_index(tag, int(a)));
+    const auto j = load_index(tag, reinterpret_cast<const std::uint32_t*>(here));
+    L rec[4];
+    if (kRecords) load_records(record, here, rec);
     const auto jD = mul(j, splat_index(tag, D));
     L d[D], r2(R(0));
     for (int c = 0; c < D; ++c) {
-      const L dc = xi[c] - gather(f.position, add(jD, splat_index(tag, c)));
+      const L dc = xi[c] - (kRecords ? rec[c] : gather(f.position, add(jD, splat_index(tag, c))));
       d[c] = dc - L(f.box.L[c]) * rint(dc * L(f.box.inv_L[c]));
       r2 = r2 + mul_rn(d[c], d[c]);
     }
@@ -206,7 +267,7 @@ inline __attribute__((always_inline)) void block(const LJForce<R, D>& f, const s
     if (f.type) ab = add(ti, gather_int(f.type, j));
     L sig2;
     if (f.diameter) {
-      const L dj = gather(f.diameter, j);
+      const L dj = kRecords ? rec[3] : gather(f.diameter, j);
       const L s = f.geometric ? sqrt(mul_rn(di, dj)) : L(R(0.5)) * (di + dj);
       sig2 = mul_rn(s, s);
     } else {
@@ -248,7 +309,7 @@ constexpr std::size_t kGrain = 2048;  // particles per task at most
 // length (a stable counting sort), so the W rows of a block end together: lanes wait little on
 // the longest row of their block. Which lane a particle takes does not change its bits.
 template <class L, bool kEnergy, int kN, class R, int D>
-inline void particles(const LJForce<R, D>& f, std::size_t p0, std::size_t p1) {
+inline void particles(const LJForce<R, D>& f, const R* record, std::size_t p0, std::size_t p1) {
   constexpr std::size_t W = L::W;
   const LJForce<R, D> local = f;  // members in registers (see cpu_for_each)
   std::uint32_t who[kGrain], start[65];
@@ -258,56 +319,72 @@ inline void particles(const LJForce<R, D>& f, std::size_t p0, std::size_t p1) {
   for (std::uint32_t b = 1; b < 65; ++b) start[b] += start[b - 1];
   for (std::size_t i = p0; i < p1; ++i) who[start[std::min(local.count[i], kLongest)]++] = std::uint32_t(i);
   const std::size_t m = p1 - p0, full = m / W * W;
-  for (std::size_t b = 0; b < full; b += W) block<L, R, D, kEnergy, kN>(local, who + b);
+  for (std::size_t b = 0; b < full; b += W) block<L, R, D, kEnergy, kN>(local, record, who + b);
   for (std::size_t b = full; b < m; ++b) local(who[b]);  // the last m mod W, one by one
 }
 
 // Particles [r0, r1) in tasks of at most kGrain (oneTBB's ranges may exceed the grain), in lanes
 // of B bytes. No lambdas here: a lambda would not take the x86-64-v4 entry point's target.
 template <int B, class R, int D>
-inline void range(const LJForce<R, D>& f, std::size_t r0, std::size_t r1) {
+inline void range(const LJForce<R, D>& f, const R* record, std::size_t r0, std::size_t r1) {
   using L = V<R, B>;
   constexpr int kTran = 18;  // Tran et al.'s 36–18
   for (std::size_t p0 = r0; p0 < r1; p0 += kGrain) {
     const std::size_t p1 = std::min(r1, p0 + kGrain);
     if (f.energy) {
-      if (f.n == kTran) particles<L, true, kTran>(f, p0, p1);
-      else particles<L, true, 0>(f, p0, p1);
+      if (f.n == kTran) particles<L, true, kTran>(f, record, p0, p1);
+      else particles<L, true, 0>(f, record, p0, p1);
     } else {
-      if (f.n == kTran) particles<L, false, kTran>(f, p0, p1);
-      else particles<L, false, 0>(f, p0, p1);
+      if (f.n == kTran) particles<L, false, kTran>(f, record, p0, p1);
+      else particles<L, false, 0>(f, record, p0, p1);
     }
   }
 }
 
 template <class R, int D>
-__attribute__((flatten)) void range_avx2(const LJForce<R, D>& f, std::size_t r0, std::size_t r1) {
-  range<32>(f, r0, r1);
+__attribute__((flatten)) void range_avx2(const LJForce<R, D>& f, const R* record, std::size_t r0, std::size_t r1) {
+  range<32>(f, record, r0, r1);
 }
 #if FF_CPU_V4_DISPATCH
 template <class R, int D>
-FF_TARGET_X86_64_V4 __attribute__((flatten)) void range_avx512(const LJForce<R, D>& f, std::size_t r0, std::size_t r1) {
-  range<64>(f, r0, r1);
+FF_TARGET_X86_64_V4 __attribute__((flatten)) void range_avx512(const LJForce<R, D>& f, const R* record, std::size_t r0,
+                                                                std::size_t r1) {
+  range<64>(f, record, r0, r1);
 }
 #endif
 
 }  // namespace lanes
 
+// Rows [0, n), reading any of the `held` particles (loops.h). Double: each step first packs every
+// held particle's record (position, zeros, diameter; 32-byte aligned, so one cache line) into
+// scratch, which the lanes read instead of gathering from the position and diameter arrays.
 template <class R, int D>
-void lj_cpu_loop(std::size_t n, const LJForce<R, D>& f, CUstream_st* stream) {
+void lj_cpu_forces(std::size_t n, std::size_t held, const LJForce<R, D>& f, LJScratch<R>& scratch, CUstream_st* stream) {
   // The lanes' gathers take int32 element offsets.
-  if (n * std::max<std::size_t>(D, f.capacity) >= std::size_t(std::numeric_limits<std::int32_t>::max())) {
+  if (held * std::max<std::size_t>(4, f.capacity) >= std::size_t(std::numeric_limits<std::int32_t>::max())) {
     cpu_for_each(n, f, stream);
     return;
+  }
+  const R* record = nullptr;
+  if constexpr (std::is_same_v<R, double>) {
+    R* const base = scratch.record.get(4 * held + 4);
+    R* const rec = base + (-reinterpret_cast<std::uintptr_t>(base) / sizeof(R) & 3);  // 32-byte aligned
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, held, 8192), [&](const tbb::blocked_range<std::size_t>& r) {
+      for (std::size_t p = r.begin(); p < r.end(); ++p) {
+        for (int c = 0; c < D; ++c) rec[4 * p + c] = f.position[p * D + c];
+        rec[4 * p + 3] = f.diameter ? f.diameter[p] : R(0);
+      }
+    });
+    record = rec;
   }
   const bool avx512 = cpu_has_x86_64_v4();
   auto run = [&](std::size_t r0, std::size_t r1) {
 #if FF_CPU_V4_DISPATCH
-    if (avx512) return lanes::range_avx512(f, r0, r1);
+    if (avx512) return lanes::range_avx512(f, record, r0, r1);
 #else
     (void)avx512;
 #endif
-    lanes::range_avx2(f, r0, r1);
+    lanes::range_avx2(f, record, r0, r1);
   };
   if (n <= lanes::kGrain) run(0, n);
   else
@@ -315,9 +392,11 @@ void lj_cpu_loop(std::size_t n, const LJForce<R, D>& f, CUstream_st* stream) {
                       [&](const tbb::blocked_range<std::size_t>& r) { run(r.begin(), r.end()); });
 }
 
-template void lj_cpu_loop<float, 2>(std::size_t, const LJForce<float, 2>&, CUstream_st*);
-template void lj_cpu_loop<float, 3>(std::size_t, const LJForce<float, 3>&, CUstream_st*);
-template void lj_cpu_loop<double, 2>(std::size_t, const LJForce<double, 2>&, CUstream_st*);
-template void lj_cpu_loop<double, 3>(std::size_t, const LJForce<double, 3>&, CUstream_st*);
+template <class R>
+LJLoops<R> lj_loops(CpuExec) {
+  return {&lj_cpu_forces<R, 2>, &lj_cpu_forces<R, 3>};
+}
+template LJLoops<float> lj_loops<float>(CpuExec);
+template LJLoops<double> lj_loops<double>(CpuExec);
 
 }  // namespace ff::pair
