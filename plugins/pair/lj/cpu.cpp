@@ -225,14 +225,16 @@ inline __attribute__((always_inline)) void block(const LJForce<R, D>& f, const R
   L* const tag = nullptr;  // picks the index width of L
   const auto i = load_index(tag, who);
   const auto iD = mul(i, splat_index(tag, D));
+  L own[4];  // the lanes' own records (double)
+  if (kRecords) load_records(record, reinterpret_cast<const std::int32_t*>(who), own);
   L xi[D];
-  for (int c = 0; c < D; ++c) xi[c] = gather(f.position, add(iD, splat_index(tag, c)));
+  for (int c = 0; c < D; ++c) xi[c] = kRecords ? own[c] : gather(f.position, add(iD, splat_index(tag, c)));
   const auto count = gather_int(reinterpret_cast<const std::int32_t*>(f.count), i);
   std::uint32_t longest = 0;
   for (int l = 0; l < W; ++l) longest = std::max(longest, f.count[who[l]]);
   const auto row = mul(i, splat_index(tag, int(f.capacity)));  // where each lane's row starts
   const std::uint32_t* const list = f.list;
-  const L di = f.diameter ? gather(f.diameter, i) : L(R(0));
+  const L di = !f.diameter ? L(R(0)) : kRecords ? own[3] : gather(f.diameter, i);
   const auto ti = f.type ? mul(gather_int(f.type, i), splat_index(tag, kMaxTypes)) : splat_index(tag, 0);
   const L r_cut2(f.r_cut2), shift(f.shift);
   L force[D], u(R(0)), w(R(0));
@@ -329,6 +331,7 @@ inline void particles(const LJForce<R, D>& f, const R* record, std::size_t p0, s
         const char* const r = reinterpret_cast<const char*>(local.list + std::size_t(who[b + W + l]) * local.capacity);
         _mm_prefetch(r, _MM_HINT_T0);
         _mm_prefetch(r + 64, _MM_HINT_T0);
+        if (record) _mm_prefetch(reinterpret_cast<const char*>(record + 4 * std::size_t(who[b + W + l])), _MM_HINT_T0);
       }
     block<L, R, D, kEnergy, kN>(local, record, who + b);
   }
