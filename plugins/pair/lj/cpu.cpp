@@ -170,7 +170,9 @@ inline __m256i load_index(D8*, const std::uint32_t* p) { return _mm256_loadu_si2
 FF_TARGET_X86_64_V4 inline __m512i load_index(F16*, const std::uint32_t* p) { return _mm512_loadu_si512(p); }
 FF_TARGET_X86_64_V4 inline __m512i add(__m512i a, __m512i b) { return _mm512_add_epi32(a, b); }
 FF_TARGET_X86_64_V4 inline __m512i mul(__m512i a, __m512i b) { return _mm512_mullo_epi32(a, b); }
-FF_TARGET_X86_64_V4 inline __m512i greater(__m512i a, __m512i b) { return _mm512_movm_epi32(_mm512_cmpgt_epi32_mask(a, b)); }
+FF_TARGET_X86_64_V4 inline __m512i greater(__m512i a, __m512i b) {
+  return _mm512_movm_epi32(_mm512_cmpgt_epi32_mask(a, b));
+}
 FF_TARGET_X86_64_V4 inline void store_index(std::int32_t* p, __m512i x) { _mm512_store_si512(p, x); }
 FF_TARGET_X86_64_V4 inline __m512i gather_masked(__m512i src, const std::uint32_t* base, __m512i idx, __m512i m) {
   return _mm512_mask_i32gather_epi32(src, _mm512_movepi32_mask(m), idx, base, 4);
@@ -178,8 +180,12 @@ FF_TARGET_X86_64_V4 inline __m512i gather_masked(__m512i src, const std::uint32_
 FF_TARGET_X86_64_V4 inline __m512i gather_int(const std::int32_t* base, __m512i idx) {
   return _mm512_i32gather_epi32(idx, base, 4);
 }
-FF_TARGET_X86_64_V4 inline D8 gather(const double* base, __m256i idx) { return (D8::raw)_mm512_i32gather_pd(idx, base, 8); }
-FF_TARGET_X86_64_V4 inline F16 gather(const float* base, __m512i idx) { return (F16::raw)_mm512_i32gather_ps(idx, base, 4); }
+FF_TARGET_X86_64_V4 inline D8 gather(const double* base, __m256i idx) {
+  return (D8::raw)_mm512_i32gather_pd(idx, base, 8);
+}
+FF_TARGET_X86_64_V4 inline F16 gather(const float* base, __m512i idx) {
+  return (F16::raw)_mm512_i32gather_ps(idx, base, 4);
+}
 FF_TARGET_X86_64_V4 inline D8::mask widen(D8*, __m256i m) { return (D8::mask)_mm512_cvtepi32_epi64(m); }
 inline F16::mask widen(F16*, __m512i m) { return (F16::mask)m; }
 // Records j[l] and j[l + 4] in the two halves of one vector. (Helpers, not lambdas: a lambda
@@ -249,9 +255,10 @@ inline __attribute__((always_inline)) void block(const LJForce<R, D>& f, const R
     {
       std::int32_t* const next = ring[(a + 2) % 3];
       entries(tag, list, i, row, count, a + 2, next);
-      for (int l = 0; l < W; ++l)
-        _mm_prefetch((const char*)(kRecords ? record + 4 * std::size_t(next[l]) : f.position + std::size_t(next[l]) * D),
-                     _MM_HINT_T0);
+      for (int l = 0; l < W; ++l) {
+        const std::size_t j = std::size_t(next[l]);
+        _mm_prefetch(reinterpret_cast<const char*>(kRecords ? record + 4 * j : f.position + j * D), _MM_HINT_T0);
+      }
     }
     const std::int32_t* const here = ring[a % 3];
     const auto active = greater(count, splat_index(tag, int(a)));
@@ -374,7 +381,8 @@ FF_TARGET_X86_64_V4 __attribute__((flatten)) void range_avx512(const LJForce<R, 
 // held particle's record (position, zeros, diameter; 32-byte aligned, so one cache line) into
 // scratch, which the lanes read instead of gathering from the position and diameter arrays.
 template <class R, int D>
-void lj_cpu_forces(std::size_t n, std::size_t held, const LJForce<R, D>& f, LJScratch<R>& scratch, CUstream_st* stream) {
+void lj_cpu_forces(std::size_t n, std::size_t held, const LJForce<R, D>& f, LJScratch<R>& scratch,
+                   CUstream_st* stream) {
   // The lanes' gathers take int32 element offsets.
   if (held * std::max<std::size_t>(4, f.capacity) >= std::size_t(std::numeric_limits<std::int32_t>::max())) {
     cpu_for_each(n, f, stream);
