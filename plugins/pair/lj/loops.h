@@ -1,5 +1,5 @@
-// The CUDA loops of pair.lj (cuda.cu), declared for stage.h; on the CPU the stage runs the
-// functor of kernel.h through the backend object's element loop. nvcc-clean.
+// The loops of pair.lj, declared for stage.h: the CPU's vector lanes (cpu.cpp) and the CUDA loops
+// (cuda.cu), both summing kernel.h's functor terms in row order. nvcc-clean.
 #pragma once
 #include <cstddef>
 
@@ -9,12 +9,12 @@
 
 namespace ff::pair {
 
-// Device memory the CUDA loops keep between steps.
+// Memory the loops keep between steps.
 template <class R>
 struct LJScratch {
   template <class Exec>
   explicit LJScratch(Exec exec) : record(exec) {}
-  Scratch<R> record;  // N x 4: each particle's position (D reals, then zeros) and diameter
+  Scratch<R> record;  // N x 4: each particle's position (D reals, then zeros) and diameter (CPU: double only)
 };
 
 template <class R>
@@ -26,6 +26,8 @@ struct LJLoops {
              CUstream_st* stream) = nullptr;
 };
 
+template <class R>
+LJLoops<R> lj_loops(CpuExec);
 template <class R>
 LJLoops<R> lj_loops(CudaExec);
 

@@ -2,8 +2,8 @@
 // Verlet list of a neighbors.verlet stage before it, per type pair ε_ij and σ_ij, cut at
 // r_cut σ_ij, into the `force` field that overdamped.integrate reads (x += μ_t F Δt + noise).
 // With energy: true also `pair.energy` and `pair.virial` (per particle) for observers. Each
-// backend has its own loop over the same terms: the CPU's in vector lanes (cpu.cpp), CUDA's over
-// packed records (cuda.cu).
+// backend has its own loop over the same terms, both over packed records (position and diameter):
+// the CPU's in vector lanes (cpu.cpp; records in double), CUDA's one thread a particle (cuda.cu).
 #pragma once
 #include <algorithm>
 #include <cmath>
@@ -60,11 +60,6 @@ struct LJParams {
   }
 };
 
-// The CPU loop (cpu.cpp): LJForce for blocks of particles in vector lanes, the same bits as the
-// scalar functor; the CUDA loops are lj_loops (loops.h, cuda.cu).
-template <class R, int D>
-void lj_cpu_loop(std::size_t n, const LJForce<R, D>& f, CUstream_st* stream);
-
 template <class R>
 class LJ final : public Stage {
  public:
@@ -78,9 +73,7 @@ class LJ final : public Stage {
   template <class Exec>
   LJ(const ParamValues& v, const RunInfo&, Exec)
       : p_(params_from<LJParams>(v)), where_(Exec::where),
-        loop2_(loop_of<Exec, 2>()), loop3_(loop_of<Exec, 3>()), scratch_(Exec{}) {
-    if constexpr (Exec::backend == Backend::cuda) cuda_ = lj_loops<R>(Exec{});
-  }
+        loops_(lj_loops<R>(Exec{})), scratch_(Exec{}) {}
 
   std::vector<Access> accesses() const override {
     std::vector<Access> a{{fields::position, where_, Mode::read},
@@ -124,13 +117,8 @@ class LJ final : public Stage {
     State& s = ctx.state;
     // The rows of the owned particles (all, alone); a decomposed team's ghosts appear in them.
     const std::size_t rows = s.n_owned();
-    if (s.dim() == 2) {
-      if (cuda_.d2) cuda_.d2(rows, s.n(), functor<2>(ctx), scratch_, ctx.stream);
-      else loop2_(rows, functor<2>(ctx), ctx.stream);
-    } else {
-      if (cuda_.d3) cuda_.d3(rows, s.n(), functor<3>(ctx), scratch_, ctx.stream);
-      else loop3_(rows, functor<3>(ctx), ctx.stream);
-    }
+    if (s.dim() == 2) loops_.d2(rows, s.n(), functor<2>(ctx), scratch_, ctx.stream);
+    else loops_.d3(rows, s.n(), functor<3>(ctx), scratch_, ctx.stream);
     return Outcome::ok();
   }
 
@@ -144,11 +132,6 @@ class LJ final : public Stage {
   }
 
  private:
-  template <class Exec, int D>
-  static ElementLoop<LJForce<R, D>> loop_of() {
-    if constexpr (Exec::backend == Backend::cpu) return &lj_cpu_loop<R, D>;
-    else return &Exec::template for_each<LJForce<R, D>>;
-  }
   bool from_diameter() const { return p_.sigma.values.empty(); }
 
   // Every particle's type must have an entry; at most kMaxTypes types.
@@ -253,9 +236,7 @@ class LJ final : public Stage {
 
   LJParams p_;
   Where where_;
-  ElementLoop<LJForce<R, 2>> loop2_;
-  ElementLoop<LJForce<R, 3>> loop3_;
-  LJLoops<R> cuda_;  // the CUDA loops (loops.h, cuda.cu); none on the CPU
+  LJLoops<R> loops_;  // the CPU lanes (cpu.cpp) or the CUDA loops (cuda.cu); loops.h
   LJScratch<R> scratch_;
   LJTable<R> table_{};
   bool per_type_ = false;

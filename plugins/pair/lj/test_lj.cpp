@@ -2,7 +2,7 @@
 // the force is −dU/dr of the energy it reports, the minimum is −ε at 2^{1/n} σ, the sum of all
 // forces vanishes (Newton's third law), a jittered lattice equals a direct O(N²) sum, mixing
 // rules and explicit matrices on two types, the energy shift, the skin does not change a bit,
-// overlapping pairs stay finite, the CPU loop's vector lanes give the scalar functor's bits (any
+// overlapping pairs stay finite, the CPU loop's vector lanes (AVX2 and AVX-512) give the scalar functor's bits (any
 // thread count), CPU and CUDA give the same bits, and input errors name the key.
 #include <catch2/catch.hpp>
 #include <oneapi/tbb/global_control.h>
@@ -11,6 +11,7 @@
 #include <cstring>
 #include <random>
 
+#include "core/backend/cpu_isa.h"
 #include "core/base/error.h"
 #include "plugins/pair/lj/kernel.h"
 #include "stages/neighbors/list.h"
@@ -567,7 +568,10 @@ void lanes_match_functor(Precision p) {
 
 }  // namespace
 
+// On a CPU with AVX-512 the stage takes its x86-64-v4 lanes (8 doubles, 16 floats), else (or with
+// FLIPFLOW_NO_AVX512 set: CTest's test_pair_lj_avx2) the AVX2 lanes; each must give these bits.
 TEST_CASE("pair.lj: the CPU loop's vector lanes give the scalar functor's bits, any thread count", "[pair]") {
+  INFO("lanes: " << (cpu_has_x86_64_v4() ? "AVX-512 (x86-64-v4)" : "AVX2"));
   lanes_match_functor<double, 3>(Precision::f64);
   lanes_match_functor<double, 2>(Precision::f64);
   lanes_match_functor<float, 3>(Precision::f32);
