@@ -91,9 +91,10 @@ struct MetricSums {
   std::uint64_t* out = nullptr;
 };
 
-// Where cell() may keep the far ends of a fan between its two walks: none (the CPU loop; the
-// second walk reads the half-edge records again, from cache). geometry/cuda.cu keeps up to
-// kFanCache of them per thread in shared memory (a longer fan, rare, walks again).
+// Where cell() may keep the far ends' indices of a fan between its two walks: none (the CPU loop;
+// the second walk reads the half-edge records again, from cache). geometry/cuda.cu keeps up to
+// kFanCache of them per particle in a table between its two kernels (a longer fan, rare, walks
+// again).
 inline constexpr int kFanCache = 12;
 struct NoFanCache {
   static constexpr int capacity = 0;
@@ -208,9 +209,20 @@ struct CellGeometry {
   // code is left out of the loop).
   template <bool Edges, class Fan>
   FF_HD MetricTerms cell(int v, Fan fan) const {
+    return sum<Edges>(v, walk(v, fan), fan);
+  }
+
+  // What the first walk leaves for the second: the fan's size (0: corrupt), its lowest
+  // half-edge and that half-edge's place from vedge[v].
+  struct FanWalk {
+    int deg = 0, hmin = 0, kmin = 0;
+  };
+
+  // Pass 1: the fan closes within kMaxSides half-edges, every index in range; its lowest
+  // half-edge (the kmin-th from h0) starts pass 2. The far ends go to `fan` on the way.
+  template <class Fan>
+  FF_HD FanWalk walk(int v, Fan fan) const {
     const unsigned nh = 6u * unsigned(n);
-    // Pass 1: the fan closes within kMaxSides half-edges, every index in range; its lowest
-    // half-edge (the kmin-th from h0) starts pass 2.
     const int h0 = vedge[v];
     int deg = 0, hmin = h0, kmin = 0;
     bool ok = unsigned(h0) < nh;
@@ -228,25 +240,39 @@ struct CellGeometry {
         }
       }
     }
-    if (!ok || deg < 3) {
+    if (!ok || deg < 3) return {0, 0, 0};
+    return {deg, hmin, kmin};
+  }
+
+  // Pass 2 of particle v's cell, from its first walk `w` and the far ends that walk left in
+  // `fan`; writes the cell and returns its metric terms.
+  template <bool Edges, class Fan>
+  FF_HD MetricTerms sum(int v, FanWalk w, Fan fan) const {
+    const int deg = w.deg, hmin = w.hmin, kmin = w.kmin;
+    if (deg == 0) {
       sides[v] = 0;
       area[v] = perimeter[v] = R(0);
       centroid[2 * v] = centroid[2 * v + 1] = R(0);
       return terms(R(0), 0);
     }
+    const V2 pv = position(v);
     // Pass 2: o_k = circumcentre of (v, u_{k+1}, u_k); face k needs o_{k-1} and o_k, so face 0
     // (which needs o_{deg-1}) is summed last.
     // The k-th far end from the cache (index kmin + k modulo deg) or by one step of the walk.
     const bool cached = deg <= Fan::capacity && !(Edges && (face_length || circumcenter));
-    int u, hk = hmin, hnext = hmin, j = kmin;
-    if (cached) u = fan.get(j);
-    else turn(hk, u, hnext);
-    const V2 pv = position(v);
-    const V2 d_first = rel(pv, u);
-    // From the cache the next far end's position is loaded a face ahead: its load is in flight
+    // The k-th cached far end's position, loaded by its index.
+    auto cached_position = [&](int k) { return position(fan.get(k)); };
+    int u = 0, hk = hmin, hnext = hmin, j = kmin;
+    V2 d_first;
+    if (cached) d_first = rel(pv, cached_position(j));
+    else {
+      turn(hk, u, hnext);
+      d_first = rel(pv, u);
+    }
+    // From the cache the next far end's position is read a face ahead: a load is in flight
     // while the current face is summed.
     V2 p_ahead{0, 0};
-    if (cached && deg > 1) p_ahead = position(fan.get(j + 1 == deg ? 0 : j + 1));
+    if (cached && deg > 1) p_ahead = cached_position(j + 1 == deg ? 0 : j + 1);
     V2 dk = d_first, o_first{0, 0}, o_prev{0, 0};
     Sums s;
     for (int k = 0; k < deg; ++k) {
@@ -259,7 +285,7 @@ struct CellGeometry {
         } else {
           dn = rel(pv, p_ahead);
           if (++j == deg) j = 0;
-          if (k + 2 < deg) p_ahead = position(fan.get(j + 1 == deg ? 0 : j + 1));
+          if (k + 2 < deg) p_ahead = cached_position(j + 1 == deg ? 0 : j + 1);
         }
       }
       const V2 o = circumcentre(dn, dk);

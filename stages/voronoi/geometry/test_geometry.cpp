@@ -351,9 +351,10 @@ void start_walks_mid_fan(State& s) {
     for (std::size_t k = 0; k < v % 4; ++k) vedge[v] = h[2 * (vedge[v] ^ 1) + 1];
 }
 
-// cell() as geometry/cuda.cu runs it, the fan's far ends kept between its two walks (here in a
-// host array), must give the bits of the plain cell(), for fans that fit the cache and for
-// longer ones (which walk again): every output and the metric terms.
+// cell() with the fan's far ends kept between its two walks (here in a host array of K), and the
+// cells-only path as geometry/cuda.cu runs it (walk(), the far ends rotated to start at the fan's
+// lowest half-edge, sum() from kmin = 0), must give the bits of the plain cell(), for fans that fit
+// the cache and for longer ones (which walk again): every output and the metric terms.
 template <int K>
 struct HostFan {
   static constexpr int capacity = K;
@@ -379,15 +380,15 @@ int same_cells_with_cache(State& s) {
   int fits = 0;
   for (const bool edges : {false, true}) {
     INFO((edges ? "faces and circumcentres" : "cells only") << ", cache of " << K);
-    Out plain(n), cached(n);
+    Out plain(n), cached(n), rotated(n);
     auto geometry = [&](Out& out) {
       return voronoi::CellGeometry<double>{t.he.data(), t.vedge.data(), {x.data(), PeriodicBox<double>::make(s.box.L)},
                                            int(n), out.area.data(), out.per.data(), out.g.data(), out.sides.data(),
                                            edges ? out.A.data() : nullptr, edges ? out.m.data() : nullptr,
                                            edges ? out.o.data() : nullptr, {1e6, 1.0, 1e6}};
     };
-    const auto f = geometry(plain), fc = geometry(cached);
-    int slots[K];
+    const auto f = geometry(plain), fc = geometry(cached), fr = geometry(rotated);
+    int slots[K], table[K];
     fits = 0;
     for (std::size_t v = 0; v < n; ++v) {
       plain.terms[v] = f.cell(int(v));
@@ -395,6 +396,22 @@ int same_cells_with_cache(State& s) {
       cached.terms[v] = edges ? fc.template cell<true>(int(v), HostFan<K>{slots})
                               : fc.template cell<false>(int(v), HostFan<K>{slots});
       fits += plain.sides[v] <= K;
+      if (edges) continue;
+      const auto w = fr.walk(int(v), HostFan<K>{slots});
+      for (int k = 0, j = w.kmin; k < w.deg && w.deg <= K; ++k, j = j + 1 == w.deg ? 0 : j + 1) table[k] = slots[j];
+      rotated.terms[v] = fr.template sum<false>(int(v), {w.deg, w.hmin, 0}, HostFan<K>{table});
+    }
+    if (!edges) {
+      INFO("the rotated table (geometry/cuda.cu's walk_kernel)");
+      CHECK(std::memcmp(plain.area.data(), rotated.area.data(), n * sizeof(double)) == 0);
+      CHECK(std::memcmp(plain.per.data(), rotated.per.data(), n * sizeof(double)) == 0);
+      CHECK(std::memcmp(plain.g.data(), rotated.g.data(), 2 * n * sizeof(double)) == 0);
+      CHECK(plain.sides == rotated.sides);
+      for (std::size_t v = 0; v < n; ++v) {
+        REQUIRE(plain.terms[v].area == rotated.terms[v].area);
+        REQUIRE(plain.terms[v].area2 == rotated.terms[v].area2);
+        REQUIRE(plain.terms[v].sides2 == rotated.terms[v].sides2);
+      }
     }
     CHECK(std::memcmp(plain.area.data(), cached.area.data(), n * sizeof(double)) == 0);
     CHECK(std::memcmp(plain.per.data(), cached.per.data(), n * sizeof(double)) == 0);
@@ -427,7 +444,7 @@ TEST_CASE("voronoi.geometry: cell() with the far ends cached gives the bits of c
 // on CUDA the CPU's bits with the cells only (the cached walk) and with every per-edge output.
 TEST_CASE("voronoi.geometry: fans longer than the CUDA loop's cache give the same cells", "[voronoi]") {
   const Backend b = GENERATE(from_range(test::backends()));
-  const int m = GENERATE(voronoi::kFanCache - 1, voronoi::kFanCache, voronoi::kFanCache + 1, 40);
+  const int m = GENERATE(7, 8, 9, voronoi::kFanCache - 1, voronoi::kFanCache, voronoi::kFanCache + 1, 40);
   const std::size_t n = 1500;
   const double L = std::sqrt(double(n)), cx = 0.5 * L, cy = 0.5 * L, r = 1.5;
   std::vector<double> xy{cx, cy};  // the site first: particle 0
