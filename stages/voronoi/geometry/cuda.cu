@@ -12,46 +12,39 @@ constexpr int kBlock = 256;
 // CUDA variants"; two particles a thread at three blocks lost).
 constexpr int kBlocksPerSm = 4;
 
-// With the default outputs the first walks (kernel.h, walk(): a chain of dependent 8-byte record
-// loads, few registers) run in their own kernel at twice the summing kernel's occupancy, so that
-// twice as many chains are in flight. It leaves each fan's far ends in a table in global memory
-// (the stage's scratch), slot k of particle v at table[k n + v] (a warp's stores and loads of one
-// slot are coalesced), rotated to start at the fan's lowest half-edge (the summing walk's first),
-// and {deg, hmin} in walks[v]. A fan longer than kTableSlots (rare: the mean is 6) walks its
-// records again in sum().
+// With the default outputs no thread walks a fan (a chain of ~7 dependent record loads, the
+// kernel's critical path): first one pass over the Delaunay edges (edge_kernel: edge e's two
+// records are adjacent, one 16-byte load) puts each half-edge h in the table of its origin v,
+// slot k of v at table[k n + v] (the slot from an atomic count of v's half-edges, in any order),
+// then the cells-only kernel loads v's half-edges and all their records at once and orders the
+// fan in registers (kernel.h, fan_from_set()). The counts are zero between launches (the scratch
+// is zeroed when allocated, and the cells' kernel zeroes each count it reads). A vertex of more
+// than kTableSlots half-edges (rare: the mean is 6), or a set that is not walk()'s fan, walks.
 constexpr int kTableSlots = kFanCache;
-struct IndexFan {  // walk_kernel's: the far ends in walk order, in shared memory
+struct SharedFan {  // the ordered far ends, in shared memory: slot k of thread t at fan[k][t]
   static constexpr int capacity = kTableSlots;
   int* slot0;  // &fan[0][threadIdx.x]
   __device__ void put(int k, int u) const { slot0[k * kBlock] = u; }
   __device__ int get(int k) const { return slot0[k * kBlock]; }
 };
-struct TableFan {  // cells_kernel's: the rotated far ends in global memory
-  static constexpr int capacity = kTableSlots;
-  const int* slot0;  // &table[v]
-  std::size_t stride;
-  __device__ int get(int k) const { return __ldg(slot0 + k * stride); }
-};
 
-template <class R>
-__global__ void __launch_bounds__(kBlock, 2 * kBlocksPerSm) walk_kernel(std::size_t n, CellGeometry<R> f, int* table,
-                                                                         int2* walks) {
-  const std::size_t i = std::size_t(blockIdx.x) * kBlock + threadIdx.x;
-  if (i >= n) return;
-  __shared__ int fan[kTableSlots][kBlock];
-  const IndexFan c{&fan[0][threadIdx.x]};
-  const auto w = f.walk(int(i), c);
-  walks[i] = make_int2(w.deg, w.hmin);
-  if (w.deg > kTableSlots) return;
-  int j = w.kmin;
-  for (int k = 0; k < w.deg; ++k) {
-    table[k * n + i] = c.get(j);
-    if (++j == w.deg) j = 0;
-  }
+__device__ void put_by_origin(int v, int h, int n, int* count, int* table) {
+  if (unsigned(v) >= unsigned(n)) return;  // not a vertex: its fan (if any) walks
+  const int k = atomicAdd(count + v, 1);
+  if (k < kTableSlots) table[std::size_t(k) * unsigned(n) + unsigned(v)] = h;
 }
 
-// One particle per thread; the cells-only kernel (Edges = false, the default outputs) sums each
-// cell from the fan walk_kernel left in the table. With metrics, each block adds its terms to sums.device with one
+__global__ void __launch_bounds__(kBlock) edge_kernel(unsigned n_edges, int n, const int4* records, int* count,
+                                                      int* table) {
+  const unsigned e = blockIdx.x * kBlock + threadIdx.x;
+  if (e >= n_edges) return;
+  const int4 r = __ldg(records + e);  // {origin(2e), next(2e), origin(2e + 1), next(2e + 1)}
+  put_by_origin(r.x, int(2 * e), n, count, table);
+  put_by_origin(r.z, int(2 * e + 1), n, count, table);
+}
+
+// One particle per thread; the cells-only kernel (Edges = false, the default outputs) orders each
+// fan from the half-edges edge_kernel left in the table, then sums the cell. With metrics, each block adds its terms to sums.device with one
 // atomic per sum (integers: the total does not depend on the order), and the last block to
 // finish moves the totals to sums.out (pinned host memory) and zeroes the words for the next
 // launch: no memset, no copy and no host wait on the stream (the stage reads sums.out after the
@@ -59,8 +52,7 @@ __global__ void __launch_bounds__(kBlock, 2 * kBlocksPerSm) walk_kernel(std::siz
 // code is left out).
 template <class R, bool Edges>
 __global__ void __launch_bounds__(kBlock, kBlocksPerSm) cells_kernel(std::size_t n, CellGeometry<R> f, MetricSums sums,
-                                                                     const int* table, const int2* walks) {
-  using Walk = typename CellGeometry<R>::FanWalk;
+                                                                     int* count, const int* table) {
   const std::size_t i = std::size_t(blockIdx.x) * kBlock + threadIdx.x;
   MetricTerms t;
   if constexpr (Edges) {
@@ -69,11 +61,19 @@ __global__ void __launch_bounds__(kBlock, kBlocksPerSm) cells_kernel(std::size_t
     // (with it, 64 B spilled and the call was slower than main's: bench/experiments/README.md).
     if (i < n) t = f.template cell<true>(int(i), NoFanCache{});
   } else {
-    // The walks ran in walk_kernel: sum() reads the fan's far ends from the table, rotated so
-    // that slot k holds the k-th far end from the fan's lowest half-edge (kmin = 0 here).
+    // v's half-edges from the table (edge_kernel), all loads issued at once; then the fan.
+    __shared__ int fan[kTableSlots][kBlock];
     if (i < n) {
-      const int2 w = __ldg(walks + i);
-      t = f.template sum<false>(int(i), Walk{w.x, w.y, 0}, TableFan{table + i, n});
+      const int v = int(i);
+      const int c = count[v];
+      count[v] = 0;
+      int hs[kTableSlots];
+#pragma unroll
+      for (int k = 0; k < kTableSlots; ++k) hs[k] = k < c ? __ldg(table + std::size_t(k) * n + i) : -1;
+      const SharedFan cache{&fan[0][threadIdx.x]};
+      auto w = f.template fan_from_set<kTableSlots>(v, c, hs, cache);
+      if (w.deg == 0) w = f.walk(v, cache);  // walk() decides (a longer fan: sum() walks again)
+      t = f.template sum<false>(v, w, cache);
     }
   }
   if (!sums.device) return;
@@ -108,11 +108,13 @@ void cells(std::size_t n, const CellGeometry<R>& f, MetricSums sums, std::int32_
   if (f.face_length || f.circumcenter) {
     cells_kernel<R, true><<<blocks, kBlock, 0, s>>>(n, f, sums, nullptr, nullptr);
   } else {
-    // walks: {deg, hmin} of each particle (2n words), then the table (kTableSlots n words).
-    int2* fan_walks = reinterpret_cast<int2*>(walks);
-    int* table = walks + 2 * n;
-    walk_kernel<R><<<blocks, kBlock, 0, s>>>(n, f, table, fan_walks);
-    cells_kernel<R, false><<<blocks, kBlock, 0, s>>>(n, f, sums, table, fan_walks);
+    // walks: the counts (n words), then the table (kTableSlots n words).
+    int* count = walks;
+    int* table = walks + n;
+    const unsigned n_edges = unsigned(3 * n);  // 6n half-edges on the torus
+    edge_kernel<<<(n_edges + kBlock - 1) / kBlock, kBlock, 0, s>>>(n_edges, int(n),
+                                                                    reinterpret_cast<const int4*>(f.he), count, table);
+    cells_kernel<R, false><<<blocks, kBlock, 0, s>>>(n, f, sums, count, table);
   }
   FF_CUDA_CHECK_LAUNCH("launching voronoi.geometry's cells");
 }
@@ -121,7 +123,7 @@ void cells(std::size_t n, const CellGeometry<R>& f, MetricSums sums, std::int32_
 
 template <class R>
 GeometryLoops<R> geometry_loops(CudaExec) {
-  return {&cells<R>, std::size_t(2 + kTableSlots)};
+  return {&cells<R>, std::size_t(1 + kTableSlots)};
 }
 template GeometryLoops<float> geometry_loops<float>(CudaExec);
 template GeometryLoops<double> geometry_loops<double>(CudaExec);

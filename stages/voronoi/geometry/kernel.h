@@ -244,6 +244,60 @@ struct CellGeometry {
     return {deg, hmin, kmin};
   }
 
+  // walk()'s result without its chain of dependent record loads, from the set of the c
+  // half-edges leaving v in any order (hs[0, c), e.g. gathered by origin in one pass over the
+  // edges: geometry/cuda.cu): every record loaded at once, then the fan ordered in registers
+  // (cycle k from hmin, σ(h) = next(twin(h)), is found by comparing with all c); its far ends go to
+  // `fan` from slot 0 in the order sum() takes them (kmin = 0). deg 0 when the set is not exactly
+  // the one closed fan through vedge[v] of 3..K half-edges with indices in range (then the caller
+  // walks: walk() decides, corrupt or not). A set that passes is walk()'s fan: its c half-edges
+  // are distinct, the cycle from hmin first returns to hmin after exactly c steps, every step lands
+  // in the set, so the cycle is the whole set; it holds vedge[v], so walk() from there follows the
+  // same cycle, with the same far ends and checks, and finds the same deg and hmin.
+  template <int K, class Fan>
+  FF_HD FanWalk fan_from_set(int v, int c, const int (&hs)[K], Fan fan) const {
+    const unsigned nh = 6u * unsigned(n);
+    if (c < 3 || c > K) return {0, 0, 0};
+    const int h0 = vedge[v];
+    int us[K], ss[K];  // far end and σ of each half-edge of the set
+    int hmin = hs[0];
+    bool ok = true, has_h0 = false;
+#if defined(__CUDA_ARCH__)
+#pragma unroll
+#endif
+    for (int j = 0; j < K; ++j) {
+      us[j] = -1;
+      ss[j] = 0;
+      if (j < c) {
+        const int h = hs[j];
+        if (unsigned(h) < nh) turn(h, us[j], ss[j]);
+        else ok = false;
+        ok = ok && unsigned(us[j]) < unsigned(n) && us[j] != v && unsigned(ss[j]) < nh;
+        hmin = h < hmin ? h : hmin;
+        has_h0 = has_h0 || h == h0;
+      }
+    }
+    if (!ok || !has_h0) return {0, 0, 0};
+    int cur = hmin;
+    for (int k = 0; k < c; ++k) {
+      if (k > 0 && cur == hmin) return {0, 0, 0};  // a shorter cycle
+      int u = -1, next = 0;
+#if defined(__CUDA_ARCH__)
+#pragma unroll
+#endif
+      for (int j = 0; j < K; ++j)
+        if (j < c && hs[j] == cur) {
+          u = us[j];
+          next = ss[j];
+        }
+      if (u < 0) return {0, 0, 0};  // the cycle leaves the set
+      fan.put(k, u);
+      cur = next;
+    }
+    if (cur != hmin) return {0, 0, 0};
+    return {c, hmin, 0};
+  }
+
   // Pass 2 of particle v's cell, from its first walk `w` and the far ends that walk left in
   // `fan`; writes the cell and returns its metric terms.
   template <bool Edges, class Fan>
