@@ -13,7 +13,7 @@ constexpr std::size_t kGrain = 2048;
 // The cells, and with sums.out their metric terms summed in the same pass (integers: the same
 // total for any split of the particles between threads).
 template <class R>
-void cells(std::size_t n, const CellGeometry<R>& f, MetricSums sums, std::int32_t*, CUstream_st* s) {
+void cells(std::size_t n, const CellGeometry<R>& f, MetricSums sums, CUstream_st* s) {
   if (!sums.out) return cpu_for_each<CellGeometry<R>, kGrain>(n, f, s);
   const MetricTerms t = tbb::parallel_reduce(
       tbb::blocked_range<std::size_t>(0, n, kGrain), MetricTerms{},
@@ -32,7 +32,7 @@ void cells(std::size_t n, const CellGeometry<R>& f, MetricSums sums, std::int32_
 
 template <class R>
 GeometryLoops<R> geometry_loops(CpuExec) {
-  return {&cells<R>, 0};  // one pass: cell() walks each fan twice
+  return {&cells<R>};
 }
 template GeometryLoops<float> geometry_loops<float>(CpuExec);
 template GeometryLoops<double> geometry_loops<double>(CpuExec);

@@ -91,10 +91,9 @@ struct MetricSums {
   std::uint64_t* out = nullptr;
 };
 
-// Where cell() may keep the far ends' indices of a fan between its two walks: none (the CPU loop;
-// the second walk reads the half-edge records again, from cache). geometry/cuda.cu keeps up to
-// kFanCache of them per particle in a table between its two kernels (a longer fan, rare, walks
-// again).
+// Where cell() may keep the far ends of a fan between its two walks: none (the CPU loop; the
+// second walk reads the half-edge records again, from cache). geometry/cuda.cu keeps up to
+// kFanCache of them per thread in shared memory (a longer fan, rare, walks again).
 inline constexpr int kFanCache = 12;
 struct NoFanCache {
   static constexpr int capacity = 0;
@@ -209,20 +208,9 @@ struct CellGeometry {
   // code is left out of the loop).
   template <bool Edges, class Fan>
   FF_HD MetricTerms cell(int v, Fan fan) const {
-    return sum<Edges>(v, walk(v, fan), fan);
-  }
-
-  // What the first walk leaves for the second: the fan's size (0: corrupt), its lowest
-  // half-edge and that half-edge's place from vedge[v].
-  struct FanWalk {
-    int deg = 0, hmin = 0, kmin = 0;
-  };
-
-  // Pass 1: the fan closes within kMaxSides half-edges, every index in range; its lowest
-  // half-edge (the kmin-th from h0) starts pass 2. The far ends go to `fan` on the way.
-  template <class Fan>
-  FF_HD FanWalk walk(int v, Fan fan) const {
     const unsigned nh = 6u * unsigned(n);
+    // Pass 1: the fan closes within kMaxSides half-edges, every index in range; its lowest
+    // half-edge (the kmin-th from h0) starts pass 2.
     const int h0 = vedge[v];
     int deg = 0, hmin = h0, kmin = 0;
     bool ok = unsigned(h0) < nh;
@@ -240,93 +228,25 @@ struct CellGeometry {
         }
       }
     }
-    if (!ok || deg < 3) return {0, 0, 0};
-    return {deg, hmin, kmin};
-  }
-
-  // walk()'s result without its chain of dependent record loads, from the set of the c
-  // half-edges leaving v in any order (hs[0, c), e.g. gathered by origin in one pass over the
-  // edges: geometry/cuda.cu): every record loaded at once, then the fan ordered in registers
-  // (cycle k from hmin, σ(h) = next(twin(h)), is found by comparing with all c); its far ends go to
-  // `fan` from slot 0 in the order sum() takes them (kmin = 0). deg 0 when the set is not exactly
-  // the one closed fan through vedge[v] of 3..K half-edges with indices in range (then the caller
-  // walks: walk() decides, corrupt or not). A set that passes is walk()'s fan: its c half-edges
-  // are distinct, the cycle from hmin first returns to hmin after exactly c steps, every step lands
-  // in the set, so the cycle is the whole set; it holds vedge[v], so walk() from there follows the
-  // same cycle, with the same far ends and checks, and finds the same deg and hmin.
-  template <int K, class Fan>
-  FF_HD FanWalk fan_from_set(int v, int c, const int (&hs)[K], Fan fan) const {
-    const unsigned nh = 6u * unsigned(n);
-    if (c < 3 || c > K) return {0, 0, 0};
-    const int h0 = vedge[v];
-    int us[K], ss[K];  // far end and σ of each half-edge of the set
-    int hmin = hs[0];
-    bool ok = true, has_h0 = false;
-#if defined(__CUDA_ARCH__)
-#pragma unroll
-#endif
-    for (int j = 0; j < K; ++j) {
-      us[j] = -1;
-      ss[j] = 0;
-      if (j < c) {
-        const int h = hs[j];
-        if (unsigned(h) < nh) turn(h, us[j], ss[j]);
-        else ok = false;
-        ok = ok && unsigned(us[j]) < unsigned(n) && us[j] != v && unsigned(ss[j]) < nh;
-        hmin = h < hmin ? h : hmin;
-        has_h0 = has_h0 || h == h0;
-      }
-    }
-    if (!ok || !has_h0) return {0, 0, 0};
-    int cur = hmin;
-    for (int k = 0; k < c; ++k) {
-      if (k > 0 && cur == hmin) return {0, 0, 0};  // a shorter cycle
-      int u = -1, next = 0;
-#if defined(__CUDA_ARCH__)
-#pragma unroll
-#endif
-      for (int j = 0; j < K; ++j)
-        if (j < c && hs[j] == cur) {
-          u = us[j];
-          next = ss[j];
-        }
-      if (u < 0) return {0, 0, 0};  // the cycle leaves the set
-      fan.put(k, u);
-      cur = next;
-    }
-    if (cur != hmin) return {0, 0, 0};
-    return {c, hmin, 0};
-  }
-
-  // Pass 2 of particle v's cell, from its first walk `w` and the far ends that walk left in
-  // `fan`; writes the cell and returns its metric terms.
-  template <bool Edges, class Fan>
-  FF_HD MetricTerms sum(int v, FanWalk w, Fan fan) const {
-    const int deg = w.deg, hmin = w.hmin, kmin = w.kmin;
-    if (deg == 0) {
+    if (!ok || deg < 3) {
       sides[v] = 0;
       area[v] = perimeter[v] = R(0);
       centroid[2 * v] = centroid[2 * v + 1] = R(0);
       return terms(R(0), 0);
     }
-    const V2 pv = position(v);
     // Pass 2: o_k = circumcentre of (v, u_{k+1}, u_k); face k needs o_{k-1} and o_k, so face 0
     // (which needs o_{deg-1}) is summed last.
     // The k-th far end from the cache (index kmin + k modulo deg) or by one step of the walk.
     const bool cached = deg <= Fan::capacity && !(Edges && (face_length || circumcenter));
-    // The k-th cached far end's position, loaded by its index.
-    auto cached_position = [&](int k) { return position(fan.get(k)); };
-    int u = 0, hk = hmin, hnext = hmin, j = kmin;
-    V2 d_first;
-    if (cached) d_first = rel(pv, cached_position(j));
-    else {
-      turn(hk, u, hnext);
-      d_first = rel(pv, u);
-    }
-    // From the cache the next far end's position is read a face ahead: a load is in flight
+    int u, hk = hmin, hnext = hmin, j = kmin;
+    if (cached) u = fan.get(j);
+    else turn(hk, u, hnext);
+    const V2 pv = position(v);
+    const V2 d_first = rel(pv, u);
+    // From the cache the next far end's position is loaded a face ahead: its load is in flight
     // while the current face is summed.
     V2 p_ahead{0, 0};
-    if (cached && deg > 1) p_ahead = cached_position(j + 1 == deg ? 0 : j + 1);
+    if (cached && deg > 1) p_ahead = position(fan.get(j + 1 == deg ? 0 : j + 1));
     V2 dk = d_first, o_first{0, 0}, o_prev{0, 0};
     Sums s;
     for (int k = 0; k < deg; ++k) {
@@ -339,7 +259,7 @@ struct CellGeometry {
         } else {
           dn = rel(pv, p_ahead);
           if (++j == deg) j = 0;
-          if (k + 2 < deg) p_ahead = cached_position(j + 1 == deg ? 0 : j + 1);
+          if (k + 2 < deg) p_ahead = position(fan.get(j + 1 == deg ? 0 : j + 1));
         }
       }
       const V2 o = circumcentre(dn, dk);

@@ -61,14 +61,10 @@ struct GeometryParams {
 };
 
 // The loop of each backend (geometry/cpu.cpp, geometry/cuda.cu): the cells of particles [0, n),
-// and with sums.out their metric terms' sums (kernel.h, MetricSums). `walks`: walk_words x n
-// words of the backend's memory for the loop to keep its fan walks in between kernels (CUDA,
-// default outputs: the first walks run in their own kernel); null when walk_words is 0 or the
-// loop writes faces or circumcentres.
+// and with sums.out their metric terms' sums (kernel.h, MetricSums).
 template <class R>
 struct GeometryLoops {
-  void (*cells)(std::size_t n, const CellGeometry<R>& f, MetricSums sums, std::int32_t* walks, CUstream_st* s);
-  std::size_t walk_words = 0;
+  void (*cells)(std::size_t n, const CellGeometry<R>& f, MetricSums sums, CUstream_st* s);
 };
 template <class R>
 GeometryLoops<R> geometry_loops(CpuExec);
@@ -93,7 +89,6 @@ class Geometry final : public Stage {
         mem_(exec.memory()),
         sums_(exec),
         landing_(exec),
-        walks_(exec),
         fence_(mem_.fence_create()) {}
   ~Geometry() override { mem_.fence_destroy(fence_); }
   Geometry(const Geometry&) = delete;
@@ -160,9 +155,7 @@ class Geometry final : public Stage {
                                 p_.circumcenters ? s.field(fields::circumcenter).data<R>(ctx) : nullptr,
                                 scales(s)};
     pending_ = p_.metrics && n > 0;
-    std::int32_t* walks = nullptr;
-    if (loops_.walk_words && !cells.face_length && !cells.circumcenter && n > 0) walks = walks_.get(loops_.walk_words * n);
-    loops_.cells(n, cells, pending_ ? MetricSums{sums_.get(4), landing_.get(3)} : MetricSums{}, walks, st);
+    loops_.cells(n, cells, pending_ ? MetricSums{sums_.get(4), landing_.get(3)} : MetricSums{}, st);
     if (pending_) mem_.fence_record(fence_, st);
     return Outcome::ok();
   }
@@ -227,7 +220,6 @@ class Geometry final : public Stage {
   const MemoryOps& mem_;
   Scratch<std::uint64_t> sums_;         // MetricSums::device
   HostScratch<std::uint64_t> landing_;  // MetricSums::out
-  Scratch<std::int32_t> walks_;         // GeometryLoops::cells' walks
   void* fence_;                         // recorded after the cells' loop
   bool pending_ = false;                // metrics to read in after_step
 };
