@@ -12,7 +12,12 @@
 #          rows (the gather wrote them contiguously, 5 KB) in shared memory; other vertices' from
 #          the arrays (frnn4b's bc16, never run, ported to main's search: apex skip, network sort)
 #   bcx    bc + the block's current positions in shared memory too (the accept test's loads)
+#   bcxe   bcx + the expansion radius (two double square roots) once per block, not per thread
+#   bcxna  bcx without the parent-apex skip (does it still pay when the loads it saves are cheap?)
 #   bcxnf  bcx without the 128-bit hash filter (the parent-apex skip left few queue scans)
+#   bcxnn  bcx with neither the apex skip nor the filter (40 registers instead of 48: 12 blocks
+#          an SM instead of 10; bcxna and bcxnf are at 40 too)
+#   bcx12  bcx with __launch_bounds__(128, 12): 40 registers, 24 bytes spilled
 #   bc8    bc with 8 queue slots in shared memory instead of 16
 #   bc256  bc with blocks of 256 (gather and search)
 #   main, main2: main's stage, first and last in the step (the order's effect)
@@ -23,7 +28,7 @@
 # Steps:
 #   1. test_neighbors_delaunay (bundle's binary) with each variant's stage plugin, on CUDA (brute
 #      force rows, CPU == CUDA rows, 10^3 hard-disk steps against neighbors.verlet), all at once;
-#   2. frnn-ab.yaml at 2^20: all seven searches on the same state each step, one process;
+#   2. frnn-ab.yaml at 2^20: all eleven searches on the same state each step, one process;
 #   3. bench-boids-delaunay.yaml at 2^20; 4. bench-frnn-verlet.yaml at 2^20.
 # Step 3 is skipped after 130 s, step 4 after 140 s (worst case 178 s). $OUT/frnn5/summary.txt
 # collects the lines to read.
@@ -37,15 +42,16 @@ DEVICE=${DEVICE:-cuda}
 SIZES=${SIZES:-2^20}
 V=$B/frnn5
 mkdir -p "$O" "$V"
-cp -r "$C"/. "$V/"
+cp "$C"/*.yaml "$V/"
+tar xJf "$C/so.tar.xz" -C "$V"  # ab/ and one folder per variant (.so with rpath $ORIGIN/../../lib)
 S=$O/summary.txt
 nvidia-smi --query-gpu=name,clocks.sm,clocks.max.sm --format=csv | tee "$S"
 left() { ((SECONDS < ${2:-$BUDGET})) || { echo "== skipped ($1): ${SECONDS} s spent" | tee -a "$S"; return 1; }; }
 
 # 1. tests, all at once
-VARIANTS="bc bcx bcxnf bc8 bc256"
+VARIANTS="bc bcx bcxe bcxna bcxnf bcxnn bcx12 bc8 bc256"
 for v in $VARIANTS; do
-  (FLIPFLOW_TEST_DEVICE=$DEVICE FLIPFLOW_PLUGIN_PATH=$V/$v:$B/plugins timeout 60 "$B/bin/test_neighbors_delaunay" \
+  (FLIPFLOW_TEST_DEVICE=$DEVICE FLIPFLOW_PLUGIN_PATH=$V/$v:$B/plugins timeout 75 "$B/bin/test_neighbors_delaunay" \
      > "$O/test-$v.log" 2>&1; echo "rc=$?" >> "$O/test-$v.log") &
 done
 wait
