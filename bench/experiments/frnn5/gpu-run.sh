@@ -20,6 +20,12 @@
 #   bcx12  bcx with __launch_bounds__(128, 12): 40 registers, 24 bytes spilled
 #   bc8    bc with 8 queue slots in shared memory instead of 16
 #   bc256  bc with blocks of 256 (gather and search)
+#   tbx    bcx's staging + a tile of 8 lanes per particle (frnn3's tile8pf: 0.090 vs 0.120 ms at
+#          2^16, lost at 2^20 where its loads went to L2): blocks of 1024 threads search the
+#          gather's 128 vertices; ring members over the lanes, visited set a shared-memory hash
+#          set, queue by ballot, rows placed by rank. 56 registers: one block an SM
+#   tbx2   tbx with __launch_bounds__(1024, 2): 32 registers (76 bytes spilled), two blocks an SM
+#   tb4x   tbx with tiles of 4 lanes (blocks of 512): 56 registers, two blocks an SM
 #   main, main2: main's stage, first and last in the step (the order's effect)
 # Question B: boids at 2^20 on the GPU with neighbors.delaunay: ms per step by stage
 # (pipelines/bench-boids-delaunay.yaml of the bundle, main's stages).
@@ -28,7 +34,7 @@
 # Steps:
 #   1. test_neighbors_delaunay (bundle's binary) with each variant's stage plugin, on CUDA (brute
 #      force rows, CPU == CUDA rows, 10^3 hard-disk steps against neighbors.verlet), all at once;
-#   2. frnn-ab.yaml at 2^20: all eleven searches on the same state each step, one process;
+#   2. frnn-ab.yaml at 2^20: all fourteen searches on the same state each step, one process;
 #   3. bench-boids-delaunay.yaml at 2^20; 4. bench-frnn-verlet.yaml at 2^20.
 # Step 3 is skipped after 130 s, step 4 after 140 s (worst case 178 s). $OUT/frnn5/summary.txt
 # collects the lines to read.
@@ -49,7 +55,7 @@ nvidia-smi --query-gpu=name,clocks.sm,clocks.max.sm --format=csv | tee "$S"
 left() { ((SECONDS < ${2:-$BUDGET})) || { echo "== skipped ($1): ${SECONDS} s spent" | tee -a "$S"; return 1; }; }
 
 # 1. tests, all at once
-VARIANTS="bc bcx bcxe bcxna bcxnf bcxnn bcx12 bc8 bc256"
+VARIANTS="bc bcx bcxe bcxna bcxnf bcxnn bcx12 bc8 bc256 tbx tbx2 tb4x"
 for v in $VARIANTS; do
   (FLIPFLOW_TEST_DEVICE=$DEVICE FLIPFLOW_PLUGIN_PATH=$V/$v:$B/plugins timeout 75 "$B/bin/test_neighbors_delaunay" \
      > "$O/test-$v.log" 2>&1; echo "rc=$?" >> "$O/test-$v.log") &
