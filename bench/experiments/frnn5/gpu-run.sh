@@ -73,7 +73,7 @@ grep -E "^[0-9]|max_visited|error" "$O/frnn-ab.txt" | tee -a "$S"
 # 3. boids with Delaunay neighbours at 2^20 (main's stages)
 if left boids 130; then
   timeout 45 "$B/bin/pipeline" bench "$B/pipelines/bench-boids-delaunay.yaml" --device "$DEVICE" --sizes "$SIZES" \
-    --steps 20 --warmup 3 --results "$O/results-boids" > "$O/boids.txt" 2>&1
+    --steps 15 --warmup 3 --results "$O/results-boids" > "$O/boids.txt" 2>&1
   echo "== boids-delaunay rc=$? at ${SECONDS} s" | tee -a "$S"
   grep -E "^[0-9]|substeps|rollback|unrepairable|error|failed" "$O/boids.txt" | tee -a "$S"
 fi
