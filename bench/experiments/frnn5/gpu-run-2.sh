@@ -17,8 +17,11 @@
 #   3. ncu (--set full, SASS source counters) of step 3's launches of main's, sq's and bc's
 #      search kernels: instructions per warp, active threads per instruction (divergence), warp
 #      stall reasons, pipes, L1 hit rate, per-instruction SASS counts (what to cut next);
+#   5. boids at 2^20 (bench-boids-delaunay.yaml) with sq's stage, if 130 s have not passed
+#      (batch 1, main's stage: neighbors.delaunay 11.7 ms a step, max_visited 33: sq runs the
+#      searches past 16 twice);
 #   4. neighbors.verlet rebuilt every step at 2^20 (bench-frnn-verlet.yaml; batch 1 ran out of
-#      time before it), if 150 s have not passed.
+#      time before it), if 145 s have not passed.
 # $OUT/frnn5b/summary.txt collects the lines to read; ncu's reports are beside it.
 set -uo pipefail
 SECONDS=0
@@ -66,8 +69,18 @@ if [[ -n $NCU && $DEVICE == cuda ]]; then
   fi
 fi
 
+# 5. boids at 2^20 with sq's stage (dense flocks fill the 16 fast slots: those searches run twice)
+if ((SECONDS < 130)); then
+  FLIPFLOW_PLUGIN_PATH=$V/sq:$B/plugins timeout 40 "$B/bin/pipeline" bench "$B/pipelines/bench-boids-delaunay.yaml" \
+    --device "$DEVICE" --sizes "$SIZES" --steps 15 --warmup 3 --results "$O/results-boids-sq" > "$O/boids-sq.txt" 2>&1
+  echo "== boids-delaunay with sq rc=$? at ${SECONDS} s" | tee -a "$S"
+  grep -E "^[0-9]|max_visited|substeps|error" "$O/boids-sq.txt" | tee -a "$S"
+else
+  echo "== skipped (boids with sq): ${SECONDS} s spent" | tee -a "$S"
+fi
+
 # 4. Verlet at 2^20
-if ((SECONDS < 150)); then
+if ((SECONDS < 145)); then
   timeout 30 "$B/bin/pipeline" bench "$B/pipelines/bench-frnn-verlet.yaml" --device "$DEVICE" --sizes "$SIZES" \
     --steps 30 --warmup 5 --results "$O/results-verlet" > "$O/verlet.txt" 2>&1
   echo "== bench-frnn-verlet rc=$? at ${SECONDS} s" | tee -a "$S"
