@@ -23,9 +23,10 @@
 // float; its row's start; its degree), so the search touches ~6 slots and one record per vertex: ~48 bytes a vertex in
 // all, which the GPU's L2 holds at 2^20 particles where per-vertex padded rows with positions
 // beside them (192 bytes) did not.
-//   visited  breadth-first with a queue that is also the visited set: the first kFastSlots
-//            entries in fast memory (CUDA: the thread's column of shared memory; CPU: the
-//            stack), beyond that the row of neighbors.list. A 128-bit filter in registers
+//   visited  breadth-first with a queue that is also the visited set, in kFastSlots slots of
+//            fast memory (CUDA: the thread's column of shared memory, read with shared-memory
+//            loads; CPU: the stack); a search that needs more runs again with its queue in the
+//            row of neighbors.list (FastQueue, RowQueue). A 128-bit filter in registers
 //            answers "not seen" for most new vertices without a scan of the queue, and a vertex
 //            seen before is skipped before its distance is computed again. The expansion of a
 //            queued vertex skips its parent and the parent's two neighbours in its ring, which
@@ -58,7 +59,7 @@ namespace ff::neighbors {
 
 // Queue slots of the visited search kept out of the list (shared memory on CUDA). At r = 2σ a
 // search queues at most ~14; 16 slots (8 KB a block) leave the SM more L1 than 32 did (3 %
-// faster at 2^20 on an H200), 8 spill to the row too often (8 % slower).
+// faster at 2^20 on an H200), 8 send too many searches to the row (8 % slower).
 inline constexpr std::uint32_t kFastSlots = 16;
 
 // The slots of a ring row (bit k: slot k) that the expansion of its vertex u need not test when
@@ -295,45 +296,55 @@ struct SearchBase {
   }
 };
 
-// The visited search's queue: slots [0, kFastSlots) in fast memory (`Stride` apart: a column of
-// a shared-memory block on CUDA, so the threads of a warp never share a bank; 1 on the CPU),
-// moved to the row of the list when it needs more (spill).
-template <std::uint32_t Stride>
-struct Queue {
-  std::uint32_t* base;    // the fast slots, then the row
-  std::uint32_t stride;   // between slots: Stride, then 1
-  std::uint32_t* row;
-  std::uint32_t cap;      // the row's length
-  std::uint32_t lim;      // slots in base
+// Returned by a search whose queue outgrew its fast slots: the caller searches again with the
+// queue in the row of the list (not a result the stage sees).
+inline constexpr std::uint32_t kNeedRow = 0x20000000u;
 
-  FF_HD Queue(std::uint32_t* fast, std::uint32_t* row_, std::uint32_t cap_)
-      : base(fast), stride(Stride), row(row_), cap(cap_), lim(cap_ < kFastSlots ? cap_ : kFastSlots) {}
-  FF_HD std::uint32_t at(std::uint32_t a) const { return Stride == 1 ? a : a * stride; }
-  FF_HD std::uint32_t get(std::uint32_t a) const { return base[at(a)]; }
-  FF_HD void set(std::uint32_t a, std::uint32_t v) { base[at(a)] = v; }
+// The visited search's queue in fast memory: kFastSlots slots `Stride` apart (a column of a
+// shared-memory block on CUDA, so the threads of a warp never share a bank; the stack on the
+// CPU). Its pointer never changes, so on the device every access is a shared-memory load at a
+// constant stride (a queue that could move to the row made them generic loads with 64-bit
+// address arithmetic: 14 % slower at 2^20 on an H200, 0.672 against 0.576 ms).
+template <std::uint32_t Stride>
+struct FastQueue {
+  std::uint32_t* fast;
+  std::uint32_t lim;  // min(kFastSlots, row length)
+  FF_HD std::uint32_t get(std::uint32_t a) const { return fast[a * Stride]; }
+  FF_HD void set(std::uint32_t a, std::uint32_t v) const { fast[a * Stride] = v; }
   FF_HD std::uint32_t limit() const { return lim; }
-  // Room for more than limit(): false when the row is full too.
-  FF_HD bool spill(std::uint32_t n) {
-    if (lim == cap) return false;
-    for (std::uint32_t a = 0; a < n; ++a) row[a] = base[at(a)];
-    base = row;
-    stride = 1;
-    lim = cap;
-    return true;
-  }
+  FF_HD bool can_grow() const { return true; }  // into the row: search again
+};
+
+// The queue in the row of the list, for the searches that need more than kFastSlots.
+struct RowQueue {
+  std::uint32_t* row;
+  std::uint32_t cap;
+  FF_HD std::uint32_t get(std::uint32_t a) const { return row[a]; }
+  FF_HD void set(std::uint32_t a, std::uint32_t v) const { row[a] = v; }
+  FF_HD std::uint32_t limit() const { return cap; }
+  FF_HD bool can_grow() const { return false; }
 };
 
 // Traversal `visited`: breadth-first, the queue as visited set. `fast`: kFastSlots slots,
 // Stride apart.
 template <class R>
 struct SearchVisited : SearchBase<R> {
+  // First with the queue in fast memory; a search that needs more slots (none at r = 2σ in the
+  // hard-disk benchmark, where at most ~14 are queued) starts again with it in the row.
   template <std::uint32_t Stride>
   FF_HD std::uint32_t search(std::size_t pi, std::uint32_t* fast) const {
+    const std::uint32_t cap = this->capacity;
+    const std::uint32_t r = run(pi, FastQueue<Stride>{fast, cap < kFastSlots ? cap : kFastSlots});
+    if (r != kNeedRow) return r;
+    return run(pi, RowQueue{this->list + pi * cap, cap});
+  }
+
+  template <class Q>
+  FF_HD std::uint32_t run(std::size_t pi, const Q& q) const {
     const std::uint32_t p = std::uint32_t(pi);
     if (*this->move2 & kRingOverflow) return kRingOverflow;
     const double e2 = this->expand2();
     if (e2 < 0) return kTooFar;
-    Queue<Stride> q(fast, this->list + std::size_t(p) * this->capacity, this->capacity);
     RingRecord ru = load_record(this->record, p);
     // p where its record has it (wrapped, float), as its ring members are: the margin covers
     // the rounding of both ends. The expansion test runs in float (float_expand2).
@@ -374,7 +385,7 @@ struct SearchVisited : SearchBase<R> {
           const float dx = image_once(rw.x - px, lx);
           const float dy = image_once(rw.y - py, ly);
           if (dx * dx + dy * dy > e2f) continue;
-          if (n == q.limit() && !q.spill(n)) return this->overflow(p);
+          if (n == q.limit()) return q.can_grow() && q.limit() < this->capacity ? kNeedRow : this->overflow(p);
           if (hi) filter_hi |= bit;
           else filter_lo |= bit;
           if (n < 16) parents |= std::uint64_t(cur) << (4 * n);
