@@ -435,12 +435,16 @@ constexpr int kMinBlocks = 2;
 // Small systems: a cluster of kClusterBlocks blocks of kClusterThreads runs the iterations
 // instead of the grid for n ≤ kClusterMaxN: there an iteration's walks are short, and the grid's
 // three barriers per iteration and its cooperative launch are the time. The shape and the
-// threshold come from the A/B in bench/overlap_correct-PERF.md (session 13): above the threshold
-// the grid's SMs do more than the cluster's barrier saves; one block alone (a variant there)
-// lost at every size.
+// threshold come from the A/B in bench/overlap_correct-PERF.md (session 13): at 2^16 the grid's
+// SMs do more than the cluster's barrier saves; one block alone (a variant there) lost at every
+// size. At 2^14 the two took the same step time there (0.226 ms against 0.228-0.231; the
+// correction 0.170 against 0.160), but the cluster holds 16 SMs where the grid's 64 blocks hold
+// 32 (each block of either takes half or all of an SM's registers): when many runs share the GPU
+// (`pipeline sweep`, issue 20) twice as many corrections run side by side, so the threshold is
+// 2^14 (bench/README.md, "Sweeps").
 constexpr int kClusterBlocks = 16;
 constexpr int kClusterThreads = 512;
-constexpr std::size_t kClusterMaxN = 4096;
+constexpr std::size_t kClusterMaxN = 16384;
 
 // A team's block size; 128 registers a thread, as the grid's kernel (kMinBlocks).
 template <int Team>

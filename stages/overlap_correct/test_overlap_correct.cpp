@@ -557,11 +557,11 @@ TEST_CASE("overlap_correct: CPU and CUDA give the same bits (double) and agree i
 
 TEST_CASE("overlap_correct: CPU and CUDA give the same bits on either device path (team and grid)",
           "[overlap][cuda]") {
-  // cuda.cu runs small systems (n ≤ kClusterMaxN = 4096) in a thread-block cluster and larger
+  // cuda.cu runs small systems (n ≤ kClusterMaxN = 16384) in a thread-block cluster and larger
   // ones on the whole grid: sizes on both sides, and the threshold itself. (20000, the size of the
   // tests above, is the grid's.)
   if (!test::have_cuda("overlap_correct CPU-vs-CUDA by size")) return;
-  for (std::uint64_t n : {3000u, 4096u, 65536u, 100000u}) {
+  for (std::uint64_t n : {3000u, 4096u, 16384u, 16385u, 65536u, 100000u}) {
     INFO("n " << n);
     const auto spec = correct_spec(n, 0.75, {});
     const OneStep cpu = one_step(spec, Backend::cpu), cuda = one_step(spec, Backend::cuda);
