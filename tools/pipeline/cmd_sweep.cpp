@@ -24,7 +24,8 @@
 // (`--gpus` chooses them; default: CUDA_VISIBLE_DEVICES, else every GPU in
 // /proc/driver/nvidia/gpus). On the CPU runs go one after another unless --concurrent says
 // otherwise, each with its share of the cores (--threads). With more runs than cores waiting on
-// the GPU in one process (--in-process), a waiting thread sleeps instead of spinning.
+// the GPU in one process (--in-process), a waiting thread sleeps instead of spinning, and the
+// process asks for 32 hardware work queues instead of 8 (CUDA_DEVICE_MAX_CONNECTIONS).
 //
 // SIGINT/SIGTERM: the runs under way get SIGTERM (they finish their step, write a checkpoint and
 // exit 3), the index says `interrupted`, and the sweep exits 3. If the sweep itself is killed,
@@ -121,6 +122,14 @@ std::size_t keep_finished_runs(const fs::path& root, const fs::path& index_file,
 
 int cmd_sweep(const std::vector<std::string>& args) {
   const SweepArgs a = sweep::parse_args(args);
+  // --in-process: every run's stream is one of the context's hardware work queues, 8 unless
+  // CUDA_DEVICE_MAX_CONNECTIONS says otherwise, and streams sharing a queue run one after the
+  // other (a run's kernel waits behind another run's in the same queue): with K runs at once at
+  // most 8 kernels run side by side. 32 is the most the driver gives. Read when the CUDA context
+  // is made, so set before the first CUDA call; a value in the environment is kept. (Child
+  // processes keep the default: under MPS the clients share one pool of connections, and more
+  // for each means fewer clients.)
+  if (a.in_process) ::setenv("CUDA_DEVICE_MAX_CONNECTIONS", "32", 0);
   const Backend backend = resolve_backend(a.device);
   std::vector<Run> runs = sweep::plan(a);
 
