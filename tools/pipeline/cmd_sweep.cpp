@@ -163,7 +163,11 @@ int cmd_sweep(const std::vector<std::string>& args) {
 #ifdef FLIPFLOW_HAVE_CUDA
   // More runs than cores waiting on the GPU in one process: a waiting thread sleeps instead of
   // spinning, or the spinning ones would keep those whose work is done from their cores.
-  if (a.in_process && cuda && slots > cores) cudaSetDeviceFlags(cudaDeviceScheduleBlockingSync);
+  if (a.in_process && cuda && slots > cores) {
+    const cudaError_t e = cudaSetDeviceFlags(cudaDeviceScheduleBlockingSync);
+    if (e != cudaSuccess)
+      std::cerr << "sweep: waiting threads will spin (cudaSetDeviceFlags: " << cudaGetErrorString(e) << ")\n";
+  }
 #endif
 
   const std::size_t todo = runs.size() - skipped;
