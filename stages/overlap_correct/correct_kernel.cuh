@@ -62,6 +62,7 @@
 
 #include "core/backend/cuda/check.h"
 #include "core/backend/cuda/loop.cuh"
+#include "core/backend/device.h"
 #include "stages/overlap_correct/stage.h"
 #include "stages/overlap_correct/neighbor_lists.cuh"
 
@@ -445,6 +446,9 @@ constexpr int kMinBlocks = 2;
 constexpr int kClusterBlocks = 16;
 constexpr int kClusterThreads = 512;
 constexpr std::size_t kClusterMaxN = 16384;
+// One block of kClusterThreads (a cluster of one): the team of a run on a GPU shared by many
+// (team_for).
+constexpr int kOneBlock = 1;
 
 // A team's block size; 128 registers a thread, as the grid's kernel (kMinBlocks).
 template <int Team>
@@ -490,22 +494,14 @@ bool cluster_fits() {
   return clusters >= 1;
 }
 
-// The team for n particles: the cluster where the device runs it (n ≤ kClusterMaxN), else the
-// grid.
+// The grid for n particles: blocks of kThreads, at most what fits on the device at once (a
+// cooperative launch needs every block resident), tiles of at least 256 particles; and how many
+// SMs those blocks hold (per_sm to an SM).
+struct GridShape {
+  int blocks = 0, sms_held = 0, sms = 0;
+};
 template <class R, bool Walls, bool Mark>
-int team_for(std::size_t n) {
-  if (n <= kClusterMaxN && cluster_fits<R, Walls, Mark>()) return kClusterBlocks;
-  return kGrid;
-}
-
-template <class R, bool Walls, bool Mark>
-void shape(std::size_t n, int team, int& grid, int& tile) {
-  if (team != kGrid) {  // the team's blocks share the particles in tiles
-    grid = team;
-    const std::size_t t = (n + grid - 1) / grid;
-    tile = int(std::max<std::size_t>(16, (t + 15) / 16 * 16));
-    return;
-  }
+GridShape grid_shape(std::size_t n) {
   int dev = 0, sms = 0, per_sm = 0, coop = 0;
   FF_CUDA_CHECK(cudaGetDevice(&dev), "overlap_correct: current device");
   FF_CUDA_CHECK(cudaDeviceGetAttribute(&sms, cudaDevAttrMultiProcessorCount, dev), "overlap_correct: SM count");
@@ -513,9 +509,39 @@ void shape(std::size_t n, int team, int& grid, int& tile) {
   if (!coop) throw RunError("overlap_correct: the CUDA device does not support cooperative launches");
   FF_CUDA_CHECK(cudaOccupancyMaxActiveBlocksPerMultiprocessor(&per_sm, kernel_ptr<R, kGrid, Walls, Mark>(), kThreads, 0),
                 "overlap_correct: occupancy");
-  const std::size_t most = std::size_t(std::max(1, per_sm)) * std::size_t(sms);
+  per_sm = std::max(1, per_sm);
+  const std::size_t most = std::size_t(per_sm) * std::size_t(sms);
   const std::size_t want = std::max<std::size_t>(1, (n + 255) / 256);
-  grid = int(std::min(most, want));
+  GridShape g;
+  g.blocks = int(std::min(most, want));
+  g.sms_held = (g.blocks + per_sm - 1) / per_sm;
+  g.sms = sms;
+  return g;
+}
+
+// The team for n particles. A run alone: the cluster where the device runs it (n ≤ kClusterMaxN),
+// else the grid, the fastest (bench/overlap_correct-PERF.md). On a GPU that K runs share
+// (runs_sharing_gpu: `pipeline sweep`): the same unless K such teams would not fit on the GPU at
+// once; then the cluster, and where K clusters would not fit either, one block (kOneBlock), whose
+// correction takes longer (0.76 ms at 2^14 against 0.16-0.17, session 13) on 1 SM instead of 16
+// or 32: with many runs what bounds the sweep is how many corrections fit side by side
+// (bench/README.md, "Sweeps"). Who runs the iterations does not change the bits.
+template <class R, bool Walls, bool Mark>
+int team_for(std::size_t n) {
+  if (!cluster_fits<R, Walls, Mark>()) return kGrid;
+  const GridShape g = grid_shape<R, Walls, Mark>(n);
+  const int sharing = runs_sharing_gpu();
+  int team = n <= kClusterMaxN ? kClusterBlocks : kGrid;
+  if (team == kGrid && sharing > 1 && std::size_t(sharing) * std::size_t(g.sms_held) > std::size_t(g.sms))
+    team = kClusterBlocks;
+  if (team == kClusterBlocks && std::size_t(sharing) * std::size_t(kClusterBlocks) > std::size_t(g.sms))
+    team = kOneBlock;
+  return team;
+}
+
+template <class R, bool Walls, bool Mark>
+void shape(std::size_t n, int team, int& grid, int& tile) {
+  grid = team != kGrid ? team : grid_shape<R, Walls, Mark>(n).blocks;  // a team's blocks share the particles
   const std::size_t t = (n + grid - 1) / grid;
   tile = int(std::max<std::size_t>(16, (t + 15) / 16 * 16));
 }

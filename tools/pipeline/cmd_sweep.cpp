@@ -25,7 +25,9 @@
 // /proc/driver/nvidia/gpus). On the CPU runs go one after another unless --concurrent says
 // otherwise, each with its share of the cores (--threads). With more runs than cores waiting on
 // the GPU in one process (--in-process), a waiting thread sleeps instead of spinning, and the
-// process asks for 32 hardware work queues instead of 8 (CUDA_DEVICE_MAX_CONNECTIONS).
+// process asks for 32 hardware work queues instead of 8 (CUDA_DEVICE_MAX_CONNECTIONS). Every run
+// learns how many runs share its GPU (runs_sharing_gpu, core/backend/device.h), by which a stage
+// may give its kernels fewer SMs (overlap_correct's team); the outputs do not depend on it.
 //
 // SIGINT/SIGTERM: the runs under way get SIGTERM (they finish their step, write a checkpoint and
 // exit 3), the index says `interrupted`, and the sweep exits 3. If the sweep itself is killed,
@@ -193,6 +195,13 @@ int cmd_sweep(const std::vector<std::string>& args) {
   launch.in_process = a.in_process;
   launch.force = a.force;
   launch.extra_env = mps.env();
+  // How many runs share each GPU (core/backend/device.h): stages size their device work by it.
+  if (cuda) {
+    const std::size_t runs_per_gpu = std::max<std::size_t>(1, (todo + gpus.size() - 1) / gpus.size());
+    const int sharing = int(std::min(std::size_t(per_gpu), runs_per_gpu));
+    if (a.in_process) set_runs_sharing_gpu(sharing);
+    else launch.extra_env.push_back("FLIPFLOW_RUNS_SHARING_GPU=" + std::to_string(sharing));
+  }
   const sweep::Outcome outcome = sweep::run_all(launch, a.axes, runs);
   if (outcome.stop_signal) return kExitInterrupted;
   return outcome.failed ? 1 : 0;
