@@ -436,16 +436,12 @@ constexpr int kMinBlocks = 2;
 // Small systems: a cluster of kClusterBlocks blocks of kClusterThreads runs the iterations
 // instead of the grid for n ≤ kClusterMaxN: there an iteration's walks are short, and the grid's
 // three barriers per iteration and its cooperative launch are the time. The shape and the
-// threshold come from the A/B in bench/overlap_correct-PERF.md (session 13): at 2^16 the grid's
-// SMs do more than the cluster's barrier saves; one block alone (a variant there) lost at every
-// size. At 2^14 the two took the same step time there (0.226 ms against 0.228-0.231; the
-// correction 0.170 against 0.160), but the cluster holds 16 SMs where the grid's 64 blocks hold
-// 32 (each block of either takes half or all of an SM's registers): when many runs share the GPU
-// (`pipeline sweep`, issue 20) twice as many corrections run side by side, so the threshold is
-// 2^14 (bench/README.md, "Sweeps").
+// threshold come from the A/B in bench/overlap_correct-PERF.md (session 13): above the threshold
+// the grid's SMs do more than the cluster's barrier saves; one block alone (a variant there)
+// lost at every size. On a GPU that many runs share, team_for gives a run fewer SMs.
 constexpr int kClusterBlocks = 16;
 constexpr int kClusterThreads = 512;
-constexpr std::size_t kClusterMaxN = 16384;
+constexpr std::size_t kClusterMaxN = 4096;
 // One block of kClusterThreads (a cluster of one): the team of a run on a GPU shared by many
 // (team_for).
 constexpr int kOneBlock = 1;
@@ -522,10 +518,12 @@ GridShape grid_shape(std::size_t n) {
 // The team for n particles. A run alone: the cluster where the device runs it (n ≤ kClusterMaxN),
 // else the grid, the fastest (bench/overlap_correct-PERF.md). On a GPU that K runs share
 // (runs_sharing_gpu: `pipeline sweep`): the same unless K such teams would not fit on the GPU at
-// once; then the cluster, and where K clusters would not fit either, one block (kOneBlock), whose
-// correction takes longer (0.76 ms at 2^14 against 0.16-0.17, session 13) on 1 SM instead of 16
-// or 32: with many runs what bounds the sweep is how many corrections fit side by side
-// (bench/README.md, "Sweeps"). Who runs the iterations does not change the bits.
+// once; then the cluster, and where K clusters would not fit either, one block (kOneBlock). What
+// bounds a sweep is how many corrections run side by side: at 2^14 the grid holds 32 SMs (64
+// blocks, two to an SM) for ~0.2 ms, the cluster 16 for ~0.21, one block 1 for ~0.76 (session
+// 13); 64 runs of bench-abp 2^14 in one process, H200: 2.35e8 particle-steps/s with the grid,
+// 3.68e8 with the cluster, whose correction alone costs 3-4 % of the step (bench/README.md,
+// "Sweeps"). Who runs the iterations does not change the bits.
 template <class R, bool Walls, bool Mark>
 int team_for(std::size_t n) {
   if (!cluster_fits<R, Walls, Mark>()) return kGrid;
