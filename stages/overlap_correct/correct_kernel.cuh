@@ -442,9 +442,6 @@ constexpr int kMinBlocks = 2;
 constexpr int kClusterBlocks = 16;
 constexpr int kClusterThreads = 512;
 constexpr std::size_t kClusterMaxN = 4096;
-// One block of kClusterThreads (a cluster of one): the team of a run on a GPU shared by many
-// (team_for).
-constexpr int kOneBlock = 1;
 
 // A team's block size; 128 registers a thread, as the grid's kernel (kMinBlocks).
 template <int Team>
@@ -517,24 +514,20 @@ GridShape grid_shape(std::size_t n) {
 
 // The team for n particles. A run alone: the cluster where the device runs it (n ≤ kClusterMaxN),
 // else the grid, the fastest (bench/overlap_correct-PERF.md). On a GPU that K runs share
-// (runs_sharing_gpu: `pipeline sweep`): the same unless K such teams would not fit on the GPU at
-// once; then the cluster, and where K clusters would not fit either, one block (kOneBlock). What
-// bounds a sweep is how many corrections run side by side: at 2^14 the grid holds 32 SMs (64
-// blocks, two to an SM) for ~0.2 ms, the cluster 16 for ~0.21, one block 1 for ~0.76 (session
-// 13); 64 runs of bench-abp 2^14 in one process, H200: 2.35e8 particle-steps/s with the grid,
-// 3.68e8 with the cluster, whose correction alone costs 3-4 % of the step (bench/README.md,
-// "Sweeps"). Who runs the iterations does not change the bits.
+// (runs_sharing_gpu: `pipeline sweep`): the cluster also where K grids would not fit on the GPU at
+// once. What bounds a sweep is how many corrections run side by side: at 2^14 the grid holds 32
+// SMs (64 blocks, two to an SM) for ~0.2 ms, the cluster 16 for ~0.21 (session 13); 64 runs of
+// bench-abp 2^14 in one process, H200: 2.35e8 particle-steps/s with the grid, 3.68e8 with the
+// cluster, whose correction alone costs 3-4 % of the step; one block a run (1 SM, ~0.76 ms) lost
+// (bench/README.md, "Sweeps on one GPU"). Who runs the iterations does not change the bits.
 template <class R, bool Walls, bool Mark>
 int team_for(std::size_t n) {
   if (!cluster_fits<R, Walls, Mark>()) return kGrid;
-  const GridShape g = grid_shape<R, Walls, Mark>(n);
+  if (n <= kClusterMaxN) return kClusterBlocks;
   const int sharing = runs_sharing_gpu();
-  int team = n <= kClusterMaxN ? kClusterBlocks : kGrid;
-  if (team == kGrid && sharing > 1 && std::size_t(sharing) * std::size_t(g.sms_held) > std::size_t(g.sms))
-    team = kClusterBlocks;
-  if (team == kClusterBlocks && std::size_t(sharing) * std::size_t(kClusterBlocks) > std::size_t(g.sms))
-    team = kOneBlock;
-  return team;
+  if (sharing <= 1) return kGrid;
+  const GridShape g = grid_shape<R, Walls, Mark>(n);
+  return std::size_t(sharing) * std::size_t(g.sms_held) > std::size_t(g.sms) ? kClusterBlocks : kGrid;
 }
 
 template <class R, bool Walls, bool Mark>
