@@ -1,5 +1,9 @@
 #include "core/backend/device.h"
 
+#include <algorithm>
+#include <atomic>
+#include <cstdlib>
+
 #include "core/base/error.h"
 #ifdef FLIPFLOW_HAVE_CUDA
 #include <cuda_runtime.h>
@@ -78,5 +82,20 @@ Backend resolve_backend(const std::string& choice) {
   if (choice == "auto") return cuda_device_available() ? Backend::cuda : Backend::cpu;
   throw InputError("--device must be auto, cpu or cuda (got '" + choice + "')");
 }
+
+namespace {
+std::atomic<int> g_runs_sharing_gpu{0};  // 0: not known yet (the environment decides)
+}  // namespace
+
+int runs_sharing_gpu() {
+  int k = g_runs_sharing_gpu.load();
+  if (k > 0) return k;
+  const char* env = std::getenv("FLIPFLOW_RUNS_SHARING_GPU");
+  k = env ? std::max(1, std::atoi(env)) : 1;
+  g_runs_sharing_gpu.store(k);
+  return k;
+}
+
+void set_runs_sharing_gpu(int runs) { g_runs_sharing_gpu.store(std::max(1, runs)); }
 
 }  // namespace ff

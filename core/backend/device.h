@@ -18,4 +18,11 @@ void use_cuda_device(int device);
 // --device auto|cpu|cuda -> backend; InputError when cuda is asked for and unavailable.
 Backend resolve_backend(const std::string& choice);
 
+// How many runs share this process's GPU at once; 1 for a run alone. `pipeline sweep` says so:
+// set_runs_sharing_gpu in its own process (--in-process), FLIPFLOW_RUNS_SHARING_GPU in its child
+// processes' environment. A stage may size its device work by it, never its results:
+// overlap_correct gives each run's correction fewer SMs when many runs share the GPU.
+int runs_sharing_gpu();
+void set_runs_sharing_gpu(int runs);
+
 }  // namespace ff

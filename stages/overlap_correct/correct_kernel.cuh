@@ -62,6 +62,7 @@
 
 #include "core/backend/cuda/check.h"
 #include "core/backend/cuda/loop.cuh"
+#include "core/backend/device.h"
 #include "stages/overlap_correct/stage.h"
 #include "stages/overlap_correct/neighbor_lists.cuh"
 
@@ -437,7 +438,7 @@ constexpr int kMinBlocks = 2;
 // three barriers per iteration and its cooperative launch are the time. The shape and the
 // threshold come from the A/B in bench/overlap_correct-PERF.md (session 13): above the threshold
 // the grid's SMs do more than the cluster's barrier saves; one block alone (a variant there)
-// lost at every size.
+// lost at every size. On a GPU that many runs share, team_for gives a run fewer SMs.
 constexpr int kClusterBlocks = 16;
 constexpr int kClusterThreads = 512;
 constexpr std::size_t kClusterMaxN = 4096;
@@ -486,22 +487,14 @@ bool cluster_fits() {
   return clusters >= 1;
 }
 
-// The team for n particles: the cluster where the device runs it (n ≤ kClusterMaxN), else the
-// grid.
+// The grid for n particles: blocks of kThreads, at most what fits on the device at once (a
+// cooperative launch needs every block resident), tiles of at least 256 particles; and how many
+// SMs those blocks hold (per_sm to an SM).
+struct GridShape {
+  int blocks = 0, sms_held = 0, sms = 0;
+};
 template <class R, bool Walls, bool Mark>
-int team_for(std::size_t n) {
-  if (n <= kClusterMaxN && cluster_fits<R, Walls, Mark>()) return kClusterBlocks;
-  return kGrid;
-}
-
-template <class R, bool Walls, bool Mark>
-void shape(std::size_t n, int team, int& grid, int& tile) {
-  if (team != kGrid) {  // the team's blocks share the particles in tiles
-    grid = team;
-    const std::size_t t = (n + grid - 1) / grid;
-    tile = int(std::max<std::size_t>(16, (t + 15) / 16 * 16));
-    return;
-  }
+GridShape grid_shape(std::size_t n) {
   int dev = 0, sms = 0, per_sm = 0, coop = 0;
   FF_CUDA_CHECK(cudaGetDevice(&dev), "overlap_correct: current device");
   FF_CUDA_CHECK(cudaDeviceGetAttribute(&sms, cudaDevAttrMultiProcessorCount, dev), "overlap_correct: SM count");
@@ -509,9 +502,37 @@ void shape(std::size_t n, int team, int& grid, int& tile) {
   if (!coop) throw RunError("overlap_correct: the CUDA device does not support cooperative launches");
   FF_CUDA_CHECK(cudaOccupancyMaxActiveBlocksPerMultiprocessor(&per_sm, kernel_ptr<R, kGrid, Walls, Mark>(), kThreads, 0),
                 "overlap_correct: occupancy");
-  const std::size_t most = std::size_t(std::max(1, per_sm)) * std::size_t(sms);
+  per_sm = std::max(1, per_sm);
+  const std::size_t most = std::size_t(per_sm) * std::size_t(sms);
   const std::size_t want = std::max<std::size_t>(1, (n + 255) / 256);
-  grid = int(std::min(most, want));
+  GridShape g;
+  g.blocks = int(std::min(most, want));
+  g.sms_held = (g.blocks + per_sm - 1) / per_sm;
+  g.sms = sms;
+  return g;
+}
+
+// The team for n particles. A run alone: the cluster where the device runs it (n ≤ kClusterMaxN),
+// else the grid, the fastest (bench/overlap_correct-PERF.md). On a GPU that K runs share
+// (runs_sharing_gpu: `pipeline sweep`): the cluster also where K grids would not fit on the GPU at
+// once. What bounds a sweep is how many corrections run side by side: at 2^14 the grid holds 32
+// SMs (64 blocks, two to an SM) for ~0.2 ms, the cluster 16 for ~0.21 (session 13); 64 runs of
+// bench-abp 2^14 in one process, H200: 2.35e8 particle-steps/s with the grid, 3.68e8 with the
+// cluster, whose correction alone costs 3-4 % of the step; one block a run (1 SM, ~0.76 ms) lost
+// (bench/README.md, "Sweeps on one GPU"). Who runs the iterations does not change the bits.
+template <class R, bool Walls, bool Mark>
+int team_for(std::size_t n) {
+  if (!cluster_fits<R, Walls, Mark>()) return kGrid;
+  if (n <= kClusterMaxN) return kClusterBlocks;
+  const int sharing = runs_sharing_gpu();
+  if (sharing <= 1) return kGrid;
+  const GridShape g = grid_shape<R, Walls, Mark>(n);
+  return std::size_t(sharing) * std::size_t(g.sms_held) > std::size_t(g.sms) ? kClusterBlocks : kGrid;
+}
+
+template <class R, bool Walls, bool Mark>
+void shape(std::size_t n, int team, int& grid, int& tile) {
+  grid = team != kGrid ? team : grid_shape<R, Walls, Mark>(n).blocks;  // a team's blocks share the particles
   const std::size_t t = (n + grid - 1) / grid;
   tile = int(std::max<std::size_t>(16, (t + 15) / 16 * 16));
 }

@@ -111,7 +111,7 @@ class DeviceLoops final : public OverlapCorrectLoops<R> {
   HostScratch<u64> result_;      // pinned: the kernel writes its counters there (no copy after it)
   std::size_t n_ = 0, cap_ = 0;
   int grid_ = 0, tile_ = 0;
-  int team_ = kGrid;  // who runs the iterations (team_for): kGrid, 1 or kClusterBlocks
+  int team_ = kGrid;  // who runs the iterations (team_for): kGrid or kClusterBlocks
   int parity_ = 0;  // which slots the next launch uses (zero); it zeroes the other
   int variant_ = -1;  // the kernel prepared for: 2·walls + mark (its occupancy sets the grid)
   bool made_ = false;

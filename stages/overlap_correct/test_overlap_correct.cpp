@@ -10,6 +10,7 @@
 #include <cstring>
 #include <random>
 
+#include "core/backend/device.h"
 #include "core/base/error.h"
 #include "core/input/init.h"
 #include "core/physics/rng.h"
@@ -571,6 +572,28 @@ TEST_CASE("overlap_correct: CPU and CUDA give the same bits on either device pat
     CHECK(cpu.pairs == cuda.pairs);
     CHECK(std::memcmp(xy[0].data(), xy[1].data(), xy[0].size() * sizeof(double)) == 0);
   }
+}
+
+TEST_CASE("overlap_correct: CPU and CUDA give the same bits when runs share the GPU (smaller teams)",
+          "[overlap][cuda]") {
+  // On a GPU that many runs share (runs_sharing_gpu, `pipeline sweep`), team_for gives a run the
+  // cluster of 16 blocks where a run alone takes the grid and K grids would not fit on the GPU
+  // (an H100/H200's 132 SMs: 16384 holds 32 SMs, 65536 128; with 2 runs 16384 keeps the grid).
+  if (!test::have_cuda("overlap_correct CPU-vs-CUDA with shared GPUs")) return;
+  for (int sharing : {64, 2}) {
+    ff::set_runs_sharing_gpu(sharing);
+    for (std::uint64_t n : {3000u, 16384u, 65536u}) {
+      INFO("runs sharing the GPU " << sharing << ", n " << n);
+      const auto spec = correct_spec(n, 0.75, {});
+      const OneStep cpu = one_step(spec, Backend::cpu), cuda = one_step(spec, Backend::cuda);
+      const std::vector<std::vector<double>> xy{cpu.xy, cuda.xy};
+      CHECK(cpu.iterations >= 3);
+      CHECK(cpu.iterations == cuda.iterations);
+      CHECK(cpu.pairs == cuda.pairs);
+      CHECK(std::memcmp(xy[0].data(), xy[1].data(), xy[0].size() * sizeof(double)) == 0);
+    }
+  }
+  ff::set_runs_sharing_gpu(1);
 }
 
 TEST_CASE("overlap_correct: errors name what to change", "[overlap][errors]") {

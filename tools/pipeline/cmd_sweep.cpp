@@ -24,7 +24,10 @@
 // (`--gpus` chooses them; default: CUDA_VISIBLE_DEVICES, else every GPU in
 // /proc/driver/nvidia/gpus). On the CPU runs go one after another unless --concurrent says
 // otherwise, each with its share of the cores (--threads). With more runs than cores waiting on
-// the GPU in one process (--in-process), a waiting thread sleeps instead of spinning.
+// the GPU in one process (--in-process), a waiting thread sleeps instead of spinning, and the
+// process asks for 32 hardware work queues instead of 8 (CUDA_DEVICE_MAX_CONNECTIONS). Every run
+// learns how many runs share its GPU (runs_sharing_gpu, core/backend/device.h), by which a stage
+// may give its kernels fewer SMs (overlap_correct's team); the outputs do not depend on it.
 //
 // SIGINT/SIGTERM: the runs under way get SIGTERM (they finish their step, write a checkpoint and
 // exit 3), the index says `interrupted`, and the sweep exits 3. If the sweep itself is killed,
@@ -121,6 +124,14 @@ std::size_t keep_finished_runs(const fs::path& root, const fs::path& index_file,
 
 int cmd_sweep(const std::vector<std::string>& args) {
   const SweepArgs a = sweep::parse_args(args);
+  // --in-process: every run's stream is one of the context's hardware work queues, 8 unless
+  // CUDA_DEVICE_MAX_CONNECTIONS says otherwise, and streams sharing a queue run one after the
+  // other (a run's kernel waits behind another run's in the same queue): with K runs at once at
+  // most 8 kernels run side by side. 32 is the most the driver gives. Read when the CUDA context
+  // is made, so set before the first CUDA call; a value in the environment is kept. (Child
+  // processes keep the default: under MPS the clients share one pool of connections, and more
+  // for each means fewer clients.)
+  if (a.in_process) ::setenv("CUDA_DEVICE_MAX_CONNECTIONS", "32", 0);
   const Backend backend = resolve_backend(a.device);
   std::vector<Run> runs = sweep::plan(a);
 
@@ -154,7 +165,11 @@ int cmd_sweep(const std::vector<std::string>& args) {
 #ifdef FLIPFLOW_HAVE_CUDA
   // More runs than cores waiting on the GPU in one process: a waiting thread sleeps instead of
   // spinning, or the spinning ones would keep those whose work is done from their cores.
-  if (a.in_process && cuda && slots > cores) cudaSetDeviceFlags(cudaDeviceScheduleBlockingSync);
+  if (a.in_process && cuda && slots > cores) {
+    const cudaError_t e = cudaSetDeviceFlags(cudaDeviceScheduleBlockingSync);
+    if (e != cudaSuccess)
+      std::cerr << "sweep: waiting threads will spin (cudaSetDeviceFlags: " << cudaGetErrorString(e) << ")\n";
+  }
 #endif
 
   const std::size_t todo = runs.size() - skipped;
@@ -180,6 +195,13 @@ int cmd_sweep(const std::vector<std::string>& args) {
   launch.in_process = a.in_process;
   launch.force = a.force;
   launch.extra_env = mps.env();
+  // How many runs share each GPU (core/backend/device.h): stages size their device work by it.
+  if (cuda) {
+    const std::size_t runs_per_gpu = std::max<std::size_t>(1, (todo + gpus.size() - 1) / gpus.size());
+    const int sharing = int(std::min(std::size_t(per_gpu), runs_per_gpu));
+    if (a.in_process) set_runs_sharing_gpu(sharing);
+    else launch.extra_env.push_back("FLIPFLOW_RUNS_SHARING_GPU=" + std::to_string(sharing));
+  }
   const sweep::Outcome outcome = sweep::run_all(launch, a.axes, runs);
   if (outcome.stop_signal) return kExitInterrupted;
   return outcome.failed ? 1 : 0;

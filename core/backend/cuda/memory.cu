@@ -28,13 +28,16 @@ void* dev_alloc(std::size_t bytes) {
   if (bytes == 0) return nullptr;
   void* p = nullptr;
   FF_CUDA_ALLOC(p, bytes, std::string("a stage's scratch array (Scratch)"));
-  FF_CUDA_CHECK(cudaMemset(p, 0, bytes), "clearing stage scratch memory");
-  // cudaMemset runs on the legacy default stream, which the flipflow streams (non-blocking) do
-  // not order with, and may return before it is done: without this wait a fill or kernel queued
-  // next on a step stream can run first and have its values zeroed under it. That happened on a
-  // GPU shared with other processes (detect_inversion's minimum slots, set to ~0u by reset(),
-  // cleared to 0 afterwards). Allocations are rare (first use, growth), so the wait is cheap.
-  FF_CUDA_CHECK(cudaDeviceSynchronize(), "clearing stage scratch memory");
+  // Zeroed before any step stream can touch it: the flipflow streams are non-blocking, so a
+  // fill or kernel queued next on one of them could otherwise run first and have its values
+  // zeroed under it (it happened with cudaMemset on the legacy stream and no wait, on a GPU
+  // shared with other processes: detect_inversion's minimum slots, set to ~0u by reset(),
+  // cleared to 0 afterwards). The clear runs on this thread's own default stream and the wait
+  // is for that stream alone: a device-wide wait (cudaDeviceSynchronize) would also wait for
+  // every other run's queued steps when runs share the process (`pipeline sweep --in-process`),
+  // once per scratch array of every run's set-up.
+  FF_CUDA_CHECK(cudaMemsetAsync(p, 0, bytes, cudaStreamPerThread), "clearing stage scratch memory");
+  FF_CUDA_CHECK(cudaStreamSynchronize(cudaStreamPerThread), "clearing stage scratch memory");
   return p;
 }
 void dev_release(void* p) {
@@ -82,9 +85,21 @@ void dev_download_async(void* dst, const void* src, std::size_t bytes, CUstream_
   copy_words<<<1, 32, 0, s>>>(static_cast<unsigned*>(dst), static_cast<const unsigned*>(src), bytes / 4);
   FF_CUDA_CHECK_LAUNCH("reading stage counters");
 }
+// A fence the host waits on (Counters::finish_read, a few times a step). An event without
+// cudaEventBlockingSync is waited for by spinning, whatever the device's scheduling flag: when the
+// device blocks instead (`pipeline sweep --in-process` with more runs than cores, cmd_sweep.cpp),
+// so does this wait. 64 runs spinning on 16 cores kept the cores from the runs that had work to
+// launch (the sweep's process 11 of 16 cores busy, 0.46-0.72 ms of CPU time a run's step, twice
+// a step's wall time alone). A run alone keeps the spin: the wake-up of a blocked thread is
+// latency on its step.
 void* event_create() {
+  unsigned flags = cudaEventDisableTiming;
+  unsigned device_flags = 0;
+  if (cudaGetDeviceFlags(&device_flags) == cudaSuccess &&
+      (device_flags & cudaDeviceScheduleMask) == cudaDeviceScheduleBlockingSync)
+    flags |= cudaEventBlockingSync;
   cudaEvent_t e = nullptr;
-  FF_CUDA_CHECK(cudaEventCreateWithFlags(&e, cudaEventDisableTiming), "creating a stage counter fence");
+  FF_CUDA_CHECK(cudaEventCreateWithFlags(&e, flags), "creating a stage counter fence");
   return e;
 }
 void event_destroy(void* e) {
