@@ -373,17 +373,7 @@ TEST_CASE("decomposition: pipeline run --gpus N --device cpu writes one rank's H
 }
 
 TEST_CASE("decomposition: 2 and 4 GPUs give one GPU's bits (Lennard-Jones, hard spheres)") {
-  const int gpus = cuda_device_count();
-  if (gpus < 2) {
-    WARN("SKIPPED (" << gpus << " CUDA device(s); " << nccl_description()
-                     << "): a decomposed team of GPUs needs 2 or more (NCCL refuses two ranks on one GPU)");
-    return;
-  }
-  for (int ranks : {2, 4}) {
-    if (ranks > gpus) {
-      WARN("SKIPPED: " << ranks << " GPUs asked, " << gpus << " present");
-      continue;
-    }
+  for (int ranks : test::gpu_team_sizes()) {
     for (const char* precision : {"double", "float"}) {
       INFO(ranks << " GPUs, Lennard-Jones, " << precision);
       auto l = lj(precision);

@@ -304,17 +304,7 @@ TEST_CASE("decomposed Delaunay: what does not run in a team is refused naming it
 }
 
 TEST_CASE("decomposed Delaunay: 2 and 4 GPUs give one GPU's bits (hard disks, ABP)") {
-  const int gpus = cuda_device_count();
-  if (gpus < 2) {
-    WARN("SKIPPED (" << gpus << " CUDA device(s); " << nccl_description()
-                     << "): a decomposed team of GPUs needs 2 or more (NCCL refuses two ranks on one GPU)");
-    return;
-  }
-  for (int ranks : {2, 4}) {
-    if (ranks > gpus) {
-      WARN("SKIPPED: " << ranks << " GPUs asked, " << gpus << " present");
-      continue;
-    }
+  for (int ranks : test::gpu_team_sizes()) {
     struct Case {
       const char* file;
       const char* dt;

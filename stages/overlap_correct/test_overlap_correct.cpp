@@ -556,6 +556,18 @@ TEST_CASE("overlap_correct: CPU and CUDA give the same bits (double) and agree i
     }
 }
 
+// One correction of n disks at area fraction 0.75 on each backend: the same iterations, pairs and
+// position bits (a correction of at least 3 iterations, so the device loop really iterates).
+static void check_cpu_equals_cuda(std::uint64_t n) {
+  const auto spec = correct_spec(n, 0.75, {});
+  const OneStep cpu = one_step(spec, Backend::cpu), cuda = one_step(spec, Backend::cuda);
+  const std::vector<std::vector<double>> xy{cpu.xy, cuda.xy};
+  CHECK(cpu.iterations >= 3);
+  CHECK(cpu.iterations == cuda.iterations);
+  CHECK(cpu.pairs == cuda.pairs);
+  CHECK(std::memcmp(xy[0].data(), xy[1].data(), xy[0].size() * sizeof(double)) == 0);
+}
+
 TEST_CASE("overlap_correct: CPU and CUDA give the same bits on either device path (team and grid)",
           "[overlap][cuda]") {
   // cuda.cu runs small systems (n ≤ kClusterMaxN = 4096) in a thread-block cluster and larger
@@ -564,13 +576,7 @@ TEST_CASE("overlap_correct: CPU and CUDA give the same bits on either device pat
   if (!test::have_cuda("overlap_correct CPU-vs-CUDA by size")) return;
   for (std::uint64_t n : {3000u, 4096u, 65536u, 100000u}) {
     INFO("n " << n);
-    const auto spec = correct_spec(n, 0.75, {});
-    const OneStep cpu = one_step(spec, Backend::cpu), cuda = one_step(spec, Backend::cuda);
-    const std::vector<std::vector<double>> xy{cpu.xy, cuda.xy};
-    CHECK(cpu.iterations >= 3);
-    CHECK(cpu.iterations == cuda.iterations);
-    CHECK(cpu.pairs == cuda.pairs);
-    CHECK(std::memcmp(xy[0].data(), xy[1].data(), xy[0].size() * sizeof(double)) == 0);
+    check_cpu_equals_cuda(n);
   }
 }
 
@@ -584,13 +590,7 @@ TEST_CASE("overlap_correct: CPU and CUDA give the same bits when runs share the 
     ff::set_runs_sharing_gpu(sharing);
     for (std::uint64_t n : {3000u, 16384u, 65536u}) {
       INFO("runs sharing the GPU " << sharing << ", n " << n);
-      const auto spec = correct_spec(n, 0.75, {});
-      const OneStep cpu = one_step(spec, Backend::cpu), cuda = one_step(spec, Backend::cuda);
-      const std::vector<std::vector<double>> xy{cpu.xy, cuda.xy};
-      CHECK(cpu.iterations >= 3);
-      CHECK(cpu.iterations == cuda.iterations);
-      CHECK(cpu.pairs == cuda.pairs);
-      CHECK(std::memcmp(xy[0].data(), xy[1].data(), xy[0].size() * sizeof(double)) == 0);
+      check_cpu_equals_cuda(n);
     }
   }
   ff::set_runs_sharing_gpu(1);
