@@ -516,10 +516,10 @@ GridShape grid_shape(std::size_t n) {
 // else the grid, the fastest (bench/overlap_correct-PERF.md). On a GPU that K runs share
 // (runs_sharing_gpu: `pipeline sweep`): the cluster also where K grids would not fit on the GPU at
 // once. What bounds a sweep is how many corrections run side by side: at 2^14 the grid holds 32
-// SMs (64 blocks, two to an SM) for ~0.2 ms, the cluster 16 for ~0.21 (session 13); 64 runs of
-// bench-abp 2^14 in one process, H200: 2.35e8 particle-steps/s with the grid, 3.68e8 with the
-// cluster, whose correction alone costs 3-4 % of the step; one block a run (1 SM, ~0.76 ms) lost
-// (bench/README.md, "Sweeps on one GPU"). Who runs the iterations does not change the bits.
+// SMs (64 blocks, two to an SM), the cluster 16 for about as long, so more runs correct at once;
+// alone the grid stays, since the cluster is a little slower there, and one block a run was
+// slower in a sweep too (numbers: bench/README.md, "Sweeps on one GPU"). Who runs the iterations
+// does not change the bits.
 template <class R, bool Walls, bool Mark>
 int team_for(std::size_t n) {
   if (!cluster_fits<R, Walls, Mark>()) return kGrid;

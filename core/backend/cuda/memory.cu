@@ -88,10 +88,9 @@ void dev_download_async(void* dst, const void* src, std::size_t bytes, CUstream_
 // A fence the host waits on (Counters::finish_read, a few times a step). An event without
 // cudaEventBlockingSync is waited for by spinning, whatever the device's scheduling flag: when the
 // device blocks instead (`pipeline sweep --in-process` with more runs than cores, cmd_sweep.cpp),
-// so does this wait. 64 runs spinning on 16 cores kept the cores from the runs that had work to
-// launch (the sweep's process 11 of 16 cores busy, 0.46-0.72 ms of CPU time a run's step, twice
-// a step's wall time alone). A run alone keeps the spin: the wake-up of a blocked thread is
-// latency on its step.
+// so does this wait: many runs spinning on fewer cores keep the cores from the runs that have work
+// to launch (measured: bench/README.md, "Sweeps on one GPU"). A run alone keeps the spin: the
+// wake-up of a blocked thread is latency on its step.
 void* event_create() {
   unsigned flags = cudaEventDisableTiming;
   unsigned device_flags = 0;

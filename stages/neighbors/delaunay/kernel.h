@@ -304,7 +304,7 @@ inline constexpr std::uint32_t kNeedRow = 0x20000000u;
 // shared-memory block on CUDA, so the threads of a warp never share a bank; the stack on the
 // CPU). Its pointer never changes, so on the device every access is a shared-memory load at a
 // constant stride (a queue that could move to the row made them generic loads with 64-bit
-// address arithmetic: 14 % slower at 2^20 on an H200, 0.672 against 0.576 ms).
+// address arithmetic, which cost time: bench/README.md, "Session 16 on an H200").
 template <std::uint32_t Stride>
 struct FastQueue {
   std::uint32_t* fast;
