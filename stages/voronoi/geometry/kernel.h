@@ -6,7 +6,12 @@
 // half-edge, computing each circumcentre from minimum-image vectors relative to v and summing
 // the cell's faces in that fixed order. So every sum has one order, whatever the thread count,
 // the backend or which half-edge delaunay.vertex_edge happens to name: the same bits on the CPU
-// and on CUDA (no contraction into fma: cmake/flipflow_plugin.cmake). Each face (Delaunay edge e)
+// and on CUDA. No multiply-add is contracted by the compiler (cmake/flipflow_plugin.cmake); the
+// ones written out below as fmadd() are std::fma, rounded once and correctly on both (the CPU
+// loop is built for x86-64-v3, which has the instruction; CUDA's fma is the DFMA). They are where
+// the cost is: the CUDA kernel is bound by issuing FP64 instructions (bench/experiments/README.md,
+// "voronoi.geometry CUDA variants", sessions 16-17), and one fma replaces a multiply and an add.
+// Each face (Delaunay edge e)
 // is written by the walk of origin(2e) only, each circumcentre copy (one per half-edge) by the
 // walk of that half-edge's origin: no two threads write the same element. The second walk may
 // read the far ends from a cache that the first filled (cell(v, fan): geometry/cuda.cu keeps
@@ -33,13 +38,20 @@ using delaunay::V2;
 // A fan longer than this is taken for a corrupt triangulation (sides = 0, reported by the stage).
 inline constexpr int kMaxSides = 64;
 
+// a b + c rounded once: the same bits on the host and the device.
+FF_HD double fmadd(double a, double b, double c) { return std::fma(a, b, c); }
+// a.x b.y − a.y b.x and |a|², each one multiply and one fma.
+FF_HD double cross_fma(V2 a, V2 b) { return fmadd(a.x, b.y, -(a.y * b.x)); }
+FF_HD double norm2(V2 a) { return fmadd(a.x, a.x, a.y * a.y); }
+
 // Circumcentre of the triangle (0, b, c), relative to its first vertex (spec D1's formula with
-// b' = b, c' = c).
-FF_HD V2 circumcentre(V2 b, V2 c) {
-  const double inv_D = 0.5 / (b.x * c.y - b.y * c.x);  // one division per circumcentre
-  const double bb = b.x * b.x + b.y * b.y, cc = c.x * c.x + c.y * c.y;
-  return {(c.y * bb - b.y * cc) * inv_D, (b.x * cc - c.x * bb) * inv_D};
+// b' = b, c' = c), given bb = |b|² and cc = |c|² (norm2: the fan walk computes each far end's
+// once, and each enters two circumcentres).
+FF_HD V2 circumcentre(V2 b, V2 c, double bb, double cc) {
+  const double inv_D = 0.5 / cross_fma(b, c);  // one division per circumcentre
+  return {fmadd(c.y, bb, -(b.y * cc)) * inv_D, fmadd(b.x, cc, -(c.x * bb)) * inv_D};
 }
+FF_HD V2 circumcentre(V2 b, V2 c) { return circumcentre(b, c, norm2(b), norm2(c)); }
 
 // x brought into [0, L): a position written by the stage (midpoints, centroids, circumcentres).
 FF_HD double wrap_into(double x, double L, double inv_L) {
@@ -164,19 +176,24 @@ struct CellGeometry {
 
   // What one face adds to its cell (face k: half-edge h = v -> u at d = u − v, from o_R to o_L).
   struct Sums {
-    double area = 0, perimeter = 0, gx = 0, gy = 0;
+    double area2 = 0, perimeter = 0, gx = 0, gy = 0;  // area2: twice the area
   };
   template <bool Edges>
   FF_HD void face(V2 pv, int h, V2 d, V2 oR, V2 oL, Sums& s) const {
-    const double r = std::sqrt(d.x * d.x + d.y * d.y);
-    // A = (o_L − o_R)·n̂ with n̂ = (v -> u)/r turned by +90°: ≥ 0 on a Delaunay edge.
-    const double A = ((oL.x - oR.x) * -d.y + (oL.y - oR.y) * d.x) / r;
-    // The triangle (v, o_R, o_L): base the face, height r/2 (= A r / 4 in exact arithmetic).
-    const double a = 0.5 * delaunay::cross(oR, oL);
-    s.area += a;
+    // A = (o_L − o_R)·n̂ with n̂ = (v -> u)/|v -> u| turned by +90°: ≥ 0 on a Delaunay edge.
+    // o_L and o_R both lie on the bisector of v–u, so o_L − o_R is parallel to n̂ and
+    // A = ±|o_L − o_R|, its sign that of (o_L − o_R)·(v -> u turned): one square root and no
+    // division per face.
+    const V2 e{oL.x - oR.x, oL.y - oR.y};
+    const double len = std::sqrt(norm2(e));
+    const double A = fmadd(e.y, d.x, -(e.x * d.y)) < 0 ? -len : len;
+    // The triangle (v, o_R, o_L) (base the face, height |v -> u| / 2), twice its area: the sums
+    // of 2a and 2a (o_R + o_L) are halved (area) or divided (centroid) once, at the end.
+    const double a2 = cross_fma(oR, oL);
+    s.area2 += a2;
     s.perimeter += A;
-    s.gx += a * (oR.x + oL.x);  // × 1/3 (the triangle's centroid) once, at the end
-    s.gy += a * (oR.y + oL.y);
+    s.gx = fmadd(a2, oR.x + oL.x, s.gx);  // × 1/3 (the triangle's centroid) once, at the end
+    s.gy = fmadd(a2, oR.y + oL.y, s.gy);
     if (Edges && face_length && (h & 1) == 0) {
       const int e = h >> 1;
       face_length[e] = R(A);
@@ -247,10 +264,14 @@ struct CellGeometry {
     // while the current face is summed.
     V2 p_ahead{0, 0};
     if (cached && deg > 1) p_ahead = position(fan.get(j + 1 == deg ? 0 : j + 1));
+    // |d|² of each far end once: each enters two circumcentres.
+    const double dd_first = norm2(d_first);
     V2 dk = d_first, o_first{0, 0}, o_prev{0, 0};
+    double ddk = dd_first;
     Sums s;
     for (int k = 0; k < deg; ++k) {
       V2 dn = d_first;
+      double ddn = dd_first;
       int hafter = hnext;
       if (k + 1 < deg) {
         if (!cached) {
@@ -261,21 +282,25 @@ struct CellGeometry {
           if (++j == deg) j = 0;
           if (k + 2 < deg) p_ahead = position(fan.get(j + 1 == deg ? 0 : j + 1));
         }
+        ddn = norm2(dn);
       }
-      const V2 o = circumcentre(dn, dk);
+      const V2 o = circumcentre(dn, dk, ddn, ddk);
       if (k == 0) o_first = o;
       else face<Edges>(pv, hk, dk, o, o_prev, s);
       o_prev = o;
       dk = dn;
+      ddk = ddn;
       hk = hnext;
       hnext = hafter;
     }
     face<Edges>(pv, hmin, d_first, o_first, o_prev, s);
     sides[v] = deg;
-    const R a = R(s.area);
+    const R a = R(0.5 * s.area2);
     area[v] = a;
     perimeter[v] = R(s.perimeter);
-    store2(centroid, std::size_t(v), absolute(pv, {s.gx / (3.0 * s.area), s.gy / (3.0 * s.area)}));
+    // Σ 2a (o_R + o_L) / (3 Σ 2a): one division for both coordinates.
+    const double inv_3a2 = 1.0 / (3.0 * s.area2);
+    store2(centroid, std::size_t(v), absolute(pv, {s.gx * inv_3a2, s.gy * inv_3a2}));
     return terms(a, deg);
   }
 };
