@@ -22,6 +22,14 @@
 // h_{k+1} is (v, u_{k+1}, u_k), counter-clockwise; its circumcentre is o_k. Face k (edge v–u_k)
 // runs from o_R = o_k (right of v -> u_k) to o_L = o_{k-1} (left of it).
 //
+// Both ends of face k lie on the bisector of v–u_k: with d = u_k − v (relative to v) and
+// n = d turned by +90°, o_R = d/2 + t_R n and o_L = d/2 + t_L n. The walk computes each
+// triangle's circumcentre as its two parameters t (bisectors()) rather than as a point, and the
+// face's terms follow from t_L − t_R without the points: its signed length A = (t_L − t_R)|d|,
+// four times the area of the triangle (v, o_R, o_L) w = (t_L − t_R)|d|², and
+// o_R + o_L = d + (t_R + t_L) n. Fewer FP64 instructions than the points' shoelace sums (the CUDA
+// kernel is bound by issuing instructions: bench/experiments/README.md, sessions 16–17).
+//
 // The metrics' terms come out of the same walk (cell() returns them): integers, so that the
 // backend loops (geometry/cpu.cpp, geometry/cuda.cu) may add them in any order.
 #pragma once
@@ -44,14 +52,19 @@ FF_HD double fmadd(double a, double b, double c) { return std::fma(a, b, c); }
 FF_HD double cross_fma(V2 a, V2 b) { return fmadd(a.x, b.y, -(a.y * b.x)); }
 FF_HD double norm2(V2 a) { return fmadd(a.x, a.x, a.y * a.y); }
 
-// Circumcentre of the triangle (0, b, c), relative to its first vertex (spec D1's formula with
-// b' = b, c' = c), given bb = |b|² and cc = |c|² (norm2: the fan walk computes each far end's
-// once, and each enters two circumcentres).
-FF_HD V2 circumcentre(V2 b, V2 c, double bb, double cc) {
-  const double inv_D = 0.5 / cross_fma(b, c);  // one division per circumcentre
-  return {fmadd(c.y, bb, -(b.y * cc)) * inv_D, fmadd(b.x, cc, -(c.x * bb)) * inv_D};
+// The circumcentre o of the triangle (0, b, c) (counter-clockwise) on the bisectors of its sides
+// from the origin: o = c/2 + tc c⊥ = b/2 + tb b⊥ (x⊥: x turned by +90°). From o·b = |b|²/2 and
+// o·c = |c|²/2, with D = cross(b, c): tc = (b·c − |b|²) / 2D, tb = (|c|² − b·c) / 2D (spec D1's
+// circumcentre, bb = |b|² and cc = |c|² given: the fan walk computes each far end's once).
+struct Bisectors {
+  double tb, tc;
+};
+FF_HD Bisectors bisectors(V2 b, V2 c, double bb, double cc) {
+  const double inv_2D = 0.5 / cross_fma(b, c);  // one division per circumcentre
+  return {fmadd(-b.x, c.x, fmadd(-b.y, c.y, cc)) * inv_2D, fmadd(b.x, c.x, fmadd(b.y, c.y, -bb)) * inv_2D};
 }
-FF_HD V2 circumcentre(V2 b, V2 c) { return circumcentre(b, c, norm2(b), norm2(c)); }
+// The point on the bisector of the origin and d at parameter t: d/2 + t d⊥.
+FF_HD V2 on_bisector(V2 d, double t) { return {fmadd(-t, d.y, 0.5 * d.x), fmadd(t, d.x, 0.5 * d.y)}; }
 
 // x brought into [0, L): a position written by the stage (midpoints, centroids, circumcentres).
 FF_HD double wrap_into(double x, double L, double inv_L) {
@@ -174,32 +187,30 @@ struct CellGeometry {
 #endif
   }
 
-  // What one face adds to its cell (face k: half-edge h = v -> u at d = u − v, from o_R to o_L).
+  // What one face adds to its cell (face k: half-edge h = v -> u at d = u − v, dd = |d|², from
+  // o_R to o_L at parameters tR, tL on the bisector of v–u).
   struct Sums {
-    double area2 = 0, perimeter = 0, gx = 0, gy = 0;  // area2: twice the area
+    double area4 = 0, perimeter = 0, gx = 0, gy = 0;  // area4: four times the area
   };
   template <bool Edges>
-  FF_HD void face(V2 pv, int h, V2 d, V2 oR, V2 oL, Sums& s) const {
+  FF_HD void face(V2 pv, int h, V2 d, double dd, double tR, double tL, Sums& s) const {
+    const double dt = tL - tR;
     // A = (o_L − o_R)·n̂ with n̂ = (v -> u)/|v -> u| turned by +90°: ≥ 0 on a Delaunay edge.
-    // o_L and o_R both lie on the bisector of v–u, so o_L − o_R is parallel to n̂ and
-    // A = ±|o_L − o_R|, its sign that of (o_L − o_R)·(v -> u turned): one square root and no
-    // division per face.
-    const V2 e{oL.x - oR.x, oL.y - oR.y};
-    const double len = std::sqrt(norm2(e));
-    const double A = fmadd(e.y, d.x, -(e.x * d.y)) < 0 ? -len : len;
-    // The triangle (v, o_R, o_L) (base the face, height |v -> u| / 2), twice its area: the sums
-    // of 2a and 2a (o_R + o_L) are halved (area) or divided (centroid) once, at the end.
-    const double a2 = cross_fma(oR, oL);
-    s.area2 += a2;
+    const double A = dt * std::sqrt(dd);
+    // The triangle (v, o_R, o_L) (base the face, height |d|/2), four times its area: the sums of
+    // w and w (o_R + o_L) are divided once, at the end.
+    const double w = dt * dd;
+    s.area4 += w;
     s.perimeter += A;
-    s.gx = fmadd(a2, oR.x + oL.x, s.gx);  // × 1/3 (the triangle's centroid) once, at the end
-    s.gy = fmadd(a2, oR.y + oL.y, s.gy);
+    const double ts = tR + tL;
+    s.gx = fmadd(w, fmadd(-ts, d.y, d.x), s.gx);  // × 1/3 (the triangle's centroid) once, at the end
+    s.gy = fmadd(w, fmadd(ts, d.x, d.y), s.gy);
     if (Edges && face_length && (h & 1) == 0) {
       const int e = h >> 1;
       face_length[e] = R(A);
-      store2(face_midpoint, e, absolute(pv, {0.5 * (oR.x + oL.x), 0.5 * (oR.y + oL.y)}));
+      store2(face_midpoint, e, absolute(pv, on_bisector(d, 0.5 * ts)));
     }
-    if (Edges && circumcenter) store2(circumcenter, h, absolute(pv, oL));
+    if (Edges && circumcenter) store2(circumcenter, h, absolute(pv, on_bisector(d, tL)));
   }
 
   // The stored area (rounded to R, as the field holds it) and the fan's size as metric terms.
@@ -266,8 +277,9 @@ struct CellGeometry {
     if (cached && deg > 1) p_ahead = position(fan.get(j + 1 == deg ? 0 : j + 1));
     // |d|² of each far end once: each enters two circumcentres.
     const double dd_first = norm2(d_first);
-    V2 dk = d_first, o_first{0, 0}, o_prev{0, 0};
-    double ddk = dd_first;
+    // tR_first: o_0 on the bisector of face 0; tL: o_{k-1} on the bisector of face k.
+    V2 dk = d_first;
+    double ddk = dd_first, tR_first = 0, tL = 0;
     Sums s;
     for (int k = 0; k < deg; ++k) {
       V2 dn = d_first;
@@ -284,23 +296,23 @@ struct CellGeometry {
         }
         ddn = norm2(dn);
       }
-      const V2 o = circumcentre(dn, dk, ddn, ddk);
-      if (k == 0) o_first = o;
-      else face<Edges>(pv, hk, dk, o, o_prev, s);
-      o_prev = o;
+      const Bisectors t = bisectors(dn, dk, ddn, ddk);  // o_k
+      if (k == 0) tR_first = t.tc;
+      else face<Edges>(pv, hk, dk, ddk, t.tc, tL, s);
+      tL = t.tb;
       dk = dn;
       ddk = ddn;
       hk = hnext;
       hnext = hafter;
     }
-    face<Edges>(pv, hmin, d_first, o_first, o_prev, s);
+    face<Edges>(pv, hmin, d_first, dd_first, tR_first, tL, s);
     sides[v] = deg;
-    const R a = R(0.5 * s.area2);
+    const R a = R(0.25 * s.area4);
     area[v] = a;
     perimeter[v] = R(s.perimeter);
-    // Σ 2a (o_R + o_L) / (3 Σ 2a): one division for both coordinates.
-    const double inv_3a2 = 1.0 / (3.0 * s.area2);
-    store2(centroid, std::size_t(v), absolute(pv, {s.gx * inv_3a2, s.gy * inv_3a2}));
+    // Σ w (o_R + o_L) / (3 Σ w): one division for both coordinates.
+    const double inv_3w = 1.0 / (3.0 * s.area4);
+    store2(centroid, std::size_t(v), absolute(pv, {s.gx * inv_3w, s.gy * inv_3w}));
     return terms(a, deg);
   }
 };
