@@ -13,13 +13,16 @@
 #   fma      d1d6b1c: fmas, |d|^2 once, a face's length +-|o_L - o_R|, shoelace sums (32 B spilled)
 #   fmaonly  main's formulas with the fmas only (bench/experiments/vor4/fmaonly.patch on main)
 #   fmat3    fmat at 3 blocks/SM instead of 4 (bench/experiments/vor4/fma3.patch)
+#   fmatr    fmat with 0.5 * (1.0 / D) for 0.5 / D (the same bits; rcp instead of div, fmatr.patch)
+#   fmatc7   fmat with a fan cache of 7 far ends instead of 12 (7 KB of shared memory a block
+#            instead of 12: a larger L1 carve-out; longer fans walk again; fmatc7.patch)
 # Steps:
 #   1. bits: the branch's test_voronoi_geometry (CGAL to 1e-10, lattices, CPU == CUDA bit for bit
 #      with the default outputs and with faces + circumcentres, fans of 7-13 and 40 sides) and
 #      test_voronoi_mirror with the head's stage plugin first on the plugin path; also the
 #      bundle's own test_voronoi_geometry against it. In parallel: bits.txt
 #   2. one process, the same states: bench-voronoi at 2^20 (100 steps after 20) with main, fmat,
-#      fma, fmaonly, fmat3, main2, fmat2 as stages vor_ab.<v> one after another each step (plugin
+#      fma, fmaonly, fmat3, fmatr, fmatc7, main2, fmat2 as stages vor_ab.<v> one after another each step (plugin
 #      vor_ab, bench/experiments/vor3/make_ab_plugin.sh): ms per call of each: ab.txt
 #   3. plain bench-voronoi at 2^20 (the measurement: voronoi.geometry right after Lawson),
 #      main's plugin and the head's interleaved, main head main head ... (up to 3 pairs, a pair
