@@ -23,7 +23,7 @@
 #      bundle's own test_voronoi_geometry against it. In parallel: bits.txt
 #   2. one process, the same states: bench-voronoi at 2^20 (100 steps after 20) with main, fmat,
 #      fma, fmaonly, fmat3, fmatr, fmatc7, main2, fmat2 as stages vor_ab.<v> one after another each step (plugin
-#      vor_ab, bench/experiments/vor3/make_ab_plugin.sh): ms per call of each: ab.txt
+#      vor_ab, tools/bench/make_ab_plugin.sh voronoi.geometry; built with vor3's copy of it): ms per call of each: ab.txt
 #   3. plain bench-voronoi at 2^20 (the issue's measurement: voronoi.geometry right after Lawson),
 #      main's plugin and the head's interleaved, main head main head ... (up to 3 pairs, a pair
 #      started only while it can end before 170 s): plain-<k>-<v>.txt
