@@ -7,15 +7,15 @@
 // the cell's faces in that fixed order. So every sum has one order, whatever the thread count,
 // the backend or which half-edge delaunay.vertex_edge happens to name: the same bits on the CPU
 // and on CUDA. No multiply-add is contracted by the compiler (cmake/flipflow_plugin.cmake); the
-// ones written out below as fmadd() are std::fma, rounded once and correctly on both (the CPU
-// loop is built for x86-64-v3, which has the instruction; CUDA's fma is the DFMA). They are where
-// the cost is: the CUDA kernel is bound by issuing FP64 instructions (bench/experiments/README.md,
-// "voronoi.geometry CUDA variants", sessions 16-17), and one fma replaces a multiply and an add.
-// Each face (Delaunay edge e)
-// is written by the walk of origin(2e) only, each circumcentre copy (one per half-edge) by the
-// walk of that half-edge's origin: no two threads write the same element. The second walk may
-// read the far ends from a cache that the first filled (cell(v, fan): geometry/cuda.cu keeps
-// them in shared memory) instead of the half-edge records: the same values in the same order.
+// ones written out as fmadd() are std::fma, rounded once and correctly on both (the CPU loops are
+// built for x86-64-v3, which has the instruction; without it std::fma is libm's, as exact). The
+// CUDA kernel is bound by issuing instructions, FP64 ones the most (bench/experiments/README.md,
+// "voronoi.geometry CUDA variants", sessions 16 and 17): an fma is one for a multiply and an add.
+// Each face (Delaunay edge e) is written by the walk of origin(2e) only, each circumcentre copy
+// (one per half-edge) by the walk of that half-edge's origin: no two threads write the same
+// element. The second walk may read the far ends from a cache that the first filled (cell(v, fan):
+// geometry/cuda.cu keeps them in shared memory) instead of the half-edge records: the same values
+// in the same order.
 //
 // Walk order: next(twin(h)) is the half-edge leaving v clockwise after h (overlap_correct walks
 // the same way). With u_k the far end of the k-th half-edge h_k, the triangle between h_k and
@@ -27,8 +27,8 @@
 // triangle's circumcentre as its two parameters t (bisectors()) rather than as a point, and the
 // face's terms follow from t_L − t_R without the points: its signed length A = (t_L − t_R)|d|,
 // four times the area of the triangle (v, o_R, o_L) w = (t_L − t_R)|d|², and
-// o_R + o_L = d + (t_R + t_L) n. Fewer FP64 instructions than the points' shoelace sums (the CUDA
-// kernel is bound by issuing instructions: bench/experiments/README.md, sessions 16–17).
+// o_R + o_L = d + (t_R + t_L) n: fewer instructions than the points and their shoelace sums, and
+// no division a face.
 //
 // The metrics' terms come out of the same walk (cell() returns them): integers, so that the
 // backend loops (geometry/cpu.cpp, geometry/cuda.cu) may add them in any order.
