@@ -60,7 +60,7 @@ struct Bisectors {
   double tb, tc;
 };
 FF_HD Bisectors bisectors(V2 b, V2 c, double bb, double cc) {
-  const double inv_2D = 0.5 / cross_fma(b, c);  // one division per circumcentre
+  const double inv_2D = 0.5 * (1.0 / cross_fma(b, c));  // one reciprocal per circumcentre (= 0.5 / D)
   return {fmadd(-b.x, c.x, fmadd(-b.y, c.y, cc)) * inv_2D, fmadd(b.x, c.x, fmadd(b.y, c.y, -bb)) * inv_2D};
 }
 // The point on the bisector of the origin and d at parameter t: d/2 + t d⊥.
