@@ -103,6 +103,7 @@ struct Args {
   double2* disp;           // grid·tile: the displacements of the moved ones
   int* nb;                 // kCached x grid·tile: each particle's neighbours, filled in iteration 0
   std::uint8_t* degree;    // grid·tile: how many (kWalk: more than kCached, walk the fan)
+  int* fan;                // kCached x grid·tile: the half-edges of each listed fan, kept across steps
   u64* slots;              // kBatch x Sums::kAll x kShards (sharded counters, zero at launch)
   u64* claims;             // entries of cand claimed for the tail (zero at launch)
   u64* next_slots;         // the other launch's slots and claims (kSlotWords + 1): zeroed here
@@ -308,7 +309,7 @@ __global__ void __launch_bounds__(Threads, MinBlocks) correct_kernel(Args<R, Wal
         if (tail)  // its claim: cleared for the next check
           atomicAnd(reinterpret_cast<unsigned*>(a.marks) + (v >> 2), ~(1u << (8 * (v & 3))));
         int ids[kCached], d;
-        take(v, neighbor_ids(ov, v, k == 0, a.nb, a.degree, ids, d) ? gather_ids(ov, v, ids, d) : ov.gather(v));
+        take(v, neighbor_ids(ov, v, k == 0, a.nb, a.degree, a.fan, ids, d) ? gather_ids(ov, v, ids, d) : ov.gather(v));
       }
     } else {  // one lane group per particle (the loop is uniform over the block: shuffles)
       const int l = int(threadIdx.x) % kGroup;

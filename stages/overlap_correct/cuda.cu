@@ -24,6 +24,7 @@ class DeviceLoops final : public OverlapCorrectLoops<R> {
         disp_(exec),
         nb_(exec),
         degree_(exec),
+        fan_(exec),
         slots_{Scratch<u64>(exec), Scratch<u64>(exec)},
         result_(exec) {}
 
@@ -53,6 +54,7 @@ class DeviceLoops final : public OverlapCorrectLoops<R> {
                      disp_.get(cap_),
                      nb_.get(kCached * cap_),
                      degree_.get(cap_),
+                     fan_.get(kCached * cap_),
                      slots_[parity_].get(kSlotWords + 1),
                      slots_[parity_].get(kSlotWords + 1) + kSlotWords,
                      slots_[1 - parity_].get(kSlotWords + 1),
@@ -106,7 +108,8 @@ class DeviceLoops final : public OverlapCorrectLoops<R> {
   Scratch<int> seed_;            // grid·tile: the touched particles
   Scratch<double2> disp_;        // grid·tile: their displacements
   Scratch<int> nb_;              // kCached x grid·tile: each particle's neighbours
-  Scratch<std::uint8_t> degree_; // grid·tile: how many
+  Scratch<std::uint8_t> degree_; // grid·tile: how many (kept across steps, with fan_)
+  Scratch<int> fan_;             // kCached x grid·tile: each listed fan's half-edges (kept_fan)
   Scratch<u64> slots_[2];        // kSlotWords + the claims count, per launch parity
   HostScratch<u64> result_;      // pinned: the kernel writes its counters there (no copy after it)
   std::size_t n_ = 0, cap_ = 0;
