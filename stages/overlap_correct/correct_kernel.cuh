@@ -100,7 +100,8 @@ struct Args {
   std::uint8_t* marks;     // grid·tile bytes, one per particle (padding never set): next candidates
   int* cand;               // grid·tile: each block's candidates, tile-private; in the tail, the claimed
   int* seed;               // grid·tile: each block's touched particles, v if it moved, ~v if not
-  double2* disp;           // grid·tile: the displacements of the moved ones
+  double2* disp;           // grid·tile: where the moved ones go (moved_d), in the order of seed
+  char2* crossed;          // grid·tile: the box crossings that adds to their image counts
   int* nb;                 // kCached x grid·tile: each particle's neighbours, filled in iteration 0
   std::uint8_t* degree;    // grid·tile: how many (kWalk: more than kCached, walk the fan)
   int* fan;                // kCached x grid·tile: the half-edges of each listed fan, kept across steps
@@ -163,6 +164,16 @@ __device__ int compact(std::uint8_t* marks, int t0, int tile, int* cand, int* s_
     count += total;
   }
   return count;
+}
+
+// Particle v's position (x, y) stored as one vector (the apply's only store besides rare image
+// counts).
+template <class R>
+__device__ void store_xy(R* pos, int v, double x, double y) {
+  if constexpr (sizeof(R) == 8)
+    reinterpret_cast<double2*>(pos)[v] = make_double2(x, y);
+  else
+    reinterpret_cast<float2*>(pos)[v] = make_float2(float(x), float(y));
 }
 
 // Marks u as a candidate of the next iteration: a plain store, or (claim) a word atomic whose
@@ -254,6 +265,7 @@ __global__ void __launch_bounds__(Threads, MinBlocks) correct_kernel(Args<R, Wal
   int* cand = a.cand + mine;
   int* seed = a.seed + mine;
   double2* disp = a.disp + mine;
+  char2* crossed = a.crossed + mine;
   const int lane = threadIdx.x & 31, warp = threadIdx.x >> 5;
   const int shard = int(blockIdx.x % kShards) * kShardStride;
   bool tail = false;  // block 0 alone runs the iterations
@@ -297,8 +309,13 @@ __global__ void __launch_bounds__(Threads, MinBlocks) correct_kernel(Args<R, Wal
         const bool moves = q.dx != 0 || q.dy != 0;
         const int m = atomicAdd(&s_seeds, 1);
         seed[m] = moves ? v : ~v;
-        if (moves) {
-          disp[m] = make_double2(q.dx, q.dy);
+        if (moves) {  // where v goes (its position is in this SM's cache now): the apply only stores it
+          const double d[2] = {q.dx, q.dy};
+          R x[2];
+          int cr[2];
+          moved_d<2>(a.p.pos, a.p.box, std::size_t(v), d, x, cr);
+          disp[m] = make_double2(double(x[0]), double(x[1]));
+          crossed[m] = make_char2(char(cr[0]), char(cr[1]));
           atomicAdd(&s_moved, 1);
         }
       }
@@ -379,8 +396,11 @@ __global__ void __launch_bounds__(Threads, MinBlocks) correct_kernel(Args<R, Wal
     for (int i = int(threadIdx.x); i < ns; i += Threads) {
       const int v = seed[i];
       if (v >= 0) {
-        const double2 d = disp[i];
-        apply_one(a.p.pos, a.p.image, a.p.box, std::size_t(v), d.x, d.y);
+        const double2 x = disp[i];
+        const char2 c = crossed[i];
+        store_xy(a.p.pos, v, x.x, x.y);
+        if (c.x) a.p.image[2 * v] += c.x;
+        if (c.y) a.p.image[2 * v + 1] += c.y;
       }
     }
     if (tail)

@@ -22,6 +22,7 @@ class DeviceLoops final : public OverlapCorrectLoops<R> {
         cand_(exec),
         seed_(exec),
         disp_(exec),
+        crossed_(exec),
         nb_(exec),
         degree_(exec),
         fan_(exec),
@@ -52,6 +53,7 @@ class DeviceLoops final : public OverlapCorrectLoops<R> {
                      cand_.get(cap_),
                      seed_.get(cap_),
                      disp_.get(cap_),
+                     crossed_.get(cap_),
                      nb_.get(kCached * cap_),
                      degree_.get(cap_),
                      fan_.get(kCached * cap_),
@@ -106,7 +108,8 @@ class DeviceLoops final : public OverlapCorrectLoops<R> {
   Scratch<std::uint8_t> marks_;  // grid·tile bytes, one per particle: the next candidates
   Scratch<int> cand_;            // grid·tile: the candidates (Args)
   Scratch<int> seed_;            // grid·tile: the touched particles
-  Scratch<double2> disp_;        // grid·tile: their displacements
+  Scratch<double2> disp_;        // grid·tile: where the moved ones go
+  Scratch<char2> crossed_;       // grid·tile: their box crossings
   Scratch<int> nb_;              // kCached x grid·tile: each particle's neighbours
   Scratch<std::uint8_t> degree_; // grid·tile: how many (kept across steps, with fan_)
   Scratch<int> fan_;             // kCached x grid·tile: each listed fan's half-edges (kept_fan)
