@@ -20,11 +20,13 @@ namespace ff::overlap {
 constexpr int kCached = 8;
 constexpr std::uint8_t kWalk = 0xff;
 
-// v's listed neighbours (d ≤ kCached of them) into ids: one or two 16-byte loads.
-__device__ inline void load_ids(const int* nb, int v, int d, int (&ids)[kCached]) {
+// v's listed neighbours (d ≤ kCached of them) into ids: both 16-byte halves of its 32-byte
+// sector, whatever d is (entries from d on are left from earlier lists and never used), so the
+// loads need not wait for the degree: they go out with it.
+__device__ inline void load_ids(const int* nb, int v, int (&ids)[kCached]) {
   const int4* p = reinterpret_cast<const int4*>(nb + std::size_t(kCached) * v);
   const int4 lo = p[0];
-  const int4 hi = d > 4 ? p[1] : make_int4(0, 0, 0, 0);
+  const int4 hi = p[1];
   ids[0] = lo.x, ids[1] = lo.y, ids[2] = lo.z, ids[3] = lo.w;
   ids[4] = hi.x, ids[5] = hi.y, ids[6] = hi.z, ids[7] = hi.w;
 }
@@ -80,7 +82,7 @@ __device__ bool kept_fan(const Overlaps<R, W>& ov, int v, int d, const int* nb, 
   const int4 lo = p[0];
   const int4 hi = d > 4 ? p[1] : make_int4(0, 0, 0, 0);
   const int hs[kCached] = {lo.x, lo.y, lo.z, lo.w, hi.x, hi.y, hi.z, hi.w};
-  load_ids(nb, v, d, ids);
+  load_ids(nb, v, ids);
   const int h0 = ov.vedge[v];
   bool ok = true, has_h0 = false;
 #pragma unroll
@@ -109,9 +111,8 @@ __device__ bool neighbor_ids(const Overlaps<R, W>& ov, int v, bool first, int* n
                               int (&ids)[kCached], int& d) {
   if (!first) {
     d = degree[v];
-    if (d == kWalk) return false;
-    load_ids(nb, v, d, ids);
-    return true;
+    load_ids(nb, v, ids);
+    return d != kWalk;
   }
   d = degree[v];  // last step's
   if (kept_fan(ov, v, d, nb, fan, ids)) return true;  // nb and degree hold it already
@@ -145,9 +146,9 @@ __device__ bool neighbor_ids(const Overlaps<R, W>& ov, int v, bool first, int* n
 template <class R, bool W, class F>
 __device__ bool thread_check(const Overlaps<R, W>& ov, int v, const int* nb, const std::uint8_t* degree, F&& f) {
   const int d = degree[v];
-  if (d == kWalk) return ov.overlapping_neighbors(v, f);
   int ids[kCached];
-  load_ids(nb, v, d, ids);
+  load_ids(nb, v, ids);
+  if (d == kWalk) return ov.overlapping_neighbors(v, f);
   double xv, yv;
   load_xy(ov.pos, v, xv, yv);
   const double sv = ov.diameter_of(v);
