@@ -375,23 +375,13 @@ __global__ void __launch_bounds__(Threads, MinBlocks) correct_kernel(Args<R, Wal
         }
       }
     };
-    if (k == 0) {  // one thread per particle, every particle of the tile
+    if (k == 0 || count > kGroupBelow<Threads>) {  // one thread per particle
       for (int i = int(threadIdx.x); i < count; i += Threads) {
-        const int v = t0 + i;
-        int ids[kCached], d;
-        take(v, neighbor_ids(ov, v, true, a.nb, a.degree, a.fan, ids, d) ? gather_ids(ov, v, ids, d) : ov.gather(v));
-      }
-    } else if (count > kGroupBelow<Threads>) {  // one thread per candidate
-      // The next candidate's list is loaded while this one is gathered, and the id of the one
-      // after it (ListAhead): a thread's candidates are then no longer a chain of id, list,
-      // positions each.
-      ListAhead next(cand, count, int(threadIdx.x), Threads, a.nb, a.degree);
-      for (int i = int(threadIdx.x); i < count; i += Threads) {
-        int v, d, ids[kCached];
-        next.take(v, d, ids);
+        const int v = k == 0 ? t0 + i : __ldcg(cand + i);
         if (tail)  // its claim: cleared for the next check
           atomicAnd(reinterpret_cast<unsigned*>(a.marks) + (v >> 2), ~(1u << (8 * (v & 3))));
-        take(v, d != kWalk ? gather_ids(ov, v, ids, d) : ov.gather(v));
+        int ids[kCached], d;
+        take(v, neighbor_ids(ov, v, k == 0, a.nb, a.degree, a.fan, ids, d) ? gather_ids(ov, v, ids, d) : ov.gather(v));
       }
     } else {  // one lane group per particle (the loop is uniform over the block: shuffles)
       const int l = int(threadIdx.x) % kGroup;
@@ -505,14 +495,11 @@ __global__ void __launch_bounds__(Threads, MinBlocks) correct_kernel(Args<R, Wal
         }
       }
     } else if (ns > kGroupBelow<Threads>) {  // one thread per listed particle
-      ListAhead next(seed, ns, int(threadIdx.x), Threads, a.nb, a.degree);  // as in the gathers
       for (int i = int(threadIdx.x); i < ns; i += Threads) {
-        int v, d, ids[kCached];
-        next.take(v, d, ids);
+        const int v = seed[i];
         if (v < 0)
           mark_it(~v);
-        else if (d != kWalk ? ids_check(ov, v, ids, d, mark_it)  // (the fan closed in iteration 0)
-                            : ov.overlapping_neighbors(v, mark_it))
+        else if (thread_check(ov, v, a.nb, a.degree, mark_it))  // (the fan closed in iteration 0)
           mark_it(v);
       }
     } else {

@@ -140,50 +140,15 @@ __device__ bool neighbor_ids(const Overlaps<R, W>& ov, int v, bool first, int* n
   return true;
 }
 
-// A thread's walk through a list of particles (entries first, first + step, ... below count:
-// candidates, or a check's listed particles, ~v for those that did not move), each with its
-// neighbour list: the next entry's list is loaded while the caller works on this one, and the
-// entry after it too, so that each particle no longer waits for its id, then its list.
-struct ListAhead {
-  const int* list;
-  int count, at, step;
-  const int* nb;
-  const std::uint8_t* degree;
-  int v1, d1, ids1[kCached];  // the next entry and its list
-  int v2;                     // the one after it
-  __device__ ListAhead(const int* list_, int count_, int first, int step_, const int* nb_, const std::uint8_t* degree_)
-      : list(list_), count(count_), at(first), step(step_), nb(nb_), degree(degree_) {
-    v1 = at < count ? __ldcg(list + at) : ~0;
-    v2 = at + step < count ? __ldcg(list + at + step) : ~0;
-    fetch();
-  }
-  // The list of v1 (none for an entry ~v or past the end).
-  __device__ void fetch() {
-    if (v1 >= 0) {
-      d1 = degree[v1];
-      load_ids(nb, v1, ids1);
-    } else {
-      d1 = 0;
-    }
-  }
-  // The entry at `at` (at < count) with its list; moves on by step.
-  __device__ void take(int& v, int& d, int (&ids)[kCached]) {
-    v = v1;
-    d = d1;
-#pragma unroll
-    for (int k = 0; k < kCached; ++k) ids[k] = ids1[k];
-    at += step;
-    v1 = v2;
-    v2 = at + step < count ? __ldcg(list + at + step) : ~0;
-    fetch();
-  }
-};
-
-// The check of moved particle v (its list ids[0 .. d)) by one thread, loading as gather_ids:
-// calls f(u) for each neighbour u that overlaps v at the new positions
-// (Overlaps::overlapping_neighbors' test) and returns whether any did.
+// The check of moved particle v by one thread, loading as gather_ids: calls f(u) for each
+// neighbour u that overlaps v at the new positions (Overlaps::overlapping_neighbors' test) and
+// returns whether any did.
 template <class R, bool W, class F>
-__device__ bool ids_check(const Overlaps<R, W>& ov, int v, const int (&ids)[kCached], int d, F&& f) {
+__device__ bool thread_check(const Overlaps<R, W>& ov, int v, const int* nb, const std::uint8_t* degree, F&& f) {
+  const int d = degree[v];
+  int ids[kCached];
+  load_ids(nb, v, ids);
+  if (d == kWalk) return ov.overlapping_neighbors(v, f);
   double xv, yv;
   load_xy(ov.pos, v, xv, yv);
   const double sv = ov.diameter_of(v);
