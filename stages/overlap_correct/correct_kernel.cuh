@@ -103,9 +103,6 @@ constexpr int kTailMoved = 512;
 #endif
 constexpr int kTeamMoved = OC20_TEAM_MOVED;
 constexpr int kTeamBlocks = OC20_TEAM_BLOCKS;
-// The check after an iteration that moved more than n / kEdgeCheckBelow particles runs over the
-// edges instead of the moved particles' lists (correct_kernel).
-constexpr unsigned long long kEdgeCheckBelow = 4;
 
 using u64 = unsigned long long;
 
@@ -473,28 +470,7 @@ __global__ void __launch_bounds__(Threads, MinBlocks) correct_kernel(Args<R, Wal
       next_team = kTeamBlocks;
     const bool claim = next_team < int(gridDim.x) && !last;
     auto mark_it = [&](int u) { mark(a.marks, u, claim, a.cand, a.claims + ((j + 1) & 1)); };
-    if (!Walls && team == int(gridDim.x) && moved * kEdgeCheckBelow > u64(n)) {
-      // Most particles moved: an edge pass instead, every edge once (the 16-byte records in
-      // order, each block a contiguous share), both ends of each edge that overlaps at the new
-      // positions marked (the check's own test; its r² is the same bits from either end). It
-      // marks what the walks mark, less touched particles that no longer overlap anything and
-      // plus ends of edges that overlap only within the test's looseness: both kinds gather
-      // nothing in the next iteration (no pair, d = 0), so the results are the same.
-      const std::size_t edges = 3 * std::size_t(n), per = (edges + gridDim.x - 1) / gridDim.x;
-      const std::size_t e1 = min(edges, (blockIdx.x + 1) * per);
-      for (std::size_t e = blockIdx.x * per + threadIdx.x; e < e1; e += Threads) {
-        int ea, na, eb, nb;
-        load_edge(ov.he, e, ea, na, eb, nb);
-        if (unsigned(ea) >= unsigned(n) || unsigned(eb) >= unsigned(n)) continue;  // (iteration 0 checked them)
-        double xa, ya, xb, yb;
-        load_xy(ov.pos, ea, xa, ya);
-        load_xy(ov.pos, eb, xb, yb);
-        if (ov.overlaps_after_move_at(xa, ya, ov.diameter_of(ea), eb, xb, yb)) {
-          mark_it(ea);
-          mark_it(eb);
-        }
-      }
-    } else if (ns > kGroupBelow<Threads>) {  // one thread per listed particle
+    if (ns > kGroupBelow<Threads>) {  // one thread per listed particle
       for (int i = int(threadIdx.x); i < ns; i += Threads) {
         const int v = seed[i];
         if (v < 0)
