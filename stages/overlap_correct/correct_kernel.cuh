@@ -86,23 +86,10 @@ struct Sums {
 static_assert(kTouched == kCounters - 1, "kTouched is the counter left out without the touched field");
 constexpr int kDevCounters = kCounters + 1;  // the most a kernel sums (the slots' layout)
 constexpr std::size_t kSlotWords = std::size_t(kBatch) * kDevCounters * kShards * kShardStride;
-// Words after the slots, zeroed with them: the claims of the lists of even and odd iterations, and
-// the team's barrier (arrivals, generation; team_barrier).
-constexpr std::size_t kClaimWords = 4;
 constexpr std::size_t kResultWords = std::size_t(kBatch) * kCounters + 1;  // + gathers run
 // Iterations after one that moved at most this many particles run in block 0 alone
-// (bench/overlap_correct-PERF.md); after one that moved at most kTeamMoved, in the first
-// kTeamBlocks blocks of the grid (a team with its own barrier, team_barrier), which take equal
-// shares of one claimed list: there the grid's barriers and its slowest tile were the time.
+// (bench/overlap_correct-PERF.md).
 constexpr int kTailMoved = 512;
-#ifndef OC20_TEAM_MOVED
-#define OC20_TEAM_MOVED 16384
-#endif
-#ifndef OC20_TEAM_BLOCKS
-#define OC20_TEAM_BLOCKS 24
-#endif
-constexpr int kTeamMoved = OC20_TEAM_MOVED;
-constexpr int kTeamBlocks = OC20_TEAM_BLOCKS;
 
 using u64 = unsigned long long;
 
@@ -119,9 +106,8 @@ struct Args {
   std::uint8_t* degree;    // grid·tile: how many (kWalk: more than kCached, walk the fan)
   int* fan;                // kCached x grid·tile: the half-edges of each listed fan, kept across steps
   u64* slots;              // kBatch x Sums::kAll x kShards (sharded counters, zero at launch)
-  u64* claims;             // kClaimWords: entries of cand claimed for the tail, by parity of the
-                           // iteration that reads them, and the team's barrier (zero at launch)
-  u64* next_slots;         // the other launch's slots and claims (kSlotWords + kClaimWords): zeroed here
+  u64* claims;             // entries of cand claimed for the tail (zero at launch)
+  u64* next_slots;         // the other launch's slots and claims (kSlotWords + 1): zeroed here
   u64* result;             // kBatch x kCounters + 1 (block 0 writes the sums and the gather count):
                            // pinned host memory, written directly (no copy after the kernel)
   int tile;                // particles per block, a multiple of 16
@@ -232,29 +218,6 @@ __device__ void team_sync() {
   }
 }
 
-// A barrier among the first `blocks` blocks of a grid launch (all resident: a cooperative launch),
-// as cg's grid barrier does it for the whole grid: arrivals counted on bar[0], the last one
-// resets them and bumps the generation bar[1], the others wait for the bump; the fences on either
-// side make every write before it seen by every read after it, plain loads included (L1).
-__device__ void team_barrier(u64* bar, int blocks) {
-  __syncthreads();
-  if (threadIdx.x == 0) {
-    volatile u64* gen = bar + 1;
-    const u64 g = *gen;
-    __threadfence();
-    if (atomicAdd(bar, 1ull) == u64(blocks - 1)) {
-      *reinterpret_cast<volatile u64*>(bar) = 0;
-      __threadfence();
-      atomicAdd(bar + 1, 1ull);
-    } else {
-      while (*gen == g) {
-      }
-    }
-    __threadfence();
-  }
-  __syncthreads();
-}
-
 // The u64 at p (in this block's shared memory) in the shared memory of the cluster's block
 // `rank` (sm_90's distributed shared memory): mapa and ld.shared::cluster. (cg's
 // cluster.map_shared_rank goes through a generic address, and cost this kernel up to 128
@@ -298,30 +261,18 @@ __global__ void __launch_bounds__(Threads, MinBlocks) correct_kernel(Args<R, Wal
   const int n = int(a.p.n);
   const int t0 = int(blockIdx.x) * a.tile;
   const int t1 = min(n, t0 + a.tile);
-  std::size_t mine = std::size_t(blockIdx.x) * a.tile;  // where this block's lists start
+  const std::size_t mine = std::size_t(blockIdx.x) * a.tile;  // 0 for block 0: its tail lists span all
   int* cand = a.cand + mine;
   int* seed = a.seed + mine;
   double2* disp = a.disp + mine;
   char2* crossed = a.crossed + mine;
   const int lane = threadIdx.x & 31, warp = threadIdx.x >> 5;
   const int shard = int(blockIdx.x % kShards) * kShardStride;
-  // Blocks that run the iterations: the launch's, then (tail) the first kTeamBlocks or block 0
-  // alone, each taking a share of one claimed list.
-  int team = int(gridDim.x);
-  bool tail = false;
+  bool tail = false;  // block 0 alone runs the iterations
   // The next launch's counters, zeroed here instead of by a memset before it (a host call on
   // the step's critical path, between Lawson's wait and this launch). No one reads them now.
-  for (int w = int(blockIdx.x * Threads + threadIdx.x); w < int(kSlotWords + kClaimWords); w += int(gridDim.x) * Threads)
+  for (int w = int(blockIdx.x * Threads + threadIdx.x); w < int(kSlotWords + 1); w += int(gridDim.x) * Threads)
     a.next_slots[w] = 0;
-  // Between the phases of an iteration, the blocks that run it meet here.
-  auto sync = [&] {
-    if (team == int(gridDim.x))
-      team_sync<Team>();
-    else if (team > 1)
-      team_barrier(a.claims + 2, team);
-    else
-      __syncthreads();
-  };
 
   for (int j = 0; j < kBatch; ++j) {
     const long long k = a.k0 + j;
@@ -330,16 +281,13 @@ __global__ void __launch_bounds__(Threads, MinBlocks) correct_kernel(Args<R, Wal
       count = max(0, t1 - t0);
     } else if (!tail) {
       count = compact<Threads>(a.marks, t0, a.tile, cand, s_warp);
-    } else {  // the claimed list, in equal shares [b·share, (b + 1)·share) for block b of the team
+    } else {
       if (threadIdx.x == 0) {
-        s_count = int(__ldcg(a.claims + (j & 1)));
-        if (blockIdx.x == 0) a.claims[(j + 1) & 1] = 0;  // read by every block in iteration j − 1
+        s_count = int(__ldcg(a.claims));
+        *a.claims = 0;
       }
       __syncthreads();
-      const int share = (s_count + team - 1) / team;
-      const int from = min(s_count, int(blockIdx.x) * share);
-      count = min(s_count, from + share) - from;
-      cand = a.cand + from;
+      count = s_count;
     }
     if (threadIdx.x == 0) s_seeds = s_moved = 0;
     __syncthreads();
@@ -406,15 +354,15 @@ __global__ void __launch_bounds__(Threads, MinBlocks) correct_kernel(Args<R, Wal
       } else {
         s = u64(s_moved);
       }
-      if (team == 1)
+      if (tail)
         s_tot[threadIdx.x] = s;
       else if (kCluster)
         s_part[threadIdx.x] = s;
       else if (s)
         atomicAdd(a.slots + (std::size_t(j) * kAll + threadIdx.x) * kShards * kShardStride + shard, s);
     }
-    if (team > 1) {
-      sync();
+    if (!tail) {
+      team_sync<Team>();
       if (threadIdx.x < kAll) {
         u64 s = 0;
         if constexpr (kCluster) {
@@ -440,7 +388,7 @@ __global__ void __launch_bounds__(Threads, MinBlocks) correct_kernel(Args<R, Wal
     // and none is set before the check that follows an apply.
     if (!keeps_going(tot, k, a.max_iterations)) {
       // A cluster's block keeps its shared memory until the others have read its sums.
-      if (kCluster && team > 1) team_sync<Team>();
+      if (kCluster && !tail) team_sync<Team>();
       return;
     }
 
@@ -455,21 +403,17 @@ __global__ void __launch_bounds__(Threads, MinBlocks) correct_kernel(Args<R, Wal
         if (c.y) a.p.image[2 * v + 1] += c.y;
       }
     }
-    sync();
+    if (tail)
+      __syncthreads();
+    else
+      team_sync<Team>();
 
     // The check (positions are the new ones now): marks the next iteration's candidates. The
     // last iteration of a batch leaves plain marks, which the next launch compacts.
-    // From the next iteration on, fewer blocks may run (the same decision in every block): they
-    // gather what this check claims.
     const bool last = j + 1 == kBatch;
-    const u64 moved = s_tot[kMoved];
-    int next_team = team;
-    if (moved <= u64(kTailMoved))
-      next_team = 1;
-    else if (!kCluster && moved <= u64(kTeamMoved) && team > kTeamBlocks && int(gridDim.x) % kTeamBlocks == 0)
-      next_team = kTeamBlocks;
-    const bool claim = next_team < int(gridDim.x) && !last;
-    auto mark_it = [&](int u) { mark(a.marks, u, claim, a.cand, a.claims + ((j + 1) & 1)); };
+    const bool to_tail = !tail && s_tot[kMoved] <= u64(kTailMoved);
+    const bool claim = (tail || to_tail) && !last;
+    auto mark_it = [&](int u) { mark(a.marks, u, claim, a.cand, a.claims); };
     if (ns > kGroupBelow<Threads>) {  // one thread per listed particle
       for (int i = int(threadIdx.x); i < ns; i += Threads) {
         const int v = seed[i];
@@ -489,17 +433,14 @@ __global__ void __launch_bounds__(Threads, MinBlocks) correct_kernel(Args<R, Wal
       }
     }
     if (last) return;  // the host launches the next batch
-    sync();
-    if (next_team < team) {
-      if (int(blockIdx.x) >= next_team) return;
-      team = next_team;
-      tail = true;
-      // This block's lists: its share of the whole arrays (gridDim·tile entries; the team's size
-      // divides gridDim, so a share holds as many as any block can take from the claimed list).
-      mine = std::size_t(blockIdx.x) * (std::size_t(gridDim.x) / std::size_t(team)) * std::size_t(a.tile);
-      seed = a.seed + mine;
-      disp = a.disp + mine;
-      crossed = a.crossed + mine;
+    if (tail) {
+      __syncthreads();
+    } else {
+      team_sync<Team>();
+      if (to_tail) {
+        if (blockIdx.x != 0) return;
+        tail = true;
+      }
     }
   }
 }
