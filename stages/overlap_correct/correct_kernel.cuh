@@ -36,13 +36,16 @@
 // mark with a word atomic and lists the particle that claimed it first in one global list, which
 // block 0 gathers (clearing each mark) without scanning every tile. Block 0's lists then span the
 // whole arrays (grid·tile ≥ N entries; a particle is listed once an iteration).
-// The same particles are gathered either way; only who gathers them differs. Iteration 0's walks
-// copy each particle's neighbours to a per-step list that the later gathers and checks read
-// instead of walking the fan again (kCached below): one thread per particle, its neighbours'
-// positions loaded kInFlight at a time, or, when a block has at most kGroupBelow particles to
-// do (the late iterations), a group of 8 lanes per particle, one neighbour each. (Tried and not in,
-// being slower: edge passes, and the check fused with the next gather: bench/experiments/README.md,
-// bench/overlap_correct-PERF.md.)
+// The same particles are gathered either way; only who gathers them differs. Iteration 0 copies
+// each particle's neighbours to a list that the later gathers and checks read instead of walking
+// the fan again (kCached below), and keeps the list from the step before where the fan did not
+// change (kept_fan: checked with independent loads instead of walked as a chain): one thread per
+// particle, its neighbours' positions loaded kInFlight at a time, or, when a block has at most
+// kGroupBelow particles to do (the late iterations), a group of 8 lanes per particle, one
+// neighbour each. A gather also computes where each particle it moves goes (kernel.h's moved_d,
+// with the position it just loaded), so the apply only stores positions. (Tried and not in,
+// being slower: edge passes, the check fused with the next gather, teams of blocks for the late
+// iterations: bench/experiments/README.md, bench/overlap_correct-PERF.md.)
 //
 // Counters: per-thread sums, a block reduction, then one integer atomic per block into one of
 // kShards copies of each counter (spreading same-address atomics); after the barrier every

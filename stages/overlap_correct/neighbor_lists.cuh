@@ -13,10 +13,11 @@ namespace ff::overlap {
 
 // Neighbour lists of the step. Iteration 0 walks every particle's fan (checking that it
 // closes) and copies its neighbours, up to kCached, to nb (one 32-byte sector per particle;
-// in a Delaunay triangulation the mean degree is 6); later walks read them from there: one
-// load for the ids instead of a chain of one dependent half-edge load per neighbour, and one
-// sector instead of ~6 (the triangulation does not change during the stage). A particle with
-// more neighbours walks its fan each time.
+// in a Delaunay triangulation the mean degree is 6), and the fan's half-edges to fan; later walks
+// read them from there: one load for the ids instead of a chain of one dependent half-edge load
+// per neighbour, and one sector instead of ~6 (the triangulation does not change during the
+// stage). The arrays outlive the step: the next step's iteration 0 walks again only the fans that
+// changed (kept_fan). A particle with more neighbours walks its fan each time.
 constexpr int kCached = 8;
 constexpr std::uint8_t kWalk = 0xff;
 

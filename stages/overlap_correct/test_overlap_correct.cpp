@@ -584,10 +584,10 @@ TEST_CASE("overlap_correct: CPU and CUDA give the same bits on either device pat
 
 // Many steps of ABP at φ = 0.7 (abp.yaml's stages: integrate, Delaunay maintenance with flips
 // every step, overlap_correct) on the grid path: the device keeps each particle's fan from one
-// step to the next (neighbor_lists.cuh, kept_fan) and runs the late iterations of a step in a
-// team of blocks, then one block; neither may change a bit. Positions, image counts and each
-// step's iterations and pairs must equal the CPU's.
-TEST_CASE("overlap_correct: CPU and CUDA give the same bits over many steps of ABP (kept fans, teams)",
+// step to the next where the flips left it alone (neighbor_lists.cuh, kept_fan) and runs the
+// late iterations of a step in one block; neither may change a bit. Positions, image counts and
+// each step's iterations and pairs must equal the CPU's.
+TEST_CASE("overlap_correct: CPU and CUDA give the same bits over many steps of ABP (kept fans)",
           "[overlap][cuda]") {
   if (!test::have_cuda("overlap_correct CPU-vs-CUDA over many steps")) return;
   for (std::uint64_t n : {20000u, 100000u}) {
@@ -618,7 +618,7 @@ TEST_CASE("overlap_correct: CPU and CUDA give the same bits over many steps of A
     const Run cpu = run(Backend::cpu), cuda = run(Backend::cuda);
     double most = 0;
     for (double it : cpu.iterations) most = std::max(most, it);
-    CHECK(most >= 5);  // the late iterations (team, tail) do run
+    CHECK(most >= 5);  // the late iterations (block 0's tail) do run
     CHECK(cpu.iterations == cuda.iterations);
     CHECK(cpu.pairs == cuda.pairs);
     CHECK(cpu.image == cuda.image);
