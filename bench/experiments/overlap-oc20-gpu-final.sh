@@ -1,0 +1,41 @@
+#!/bin/bash
+# (Kept for the record: the variants archive it unpacks lived in gpu-carry/oc20 outside the
+# repository; the plugins are built from the commits named in bench/experiments/README.md, session 17.)
+# oc20 (issue 20, overlap_correct at 2^20), final GPU call (< 60 s):  bash run3.sh BUNDLE OUT
+# Unpacks variants3.tar.xz (next to this script) into BUNDLE/oc20c/: final/ (the branch's head,
+# oc20: iteration 0 keeps last step's fans, the gather computes the new position so the apply
+# only stores it, later lists loaded with their degree; rpath $ORIGIN/../../lib) and
+# tests/test_overlap_correct_cpu_cuda (the branch's). Order by priority, each step only while time is left:
+#   1. bits: CPU == CUDA over 150 steps of ABP at φ = 0.7 (N = 20000, 100000: every step's
+#      iterations and pairs, final positions and images) and one correction at 3000 … 100000;
+#   2. bench-abp 2^20 (100 steps after 20) with final, then with main's plugin.
+# Writes OUT/run3.txt.
+set -uo pipefail
+SECONDS=0
+B=$(cd "${1:-${BUNDLE:-bundle}}" && pwd)
+OUT=${2:-${OUT:-/tmp/oc20-out3}}
+mkdir -p "$OUT"
+OUT=$(cd "$OUT" && pwd)
+HERE=$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)
+TMPD=$(mktemp -d /tmp/oc20c.XXXXXX)
+V=$B/oc20c
+mkdir -p "$V"
+tar xJf "$HERE/variants3.tar.xz" -C "$V" 2>/dev/null ||
+  python3 -c "import tarfile, sys; tarfile.open(sys.argv[1]).extractall(sys.argv[2])" "$HERE/variants3.tar.xz" "$V"
+export FLIPFLOW_TEST_DATA=$B/tests/data
+{
+  echo "== final: test_overlap_correct_cpu_cuda, CPU == CUDA cases"
+  FLIPFLOW_PLUGIN_PATH=$V/final:$B/plugins timeout 25 "$V/tests/test_overlap_correct_cpu_cuda" \
+    "*many steps of ABP*,*either device path*" > "$TMPD/t.txt" 2>&1
+  tail -3 "$TMPD/t.txt"
+  grep -B3 -A14 "FAILED" "$TMPD/t.txt" | head -40
+  echo "-- ${SECONDS} s"
+  for c in final -; do
+    ((SECONDS > 35)) && { echo "== ${c/#-/main}: skipped (${SECONDS} s spent)"; continue; }
+    if [[ $c == - ]]; then unset FLIPFLOW_PLUGIN_PATH; else export FLIPFLOW_PLUGIN_PATH=$V/$c; fi
+    echo "== bench-abp 2^20, ${c/#-/main}"
+    timeout 30 "$B/bin/pipeline" bench "$B/pipelines/bench-abp.yaml" --device cuda --sizes 1048576 --steps 100 \
+      --warmup 20 --results "$TMPD/results" 2>&1 | grep -E "^[0-9]|iterations per|pairs per|error" | head -4
+  done
+  echo "total: ${SECONDS} s"
+} 2>&1 | tee "$OUT/run3.txt"
