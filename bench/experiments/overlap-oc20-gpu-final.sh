@@ -8,7 +8,8 @@
 # tests/test_overlap_correct_cpu_cuda (the branch's). Order by priority, each step only while time is left:
 #   1. bits: CPU == CUDA over 150 steps of ABP at φ = 0.7 (N = 20000, 100000: every step's
 #      iterations and pairs, final positions and images) and one correction at 3000 … 100000;
-#   2. bench-abp 2^20 (100 steps after 20) with final, then with main's plugin.
+#   2. bench-abp 2^20 (100 steps after 20) with final, then with main's plugin (or, with a third
+#      argument nofan, with nofan/: final without the kept fans, which alone did not gain in call 1).
 # Writes OUT/run3.txt.
 set -uo pipefail
 SECONDS=0
@@ -30,7 +31,7 @@ export FLIPFLOW_TEST_DATA=$B/tests/data
   tail -3 "$TMPD/t.txt"
   grep -B3 -A14 "FAILED" "$TMPD/t.txt" | head -40
   echo "-- ${SECONDS} s"
-  for c in final -; do
+  for c in final "${3:--}"; do
     ((SECONDS > 35)) && { echo "== ${c/#-/main}: skipped (${SECONDS} s spent)"; continue; }
     if [[ $c == - ]]; then unset FLIPFLOW_PLUGIN_PATH; else export FLIPFLOW_PLUGIN_PATH=$V/$c; fi
     echo "== bench-abp 2^20, ${c/#-/main}"
