@@ -1,10 +1,10 @@
 // delaunay.flip per-element math: the repair round is decide + apply (common/flip.h) followed
 // by the detection pass of delaunay.detect_inversion (MarkInversions, without the r⁰·r¹ test),
 // which re-marks whatever inverted triangles remain. For `on_unrepairable: substep` (Porro et
-// al. §3, "intermediate position"), per-vertex passes: which particles have an inverted
+// al. §3, "intermediate position"), passes over lists: which particles have an inverted
 // triangle around them or an edge whose vector reversed since the valid positions (r⁰·r¹ < 0);
 // those go a level deeper (half as far from where the triangulation was valid), and after a
-// try that works every particle goes a level shallower.
+// try that works every particle not at its target goes a level shallower.
 // FF_HD; nvcc-clean.
 #pragma once
 #include <cmath>
@@ -15,18 +15,191 @@
 
 namespace ff::delaunay {
 
-// Per vertex v: moving[v] = 1 when a triangle around v is inverted, or when the vector of an
-// edge at v reversed since `valid` (MarkInversions' r⁰·r¹ test, the same formula from either
-// end: a pair passing each other closer than the step's move). Each triangle's orientation
-// is computed from its canonical half-edge exactly as MarkInversions / CheckInverted compute it,
-// so a near-flat triangle is judged the same way by every pass (and by all three of its vertices).
-// Per vertex (reads only) so that no two threads write the same byte.
+// Sub-stepping works on lists (stage.h, untangle): each try re-marks only the edges whose
+// status can have changed (those around particles that moved, the ones a flip changed, the
+// ones troubled before), and the particles, edges and topology records a try touches are
+// gathered in lists, so a try costs what the trouble costs, not a pass over N. A list is an
+// array of ids with its length in a counter slot; ids are appended by atomics (their order
+// differs between runs and backends, the set does not), so every list pass below gives the
+// same result in any order: marks and flips depend only on the marks (common/flip.h), counts
+// are sums and minima.
+
+// Slots of the sub-stepping's counter block, after the detection counters (detect_inversion's
+// kernel.h): list lengths and the step's statistics.
+enum SubstepCounter : int {
+  kTroubledCount = kInversionCounters,  // edges appended to a marking's troubled list
+  kWorkCount,                           // edges in the next work list
+  kMovingCount,                         // particles that go a level deeper
+  kActiveCount,                         // particles not at their target (depth > 0)
+  kTouchedEdgeCount,                    // edges whose records a flip changed since V's topology
+  kTouchedVertexCount,                  // vertices whose vertex_edge a flip may have changed
+  kHalvedCount,                         // distinct particles halved at least once in the step
+  kDepthNot,                            // ~(deepest depth reached in the step): a minimum slot
+  kSubstepCounters
+};
+
+// Claims id for the list being built: true for exactly one caller per stamp value.
+FF_HD bool claim(unsigned* stamp, unsigned gen) {
+  unsigned old = *stamp;
+  while (old != gen) {
+    const unsigned seen = compare_and_swap(stamp, old, gen);
+    if (seen == old) return true;
+    old = seen;
+  }
+  return false;
+}
+
+// Appends id to `list` (length in *count) once per stamp generation.
+FF_HD void append_once(std::int32_t* list, unsigned* count, unsigned* stamp, unsigned gen, int id) {
+  if (claim(stamp + id, gen)) list[append_index(count, 1)] = id;
+}
+
+// The detection pass (MarkInversions, with or without the r⁰·r¹ test) on a list of edges
+// (`list` null: every edge), appending the troubled ones: an edge is troubled unless it is
+// quiet, i.e. both its triangles close and are positive and (with `prev`) its vector did not
+// reverse; a quiet edge gets mark 0 and nothing else, exactly as MarkInversions::test leaves it
+// (same expressions), every other edge goes through test() itself. Troubled are thus the marked
+// edges, the edges of inverted triangles, the reversed ones: every edge whose mark is 1 or whose
+// triangles count, so a later marking need visit only these and the edges whose quads or
+// vertices changed. `n_listed`, when set, is the list's length on the backend: the loop runs
+// over a bound and stops there (no host read of the length).
 template <class R>
-struct MarkInvertedVertices {
+struct MarkListed {
+  MarkInversions<R> marking;  // without candidates (delaunay.flip never lists them)
+  const std::int32_t* list;
+  const unsigned* n_listed;
+  std::int32_t* troubled;
+  unsigned* counters;  // kTroubledCount
+
+  FF_HD bool quiet(int e) const {
+    const QuadVertices q = quad_vertices(marking.mesh, e);
+    const Points<R>& pts = marking.pts;
+    const V2 ab = pts.rel(q.a, q.b), ac = pts.rel(q.a, q.c), ad = pts.rel(q.a, q.d);
+    if (!closes(ab, ac, pts.box) || !closes(ab, ad, pts.box)) return false;
+    if (marking.prev) {
+      const Points<R> before{marking.prev, pts.box};
+      if (dot(before.rel(q.a, q.b), ab) < 0) return false;
+    }
+    const V2 o{0, 0};
+    return orient(o, ab, ac) > 0 && orient(ab, o, ad) > 0;
+  }
+  FF_HD void operator()(std::size_t i) const {
+    if (n_listed && i >= *n_listed) return;
+    const int e = list ? list[i] : int(i);
+    if (quiet(e)) {
+      marking.mark[e] = 0;
+      return;
+    }
+    marking.test(e);
+    troubled[append_index(counters + kTroubledCount, 1)] = e;
+  }
+};
+
+// DecideFlips on the edges of a list (the troubled ones: every marked edge is among them).
+struct DecideListed {
+  DecideFlips decide;
+  const std::int32_t* list;
+  FF_HD void operator()(std::size_t i) const { decide(std::size_t(list[i])); }
+};
+
+// The winning flips of a list. Before flipping, each records what it changes: its edge and the
+// four around it (their half-edge and opposite records; the edges whose quads change), and its
+// two end vertices (vertex_edge): the records to put back when the try fails, or to keep when
+// it works (TouchedRecords); and the five edges go to the next round's work list. Winning flips
+// share no triangle, so no other flip writes the records read here.
+struct ApplyListed {
+  Mesh mesh;
+  const std::uint8_t* go;
+  const std::int32_t* list;
+  std::int32_t* work;  // next marking's edges
+  unsigned* work_stamp;
+  unsigned work_gen;
+  std::int32_t* touched_edges;
+  unsigned* touched_edge_stamp;
+  std::int32_t* touched_vertices;
+  unsigned* touched_vertex_stamp;
+  unsigned touched_gen;
+  unsigned* counters;  // kWorkCount, kTouchedEdgeCount, kTouchedVertexCount
+
+  FF_HD void operator()(std::size_t i) const {
+    const int e = list[i];
+    if (!go[e]) return;
+    const Quad q = quad(mesh, e);
+    const int edges[5] = {e, q.h0n >> 1, q.h0p >> 1, q.h1n >> 1, q.h1p >> 1};
+    for (int k = 0; k < 5; ++k) {
+      append_once(work, counters + kWorkCount, work_stamp, work_gen, edges[k]);
+      append_once(touched_edges, counters + kTouchedEdgeCount, touched_edge_stamp, touched_gen, edges[k]);
+    }
+    append_once(touched_vertices, counters + kTouchedVertexCount, touched_vertex_stamp, touched_gen, q.a);
+    append_once(touched_vertices, counters + kTouchedVertexCount, touched_vertex_stamp, touched_gen, q.b);
+    flip_edge(mesh, e);
+  }
+};
+
+// Appends the edges of a list to a work list (once each).
+struct ListEdges {
+  const std::int32_t* list;
+  std::int32_t* work;
+  unsigned* work_stamp;
+  unsigned work_gen;
+  unsigned* counters;  // kWorkCount
+  FF_HD void operator()(std::size_t i) const {
+    append_once(work, counters + kWorkCount, work_stamp, work_gen, list[i]);
+  }
+};
+
+// Appends the edges of every triangle around each vertex of a list (whose status changes when
+// the vertex moves: every edge whose quad holds it) to a work list, once each.
+struct EdgesAround {
+  Mesh mesh;
+  const std::int32_t* vertices;
+  std::int32_t* work;
+  unsigned* work_stamp;
+  unsigned work_gen;
+  unsigned* counters;  // kWorkCount
+  FF_HD void operator()(std::size_t i) const {
+    const int h0 = mesh.vedge[vertices[i]];
+    int h = h0;
+    do {  // CCW around the vertex: the half-edges leaving it, one per triangle
+      append_once(work, counters + kWorkCount, work_stamp, work_gen, h >> 1);
+      append_once(work, counters + kWorkCount, work_stamp, work_gen, mesh.next(h) >> 1);
+      h = twin(mesh.next(mesh.next(h)));
+    } while (h != h0);
+  }
+};
+
+// The records the flips of a try changed (ApplyListed's lists), copied from `from` to `to`:
+// back from the copy of V's topology after a failed try, into it after one that worked.
+struct TouchedRecords {
+  const std::int32_t* edges;
+  std::size_t n_edges;  // then the vertices
+  const std::int32_t* vertices;
+  const std::int32_t *from_he, *from_opp, *from_vedge;
+  std::int32_t *to_he, *to_opp, *to_vedge;
+  FF_HD void operator()(std::size_t i) const {
+    if (i < n_edges) {
+      const int e = edges[i];
+      for (int k = 0; k < 4; ++k) to_he[4 * e + k] = from_he[4 * e + k];
+      to_opp[2 * e] = from_opp[2 * e];
+      to_opp[2 * e + 1] = from_opp[2 * e + 1];
+    } else {
+      const int v = vertices[i - n_edges];
+      to_vedge[v] = from_vedge[v];
+    }
+  }
+};
+
+// Whether particle i must go a level deeper after a failed try: a triangle around i is
+// inverted, or the vector of an edge at i reversed since `valid` (MarkInversions' r⁰·r¹ test,
+// the same formula from either end: a pair passing each other closer than the step's move).
+// Each triangle's orientation is computed from its canonical half-edge exactly as
+// MarkInversions / CheckInverted compute it, so a near-flat triangle is judged the same way by
+// every pass (and by all three of its vertices).
+template <class R>
+struct MovingRule {
   Mesh mesh;
   Points<R> pts;
   Points<R> valid;  // where the triangulation was valid (delaunay.position_prev)
-  std::uint8_t* moving;
 
   FF_HD bool inverted(int h) const {
     const int hn = mesh.next(h), hp = mesh.next(hn);
@@ -37,17 +210,38 @@ struct MarkInvertedVertices {
     const V2 o{0, 0};
     return orient(o, pts.rel(a, b), pts.rel(a, d)) <= 0;
   }
-  FF_HD void operator()(std::size_t i) const {
+  FF_HD bool moves(int i) const {
     const int h0 = mesh.vedge[i];
     int h = h0;
-    std::uint8_t m = 0;
     do {  // CCW around the vertex: the half-edges leaving it, one per triangle
-      if (inverted(h)) m = 1;
+      if (inverted(h)) return true;
       const int j = mesh.origin(mesh.next(h));
-      if (dot(valid.rel(int(i), j), pts.rel(int(i), j)) < 0) m = 1;
+      if (dot(valid.rel(i, j), pts.rel(i, j)) < 0) return true;
       h = twin(mesh.next(mesh.next(h)));
     } while (h != h0);
-    moving[i] = m;
+    return false;
+  }
+};
+
+// The particles that go deeper, from the end vertices of a list of edges: after a failed try
+// every particle the rule moves is an end of a troubled edge of the last marking (an inverted
+// triangle's three edges are troubled), of the try's first marking (a reversed edge of V's
+// topology) or of an edge a flip made in the try (touched): the lists given in turn. Each
+// candidate is judged once (claimed), the moving ones appended.
+template <class R>
+struct FindMoving {
+  MovingRule<R> rule;
+  const std::int32_t* edges;
+  std::int32_t* moving;
+  unsigned* stamp;
+  unsigned gen;
+  unsigned* counters;  // kMovingCount
+  FF_HD void operator()(std::size_t i) const {
+    const int e = edges[i];
+    for (int k = 0; k < 2; ++k) {
+      const int v = rule.mesh.origin(2 * e + k);
+      if (claim(stamp + v, gen) && rule.moves(v)) moving[append_index(counters + kMovingCount, 1)] = v;
+    }
   }
 };
 
@@ -64,37 +258,64 @@ FF_HD void place_at_depth(const Points<R>& valid, const R* target, R* pos, std::
   }
 }
 
-// A failed try: the moving particles go one level deeper (half as far from V as they were).
+// A failed try: the moving particles (a list) go one level deeper (half as far from V as they
+// were); those leaving their target join the active list, and the step's statistics count the
+// particles halved and the deepest depth.
 template <class R>
 struct Deepen {
   Points<R> valid;
   const R* target;
   R* pos;
-  const std::uint8_t* moving;
+  const std::int32_t* moving;
   std::uint32_t* depth;
+  std::int32_t* active;
+  unsigned* halved_stamp;
+  unsigned step_gen;
+  unsigned* counters;  // kActiveCount, kHalvedCount, kDepthNot
 
-  FF_HD void operator()(std::size_t i) const {
-    if (!moving[i]) return;
-    depth[i] += 1;
-    place_at_depth(valid, target, pos, depth[i], i);
+  FF_HD void operator()(std::size_t k) const {
+    const int i = moving[k];
+    const std::uint32_t d = depth[i] + 1;
+    depth[i] = d;
+    place_at_depth(valid, target, pos, d, std::size_t(i));
+    if (d == 1) active[append_index(counters + kActiveCount, 1)] = i;
+    if (claim(halved_stamp + i, step_gen)) count_one(counters + kHalvedCount);
+    keep_min(counters + kDepthNot, ~d);
   }
 };
 
-// An accepted try became V: every particle one level shallower (twice as far along what is left
-// of its way to T as the try that just worked); *deep counts those not yet at their target.
+// An accepted try became V: every active particle one level shallower (twice as far along what
+// is left of its way to T as the try that just worked); those still short of T form the next
+// active list.
 template <class R>
 struct Shallower {
   Points<R> valid;
   const R* target;
   R* pos;
+  const std::int32_t* active;
   std::uint32_t* depth;
-  unsigned* deep;
+  std::int32_t* still;
+  unsigned* counters;  // kActiveCount
 
-  FF_HD void operator()(std::size_t i) const {
-    if (depth[i] == 0) return;
-    depth[i] -= 1;
-    place_at_depth(valid, target, pos, depth[i], i);
-    if (depth[i]) count_one(deep);
+  FF_HD void operator()(std::size_t k) const {
+    const int i = active[k];
+    const std::uint32_t d = depth[i] - 1;
+    depth[i] = d;
+    place_at_depth(valid, target, pos, d, std::size_t(i));
+    if (d) still[append_index(counters + kActiveCount, 1)] = i;
+  }
+};
+
+// V ← the accepted positions, for the particles of a list.
+template <class R>
+struct CopyListed {
+  const std::int32_t* list;
+  const R* from;
+  R* to;
+  FF_HD void operator()(std::size_t k) const {
+    const int i = list[k];
+    to[2 * i] = from[2 * i];
+    to[2 * i + 1] = from[2 * i + 1];
   }
 };
 

@@ -7,6 +7,7 @@
 // Porro et al. §3) so that the step still ends at the integrator's targets; so are particles
 // that passed each other (an edge vector reversed), which detect_inversion leaves to it then.
 #pragma once
+#include <algorithm>
 #include <array>
 #include <string>
 
@@ -54,18 +55,30 @@ struct FlipLoops {
   ElementLoop<DecideFlips> decide;
   ElementLoop<ApplyFlips> apply;
   ElementLoop<MarkInversions<R>> mark;
-  ElementLoop<MarkInvertedVertices<R>> moving;
+  // on_unrepairable: substep (lists)
+  ElementLoop<MarkListed<R>> mark_listed;
+  ElementLoop<DecideListed> decide_listed;
+  ElementLoop<ApplyListed> apply_listed;
+  ElementLoop<ListEdges> list_edges;
+  ElementLoop<EdgesAround> edges_around;
+  ElementLoop<TouchedRecords> touched;
+  ElementLoop<FindMoving<R>> find_moving;
   ElementLoop<Deepen<R>> deepen;
   ElementLoop<Shallower<R>> shallower;
+  ElementLoop<CopyListed<R>> copy_listed;
 };
 
 // The plain element loops of the backend object (CpuExec or CudaExec) this stage.h is compiled
 // for (core/stage/stage_registration.h).
 template <class R, class Exec>
 FlipLoops<R> flip_loops(Exec) {
-  return {&Exec::template for_each<DecideFlips>, &Exec::template for_each<ApplyFlips>,
-          &Exec::template for_each<MarkInversions<R>>, &Exec::template for_each<MarkInvertedVertices<R>>,
-          &Exec::template for_each<Deepen<R>>, &Exec::template for_each<Shallower<R>>};
+  return {&Exec::template for_each<DecideFlips>,     &Exec::template for_each<ApplyFlips>,
+          &Exec::template for_each<MarkInversions<R>>, &Exec::template for_each<MarkListed<R>>,
+          &Exec::template for_each<DecideListed>,    &Exec::template for_each<ApplyListed>,
+          &Exec::template for_each<ListEdges>,       &Exec::template for_each<EdgesAround>,
+          &Exec::template for_each<TouchedRecords>,  &Exec::template for_each<FindMoving<R>>,
+          &Exec::template for_each<Deepen<R>>,       &Exec::template for_each<Shallower<R>>,
+          &Exec::template for_each<CopyListed<R>>};
 }
 
 template <class R>
@@ -91,10 +104,21 @@ class Flip final : public Stage {
         counters_(exec),
         go_(exec),
         target_(exec),
-        moving_(exec),
         topology_(exec),
         depth_(exec),
-        deep_(exec) {}
+        sub_(exec),
+        first_(exec),
+        trouble_{Scratch<std::int32_t>(exec), Scratch<std::int32_t>(exec)},
+        work_(exec),
+        touched_edges_(exec),
+        touched_vertices_(exec),
+        moving_(exec),
+        active_{Scratch<std::int32_t>(exec), Scratch<std::int32_t>(exec)},
+        edge_stamp_(exec),
+        vertex_stamp_(exec),
+        touched_edge_stamp_(exec),
+        touched_vertex_stamp_(exec),
+        halved_stamp_(exec) {}
 
   std::vector<Access> accesses() const override {
     std::vector<Access> a{{ff::fields::position, where_, Mode::read},
@@ -148,22 +172,23 @@ class Flip final : public Stage {
     flips_ = 0;
     rounds_ = 0;
     const Mesh m = mesh_view(s, where_);
-    // Detect's marks when it made any; else (only unrepairable triangles) nothing to flip yet.
-    // Substep mode (kept) marks again with the r⁰·r¹ test against position_prev: detect left
-    // reversed edges to the untangling, which must see them.
-    const Points<R> now = points_view<R>(s, ff::fields::position, where_);
-    if (kept) topology(s, true, st);  // valid at position_prev: untangle's halvings start from it
-    auto h = kept ? repair(s, m, now, s.field(fields::position_prev).data<R>(where_), true, st)
-                  : repair(s, m, now, nullptr, status(s)[kPending] == 0, st);
-    status(s)[kPending] = 0;
     Outcome out = Outcome::ok();
     if (kept) {
-      out = untangle(ctx, m, h);
-    } else if (h[kInverted]) {
-      out = Outcome::request_rollback("delaunay.flip: " + std::to_string(h[kInverted]) +
-                                      " inverted triangle(s) remain after " + std::to_string(flips_) +
-                                      " repair flip(s) in " + std::to_string(rounds_) +
-                                      " round(s); the step is retried with a smaller time step");
+      // Substep mode marks again with the r⁰·r¹ test against position_prev (untangle): detect
+      // left reversed edges to the untangling, which must see them.
+      status(s)[kPending] = 0;
+      topology(s, true, st);  // valid at position_prev: untangle's halvings start from it
+      out = untangle(ctx, m);
+    } else {
+      // Detect's marks (it made some: kPending).
+      const Points<R> now = points_view<R>(s, ff::fields::position, where_);
+      const Tally h = repair(s, m, now, st);
+      status(s)[kPending] = 0;
+      if (h[kInverted])
+        out = Outcome::request_rollback("delaunay.flip: " + std::to_string(h[kInverted]) +
+                                        " inverted triangle(s) remain after " + std::to_string(flips_) +
+                                        " repair flip(s) in " + std::to_string(rounds_) +
+                                        " round(s); the step is retried with a smaller time step");
     }
     if (flips_) status(s)[kCandidates] = 0;  // quads changed: Lawson tests every edge
     ctx.metrics.set("flips", flips_);
@@ -189,7 +214,7 @@ class Flip final : public Stage {
     if (status(s)[kPending] != 0) {
       will_flip(ctx);
       const Points<R> now = points_view<R>(s, ff::fields::position, where_);
-      const Tally h = repair(s, mesh_view(s, where_), now, nullptr, false, st);
+      const Tally h = repair(s, mesh_view(s, where_), now, st);
       status(s)[kPending] = 0;
       left = h[kInverted] != 0;
     }
@@ -214,25 +239,14 @@ class Flip final : public Stage {
     return Outcome::ok();
   }
 
-  // Repair rounds (decide → apply → re-mark) while something is marked, up to max_rounds.
-  // `mark_first`: the positions changed since the marks were made, so mark them first, with the
-  // r⁰·r¹ test against `prev` when given (substep mode). The last counters, with the first
-  // marking's reversed edges (kThrough, kThroughAt): the rounds repair what single flips can
-  // around a pair that passed each other, and untangle halves what is left.
-  Tally repair(State& s, const Mesh& m, const Points<R>& pts, const R* prev, bool mark_first, CUstream_st* st) {
+  // Repair rounds (decide → apply → re-mark) from detect's marks while something is marked, up
+  // to max_rounds; the last counters.
+  Tally repair(State& s, const Mesh& m, const Points<R>& pts, CUstream_st* st) {
     std::uint8_t* mark = s.field(fields::flip_mark).data<std::uint8_t>(where_);
     const std::size_t E = edge_count(s.n());
     std::uint8_t* go = go_.get(E);
     unsigned* c = counters_.ptr();
     Tally h{};
-    if (mark_first) {
-      counters_.reset(kMinSlots, st);
-      loops_.mark(E, MarkInversions<R>{m, pts, prev, mark, c}, st);
-      h = counters_.read(st);
-      throw_if_too_long(s, where_, mem_, h[kTooLong], h[kTooLongAt], st, "delaunay.flip");
-      if (!h[kMarked]) return h;
-    }
-    const unsigned through = h[kThrough], through_at = h[kThroughAt];
     std::int64_t rounds = 0;
     do {
       counters_.reset(kMinSlots, st);
@@ -244,6 +258,76 @@ class Flip final : public Stage {
       ++rounds;
       throw_if_too_long(s, where_, mem_, h[kTooLong], h[kTooLongAt], st, "delaunay.flip");
     } while (h[kMarked] && rounds < p_.max_rounds);
+    rounds_ += rounds;
+    return h;
+  }
+
+  using SubTally = std::array<unsigned, kSubstepCounters>;
+
+  // A new generation for a stamp array (MarkListed & co.: claim): the array is cleared before
+  // its generations wrap around.
+  unsigned next_gen(unsigned& gen, unsigned* stamps, std::size_t count, CUstream_st* st) {
+    if (++gen == 0xFFFFFFF0u) {
+      mem_.fill(stamps, 0, count * sizeof(unsigned), st);
+      gen = 1;
+    }
+    return gen;
+  }
+  // Counter slots [first, first + count) of sub_ to 0.
+  void zero(int first, int count, CUstream_st* st) { mem_.fill(sub_.ptr() + first, 0, sizeof(unsigned) * count, st); }
+  void clear_marking(CUstream_st* st) {
+    zero(0, kThroughAt, st);
+    mem_.fill(sub_.ptr() + kThroughAt, 0xFF, sizeof(unsigned) * (kInversionCounters - kThroughAt), st);
+    zero(kTroubledCount, 1, st);
+  }
+
+  // The repair rounds of one try on lists. `work` (n_work edges; null: every edge) holds every
+  // edge that can be troubled at V's topology and the positions now (see untangle); they are
+  // marked with the r⁰·r¹ test against V (`prev`), the troubled ones listed (first_: the try's
+  // first marking), then each round decides and flips among the last troubled edges and
+  // re-marks those and the edges around each flip. Leaves the last troubled list in last_ /
+  // n_last_ (every edge whose mark is 1 is in it), the first in first_ / n_first_, and returns
+  // the last counters with the first marking's reversed edges (kThrough, kThroughAt).
+  SubTally repair_listed(State& s, const Mesh& m, const Points<R>& pts, const R* prev, const std::int32_t* work,
+                         std::size_t n_work, CUstream_st* st) {
+    std::uint8_t* mark = s.field(fields::flip_mark).data<std::uint8_t>(where_);
+    const std::size_t E = edge_count(s.n());
+    std::uint8_t* go = go_.get(E);
+    unsigned* c = sub_.ptr();
+    clear_marking(st);
+    loops_.mark_listed(n_work, MarkListed<R>{{m, pts, prev, mark, c}, work, nullptr, first_.get(E), c}, st);
+    SubTally h = sub_.read(st);
+    ++tries_;
+    throw_if_too_long(s, where_, mem_, h[kTooLong], h[kTooLongAt], st, "delaunay.flip");
+    last_ = first_.get(E);
+    n_first_ = n_last_ = h[kTroubledCount];
+    const unsigned through = h[kThrough], through_at = h[kThroughAt];
+    std::int64_t rounds = 0;
+    int out = 0;
+    while (h[kMarked] && rounds < p_.max_rounds) {
+      clear_marking(st);
+      zero(kWorkCount, 1, st);
+      const unsigned wg = next_gen(work_gen_, edge_stamp_.get(E), E, st);
+      std::int32_t* w = work_.get(E);
+      loops_.decide_listed(n_last_, DecideListed{{m, mark, go, c, kRepairFlips}, last_}, st);
+      loops_.apply_listed(n_last_,
+                          ApplyListed{m, go, last_, w, edge_stamp_.get(E), wg, touched_edges_.get(E),
+                                      touched_edge_stamp_.get(E), touched_vertices_.get(s.n()),
+                                      touched_vertex_stamp_.get(s.n()), touched_gen_, c},
+                          st);
+      loops_.list_edges(n_last_, ListEdges{last_, w, edge_stamp_.get(E), wg, c}, st);
+      // At most the troubled edges and four more a flip: a bound, the length is on the backend.
+      std::int32_t* t = trouble_[out].get(E);
+      loops_.mark_listed(std::min<std::size_t>(E, 5 * std::size_t(n_last_)),
+                         MarkListed<R>{{m, pts, nullptr, mark, c}, w, c + kWorkCount, t, c}, st);
+      h = sub_.read(st);
+      flips_ += h[kRepairFlips];
+      ++rounds;
+      throw_if_too_long(s, where_, mem_, h[kTooLong], h[kTooLongAt], st, "delaunay.flip");
+      last_ = t;
+      n_last_ = h[kTroubledCount];
+      out = 1 - out;
+    }
     rounds_ += rounds;
     h[kThrough] = through;
     h[kThroughAt] = through_at;
@@ -265,49 +349,96 @@ class Flip final : public Stage {
   // `passing: substep` counts as not repaired: its two particles are halved too. Points on straight paths that miss each other
   // by b > 0 give r⁰·r¹ > 0 once the remaining relative move is below ~b, so only a collision
   // (b = 0) runs out of max_substeps.
-  Outcome untangle(StepContext& ctx, const Mesh& m, Tally h) {
+  //
+  // Every place in trouble is halved in the same try, and a try costs what the trouble costs:
+  // only the first try marks every edge; after it each try marks the edges that can have
+  // changed status (kernel.h, MarkListed): the last try's troubled edges, the first marking's
+  // (at V's topology, which a failed try restores) and those around the particles that moved
+  // (deepened, or shallower after an accepted try); the flips' records are put back or kept
+  // from lists (TouchedRecords), V is updated for the active particles (depth > 0) only. The
+  // result is the one full passes give, bit for bit (the same marks everywhere, hence the same
+  // flips). Metrics: substeps (halvings), substep_tries (repair passes), substep_depth (the
+  // deepest particle's halvings), substep_particles (particles halved at least once).
+  Outcome untangle(StepContext& ctx, const Mesh& m) {
     State& s = ctx.state;
     CUstream_st* st = ctx.stream;
-    const std::size_t n = s.n();
+    const std::size_t n = s.n(), E = edge_count(n);
     const std::size_t bytes = s.field(ff::fields::position).bytes();
     const auto box = PeriodicBox<double>::make(s.box.L);
     R* target = target_.get(2 * n);
-    std::uint8_t* moving = moving_.get(n);
     std::uint32_t* depth = depth_.get(n);
-    bool at_target = true, announced = false;
+    unsigned* c = sub_.ptr();
+    bool at_target = true, announced = false, accepted = false;
     std::int64_t halvings = 0;
-    const auto stop = [&](std::string why, std::vector<std::uint64_t> who) {
-      if (announced) mem_.copy(s.field(ff::fields::position).data<R>(ctx), target, bytes, st);  // as detect left it
+    tries_ = 0;
+    // The step's statistics, the active list (empty), the flips' records (none yet).
+    zero(kActiveCount, kDepthNot - kActiveCount, st);
+    mem_.fill(c + kDepthNot, 0xFF, sizeof(unsigned), st);
+    const unsigned step_gen = next_gen(step_gen_, halved_stamp_.get(n), n, st);
+    next_touched_gen(n, st);
+    int now = 0;                      // active_[now]: particles with depth > 0
+    std::size_t n_shallowed = 0;      // active_[1 - now]: the ones the last Shallower moved
+    const auto metrics = [&](const SubTally& t) {
       ctx.metrics.set("substeps", double(halvings));
+      ctx.metrics.set("substep_tries", double(tries_));
+      ctx.metrics.set("substep_depth", double(~t[kDepthNot]));
+      ctx.metrics.set("substep_particles", double(t[kHalvedCount]));
+    };
+    const auto stop = [&](std::string why, std::vector<std::uint64_t> who, const SubTally& t) {
+      if (announced) mem_.copy(s.field(ff::fields::position).data<R>(ctx), target, bytes, st);  // as detect left it
+      metrics(t);
       return Outcome::request_rollback("delaunay.flip: " + why + "; the step is retried with a smaller time step",
                                        std::move(who));
     };
+    // The first try: every edge, at V's topology and the targets.
+    SubTally h = repair_listed(s, m, Points<R>{s.field(ff::fields::position).data<R>(where_), box},
+                               s.field(fields::position_prev).data<R>(where_), nullptr, E, st);
     while (true) {
       if (h[kThrough] && !passing_) {
         auto ids = edge_vertices(s, where_, mem_, int(h[kThroughAt]), st);
         return stop("particles " + list_ids(ids) + " passed through each other between intermediate positions (r0.r1 < 0)",
-                    ids);
+                    ids, h);
       }
       R* x = s.field(ff::fields::position).data<R>(ctx);
       R* v = s.field(fields::position_prev).data<R>(ctx);
+      std::int32_t* w = work_.get(E);
+      std::int32_t* active = active_[now].get(n);
+      std::int32_t* other = active_[1 - now].get(n);
+      const std::size_t n_active = h[kActiveCount];
       if (!h[kInverted] && !h[kThrough]) {
         if (at_target) break;
-        mem_.copy(v, x, bytes, st);  // valid here: the next reference
-        topology(s, true, st);
-        deep_.reset(std::array<int, 0>{}, st);
-        loops_.shallower(n, Shallower<R>{Points<R>{v, box}, target, x, depth, deep_.ptr()}, st);
-        at_target = deep_.read(st)[0] == 0;
+        // Valid here: the next reference. Before the first acceptance every particle is at its
+        // target, away from V; after it only the active particles and the ones the last
+        // Shallower moved have left V.
+        if (!accepted) {
+          mem_.copy(v, x, bytes, st);
+          accepted = true;
+        } else {
+          loops_.copy_listed(n_shallowed, CopyListed<R>{other, x, v}, st);
+          loops_.copy_listed(n_active, CopyListed<R>{active, x, v}, st);
+        }
+        keep_or_restore(s, true, h, st);
+        zero(kActiveCount, 1, st);
+        loops_.shallower(n_active, Shallower<R>{Points<R>{v, box}, target, x, active, depth, other, c}, st);
+        now = 1 - now;
+        n_shallowed = n_active;
+        zero(kWorkCount, 1, st);
+        const unsigned wg = next_gen(work_gen_, edge_stamp_.get(E), E, st);
+        loops_.list_edges(n_last_, ListEdges{last_, w, edge_stamp_.get(E), wg, c}, st);
+        loops_.edges_around(n_shallowed, EdgesAround{m, active, w, edge_stamp_.get(E), wg, c}, st);
+        h = sub_.read(st);
+        at_target = h[kActiveCount] == 0;
       } else {
         if (halvings == p_.max_substeps) {
           if (h[kThrough]) {
             auto ids = edge_vertices(s, where_, mem_, int(h[kThroughAt]), st);
             return stop("particles " + list_ids(ids) + " passed through each other (r0.r1 < 0) even after halving the "
                             "moves " + std::to_string(halvings) + " time(s) (max_substeps)",
-                        ids);
+                        ids, h);
           }
           return stop(std::to_string(h[kInverted]) + " inverted triangle(s) remain after halving the moves " +
                           std::to_string(halvings) + " time(s) (max_substeps)",
-                      {});
+                      {}, h);
         }
         if (!announced) {  // the first intermediate position: keep T and V for a rollback
           ctx.will_write(ff::fields::position);
@@ -319,21 +450,74 @@ class Flip final : public Stage {
           mem_.fill(depth, 0, n * sizeof(std::uint32_t), st);
         }
         ++halvings;
-        loops_.moving(n, MarkInvertedVertices<R>{m, Points<R>{x, box}, Points<R>{v, box}, moving}, st);
-        loops_.deepen(n, Deepen<R>{Points<R>{v, box}, target, x, moving, depth}, st);
+        // Who goes deeper: judged at the ends of the last troubled edges, of the first
+        // marking's and of the edges the try's flips made.
+        zero(kMovingCount, 1, st);
+        const unsigned vg = next_gen(vertex_gen_, vertex_stamp_.get(n), n, st);
+        std::int32_t* moving = moving_.get(n);
+        const MovingRule<R> rule{m, Points<R>{x, box}, Points<R>{v, box}};
+        loops_.find_moving(n_last_, FindMoving<R>{rule, last_, moving, vertex_stamp_.get(n), vg, c}, st);
+        loops_.find_moving(n_first_, FindMoving<R>{rule, first_.get(E), moving, vertex_stamp_.get(n), vg, c}, st);
+        loops_.find_moving(h[kTouchedEdgeCount],
+                           FindMoving<R>{rule, touched_edges_.get(E), moving, vertex_stamp_.get(n), vg, c}, st);
+        const std::size_t n_moving = sub_.read(st)[kMovingCount];
+        loops_.deepen(n_moving, Deepen<R>{Points<R>{v, box}, target, x, moving, depth, active, halved_stamp_.get(n),
+                                          step_gen, c},
+                      st);
         // The flips made for the positions farther out need not be valid nearer V (a flipped
         // triangle can stay inverted however close to V its vertices come): repair from V's.
-        topology(s, false, st);
+        keep_or_restore(s, false, h, st);
+        zero(kWorkCount, 1, st);
+        const unsigned wg = next_gen(work_gen_, edge_stamp_.get(E), E, st);
+        loops_.list_edges(n_first_, ListEdges{first_.get(E), w, edge_stamp_.get(E), wg, c}, st);
+        loops_.list_edges(n_last_, ListEdges{last_, w, edge_stamp_.get(E), wg, c}, st);
+        loops_.edges_around(n_moving, EdgesAround{m, moving, w, edge_stamp_.get(E), wg, c}, st);
+        h = sub_.read(st);
         at_target = false;
       }
-      h = repair(s, m, Points<R>{x, box}, v, true, st);
+      h = repair_listed(s, m, Points<R>{x, box}, v, w, h[kWorkCount], st);
     }
     // position_prev ← position (= T): the next step's reference.
     if (!announced) ctx.will_overwrite(fields::position_prev);
     mem_.copy(s.field(fields::position_prev).data<R>(ctx), s.field(ff::fields::position).data<R>(ctx), bytes, st);
     status(s)[kPrevKept] = 0;
-    ctx.metrics.set("substeps", double(halvings));
+    metrics(h);
     return Outcome::ok();
+  }
+
+  // The records the try's flips changed (ApplyListed's lists, lengths in h): kept as V's
+  // topology (`keep`, after an accepted try) or put back from it (after a failed one). Either
+  // way the topology equals V's copy afterwards, so the lists start empty again.
+  void keep_or_restore(State& s, bool keep, const SubTally& h, CUstream_st* st) {
+    const std::size_t n_edges = h[kTouchedEdgeCount], n_vertices = h[kTouchedVertexCount];
+    if (n_edges + n_vertices) {
+      Field& he = s.field(fields::halfedge);
+      Field& opp = s.field(fields::opposite);
+      Field& ve = s.field(fields::vertex_edge);
+      std::int32_t* kept_he = topology_.get(he.size() + opp.size() + ve.size());
+      std::int32_t* kept_opp = kept_he + he.size();
+      std::int32_t* kept_ve = kept_opp + opp.size();
+      std::int32_t* cur_he = he.data<std::int32_t>(where_);
+      std::int32_t* cur_opp = opp.data<std::int32_t>(where_);
+      std::int32_t* cur_ve = ve.data<std::int32_t>(where_);
+      TouchedRecords t{touched_edges_.get(edge_count(s.n())), n_edges, touched_vertices_.get(s.n())};
+      if (keep) {
+        t.from_he = cur_he, t.from_opp = cur_opp, t.from_vedge = cur_ve;
+        t.to_he = kept_he, t.to_opp = kept_opp, t.to_vedge = kept_ve;
+      } else {
+        t.from_he = kept_he, t.from_opp = kept_opp, t.from_vedge = kept_ve;
+        t.to_he = cur_he, t.to_opp = cur_opp, t.to_vedge = cur_ve;
+      }
+      loops_.touched(n_edges + n_vertices, t, st);
+    }
+    zero(kTouchedEdgeCount, 2, st);
+    next_touched_gen(s.n(), st);
+  }
+  // The touched lists' generation (one for the edge and the vertex stamps).
+  void next_touched_gen(std::size_t n, CUstream_st* st) {
+    const std::size_t E = edge_count(n);
+    unsigned* ve = touched_vertex_stamp_.get(n);
+    if (next_gen(touched_gen_, touched_edge_stamp_.get(E), E, st) == 1) mem_.fill(ve, 0, n * sizeof(unsigned), st);
   }
 
   // Substep mode: keep (`keep`) the topology where the triangulation is valid (V), or put it
@@ -361,11 +545,24 @@ class Flip final : public Stage {
   const MemoryOps& mem_;
   Counters<kInversionCounters> counters_;
   Scratch<std::uint8_t> go_;
-  Scratch<R> target_;            // substep: the integrator's targets T
-  Scratch<std::uint8_t> moving_; // substep: particles with an inverted triangle around them
+  Scratch<R> target_;              // substep: the integrator's targets T
   Scratch<std::int32_t> topology_; // substep: the topology valid at V (halfedge, opposite, vertex_edge)
   Scratch<std::uint32_t> depth_;   // substep: each particle's depth (Deepen, Shallower)
-  Counters<1> deep_;               // substep: particles not yet at their target after Shallower
+  // Substep lists (kernel.h): their lengths and the step's statistics in sub_.
+  Counters<kSubstepCounters> sub_;
+  Scratch<std::int32_t> first_;          // edges troubled at a try's first marking
+  Scratch<std::int32_t> trouble_[2];     // edges troubled at a round's marking (alternately)
+  std::int32_t* last_ = nullptr;         // the last marking's troubled edges (first_ or trouble_)
+  std::size_t n_first_ = 0, n_last_ = 0;
+  Scratch<std::int32_t> work_;           // edges to mark
+  Scratch<std::int32_t> touched_edges_;  // edges whose records flips changed since V's topology
+  Scratch<std::int32_t> touched_vertices_;
+  Scratch<std::int32_t> moving_;         // particles that go deeper
+  Scratch<std::int32_t> active_[2];      // particles with depth > 0, and the last Shallower's
+  // Stamps (claim): an id is in the list being built when its stamp equals the generation.
+  Scratch<unsigned> edge_stamp_, vertex_stamp_, touched_edge_stamp_, touched_vertex_stamp_, halved_stamp_;
+  unsigned work_gen_ = 0, vertex_gen_ = 0, touched_gen_ = 0, step_gen_ = 0;
+  std::int64_t tries_ = 0;
   unsigned flips_ = 0;
   std::int64_t rounds_ = 0;
 };
