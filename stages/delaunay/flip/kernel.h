@@ -49,6 +49,19 @@ FF_HD bool claim(unsigned* stamp, unsigned gen) {
   return false;
 }
 
+// The elements of a list a thread of a loop takes: i, i + launched, ... below the list's length,
+// read on the backend when `length` is set (a loop launched over a guess of the length, so that
+// the host need not read it first: every element is taken whatever the guess), else `launched`.
+struct ListSpan {
+  const unsigned* length;
+  std::size_t launched;
+  template <class F>
+  FF_HD void each(std::size_t i, const F& f) const {
+    const std::size_t n = length ? std::size_t(*length) : launched;
+    for (std::size_t j = i; j < n; j += launched) f(j);
+  }
+};
+
 // Appends id to `list` (length in *count) once per stamp generation.
 FF_HD void append_once(std::int32_t* list, unsigned* count, unsigned* stamp, unsigned gen, int id) {
   if (claim(stamp + id, gen)) list[append_index(count, 1)] = id;
@@ -61,13 +74,12 @@ FF_HD void append_once(std::int32_t* list, unsigned* count, unsigned* stamp, uns
 // (same expressions), every other edge goes through test() itself. Troubled are thus the marked
 // edges, the edges of inverted triangles, the reversed ones: every edge whose mark is 1 or whose
 // triangles count, so a later marking need visit only these and the edges whose quads or
-// vertices changed. `n_listed`, when set, is the list's length on the backend: the loop runs
-// over a bound and stops there (no host read of the length).
+// vertices changed.
 template <class R>
 struct MarkListed {
   MarkInversions<R> marking;  // without candidates (delaunay.flip never lists them)
   const std::int32_t* list;
-  const unsigned* n_listed;
+  ListSpan span;
   std::int32_t* troubled;
   unsigned* counters;  // kTroubledCount
 
@@ -83,15 +95,16 @@ struct MarkListed {
     const V2 o{0, 0};
     return orient(o, ab, ac) > 0 && orient(ab, o, ad) > 0;
   }
-  FF_HD void operator()(std::size_t i) const {
-    if (n_listed && i >= *n_listed) return;
-    const int e = list ? list[i] : int(i);
+  FF_HD void one(int e) const {
     if (quiet(e)) {
       marking.mark[e] = 0;
       return;
     }
     marking.test(e);
     troubled[append_index(counters + kTroubledCount, 1)] = e;
+  }
+  FF_HD void operator()(std::size_t i) const {
+    span.each(i, [&](std::size_t j) { one(list ? list[j] : int(j)); });
   }
 };
 
@@ -153,18 +166,22 @@ struct ListEdges {
 struct EdgesAround {
   Mesh mesh;
   const std::int32_t* vertices;
+  ListSpan span;
   std::int32_t* work;
   unsigned* work_stamp;
   unsigned work_gen;
   unsigned* counters;  // kWorkCount
-  FF_HD void operator()(std::size_t i) const {
-    const int h0 = mesh.vedge[vertices[i]];
+  FF_HD void one(int v) const {
+    const int h0 = mesh.vedge[v];
     int h = h0;
     do {  // CCW around the vertex: the half-edges leaving it, one per triangle
       append_once(work, counters + kWorkCount, work_stamp, work_gen, h >> 1);
       append_once(work, counters + kWorkCount, work_stamp, work_gen, mesh.next(h) >> 1);
       h = twin(mesh.next(mesh.next(h)));
     } while (h != h0);
+  }
+  FF_HD void operator()(std::size_t i) const {
+    span.each(i, [&](std::size_t j) { one(vertices[j]); });
   }
 };
 
@@ -267,6 +284,7 @@ struct Deepen {
   const R* target;
   R* pos;
   const std::int32_t* moving;
+  ListSpan span;
   std::uint32_t* depth;
   std::int32_t* active;
   unsigned* halved_stamp;
@@ -274,7 +292,9 @@ struct Deepen {
   unsigned* counters;  // kActiveCount, kHalvedCount, kDepthNot
 
   FF_HD void operator()(std::size_t k) const {
-    const int i = moving[k];
+    span.each(k, [&](std::size_t j) { one(moving[j]); });
+  }
+  FF_HD void one(int i) const {
     const std::uint32_t d = depth[i] + 1;
     depth[i] = d;
     place_at_depth(valid, target, pos, d, std::size_t(i));

@@ -281,7 +281,7 @@ class Flip final : public Stage {
     zero(kTroubledCount, 1, st);
   }
 
-  // The repair rounds of one try on lists. `work` (n_work edges; null: every edge) holds every
+  // The repair rounds of one try on lists. `work` (`span`; null: every edge) holds every
   // edge that can be troubled at V's topology and the positions now (see untangle); they are
   // marked with the r⁰·r¹ test against V (`prev`), the troubled ones listed (first_: the try's
   // first marking), then each round decides and flips among the last troubled edges and
@@ -289,13 +289,14 @@ class Flip final : public Stage {
   // n_last_ (every edge whose mark is 1 is in it), the first in first_ / n_first_, and returns
   // the last counters with the first marking's reversed edges (kThrough, kThroughAt).
   SubTally repair_listed(State& s, const Mesh& m, const Points<R>& pts, const R* prev, const std::int32_t* work,
-                         std::size_t n_work, CUstream_st* st) {
+                         ListSpan span, CUstream_st* st) {
+    const std::size_t launched = span.launched;
     std::uint8_t* mark = s.field(fields::flip_mark).data<std::uint8_t>(where_);
     const std::size_t E = edge_count(s.n());
     std::uint8_t* go = go_.get(E);
     unsigned* c = sub_.ptr();
     clear_marking(st);
-    loops_.mark_listed(n_work, MarkListed<R>{{m, pts, prev, mark, c}, work, nullptr, first_.get(E), c}, st);
+    loops_.mark_listed(launched, MarkListed<R>{{m, pts, prev, mark, c}, work, span, first_.get(E), c}, st);
     SubTally h = sub_.read(st);
     ++tries_;
     throw_if_too_long(s, where_, mem_, h[kTooLong], h[kTooLongAt], st, "delaunay.flip");
@@ -316,10 +317,11 @@ class Flip final : public Stage {
                                       touched_vertex_stamp_.get(s.n()), touched_gen_, c},
                           st);
       loops_.list_edges(n_last_, ListEdges{last_, w, edge_stamp_.get(E), wg, c}, st);
-      // At most the troubled edges and four more a flip: a bound, the length is on the backend.
+      // At most the troubled edges and four more a flip; the length is on the backend.
+      const std::size_t bound = std::min<std::size_t>(E, 5 * std::size_t(n_last_));
       std::int32_t* t = trouble_[out].get(E);
-      loops_.mark_listed(std::min<std::size_t>(E, 5 * std::size_t(n_last_)),
-                         MarkListed<R>{{m, pts, nullptr, mark, c}, w, c + kWorkCount, t, c}, st);
+      loops_.mark_listed(bound, MarkListed<R>{{m, pts, nullptr, mark, c}, w, ListSpan{c + kWorkCount, bound}, t, c},
+                         st);
       h = sub_.read(st);
       flips_ += h[kRepairFlips];
       ++rounds;
@@ -368,7 +370,7 @@ class Flip final : public Stage {
     R* target = target_.get(2 * n);
     std::uint32_t* depth = depth_.get(n);
     unsigned* c = sub_.ptr();
-    bool at_target = true, announced = false, accepted = false;
+    bool announced = false, accepted = false;
     std::int64_t halvings = 0;
     tries_ = 0;
     // The step's statistics, the active list (empty), the flips' records (none yet).
@@ -392,7 +394,7 @@ class Flip final : public Stage {
     };
     // The first try: every edge, at V's topology and the targets.
     SubTally h = repair_listed(s, m, Points<R>{s.field(ff::fields::position).data<R>(where_), box},
-                               s.field(fields::position_prev).data<R>(where_), nullptr, E, st);
+                               s.field(fields::position_prev).data<R>(where_), nullptr, ListSpan{nullptr, E}, st);
     while (true) {
       if (h[kThrough] && !passing_) {
         auto ids = edge_vertices(s, where_, mem_, int(h[kThroughAt]), st);
@@ -405,8 +407,11 @@ class Flip final : public Stage {
       std::int32_t* active = active_[now].get(n);
       std::int32_t* other = active_[1 - now].get(n);
       const std::size_t n_active = h[kActiveCount];
+      // The next marking's work list is built on the backend; its loop is launched over a
+      // guess of its length (ListSpan): the host reads counters once a marking, nothing else.
+      std::size_t guess = 0;
       if (!h[kInverted] && !h[kThrough]) {
-        if (at_target) break;
+        if (n_active == 0) break;  // at the targets
         // Valid here: the next reference. Before the first acceptance every particle is at its
         // target, away from V; after it only the active particles and the ones the last
         // Shallower moved have left V.
@@ -425,9 +430,9 @@ class Flip final : public Stage {
         zero(kWorkCount, 1, st);
         const unsigned wg = next_gen(work_gen_, edge_stamp_.get(E), E, st);
         loops_.list_edges(n_last_, ListEdges{last_, w, edge_stamp_.get(E), wg, c}, st);
-        loops_.edges_around(n_shallowed, EdgesAround{m, active, w, edge_stamp_.get(E), wg, c}, st);
-        h = sub_.read(st);
-        at_target = h[kActiveCount] == 0;
+        loops_.edges_around(n_shallowed,
+                            EdgesAround{m, active, ListSpan{nullptr, n_shallowed}, w, edge_stamp_.get(E), wg, c}, st);
+        guess = n_last_ + 12 * n_shallowed;
       } else {
         if (halvings == p_.max_substeps) {
           if (h[kThrough]) {
@@ -460,9 +465,11 @@ class Flip final : public Stage {
         loops_.find_moving(n_first_, FindMoving<R>{rule, first_.get(E), moving, vertex_stamp_.get(n), vg, c}, st);
         loops_.find_moving(h[kTouchedEdgeCount],
                            FindMoving<R>{rule, touched_edges_.get(E), moving, vertex_stamp_.get(n), vg, c}, st);
-        const std::size_t n_moving = sub_.read(st)[kMovingCount];
-        loops_.deepen(n_moving, Deepen<R>{Points<R>{v, box}, target, x, moving, depth, active, halved_stamp_.get(n),
-                                          step_gen, c},
+        // At most both ends of those edges; the count is on the backend.
+        const std::size_t n_moving = std::min<std::size_t>(n, 2 * (n_last_ + n_first_ + h[kTouchedEdgeCount]));
+        const ListSpan moved{c + kMovingCount, n_moving};
+        loops_.deepen(n_moving, Deepen<R>{Points<R>{v, box}, target, x, moving, moved, depth, active,
+                                          halved_stamp_.get(n), step_gen, c},
                       st);
         // The flips made for the positions farther out need not be valid nearer V (a flipped
         // triangle can stay inverted however close to V its vertices come): repair from V's.
@@ -471,11 +478,11 @@ class Flip final : public Stage {
         const unsigned wg = next_gen(work_gen_, edge_stamp_.get(E), E, st);
         loops_.list_edges(n_first_, ListEdges{first_.get(E), w, edge_stamp_.get(E), wg, c}, st);
         loops_.list_edges(n_last_, ListEdges{last_, w, edge_stamp_.get(E), wg, c}, st);
-        loops_.edges_around(n_moving, EdgesAround{m, moving, w, edge_stamp_.get(E), wg, c}, st);
-        h = sub_.read(st);
-        at_target = false;
+        loops_.edges_around(n_moving, EdgesAround{m, moving, moved, w, edge_stamp_.get(E), wg, c}, st);
+        guess = n_first_ + n_last_ + 12 * std::size_t(h[kInverted] + h[kThrough]);
       }
-      h = repair_listed(s, m, Points<R>{x, box}, v, w, h[kWorkCount], st);
+      const std::size_t launched = std::max<std::size_t>(1, std::min(E, guess));
+      h = repair_listed(s, m, Points<R>{x, box}, v, w, ListSpan{c + kWorkCount, launched}, st);
     }
     // position_prev ← position (= T): the next step's reference.
     if (!announced) ctx.will_overwrite(fields::position_prev);
