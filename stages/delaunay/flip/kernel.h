@@ -112,7 +112,10 @@ struct MarkListed {
 struct DecideListed {
   DecideFlips decide;
   const std::int32_t* list;
-  FF_HD void operator()(std::size_t i) const { decide(std::size_t(list[i])); }
+  ListSpan span;
+  FF_HD void operator()(std::size_t i) const {
+    span.each(i, [&](std::size_t j) { decide(std::size_t(list[j])); });
+  }
 };
 
 // The winning flips of a list. Before flipping, each records what it changes: its edge and the
@@ -124,27 +127,31 @@ struct ApplyListed {
   Mesh mesh;
   const std::uint8_t* go;
   const std::int32_t* list;
+  ListSpan span;
   std::int32_t* work;  // next marking's edges
   unsigned* work_stamp;
   unsigned work_gen;
+  unsigned* work_count;
   std::int32_t* touched_edges;
   unsigned* touched_edge_stamp;
   std::int32_t* touched_vertices;
   unsigned* touched_vertex_stamp;
   unsigned touched_gen;
-  unsigned* counters;  // kWorkCount, kTouchedEdgeCount, kTouchedVertexCount
+  unsigned* touched_counts;  // kTouchedEdgeCount, kTouchedVertexCount of this block
 
   FF_HD void operator()(std::size_t i) const {
-    const int e = list[i];
+    span.each(i, [&](std::size_t j) { one(list[j]); });
+  }
+  FF_HD void one(int e) const {
     if (!go[e]) return;
     const Quad q = quad(mesh, e);
     const int edges[5] = {e, q.h0n >> 1, q.h0p >> 1, q.h1n >> 1, q.h1p >> 1};
     for (int k = 0; k < 5; ++k) {
-      append_once(work, counters + kWorkCount, work_stamp, work_gen, edges[k]);
-      append_once(touched_edges, counters + kTouchedEdgeCount, touched_edge_stamp, touched_gen, edges[k]);
+      append_once(work, work_count, work_stamp, work_gen, edges[k]);
+      append_once(touched_edges, touched_counts + kTouchedEdgeCount, touched_edge_stamp, touched_gen, edges[k]);
     }
-    append_once(touched_vertices, counters + kTouchedVertexCount, touched_vertex_stamp, touched_gen, q.a);
-    append_once(touched_vertices, counters + kTouchedVertexCount, touched_vertex_stamp, touched_gen, q.b);
+    append_once(touched_vertices, touched_counts + kTouchedVertexCount, touched_vertex_stamp, touched_gen, q.a);
+    append_once(touched_vertices, touched_counts + kTouchedVertexCount, touched_vertex_stamp, touched_gen, q.b);
     flip_edge(mesh, e);
   }
 };
@@ -152,12 +159,41 @@ struct ApplyListed {
 // Appends the edges of a list to a work list (once each).
 struct ListEdges {
   const std::int32_t* list;
+  ListSpan span;
   std::int32_t* work;
   unsigned* work_stamp;
   unsigned work_gen;
-  unsigned* counters;  // kWorkCount
+  unsigned* work_count;
   FF_HD void operator()(std::size_t i) const {
-    append_once(work, counters + kWorkCount, work_stamp, work_gen, list[i]);
+    span.each(i, [&](std::size_t j) { append_once(work, work_count, work_stamp, work_gen, list[j]); });
+  }
+};
+
+// The counters a try starts from, set by one thread (one launch instead of a fill per run of
+// slots). Two blocks: `first` counts the try's first marking and holds the lists' lengths and
+// the step's statistics, `round` the repair round(s) after it (sub-step mode reads both at
+// once). `active`: the active list is rebuilt (Shallower); `step`: the step's statistics too.
+FF_HD void reset_marking(unsigned* c) {
+  reset_inversion_counters(c);
+  c[kTroubledCount] = 0;
+  c[kWorkCount] = 0;
+}
+struct ResetTry {
+  unsigned* first;  // null: only `round`
+  unsigned* round;
+  bool active, step;
+  FF_HD void operator()(std::size_t) const {
+    reset_marking(round);
+    if (!first) return;
+    reset_marking(first);
+    first[kMovingCount] = 0;
+    first[kTouchedEdgeCount] = 0;
+    first[kTouchedVertexCount] = 0;
+    if (active) first[kActiveCount] = 0;
+    if (step) {
+      first[kHalvedCount] = 0;
+      first[kDepthNot] = ~0u;
+    }
   }
 };
 
@@ -248,13 +284,16 @@ struct MovingRule {
 template <class R>
 struct FindMoving {
   MovingRule<R> rule;
-  const std::int32_t* edges;
+  const std::int32_t* edges[3];
+  std::size_t counts[3];  // one loop over the three lists, one after the other
   std::int32_t* moving;
   unsigned* stamp;
   unsigned gen;
   unsigned* counters;  // kMovingCount
   FF_HD void operator()(std::size_t i) const {
-    const int e = edges[i];
+    int l = 0;
+    while (i >= counts[l]) i -= counts[l++];
+    const int e = edges[l][i];
     for (int k = 0; k < 2; ++k) {
       const int v = rule.mesh.origin(2 * e + k);
       if (claim(stamp + v, gen) && rule.moves(v)) moving[append_index(counters + kMovingCount, 1)] = v;

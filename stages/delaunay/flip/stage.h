@@ -66,6 +66,7 @@ struct FlipLoops {
   ElementLoop<Deepen<R>> deepen;
   ElementLoop<Shallower<R>> shallower;
   ElementLoop<CopyListed<R>> copy_listed;
+  ElementLoop<ResetTry> reset;
 };
 
 // The plain element loops of the backend object (CpuExec or CudaExec) this stage.h is compiled
@@ -78,7 +79,7 @@ FlipLoops<R> flip_loops(Exec) {
           &Exec::template for_each<ListEdges>,       &Exec::template for_each<EdgesAround>,
           &Exec::template for_each<TouchedRecords>,  &Exec::template for_each<FindMoving<R>>,
           &Exec::template for_each<Deepen<R>>,       &Exec::template for_each<Shallower<R>>,
-          &Exec::template for_each<CopyListed<R>>};
+          &Exec::template for_each<CopyListed<R>>,   &Exec::template for_each<ResetTry>};
 }
 
 template <class R>
@@ -273,68 +274,91 @@ class Flip final : public Stage {
     }
     return gen;
   }
-  // Counter slots [first, first + count) of sub_ to 0.
-  void zero(int first, int count, CUstream_st* st) { mem_.fill(sub_.ptr() + first, 0, sizeof(unsigned) * count, st); }
-  void clear_marking(CUstream_st* st) {
-    zero(0, kThroughAt, st);
-    mem_.fill(sub_.ptr() + kThroughAt, 0xFF, sizeof(unsigned) * (kInversionCounters - kThroughAt), st);
-    zero(kTroubledCount, 1, st);
+  // sub_'s two blocks (kernel.h, ResetTry): the try's first marking and lists, its rounds.
+  unsigned* first_block() { return sub_.ptr(); }
+  unsigned* round_block() { return sub_.ptr() + kSubstepCounters; }
+  void reset_try(bool active, bool step, CUstream_st* st) {
+    loops_.reset(1, ResetTry{first_block(), round_block(), active, step}, st);
   }
 
-  // The repair rounds of one try on lists. `work` (`span`; null: every edge) holds every
-  // edge that can be troubled at V's topology and the positions now (see untangle); they are
-  // marked with the r⁰·r¹ test against V (`prev`), the troubled ones listed (first_: the try's
-  // first marking), then each round decides and flips among the last troubled edges and
-  // re-marks those and the edges around each flip. Leaves the last troubled list in last_ /
-  // n_last_ (every edge whose mark is 1 is in it), the first in first_ / n_first_, and returns
-  // the last counters with the first marking's reversed edges (kThrough, kThroughAt).
+  // Reads both blocks: the round block's marking counters (after the last round) with the
+  // first marking's reversed edges and the first block's lists and statistics; the lengths of
+  // the first and the last troubled lists into n_first_ / n_last_.
+  SubTally read_try(State& s, CUstream_st* st) {
+    const auto& both = sub_.read(st);
+    const unsigned* f = both.data();
+    const unsigned* r = f + kSubstepCounters;
+    throw_if_too_long(s, where_, mem_, f[kTooLong], f[kTooLongAt], st, "delaunay.flip");
+    throw_if_too_long(s, where_, mem_, r[kTooLong], r[kTooLongAt], st, "delaunay.flip");
+    SubTally h;
+    std::copy(f, f + kSubstepCounters, h.begin());
+    std::copy(r, r + kInversionCounters, h.begin());
+    h[kThrough] = f[kThrough];
+    h[kThroughAt] = f[kThroughAt];
+    n_first_ = f[kTroubledCount];
+    n_last_ = r[kTroubledCount];
+    return h;
+  }
+
+  // The repair rounds of one try on lists, after reset_try. `work` (`span`; null: every edge)
+  // holds every edge that can be troubled at V's topology and the positions now (see
+  // untangle); they are marked with the r⁰·r¹ test against V (`prev`), the troubled ones listed
+  // (first_), then each round decides and flips among the last troubled edges and re-marks
+  // those and the edges around each flip (trouble_). The first round is launched right after
+  // the first marking, before the host knows whether anything is marked (with nothing marked it
+  // flips nothing and re-marks the same edges): one host read a try when a round suffices. Only
+  // rounds that flip count (as rounds run only while something is marked, and then flip). Leaves
+  // the last troubled list in last_ / n_last_ (every edge whose mark is 1 is in it), the first
+  // in first_ / n_first_, and returns read_try's counters.
   SubTally repair_listed(State& s, const Mesh& m, const Points<R>& pts, const R* prev, const std::int32_t* work,
                          ListSpan span, CUstream_st* st) {
-    const std::size_t launched = span.launched;
     std::uint8_t* mark = s.field(fields::flip_mark).data<std::uint8_t>(where_);
     const std::size_t E = edge_count(s.n());
     std::uint8_t* go = go_.get(E);
-    unsigned* c = sub_.ptr();
-    clear_marking(st);
-    loops_.mark_listed(launched, MarkListed<R>{{m, pts, prev, mark, c}, work, span, first_.get(E), c}, st);
-    SubTally h = sub_.read(st);
+    unsigned* f = first_block();
+    unsigned* r = round_block();
+    std::int32_t* first = first_.get(E);
+    loops_.mark_listed(span.launched, MarkListed<R>{{m, pts, prev, mark, f}, work, span, first, f}, st);
     ++tries_;
-    throw_if_too_long(s, where_, mem_, h[kTooLong], h[kTooLongAt], st, "delaunay.flip");
-    last_ = first_.get(E);
-    n_first_ = n_last_ = h[kTroubledCount];
-    const unsigned through = h[kThrough], through_at = h[kThroughAt];
+    // The rounds. The first one's lists have lengths only the backend knows: launched over
+    // guesses (ListSpan); later ones over the lengths read.
+    const std::int32_t* list = first;
+    ListSpan listed{f + kTroubledCount, std::max<std::size_t>(1, std::min(E, span.launched))};
     std::int64_t rounds = 0;
     int out = 0;
-    while (h[kMarked] && rounds < p_.max_rounds) {
-      clear_marking(st);
-      zero(kWorkCount, 1, st);
+    SubTally h{};
+    bool first_round = true;
+    while (true) {
+      if (!first_round) reset_round(st);
       const unsigned wg = next_gen(work_gen_, edge_stamp_.get(E), E, st);
       std::int32_t* w = work_.get(E);
-      loops_.decide_listed(n_last_, DecideListed{{m, mark, go, c, kRepairFlips}, last_}, st);
-      loops_.apply_listed(n_last_,
-                          ApplyListed{m, go, last_, w, edge_stamp_.get(E), wg, touched_edges_.get(E),
-                                      touched_edge_stamp_.get(E), touched_vertices_.get(s.n()),
-                                      touched_vertex_stamp_.get(s.n()), touched_gen_, c},
+      const std::size_t n = listed.launched;
+      loops_.decide_listed(n, DecideListed{{m, mark, go, r, kRepairFlips}, list, listed}, st);
+      loops_.apply_listed(n,
+                          ApplyListed{m, go, list, listed, w, edge_stamp_.get(E), wg, r + kWorkCount,
+                                      touched_edges_.get(E), touched_edge_stamp_.get(E), touched_vertices_.get(s.n()),
+                                      touched_vertex_stamp_.get(s.n()), touched_gen_, f},
                           st);
-      loops_.list_edges(n_last_, ListEdges{last_, w, edge_stamp_.get(E), wg, c}, st);
+      loops_.list_edges(n, ListEdges{list, listed, w, edge_stamp_.get(E), wg, r + kWorkCount}, st);
       // At most the troubled edges and four more a flip; the length is on the backend.
-      const std::size_t bound = std::min<std::size_t>(E, 5 * std::size_t(n_last_));
+      const std::size_t bound = std::min<std::size_t>(E, 5 * n);
       std::int32_t* t = trouble_[out].get(E);
-      loops_.mark_listed(bound, MarkListed<R>{{m, pts, nullptr, mark, c}, w, ListSpan{c + kWorkCount, bound}, t, c},
+      loops_.mark_listed(bound, MarkListed<R>{{m, pts, nullptr, mark, r}, w, ListSpan{r + kWorkCount, bound}, t, r},
                          st);
-      h = sub_.read(st);
+      h = read_try(s, st);
       flips_ += h[kRepairFlips];
-      ++rounds;
-      throw_if_too_long(s, where_, mem_, h[kTooLong], h[kTooLongAt], st, "delaunay.flip");
+      if (h[kRepairFlips]) ++rounds;
       last_ = t;
-      n_last_ = h[kTroubledCount];
       out = 1 - out;
+      first_round = false;
+      if (!h[kMarked] || rounds >= p_.max_rounds) break;
+      list = t;
+      listed = ListSpan{nullptr, n_last_};
     }
     rounds_ += rounds;
-    h[kThrough] = through;
-    h[kThroughAt] = through_at;
     return h;
   }
+  void reset_round(CUstream_st* st) { loops_.reset(1, ResetTry{nullptr, round_block(), false, false}, st); }
 
   // Substep untangling (Porro et al. §3, "intermediate position"). The triangulation is valid
   // at V = position_prev and the integrator's targets T are in `position`. Each particle has a
@@ -359,8 +383,10 @@ class Flip final : public Stage {
   // (deepened, or shallower after an accepted try); the flips' records are put back or kept
   // from lists (TouchedRecords), V is updated for the active particles (depth > 0) only. The
   // result is the one full passes give, bit for bit (the same marks everywhere, hence the same
-  // flips). Metrics: substeps (halvings), substep_tries (repair passes), substep_depth (the
-  // deepest particle's halvings), substep_particles (particles halved at least once).
+  // flips). The lists' loops run over guesses of their lengths (ListSpan), so the host waits
+  // once a try when one repair round suffices. Metrics: substeps (halvings), substep_tries
+  // (repair passes), substep_depth (the deepest particle's halvings), substep_particles
+  // (particles halved at least once).
   Outcome untangle(StepContext& ctx, const Mesh& m) {
     State& s = ctx.state;
     CUstream_st* st = ctx.stream;
@@ -369,17 +395,14 @@ class Flip final : public Stage {
     const auto box = PeriodicBox<double>::make(s.box.L);
     R* target = target_.get(2 * n);
     std::uint32_t* depth = depth_.get(n);
-    unsigned* c = sub_.ptr();
+    unsigned* c = first_block();
     bool announced = false, accepted = false;
     std::int64_t halvings = 0;
     tries_ = 0;
-    // The step's statistics, the active list (empty), the flips' records (none yet).
-    zero(kActiveCount, kDepthNot - kActiveCount, st);
-    mem_.fill(c + kDepthNot, 0xFF, sizeof(unsigned), st);
     const unsigned step_gen = next_gen(step_gen_, halved_stamp_.get(n), n, st);
     next_touched_gen(n, st);
-    int now = 0;                      // active_[now]: particles with depth > 0
-    std::size_t n_shallowed = 0;      // active_[1 - now]: the ones the last Shallower moved
+    int now = 0;                  // active_[now]: particles with depth > 0
+    std::size_t n_shallowed = 0;  // active_[1 - now]: the ones the last Shallower moved
     const auto metrics = [&](const SubTally& t) {
       ctx.metrics.set("substeps", double(halvings));
       ctx.metrics.set("substep_tries", double(tries_));
@@ -393,6 +416,7 @@ class Flip final : public Stage {
                                        std::move(who));
     };
     // The first try: every edge, at V's topology and the targets.
+    reset_try(true, true, st);
     SubTally h = repair_listed(s, m, Points<R>{s.field(ff::fields::position).data<R>(where_), box},
                                s.field(fields::position_prev).data<R>(where_), nullptr, ListSpan{nullptr, E}, st);
     while (true) {
@@ -412,6 +436,7 @@ class Flip final : public Stage {
       std::size_t guess = 0;
       if (!h[kInverted] && !h[kThrough]) {
         if (n_active == 0) break;  // at the targets
+        reset_try(true, false, st);
         // Valid here: the next reference. Before the first acceptance every particle is at its
         // target, away from V; after it only the active particles and the ones the last
         // Shallower moved have left V.
@@ -423,13 +448,13 @@ class Flip final : public Stage {
           loops_.copy_listed(n_active, CopyListed<R>{active, x, v}, st);
         }
         keep_or_restore(s, true, h, st);
-        zero(kActiveCount, 1, st);
         loops_.shallower(n_active, Shallower<R>{Points<R>{v, box}, target, x, active, depth, other, c}, st);
         now = 1 - now;
         n_shallowed = n_active;
-        zero(kWorkCount, 1, st);
         const unsigned wg = next_gen(work_gen_, edge_stamp_.get(E), E, st);
-        loops_.list_edges(n_last_, ListEdges{last_, w, edge_stamp_.get(E), wg, c}, st);
+        loops_.list_edges(n_last_, ListEdges{last_, ListSpan{nullptr, n_last_}, w, edge_stamp_.get(E), wg,
+                                             c + kWorkCount},
+                          st);
         loops_.edges_around(n_shallowed,
                             EdgesAround{m, active, ListSpan{nullptr, n_shallowed}, w, edge_stamp_.get(E), wg, c}, st);
         guess = n_last_ + 12 * n_shallowed;
@@ -455,18 +480,23 @@ class Flip final : public Stage {
           mem_.fill(depth, 0, n * sizeof(std::uint32_t), st);
         }
         ++halvings;
+        reset_try(false, false, st);
         // Who goes deeper: judged at the ends of the last troubled edges, of the first
         // marking's and of the edges the try's flips made.
-        zero(kMovingCount, 1, st);
         const unsigned vg = next_gen(vertex_gen_, vertex_stamp_.get(n), n, st);
         std::int32_t* moving = moving_.get(n);
-        const MovingRule<R> rule{m, Points<R>{x, box}, Points<R>{v, box}};
-        loops_.find_moving(n_last_, FindMoving<R>{rule, last_, moving, vertex_stamp_.get(n), vg, c}, st);
-        loops_.find_moving(n_first_, FindMoving<R>{rule, first_.get(E), moving, vertex_stamp_.get(n), vg, c}, st);
-        loops_.find_moving(h[kTouchedEdgeCount],
-                           FindMoving<R>{rule, touched_edges_.get(E), moving, vertex_stamp_.get(n), vg, c}, st);
+        const std::size_t n_touched = h[kTouchedEdgeCount];
+        loops_.find_moving(n_last_ + n_first_ + n_touched,
+                           FindMoving<R>{MovingRule<R>{m, Points<R>{x, box}, Points<R>{v, box}},
+                                         {last_, first_.get(E), touched_edges_.get(E)},
+                                         {n_last_, n_first_, n_touched},
+                                         moving,
+                                         vertex_stamp_.get(n),
+                                         vg,
+                                         c},
+                           st);
         // At most both ends of those edges; the count is on the backend.
-        const std::size_t n_moving = std::min<std::size_t>(n, 2 * (n_last_ + n_first_ + h[kTouchedEdgeCount]));
+        const std::size_t n_moving = std::min<std::size_t>(n, 2 * (n_last_ + n_first_ + n_touched));
         const ListSpan moved{c + kMovingCount, n_moving};
         loops_.deepen(n_moving, Deepen<R>{Points<R>{v, box}, target, x, moving, moved, depth, active,
                                           halved_stamp_.get(n), step_gen, c},
@@ -474,10 +504,13 @@ class Flip final : public Stage {
         // The flips made for the positions farther out need not be valid nearer V (a flipped
         // triangle can stay inverted however close to V its vertices come): repair from V's.
         keep_or_restore(s, false, h, st);
-        zero(kWorkCount, 1, st);
         const unsigned wg = next_gen(work_gen_, edge_stamp_.get(E), E, st);
-        loops_.list_edges(n_first_, ListEdges{first_.get(E), w, edge_stamp_.get(E), wg, c}, st);
-        loops_.list_edges(n_last_, ListEdges{last_, w, edge_stamp_.get(E), wg, c}, st);
+        loops_.list_edges(n_first_, ListEdges{first_.get(E), ListSpan{nullptr, n_first_}, w, edge_stamp_.get(E), wg,
+                                              c + kWorkCount},
+                          st);
+        loops_.list_edges(n_last_, ListEdges{last_, ListSpan{nullptr, n_last_}, w, edge_stamp_.get(E), wg,
+                                             c + kWorkCount},
+                          st);
         loops_.edges_around(n_moving, EdgesAround{m, moving, moved, w, edge_stamp_.get(E), wg, c}, st);
         guess = n_first_ + n_last_ + 12 * std::size_t(h[kInverted] + h[kThrough]);
       }
@@ -517,8 +550,7 @@ class Flip final : public Stage {
       }
       loops_.touched(n_edges + n_vertices, t, st);
     }
-    zero(kTouchedEdgeCount, 2, st);
-    next_touched_gen(s.n(), st);
+    next_touched_gen(s.n(), st);  // the lengths: reset_try
   }
   // The touched lists' generation (one for the edge and the vertex stamps).
   void next_touched_gen(std::size_t n, CUstream_st* st) {
@@ -556,7 +588,7 @@ class Flip final : public Stage {
   Scratch<std::int32_t> topology_; // substep: the topology valid at V (halfedge, opposite, vertex_edge)
   Scratch<std::uint32_t> depth_;   // substep: each particle's depth (Deepen, Shallower)
   // Substep lists (kernel.h): their lengths and the step's statistics in sub_.
-  Counters<kSubstepCounters> sub_;
+  Counters<2 * kSubstepCounters> sub_;
   Scratch<std::int32_t> first_;          // edges troubled at a try's first marking
   Scratch<std::int32_t> trouble_[2];     // edges troubled at a round's marking (alternately)
   std::int32_t* last_ = nullptr;         // the last marking's troubled edges (first_ or trouble_)
