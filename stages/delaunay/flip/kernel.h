@@ -121,7 +121,8 @@ struct DecideListed {
 // The winning flips of a list. Before flipping, each records what it changes: its edge and the
 // four around it (their half-edge and opposite records; the edges whose quads change), and its
 // two end vertices (vertex_edge): the records to put back when the try fails, or to keep when
-// it works (TouchedRecords); and the five edges go to the next round's work list. Winning flips
+// it works (TouchedRecords); and the five edges go to the next round's work list, as does every
+// edge of the list (troubled: marked again next round whether it flips or not). Winning flips
 // share no triangle, so no other flip writes the records read here.
 struct ApplyListed {
   Mesh mesh;
@@ -143,6 +144,7 @@ struct ApplyListed {
     span.each(i, [&](std::size_t j) { one(list[j]); });
   }
   FF_HD void one(int e) const {
+    append_once(work, work_count, work_stamp, work_gen, e);
     if (!go[e]) return;
     const Quad q = quad(mesh, e);
     const int edges[5] = {e, q.h0n >> 1, q.h0p >> 1, q.h1n >> 1, q.h1p >> 1};
@@ -280,7 +282,8 @@ struct MovingRule {
 // every particle the rule moves is an end of a troubled edge of the last marking (an inverted
 // triangle's three edges are troubled), of the try's first marking (a reversed edge of V's
 // topology) or of an edge a flip made in the try (touched): the lists given in turn. Each
-// candidate is judged once (claimed), the moving ones appended.
+// candidate is judged once (claimed), the moving ones appended. The edges of the first two
+// lists also go to the next try's work list (their marks and status, at V's topology).
 template <class R>
 struct FindMoving {
   MovingRule<R> rule;
@@ -289,11 +292,15 @@ struct FindMoving {
   std::int32_t* moving;
   unsigned* stamp;
   unsigned gen;
-  unsigned* counters;  // kMovingCount
+  unsigned* counters;  // kMovingCount, kWorkCount
+  std::int32_t* work;
+  unsigned* work_stamp;
+  unsigned work_gen;
   FF_HD void operator()(std::size_t i) const {
     int l = 0;
     while (i >= counts[l]) i -= counts[l++];
     const int e = edges[l][i];
+    if (l < 2) append_once(work, counters + kWorkCount, work_stamp, work_gen, e);
     for (int k = 0; k < 2; ++k) {
       const int v = rule.mesh.origin(2 * e + k);
       if (claim(stamp + v, gen) && rule.moves(v)) moving[append_index(counters + kMovingCount, 1)] = v;
@@ -365,14 +372,15 @@ struct Shallower {
   }
 };
 
-// V ← the accepted positions, for the particles of a list.
+// V ← the accepted positions, for the particles of two lists.
 template <class R>
 struct CopyListed {
-  const std::int32_t* list;
+  const std::int32_t* lists[2];
+  std::size_t counts[2];  // one loop over both lists
   const R* from;
   R* to;
   FF_HD void operator()(std::size_t k) const {
-    const int i = list[k];
+    const int i = k < counts[0] ? lists[0][k] : lists[1][k - counts[0]];
     to[2 * i] = from[2 * i];
     to[2 * i + 1] = from[2 * i + 1];
   }

@@ -339,7 +339,6 @@ class Flip final : public Stage {
                                       touched_edges_.get(E), touched_edge_stamp_.get(E), touched_vertices_.get(s.n()),
                                       touched_vertex_stamp_.get(s.n()), touched_gen_, f},
                           st);
-      loops_.list_edges(n, ListEdges{list, listed, w, edge_stamp_.get(E), wg, r + kWorkCount}, st);
       // At most the troubled edges and four more a flip; the length is on the backend.
       const std::size_t bound = std::min<std::size_t>(E, 5 * n);
       std::int32_t* t = trouble_[out].get(E);
@@ -444,8 +443,7 @@ class Flip final : public Stage {
           mem_.copy(v, x, bytes, st);
           accepted = true;
         } else {
-          loops_.copy_listed(n_shallowed, CopyListed<R>{other, x, v}, st);
-          loops_.copy_listed(n_active, CopyListed<R>{active, x, v}, st);
+          loops_.copy_listed(n_shallowed + n_active, CopyListed<R>{{other, active}, {n_shallowed, n_active}, x, v}, st);
         }
         keep_or_restore(s, true, h, st);
         loops_.shallower(n_active, Shallower<R>{Points<R>{v, box}, target, x, active, depth, other, c}, st);
@@ -483,7 +481,9 @@ class Flip final : public Stage {
         reset_try(false, false, st);
         // Who goes deeper: judged at the ends of the last troubled edges, of the first
         // marking's and of the edges the try's flips made.
+        // The first and last troubled edges go to the next try's work list on the way.
         const unsigned vg = next_gen(vertex_gen_, vertex_stamp_.get(n), n, st);
+        const unsigned wg = next_gen(work_gen_, edge_stamp_.get(E), E, st);
         std::int32_t* moving = moving_.get(n);
         const std::size_t n_touched = h[kTouchedEdgeCount];
         loops_.find_moving(n_last_ + n_first_ + n_touched,
@@ -493,7 +493,10 @@ class Flip final : public Stage {
                                          moving,
                                          vertex_stamp_.get(n),
                                          vg,
-                                         c},
+                                         c,
+                                         w,
+                                         edge_stamp_.get(E),
+                                         wg},
                            st);
         // At most both ends of those edges; the count is on the backend.
         const std::size_t n_moving = std::min<std::size_t>(n, 2 * (n_last_ + n_first_ + n_touched));
@@ -504,13 +507,6 @@ class Flip final : public Stage {
         // The flips made for the positions farther out need not be valid nearer V (a flipped
         // triangle can stay inverted however close to V its vertices come): repair from V's.
         keep_or_restore(s, false, h, st);
-        const unsigned wg = next_gen(work_gen_, edge_stamp_.get(E), E, st);
-        loops_.list_edges(n_first_, ListEdges{first_.get(E), ListSpan{nullptr, n_first_}, w, edge_stamp_.get(E), wg,
-                                              c + kWorkCount},
-                          st);
-        loops_.list_edges(n_last_, ListEdges{last_, ListSpan{nullptr, n_last_}, w, edge_stamp_.get(E), wg,
-                                             c + kWorkCount},
-                          st);
         loops_.edges_around(n_moving, EdgesAround{m, moving, moved, w, edge_stamp_.get(E), wg, c}, st);
         guess = n_first_ + n_last_ + 12 * std::size_t(h[kInverted] + h[kThrough]);
       }
