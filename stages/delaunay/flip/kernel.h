@@ -108,22 +108,59 @@ struct MarkListed {
   }
 };
 
-// DecideFlips on the edges of a list (the troubled ones: every marked edge is among them).
+// What a round's winning flips will change, recorded before any of them flips (DecideListed):
+// each flip's edge and the four around it (their half-edge and opposite records: the edges whose
+// quads change) and its two end vertices (vertex_edge). The first flip of a generation (since
+// V's topology was last kept or put back) to touch a record saves its value, V's, into the
+// copy (`kept_*`), so that a failed try puts back exactly those records (TouchedRecords) and an
+// accepted one needs no copy at all: every record untouched since equals V's topology.
+struct TouchLog {
+  std::int32_t* edges;
+  unsigned* edge_stamp;
+  std::int32_t* vertices;
+  unsigned* vertex_stamp;
+  unsigned gen;
+  unsigned* counts;  // kTouchedEdgeCount, kTouchedVertexCount of the first block
+  std::int32_t *kept_he, *kept_opp, *kept_vedge;
+
+  FF_HD void record(const Mesh& m, int e) const {
+    const Quad q = quad(m, e);
+    const int around[5] = {e, q.h0n >> 1, q.h0p >> 1, q.h1n >> 1, q.h1p >> 1};
+    for (int k = 0; k < 5; ++k) {
+      const int g = around[k];
+      if (!claim(edge_stamp + g, gen)) continue;
+      edges[append_index(counts + kTouchedEdgeCount, 1)] = g;
+      for (int w = 0; w < 4; ++w) kept_he[4 * g + w] = m.he[4 * g + w];
+      kept_opp[2 * g] = m.opp[2 * g];
+      kept_opp[2 * g + 1] = m.opp[2 * g + 1];
+    }
+    for (const int v : {q.a, q.b}) {
+      if (!claim(vertex_stamp + v, gen)) continue;
+      vertices[append_index(counts + kTouchedVertexCount, 1)] = v;
+      kept_vedge[v] = m.vedge[v];
+    }
+  }
+};
+
+// DecideFlips on the edges of a list (the troubled ones: every marked edge is among them); the
+// winners' records are logged (TouchLog) while nothing flips.
 struct DecideListed {
   DecideFlips decide;
   const std::int32_t* list;
   ListSpan span;
+  TouchLog touched;
   FF_HD void operator()(std::size_t i) const {
-    span.each(i, [&](std::size_t j) { decide(std::size_t(list[j])); });
+    span.each(i, [&](std::size_t j) {
+      const int e = list[j];
+      decide(std::size_t(e));
+      if (decide.go[e]) touched.record(decide.mesh, e);
+    });
   }
 };
 
-// The winning flips of a list. Before flipping, each records what it changes: its edge and the
-// four around it (their half-edge and opposite records; the edges whose quads change), and its
-// two end vertices (vertex_edge): the records to put back when the try fails, or to keep when
-// it works (TouchedRecords); and the five edges go to the next round's work list, as does every
-// edge of the list (troubled: marked again next round whether it flips or not). Winning flips
-// share no triangle, so no other flip writes the records read here.
+// The winning flips of a list; the five edges of each flip's quad go to the next round's work
+// list, as does every edge of the list (troubled: marked again next round whether it flips or
+// not). Winning flips share no triangle, so no other flip writes the records read here.
 struct ApplyListed {
   Mesh mesh;
   const std::uint8_t* go;
@@ -133,12 +170,6 @@ struct ApplyListed {
   unsigned* work_stamp;
   unsigned work_gen;
   unsigned* work_count;
-  std::int32_t* touched_edges;
-  unsigned* touched_edge_stamp;
-  std::int32_t* touched_vertices;
-  unsigned* touched_vertex_stamp;
-  unsigned touched_gen;
-  unsigned* touched_counts;  // kTouchedEdgeCount, kTouchedVertexCount of this block
 
   FF_HD void operator()(std::size_t i) const {
     span.each(i, [&](std::size_t j) { one(list[j]); });
@@ -147,13 +178,8 @@ struct ApplyListed {
     append_once(work, work_count, work_stamp, work_gen, e);
     if (!go[e]) return;
     const Quad q = quad(mesh, e);
-    const int edges[5] = {e, q.h0n >> 1, q.h0p >> 1, q.h1n >> 1, q.h1p >> 1};
-    for (int k = 0; k < 5; ++k) {
-      append_once(work, work_count, work_stamp, work_gen, edges[k]);
-      append_once(touched_edges, touched_counts + kTouchedEdgeCount, touched_edge_stamp, touched_gen, edges[k]);
-    }
-    append_once(touched_vertices, touched_counts + kTouchedVertexCount, touched_vertex_stamp, touched_gen, q.a);
-    append_once(touched_vertices, touched_counts + kTouchedVertexCount, touched_vertex_stamp, touched_gen, q.b);
+    const int edges[4] = {q.h0n >> 1, q.h0p >> 1, q.h1n >> 1, q.h1p >> 1};
+    for (int k = 0; k < 4; ++k) append_once(work, work_count, work_stamp, work_gen, edges[k]);
     flip_edge(mesh, e);
   }
 };
@@ -223,8 +249,8 @@ struct EdgesAround {
   }
 };
 
-// The records the flips of a try changed (ApplyListed's lists), copied from `from` to `to`:
-// back from the copy of V's topology after a failed try, into it after one that worked.
+// The records the flips of a try changed (TouchLog's lists), put back from the copy of V's
+// topology after a failed try.
 struct TouchedRecords {
   const std::int32_t* edges;
   std::size_t n_edges;  // then the vertices

@@ -178,7 +178,6 @@ class Flip final : public Stage {
       // Substep mode marks again with the r⁰·r¹ test against position_prev (untangle): detect
       // left reversed edges to the untangling, which must see them.
       status(s)[kPending] = 0;
-      topology(s, true, st);  // valid at position_prev: untangle's halvings start from it
       out = untangle(ctx, m);
     } else {
       // Detect's marks (it made some: kPending).
@@ -333,12 +332,8 @@ class Flip final : public Stage {
       const unsigned wg = next_gen(work_gen_, edge_stamp_.get(E), E, st);
       std::int32_t* w = work_.get(E);
       const std::size_t n = listed.launched;
-      loops_.decide_listed(n, DecideListed{{m, mark, go, r, kRepairFlips}, list, listed}, st);
-      loops_.apply_listed(n,
-                          ApplyListed{m, go, list, listed, w, edge_stamp_.get(E), wg, r + kWorkCount,
-                                      touched_edges_.get(E), touched_edge_stamp_.get(E), touched_vertices_.get(s.n()),
-                                      touched_vertex_stamp_.get(s.n()), touched_gen_, f},
-                          st);
+      loops_.decide_listed(n, DecideListed{{m, mark, go, r, kRepairFlips}, list, listed, touch_log(s)}, st);
+      loops_.apply_listed(n, ApplyListed{m, go, list, listed, w, edge_stamp_.get(E), wg, r + kWorkCount}, st);
       // At most the troubled edges and four more a flip; the length is on the backend.
       const std::size_t bound = std::min<std::size_t>(E, 5 * n);
       std::int32_t* t = trouble_[out].get(E);
@@ -379,8 +374,10 @@ class Flip final : public Stage {
   // only the first try marks every edge; after it each try marks the edges that can have
   // changed status (kernel.h, MarkListed): the last try's troubled edges, the first marking's
   // (at V's topology, which a failed try restores) and those around the particles that moved
-  // (deepened, or shallower after an accepted try); the flips' records are put back or kept
-  // from lists (TouchedRecords), V is updated for the active particles (depth > 0) only. The
+  // (deepened, or shallower after an accepted try); a flip saves V's value of each record it is
+  // the first to touch (TouchLog), so a failed try puts back only those and an accepted one
+  // copies nothing (no copy of the whole topology either); V is updated for the active
+  // particles (depth > 0) only, after the first acceptance. The
   // result is the one full passes give, bit for bit (the same marks everywhere, hence the same
   // flips). The lists' loops run over guesses of their lengths (ListSpan), so the host waits
   // once a try when one repair round suffices. Metrics: substeps (halvings), substep_tries
@@ -445,7 +442,7 @@ class Flip final : public Stage {
         } else {
           loops_.copy_listed(n_shallowed + n_active, CopyListed<R>{{other, active}, {n_shallowed, n_active}, x, v}, st);
         }
-        keep_or_restore(s, true, h, st);
+        end_generation(s, false, h, st);
         loops_.shallower(n_active, Shallower<R>{Points<R>{v, box}, target, x, active, depth, other, c}, st);
         now = 1 - now;
         n_shallowed = n_active;
@@ -506,68 +503,69 @@ class Flip final : public Stage {
                       st);
         // The flips made for the positions farther out need not be valid nearer V (a flipped
         // triangle can stay inverted however close to V its vertices come): repair from V's.
-        keep_or_restore(s, false, h, st);
+        end_generation(s, true, h, st);
         loops_.edges_around(n_moving, EdgesAround{m, moving, moved, w, edge_stamp_.get(E), wg, c}, st);
         guess = n_first_ + n_last_ + 12 * std::size_t(h[kInverted] + h[kThrough]);
       }
       const std::size_t launched = std::max<std::size_t>(1, std::min(E, guess));
       h = repair_listed(s, m, Points<R>{x, box}, v, w, ListSpan{c + kWorkCount, launched}, st);
     }
-    // position_prev ← position (= T): the next step's reference.
-    if (!announced) ctx.will_overwrite(fields::position_prev);
-    mem_.copy(s.field(fields::position_prev).data<R>(ctx), s.field(ff::fields::position).data<R>(ctx), bytes, st);
+    // position_prev ← position (= T): the next step's reference. After an accepted try V
+    // differs from T only for the particles the last Shallower brought to their targets.
+    R* x = s.field(ff::fields::position).data<R>(ctx);
+    if (accepted) {
+      loops_.copy_listed(n_shallowed, CopyListed<R>{{active_[1 - now].get(n), nullptr}, {n_shallowed, 0},
+                                                    x, s.field(fields::position_prev).data<R>(ctx)},
+                         st);
+    } else {
+      if (!announced) ctx.will_overwrite(fields::position_prev);
+      mem_.copy(s.field(fields::position_prev).data<R>(ctx), x, bytes, st);
+    }
     status(s)[kPrevKept] = 0;
     metrics(h);
     return Outcome::ok();
   }
 
-  // The records the try's flips changed (ApplyListed's lists, lengths in h): kept as V's
-  // topology (`keep`, after an accepted try) or put back from it (after a failed one). Either
-  // way the topology equals V's copy afterwards, so the lists start empty again.
-  void keep_or_restore(State& s, bool keep, const SubTally& h, CUstream_st* st) {
+  // The copy of V's topology (TouchLog saves into it): the three fields' records, one field
+  // after another.
+  struct Kept {
+    std::int32_t *he, *opp, *vedge;
+  };
+  Kept kept(State& s) {
+    Field& he = s.field(fields::halfedge);
+    Field& opp = s.field(fields::opposite);
+    Field& ve = s.field(fields::vertex_edge);
+    std::int32_t* k = topology_.get(he.size() + opp.size() + ve.size());
+    return {k, k + he.size(), k + he.size() + opp.size()};
+  }
+  TouchLog touch_log(State& s) {
+    const std::size_t n = s.n(), E = edge_count(n);
+    const Kept k = kept(s);
+    return {touched_edges_.get(E), touched_edge_stamp_.get(E), touched_vertices_.get(n), touched_vertex_stamp_.get(n),
+            touched_gen_,          first_block() ,              k.he,                     k.opp,
+            k.vedge};
+  }
+  // After a failed try: the records its flips changed back to V's (TouchLog's lists, lengths
+  // in h). After an accepted one (`restore` false) the new V's topology is the one now: nothing
+  // to copy. Either way a new generation of the lists starts (their lengths: reset_try).
+  void end_generation(State& s, bool restore, const SubTally& h, CUstream_st* st) {
     const std::size_t n_edges = h[kTouchedEdgeCount], n_vertices = h[kTouchedVertexCount];
-    if (n_edges + n_vertices) {
-      Field& he = s.field(fields::halfedge);
-      Field& opp = s.field(fields::opposite);
-      Field& ve = s.field(fields::vertex_edge);
-      std::int32_t* kept_he = topology_.get(he.size() + opp.size() + ve.size());
-      std::int32_t* kept_opp = kept_he + he.size();
-      std::int32_t* kept_ve = kept_opp + opp.size();
-      std::int32_t* cur_he = he.data<std::int32_t>(where_);
-      std::int32_t* cur_opp = opp.data<std::int32_t>(where_);
-      std::int32_t* cur_ve = ve.data<std::int32_t>(where_);
+    if (restore && n_edges + n_vertices) {
+      const Kept k = kept(s);
       TouchedRecords t{touched_edges_.get(edge_count(s.n())), n_edges, touched_vertices_.get(s.n())};
-      if (keep) {
-        t.from_he = cur_he, t.from_opp = cur_opp, t.from_vedge = cur_ve;
-        t.to_he = kept_he, t.to_opp = kept_opp, t.to_vedge = kept_ve;
-      } else {
-        t.from_he = kept_he, t.from_opp = kept_opp, t.from_vedge = kept_ve;
-        t.to_he = cur_he, t.to_opp = cur_opp, t.to_vedge = cur_ve;
-      }
+      t.from_he = k.he, t.from_opp = k.opp, t.from_vedge = k.vedge;
+      t.to_he = s.field(fields::halfedge).data<std::int32_t>(where_);
+      t.to_opp = s.field(fields::opposite).data<std::int32_t>(where_);
+      t.to_vedge = s.field(fields::vertex_edge).data<std::int32_t>(where_);
       loops_.touched(n_edges + n_vertices, t, st);
     }
-    next_touched_gen(s.n(), st);  // the lengths: reset_try
+    next_touched_gen(s.n(), st);
   }
   // The touched lists' generation (one for the edge and the vertex stamps).
   void next_touched_gen(std::size_t n, CUstream_st* st) {
     const std::size_t E = edge_count(n);
     unsigned* ve = touched_vertex_stamp_.get(n);
     if (next_gen(touched_gen_, touched_edge_stamp_.get(E), E, st) == 1) mem_.fill(ve, 0, n * sizeof(unsigned), st);
-  }
-
-  // Substep mode: keep (`keep`) the topology where the triangulation is valid (V), or put it
-  // back (the three topology fields, one after another in topology_).
-  void topology(State& s, bool keep, CUstream_st* st) {
-    std::size_t words = 0;
-    for (const char* f : {fields::halfedge, fields::opposite, fields::vertex_edge}) words += s.field(f).size();
-    std::int32_t* kept = topology_.get(words);
-    for (const char* f : {fields::halfedge, fields::opposite, fields::vertex_edge}) {
-      Field& fl = s.field(f);
-      std::int32_t* d = fl.data<std::int32_t>(where_);
-      if (keep) mem_.copy(kept, d, fl.bytes(), st);
-      else mem_.copy(d, kept, fl.bytes(), st);
-      kept += fl.bytes() / sizeof(std::int32_t);
-    }
   }
 
   static constexpr std::array<int, 4> kMinSlots{kThroughAt, kTwiceAt, kUnrepairableAt, kTooLongAt};
@@ -581,7 +579,7 @@ class Flip final : public Stage {
   Counters<kInversionCounters> counters_;
   Scratch<std::uint8_t> go_;
   Scratch<R> target_;              // substep: the integrator's targets T
-  Scratch<std::int32_t> topology_; // substep: the topology valid at V (halfedge, opposite, vertex_edge)
+  Scratch<std::int32_t> topology_; // substep: V's topology where flips touched it (TouchLog)
   Scratch<std::uint32_t> depth_;   // substep: each particle's depth (Deepen, Shallower)
   // Substep lists (kernel.h): their lengths and the step's statistics in sub_.
   Counters<2 * kSubstepCounters> sub_;
