@@ -134,7 +134,9 @@ struct TouchLog {
       kept_opp[2 * g] = m.opp[2 * g];
       kept_opp[2 * g + 1] = m.opp[2 * g + 1];
     }
-    for (const int v : {q.a, q.b}) {
+    const int ends[2] = {q.a, q.b};
+    for (int k = 0; k < 2; ++k) {
+      const int v = ends[k];
       if (!claim(vertex_stamp + v, gen)) continue;
       vertices[append_index(counts + kTouchedVertexCount, 1)] = v;
       kept_vedge[v] = m.vedge[v];
