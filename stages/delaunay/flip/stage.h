@@ -320,9 +320,11 @@ class Flip final : public Stage {
     loops_.mark_listed(span.launched, MarkListed<R>{{m, pts, prev, mark, f}, work, span, first, f}, st);
     ++tries_;
     // The rounds. The first one's lists have lengths only the backend knows: launched over
-    // guesses (ListSpan); later ones over the lengths read.
+    // guesses (ListSpan; the troubled edges are a small part of the marked ones even when every
+    // edge is marked, and a short guess only makes each thread take more); later ones over the
+    // lengths read.
     const std::int32_t* list = first;
-    ListSpan listed{f + kTroubledCount, std::max<std::size_t>(1, std::min(E, span.launched))};
+    ListSpan listed{f + kTroubledCount, std::max<std::size_t>(1, std::min({E, span.launched, kFirstRoundGuess}))};
     std::int64_t rounds = 0;
     int out = 0;
     SubTally h{};
@@ -569,6 +571,7 @@ class Flip final : public Stage {
   }
 
   static constexpr std::array<int, 4> kMinSlots{kThroughAt, kTwiceAt, kUnrepairableAt, kTooLongAt};
+  static constexpr std::size_t kFirstRoundGuess = std::size_t(1) << 16;  // repair_listed
   FlipParams p_;
   Communicator* team_;  // a decomposed team's rank; null alone
   bool substep_;
