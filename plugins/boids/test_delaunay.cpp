@@ -215,3 +215,40 @@ TEST_CASE("boids: flip's sub-steps give the same triangulation and counts on eve
   INFO("halvings " << substeps << ", deepest " << deepest);
   CHECK(deepest >= 2);  // not a trivial agreement: places were halved, some more than once
 }
+
+TEST_CASE("boids: flip's sub-steps on lists make the flips and halvings that full passes made",
+          "[boids][delaunay][substep]") {
+  // Until session 17 every try of delaunay.flip's sub-stepping marked every edge and moved every
+  // particle; now it works on lists of what the trouble touched (flip/kernel.h), which must
+  // leave the same marks everywhere, hence the same flips, rounds and halvings. The sums below
+  // (each metric's total over the steps and its step-weighted total) were recorded with the
+  // full-pass implementation (main at 75cd2a8, this test's binary with its plugins, CPU); the
+  // positions end at the targets either way, these counts are what the lists could get wrong.
+  const std::uint64_t n = 4096, steps = 60;
+  const Registry& r = boids_test::registry();
+  std::vector<StepEntry> step{entry(r, "delaunay.build", {}, {"", {}, false, steps + 1}),
+                              entry(r, "neighbors.delaunay", {{"radius", kViewRadius}}), forces(), integrate(0.06),
+                              entry(r, "delaunay.detect_inversion"),
+                              entry(r, "delaunay.flip",
+                                    {{"on_unrepairable", std::string("substep")},
+                                     {"passing", std::string("substep")},
+                                     {"max_substeps", std::int64_t(1000)}}),
+                              entry(r, "delaunay.lawson")};
+  Simulation sim(boids_spec(step, n, steps, 7), r, dry(Backend::cpu));
+  const char* counts[] = {"delaunay.flip/flips", "delaunay.flip/flip_rounds", "delaunay.flip/substeps",
+                          "delaunay.lawson/lawson_flips"};
+  double sum[4] = {}, weighted[4] = {};
+  for (std::uint64_t k = 0; k < steps; ++k) {
+    sim.advance();
+    for (int c = 0; c < 4; ++c) {
+      sum[c] += metric(sim, counts[c]);
+      weighted[c] += double(k + 1) * metric(sim, counts[c]);
+    }
+  }
+  const double full_sum[4] = {4921, 641, 369, 32362}, full_weighted[4] = {144984, 19949, 11612, 905831};
+  for (int c = 0; c < 4; ++c) {
+    INFO(counts[c]);
+    CHECK(sum[c] == full_sum[c]);
+    CHECK(weighted[c] == full_weighted[c]);
+  }
+}
