@@ -400,6 +400,39 @@ struct Shallower {
   }
 };
 
+// A failed try in one launch: the records its flips changed back to V's (elements
+// [0, n_restore)), and the moving particles a level deeper (the rest: Deepen's strided list).
+// Neither reads what the other writes.
+template <class R>
+struct RestoreAndDeepen {
+  TouchedRecords restore;
+  std::size_t n_restore;
+  Deepen<R> deepen;
+  FF_HD void operator()(std::size_t i) const {
+    if (i < n_restore) restore(i);
+    else deepen(i - n_restore);
+  }
+};
+
+// An accepted try in one launch (after V ← positions): each active particle a level shallower
+// and the edges around it to the next marking's work list (the topology does not change here),
+// then (elements [n_active, n_active + n_last)) the last marking's troubled edges to it too.
+template <class R>
+struct ShallowerAndList {
+  Shallower<R> shallower;
+  std::size_t n_active;
+  EdgesAround around;
+  ListEdges last;
+  FF_HD void operator()(std::size_t i) const {
+    if (i < n_active) {
+      shallower(i);
+      around.one(shallower.active[i]);
+    } else {
+      last(i - n_active);
+    }
+  }
+};
+
 // V ← the accepted positions, for the particles of two lists.
 template <class R>
 struct CopyListed {

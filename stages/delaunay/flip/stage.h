@@ -59,12 +59,10 @@ struct FlipLoops {
   ElementLoop<MarkListed<R>> mark_listed;
   ElementLoop<DecideListed> decide_listed;
   ElementLoop<ApplyListed> apply_listed;
-  ElementLoop<ListEdges> list_edges;
   ElementLoop<EdgesAround> edges_around;
-  ElementLoop<TouchedRecords> touched;
   ElementLoop<FindMoving<R>> find_moving;
-  ElementLoop<Deepen<R>> deepen;
-  ElementLoop<Shallower<R>> shallower;
+  ElementLoop<RestoreAndDeepen<R>> restore_deepen;
+  ElementLoop<ShallowerAndList<R>> shallower_list;
   ElementLoop<CopyListed<R>> copy_listed;
   ElementLoop<ResetTry> reset;
 };
@@ -76,9 +74,9 @@ FlipLoops<R> flip_loops(Exec) {
   return {&Exec::template for_each<DecideFlips>,     &Exec::template for_each<ApplyFlips>,
           &Exec::template for_each<MarkInversions<R>>, &Exec::template for_each<MarkListed<R>>,
           &Exec::template for_each<DecideListed>,    &Exec::template for_each<ApplyListed>,
-          &Exec::template for_each<ListEdges>,       &Exec::template for_each<EdgesAround>,
-          &Exec::template for_each<TouchedRecords>,  &Exec::template for_each<FindMoving<R>>,
-          &Exec::template for_each<Deepen<R>>,       &Exec::template for_each<Shallower<R>>,
+          &Exec::template for_each<EdgesAround>,
+          &Exec::template for_each<FindMoving<R>>,
+          &Exec::template for_each<RestoreAndDeepen<R>>, &Exec::template for_each<ShallowerAndList<R>>,
           &Exec::template for_each<CopyListed<R>>,   &Exec::template for_each<ResetTry>};
 }
 
@@ -444,16 +442,19 @@ class Flip final : public Stage {
         } else {
           loops_.copy_listed(n_shallowed + n_active, CopyListed<R>{{other, active}, {n_shallowed, n_active}, x, v}, st);
         }
-        end_generation(s, false, h, st);
-        loops_.shallower(n_active, Shallower<R>{Points<R>{v, box}, target, x, active, depth, other, c}, st);
+        next_touched_gen(n, st);  // V's topology is the one now: no records to keep
+        // Shallower, and the next marking's work list: the edges around the particles it moves
+        // and the last troubled ones.
+        const unsigned wg = next_gen(work_gen_, edge_stamp_.get(E), E, st);
+        loops_.shallower_list(
+            n_active + n_last_,
+            ShallowerAndList<R>{Shallower<R>{Points<R>{v, box}, target, x, active, depth, other, c},
+                                n_active,
+                                EdgesAround{m, active, ListSpan{nullptr, n_active}, w, edge_stamp_.get(E), wg, c},
+                                ListEdges{last_, ListSpan{nullptr, n_last_}, w, edge_stamp_.get(E), wg, c + kWorkCount}},
+            st);
         now = 1 - now;
         n_shallowed = n_active;
-        const unsigned wg = next_gen(work_gen_, edge_stamp_.get(E), E, st);
-        loops_.list_edges(n_last_, ListEdges{last_, ListSpan{nullptr, n_last_}, w, edge_stamp_.get(E), wg,
-                                             c + kWorkCount},
-                          st);
-        loops_.edges_around(n_shallowed,
-                            EdgesAround{m, active, ListSpan{nullptr, n_shallowed}, w, edge_stamp_.get(E), wg, c}, st);
         guess = n_last_ + 12 * n_shallowed;
       } else {
         if (halvings == p_.max_substeps) {
@@ -497,15 +498,19 @@ class Flip final : public Stage {
                                          edge_stamp_.get(E),
                                          wg},
                            st);
-        // At most both ends of those edges; the count is on the backend.
-        const std::size_t n_moving = std::min<std::size_t>(n, 2 * (n_last_ + n_first_ + n_touched));
-        const ListSpan moved{c + kMovingCount, n_moving};
-        loops_.deepen(n_moving, Deepen<R>{Points<R>{v, box}, target, x, moving, moved, depth, active,
-                                          halved_stamp_.get(n), step_gen, c},
-                      st);
         // The flips made for the positions farther out need not be valid nearer V (a flipped
         // triangle can stay inverted however close to V its vertices come): repair from V's.
-        end_generation(s, true, h, st);
+        // In the same launch the moving particles go deeper: at most both ends of those edges,
+        // the count is on the backend.
+        const std::size_t n_restore = h[kTouchedEdgeCount] + h[kTouchedVertexCount];
+        const std::size_t n_moving = std::min<std::size_t>(n, 2 * (n_last_ + n_first_ + n_touched));
+        const ListSpan moved{c + kMovingCount, n_moving};
+        loops_.restore_deepen(n_restore + n_moving,
+                              RestoreAndDeepen<R>{restore_records(s, h), n_restore,
+                                                  Deepen<R>{Points<R>{v, box}, target, x, moving, moved, depth, active,
+                                                            halved_stamp_.get(n), step_gen, c}},
+                              st);
+        next_touched_gen(n, st);
         loops_.edges_around(n_moving, EdgesAround{m, moving, moved, w, edge_stamp_.get(E), wg, c}, st);
         guess = n_first_ + n_last_ + 12 * std::size_t(h[kInverted] + h[kThrough]);
       }
@@ -548,20 +553,17 @@ class Flip final : public Stage {
             k.vedge};
   }
   // After a failed try: the records its flips changed back to V's (TouchLog's lists, lengths
-  // in h). After an accepted one (`restore` false) the new V's topology is the one now: nothing
-  // to copy. Either way a new generation of the lists starts (their lengths: reset_try).
-  void end_generation(State& s, bool restore, const SubTally& h, CUstream_st* st) {
-    const std::size_t n_edges = h[kTouchedEdgeCount], n_vertices = h[kTouchedVertexCount];
-    if (restore && n_edges + n_vertices) {
-      const Kept k = kept(s);
-      TouchedRecords t{touched_edges_.get(edge_count(s.n())), n_edges, touched_vertices_.get(s.n())};
-      t.from_he = k.he, t.from_opp = k.opp, t.from_vedge = k.vedge;
-      t.to_he = s.field(fields::halfedge).data<std::int32_t>(where_);
-      t.to_opp = s.field(fields::opposite).data<std::int32_t>(where_);
-      t.to_vedge = s.field(fields::vertex_edge).data<std::int32_t>(where_);
-      loops_.touched(n_edges + n_vertices, t, st);
-    }
-    next_touched_gen(s.n(), st);
+  // in h; RestoreAndDeepen). After an accepted one the new V's topology is the one now: nothing
+  // to copy. Either way a new generation of the lists starts (next_touched_gen; their lengths:
+  // reset_try).
+  TouchedRecords restore_records(State& s, const SubTally& h) {
+    const Kept k = kept(s);
+    TouchedRecords t{touched_edges_.get(edge_count(s.n())), h[kTouchedEdgeCount], touched_vertices_.get(s.n())};
+    t.from_he = k.he, t.from_opp = k.opp, t.from_vedge = k.vedge;
+    t.to_he = s.field(fields::halfedge).data<std::int32_t>(where_);
+    t.to_opp = s.field(fields::opposite).data<std::int32_t>(where_);
+    t.to_vedge = s.field(fields::vertex_edge).data<std::int32_t>(where_);
+    return t;
   }
   // The touched lists' generation (one for the edge and the vertex stamps).
   void next_touched_gen(std::size_t n, CUstream_st* st) {
