@@ -1,6 +1,7 @@
 // overlap_correct on CPU and CUDA: the same bits in double and agreement in float; the same bits on
-// either device path (a thread-block cluster for n ≤ kClusterMaxN, the whole grid above), and when
-// runs share the GPU (smaller teams). Each skips without a CUDA device.
+// either device path (a thread-block cluster for n ≤ kClusterMaxN, the whole grid above), when
+// runs share the GPU (smaller teams), and over many steps of ABP (lists kept across steps). Each
+// skips without a CUDA device.
 #include <catch2/catch.hpp>
 #include <algorithm>
 #include <cmath>
@@ -12,6 +13,8 @@
 #include "core/backend/device.h"
 #include "stages/overlap_correct/test_support.h"
 #include "support/backends.h"
+#include "support/cli.h"
+#include "support/pipeline.h"
 
 using namespace ff;
 using namespace ff::overlap_test;
@@ -93,4 +96,48 @@ TEST_CASE("overlap_correct: CPU and CUDA give the same bits when runs share the 
     }
   }
   ff::set_runs_sharing_gpu(1);
+}
+
+// Many steps of ABP at φ = 0.7 (abp.yaml's stages: integrate, Delaunay maintenance with flips
+// every step, overlap_correct) on the grid path: the device keeps each particle's fan from one
+// step to the next where the flips left it alone (neighbor_lists.cuh, kept_fan) and runs the
+// late iterations of a step in one block; neither may change a bit. Positions, image counts and
+// each step's iterations and pairs must equal the CPU's.
+TEST_CASE("overlap_correct: CPU and CUDA give the same bits over many steps of ABP (kept fans)",
+          "[overlap][cuda]") {
+  if (!test::have_cuda("overlap_correct CPU-vs-CUDA over many steps")) return;
+  for (std::uint64_t n : {20000u, 100000u}) {
+    INFO("n " << n);
+    const auto l = test::load_compute_steps(
+        test::repo_file("pipelines/abp.yaml").string(),
+        {"system.N=" + std::to_string(n), "system.packing_fraction=0.7", "system.init=triangular_lattice_sample",
+         "run.steps=150"});
+    struct Run {
+      std::vector<double> xy, iterations, pairs;
+      std::vector<std::int32_t> image;
+    };
+    auto run = [&](Backend b) {
+      Simulation sim(l.spec, *l.registry, dry(b));
+      Run r;
+      for (std::uint64_t k = 0; k < l.spec.run.steps; ++k) {
+        sim.advance();
+        r.iterations.push_back(metric(sim, "iterations"));
+        r.pairs.push_back(metric(sim, "pairs"));
+      }
+      sim.synchronize();
+      r.xy = positions(sim.state());
+      Field& img = sim.state().field(fields::image);
+      img.acquire(Where::host, Mode::read);
+      r.image.assign(img.host<std::int32_t>(), img.host<std::int32_t>() + 2 * n);
+      return r;
+    };
+    const Run cpu = run(Backend::cpu), cuda = run(Backend::cuda);
+    double most = 0;
+    for (double it : cpu.iterations) most = std::max(most, it);
+    CHECK(most >= 5);  // the late iterations (block 0's tail) do run
+    CHECK(cpu.iterations == cuda.iterations);
+    CHECK(cpu.pairs == cuda.pairs);
+    CHECK(cpu.image == cuda.image);
+    CHECK(std::memcmp(cpu.xy.data(), cuda.xy.data(), cpu.xy.size() * sizeof(double)) == 0);
+  }
 }
