@@ -6,16 +6,29 @@
 // half-edge, computing each circumcentre from minimum-image vectors relative to v and summing
 // the cell's faces in that fixed order. So every sum has one order, whatever the thread count,
 // the backend or which half-edge delaunay.vertex_edge happens to name: the same bits on the CPU
-// and on CUDA (no contraction into fma: cmake/flipflow_plugin.cmake). Each face (Delaunay edge e)
-// is written by the walk of origin(2e) only, each circumcentre copy (one per half-edge) by the
-// walk of that half-edge's origin: no two threads write the same element. The second walk may
-// read the far ends from a cache that the first filled (cell(v, fan): geometry/cuda.cu keeps
-// them in shared memory) instead of the half-edge records: the same values in the same order.
+// and on CUDA. No multiply-add is contracted by the compiler (cmake/flipflow_plugin.cmake); the
+// ones written out as fmadd() are std::fma, rounded once and correctly on both (the CPU loops are
+// built for x86-64-v3, which has the instruction; without it std::fma is libm's, as exact). The
+// CUDA kernel is bound by issuing instructions, FP64 ones the most (bench/experiments/README.md,
+// "voronoi.geometry CUDA variants", sessions 16 and 17): an fma is one for a multiply and an add.
+// Each face (Delaunay edge e) is written by the walk of origin(2e) only, each circumcentre copy
+// (one per half-edge) by the walk of that half-edge's origin: no two threads write the same
+// element. The second walk may read the far ends from a cache that the first filled (cell(v, fan):
+// geometry/cuda.cu keeps them in shared memory) instead of the half-edge records: the same values
+// in the same order.
 //
 // Walk order: next(twin(h)) is the half-edge leaving v clockwise after h (overlap_correct walks
 // the same way). With u_k the far end of the k-th half-edge h_k, the triangle between h_k and
 // h_{k+1} is (v, u_{k+1}, u_k), counter-clockwise; its circumcentre is o_k. Face k (edge v–u_k)
 // runs from o_R = o_k (right of v -> u_k) to o_L = o_{k-1} (left of it).
+//
+// Both ends of face k lie on the bisector of v–u_k: with d = u_k − v (relative to v) and
+// n = d turned by +90°, o_R = d/2 + t_R n and o_L = d/2 + t_L n. The walk computes each
+// triangle's circumcentre as its two parameters t (bisectors()) rather than as a point, and the
+// face's terms follow from t_L − t_R without the points: its signed length A = (t_L − t_R)|d|,
+// four times the area of the triangle (v, o_R, o_L) w = (t_L − t_R)|d|², and
+// o_R + o_L = d + (t_R + t_L) n: fewer instructions than the points and their shoelace sums, and
+// no division a face.
 //
 // The metrics' terms come out of the same walk (cell() returns them): integers, so that the
 // backend loops (geometry/cpu.cpp, geometry/cuda.cu) may add them in any order.
@@ -33,13 +46,25 @@ using delaunay::V2;
 // A fan longer than this is taken for a corrupt triangulation (sides = 0, reported by the stage).
 inline constexpr int kMaxSides = 64;
 
-// Circumcentre of the triangle (0, b, c), relative to its first vertex (spec D1's formula with
-// b' = b, c' = c).
-FF_HD V2 circumcentre(V2 b, V2 c) {
-  const double inv_D = 0.5 / (b.x * c.y - b.y * c.x);  // one division per circumcentre
-  const double bb = b.x * b.x + b.y * b.y, cc = c.x * c.x + c.y * c.y;
-  return {(c.y * bb - b.y * cc) * inv_D, (b.x * cc - c.x * bb) * inv_D};
+// a b + c rounded once: the same bits on the host and the device.
+FF_HD double fmadd(double a, double b, double c) { return std::fma(a, b, c); }
+// a.x b.y − a.y b.x and |a|², each one multiply and one fma.
+FF_HD double cross_fma(V2 a, V2 b) { return fmadd(a.x, b.y, -(a.y * b.x)); }
+FF_HD double norm2(V2 a) { return fmadd(a.x, a.x, a.y * a.y); }
+
+// The circumcentre o of the triangle (0, b, c) (counter-clockwise) on the bisectors of its sides
+// from the origin: o = c/2 + tc c⊥ = b/2 + tb b⊥ (x⊥: x turned by +90°). From o·b = |b|²/2 and
+// o·c = |c|²/2, with D = cross(b, c): tc = (b·c − |b|²) / 2D, tb = (|c|² − b·c) / 2D (spec D1's
+// circumcentre, bb = |b|² and cc = |c|² given: the fan walk computes each far end's once).
+struct Bisectors {
+  double tb, tc;
+};
+FF_HD Bisectors bisectors(V2 b, V2 c, double bb, double cc) {
+  const double inv_2D = 0.5 * (1.0 / cross_fma(b, c));  // one reciprocal per circumcentre (= 0.5 / D)
+  return {fmadd(-b.x, c.x, fmadd(-b.y, c.y, cc)) * inv_2D, fmadd(b.x, c.x, fmadd(b.y, c.y, -bb)) * inv_2D};
 }
+// The point on the bisector of the origin and d at parameter t: d/2 + t d⊥.
+FF_HD V2 on_bisector(V2 d, double t) { return {fmadd(-t, d.y, 0.5 * d.x), fmadd(t, d.x, 0.5 * d.y)}; }
 
 // x brought into [0, L): a position written by the stage (midpoints, centroids, circumcentres).
 FF_HD double wrap_into(double x, double L, double inv_L) {
@@ -162,27 +187,30 @@ struct CellGeometry {
 #endif
   }
 
-  // What one face adds to its cell (face k: half-edge h = v -> u at d = u − v, from o_R to o_L).
+  // What one face adds to its cell (face k: half-edge h = v -> u at d = u − v, dd = |d|², from
+  // o_R to o_L at parameters tR, tL on the bisector of v–u).
   struct Sums {
-    double area = 0, perimeter = 0, gx = 0, gy = 0;
+    double area4 = 0, perimeter = 0, gx = 0, gy = 0;  // area4: four times the area
   };
   template <bool Edges>
-  FF_HD void face(V2 pv, int h, V2 d, V2 oR, V2 oL, Sums& s) const {
-    const double r = std::sqrt(d.x * d.x + d.y * d.y);
-    // A = (o_L − o_R)·n̂ with n̂ = (v -> u)/r turned by +90°: ≥ 0 on a Delaunay edge.
-    const double A = ((oL.x - oR.x) * -d.y + (oL.y - oR.y) * d.x) / r;
-    // The triangle (v, o_R, o_L): base the face, height r/2 (= A r / 4 in exact arithmetic).
-    const double a = 0.5 * delaunay::cross(oR, oL);
-    s.area += a;
+  FF_HD void face(V2 pv, int h, V2 d, double dd, double tR, double tL, Sums& s) const {
+    const double dt = tL - tR;
+    // A = (o_L − o_R)·n̂ with n̂ = (v -> u)/|v -> u| turned by +90°: ≥ 0 on a Delaunay edge.
+    const double A = dt * std::sqrt(dd);
+    // The triangle (v, o_R, o_L) (base the face, height |d|/2), four times its area: the sums of
+    // w and w (o_R + o_L) are divided once, at the end.
+    const double w = dt * dd;
+    s.area4 += w;
     s.perimeter += A;
-    s.gx += a * (oR.x + oL.x);  // × 1/3 (the triangle's centroid) once, at the end
-    s.gy += a * (oR.y + oL.y);
+    const double ts = tR + tL;
+    s.gx = fmadd(w, fmadd(-ts, d.y, d.x), s.gx);  // × 1/3 (the triangle's centroid) once, at the end
+    s.gy = fmadd(w, fmadd(ts, d.x, d.y), s.gy);
     if (Edges && face_length && (h & 1) == 0) {
       const int e = h >> 1;
       face_length[e] = R(A);
-      store2(face_midpoint, e, absolute(pv, {0.5 * (oR.x + oL.x), 0.5 * (oR.y + oL.y)}));
+      store2(face_midpoint, e, absolute(pv, on_bisector(d, 0.5 * ts)));
     }
-    if (Edges && circumcenter) store2(circumcenter, h, absolute(pv, oL));
+    if (Edges && circumcenter) store2(circumcenter, h, absolute(pv, on_bisector(d, tL)));
   }
 
   // The stored area (rounded to R, as the field holds it) and the fan's size as metric terms.
@@ -247,10 +275,15 @@ struct CellGeometry {
     // while the current face is summed.
     V2 p_ahead{0, 0};
     if (cached && deg > 1) p_ahead = position(fan.get(j + 1 == deg ? 0 : j + 1));
-    V2 dk = d_first, o_first{0, 0}, o_prev{0, 0};
+    // |d|² of each far end once: each enters two circumcentres.
+    const double dd_first = norm2(d_first);
+    // tR_first: o_0 on the bisector of face 0; tL: o_{k-1} on the bisector of face k.
+    V2 dk = d_first;
+    double ddk = dd_first, tR_first = 0, tL = 0;
     Sums s;
     for (int k = 0; k < deg; ++k) {
       V2 dn = d_first;
+      double ddn = dd_first;
       int hafter = hnext;
       if (k + 1 < deg) {
         if (!cached) {
@@ -261,21 +294,25 @@ struct CellGeometry {
           if (++j == deg) j = 0;
           if (k + 2 < deg) p_ahead = position(fan.get(j + 1 == deg ? 0 : j + 1));
         }
+        ddn = norm2(dn);
       }
-      const V2 o = circumcentre(dn, dk);
-      if (k == 0) o_first = o;
-      else face<Edges>(pv, hk, dk, o, o_prev, s);
-      o_prev = o;
+      const Bisectors t = bisectors(dn, dk, ddn, ddk);  // o_k
+      if (k == 0) tR_first = t.tc;
+      else face<Edges>(pv, hk, dk, ddk, t.tc, tL, s);
+      tL = t.tb;
       dk = dn;
+      ddk = ddn;
       hk = hnext;
       hnext = hafter;
     }
-    face<Edges>(pv, hmin, d_first, o_first, o_prev, s);
+    face<Edges>(pv, hmin, d_first, dd_first, tR_first, tL, s);
     sides[v] = deg;
-    const R a = R(s.area);
+    const R a = R(0.25 * s.area4);
     area[v] = a;
     perimeter[v] = R(s.perimeter);
-    store2(centroid, std::size_t(v), absolute(pv, {s.gx / (3.0 * s.area), s.gy / (3.0 * s.area)}));
+    // Σ w (o_R + o_L) / (3 Σ w): one division for both coordinates.
+    const double inv_3w = 1.0 / (3.0 * s.area4);
+    store2(centroid, std::size_t(v), absolute(pv, {s.gx * inv_3w, s.gy * inv_3w}));
     return terms(a, deg);
   }
 };
