@@ -7,7 +7,7 @@ set -euo pipefail
 dest=${1:-/work/main/gpu-carry/frnn6}
 shift || true
 P=bench/experiments/frnn6
-VARIANTS=${VARIANTS:-"fmb fmrb fm sqb fm2b fmnb fmb12 fmr fmrb10 fmr2b fmrbs"}
+VARIANTS=${VARIANTS:-"fmb fmrb fm sqb fm2b fmnb fmb12 fmr fmrb10 fmr2b fmrbs fmra fmras"}
 stage=$(mktemp -d)
 specs="main=HEAD"
 for v in $VARIANTS; do specs="$specs $v=HEAD+$P/$v.patch"; done

@@ -26,9 +26,13 @@
 #   fmr2b  fmrb with two members an iteration (as fm2b). 64 registers
 #   fmrbs  fmrb + a block's searches ordered by each particle's visited count of the last step
 #          (counting sort in shared memory; CPU counters: a warp's iterations 37.5 -> 33.2)
+#   fmra   fmrb with one row buffer: when a lane picks the last held member, the next ring (or
+#          the next 8 slots) is loaded into the same registers at once (no copy, no `next`):
+#          51 registers instead of 64 (9 blocks an SM instead of 8)
+#   fmras  fmra + fmrbs's ordering
 #   main, main2: main's stage, first and last of the searches (the order's effect)
 # Steps:
-#   1. frnn-ab.yaml at 2^20: the thirteen searches and neighbors.verlet rebuilt every step at r = 2σ
+#   1. frnn-ab.yaml at 2^20: the fifteen searches and neighbors.verlet rebuilt every step at r = 2σ
 #      (the baseline, same process, same state), 100 steps after 20;
 #   2. test_neighbors_delaunay (the bundle's binary) with each variant's stage plugin on CUDA
 #      (brute-force rows, CPU == CUDA rows, 10^3 hard-disk steps against neighbors.verlet), at once;
@@ -59,7 +63,7 @@ echo "== frnn-ab rc=$? at ${SECONDS} s" | tee -a "$S"
 grep -E "^ *[0-9]|max_visited|error" "$O/frnn-ab.txt" | tee -a "$S"
 
 # 2. tests, all at once (after the bench, so they do not share its GPU)
-VARIANTS="fmb fmrb fm sqb fm2b fmnb fmb12 fmr fmrb10 fmr2b fmrbs"
+VARIANTS="fmb fmrb fm sqb fm2b fmnb fmb12 fmr fmrb10 fmr2b fmrbs fmra fmras"
 for v in $VARIANTS; do
   (FLIPFLOW_TEST_DEVICE=$DEVICE FLIPFLOW_PLUGIN_PATH=$V/$v:$B/plugins timeout 75 "$B/bin/test_neighbors_delaunay" \
      > "$O/test-$v.log" 2>&1; echo "rc=$?" >> "$O/test-$v.log") &
@@ -68,13 +72,13 @@ wait
 for v in $VARIANTS; do echo "== test_neighbors_delaunay $v: $(tail -n 3 "$O/test-$v.log" | tr '\n' ' ')"; done | tee -a "$S"
 echo "tests done at ${SECONDS} s" | tee -a "$S"
 
-# 3. ncu: launches 27-39 are step 3's thirteen searches (frnn-ab.yaml's order: main fmb fmrb ...);
+# 3. ncu: launches 31-45 are step 3's fifteen searches (frnn-ab.yaml's order: main fmb fmrb ...);
 #    the first three of them
 NCU=$(command -v ncu || ls /usr/local/cuda/bin/ncu /opt/nvidia/nsight-compute/*/ncu 2>/dev/null | head -n 1)
 echo "ncu: ${NCU:-none}" | tee -a "$S"
 if [[ -n $NCU && $DEVICE == cuda ]] && ((SECONDS < 110)); then
   FLIPFLOW_PLUGIN_PATH=$V/ab timeout $((160 - SECONDS)) "$NCU" --target-processes all -k regex:visited_kernel \
-    --launch-skip 26 --launch-count 3 --set full --import-source no -f -o "$O/search" \
+    --launch-skip 30 --launch-count 3 --set full --import-source no -f -o "$O/search" \
     "$B/bin/pipeline" bench "$V/frnn-ab.yaml" --device cuda --sizes "$SIZES" --steps 1 --warmup 2 \
     --results "$O/results-ncu" > "$O/ncu-run.txt" 2>&1
   echo "== ncu rc=$? at ${SECONDS} s" | tee -a "$S"
