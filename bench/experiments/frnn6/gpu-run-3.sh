@@ -9,6 +9,9 @@
 # took 9-10 % off the flat loops that had it (fmrbs vs fmrb, fmras vs fmra). This call combines:
 #   src    0f44f88 (main + newest-first scan)
 #   sqbs   src + the block ordering
+#   sqbl   src + each ring chunk's four member records loaded together before the member tests
+#          (four loads in flight, as fm4b does in the flat loop; 48 registers, no spill)
+#   sqbls  sqbl + the block ordering
 #   fm2b   the flat loop, two members an iteration (repeat)
 #   fm2bs  fm2b + the block ordering
 #   fm4b   the flat loop, up to four members an iteration (four record loads in flight; 56 regs)
