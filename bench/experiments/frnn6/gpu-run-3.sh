@@ -12,6 +12,8 @@
 #   sqbl   src + each ring chunk's four member records loaded together before the member tests
 #          (four loads in flight, as fm4b does in the flat loop; 48 registers, no spill)
 #   sqbls  sqbl + the block ordering
+#   sqblp  sqbl + the next queued vertex's record loaded before the current ring is tested
+#          (56 registers);  sqblps: + the block ordering
 #   fm2b   the flat loop, two members an iteration (repeat)
 #   fm2bs  fm2b + the block ordering
 #   fm4b   the flat loop, up to four members an iteration (four record loads in flight; 56 regs)
