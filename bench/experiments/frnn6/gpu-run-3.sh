@@ -33,9 +33,18 @@ SIZES=${SIZES:-2^20}
 V=$B/frnn6c
 mkdir -p "$O" "$V"
 cp "$C"/ab3.yaml "$V/"
-tar xJf "$C/so3.tar.xz" -C "$V"  # ab/
+tar xJf "$C/so3.tar.xz" -C "$V"  # ab/ (built on 75cd2a8, ABI 5) and ab6/ (the same sources on graph4 7ad9dc1, ABI 6)
 S=$O/summary.txt
 nvidia-smi --query-gpu=name,clocks.sm,clocks.max.sm --format=csv > "$S" 2>&1
+# The bundle's plugin ABI: 5 (main before graph4) takes ab/, 6 (graph4 merged) ab6/.
+if ! FLIPFLOW_PLUGIN_PATH=$V/ab "$B/bin/pipeline" stages > "$O/abi.txt" 2>&1; then
+  if grep -q "this flipflow has version 6" "$O/abi.txt"; then
+    rm -rf "$V/ab" && mv "$V/ab6" "$V/ab"
+    echo "bundle of ABI 6: ab6/ (built on graph4 7ad9dc1)" | tee -a "$S"
+  else
+    tail -n 3 "$O/abi.txt" | tee -a "$S"
+  fi
+fi
 FLIPFLOW_PLUGIN_PATH=$V/ab timeout 55 "$B/bin/pipeline" bench "$V/ab3.yaml" --device "$DEVICE" --sizes "$SIZES" \
   --steps 60 --warmup 10 --results "$O/results-ab3" > "$O/ab3.txt" 2>&1
 echo "== ab3 rc=$? at ${SECONDS} s" | tee -a "$S"
