@@ -129,16 +129,10 @@ std::string run_args(const Case& c, const fs::path& out, std::uint64_t steps) {
 // 2n steps in one run; n steps, then --resume to 2n: the same files.
 void check_continuation(const Case& c, std::uint64_t n, const std::string& name) {
   const fs::path one = fresh_dir(name + "_one"), two = fresh_dir(name + "_two");
-  auto r = pipeline(run_args(c, one, 2 * n));
-  INFO(r.out);
-  REQUIRE(r.code == 0);
-  auto first = pipeline(run_args(c, two, n));
-  INFO(first.out);
-  REQUIRE(first.code == 0);
+  require_success(pipeline(run_args(c, one, 2 * n)));
+  require_success(pipeline(run_args(c, two, n)));
   REQUIRE(!checkpoints(two).empty());
-  auto second = pipeline(run_args(c, two, 2 * n) + " --resume");
-  INFO(second.out);
-  REQUIRE(second.code == 0);
+  auto second = require_success(pipeline(run_args(c, two, 2 * n) + " --resume"));
   CHECK_THAT(second.out, Catch::Contains("resuming"));
   CHECK(require_same_h5md(one / c.h5, two / c.h5) >= 4);
   for (auto& csv : c.csv) {
@@ -215,7 +209,7 @@ TEST_CASE("checkpoint continuation: hard disks with rollbacks in the second half
   check_continuation(c, n, "hard_disks");
   // The rollbacks the test relies on: some in the second half (their count grows after step n).
   const fs::path out = fresh_dir("hard_disks_rollbacks");
-  REQUIRE(pipeline(run_args(c, out, 2 * n)).code == 0);
+  require_success(pipeline(run_args(c, out, 2 * n)));
   const double at_n = observable_at(out / c.h5, "rollbacks", std::int64_t(n));
   const double at_end = last_observable(out / c.h5, "rollbacks");
   INFO("rollbacks at step " << n << ": " << at_n << ", at the end: " << at_end);
@@ -274,7 +268,7 @@ TEST_CASE("checkpoint: SIGKILL at a random step, then --resume: the same files",
   c.sets.back() = "run.checkpoint={every: 10, keep: 2}";
   const std::uint64_t steps = 20000;  // seconds: the kill lands mid-run
   const fs::path ref = fresh_dir("kill_ref"), out = fresh_dir("kill");
-  REQUIRE(pipeline(run_args(c, ref, steps)).code == 0);
+  require_success(pipeline(run_args(c, ref, steps)));
   std::mt19937 rng(std::random_device{}());
   const int delay_ms = std::uniform_int_distribution<int>(0, 1500)(rng);
   const fs::path log = out / "log";
@@ -289,9 +283,7 @@ TEST_CASE("checkpoint: SIGKILL at a random step, then --resume: the same files",
   if (!killed || !checkpointed) WARN("the run ended before SIGKILL (" << delay_ms << " ms after its first checkpoint)");
   if (killed) {
     REQUIRE(checkpointed);
-    auto r = pipeline(run_args(c, out, steps) + " --resume");
-    INFO(r.out);
-    REQUIRE(r.code == 0);
+    require_success(pipeline(run_args(c, out, steps) + " --resume"));
   }
   require_same_h5md(ref / c.h5, out / c.h5);
   fs::remove_all(ref);
@@ -305,7 +297,7 @@ TEST_CASE("checkpoint: SIGTERM finishes the step, writes a checkpoint, exits 3; 
   c.sets.back() = "run.checkpoint={every: 1000000}";  // no periodic checkpoint: the signal's is the only one
   const std::uint64_t steps = 20000;  // seconds: the signal lands mid-run
   const fs::path ref = fresh_dir("term_ref"), out = fresh_dir("term");
-  REQUIRE(pipeline(run_args(c, ref, steps)).code == 0);
+  require_success(pipeline(run_args(c, ref, steps)));
   const fs::path log = fresh_dir("term_log") / "log";
   const pid_t pid = spawn_pipeline(run_args(c, out, steps), log);
   // Once frames appear the run is stepping.
@@ -326,9 +318,7 @@ TEST_CASE("checkpoint: SIGTERM finishes the step, writes a checkpoint, exits 3; 
     CHECK_THAT(text, Catch::Contains("stopped by SIGTERM"));
     REQUIRE(checkpoints(out).size() == 1);
     CHECK(fs::exists(out / (c.h5 + ".partial")));
-    auto r = pipeline(run_args(c, out, steps) + " --resume");
-    INFO(r.out);
-    REQUIRE(r.code == 0);
+    require_success(pipeline(run_args(c, out, steps) + " --resume"));
   }
   require_same_h5md(ref / c.h5, out / c.h5);
   fs::remove_all(ref);
@@ -342,8 +332,8 @@ TEST_CASE("checkpoint: refusals exit 2 naming the difference; the previous check
   Case c = abp_case();
   c.sets.back() = "run.checkpoint={every: 20, keep: 2}";
   const fs::path ref = fresh_dir("refuse_ref"), out = fresh_dir("refuse");
-  REQUIRE(pipeline(run_args(c, ref, 80)).code == 0);
-  REQUIRE(pipeline(run_args(c, out, 40)).code == 0);
+  require_success(pipeline(run_args(c, ref, 80)));
+  require_success(pipeline(run_args(c, out, 40)));
   const auto files = checkpoints(out);
   REQUIRE(files.size() == 2);  // steps 20 and 40: keep 2
   CHECK(files[1].filename() == "checkpoint-000000000040.h5");
@@ -402,9 +392,7 @@ TEST_CASE("checkpoint: refusals exit 2 naming the difference; the previous check
 
   // The directory: the corrupt newest is skipped with a warning, the one before resumes, and
   // the result is still the uninterrupted run's (frames after step 20 are dropped and redone).
-  auto resumed = pipeline(run_args(c, out, 80) + " --resume");
-  INFO(resumed.out);
-  REQUIRE(resumed.code == 0);
+  auto resumed = require_success(pipeline(run_args(c, out, 80) + " --resume"));
   CHECK_THAT(resumed.out, Catch::Contains("fails its checksum"));
   CHECK_THAT(resumed.out, Catch::Contains("at step 20"));
   require_same_h5md(ref / c.h5, out / c.h5);
@@ -416,9 +404,7 @@ TEST_CASE("checkpoint: refusals exit 2 naming the difference; the previous check
     REQUIRE(now.size() == 2);  // steps 60 and 80, written by the run that just finished
     REQUIRE(now[1].filename() == "checkpoint-000000000080.h5");
     fs::resize_file(now[1], fs::file_size(now[1]) * 2 / 3);
-    auto again = pipeline(run_args(c, out, 80) + " --resume");
-    INFO(again.out);
-    REQUIRE(again.code == 0);
+    auto again = require_success(pipeline(run_args(c, out, 80) + " --resume"));
     CHECK_THAT(again.out, Catch::Contains("truncated"));
     CHECK_THAT(again.out, Catch::Contains("at step 60"));
     CHECK(fs::exists(out / "checkpoint-000000000080.h5.invalid"));
@@ -426,9 +412,7 @@ TEST_CASE("checkpoint: refusals exit 2 naming the difference; the previous check
   }
 
   // Extending the finished run with a changed parameter: allowed with --allow-changes, recorded.
-  auto extend = pipeline(run_args(c, out, 100) + " --set step.abp.integrate.v0=2 --resume --allow-changes");
-  INFO(extend.out);
-  REQUIRE(extend.code == 0);
+  require_success(pipeline(run_args(c, out, 100) + " --set step.abp.integrate.v0=2 --resume --allow-changes"));
   CHECK_THAT(parameter_attribute(out / c.h5, "/parameters/history/2", "changes"),  // 0, 1: the resumes above
              Catch::Contains("step.abp.integrate.v0: 1 -> 2"));
   fs::remove_all(ref);
@@ -448,15 +432,11 @@ step:
   - {stage: abp.integrate, v0: 1.0, Dr: 0.5, D: 0.1}
   - {stage: observe.h5md, every: 10, file: source.h5, fields: [position, image, orientation, type]}
 )";
-  auto src = pipeline("run " + file.string() + " --out " + (dir / "a").string());
-  INFO(src.out);
-  REQUIRE(src.code == 0);
+  require_success(pipeline("run " + file.string() + " --out " + (dir / "a").string()));
   // The second run starts from frame -1 (step 30) and writes its first frame at its step 0.
-  auto next = pipeline("run " + file.string() + " --out " + (dir / "b").string() +
-                       " --set 'system.init={from: " + (dir / "a" / "source.h5").string() +
-                       ", frame: -1}' --set run.steps=10");
-  INFO(next.out);
-  REQUIRE(next.code == 0);
+  require_success(pipeline("run " + file.string() + " --out " + (dir / "b").string() +
+                           " --set 'system.init={from: " + (dir / "a" / "source.h5").string() +
+                           ", frame: -1}' --set run.steps=10"));
   const auto a = datasets(dir / "a" / "source.h5"), b = datasets(dir / "b" / "source.h5");
   for (const char* element : {"position", "image", "orientation", "type"}) {
     INFO(element);

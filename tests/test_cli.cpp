@@ -14,6 +14,7 @@ namespace fs = std::filesystem;
 namespace {
 using ff::test::pipeline_exe;
 using ff::test::repo_file;
+using ff::test::require_success;
 
 // `pipeline ARGS`, output captured through a per-process log file.
 ff::test::CommandResult run(const std::string& args) {
@@ -32,9 +33,7 @@ TEST_CASE("pipeline run writes a valid H5MD file; a second run needs --force", "
   const fs::path out = fresh_dir("run");
   const std::string base = "run " + repo_file("pipelines/brownian.yaml").string() +
                            " --device cpu --set run.steps=300 --set system.N=500 --out " + out.string();
-  auto r = run(base);
-  INFO(r.out);
-  REQUIRE(r.code == 0);
+  require_success(run(base));
   REQUIRE(fs::exists(out / "trajectory.h5"));
   CHECK_FALSE(fs::exists(out / "trajectory.h5.partial"));
   const std::string check =

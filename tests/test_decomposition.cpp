@@ -353,17 +353,14 @@ TEST_CASE("decomposition: pipeline run --gpus N --device cpu writes one rank's H
   const std::string common = exe + " run " + test::repo_file("tests/data/decomp-lj.yaml").string() +
                              " --device cpu --set run.steps=200 --set system.N=500";
   auto run_cli = [&](const std::string& args) {
-    const auto r = test::run_command(common + " " + args, dir / "log.txt");
-    INFO(r.out);
-    REQUIRE(r.code == 0);
+    const auto r = test::require_success(test::run_command(common + " " + args, dir / "log.txt"));
     return r.out;
   };
   run_cli("--out " + (dir / "alone").string());
   const std::string out = run_cli("--gpus 3 --out " + (dir / "team").string());
   CHECK(out.find("a team of 3 ranks") != std::string::npos);
   auto hashes = [&](const std::string& which) {
-    const auto r = test::dataset_hashes(dir / which / "decomp-lj.h5", dir / "hash.txt");
-    REQUIRE(r.code == 0);
+    const auto r = test::require_success(test::dataset_hashes(dir / which / "decomp-lj.h5", dir / "hash.txt"));
     return r.out;
   };
   const std::string alone = hashes("alone"), team = hashes("team");

@@ -247,17 +247,14 @@ TEST_CASE("decomposed Delaunay: pipeline run pipelines/hard-disks.yaml --gpus 4 
                              " --device cpu --set system.N=1024 --set run.steps=1000 --set run.dt=0.03"
                              " --set step.observe.gr.from_step=0 --set step.observe.h5md.every=250";
   auto run_cli = [&](const std::string& args) {
-    const auto r = test::run_command(common + " " + args, dir / "log.txt");
-    INFO(r.out);
-    REQUIRE(r.code == 0);
+    const auto r = test::require_success(test::run_command(common + " " + args, dir / "log.txt"));
     return r.out;
   };
   run_cli("--out " + (dir / "alone").string());
   CHECK(run_cli("--gpus 4 --out " + (dir / "team").string()).find("a team of 4 ranks") != std::string::npos);
   // The datasets that must match: the particles and the metrics that are not a rank's own counts.
   auto hashes = [&](const std::string& which) {
-    const auto r = test::dataset_hashes(dir / which / "trajectory.h5", dir / "hash.txt");
-    REQUIRE(r.code == 0);
+    const auto r = test::require_success(test::dataset_hashes(dir / which / "trajectory.h5", dir / "hash.txt"));
     std::istringstream in(r.out);
     std::string line, kept;
     for (; std::getline(in, line);)

@@ -18,6 +18,7 @@ namespace fs = std::filesystem;
 namespace {
 using ff::test::pipeline_exe;
 using ff::test::repo_file;
+using ff::test::require_success;
 
 ff::test::CommandResult sh(const std::string& cmd, const fs::path& dir) {
   return ff::test::run_command(cmd, dir / "cmd.log");
@@ -43,16 +44,12 @@ std::string check(const std::string& args) {
 
 // Runs the check and requires its "ok" line.
 void require_ok(const std::string& args, const fs::path& dir) {
-  auto r = sh(check(args), dir);
-  INFO(args << "\n" << r.out);
-  REQUIRE(r.code == 0);
+  auto r = require_success(sh(check(args), dir));
   CHECK_THAT(r.out, Catch::Contains("ok "));
 }
 
 void require_run(const std::string& args, const fs::path& dir) {
-  auto r = sh(pipeline_exe() + " run " + args, dir);
-  INFO(args << "\n" << r.out);
-  REQUIRE(r.code == 0);
+  require_success(sh(pipeline_exe() + " run " + args, dir));
 }
 }  // namespace
 
@@ -111,9 +108,7 @@ TEST_CASE("tools/convert writes GSD that gsd.hoomd reads back (2-D with orientat
   require_run(hs + " --out " + (dir / "hs").string(), dir);
   for (const std::string h5 : {"abp/abp.h5", "abp_md/abp.h5", "hs/trajectory.h5"}) {
     const fs::path in = dir / h5, out = fs::path(in).replace_extension(".gsd");
-    auto r = sh(convert + " " + in.string(), dir);  // default output: FILE.gsd beside it
-    INFO(h5 << "\n" << r.out);
-    REQUIRE(r.code == 0);
+    auto r = require_success(sh(convert + " " + in.string(), dir));  // default output: FILE.gsd beside it
     CHECK_THAT(r.out, Catch::Contains("4 frames"));
     REQUIRE(fs::exists(out));
     require_ok("gsd " + out.string() + " " + in.string(), dir);

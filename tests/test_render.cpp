@@ -15,6 +15,7 @@ namespace fs = std::filesystem;
 namespace {
 using ff::test::pipeline_exe;
 using ff::test::repo_file;
+using ff::test::require_success;
 
 // `cmd` through the shell, output captured in `dir`/cmd.log.
 ff::test::CommandResult sh(const std::string& cmd, const fs::path& dir) { return ff::test::run_command(cmd, dir / "cmd.log"); }
@@ -43,11 +44,9 @@ TEST_CASE("tools/render draws an H5MD frame and an observable to PNG; bad input 
   fs::create_directories(dir);
   const std::string render = "/usr/bin/python3 " + repo_file("tools/render").string();
 
-  auto run = sh(pipeline_exe() + " run " + repo_file("pipelines/abp.yaml").string() +
-                    " --device cpu --set run.steps=200 --set system.N=300 --out " + (dir / "run").string(),
-                dir);
-  INFO(run.out);
-  REQUIRE(run.code == 0);
+  require_success(sh(pipeline_exe() + " run " + repo_file("pipelines/abp.yaml").string() +
+                         " --device cpu --set run.steps=200 --set system.N=300 --out " + (dir / "run").string(),
+                     dir));
   const fs::path h5 = dir / "run" / "abp.h5";
   REQUIRE(fs::exists(h5));
 
@@ -83,10 +82,9 @@ TEST_CASE("tools/render draws an H5MD frame and an observable to PNG; bad input 
     CHECK(m.code == 2);
     CHECK_THAT(m.out, Catch::Contains("missing.h5"));
     // A file without positions.
-    auto w = sh("/usr/bin/python3 -c \"import h5py; h5py.File('" + (dir / "empty.h5").string() +
-                    "','w').create_group('particles/all')\"",
-                dir);
-    REQUIRE(w.code == 0);
+    require_success(sh("/usr/bin/python3 -c \"import h5py; h5py.File('" + (dir / "empty.h5").string() +
+                           "','w').create_group('particles/all')\"",
+                       dir));
     auto e = sh(render + " " + (dir / "empty.h5").string(), dir);
     CHECK(e.code == 2);
     CHECK_THAT(e.out, Catch::Contains("empty.h5") && Catch::Contains("/particles/all/position/value"));
@@ -106,11 +104,9 @@ TEST_CASE("tools/render plots a 3D run's aggregates on a log time axis and draws
   const std::string render = "/usr/bin/python3 " + repo_file("tools/render").string();
 
   // Tran's aggregation (pipelines/tran-homo-phi0.20-short.yaml), cut to 300 spheres and 500 steps.
-  auto run = sh(pipeline_exe() + " run " + repo_file("pipelines/tran-homo-phi0.20-short.yaml").string() +
-                    " --device cpu --set run.steps=500 --set system.N=300 --out " + (dir / "run").string(),
-                dir);
-  INFO(run.out);
-  REQUIRE(run.code == 0);
+  require_success(sh(pipeline_exe() + " run " + repo_file("pipelines/tran-homo-phi0.20-short.yaml").string() +
+                         " --device cpu --set run.steps=500 --set system.N=300 --out " + (dir / "run").string(),
+                     dir));
   const fs::path h5 = dir / "run" / "tran-homo-phi0.20-short.h5", csv = dir / "run" / "clusters.csv",
                  frames = dir / "run" / "tran-homo-phi0.20-short-frames.h5";
 
@@ -157,11 +153,9 @@ TEST_CASE("tools/render colours by a per-particle field (voronoi.area, voronoi.s
   fs::remove_all(dir);
   fs::create_directories(dir);
   const std::string render = "/usr/bin/python3 " + repo_file("tools/render").string();
-  auto run = sh(pipeline_exe() + " run " + repo_file("pipelines/voronoi-hard-disks.yaml").string() +
-                    " --device cpu --set run.steps=100 --set system.N=400 --out " + (dir / "run").string(),
-                dir);
-  INFO(run.out);
-  REQUIRE(run.code == 0);
+  require_success(sh(pipeline_exe() + " run " + repo_file("pipelines/voronoi-hard-disks.yaml").string() +
+                         " --device cpu --set run.steps=100 --set system.N=400 --out " + (dir / "run").string(),
+                     dir));
   const fs::path h5 = dir / "run" / "trajectory.h5";
 
   auto a = sh(render + " " + h5.string() + " --voronoi --color-by voronoi.area --out " + (dir / "a.png").string() +

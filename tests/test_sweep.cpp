@@ -116,9 +116,7 @@ struct SharedSweep {
 const fs::path& shared_sweep(SharedSweep& s, const std::string& name, const std::vector<std::string>& sets) {
   if (s.dir.empty()) {
     const fs::path out = fresh_dir(name);
-    auto r = pipeline(sweep_args(out, sets));
-    INFO(r.out);
-    REQUIRE(r.code == 0);
+    require_success(pipeline(sweep_args(out, sets)));
     s.dir = out;
   }
   return s.dir;
@@ -190,9 +188,7 @@ TEST_CASE("sweep: a run equals the same `pipeline run --set ...`, bit for bit", 
   std::string args = "run " + repo_file("pipelines/brownian.yaml").string() + " --device " + device() + " --out " + alone.string();
   for (auto& s : kSets) args += " --set '" + s + "'";
   for (auto& s : {"step.brownian.integrate.D=2", "system.N=80", "run.seed=43"}) args += std::string(" --set '") + s + "'";
-  auto r = pipeline(args);
-  INFO(r.out);
-  REQUIRE(r.code == 0);
+  require_success(pipeline(args));
   const fs::path swept = ref / "D=2_N=80_seed=43" / "trajectory.h5";
   CHECK(require_same_h5md(swept, alone / "trajectory.h5") >= 6);
   CHECK(parameter_text(swept, "/parameters/overrides") == parameter_text(alone / "trajectory.h5", "/parameters/overrides"));
@@ -260,9 +256,7 @@ TEST_CASE("sweep: --concurrent 2, in processes or threads, gives the same output
           "[sweep][device]") {
   if (!device_available()) return;
   const fs::path out = fresh_dir("concurrent");
-  auto r = pipeline(sweep_args(out) + " --concurrent 2");
-  INFO(r.out);
-  REQUIRE(r.code == 0);
+  auto r = require_success(pipeline(sweep_args(out) + " --concurrent 2"));
   CHECK_THAT(r.out, Catch::Contains("up to 2 at once"));
   require_same_sweep(out, reference_sweep());
   // Run again: every run is done, nothing runs, the index is unchanged but for nothing.
@@ -279,9 +273,7 @@ TEST_CASE("sweep: --concurrent 2, in processes or threads, gives the same output
   fs::remove_all(out);
   // The same on threads of one process.
   const fs::path threads = fresh_dir("in_process");
-  auto t = pipeline(sweep_args(threads) + " --concurrent 2 --in-process");
-  INFO(t.out);
-  REQUIRE(t.code == 0);
+  auto t = require_success(pipeline(sweep_args(threads) + " --concurrent 2 --in-process"));
   CHECK_THAT(t.out, Catch::Contains("on threads of this process"));
   require_same_sweep(threads, reference_sweep());
   fs::remove_all(threads);
@@ -328,9 +320,7 @@ TEST_CASE("sweep: killed (SIGKILL) or stopped (SIGTERM) mid-way and run again, i
   }
   CHECK(unfinished > 0);
   if (sig == SIGTERM) CHECK(interrupted == 1);
-  auto again = pipeline(sweep_args(out, kLonger));
-  INFO(again.out);
-  REQUIRE(again.code == 0);
+  require_success(pipeline(sweep_args(out, kLonger)));
   std::size_t resumed = 0;
   for (auto& row : read_index(out / "index.csv")) {
     CHECK(row.at("status") == "done");

@@ -361,9 +361,7 @@ TEST_CASE("team: pipeline run --gpus N writes one rank's outputs and resumes on 
   const std::string common = exe + " run " + test::repo_file("pipelines/phoretic-c0.yaml").string() +
                              " --device cpu --set system.N=256 --set 'run.checkpoint={every: 100}'";
   auto run = [&](const std::string& args) {
-    const auto r = test::run_command(common + " " + args, dir / "log.txt");
-    INFO(r.out);
-    REQUIRE(r.code == 0);
+    const auto r = test::require_success(test::run_command(common + " " + args, dir / "log.txt"));
     return r.out;
   };
   fs::create_directories(dir);
@@ -372,8 +370,7 @@ TEST_CASE("team: pipeline run --gpus N writes one rank's outputs and resumes on 
   const std::string resumed = run("--gpus 4 --set run.steps=200 --resume " + (dir / "team").string());
   CHECK(resumed.find("a team of 4 ranks") != std::string::npos);
   auto hashes = [&](const std::string& which) {
-    const auto r = test::dataset_hashes(dir / which / "phoretic-c0.h5", dir / "hash.txt");
-    REQUIRE(r.code == 0);
+    const auto r = test::require_success(test::dataset_hashes(dir / which / "phoretic-c0.h5", dir / "hash.txt"));
     return r.out;
   };
   const std::string alone = hashes("alone"), team = hashes("team");

@@ -4,8 +4,9 @@
 #   BUNDLE=bundle VARIANTS=bundle/ljgpu OUT=$OUT bench/experiments/lj-gpu-variants.sh
 #
 # VARIANTS holds one folder per variant with its libflipflow_plugin_pair.so (rpath
-# $ORIGIN/../../lib: two folders below the bundle root) and tests/test_pair_lj, the pair tests
-# of the branch (rpath the same). Steps:
+# $ORIGIN/../../lib: two folders below the bundle root) and tests/test_pair_lj_cpu_cuda, the
+# pair.lj CPU-vs-CUDA tests of the branch (rpath the same; a branch from before test_lj.cpp was
+# split by subject carries tests/test_pair_lj, whose "[cuda]" cases they were). Steps:
 #   1. bits: the branch's pair.lj CUDA tests ("CPU and CUDA give the same bits", also over moving
 #      steps with rebuilds) against every variant's plugin;
 #   2. speed: tools/bench/plugin_ab.sh on pipelines/lj-aggregation.yaml at 2^18 and 2^20, main's
@@ -26,9 +27,11 @@ done
 echo "variants: ${variants[*]}" | tee "$OUT/ab.txt"
 
 # 1. bits
+bits=("$V/tests/test_pair_lj_cpu_cuda")
+[[ -x ${bits[0]} ]] || bits=("$V/tests/test_pair_lj" "[cuda]")
 for d in "${variants[@]}"; do
   echo "== $(basename "$d")"
-  FLIPFLOW_PLUGIN_PATH=$d:$B/plugins "$V/tests/test_pair_lj" "[cuda]" 2>&1 | tail -4
+  FLIPFLOW_PLUGIN_PATH=$d:$B/plugins "${bits[@]}" 2>&1 | tail -4
 done > "$OUT/bits.txt" 2>&1
 cat "$OUT/bits.txt"
 

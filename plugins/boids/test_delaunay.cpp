@@ -11,6 +11,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -155,4 +156,99 @@ TEST_CASE("boids: with flip's passing: substep, neighbors.delaunay keeps the Ver
   INFO("halvings " << substeps << ", at most " << most << " in a step");
   CHECK(by_verlet.stats().rollbacks == 0);
   CHECK(substeps > 0);  // pairs did pass each other closely (the default mode rolls back there)
+}
+
+TEST_CASE("boids: flip's sub-steps give the same triangulation and counts on every backend, whatever the list order",
+          "[boids][delaunay][substep][determinism]") {
+  // delaunay.flip's sub-stepping works on lists that atomics fill (kernel.h: their order
+  // differs between runs, threads and backends): what it leaves must not. Runs of the substep
+  // pipeline on every backend, and on the CPU twice (another thread schedule), give the same
+  // topology records, positions and sub-step counts bit for bit at every step; and the counts
+  // say what they claim (the deepest place's halvings within the step's halvings, each halving
+  // a try, the first try included).
+  const std::uint64_t n = 4096, steps = 60;
+  const Registry& r = boids_test::registry();
+  std::vector<StepEntry> step{entry(r, "delaunay.build", {}, {"", {}, false, steps + 1}),
+                              entry(r, "neighbors.delaunay", {{"radius", kViewRadius}}), forces(), integrate(0.06),
+                              entry(r, "delaunay.detect_inversion"),
+                              entry(r, "delaunay.flip",
+                                    {{"on_unrepairable", std::string("substep")},
+                                     {"passing", std::string("substep")},
+                                     {"max_substeps", std::int64_t(1000)}}),
+                              entry(r, "delaunay.lawson")};
+  std::vector<Backend> runs = test::backends();
+  runs.push_back(Backend::cpu);
+  std::vector<std::unique_ptr<Simulation>> sims;
+  for (Backend b : runs) sims.push_back(std::make_unique<Simulation>(boids_spec(step, n, steps, 7), r, dry(b)));
+  auto records = [](Simulation& sim, const char* name) {
+    Field& f = sim.state().field(name);
+    f.acquire(Where::host, Mode::read);
+    const std::int32_t* p = f.host<std::int32_t>();
+    return std::vector<std::int32_t>(p, p + f.size());
+  };
+  const char* counts[] = {"delaunay.flip/substeps", "delaunay.flip/substep_tries", "delaunay.flip/substep_depth",
+                          "delaunay.flip/substep_particles", "delaunay.flip/flips", "delaunay.flip/flip_rounds"};
+  double substeps = 0, deepest = 0;
+  for (std::uint64_t k = 0; k < steps; ++k) {
+    INFO("step " << k);
+    for (auto& sim : sims) sim->advance();
+    Simulation& ref = *sims[0];
+    for (std::size_t j = 1; j < sims.size(); ++j) {
+      INFO("run " << j << " on " << to_string(runs[j]));
+      Simulation& other = *sims[j];
+      for (const char* f : {"delaunay.halfedge", "delaunay.opposite", "delaunay.vertex_edge"})
+        REQUIRE(records(ref, f) == records(other, f));
+      REQUIRE(same_bits(frame(ref).x, frame(other).x));
+      for (const char* c : counts) REQUIRE(metric(ref, c) == metric(other, c));
+    }
+    const double s = metric(ref, counts[0]), tries = metric(ref, counts[1]), depth = metric(ref, counts[2]),
+                 halved = metric(ref, counts[3]);
+    REQUIRE(depth <= s);
+    if (s > 0) {
+      REQUIRE(depth >= 1);
+      REQUIRE(tries >= s + 1);
+      REQUIRE(halved >= 2);  // a troubled place has at least two particles
+    }
+    substeps += s;
+    deepest = std::max(deepest, depth);
+  }
+  INFO("halvings " << substeps << ", deepest " << deepest);
+  CHECK(deepest >= 2);  // not a trivial agreement: places were halved, some more than once
+}
+
+TEST_CASE("boids: flip's sub-steps on lists make the flips and halvings that full passes made",
+          "[boids][delaunay][substep]") {
+  // Until session 17 every try of delaunay.flip's sub-stepping marked every edge and moved every
+  // particle; now it works on lists of what the trouble touched (flip/kernel.h), which must
+  // leave the same marks everywhere, hence the same flips, rounds and halvings. The sums below
+  // (each metric's total over the steps and its step-weighted total) were recorded with the
+  // full-pass implementation (main at 75cd2a8, this test's binary with its plugins, CPU); the
+  // positions end at the targets either way, these counts are what the lists could get wrong.
+  const std::uint64_t n = 4096, steps = 60;
+  const Registry& r = boids_test::registry();
+  std::vector<StepEntry> step{entry(r, "delaunay.build", {}, {"", {}, false, steps + 1}),
+                              entry(r, "neighbors.delaunay", {{"radius", kViewRadius}}), forces(), integrate(0.06),
+                              entry(r, "delaunay.detect_inversion"),
+                              entry(r, "delaunay.flip",
+                                    {{"on_unrepairable", std::string("substep")},
+                                     {"passing", std::string("substep")},
+                                     {"max_substeps", std::int64_t(1000)}}),
+                              entry(r, "delaunay.lawson")};
+  Simulation sim(boids_spec(step, n, steps, 7), r, dry(Backend::cpu));
+  const char* counts[] = {"delaunay.flip/flips", "delaunay.flip/flip_rounds", "delaunay.flip/substeps",
+                          "delaunay.lawson/lawson_flips"};
+  double sum[4] = {}, weighted[4] = {};
+  for (std::uint64_t k = 0; k < steps; ++k) {
+    sim.advance();
+    for (int c = 0; c < 4; ++c) {
+      sum[c] += metric(sim, counts[c]);
+      weighted[c] += double(k + 1) * metric(sim, counts[c]);
+    }
+  }
+  const double full_sum[4] = {4921, 641, 369, 32362}, full_weighted[4] = {144984, 19949, 11612, 905831};
+  for (int c = 0; c < 4; ++c) {
+    INFO(counts[c]);
+    CHECK(sum[c] == full_sum[c]);
+    CHECK(weighted[c] == full_weighted[c]);
+  }
 }

@@ -36,13 +36,16 @@
 // mark with a word atomic and lists the particle that claimed it first in one global list, which
 // block 0 gathers (clearing each mark) without scanning every tile. Block 0's lists then span the
 // whole arrays (grid·tile ≥ N entries; a particle is listed once an iteration).
-// The same particles are gathered either way; only who gathers them differs. Iteration 0's walks
-// copy each particle's neighbours to a per-step list that the later gathers and checks read
-// instead of walking the fan again (kCached below): one thread per particle, its neighbours'
-// positions loaded kInFlight at a time, or, when a block has at most kGroupBelow particles to
-// do (the late iterations), a group of 8 lanes per particle, one neighbour each. (Tried and not in,
-// being slower: edge passes, and the check fused with the next gather: bench/experiments/README.md,
-// bench/overlap_correct-PERF.md.)
+// The same particles are gathered either way; only who gathers them differs. Iteration 0 copies
+// each particle's neighbours to a list that the later gathers and checks read instead of walking
+// the fan again (kCached below), and keeps the list from the step before where the fan did not
+// change (kept_fan: checked with independent loads instead of walked as a chain): one thread per
+// particle, its neighbours' positions loaded kInFlight at a time, or, when a block has at most
+// kGroupBelow particles to do (the late iterations), a group of 8 lanes per particle, one
+// neighbour each. A gather also computes where each particle it moves goes (kernel.h's moved_d,
+// with the position it just loaded), so the apply only stores positions. (Tried and not in,
+// being slower: edge passes, the check fused with the next gather, teams of blocks for the late
+// iterations: bench/experiments/README.md, bench/overlap_correct-PERF.md.)
 //
 // Counters: per-thread sums, a block reduction, then one integer atomic per block into one of
 // kShards copies of each counter (spreading same-address atomics); after the barrier every
@@ -100,9 +103,11 @@ struct Args {
   std::uint8_t* marks;     // grid·tile bytes, one per particle (padding never set): next candidates
   int* cand;               // grid·tile: each block's candidates, tile-private; in the tail, the claimed
   int* seed;               // grid·tile: each block's touched particles, v if it moved, ~v if not
-  double2* disp;           // grid·tile: the displacements of the moved ones
+  double2* disp;           // grid·tile: where the moved ones go (moved_d), in the order of seed
+  char2* crossed;          // grid·tile: the box crossings that adds to their image counts
   int* nb;                 // kCached x grid·tile: each particle's neighbours, filled in iteration 0
   std::uint8_t* degree;    // grid·tile: how many (kWalk: more than kCached, walk the fan)
+  int* fan;                // kCached x grid·tile: the half-edges of each listed fan, kept across steps
   u64* slots;              // kBatch x Sums::kAll x kShards (sharded counters, zero at launch)
   u64* claims;             // entries of cand claimed for the tail (zero at launch)
   u64* next_slots;         // the other launch's slots and claims (kSlotWords + 1): zeroed here
@@ -162,6 +167,16 @@ __device__ int compact(std::uint8_t* marks, int t0, int tile, int* cand, int* s_
     count += total;
   }
   return count;
+}
+
+// Particle v's position (x, y) stored as one vector (the apply's only store besides rare image
+// counts).
+template <class R>
+__device__ void store_xy(R* pos, int v, double x, double y) {
+  if constexpr (sizeof(R) == 8)
+    reinterpret_cast<double2*>(pos)[v] = make_double2(x, y);
+  else
+    reinterpret_cast<float2*>(pos)[v] = make_float2(float(x), float(y));
 }
 
 // Marks u as a candidate of the next iteration: a plain store, or (claim) a word atomic whose
@@ -253,6 +268,7 @@ __global__ void __launch_bounds__(Threads, MinBlocks) correct_kernel(Args<R, Wal
   int* cand = a.cand + mine;
   int* seed = a.seed + mine;
   double2* disp = a.disp + mine;
+  char2* crossed = a.crossed + mine;
   const int lane = threadIdx.x & 31, warp = threadIdx.x >> 5;
   const int shard = int(blockIdx.x % kShards) * kShardStride;
   bool tail = false;  // block 0 alone runs the iterations
@@ -296,8 +312,13 @@ __global__ void __launch_bounds__(Threads, MinBlocks) correct_kernel(Args<R, Wal
         const bool moves = q.dx != 0 || q.dy != 0;
         const int m = atomicAdd(&s_seeds, 1);
         seed[m] = moves ? v : ~v;
-        if (moves) {
-          disp[m] = make_double2(q.dx, q.dy);
+        if (moves) {  // where v goes (its position is in this SM's cache now): the apply only stores it
+          const double d[2] = {q.dx, q.dy};
+          R x[2];
+          int cr[2];
+          moved_d<2>(a.p.pos, a.p.box, std::size_t(v), d, x, cr);
+          disp[m] = make_double2(double(x[0]), double(x[1]));
+          crossed[m] = make_char2(char(cr[0]), char(cr[1]));
           atomicAdd(&s_moved, 1);
         }
       }
@@ -308,7 +329,7 @@ __global__ void __launch_bounds__(Threads, MinBlocks) correct_kernel(Args<R, Wal
         if (tail)  // its claim: cleared for the next check
           atomicAnd(reinterpret_cast<unsigned*>(a.marks) + (v >> 2), ~(1u << (8 * (v & 3))));
         int ids[kCached], d;
-        take(v, neighbor_ids(ov, v, k == 0, a.nb, a.degree, ids, d) ? gather_ids(ov, v, ids, d) : ov.gather(v));
+        take(v, neighbor_ids(ov, v, k == 0, a.nb, a.degree, a.fan, ids, d) ? gather_ids(ov, v, ids, d) : ov.gather(v));
       }
     } else {  // one lane group per particle (the loop is uniform over the block: shuffles)
       const int l = int(threadIdx.x) % kGroup;
@@ -378,8 +399,11 @@ __global__ void __launch_bounds__(Threads, MinBlocks) correct_kernel(Args<R, Wal
     for (int i = int(threadIdx.x); i < ns; i += Threads) {
       const int v = seed[i];
       if (v >= 0) {
-        const double2 d = disp[i];
-        apply_one(a.p.pos, a.p.image, a.p.box, std::size_t(v), d.x, d.y);
+        const double2 x = disp[i];
+        const char2 c = crossed[i];
+        store_xy(a.p.pos, v, x.x, x.y);
+        if (c.x) a.p.image[2 * v] += c.x;
+        if (c.y) a.p.image[2 * v + 1] += c.y;
       }
     }
     if (tail)

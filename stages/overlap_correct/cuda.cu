@@ -22,8 +22,10 @@ class DeviceLoops final : public OverlapCorrectLoops<R> {
         cand_(exec),
         seed_(exec),
         disp_(exec),
+        crossed_(exec),
         nb_(exec),
         degree_(exec),
+        fan_(exec),
         slots_{Scratch<u64>(exec), Scratch<u64>(exec)},
         result_(exec) {}
 
@@ -51,8 +53,10 @@ class DeviceLoops final : public OverlapCorrectLoops<R> {
                      cand_.get(cap_),
                      seed_.get(cap_),
                      disp_.get(cap_),
+                     crossed_.get(cap_),
                      nb_.get(kCached * cap_),
                      degree_.get(cap_),
+                     fan_.get(kCached * cap_),
                      slots_[parity_].get(kSlotWords + 1),
                      slots_[parity_].get(kSlotWords + 1) + kSlotWords,
                      slots_[1 - parity_].get(kSlotWords + 1),
@@ -104,9 +108,11 @@ class DeviceLoops final : public OverlapCorrectLoops<R> {
   Scratch<std::uint8_t> marks_;  // grid·tile bytes, one per particle: the next candidates
   Scratch<int> cand_;            // grid·tile: the candidates (Args)
   Scratch<int> seed_;            // grid·tile: the touched particles
-  Scratch<double2> disp_;        // grid·tile: their displacements
+  Scratch<double2> disp_;        // grid·tile: where the moved ones go
+  Scratch<char2> crossed_;       // grid·tile: their box crossings
   Scratch<int> nb_;              // kCached x grid·tile: each particle's neighbours
-  Scratch<std::uint8_t> degree_; // grid·tile: how many
+  Scratch<std::uint8_t> degree_; // grid·tile: how many (kept across steps, with fan_)
+  Scratch<int> fan_;             // kCached x grid·tile: each listed fan's half-edges (kept_fan)
   Scratch<u64> slots_[2];        // kSlotWords + the claims count, per launch parity
   HostScratch<u64> result_;      // pinned: the kernel writes its counters there (no copy after it)
   std::size_t n_ = 0, cap_ = 0;

@@ -492,15 +492,32 @@ struct Overlaps : PushRule {
   FF_HD std::uint64_t fixed_len(double len) const { return overlap::fixed_len(len, inv_unit); }
 };
 
+// Where x_v + d_v lands (D components), each coordinate wrapped into the box, and the box
+// crossings that adds to its image counts; a zero component leaves its coordinate as it is (and
+// crosses nothing). The device computes it where it gathered v (the position is in its cache) and
+// its apply only stores the result (correct_kernel.cuh).
+template <int D, class R>
+FF_HD void moved_d(const R* pos, const PeriodicBox<R>& box, std::size_t i, const double* d, R* x, int* crossed) {
+  for (int k = 0; k < D; ++k) {
+    x[k] = pos[D * i + k];
+    crossed[k] = 0;
+    if (d[k] == 0) continue;
+    x[k] = R(double(x[k]) + d[k]);
+    box.wrap(x[k], crossed[k], k);
+  }
+}
+
 // x_v += d_v (D components), each coordinate wrapped into the box; a zero component leaves its
 // coordinate alone.
 template <int D, class R>
 FF_HD void apply_d(R* pos, std::int32_t* image, const PeriodicBox<R>& box, std::size_t i, const double* d) {
+  R x[D];
+  int crossed[D];
+  moved_d<D>(pos, box, i, d, x, crossed);
   for (int k = 0; k < D; ++k) {
     if (d[k] == 0) continue;
-    R x = R(double(pos[D * i + k]) + d[k]);
-    box.wrap(x, image[D * i + k], k);
-    pos[D * i + k] = x;
+    pos[D * i + k] = x[k];
+    image[D * i + k] += crossed[k];
   }
 }
 

@@ -13,18 +13,21 @@ namespace ff::overlap {
 
 // Neighbour lists of the step. Iteration 0 walks every particle's fan (checking that it
 // closes) and copies its neighbours, up to kCached, to nb (one 32-byte sector per particle;
-// in a Delaunay triangulation the mean degree is 6); later walks read them from there: one
-// load for the ids instead of a chain of one dependent half-edge load per neighbour, and one
-// sector instead of ~6 (the triangulation does not change during the stage). A particle with
-// more neighbours walks its fan each time.
+// in a Delaunay triangulation the mean degree is 6), and the fan's half-edges to fan; later walks
+// read them from there: one load for the ids instead of a chain of one dependent half-edge load
+// per neighbour, and one sector instead of ~6 (the triangulation does not change during the
+// stage). The arrays outlive the step: the next step's iteration 0 walks again only the fans that
+// changed (kept_fan). A particle with more neighbours walks its fan each time.
 constexpr int kCached = 8;
 constexpr std::uint8_t kWalk = 0xff;
 
-// v's listed neighbours (d ≤ kCached of them) into ids: one or two 16-byte loads.
-__device__ inline void load_ids(const int* nb, int v, int d, int (&ids)[kCached]) {
+// v's listed neighbours (d ≤ kCached of them) into ids: both 16-byte halves of its 32-byte
+// sector, whatever d is (entries from d on are left from earlier lists and never used), so the
+// loads need not wait for the degree: they go out with it.
+__device__ inline void load_ids(const int* nb, int v, int (&ids)[kCached]) {
   const int4* p = reinterpret_cast<const int4*>(nb + std::size_t(kCached) * v);
   const int4 lo = p[0];
-  const int4 hi = d > 4 ? p[1] : make_int4(0, 0, 0, 0);
+  const int4 hi = p[1];
   ids[0] = lo.x, ids[1] = lo.y, ids[2] = lo.z, ids[3] = lo.w;
   ids[4] = hi.x, ids[5] = hi.y, ids[6] = hi.z, ids[7] = hi.w;
 }
@@ -62,36 +65,79 @@ __device__ VertexPush gather_ids(const Overlaps<R, W>& ov, int v, const int (&id
   return out;
 }
 
+// Whether last step's fan of v (its outgoing half-edges hs[0 .. d), in walk order, kept in fan
+// by iteration 0's walk) is still v's fan in the mesh now, with ids[0 .. d) its neighbours: the
+// half-edges' twins are loaded all at once (independent loads) instead of one after the other as
+// the walk does. It is when every hs[i] and next(twin(hs[i])) is in range and equals
+// hs[i + 1 mod d], and vertex_edge[v] is one of them: then hs is the orbit of next ∘ twin through
+// vertex_edge[v], which is what the walk follows (Overlaps::for_each_neighbor), so the same
+// neighbours, each neighbour origin(twin(hs[i])) being in range and not v (the walk's checks).
+// A stored fan is always an orbit a walk found, in some step's mesh (distinct half-edges), or
+// d = 0 (a fresh array): nothing else is accepted. Most particles keep their fan from one step to
+// the next (a flip changes the fans of its quad's four vertices only); the others walk again.
+template <class R, bool W>
+__device__ bool kept_fan(const Overlaps<R, W>& ov, int v, int d, const int* nb, const int* fan, int (&ids)[kCached]) {
+  if (d < 1 || d > kCached) return false;
+  const unsigned nh = 6u * unsigned(ov.n);
+  const int4* p = reinterpret_cast<const int4*>(fan + std::size_t(kCached) * v);
+  const int4 lo = p[0];
+  const int4 hi = d > 4 ? p[1] : make_int4(0, 0, 0, 0);
+  const int hs[kCached] = {lo.x, lo.y, lo.z, lo.w, hi.x, hi.y, hi.z, hi.w};
+  load_ids(nb, v, ids);
+  const int h0 = ov.vedge[v];
+  bool ok = true, has_h0 = false;
+#pragma unroll
+  for (int i = 0; i < kCached; ++i) {
+    if (i >= d) break;
+    const int h = hs[i];
+    const int after = i + 1 < d ? hs[i + 1] : hs[0];
+    if (unsigned(h) >= nh) return false;  // (nothing out of range is loaded)
+    int u, hn;
+    delaunay::load_halfedge(ov.he, h ^ 1, u, hn);
+    ok = ok && hn == after && u == ids[i] && unsigned(u) < unsigned(ov.n) && u != v;
+    has_h0 = has_h0 || h == h0;
+  }
+  return ok && has_h0;
+}
+
 // v's neighbours for a gather by one thread, into ids[0 .. d): from the list (later
-// iterations), or (iteration 0) from a walk around v's fan that only collects them (a chain of
-// half-edge loads and nothing else, checking that the fan closes) and copies them to the list.
+// iterations), or (iteration 0) from last step's fan if it is still v's (kept_fan), else from a
+// walk around v's fan that only collects them (a chain of half-edge loads and nothing else,
+// checking that the fan closes) and copies them to the list and the half-edges to fan.
 // Walking and gathering at once made every step of the chain wait for a position load too
 // (bench/overlap_correct-PERF.md). False: gather by Overlaps::gather's walk instead (more than
 // kCached neighbours, or, in iteration 0, a fan that does not close, which that walk reports).
 template <class R, bool W>
-__device__ bool neighbor_ids(const Overlaps<R, W>& ov, int v, bool first, int* nb, std::uint8_t* degree,
+__device__ bool neighbor_ids(const Overlaps<R, W>& ov, int v, bool first, int* nb, std::uint8_t* degree, int* fan,
                               int (&ids)[kCached], int& d) {
   if (!first) {
     d = degree[v];
-    if (d == kWalk) return false;
-    load_ids(nb, v, d, ids);
-    return true;
+    load_ids(nb, v, ids);
+    return d != kWalk;
   }
+  d = degree[v];  // last step's
+  if (kept_fan(ov, v, d, nb, fan, ids)) return true;  // nb and degree hold it already
   d = 0;
+  int hs[kCached];
 #pragma unroll
-  for (int k = 0; k < kCached; ++k) ids[k] = 0;
-  const bool closed = ov.for_each_neighbor(v, [&](int u, int) {
+  for (int k = 0; k < kCached; ++k) ids[k] = hs[k] = 0;
+  const bool closed = ov.for_each_neighbor(v, [&](int u, int h) {
 #pragma unroll
-    for (int k = 0; k < kCached; ++k)  // ids[d] = u with a register index
-      if (k == d) ids[k] = u;
+    for (int k = 0; k < kCached; ++k)  // ids[d] = u, hs[d] = h with a register index
+      if (k == d) ids[k] = u, hs[k] = h;
     ++d;
   });
   const bool fits = closed && d <= kCached;
   degree[v] = fits ? std::uint8_t(d) : kWalk;
   if (!fits) return false;
   int4* p = reinterpret_cast<int4*>(nb + std::size_t(kCached) * v);
+  int4* f = reinterpret_cast<int4*>(fan + std::size_t(kCached) * v);
   p[0] = make_int4(ids[0], ids[1], ids[2], ids[3]);
-  if (d > 4) p[1] = make_int4(ids[4], ids[5], ids[6], ids[7]);
+  f[0] = make_int4(hs[0], hs[1], hs[2], hs[3]);
+  if (d > 4) {
+    p[1] = make_int4(ids[4], ids[5], ids[6], ids[7]);
+    f[1] = make_int4(hs[4], hs[5], hs[6], hs[7]);
+  }
   return true;
 }
 
@@ -101,9 +147,9 @@ __device__ bool neighbor_ids(const Overlaps<R, W>& ov, int v, bool first, int* n
 template <class R, bool W, class F>
 __device__ bool thread_check(const Overlaps<R, W>& ov, int v, const int* nb, const std::uint8_t* degree, F&& f) {
   const int d = degree[v];
-  if (d == kWalk) return ov.overlapping_neighbors(v, f);
   int ids[kCached];
-  load_ids(nb, v, d, ids);
+  load_ids(nb, v, ids);
+  if (d == kWalk) return ov.overlapping_neighbors(v, f);
   double xv, yv;
   load_xy(ov.pos, v, xv, yv);
   const double sv = ov.diameter_of(v);

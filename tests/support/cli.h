@@ -1,7 +1,8 @@
 // Shared by the end-to-end tests that shell out (test_cli, test_render, test_checkpoint,
-// test_sweep): where the `pipeline` executable and the repository's files are, the device they
-// run on, and a way to run a command and keep its exit code and combined output. Kept here so
-// they all resolve paths and devices the same way.
+// test_sweep, test_readers, test_team, test_decomposition*): where the `pipeline` executable and
+// the repository's files are, the device they run on, a way to run a command and keep its exit
+// code and combined output, and the requirement that it succeeded. Kept here so they all resolve
+// paths and devices the same way and a failed command reports itself the same way.
 #pragma once
 #include <boost/dll/runtime_symbol_info.hpp>
 #include <catch2/catch.hpp>
@@ -48,6 +49,7 @@ inline bool test_device_available(const std::string& what) {
 struct CommandResult {
   int code;         // exit status, -1 if the command did not exit normally
   std::string out;  // stdout and stderr together
+  std::string cmd;  // the command line that ran
 };
 
 // Runs `cmd` through the shell with stdout+stderr sent to `log` (read back, then removed).
@@ -59,7 +61,28 @@ inline CommandResult run_command(const std::string& cmd, const std::filesystem::
     ss << in.rdbuf();
   }
   std::filesystem::remove(log);
-  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, ss.str()};
+  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, ss.str(), cmd};
+}
+
+// The last `lines` lines of `text` (all of it when shorter): what a failed command said last.
+inline std::string last_lines(const std::string& text, std::size_t lines = 40) {
+  std::size_t start = text.size();
+  if (start && text[start - 1] == '\n') --start;  // a final newline ends the last line
+  for (std::size_t k = 0; k < lines; ++k) {
+    const std::size_t newline = start ? text.rfind('\n', start - 1) : std::string::npos;
+    if (newline == std::string::npos) return text;
+    start = newline;
+  }
+  return text.substr(start + 1);
+}
+
+// Requires that `r` exited with status 0. A failure names the command line, its exit status and
+// the last lines of its output, so that the test says which command failed and why. Returns `r`
+// for the checks that follow, e.g. `auto r = require_success(run_command(cmd, log));`.
+inline CommandResult require_success(CommandResult r) {
+  INFO("command: " << r.cmd << "\nexit status " << r.code << "; the last lines of its output:\n" << last_lines(r.out));
+  REQUIRE(r.code == 0);
+  return r;
 }
 
 // Every dataset of an H5MD file but /parameters with its hash (`h5hash`, built beside

@@ -10,6 +10,7 @@
 # from the build's plugins/), or - for the build's own plugins. Build a variant, copy its .so to a
 # folder (in a bundle, give it the bundle's rpath: patchelf --force-rpath --set-rpath
 # '$ORIGIN/../lib'), then list the folders here.
+# (Variants of one stage timed in one process, on the same states each step: make_ab_plugin.sh.)
 #
 # Environment: PIPELINE_BIN (default: bin/pipeline next to this tree's build/, else bundle/),
 # DEVICE (cuda when a GPU is visible, else cpu), SIZES (default 2^16,2^20), STEPS (100), WARMUP

@@ -10,8 +10,8 @@
 // lanes runs as long as its longest row, so each task puts its particles into lanes in order of row
 // length. Built with flipflow_cpu_loop_flags (AVX2, no fma contraction); the loop is built a second
 // time for x86-64-v4 with 512-bit lanes and taken where the CPU has AVX-512
-// (core/backend/cpu_isa.h): the same operations per lane, so the same bits (test_pair_lj, and
-// test_pair_lj_avx2 for the AVX2 lanes on such a CPU). Measurements: bench/README.md.
+// (core/backend/cpu_isa.h): the same operations per lane, so the same bits (test_pair_lj_lanes,
+// and test_pair_lj_avx2 for the AVX2 lanes on such a CPU). Measurements: bench/README.md.
 #include <immintrin.h>
 
 #include <algorithm>
@@ -144,8 +144,8 @@ inline void load_records(const double* rec, const std::int32_t* j, D4 out[4]) {
 // AVX-512: 8 doubles or 16 floats. Built for x86-64-v4 and not always_inline: only the x86-64-v4
 // entry point (flatten) inlines them (GCC refuses an always_inline function of a wider target
 // inside the generic block template). Each must be inlined there: a 512-bit vector passed
-// between functions of different targets does not keep its bits (test_pair_lj's lane test
-// catches that; `objdump -d` of range_avx512 shows no call).
+// between functions of different targets does not keep its bits (test_pair_lj_lanes catches
+// that; `objdump -d` of range_avx512 shows no call).
 using D8 = V<double, 64>;
 using F16 = V<float, 64>;
 // sqrt lane by lane in plain C++ (GCC 12 leaves it scalar: slower, only for odd n and geometric

@@ -2,88 +2,23 @@
 // the force is −dU/dr of the energy it reports, the minimum is −ε at 2^{1/n} σ, the sum of all
 // forces vanishes (Newton's third law), a jittered lattice equals a direct O(N²) sum, mixing
 // rules and explicit matrices on two types, the energy shift, the skin does not change a bit,
-// overlapping pairs stay finite, the CPU loop's vector lanes (AVX2 and AVX-512) give the scalar functor's bits (any
-// thread count), CPU and CUDA give the same bits, and input errors name the key.
+// overlapping pairs stay finite, and input errors name the key. The CPU loop's vector lanes:
+// test_lj_lanes.cpp; CPU vs CUDA: test_lj_cpu_cuda.cpp (helpers: test_support.h).
 #include <catch2/catch.hpp>
-#include <oneapi/tbb/global_control.h>
-
 #include <cmath>
 #include <cstring>
-#include <random>
+#include <string>
+#include <vector>
 
-#include "core/backend/cpu_isa.h"
-#include "core/base/error.h"
-#include "plugins/pair/lj/kernel.h"
-#include "stages/neighbors/list.h"
+#include "plugins/pair/lj/test_support.h"
 #include "support/backends.h"
 #include "support/fields.h"
-#include "support/stage_driver.h"
-#include "support/test_plugins.h"
 
 using namespace ff;
+using namespace ff::lj_test;
 using test::values;
 
 namespace {
-
-const Registry& registry() {
-  static const auto r = test::registry_with({"pair"});
-  return *r;
-}
-
-// n particles in a cubic (square) box of side L: positions x (n x dim), types t (empty: all 0),
-// diameters d (empty: all 1); `types` names system.types.
-std::unique_ptr<State> state(int dim, Precision p, double L, const std::vector<double>& x,
-                             const std::vector<int>& t = {}, const std::vector<double>& d = {},
-                             std::vector<std::string> types = {}) {
-  const std::size_t n = x.size() / dim;
-  auto s = std::make_unique<State>(dim, p, n);
-  for (int c = 0; c < dim; ++c) s->box.L[c] = L;
-  s->species = std::move(types);
-  Field& fx = s->field(fields::position);
-  Field& fd = s->field(fields::diameter);
-  Field& ft = s->field(fields::type);
-  for (Field* f : {&fx, &fd, &ft}) f->acquire(Where::host, Mode::write);
-  auto put = [p](Field& f, std::size_t i, double v) {
-    if (p == Precision::f64) f.host<double>()[i] = v;
-    else f.host<float>()[i] = float(v);
-  };
-  for (std::size_t i = 0; i < x.size(); ++i) put(fx, i, x[i]);
-  for (std::size_t i = 0; i < n; ++i) {
-    put(fd, i, d.empty() ? 1.0 : d[i]);
-    ft.host<std::int32_t>()[i] = t.empty() ? 0 : t[i];
-  }
-  return s;
-}
-
-struct LJ {
-  double epsilon = 1;
-  std::vector<double> eps_list, sigma;  // per type / matrix (empty: `epsilon`, diameters)
-  std::string mixing = "lorentz-berthelot";
-  std::int64_t n = 18;
-  double r_cut = 1.5;
-  bool shift = false;
-  double cutoff = 1.5, skin = 0.3;  // neighbors.verlet
-};
-
-// neighbors.verlet then pair.lj once (energy: `energy`).
-void run(State& s, Backend b, const LJ& q, bool energy = true) {
-  ParamValues verlet_p, lj_p;
-  verlet_p.set("cutoff", q.cutoff);
-  verlet_p.set("skin", q.skin);
-  lj_p.set("epsilon", q.eps_list.empty() ? std::vector<double>{q.epsilon} : q.eps_list);
-  lj_p.set("sigma", q.sigma);
-  lj_p.set("mixing", q.mixing);
-  lj_p.set("n", q.n);
-  lj_p.set("r_cut", q.r_cut);
-  lj_p.set("shift", q.shift);
-  lj_p.set("energy", energy);
-  test::StageDriver verlet(registry(), "neighbors.verlet", b, s.precision(), s.dim(), verlet_p, 1);
-  test::StageDriver lj(registry(), "pair.lj", b, s.precision(), s.dim(), lj_p, 1);
-  verlet.stage->configure(s);
-  lj.stage->configure(s);
-  verlet.step(s, 0, 0.01);
-  lj.step(s, 0, 0.01);
-}
 
 double total(const std::vector<double>& v) {
   double t = 0;
@@ -114,24 +49,6 @@ Pair two(int dim, Precision p, Backend b, double r, const LJ& q, std::vector<dou
   double along = 0;
   for (int c = 0; c < dim; ++c) along += f[c] * u[c];
   return {along, total(values(*s, "pair.energy")), f};
-}
-
-// A jittered lattice of spacing 1.1 (nearest pairs at 1.0…1.2 σ), periodic, in a box of side L.
-std::unique_ptr<State> lattice(int dim, Precision p, std::vector<int> types = {}) {
-  const int m = dim == 2 ? 20 : 8;
-  const double a = 1.1, L = m * a;
-  std::mt19937_64 gen(11);
-  std::uniform_real_distribution<double> jitter(-0.05, 0.05);
-  std::vector<double> x;
-  const int cells = dim == 2 ? m * m : m * m * m;
-  for (int k = 0; k < cells; ++k) {
-    int idx[3] = {k % m, (k / m) % m, k / (m * m)};
-    for (int c = 0; c < dim; ++c) x.push_back((idx[c] + 0.5) * a + jitter(gen));
-  }
-  if (types.empty()) return state(dim, p, L, x);
-  std::vector<int> t(cells);
-  for (int k = 0; k < cells; ++k) t[k] = types[k % types.size()];
-  return state(dim, p, L, x, t, {}, {"A", "B"});
 }
 
 // Direct O(N²) forces and total energy in double (minimum image), per-type ε/σ matrices.
@@ -381,201 +298,6 @@ TEST_CASE("pair.lj: overlapping particles get a finite repulsive force", "[pair]
   // Coincident: no direction, no force (and no NaN).
   const Pair zero = two(3, p, b, 0.0, q);
   CHECK(zero.f == 0);
-}
-
-TEST_CASE("pair.lj: CPU and CUDA give the same bits", "[pair][cuda]") {
-  if (!test::have_cuda("pair.lj CPU vs CUDA")) return;
-  const int dim = GENERATE(2, 3);
-  const Precision p = GENERATE(Precision::f64, Precision::f32);
-  INFO(dim << "D, " << to_string(p));
-  auto cpu = lattice(dim, p, {0, 1, 1}), cuda = lattice(dim, p, {0, 1, 1});
-  LJ q;
-  q.eps_list = {14, 7, 7, 3};
-  q.sigma = {1, 0.95, 0.95, 0.9};
-  q.shift = true;
-  run(*cpu, Backend::cpu, q);
-  run(*cuda, Backend::cuda, q);
-  for (const char* f : {"force", "pair.energy", "pair.virial"}) {
-    const auto a = values(*cpu, f), c = values(*cuda, f);
-    INFO(f);
-    CHECK(std::memcmp(a.data(), c.data(), a.size() * sizeof(double)) == 0);
-  }
-}
-
-// The CUDA loop (cuda.cu) reads positions and diameters from a copy it makes each step and keeps
-// between steps: a random polydisperse system (σ_ij from the diameters, many warps of rows of
-// different lengths) moved between steps, with and without list rebuilds, gives the CPU's bits
-// at every step.
-TEST_CASE("pair.lj: CPU and CUDA give the same bits over moving steps with rebuilds", "[pair][cuda]") {
-  if (!test::have_cuda("pair.lj CPU vs CUDA over steps")) return;
-  const int dim = GENERATE(2, 3);
-  const Precision p = GENERATE(Precision::f64, Precision::f32);
-  INFO(dim << "D, " << to_string(p));
-  const std::size_t n = 3000;
-  const double L = dim == 2 ? 60.0 : 16.0;  // ~0.83 (2D) and 0.73 (3D) particles per σ^D
-  std::mt19937_64 gen(5);
-  std::uniform_real_distribution<double> uni(0, L), size(0.8, 1.2), move(-0.12, 0.12);
-  std::vector<double> x(n * dim), d(n);
-  for (auto& v : x) v = uni(gen);
-  for (auto& v : d) v = size(gen);
-  auto cpu = state(dim, p, L, x, {}, d), cuda = state(dim, p, L, x, {}, d);
-  ParamValues verlet_p, lj_p;
-  verlet_p.set("cutoff", 1.8);
-  verlet_p.set("skin", 0.3);
-  lj_p.set("epsilon", std::vector<double>{3});
-  lj_p.set("sigma", std::vector<double>{});
-  lj_p.set("n", std::int64_t(6));
-  lj_p.set("r_cut", 1.5);
-  lj_p.set("energy", true);
-  struct Side {
-    State& s;
-    test::StageDriver verlet, lj;
-  };
-  Side sides[2] = {{*cpu, {registry(), "neighbors.verlet", Backend::cpu, p, dim, verlet_p, 1},
-                    {registry(), "pair.lj", Backend::cpu, p, dim, lj_p, 1}},
-                   {*cuda, {registry(), "neighbors.verlet", Backend::cuda, p, dim, verlet_p, 1},
-                    {registry(), "pair.lj", Backend::cuda, p, dim, lj_p, 1}}};
-  for (auto& side : sides) {
-    side.verlet.stage->configure(side.s);
-    side.lj.stage->configure(side.s);
-  }
-  int rebuilds = 0;
-  for (std::uint64_t k = 0; k < 6; ++k) {
-    for (auto& side : sides) {
-      side.verlet.step(side.s, k, 0.01);
-      side.lj.step(side.s, k, 0.01);
-    }
-    rebuilds += int(sides[1].verlet.metric("rebuilds"));
-    INFO("step " << k);
-    CHECK(sides[0].verlet.metric("rebuilds") == sides[1].verlet.metric("rebuilds"));
-    for (const char* f : {"force", "pair.energy", "pair.virial"}) {
-      const auto a = values(*cpu, f), c = values(*cuda, f);
-      INFO(f);
-      CHECK(std::memcmp(a.data(), c.data(), a.size() * sizeof(double)) == 0);
-    }
-    // The same move on both sides (in place, within the box: the box wraps it back).
-    for (std::size_t i = 0; i < n * std::size_t(dim); ++i) x[i] += (k % 2 ? 0.3 : 1.0) * move(gen);
-    for (State* s : {cpu.get(), cuda.get()}) {
-      Field& fx = s->field(fields::position);
-      fx.acquire(Where::host, Mode::write);
-      for (std::size_t i = 0; i < x.size(); ++i) {
-        const double v = x[i] - L * std::floor(x[i] / L);
-        if (p == Precision::f64) fx.host<double>()[i] = v;
-        else fx.host<float>()[i] = float(v);
-      }
-    }
-  }
-  CHECK(rebuilds >= 3);  // the first build and some of the moves of up to 0.12·√D
-}
-
-namespace {
-
-// The scalar functor of kernel.h, particle by particle on this thread, over the list that
-// neighbors.verlet left in s: the reference for the CPU stage's vector lanes (plugins/pair/lj/
-// cpu.cpp). ε and σ: one type from `q` (σ_ij from the diameters, by q.mixing) or, with q.sigma
-// set, the T×T matrices q.eps_list and q.sigma.
-struct Fields { std::vector<double> force, energy, virial; };
-template <class R, int D>
-Fields scalar_functor(State& s, const LJ& q, bool energy) {
-  const std::size_t n = s.n();
-  std::vector<R> force(n * D), u(n), w(n);
-  pair::LJForce<R, D> f{};
-  for (const char* name : {fields::position, fields::diameter, fields::type, neighbors::kList, neighbors::kCount})
-    s.field(name).acquire(Where::host, Mode::read);
-  f.position = s.field(fields::position).host<R>();
-  f.force = force.data();
-  f.energy = energy ? u.data() : nullptr;
-  f.virial = energy ? w.data() : nullptr;
-  f.list = s.field(neighbors::kList).host<std::uint32_t>();
-  f.count = s.field(neighbors::kCount).host<std::uint32_t>();
-  f.capacity = neighbors::list_capacity(s);
-  f.box = PeriodicBox<R>::make(s.box.L);
-  const int T = q.sigma.empty() ? 1 : int(std::lround(std::sqrt(double(q.sigma.size()))));
-  for (int a = 0; a < T; ++a)
-    for (int b = 0; b < T; ++b) {
-      f.table.epsilon[a * pair::kMaxTypes + b] = R(T == 1 ? q.epsilon : q.eps_list[a * T + b]);
-      f.table.sigma2[a * pair::kMaxTypes + b] = R(T == 1 ? 1.0 : q.sigma[a * T + b] * q.sigma[a * T + b]);
-    }
-  f.type = T > 1 ? s.field(fields::type).host<std::int32_t>() : nullptr;
-  f.diameter = T == 1 ? s.field(fields::diameter).host<R>() : nullptr;
-  f.n = int(q.n);
-  f.geometric = q.mixing == "geometric";
-  f.r_cut2 = R(q.r_cut * q.r_cut);
-  const double s1 = 1 / (q.r_cut * q.r_cut);
-  const int k = int(q.n);
-  const double qc = k & 1 ? pair::power(s1, k / 2) * std::sqrt(s1) : pair::power(s1, k / 2);
-  f.shift = q.shift ? R(4 * (qc * qc - qc)) : R(0);
-  for (std::size_t i = 0; i < n; ++i) f(i);
-  return {{force.begin(), force.end()}, {u.begin(), u.end()}, {w.begin(), w.end()}};
-}
-
-// n random particles (not a multiple of any lane count) at volume fraction ~0.3 with random
-// diameters in [0.8, 1.2] σ, two types, one coincident pair and one pair at 0.3 σ (s capped).
-std::unique_ptr<State> random_state(int dim, Precision p, std::size_t n) {
-  std::mt19937_64 gen(5 + dim);
-  std::uniform_real_distribution<double> u01(0, 1);
-  const double L = dim == 2 ? std::sqrt(n * 0.785 / 0.5) : std::cbrt(n * 0.524 / 0.3);
-  std::vector<double> x(n * dim), d(n);
-  std::vector<int> t(n);
-  for (auto& v : x) v = L * u01(gen);
-  for (std::size_t i = 0; i < n; ++i) {
-    d[i] = 0.8 + 0.4 * u01(gen);
-    t[i] = int(i % 3 == 0);
-  }
-  for (int c = 0; c < dim; ++c) {
-    x[5 * dim + c] = x[1 * dim + c];
-    x[9 * dim + c] = x[2 * dim + c] + (c == 0 ? 0.3 : 0.0);
-  }
-  return state(dim, p, L, x, t, d, {"A", "B"});
-}
-
-template <class R, int D>
-void lanes_match_functor(Precision p) {
-  LJ diam, geo, matrix;
-  diam.epsilon = 14;
-  diam.cutoff = 1.9;  // r_cut · the largest σ_ij = 1.8
-  geo = diam;
-  geo.mixing = "geometric";
-  geo.n = 7;  // odd: the √s factor
-  geo.shift = true;
-  matrix.eps_list = {14, 7, 7, 3};
-  matrix.sigma = {1, 0.95, 0.95, 0.9};
-  matrix.n = 6;
-  matrix.shift = true;
-  for (const LJ* q : {&diam, &geo, &matrix})
-    for (bool energy : {true, false})
-      for (int threads : {1, 2}) {
-        INFO(D << "D, " << to_string(p) << ", σ " << (q->sigma.empty() ? q->mixing : "matrix") << ", energy " << energy << ", " << threads
-               << " threads");
-        tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
-        auto s = random_state(D, p, D == 2 ? 4099 : 3001);
-        run(*s, Backend::cpu, *q, energy);
-        const Fields want = scalar_functor<R, D>(*s, *q, energy);
-        const auto got = values(*s, "force");
-        REQUIRE(got.size() == want.force.size());
-        CHECK(std::memcmp(got.data(), want.force.data(), got.size() * sizeof(double)) == 0);
-        if (energy)
-          for (const auto& [name, v] : {std::pair{"pair.energy", &want.energy}, std::pair{"pair.virial", &want.virial}}) {
-            const auto field = values(*s, name);
-            INFO(name);
-            REQUIRE(field.size() == v->size());
-            CHECK(std::memcmp(field.data(), v->data(), field.size() * sizeof(double)) == 0);
-          }
-        // The state reaches the cap and the cutoff: a test that would catch their blends.
-        CHECK(*std::max_element(got.begin(), got.end()) > 1e3);
-      }
-}
-
-}  // namespace
-
-// On a CPU with AVX-512 the stage takes its x86-64-v4 lanes (8 doubles, 16 floats), else (or with
-// FLIPFLOW_NO_AVX512 set: CTest's test_pair_lj_avx2) the AVX2 lanes; each must give these bits.
-TEST_CASE("pair.lj: the CPU loop's vector lanes give the scalar functor's bits, any thread count", "[pair]") {
-  INFO("lanes: " << (cpu_has_x86_64_v4() ? "AVX-512 (x86-64-v4)" : "AVX2"));
-  lanes_match_functor<double, 3>(Precision::f64);
-  lanes_match_functor<double, 2>(Precision::f64);
-  lanes_match_functor<float, 3>(Precision::f32);
-  lanes_match_functor<float, 2>(Precision::f32);
 }
 
 TEST_CASE("pair.lj: input errors name the key", "[pair]") {

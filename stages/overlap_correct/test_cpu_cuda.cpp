@@ -1,0 +1,143 @@
+// overlap_correct on CPU and CUDA: the same bits in double and agreement in float; the same bits on
+// either device path (a thread-block cluster for n ≤ kClusterMaxN, the whole grid above), when
+// runs share the GPU (smaller teams), and over many steps of ABP (lists kept across steps). Each
+// skips without a CUDA device.
+#include <catch2/catch.hpp>
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <cstring>
+#include <string>
+#include <vector>
+
+#include "core/backend/device.h"
+#include "stages/overlap_correct/test_support.h"
+#include "support/backends.h"
+#include "support/cli.h"
+#include "support/pipeline.h"
+
+using namespace ff;
+using namespace ff::overlap_test;
+
+namespace {
+
+// One step of `spec` from its jiggled initial state on backend b: the positions after it and the
+// step's iteration and pair counts.
+struct OneStep {
+  std::vector<double> xy;
+  double iterations = 0, pairs = 0;
+};
+OneStep one_step(const PipelineSpec& spec, Backend b) {
+  auto state = make_initial_state(spec.system, spec.run.precision, spec.run.seed);
+  jiggle(*state, 0.1, 5);
+  Simulation sim(spec, registry(), dry(b), std::move(state));
+  sim.advance();
+  sim.synchronize();
+  return {positions(sim.state()), metric(sim, "iterations"), metric(sim, "pairs")};
+}
+
+}  // namespace
+
+TEST_CASE("overlap_correct: CPU and CUDA give the same bits (double) and agree in float", "[overlap][cuda]") {
+  if (!test::have_cuda("overlap_correct CPU-vs-CUDA")) return;
+  for (Precision p : {Precision::f64, Precision::f32})
+    for (const char* mode : {"reflect", "contact"}) {
+      INFO(to_string(p) << " " << mode);
+      const auto spec = correct_spec(20000, 0.75, {{"mode", std::string(mode)}}, p);
+      const OneStep cpu = one_step(spec, Backend::cpu), cuda = one_step(spec, Backend::cuda);
+      const std::vector<std::vector<double>> xy{cpu.xy, cuda.xy};
+      CHECK(cpu.iterations == cuda.iterations);
+      if (p == Precision::f64) {
+        CHECK(std::memcmp(xy[0].data(), xy[1].data(), xy[0].size() * sizeof(double)) == 0);
+      } else {
+        double worst = 0;
+        for (std::size_t i = 0; i < xy[0].size(); ++i) worst = std::max(worst, std::fabs(xy[0][i] - xy[1][i]));
+        INFO("largest float difference " << worst);
+        CHECK(worst <= 1e-4);
+      }
+    }
+}
+
+// One correction of n disks at area fraction 0.75 on each backend: the same iterations, pairs and
+// position bits (a correction of at least 3 iterations, so the device loop really iterates).
+static void check_cpu_equals_cuda(std::uint64_t n) {
+  const auto spec = correct_spec(n, 0.75, {});
+  const OneStep cpu = one_step(spec, Backend::cpu), cuda = one_step(spec, Backend::cuda);
+  const std::vector<std::vector<double>> xy{cpu.xy, cuda.xy};
+  CHECK(cpu.iterations >= 3);
+  CHECK(cpu.iterations == cuda.iterations);
+  CHECK(cpu.pairs == cuda.pairs);
+  CHECK(std::memcmp(xy[0].data(), xy[1].data(), xy[0].size() * sizeof(double)) == 0);
+}
+
+TEST_CASE("overlap_correct: CPU and CUDA give the same bits on either device path (team and grid)",
+          "[overlap][cuda]") {
+  // cuda.cu runs small systems (n ≤ kClusterMaxN = 4096) in a thread-block cluster and larger
+  // ones on the whole grid: sizes on both sides, and the threshold itself. (20000, the size of the
+  // tests above, is the grid's.)
+  if (!test::have_cuda("overlap_correct CPU-vs-CUDA by size")) return;
+  for (std::uint64_t n : {3000u, 4096u, 65536u, 100000u}) {
+    INFO("n " << n);
+    check_cpu_equals_cuda(n);
+  }
+}
+
+TEST_CASE("overlap_correct: CPU and CUDA give the same bits when runs share the GPU (smaller teams)",
+          "[overlap][cuda]") {
+  // On a GPU that many runs share (runs_sharing_gpu, `pipeline sweep`), team_for gives a run the
+  // cluster of 16 blocks where a run alone takes the grid and K grids would not fit on the GPU
+  // (an H100/H200's 132 SMs: 16384 holds 32 SMs, 65536 128; with 2 runs 16384 keeps the grid).
+  if (!test::have_cuda("overlap_correct CPU-vs-CUDA with shared GPUs")) return;
+  for (int sharing : {64, 2}) {
+    ff::set_runs_sharing_gpu(sharing);
+    for (std::uint64_t n : {3000u, 16384u, 65536u}) {
+      INFO("runs sharing the GPU " << sharing << ", n " << n);
+      check_cpu_equals_cuda(n);
+    }
+  }
+  ff::set_runs_sharing_gpu(1);
+}
+
+// Many steps of ABP at φ = 0.7 (abp.yaml's stages: integrate, Delaunay maintenance with flips
+// every step, overlap_correct) on the grid path: the device keeps each particle's fan from one
+// step to the next where the flips left it alone (neighbor_lists.cuh, kept_fan) and runs the
+// late iterations of a step in one block; neither may change a bit. Positions, image counts and
+// each step's iterations and pairs must equal the CPU's.
+TEST_CASE("overlap_correct: CPU and CUDA give the same bits over many steps of ABP (kept fans)",
+          "[overlap][cuda]") {
+  if (!test::have_cuda("overlap_correct CPU-vs-CUDA over many steps")) return;
+  for (std::uint64_t n : {20000u, 100000u}) {
+    INFO("n " << n);
+    const auto l = test::load_compute_steps(
+        test::repo_file("pipelines/abp.yaml").string(),
+        {"system.N=" + std::to_string(n), "system.packing_fraction=0.7", "system.init=triangular_lattice_sample",
+         "run.steps=150"});
+    struct Run {
+      std::vector<double> xy, iterations, pairs;
+      std::vector<std::int32_t> image;
+    };
+    auto run = [&](Backend b) {
+      Simulation sim(l.spec, *l.registry, dry(b));
+      Run r;
+      for (std::uint64_t k = 0; k < l.spec.run.steps; ++k) {
+        sim.advance();
+        r.iterations.push_back(metric(sim, "iterations"));
+        r.pairs.push_back(metric(sim, "pairs"));
+      }
+      sim.synchronize();
+      r.xy = positions(sim.state());
+      Field& img = sim.state().field(fields::image);
+      img.acquire(Where::host, Mode::read);
+      r.image.assign(img.host<std::int32_t>(), img.host<std::int32_t>() + 2 * n);
+      return r;
+    };
+    const Run cpu = run(Backend::cpu), cuda = run(Backend::cuda);
+    double most = 0;
+    for (double it : cpu.iterations) most = std::max(most, it);
+    CHECK(most >= 5);  // the late iterations (block 0's tail) do run
+    CHECK(cpu.iterations == cuda.iterations);
+    CHECK(cpu.pairs == cuda.pairs);
+    CHECK(cpu.image == cuda.image);
+    CHECK(std::memcmp(cpu.xy.data(), cuda.xy.data(), cpu.xy.size() * sizeof(double)) == 0);
+  }
+}
