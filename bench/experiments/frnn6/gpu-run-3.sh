@@ -19,7 +19,7 @@
 #   fm4b   the flat loop, up to four members an iteration (four record loads in flight; 56 regs)
 #   fm4bs  fm4b + the block ordering
 #   main, main2: 75cd2a8, first and last; neighbors.verlet rebuilt every step, same process.
-# One pipeline bench of ab3.yaml at 2^20 (60 steps after 10), nothing else (the tests of these
+# One pipeline bench of ab3.yaml at 2^20 (40 steps after 10), nothing else (the tests of these
 # variants ran on the CPU; sqb, fm2b and the ordering (fmrbs, fmras) passed test_neighbors_delaunay
 # on CUDA in call 2). $OUT/frnn6c/summary.txt has the line to read.
 set -uo pipefail
@@ -46,6 +46,6 @@ if ! FLIPFLOW_PLUGIN_PATH=$V/ab "$B/bin/pipeline" stages > "$O/abi.txt" 2>&1; th
   fi
 fi
 FLIPFLOW_PLUGIN_PATH=$V/ab timeout 55 "$B/bin/pipeline" bench "$V/ab3.yaml" --device "$DEVICE" --sizes "$SIZES" \
-  --steps 60 --warmup 10 --results "$O/results-ab3" > "$O/ab3.txt" 2>&1
+  --steps 40 --warmup 10 --results "$O/results-ab3" > "$O/ab3.txt" 2>&1
 echo "== ab3 rc=$? at ${SECONDS} s" | tee -a "$S"
 grep -E "^ *[0-9]|error" "$O/ab3.txt" | tee -a "$S"
