@@ -18,6 +18,8 @@
 #   fm2bs  fm2b + the block ordering
 #   fm4b   the flat loop, up to four members an iteration (four record loads in flight; 56 regs)
 #   fm4bs  fm4b + the block ordering
+#   fm4bp  fm4b + the next queued vertex's record loaded when the ring's last members are picked
+#          (63 registers);  fm4bps: + the block ordering
 #   main, main2: 75cd2a8, first and last; neighbors.verlet rebuilt every step, same process.
 # One pipeline bench of ab3.yaml at 2^20 (40 steps after 10), nothing else (the tests of these
 # variants ran on the CPU; sqb, fm2b and the ordering (fmrbs, fmras) passed test_neighbors_delaunay
