@@ -27,8 +27,8 @@
 //            fast memory (CUDA: the thread's column of shared memory, read with shared-memory
 //            loads; CPU: the stack); a search that needs more runs again with its queue in the
 //            row of neighbors.list (FastQueue, RowQueue). A 128-bit filter in registers
-//            answers "not seen" for most new vertices without a scan of the queue, and a vertex
-//            seen before is skipped before its distance is computed again. The expansion of a
+//            answers "not seen" for most new vertices without a scan of the queue (newest entry
+//            first), and a vertex seen before is skipped before its distance is computed again. The expansion of a
 //            queued vertex skips its parent and the parent's two neighbours in its ring, which
 //            the parent's expansion tested (apex_mask): 3 of ~6 members, most of the queue
 //            scans. The accepted entries are then compacted, sorted (up to 16 by a sorting
@@ -377,7 +377,10 @@ struct SearchVisited : SearchBase<R> {
           const bool hi = (hash >> 6) != 0;
           if ((hi ? filter_hi : filter_lo) & bit) {
             bool seen = false;
-            for (std::uint32_t a = 0; a < n && !seen; ++a) seen = q.get(a) == w;
+            // Newest first: a member seen before was mostly queued by a recent expansion (of
+            // a neighbour of the vertex being expanded), so the scan ends sooner than from the
+            // oldest entry.
+            for (std::uint32_t a = n; a-- > 0 && !seen;) seen = q.get(a) == w;
             if (seen) continue;
           }
           if (w == p) continue;
