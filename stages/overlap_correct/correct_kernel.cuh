@@ -55,7 +55,7 @@
 // Small systems (team_for): the same kernel runs in a thread-block cluster instead of the grid
 // (n ≤ kClusterMaxN; cluster.sync, and each block reads the others' block sums from their shared
 // memory instead of the sharded atomics). Who gathers a particle changes, not what it gathers, so
-// the bits and the iteration counts are the grid's (test_overlap_correct: CPU == CUDA on both
+// the bits and the iteration counts are the grid's (test_overlap_correct_cpu_cuda: CPU == CUDA on both
 // sides of the thresholds).
 #pragma once
 #include <cooperative_groups.h>
