@@ -50,6 +50,21 @@ std::vector<StepEntry> maintenance() {
   return {entry(r, "delaunay.detect_inversion"), entry(r, "delaunay.flip"), entry(r, "delaunay.lawson")};
 }
 
+// Neighbours from the triangulation (built on the first step), boids at v0 = 0.06, and the
+// triangulation kept Delaunay with sub-steps for passing and unrepairable places: the pipeline of
+// the sub-stepping tests below.
+std::vector<StepEntry> substep_step(std::uint64_t steps) {
+  const Registry& r = boids_test::registry();
+  return {entry(r, "delaunay.build", {}, {"", {}, false, steps + 1}),
+          entry(r, "neighbors.delaunay", {{"radius", kViewRadius}}), forces(), integrate(0.06),
+          entry(r, "delaunay.detect_inversion"),
+          entry(r, "delaunay.flip",
+                {{"on_unrepairable", std::string("substep")},
+                 {"passing", std::string("substep")},
+                 {"max_substeps", std::int64_t(1000)}}),
+          entry(r, "delaunay.lawson")};
+}
+
 // One step's particle data, as doubles (the run's precision is f64).
 struct Frame {
   std::vector<double> x, u;
@@ -168,14 +183,7 @@ TEST_CASE("boids: flip's sub-steps give the same triangulation and counts on eve
   // a try, the first try included).
   const std::uint64_t n = 4096, steps = 60;
   const Registry& r = boids_test::registry();
-  std::vector<StepEntry> step{entry(r, "delaunay.build", {}, {"", {}, false, steps + 1}),
-                              entry(r, "neighbors.delaunay", {{"radius", kViewRadius}}), forces(), integrate(0.06),
-                              entry(r, "delaunay.detect_inversion"),
-                              entry(r, "delaunay.flip",
-                                    {{"on_unrepairable", std::string("substep")},
-                                     {"passing", std::string("substep")},
-                                     {"max_substeps", std::int64_t(1000)}}),
-                              entry(r, "delaunay.lawson")};
+  std::vector<StepEntry> step = substep_step(steps);
   std::vector<Backend> runs = test::backends();
   runs.push_back(Backend::cpu);
   std::vector<std::unique_ptr<Simulation>> sims;
@@ -226,14 +234,7 @@ TEST_CASE("boids: flip's sub-steps on lists make the flips and halvings that ful
   // positions end at the targets either way, these counts are what the lists could get wrong.
   const std::uint64_t n = 4096, steps = 60;
   const Registry& r = boids_test::registry();
-  std::vector<StepEntry> step{entry(r, "delaunay.build", {}, {"", {}, false, steps + 1}),
-                              entry(r, "neighbors.delaunay", {{"radius", kViewRadius}}), forces(), integrate(0.06),
-                              entry(r, "delaunay.detect_inversion"),
-                              entry(r, "delaunay.flip",
-                                    {{"on_unrepairable", std::string("substep")},
-                                     {"passing", std::string("substep")},
-                                     {"max_substeps", std::int64_t(1000)}}),
-                              entry(r, "delaunay.lawson")};
+  std::vector<StepEntry> step = substep_step(steps);
   Simulation sim(boids_spec(step, n, steps, 7), r, dry(Backend::cpu));
   const char* counts[] = {"delaunay.flip/flips", "delaunay.flip/flip_rounds", "delaunay.flip/substeps",
                           "delaunay.lawson/lawson_flips"};

@@ -1,6 +1,6 @@
 #!/bin/bash
 # Builds what gpu-run.sh needs into $1 (default /work/main/gpu-carry/frnn6): the A/B plugin
-# (make_ab_plugin.sh: every variant a stage frnn_ab.<v>) and, per variant, the neighbors stage
+# (tools/bench/make_ab_plugin.sh: every variant a stage frnn_ab.<v>) and, per variant, the neighbors stage
 # plugin with the patch applied (for test_neighbors_delaunay), each .so with rpath $ORIGIN/../../lib
 # (it sits in <bundle>/frnn6/<v>/), packed in so.tar.xz. Run from the worktree root, clean tree.
 set -euo pipefail
@@ -12,7 +12,7 @@ stage=$(mktemp -d)
 specs="main=HEAD"
 for v in $VARIANTS; do specs="$specs $v=HEAD+$P/$v.patch"; done
 specs="$specs main2=HEAD"
-$P/make_ab_plugin.sh $specs
+tools/bench/make_ab_plugin.sh neighbors.delaunay $specs
 cmake -S . -B build > /dev/null
 cmake --build build -j2 --target flipflow_plugin_frnn_ab > /dev/null
 mkdir -p "$stage/ab"

@@ -1,6 +1,6 @@
 #!/bin/bash
 # Builds what gpu-run-2.sh needs into $DEST (default /work/main/gpu-carry/frnn6): so2.tar.xz with
-#   ab/      the A/B plugin of AB_SPECS (make_ab_plugin.sh specs: main=75cd2a8 src=HEAD v=HEAD+patch ...)
+#   ab/      the A/B plugin of AB_SPECS (tools/bench/make_ab_plugin.sh specs: main=75cd2a8 src=HEAD v=HEAD+patch ...)
 #   src/     the neighbors stage plugin of the worktree as it is (the branch's source)
 #   <v>/     the same with bench/experiments/frnn6/<v>.patch applied, for each v in STAGES
 # each .so with rpath $ORIGIN/../../lib, and gpu-run-2.sh and ab2.yaml beside it. Run from the
@@ -9,7 +9,7 @@ set -euo pipefail
 dest=${DEST:-/work/main/gpu-carry/frnn6}
 P=bench/experiments/frnn6
 stage=$(mktemp -d)
-$P/make_ab_plugin.sh $AB_SPECS
+tools/bench/make_ab_plugin.sh neighbors.delaunay $AB_SPECS
 cmake -S . -B build > /dev/null
 cmake --build build -j2 --target flipflow_plugin_frnn_ab > /dev/null
 mkdir -p "$stage/ab"
