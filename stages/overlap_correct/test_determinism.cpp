@@ -48,24 +48,8 @@ Reference reference(State& s, double factor, double cap, double tol, double unit
                                     s.field(delaunay::fields::vertex_edge).host<std::int32_t>(),
                                     std::int32_t(n),
                                     dmax * dmax};
-  std::vector<double> d(2 * n);
-  for (;;) {
-    std::uint64_t bad = 0, pairs = 0, broken = 0;
-    for (std::size_t v = 0; v < n; ++v) {
-      const auto q = m.gather(int(v));
-      broken += q.broken;
-      d[2 * v] = q.dx;
-      d[2 * v + 1] = q.dy;
-      bad += q.bad;
-      pairs += q.pairs;
-    }
-    REQUIRE(broken == 0);
-    if (!bad) return out;
-    out.pairs += double(pairs);
-    ++out.iterations;
-    for (std::size_t v = 0; v < n; ++v)
-      overlap::apply_one(out.xy.data(), image.data(), m.box, v, d[2 * v], d[2 * v + 1]);
-  }
+  jacobi_reference(m, out.xy.data(), image.data(), n, out.iterations, out.pairs);
+  return out;
 }
 
 // Particles whose fan has more than `degree` neighbours (host copy of the triangulation).

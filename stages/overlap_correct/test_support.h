@@ -17,6 +17,7 @@
 
 #include "core/input/init.h"
 #include "core/run/simulation.h"
+#include "stages/overlap_correct/kernel.h"
 #include "support/spec.h"
 #include "support/stage_driver.h"
 #include "support/test_plugins.h"
@@ -67,6 +68,33 @@ inline void set_positions(State& s, const std::vector<double>& xy) {
     set_positions<double>(s, xy);
   else
     set_positions<float>(s, xy);
+}
+
+// The stage's definition, naively (the reference its loops are held to): every iteration gathers
+// every particle with `m` (Overlaps::gather, the fan walk in fan order), then applies every
+// displacement, until no pair overlaps beyond the tolerance. Adds the iterations and pairs to
+// `iterations` / `pairs`; marks the particles some overlap touched when `touched` is given.
+template <class M>
+void jacobi_reference(const M& m, double* xy, std::int32_t* image, std::size_t n, double& iterations, double& pairs,
+                      std::uint8_t* touched = nullptr) {
+  std::vector<double> d(2 * n);
+  for (;;) {
+    std::uint64_t bad = 0, count = 0, broken = 0;
+    for (std::size_t v = 0; v < n; ++v) {
+      const auto q = m.gather(int(v));
+      broken += q.broken;
+      d[2 * v] = q.dx;
+      d[2 * v + 1] = q.dy;
+      bad += q.bad;
+      count += q.pairs;
+      if (touched && q.touched) touched[v] = 1;
+    }
+    REQUIRE(broken == 0);
+    if (!bad) return;
+    pairs += double(count);
+    ++iterations;
+    for (std::size_t v = 0; v < n; ++v) overlap::apply_one(xy, image, m.box, v, d[2 * v], d[2 * v + 1]);
+  }
 }
 
 inline std::vector<double> diameters(State& s) {

@@ -17,6 +17,7 @@
 #include "stages/delaunay/common/fields.h"
 #include "stages/overlap_correct/kernel.h"
 #include "stages/overlap_correct/params.h"
+#include "stages/overlap_correct/test_support.h"
 #include "support/backends.h"
 #include "support/spec.h"
 #include "support/stage_driver.h"
@@ -225,25 +226,9 @@ Reference reference(State& s, double factor, double cap, double tol, int wall) {
                                           std::int32_t(n),
                                           1.0,
                                           out.image.data()};
-  std::vector<double> d(2 * n);
-  for (;;) {
-    std::uint64_t bad = 0, pairs = 0, broken = 0;
-    for (std::size_t v = 0; v < n; ++v) {
-      const auto q = m.gather(int(v));
-      broken += q.broken;
-      d[2 * v] = q.dx;
-      d[2 * v + 1] = q.dy;
-      bad += q.bad;
-      pairs += q.pairs;
-      if (q.touched) out.touched[v] = 1;
-    }
-    REQUIRE(broken == 0);
-    if (!bad) return out;
-    out.pairs += double(pairs);
-    ++out.iterations;
-    for (std::size_t v = 0; v < n; ++v)
-      overlap::apply_one(out.xy.data(), out.image.data(), m.box, v, d[2 * v], d[2 * v + 1]);
-  }
+  overlap_test::jacobi_reference(m, out.xy.data(), out.image.data(), n, out.iterations, out.pairs,
+                                 out.touched.data());
+  return out;
 }
 
 // overlap_correct driven alone on a triangulated state.
