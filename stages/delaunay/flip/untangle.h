@@ -398,12 +398,15 @@ class Untangle {
   // reset_try).
   TouchedRecords restore_records(State& s, const SubTally& h) {
     const Kept k = kept(s);
-    TouchedRecords t{touched_edges_.get(edge_count(s.n())), h[kTouchedEdgeCount], touched_vertices_.get(s.n())};
-    t.from_he = k.he, t.from_opp = k.opp, t.from_vedge = k.vedge;
-    t.to_he = s.field(fields::halfedge).data<std::int32_t>(where_);
-    t.to_opp = s.field(fields::opposite).data<std::int32_t>(where_);
-    t.to_vedge = s.field(fields::vertex_edge).data<std::int32_t>(where_);
-    return t;
+    return TouchedRecords{touched_edges_.get(edge_count(s.n())),
+                          h[kTouchedEdgeCount],
+                          touched_vertices_.get(s.n()),
+                          k.he,
+                          k.opp,
+                          k.vedge,
+                          s.field(fields::halfedge).data<std::int32_t>(where_),
+                          s.field(fields::opposite).data<std::int32_t>(where_),
+                          s.field(fields::vertex_edge).data<std::int32_t>(where_)};
   }
   // The touched lists' generation (one for the edge and the vertex stamps).
   void next_touched_gen(std::size_t n, CUstream_st* st) {
