@@ -1,0 +1,73 @@
+#!/bin/bash
+# frnn7 (issue 17, neighbors.delaunay search; branch frnn7), session 18's 09:40 call. One H200,
+# about 2 minutes (every step under a timeout; the whole under 175 s).
+#
+#   bash gpu-carry/frnn7/run.sh BUNDLE OUT      (BUNDLE: the extracted bundle of main, ABI 5)
+#
+# The question: which search is fastest at 2^20 against main's, in one process on the same states
+# (two rounds, the second in reverse order), and does each pass test_neighbors_delaunay on CUDA.
+# Variants (bench/experiments/frnn7/*.patch; README there):
+#   cv     main with a converged tail: the traversal loop has one exit (no early return from the
+#          member loop), the lanes meet there (__syncwarp), so compaction + sorting network + row
+#          stores issue once a warp (frnn5's ncu: 4.4 times a warp at ~7 lanes, ~19 % of the
+#          kernel's instructions)
+#   cvi    cv + the apex skip found in the ring chunks as they are loaded (no apex_mask pass)
+#   cvj    cvi + the second chunk looked at first (no skip lost; 47 registers)
+#   s      main + frnn6's ordered blocks (a block's searches ordered by last step's count)
+#   cvs, cvis, cvjs: cv, cvi, cvj + ordered blocks
+#   fm2b   frnn6's flat loop, two members an iteration (call 2: 0.525 against main's 0.530)
+#   fm2bc  fm2b + the converged tail
+# Output: $OUT/frnn7/summary.txt (the bench line: frnn_ab.<v>=ms per step; the tests; ncu).
+set -uo pipefail
+SECONDS=0
+B=$(cd "${1:-${BUNDLE:-bundle}}" && pwd)
+OUTDIR=${2:-${OUT:-out}}
+C=$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)
+O=$OUTDIR/frnn7
+DEVICE=${DEVICE:-cuda}
+SIZES=${SIZES:-2^20}
+TESTS=${TESTS:-"cv cvs cvi cvis cvj cvjs fm2bc"}
+V=$B/frnn7
+mkdir -p "$O" "$V"
+cp "$C"/ab.yaml "$V/"
+tar xJf "$C/so.tar.xz" -C "$V"
+S=$O/summary.txt
+nvidia-smi --query-gpu=name,clocks.sm,clocks.max.sm --format=csv > "$S" 2>&1
+cat "$B/.flipflow-bundle" >> "$S" 2>/dev/null
+
+FLIPFLOW_PLUGIN_PATH=$V/ab timeout 100 "$B/bin/pipeline" bench "$V/ab.yaml" --device "$DEVICE" --sizes "$SIZES" \
+  --steps 40 --warmup 10 --results "$O/results-ab" > "$O/ab.txt" 2>&1
+echo "== ab rc=$? at ${SECONDS} s" | tee -a "$S"
+grep -E "^ *[0-9]|main/max_visited|error" "$O/ab.txt" | tee -a "$S"
+
+left=$((160 - SECONDS))
+((left > 75)) && left=75
+for v in $TESTS; do
+  (FLIPFLOW_TEST_DEVICE=$DEVICE FLIPFLOW_PLUGIN_PATH=$V/$v:$B/plugins timeout $left "$B/bin/test_neighbors_delaunay" \
+     > "$O/test-$v.log" 2>&1; echo "rc=$?" >> "$O/test-$v.log") &
+done
+wait
+for v in $TESTS; do echo "== test_neighbors_delaunay $v: $(tail -n 3 "$O/test-$v.log" | tr '\n' ' ')"; done | tee -a "$S"
+echo "tests done at ${SECONDS} s" | tee -a "$S"
+
+# ncu, while time is left: one launch each of main's, cv's, cvj's and cvjs's search at 2^18
+# (average active threads a warp, instructions, issue slots, occupancy).
+NCU=$(command -v ncu || ls /usr/local/cuda*/bin/ncu /opt/nvidia/nsight-compute/*/ncu /usr/local/NVIDIA-Nsight-Compute*/ncu 2>/dev/null | head -n 1)
+echo "ncu: ${NCU:-none}" | tee -a "$S"
+if [[ -n $NCU && $DEVICE == cuda ]] && ((SECONDS < 125)); then
+  FLIPFLOW_PLUGIN_PATH=$V/ab timeout $((172 - SECONDS)) "$NCU" --target-processes all --kernel-name-base demangled \
+    -k 'regex:frnn_ab_(main|cv|cvj|cvjs)::.*visited_kernel' --launch-skip 8 --launch-count 4 \
+    --section LaunchStats --section Occupancy --section SchedulerStats --section WarpStateStats \
+    --section InstructionStats --section SpeedOfLight -f -o "$O/search" \
+    "$B/bin/pipeline" bench "$V/ab.yaml" --device cuda --sizes 2^18 --steps 1 --warmup 3 \
+    --results "$O/results-ncu" > "$O/ncu-run.txt" 2>&1
+  echo "== ncu rc=$? at ${SECONDS} s" | tee -a "$S"
+  if [[ -f $O/search.ncu-rep ]]; then
+    "$NCU" -i "$O/search.ncu-rep" --page details > "$O/ncu-details.txt" 2>&1
+    grep -E "visited_kernel|Duration|Issue Slots Busy|Avg. Active Threads|Executed Instructions  |Achieved Occupancy|Registers Per" \
+      "$O/ncu-details.txt" | cut -c1-140 | tee -a "$S"
+  fi
+else
+  echo "== ncu skipped at ${SECONDS} s" | tee -a "$S"
+fi
+echo "total ${SECONDS} s" | tee -a "$S"
