@@ -7,25 +7,25 @@
 # each .so with rpath $ORIGIN/../../lib, and run.sh and ab.yaml beside it. Run from the worktree
 # root with a clean stages/neighbors/delaunay/ and no plugins/frnn_ab.
 #   BASE: a commit whose stages/neighbors/delaunay/ is main's (the patches' base);
-#   BASE6: frnn6's base (75cd2a8) for frnn6's fm2b and this folder's fm2bc.
+#   BASE6: frnn6's base (75cd2a8) for frnn6's fm4bs and this folder's fm4b* variants.
 set -euo pipefail
 dest=${DEST:-/work/main/gpu-carry/frnn7}
 P=bench/experiments/frnn7
 BASE=${BASE:-09b83dc}
 BASE6=75cd2a8
-VARIANTS=${VARIANTS:-"cv cvs cvi cvis cvj cvjs s fm2bc"}
-TESTS=${TESTS:-"cv cvs cvi cvis cvj cvjs fm2bc"}
+VARIANTS=${VARIANTS:-"fm4bs fm4bsc fm4bsc10 fm4bc cv cvs cvj cvjs cvis"}
+TESTS=${TESTS:-"fm4bsc fm4bsc10 fm4bc cv cvs cvj cvjs cvis"}
 src() {  # the make_ab_plugin source of variant $1
   case $1 in
     main) echo "$BASE" ;;
-    fm2b) echo "$BASE6+bench/experiments/frnn6/fm2b.patch" ;;
-    fm2bc) echo "$BASE6+$P/fm2bc.patch" ;;
+    fm4bs) echo "$BASE6+bench/experiments/frnn6/fm4bs.patch" ;;
+    fm*) echo "$BASE6+$P/$1.patch" ;;
     *) echo "$BASE+$P/$1.patch" ;;
   esac
 }
 specs="main=$(src main)"
-for v in $VARIANTS fm2b; do specs="$specs $v=$(src $v)"; done
-for v in fm2b $VARIANTS; do specs="$specs ${v}2=$(src $v)"; done
+for v in $VARIANTS; do specs="$specs $v=$(src $v)"; done
+for v in $VARIANTS; do specs="$specs ${v}2=$(src $v)"; done
 specs="$specs main2=$(src main)"
 stage=$(mktemp -d)
 tools/bench/make_ab_plugin.sh neighbors.delaunay $specs
@@ -37,7 +37,7 @@ rm -rf plugins/frnn_ab
 cmake -S . -B build > /dev/null
 for v in $TESTS; do
   base=$BASE
-  [[ $v == fm2bc ]] && base=$BASE6
+  [[ $v == fm* ]] && base=$BASE6
   git checkout "$base" -- stages/neighbors/delaunay/
   git apply "$P/$v.patch"
   cmake --build build -j2 --target flipflow_stage_neighbors > /dev/null

@@ -11,12 +11,13 @@
 #          member loop), the lanes meet there (__syncwarp), so compaction + sorting network + row
 #          stores issue once a warp (frnn5's ncu: 4.4 times a warp at ~7 lanes, ~19 % of the
 #          kernel's instructions)
-#   cvi    cv + the apex skip found in the ring chunks as they are loaded (no apex_mask pass)
-#   cvj    cvi + the second chunk looked at first (no skip lost; 47 registers)
-#   s      main + frnn6's ordered blocks (a block's searches ordered by last step's count)
-#   cvs, cvis, cvjs: cv, cvi, cvj + ordered blocks
-#   fm2b   frnn6's flat loop, two members an iteration (call 2: 0.525 against main's 0.530)
-#   fm2bc  fm2b + the converged tail
+#   cvj    cv + the apex skip found in the ring chunks as they are loaded (no apex_mask pass;
+#          47 registers); cvi: the same without looking at the second chunk first (40 registers,
+#          a few more member tests)
+#   cvs, cvjs, cvis: + frnn6's ordered blocks (a block's searches ordered by last step's count)
+#   fm4bs  frnn6's flat loop, four members an iteration, ordered blocks (0.435 in call 1)
+#   fm4bsc fm4bs + the converged tail;  fm4bsc10: capped at 48 registers (10 blocks an SM)
+#   fm4bc  fm4b (no ordering) + the converged tail
 # Output: $OUT/frnn7/summary.txt (the bench line: frnn_ab.<v>=ms per step; the tests; ncu).
 set -uo pipefail
 SECONDS=0
@@ -26,7 +27,7 @@ C=$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)
 O=$OUTDIR/frnn7
 DEVICE=${DEVICE:-cuda}
 SIZES=${SIZES:-2^20}
-TESTS=${TESTS:-"cv cvs cvi cvis cvj cvjs fm2bc"}
+TESTS=${TESTS:-"fm4bsc fm4bsc10 fm4bc cv cvs cvj cvjs cvis"}
 V=$B/frnn7
 mkdir -p "$O" "$V"
 cp "$C"/ab.yaml "$V/"
@@ -50,20 +51,21 @@ wait
 for v in $TESTS; do echo "== test_neighbors_delaunay $v: $(tail -n 3 "$O/test-$v.log" | tr '\n' ' ')"; done | tee -a "$S"
 echo "tests done at ${SECONDS} s" | tee -a "$S"
 
-# ncu, while time is left: one launch each of main's, cv's, cvj's and cvjs's search at 2^18
-# (average active threads a warp, instructions, issue slots, occupancy).
+# ncu, while time is left: one launch each of main's, fm4bs's, fm4bsc's and cvjs's search at 2^18
+# (average active threads a warp, instructions, issue slots, occupancy; per-SASS-instruction counts).
 NCU=$(command -v ncu || ls /usr/local/cuda*/bin/ncu /opt/nvidia/nsight-compute/*/ncu /usr/local/NVIDIA-Nsight-Compute*/ncu 2>/dev/null | head -n 1)
 echo "ncu: ${NCU:-none}" | tee -a "$S"
 if [[ -n $NCU && $DEVICE == cuda ]] && ((SECONDS < 125)); then
   FLIPFLOW_PLUGIN_PATH=$V/ab timeout $((172 - SECONDS)) "$NCU" --target-processes all --kernel-name-base demangled \
-    -k 'regex:frnn_ab_(main|cv|cvj|cvjs)::.*visited_kernel' --launch-skip 8 --launch-count 4 \
+    -k 'regex:frnn_ab_(main|fm4bs|fm4bsc|cvjs)::.*visited_kernel' --launch-skip 8 --launch-count 4 \
     --section LaunchStats --section Occupancy --section SchedulerStats --section WarpStateStats \
-    --section InstructionStats --section SpeedOfLight -f -o "$O/search" \
+    --section InstructionStats --section SpeedOfLight --section SourceCounters -f -o "$O/search" \
     "$B/bin/pipeline" bench "$V/ab.yaml" --device cuda --sizes 2^18 --steps 1 --warmup 3 \
     --results "$O/results-ncu" > "$O/ncu-run.txt" 2>&1
   echo "== ncu rc=$? at ${SECONDS} s" | tee -a "$S"
   if [[ -f $O/search.ncu-rep ]]; then
     "$NCU" -i "$O/search.ncu-rep" --page details > "$O/ncu-details.txt" 2>&1
+    "$NCU" -i "$O/search.ncu-rep" --page source --csv --print-source sass 2>&1 | xz > "$O/ncu-sass.csv.xz"
     grep -E "visited_kernel|Duration|Issue Slots Busy|Avg. Active Threads|Executed Instructions  |Achieved Occupancy|Registers Per" \
       "$O/ncu-details.txt" | cut -c1-140 | tee -a "$S"
   fi
