@@ -17,6 +17,8 @@
 #   cvs, cvjs, cvis: + frnn6's ordered blocks (a block's searches ordered by last step's count)
 #   fm4bs  frnn6's flat loop, four members an iteration, ordered blocks (0.435 in call 1)
 #   fm4bsc fm4bs + the converged tail;  fm4bsc10: capped at 48 registers (10 blocks an SM)
+#   fm4bsci fm4bsc with the blocks ordered by last step's loop iterations instead of visited
+#          count (capped at 56 registers: the counter took it to 62)
 #   fm4bc  fm4b (no ordering) + the converged tail
 # Output: $OUT/frnn7/summary.txt (the bench line: frnn_ab.<v>=ms per step; the tests; ncu).
 set -uo pipefail
@@ -27,7 +29,7 @@ C=$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)
 O=$OUTDIR/frnn7
 DEVICE=${DEVICE:-cuda}
 SIZES=${SIZES:-2^20}
-TESTS=${TESTS:-"fm4bsc fm4bsc10 fm4bc cv cvs cvj cvjs cvis"}
+TESTS=${TESTS:-"fm4bsc fm4bsci fm4bsc10 fm4bc cv cvs cvj cvjs cvis"}
 V=$B/frnn7
 mkdir -p "$O" "$V"
 cp "$C"/ab.yaml "$V/"
