@@ -53,14 +53,17 @@ wait
 for v in $TESTS; do echo "== test_neighbors_delaunay $v: $(tail -n 3 "$O/test-$v.log" | tr '\n' ' ')"; done | tee -a "$S"
 echo "tests done at ${SECONDS} s" | tee -a "$S"
 
-# ncu, while time is left: one launch each of main's, fm4bs's, fm4bsc's and cvjs's search at 2^18
+# ncu, while time is left: one launch each of main's, fm4bs's, fm4bsc's and cvjs's search and of
+# main's ring gather at 2^18
 # (average active threads a warp, instructions, issue slots, occupancy; per-SASS-instruction counts).
 NCU=$(command -v ncu || ls /usr/local/cuda*/bin/ncu /opt/nvidia/nsight-compute/*/ncu /usr/local/NVIDIA-Nsight-Compute*/ncu 2>/dev/null | head -n 1)
 echo "ncu: ${NCU:-none}" | tee -a "$S"
 if [[ -n $NCU && $DEVICE == cuda ]] && ((SECONDS < 125)); then
   FLIPFLOW_PLUGIN_PATH=$V/ab timeout $((172 - SECONDS)) "$NCU" --target-processes all --kernel-name-base demangled \
-    -k 'regex:frnn_ab_(main|fm4bs|fm4bsc|cvjs)::.*visited_kernel' --launch-skip 8 --launch-count 4 \
+    -k 'regex:frnn_ab_(main|fm4bs|fm4bsc|cvjs)::.*visited_kernel|frnn_ab_main::.*gather_kernel' \
+    --launch-skip 10 --launch-count 5 \
     --section LaunchStats --section Occupancy --section SchedulerStats --section WarpStateStats \
+    --section MemoryWorkloadAnalysis \
     --section InstructionStats --section SpeedOfLight --section SourceCounters -f -o "$O/search" \
     "$B/bin/pipeline" bench "$V/ab.yaml" --device cuda --sizes 2^18 --steps 1 --warmup 3 \
     --results "$O/results-ncu" > "$O/ncu-run.txt" 2>&1
@@ -68,7 +71,7 @@ if [[ -n $NCU && $DEVICE == cuda ]] && ((SECONDS < 125)); then
   if [[ -f $O/search.ncu-rep ]]; then
     "$NCU" -i "$O/search.ncu-rep" --page details > "$O/ncu-details.txt" 2>&1
     "$NCU" -i "$O/search.ncu-rep" --page source --csv --print-source sass 2>&1 | xz > "$O/ncu-sass.csv.xz"
-    grep -E "visited_kernel|Duration|Issue Slots Busy|Avg. Active Threads|Executed Instructions  |Achieved Occupancy|Registers Per" \
+    grep -E "visited_kernel|gather_kernel|Duration|Issue Slots Busy|Avg. Active Threads|Executed Instructions  |Achieved Occupancy|Registers Per|DRAM Throughput|L2 Hit Rate|Memory Throughput" \
       "$O/ncu-details.txt" | cut -c1-140 | tee -a "$S"
   fi
 else
