@@ -13,8 +13,8 @@ dest=${DEST:-/work/main/gpu-carry/frnn7}
 P=bench/experiments/frnn7
 BASE=${BASE:-09b83dc}
 BASE6=75cd2a8
-VARIANTS=${VARIANTS:-"fm4bs fm4bsc fm4bsci fm4bsc10 fm4bc cv cvs cvj cvjs cvis"}
-TESTS=${TESTS:-"fm4bsc fm4bsci fm4bsc10 fm4bc cv cvs cvj cvjs cvis"}
+VARIANTS=${VARIANTS:-"fm4bs fm4bsc fm4bsci fm4bscq fm4bsc10 fm4bc cv cvs cvj cvjs cvis"}
+TESTS=${TESTS:-"fm4bsc fm4bsci fm4bscq fm4bsc10 fm4bc cv cvs cvj cvjs cvis"}
 src() {  # the make_ab_plugin source of variant $1
   case $1 in
     main) echo "$BASE" ;;

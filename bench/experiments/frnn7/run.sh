@@ -19,6 +19,8 @@
 #   fm4bsc fm4bs + the converged tail;  fm4bsc10: capped at 48 registers (10 blocks an SM)
 #   fm4bsci fm4bsc with the blocks ordered by last step's loop iterations instead of visited
 #          count (capped at 56 registers: the counter took it to 62)
+#   fm4bscq fm4bsc + each queued vertex's ring start and degree packed beside its queue entry
+#          (8 KB more shared memory a block), so an expansion loads its ring without the record
 #   fm4bc  fm4b (no ordering) + the converged tail
 # Output: $OUT/frnn7/summary.txt (the bench line: frnn_ab.<v>=ms per step; the tests; ncu).
 set -uo pipefail
@@ -29,7 +31,7 @@ C=$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)
 O=$OUTDIR/frnn7
 DEVICE=${DEVICE:-cuda}
 SIZES=${SIZES:-2^20}
-TESTS=${TESTS:-"fm4bsc fm4bsci fm4bsc10 fm4bc cv cvs cvj cvjs cvis"}
+TESTS=${TESTS:-"fm4bsc fm4bsci fm4bscq fm4bsc10 fm4bc cv cvs cvj cvjs cvis"}
 V=$B/frnn7
 mkdir -p "$O" "$V"
 cp "$C"/ab.yaml "$V/"
