@@ -196,7 +196,9 @@ std::string Checkpointer::write() {
       d.put_array("stages/" + encode(slot.info.stage_id) + "/" + encode(name), DType::u8, {bytes.size()},
                   bytes.data(), bytes.size());
   }
+  const std::vector<std::string> scratch = sim_.scratch_fields();
   for (auto& name : s.field_names()) {
+    if (std::find(scratch.begin(), scratch.end(), name) != scratch.end()) continue;
     Field& f = s.field(name);
     f.acquire(Where::host, Mode::read);
     d.put_array("fields/" + encode(name), f.dtype(), {f.count(), std::uint64_t(f.components())}, f.host_raw(),
@@ -347,8 +349,9 @@ void restore_checkpoint(Simulation& sim, const CheckpointData& data) {
   State& s = sim.state();
   std::set<std::string> saved;
   for (auto& f : data.children("fields")) saved.insert(decode(f));
+  const std::vector<std::string> scratch = sim.scratch_fields();
   for (auto& name : s.field_names())
-    if (!saved.count(name))
+    if (!saved.count(name) && std::find(scratch.begin(), scratch.end(), name) == scratch.end())
       throw InputError("cannot resume: the pipeline makes the field '" + name +
                        "', which the checkpoint does not have (the stages differ)");
   for (auto& name : saved)

@@ -321,6 +321,18 @@ std::vector<std::string> Simulation::step_local_fields() const {
   return out;
 }
 
+std::vector<std::string> Simulation::scratch_fields() const {
+  std::set<std::string> scratch, carried;
+  for (int j : graph_->compute_nodes())
+    for (auto& a : graph_->nodes()[j].accesses)
+      if (writes(a.mode))
+        (a.step_local && graph_->written_before_read(j, a.field) ? scratch : carried).insert(a.field);
+  std::vector<std::string> out;
+  for (auto& f : scratch)
+    if (!carried.count(f)) out.push_back(f);
+  return out;
+}
+
 void Simulation::prepare_outputs() {
   std::vector<std::string> outputs;
   for (auto& s : slots_)

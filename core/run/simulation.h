@@ -76,6 +76,12 @@ class Simulation {
   // Fields every writer declares Access::step_local: a rollback leaves them as the failed
   // attempt wrote them (they carry nothing into the retry), so check_rollbacks skips them.
   std::vector<std::string> step_local_fields() const;
+  // Of those, the ones no step reads before it rewrites them (every writer runs every step, before
+  // every other compute stage that reads the field: StepGraph::written_before_read): scratch that
+  // carries nothing from one step to the next. A checkpoint leaves them out: their contents
+  // between steps are whatever the last step left (on the GPU, in thread order), so two identical
+  // runs would otherwise write different checkpoints.
+  std::vector<std::string> scratch_fields() const;
 
   // For checkpoints (core/run/checkpoint.h): the loop's own state besides the fields.
   DtController& dt_controller() { return *dt_; }

@@ -15,7 +15,7 @@
 
 namespace ff::delaunay {
 
-// Sub-stepping works on lists (stage.h, untangle): each try re-marks only the edges whose
+// Sub-stepping works on lists (untangle.h): each try re-marks only the edges whose
 // status can have changed (those around particles that moved, the ones a flip changed, the
 // ones troubled before), and the particles, edges and topology records a try touches are
 // gathered in lists, so a try costs what the trouble costs, not a pass over N. A list is an
