@@ -32,6 +32,7 @@ template <class R>
 __global__ void __launch_bounds__(kBlock) visited_kernel(std::size_t n, SearchVisited<R> f, std::uint32_t* word) {
   __shared__ std::uint32_t fast[kFastSlots * kBlock];
   const std::size_t i = std::size_t(blockIdx.x) * kBlock + threadIdx.x;
+  // The warp's searching lanes (the last warp may have fewer), which meet after the search's loop.
   const std::uint32_t lanes = __ballot_sync(0xffffffffu, i < n);
   combine_max(i < n ? f.template search<kBlock>(i, fast + threadIdx.x, lanes) : 0u, word);
 }

@@ -426,6 +426,7 @@ struct SearchVisited : SearchBase<R> {
   template <class Q>
   FF_HD std::uint32_t run(std::size_t pi, const Q& q, std::uint32_t lanes) const {
     const std::uint32_t p = std::uint32_t(pi);
+    // These two return before the meeting point in every lane alike (one word for all).
     if (*this->move2 & kRingOverflow) return kRingOverflow;
     const double e2 = this->expand2();
     if (e2 < 0) return kTooFar;
