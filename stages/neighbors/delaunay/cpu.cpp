@@ -45,7 +45,7 @@ template <class R>
 void cpu_visited(std::size_t n, const SearchVisited<R>& f, std::uint32_t* words, CUstream_st*) {
   const std::uint32_t m = cpu_max(n, [&f](std::size_t i) {
     std::uint32_t fast[kFastSlots];
-    return f.template search<1>(i, fast);
+    return f.template search<1>(i, fast, 0);
   });
   words[1] = std::max(words[1], m);
 }

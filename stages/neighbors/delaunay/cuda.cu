@@ -32,7 +32,9 @@ template <class R>
 __global__ void __launch_bounds__(kBlock) visited_kernel(std::size_t n, SearchVisited<R> f, std::uint32_t* word) {
   __shared__ std::uint32_t fast[kFastSlots * kBlock];
   const std::size_t i = std::size_t(blockIdx.x) * kBlock + threadIdx.x;
-  combine_max(i < n ? f.template search<kBlock>(i, fast + threadIdx.x) : 0u, word);
+  // The warp's searching lanes (the last warp may have fewer), which meet after the search's loop.
+  const std::uint32_t lanes = __ballot_sync(0xffffffffu, i < n);
+  combine_max(i < n ? f.template search<kBlock>(i, fast + threadIdx.x, lanes) : 0u, word);
 }
 
 // Walk each vertex's ring, scan the block's row lengths, take the block's table space, write.

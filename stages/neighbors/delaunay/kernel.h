@@ -28,11 +28,14 @@
 //            loads; CPU: the stack); a search that needs more runs again with its queue in the
 //            row of neighbors.list (FastQueue, RowQueue). A 128-bit filter in registers
 //            answers "not seen" for most new vertices without a scan of the queue (newest entry
-//            first), and a vertex seen before is skipped before its distance is computed again. The expansion of a
-//            queued vertex skips its parent and the parent's two neighbours in its ring, which
-//            the parent's expansion tested (apex_mask): 3 of ~6 members, most of the queue
-//            scans. The accepted entries are then compacted, sorted (up to 16 by a sorting
-//            network in registers) and written to the row.
+//            first), and a vertex seen before is skipped before its distance is computed again.
+//            The expansion of a queued vertex skips its parent and the parent's two neighbours
+//            in its ring, which the parent's expansion tested (apex_mask): 3 of ~6 members, most
+//            of the queue scans. One flat loop tests up to four ring members an iteration (their
+//            records loaded together) and refills from the next ring or queued vertex, so the
+//            lanes of a warp stay in step whatever their rings. The lanes meet after the loop,
+//            and the accepted entries are then compacted, sorted (up to 16 by a sorting network
+//            in registers) and written to the row, once a warp.
 //   parent   depth-first without a visited set: q's parent is its ring member closest to p
 //            (ties: lower index), which the lemma makes closer to p than q, so the parent links
 //            form a tree rooted at p; the search descends from u to w iff parent(w) = u. The
@@ -84,6 +87,57 @@ FF_HD std::uint32_t apex_mask(const std::uint32_t* row, std::uint32_t degree, st
   const std::uint32_t before = at == 0 ? degree - 1 : at - 1, after = at + 1 == degree ? 0 : at + 1;
   return (1u << before) | (1u << at) | (1u << after);
 }
+
+// The lowest k bits set (k ≤ 32).
+FF_HD std::uint32_t low_bits(std::uint32_t k) { return k >= 32 ? ~0u : (1u << k) - 1; }
+
+// The index of the lowest set bit of x ≠ 0.
+FF_HD std::uint32_t lowest_bit_index(std::uint32_t x) {
+#if defined(__CUDA_ARCH__)
+  return std::uint32_t(__ffs(int(x)) - 1);
+#else
+  return std::uint32_t(__builtin_ctz(x));
+#endif
+}
+
+// Eight consecutive slots of a ring row in named registers (an indexed array would live in
+// local memory on the device), kRingEnd past the row's end.
+struct Row8 {
+  std::uint32_t c0, c1, c2, c3, c4, c5, c6, c7;
+  // The slots from `row` (16-byte aligned), `left` of them in the ring.
+  FF_HD void load(const std::uint32_t* row, std::uint32_t left) {
+    std::uint32_t a[4];
+    load4(row, a);
+    c0 = a[0];
+    c1 = a[1];
+    c2 = a[2];
+    c3 = a[3];
+    c4 = c5 = c6 = c7 = kRingEnd;
+    if (left > 4) {
+      load4(row + 4, a);
+      c4 = a[0];
+      c5 = a[1];
+      c6 = a[2];
+      c7 = a[3];
+    }
+  }
+  // Slot k (0..7), by a tree of selects.
+  FF_HD std::uint32_t pick(std::uint32_t k) const {
+    const std::uint32_t a = k & 1 ? c1 : c0, b = k & 1 ? c3 : c2, c = k & 1 ? c5 : c4, d = k & 1 ? c7 : c6;
+    const std::uint32_t e = k & 2 ? b : a, f = k & 2 ? d : c;
+    return k & 4 ? f : e;
+  }
+  // apex_mask for a whole ring of degree ≤ 8 held here: compares instead of a loop.
+  FF_HD std::uint32_t apex_mask(std::uint32_t degree, std::uint32_t v) const {
+    std::uint32_t at = std::uint32_t(c0 == v) | std::uint32_t(c1 == v) << 1 | std::uint32_t(c2 == v) << 2 |
+                       std::uint32_t(c3 == v) << 3 | std::uint32_t(c4 == v) << 4 | std::uint32_t(c5 == v) << 5 |
+                       std::uint32_t(c6 == v) << 6 | std::uint32_t(c7 == v) << 7;
+    at &= ~at + 1;  // the first, as apex_mask's scan finds it
+    const std::uint32_t after = (at << 1 | at >> (degree - 1)) & low_bits(degree);
+    const std::uint32_t before = at >> 1 | (at & 1u) << (degree - 1);
+    return at | after | before;
+  }
+};
 
 // d (a difference of two coordinates in [0, L]) shifted by L once when beyond L/2: its
 // minimum image up to the rounding float_expand2 allows for.
@@ -300,6 +354,28 @@ struct SearchBase {
 // queue in the row of the list (not a result the stage sees).
 inline constexpr std::uint32_t kNeedRow = 0x20000000u;
 
+// CUDA: the lanes of `lanes` wait here for each other, so the code after runs once for all of
+// them instead of once per group that arrived together. Every lane of `lanes` must call it. CPU:
+// nothing (lanes is 0).
+FF_HD void converge(std::uint32_t lanes) {
+#if defined(__CUDA_ARCH__)
+  __syncwarp(lanes);
+#else
+  (void)lanes;
+#endif
+}
+
+// CUDA: the lanes of `lanes` (which all call it) for which `pred` holds. CPU: 0.
+FF_HD std::uint32_t lanes_where(std::uint32_t lanes, bool pred) {
+#if defined(__CUDA_ARCH__)
+  return __ballot_sync(lanes, pred);
+#else
+  (void)lanes;
+  (void)pred;
+  return 0;
+#endif
+}
+
 // The visited search's queue in fast memory: kFastSlots slots `Stride` apart (a column of a
 // shared-memory block on CUDA, so the threads of a warp never share a bank; the stack on the
 // CPU). Its pointer never changes, so on the device every access is a shared-memory load at a
@@ -331,79 +407,127 @@ template <class R>
 struct SearchVisited : SearchBase<R> {
   // First with the queue in fast memory; a search that needs more slots (none at r = 2σ in the
   // hard-disk benchmark, where at most ~14 are queued) starts again with it in the row.
+  // lanes (CUDA): the lanes of the calling warp that search, all of which call this together;
+  // the CPU passes 0 (see converge).
   template <std::uint32_t Stride>
-  FF_HD std::uint32_t search(std::size_t pi, std::uint32_t* fast) const {
+  FF_HD std::uint32_t search(std::size_t pi, std::uint32_t* fast, std::uint32_t lanes) const {
     const std::uint32_t cap = this->capacity;
-    const std::uint32_t r = run(pi, FastQueue<Stride>{fast, cap < kFastSlots ? cap : kFastSlots});
+    const std::uint32_t r = run(pi, FastQueue<Stride>{fast, cap < kFastSlots ? cap : kFastSlots}, lanes);
+    const std::uint32_t again = lanes_where(lanes, r == kNeedRow);
     if (r != kNeedRow) return r;
-    return run(pi, RowQueue{this->list + pi * cap, cap});
+    return run(pi, RowQueue{this->list + pi * cap, cap}, again);
   }
 
+  // The traversal loop ends after a different number of iterations in each lane; lanes that
+  // finished first would run the rest (compaction, sorting network, row stores) on their own and
+  // the others again after them (frnn5's ncu of the nested search: the tail issued 4.4 times a
+  // warp with ~7 of 32 lanes active). So the loop has one exit, also when the queue is full, and
+  // the lanes wait for each other there (converge): the tail issues once a warp.
   template <class Q>
-  FF_HD std::uint32_t run(std::size_t pi, const Q& q) const {
+  FF_HD std::uint32_t run(std::size_t pi, const Q& q, std::uint32_t lanes) const {
     const std::uint32_t p = std::uint32_t(pi);
+    // These two return before the meeting point in every lane alike (one word for all).
     if (*this->move2 & kRingOverflow) return kRingOverflow;
     const double e2 = this->expand2();
     if (e2 < 0) return kTooFar;
-    RingRecord ru = load_record(this->record, p);
+    const RingRecord rp = load_record(this->record, p);
     // p where its record has it (wrapped, float), as its ring members are: the margin covers
     // the rounding of both ends. The expansion test runs in float (float_expand2).
-    const float px = ru.x, py = ru.y;
+    const float px = rp.x, py = rp.y;
     const float e2f = this->float_expand2(e2);
     const float lx = float(this->old.box.L[0]), ly = float(this->old.box.L[1]);
     // Bit (hash of w) set for every w in the queue: 128 bits in two named words (an indexed pair
     // would live in local memory on the device).
     std::uint64_t filter_lo = 0, filter_hi = 0;
     std::uint32_t n = 0, head = 0;
-    // Ring slots the expansion skips (apex_mask), and which entry queued each of the first 16
-    // queue entries (4 bits each: queue index + 1 of the parent, 0 for p; an entry queued by
-    // entry i has a queue index above i, so it fits). Later entries skip nothing.
-    std::uint32_t skip = 0, cur = 0;
+    // Which entry queued each of the first 16 queue entries (4 bits each: queue index + 1 of
+    // the parent, 0 for p; an entry queued by entry i has a queue index above i, so it fits),
+    // and the entry being expanded (cur: its index + 1). Later entries skip nothing.
+    std::uint32_t cur = 0;
     std::uint64_t parents = 0;
+    // One flat loop, up to four ring members an iteration: the row being expanded is held eight
+    // slots at a time (row, from slot `base`), and `todo` has a bit for each held slot still to
+    // test (within the degree, not skipped by apex_mask). When it empties, the next eight slots
+    // or the next queued vertex's row are loaded. So the lanes of a warp each test members in
+    // every iteration, whatever their rows' lengths and skips (nested loops over queue, chunks
+    // and members left ~10 of 32 lanes active: bench/experiments/README.md, frnn5).
+    std::uint32_t start = rp.start, degree = rp.degree, base = 0, skip = 0;
+    Row8 row;
+    row.load(this->table + start, degree);
+    std::uint32_t todo = low_bits(degree < 8 ? degree : 8);
+    std::uint32_t full = 0;  // what run returns when the queue had no slot for a vertex
     for (;;) {
-      for (std::uint32_t k = 0; k < ru.degree; k += 4) {
-        std::uint32_t c[4];
-        load4(this->table + ru.start + k, c);
-        // Unrolled with constant indices, so that c stays in registers on the device.
-#if defined(__CUDA_ARCH__)
-#pragma unroll
-#endif
-        for (std::uint32_t j = 0; j < 4; ++j) {
-          const std::uint32_t w = c[j];
-          if (k + j >= ru.degree) continue;
-          if (k + j < 32 && ((skip >> (k + j)) & 1u)) continue;
-          const std::uint32_t hash = (w * 0x9E3779B1u) >> 25;  // 7 bits
-          const std::uint64_t bit = std::uint64_t(1) << (hash & 63);
-          const bool hi = (hash >> 6) != 0;
-          if ((hi ? filter_hi : filter_lo) & bit) {
-            bool seen = false;
-            // Newest first: a member seen before was mostly queued by a recent expansion (of
-            // a neighbour of the vertex being expanded), so the scan ends sooner than from the
-            // oldest entry.
-            for (std::uint32_t a = n; a-- > 0 && !seen;) seen = q.get(a) == w;
-            if (seen) continue;
-          }
-          if (w == p) continue;
-          const RingRecord rw = load_record(this->record, w);
-          const float dx = image_once(rw.x - px, lx);
-          const float dy = image_once(rw.y - py, ly);
-          if (dx * dx + dy * dy > e2f) continue;
-          if (n == q.limit()) return q.can_grow() && q.limit() < this->capacity ? kNeedRow : this->overflow(p);
-          if (hi) filter_hi |= bit;
-          else filter_lo |= bit;
-          if (n < 16) parents |= std::uint64_t(cur) << (4 * n);
-          q.set(n++, w);
+      while (todo == 0) {
+        if (base + 8 < degree) {  // a ring of more than 8: its next slots
+          base += 8;
+          row.load(this->table + start + base, degree - base);
+          todo = low_bits(degree - base < 8 ? degree - base : 8) & ~(base < 32 ? skip >> base : 0u);
+          continue;
         }
+        if (head == n) break;
+        const RingRecord ru = load_record(this->record, q.get(head));
+        start = ru.start;
+        degree = ru.degree;
+        base = 0;
+        row.load(this->table + start, degree);
+        skip = 0;
+        if (head < 16) {
+          const std::uint32_t f = std::uint32_t((parents >> (4 * head)) & 15u);
+          const std::uint32_t v = f == 0 ? p : q.get(f - 1);
+          skip = degree <= 8 ? row.apex_mask(degree, v) : apex_mask(this->table + start, degree, v);
+        }
+        cur = ++head;
+        todo = low_bits(degree < 8 ? degree : 8) & ~skip;
       }
-      if (head == n) break;
-      ru = load_record(this->record, q.get(head));
-      skip = 0;
-      if (head < 16) {
-        const std::uint32_t f = std::uint32_t((parents >> (4 * head)) & 15u);
-        skip = apex_mask(this->table + ru.start, ru.degree, f == 0 ? p : q.get(f - 1));
-      }
-      cur = ++head;
+      if (todo == 0) break;
+      // Up to four members an iteration (as many as the held slots have left): their records
+      // are loaded together (four loads in flight), then the members are tested in turn.
+      const std::uint32_t w1 = row.pick(lowest_bit_index(todo));
+      todo &= todo - 1;
+      const bool has2 = todo != 0;
+      const std::uint32_t w2 = has2 ? row.pick(lowest_bit_index(todo)) : w1;
+      todo &= has2 ? todo - 1 : todo;
+      const bool has3 = todo != 0;
+      const std::uint32_t w3 = has3 ? row.pick(lowest_bit_index(todo)) : w1;
+      todo &= has3 ? todo - 1 : todo;
+      const bool has4 = todo != 0;
+      const std::uint32_t w4 = has4 ? row.pick(lowest_bit_index(todo)) : w1;
+      todo &= has4 ? todo - 1 : todo;
+      const RingRecord r1 = load_record(this->record, w1);
+      const RingRecord r2 = load_record(this->record, w2);
+      const RingRecord r3 = load_record(this->record, w3);
+      const RingRecord r4 = load_record(this->record, w4);
+      // 0 when w was seen, too far or queued; else what run returns (the queue is full).
+      const auto visit = [&](std::uint32_t w, const RingRecord& rw) -> std::uint32_t {
+        const std::uint32_t hash = (w * 0x9E3779B1u) >> 25;  // 7 bits
+        const std::uint64_t bit = std::uint64_t(1) << (hash & 63);
+        const bool hi = (hash >> 6) != 0;
+        if ((hi ? filter_hi : filter_lo) & bit) {
+          bool seen = false;
+          // Newest first: a member seen before was mostly queued by a recent expansion (CPU
+          // counters, bench-frnn 2^16: 4.9 scan steps a particle instead of 17 from the oldest).
+          for (std::uint32_t a = n; a-- > 0 && !seen;) seen = q.get(a) == w;
+          if (seen) return 0;
+        }
+        if (w == p) return 0;
+        const float dx = image_once(rw.x - px, lx);
+        const float dy = image_once(rw.y - py, ly);
+        if (dx * dx + dy * dy > e2f) return 0;
+        if (n == q.limit()) return q.can_grow() && q.limit() < this->capacity ? kNeedRow : this->overflow(p);
+        if (hi) filter_hi |= bit;
+        else filter_lo |= bit;
+        if (n < 16) parents |= std::uint64_t(cur) << (4 * n);
+        q.set(n++, w);
+        return 0;
+      };
+      full = visit(w1, r1);
+      if (!full && has2) full = visit(w2, r2);
+      if (!full && has3) full = visit(w3, r3);
+      if (!full && has4) full = visit(w4, r4);
+      if (full) break;
     }
+    converge(lanes);
+    if (full) return full;
     // The accepted ones, compacted to the front in queue order, then sorted (rows are short).
     R x0, y0;
     load_xy(this->x, p, x0, y0);
