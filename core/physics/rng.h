@@ -155,6 +155,33 @@ FF_HD void gaussian_pair(RngKey key, std::uint32_t particle, std::uint64_t step,
   z1 *= kTruncatedVarianceScale;
 }
 
+// gaussian_pair for the K pairs pairs[0 .. K − 1] of one particle, into z[2j], z[2j + 1]: every
+// pair's Philox call and Box–Muller first, with no branch between them, then each pair's
+// truncation (the rare redraw) and scaling. The same operations on each value as gaussian_pair,
+// so the same numbers; on the GPU the K independent chains can be interleaved (one thread per
+// particle: a branch after each pair, as gaussian_pair has, keeps the next pair from starting).
+template <int K>
+FF_HD void gaussian_pairs(RngKey key, std::uint32_t particle, std::uint64_t step, std::uint32_t attempt,
+                          const std::uint32_t (&pairs)[K], double* z, GaussianTail tail = GaussianTail::rescaled) {
+  using namespace rng_detail;
+  for (int j = 0; j < K; ++j) {
+    const auto r = raw(key, particle, step, attempt, pairs[j]);
+    box_muller(r[0], r[1], r[2], r[3], z[2 * j], z[2 * j + 1]);
+  }
+  for (int j = 0; j < K; ++j) {
+    double& z0 = z[2 * j];
+    double& z1 = z[2 * j + 1];
+    if (tail == GaussianTail::clamped) {
+      z0 = clamp_to_truncation(z0);
+      z1 = clamp_to_truncation(z1);
+      continue;
+    }
+    if (!inside_truncation(z0, z1)) redraw_pair(key, particle, step, attempt, pairs[j], z0, z1);
+    z0 *= kTruncatedVarianceScale;
+    z1 *= kTruncatedVarianceScale;
+  }
+}
+
 namespace rng_detail {
 // Philox4x32-10 (Random123's round and key schedule) of the counters (first + l, step, attempt
 // << 16 | draw) for the lanes l < W, as plain loops over the lanes; c[word][lane]. With

@@ -239,9 +239,24 @@ class DetectInversion final : public Stage {
     const std::size_t E = edge_count(s.n());
 
     status(s)[kCandidates] = 0;
-    loops_.mark(E, MarkInversions<R>{m, pts, fresh ? nullptr : prev, mark, c, cand.data<std::int32_t>(ctx),
-                                   unsigned(cand.count()), int(E), counters_.next()},
-              st);
+    MarkInversions<R> f{m, pts, fresh ? nullptr : prev, mark, c, cand.data<std::int32_t>(ctx),
+                        unsigned(cand.count()), int(E), counters_.next()};
+    // On the device the next step's reference is written by the loop itself when the rollback
+    // snapshot takes position_prev's storage (will_overwrite): the loop reads the old values
+    // there and writes the field's new storage, so nothing it reads is written and no copy
+    // follows it. Without a snapshot (the field itself returned) it is copied after the loop.
+    if (copy && where_ == Where::device) {
+      Field& before = ctx.will_overwrite(fields::position_prev);
+      Field& field = s.field(fields::position_prev);
+      if (&before != &field) {
+        if (f.prev) f.prev = before.data<R>(ctx);
+        f.copy_from = pts.p;
+        f.copy_to = field.data<R>(ctx);
+        f.copy_points = s.n();
+        copy = false;
+      }
+    }
+    loops_.mark(E, f, st);
     counters_.next_was_reset();
     counters_.start_read(st);
     // The next step's reference, copied on the stream while the host waits for the counters
