@@ -73,9 +73,17 @@ FF_HD r123::Philox4x32::ctr_type raw(RngKey key, std::uint32_t particle, std::ui
 // Uniform in (0, 1]: never 0, so log() in Box–Muller is finite. The 53 bits hi·2^21 + lo/2^11
 // are summed in double (exact), with hi converted as a signed int + 2^31 (exact): both
 // vectorize where 64-bit and unsigned conversions do not (AVX2).
+// On the GPU the same integer, hi·2^21 + lo/2^11 + 1 ≤ 2^53, is formed in 64-bit integers and
+// converted once (exact as well, so the same bits): one conversion instead of two and three
+// double operations fewer, on the double pipe that bounds the integrators' kernels.
 FF_HD double u01_open0(std::uint32_t hi, std::uint32_t lo) {
+#if defined(__CUDA_ARCH__)
+  const std::uint64_t v = (std::uint64_t(hi) << 21) + (lo >> 11) + 1u;
+  return double(v) * (1.0 / 9007199254740992.0);
+#else
   const double h = double(std::int32_t(hi ^ 0x80000000u)) + 2147483648.0;
   return (h * 2097152.0 + double(std::int32_t(lo >> 11)) + 1.0) * (1.0 / 9007199254740992.0);
+#endif
 }
 
 // The elementary functions are core/physics/math.h's, shared with the physics kernels.

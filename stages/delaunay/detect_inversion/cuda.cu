@@ -1,3 +1,4 @@
+#include "core/backend/cuda/check.h"
 #include "core/backend/cuda/loop.cuh"
 #include "stages/delaunay/detect_inversion/stage.h"
 
@@ -9,9 +10,41 @@ namespace ff::delaunay {
 // "Numbers formerly in source comments").
 constexpr int kMarkBlocks = 6;
 
+namespace {
+
+constexpr int kMarkThreads = 256;
+
+// MarkInversions' loop (cuda_for_each_bounded's), and with f.publish the last block to finish
+// copies the counters to f.publish: each block's thread 0 fences after the block's barrier
+// (every update the block made is then ordered before its ticket, as cooperative groups' grid
+// barrier does) and takes a ticket; the block holding the last ticket has seen every block's.
+template <class R>
+__global__ void __launch_bounds__(kMarkThreads, kMarkBlocks) mark_kernel(std::size_t n, MarkInversions<R> f) {
+  const std::size_t i = std::size_t(blockIdx.x) * kMarkThreads + threadIdx.x;
+  if (i < n) f(i);
+  if (!f.publish) return;
+  __syncthreads();
+  if (threadIdx.x != 0) return;
+  __threadfence();
+  if (atomicAdd(f.blocks_done, 1u) != gridDim.x - 1) return;
+  __threadfence();
+  for (int k = 0; k < kInversionCounters; ++k) f.publish[k] = *static_cast<const volatile unsigned*>(f.counters + k);
+  *f.blocks_done = 0;  // for the next launch
+}
+
+template <class R>
+void mark_loop(std::size_t n, const MarkInversions<R>& f, CUstream_st* stream) {
+  if (n == 0) return;
+  const unsigned grid = unsigned((n + kMarkThreads - 1) / kMarkThreads);
+  mark_kernel<R><<<grid, kMarkThreads, 0, stream>>>(n, f);
+  FF_CUDA_CHECK_LAUNCH("launching delaunay.detect_inversion's marking");
+}
+
+}  // namespace
+
 template <class R>
 DetectInversionLoops<R> detect_inversion_loops(CudaExec) {
-  return {&CudaExec::for_each_bounded<MarkInversions<R>, kMarkBlocks>, &CudaExec::for_each<CheckInverted<R>>};
+  return {&mark_loop<R>, &CudaExec::for_each<CheckInverted<R>>};
 }
 template DetectInversionLoops<float> detect_inversion_loops<float>(CudaExec);
 template DetectInversionLoops<double> detect_inversion_loops<double>(CudaExec);

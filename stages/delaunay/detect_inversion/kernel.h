@@ -69,6 +69,12 @@ struct MarkInversions {
   const R* copy_from = nullptr;
   R* copy_to = nullptr;
   std::size_t copy_points = 0;
+  // The device loop only (detect_inversion/cuda.cu): when set, the loop's last block writes the
+  // final counters to `publish` (pinned host memory, Counters::landing) itself, so no copy
+  // follows the loop before the host's wait; `blocks_done` (device memory, 0 between launches)
+  // counts the blocks that finished.
+  unsigned* publish = nullptr;
+  unsigned* blocks_done = nullptr;
 
   // The device loop: one edge per thread, each candidate appended on its own.
   FF_HD void operator()(std::size_t i) const {

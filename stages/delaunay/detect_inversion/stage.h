@@ -76,7 +76,8 @@ class DetectInversion final : public Stage {
         where_(Exec::where),
         loops_(detect_inversion_loops<R>(exec)),
         mem_(exec.memory()),
-        counters_(exec) {}
+        counters_(exec),
+        blocks_done_(exec) {}
 
   std::vector<Access> accesses() const override {
     // halfedge/vertex_edge are written only when no triangulation exists yet (first step).
@@ -256,9 +257,16 @@ class DetectInversion final : public Stage {
         copy = false;
       }
     }
+    // On the device the loop's last block publishes the counters (no copy after the loop).
+    const bool publish = where_ == Where::device && E > 0;
+    if (publish) {
+      f.publish = counters_.landing();
+      f.blocks_done = blocks_done_.get(1);
+    }
     loops_.mark(E, f, st);
     counters_.next_was_reset();
-    counters_.start_read(st);
+    if (publish) counters_.await_published(st);
+    else counters_.start_read(st);
     // The next step's reference, copied on the stream while the host waits for the counters
     // (on CUDA the launches that follow this stage queue behind the copy instead of a gap).
     // Every outcome either keeps it or rolls the step back, which restores the old one.
@@ -431,6 +439,7 @@ class DetectInversion final : public Stage {
   DetectInversionLoops<R> loops_;
   const MemoryOps& mem_;
   Counters<kInversionCounters> counters_;
+  Scratch<unsigned> blocks_done_;  // the device loop's finished blocks (MarkInversions::blocks_done)
 };
 
 }  // namespace ff::delaunay
