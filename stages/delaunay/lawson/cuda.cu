@@ -31,11 +31,12 @@ __global__ void __launch_bounds__(kTailThreads) tail_kernel(LawsonTail<R> t) {
   unsigned largest = 0;
   for (; ran < t.max_rounds; ++ran) {
     const unsigned marked = sc[kLawsonMarked];
+    // Apply lists the next round's edges (no thread reads the count before apply's barrier).
+    if (threadIdx.x == 0) sc[kLawsonQueued] = 0;
     if (marked == 0 || marked > t.max_marked) break;
     largest = max(largest, marked);
     const DecideMarked decide{t.mesh, t.marked, round, t.marked_list, t.go, sc};
     for (unsigned i = threadIdx.x; i < marked; i += kTailThreads) decide(i);
-    if (threadIdx.x == 0) sc[kLawsonQueued] = 0;  // apply lists the next round's edges
     __syncthreads();
     // Every thread holds `marked`: the next marks may be counted from 0 (after apply's barrier).
     if (threadIdx.x == 0) sc[kLawsonMarked] = 0;
