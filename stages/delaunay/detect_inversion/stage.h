@@ -2,8 +2,9 @@
 // single edge flips can repair them (marks them in delaunay.flip_mark for delaunay.flip) or the
 // step must be rolled back (particles through each other, an edge crossed from both sides, a
 // vertex across more than one edge). It copies `position` into `delaunay.position_prev`, the
-// reference for the next step's r⁰·r¹ test, while the host reads its counters (a rollback
-// restores the old position_prev; the copy costs the snapshot nothing: will_overwrite).
+// reference for the next step's r⁰·r¹ test (a rollback restores the old position_prev; the copy
+// costs the snapshot nothing: will_overwrite): on the device within its marking loop when the
+// snapshot takes the old storage, else while the host reads its counters.
 // When delaunay.flip has `on_unrepairable: substep` (status kSubstep), inverted triangles that
 // single flips cannot repair are left to it instead, together with position_prev (not yet
 // overwritten, status kPrevKept), and with `passing: substep` particles through each other too.
