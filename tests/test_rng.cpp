@@ -88,31 +88,6 @@ TEST_CASE("consecutive pairs of one particle are uncorrelated", "[rng]") {
   CHECK(std::fabs(c / (2.0 * n)) < 5.0 / std::sqrt(2.0 * n));
 }
 
-TEST_CASE("gaussian_pairs (all pairs drawn, then truncated) equals one gaussian_pair after another", "[rng]") {
-  // The GPU integrators draw a particle's pairs this way (overdamped_step); the numbers must be
-  // gaussian_pair's, for both tails, in the pairs that needed a redraw too (≈ 0.5 % of them).
-  const RngKey key = make_rng_key(77, "abp.integrate");
-  const std::uint32_t pairs[2] = {0u, 2u};
-  std::size_t mismatches = 0, redrawn = 0;
-  for (GaussianTail tail : {GaussianTail::rescaled, GaussianTail::clamped}) {
-    for (std::uint32_t i = 0; i < (1u << 16); ++i) {
-      double z[4];
-      gaussian_pairs(key, i, 41, 1, pairs, z, tail);
-      for (int j = 0; j < 2; ++j) {
-        double a0, a1;
-        gaussian_pair(key, i, 41, 1, pairs[j], a0, a1, tail);
-        mismatches += (a0 != z[2 * j]) || (a1 != z[2 * j + 1]);
-        const auto r = rng_detail::raw(key, i, 41, 1, pairs[j]);
-        double b0, b1;
-        rng_detail::box_muller(r[0], r[1], r[2], r[3], b0, b1);
-        redrawn += tail == GaussianTail::rescaled && !rng_detail::inside_truncation(b0, b1);
-      }
-    }
-  }
-  CHECK(mismatches == 0);
-  CHECK(redrawn > 300);  // ≈ 0.54 % of 2^17 pairs: the redraw path was taken
-}
-
 TEST_CASE("the lanes of gaussian_pair_lanes equal gaussian_pair, redraws included", "[rng]") {
   // The CPU integrators draw 16 particles at once; every lane must give gaussian_pair's bits.
   const RngKey key = make_rng_key(2024, "brownian.integrate");

@@ -120,18 +120,10 @@ FF_HD double kernel_cos(double x, double y) {
 // lanes vectorizable (×0, ×1 and ×±1 are exact).
 FF_HD void quadrant_sincos(int n, double sn, double cs, double& s_out, double& c_out) {
   const int q = n & 3;
-#if defined(__CUDA_ARCH__)
-  // The same three values (0 or 1, ±1, ±1: exact either way) by selects: on the GPU an
-  // int → double conversion issues at a quarter of the double pipe's rate, three per call.
-  const double odd = (q & 1) ? 1.0 : 0.0;
-  const double s_sign = (q & 2) ? -1.0 : 1.0, c_sign = ((q + 1) & 2) ? -1.0 : 1.0;
-#else
   const double odd = double(q & 1);
-  const double s_sign = double(1 - (q & 2)), c_sign = double(1 - ((q + 1) & 2));
-#endif
   const double s_abs = odd * cs + (1.0 - odd) * sn, c_abs = odd * sn + (1.0 - odd) * cs;
-  s_out = s_abs * s_sign;
-  c_out = c_abs * c_sign;
+  s_out = s_abs * double(1 - (q & 2));
+  c_out = c_abs * double(1 - ((q + 1) & 2));
 }
 
 // Largest |x| that rem_pio2 reduces correctly: 2^20·π/2 (n·(π/2)'s leading 33 bits exact).

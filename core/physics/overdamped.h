@@ -89,15 +89,12 @@ struct HasAfterMoves<F, std::void_t<decltype(std::declval<const F&>().after_move
     : std::true_type {};
 
 // One particle's step: its Gaussian pairs, then F::move (the element operation of the GPU loop).
-// All pairs are drawn before any is truncated (gaussian_pairs: the same numbers as one
-// gaussian_pair after another), so the GPU thread's pairs are independent chains.
 template <class F>
 FF_HD void overdamped_step(const F& f, std::size_t i) {
   const NoiseCounter c = f.noise_counter();
   double z[2 * F::kNoisePairs];
-  std::uint32_t pairs[F::kNoisePairs];
-  for (int j = 0; j < F::kNoisePairs; ++j) pairs[j] = f.noise_pair(j);
-  gaussian_pairs(c.key, c.id ? c.id[i] : std::uint32_t(i), c.step, c.attempt, pairs, z, c.tail);
+  for (int j = 0; j < F::kNoisePairs; ++j)
+    gaussian_pair(c.key, c.id ? c.id[i] : std::uint32_t(i), c.step, c.attempt, f.noise_pair(j), z[2 * j], z[2 * j + 1], c.tail);
   f.move(i, z);
 }
 

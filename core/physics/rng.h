@@ -73,17 +73,9 @@ FF_HD r123::Philox4x32::ctr_type raw(RngKey key, std::uint32_t particle, std::ui
 // Uniform in (0, 1]: never 0, so log() in Box–Muller is finite. The 53 bits hi·2^21 + lo/2^11
 // are summed in double (exact), with hi converted as a signed int + 2^31 (exact): both
 // vectorize where 64-bit and unsigned conversions do not (AVX2).
-// On the GPU the same integer, hi·2^21 + lo/2^11 + 1 ≤ 2^53, is formed in 64-bit integers and
-// converted once (exact as well, so the same bits): one conversion instead of two and three
-// double operations fewer, on the double pipe that bounds the integrators' kernels.
 FF_HD double u01_open0(std::uint32_t hi, std::uint32_t lo) {
-#if defined(__CUDA_ARCH__)
-  const std::uint64_t v = (std::uint64_t(hi) << 21) + (lo >> 11) + 1u;
-  return double(v) * (1.0 / 9007199254740992.0);
-#else
   const double h = double(std::int32_t(hi ^ 0x80000000u)) + 2147483648.0;
   return (h * 2097152.0 + double(std::int32_t(lo >> 11)) + 1.0) * (1.0 / 9007199254740992.0);
-#endif
 }
 
 // The elementary functions are core/physics/math.h's, shared with the physics kernels.
@@ -161,33 +153,6 @@ FF_HD void gaussian_pair(RngKey key, std::uint32_t particle, std::uint64_t step,
   if (!inside_truncation(z0, z1)) redraw_pair(key, particle, step, attempt, pair, z0, z1);
   z0 *= kTruncatedVarianceScale;
   z1 *= kTruncatedVarianceScale;
-}
-
-// gaussian_pair for the K pairs pairs[0 .. K − 1] of one particle, into z[2j], z[2j + 1]: every
-// pair's Philox call and Box–Muller first, with no branch between them, then each pair's
-// truncation (the rare redraw) and scaling. The same operations on each value as gaussian_pair,
-// so the same numbers; on the GPU the K independent chains can be interleaved (one thread per
-// particle: a branch after each pair, as gaussian_pair has, keeps the next pair from starting).
-template <int K>
-FF_HD void gaussian_pairs(RngKey key, std::uint32_t particle, std::uint64_t step, std::uint32_t attempt,
-                          const std::uint32_t (&pairs)[K], double* z, GaussianTail tail = GaussianTail::rescaled) {
-  using namespace rng_detail;
-  for (int j = 0; j < K; ++j) {
-    const auto r = raw(key, particle, step, attempt, pairs[j]);
-    box_muller(r[0], r[1], r[2], r[3], z[2 * j], z[2 * j + 1]);
-  }
-  for (int j = 0; j < K; ++j) {
-    double& z0 = z[2 * j];
-    double& z1 = z[2 * j + 1];
-    if (tail == GaussianTail::clamped) {
-      z0 = clamp_to_truncation(z0);
-      z1 = clamp_to_truncation(z1);
-      continue;
-    }
-    if (!inside_truncation(z0, z1)) redraw_pair(key, particle, step, attempt, pairs[j], z0, z1);
-    z0 *= kTruncatedVarianceScale;
-    z1 *= kTruncatedVarianceScale;
-  }
 }
 
 namespace rng_detail {
