@@ -75,6 +75,17 @@ struct QuadVertices {
   int a, b, c, d;
 };
 FF_HD QuadVertices quad_vertices(const Mesh& m, int e) {
+#if defined(__CUDA_ARCH__)
+  // The two records of edge e (he[4e .. 4e+3]) in one 16-byte load and opp[2e .. 2e+1] in one
+  // 8-byte load instead of four 4-byte ones: the edge loops are bound by their load
+  // instructions, not by bytes. Field storage is cudaMalloc'ed (256-byte aligned); checked, so a
+  // view at another offset still reads correctly. The same words either way.
+  if (((reinterpret_cast<std::uintptr_t>(m.he) | reinterpret_cast<std::uintptr_t>(m.opp)) & 15u) == 0) {
+    const int4 r = *reinterpret_cast<const int4*>(m.he + 4 * e);
+    const int2 o = *reinterpret_cast<const int2*>(m.opp + 2 * e);
+    return {r.x, r.z, o.x, o.y};
+  }
+#endif
   return {m.origin(2 * e), m.origin(2 * e + 1), m.opposite(2 * e), m.opposite(2 * e + 1)};
 }
 
@@ -170,7 +181,26 @@ struct Points {
     return std::fabs(d) > 0.5 * box.L[k] ? d - box.L[k] * std::rint(d * box.inv_L[k]) : d;
   }
   FF_HD V2 rel(int i, int j) const {
-    return {image(double(p[2 * j]) - double(p[2 * i]), 0), image(double(p[2 * j + 1]) - double(p[2 * i + 1]), 1)};
+    const V2 a = at(i), b = at(j);
+    return {image(b.x - a.x, 0), image(b.y - a.y, 1)};
+  }
+  // Particle i's coordinates in double. On the device one vector load (16 bytes in double, 8 in
+  // float) instead of one per coordinate: the edge loops gather four to six points an edge, and
+  // each load instruction of a warp's scattered points costs the L1 a wavefront per line. The
+  // same values as two scalar loads; storage is cudaMalloc'ed (checked, else scalar loads).
+  FF_HD V2 at(int i) const {
+#if defined(__CUDA_ARCH__)
+    if ((reinterpret_cast<std::uintptr_t>(p) & (2 * sizeof(R) - 1)) == 0) {
+      if constexpr (sizeof(R) == 8) {
+        const double2 v = *reinterpret_cast<const double2*>(p + 2 * i);
+        return {v.x, v.y};
+      } else {
+        const float2 v = *reinterpret_cast<const float2*>(p + 2 * i);
+        return {double(v.x), double(v.y)};
+      }
+    }
+#endif
+    return {double(p[2 * i]), double(p[2 * i + 1])};
   }
 };
 

@@ -1,3 +1,6 @@
+#include <algorithm>
+
+#include "core/backend/cuda/check.h"
 #include "core/backend/cuda/loop.cuh"
 #include "stages/delaunay/detect_inversion/stage.h"
 
@@ -9,9 +12,56 @@ namespace ff::delaunay {
 // "Numbers formerly in source comments").
 constexpr int kMarkBlocks = 6;
 
+namespace {
+
+constexpr int kMarkThreads = 256;
+
+// MarkInversions' loop: as many blocks as the GPU holds at once (kMarkBlocks a SM), each
+// striding over the edges; with f.publish the last block to finish copies the counters to
+// f.publish. Each block's thread 0 fences after the block's barrier (every update the block made
+// is then ordered before its ticket, as cooperative groups' grid barrier does) and takes a
+// ticket; the block holding the last ticket has seen every block's. Striding keeps that to one
+// fence and ticket per resident block (a few hundred, not one per 256 edges, each of which would
+// hold its block's slot for an L2 round trip or two after its edges are done).
+template <class R>
+__global__ void __launch_bounds__(kMarkThreads, kMarkBlocks) mark_kernel(std::size_t n, MarkInversions<R> f) {
+  // Edge ids are ints (3N < 2^31, common/mesh.h): 32-bit indices, fewer registers.
+  const unsigned stride = gridDim.x * kMarkThreads, end = unsigned(n);
+  for (unsigned i = blockIdx.x * kMarkThreads + threadIdx.x; i < end; i += stride) f(i);
+  if (!f.publish) return;
+  __syncthreads();
+  if (threadIdx.x != 0) return;
+  __threadfence();
+  if (atomicAdd(f.blocks_done, 1u) != gridDim.x - 1) return;
+  __threadfence();
+  for (int k = 0; k < kInversionCounters; ++k) f.publish[k] = *static_cast<const volatile unsigned*>(f.counters + k);
+  *f.blocks_done = 0;  // for the next launch
+}
+
+template <class R>
+void mark_loop(std::size_t n, const MarkInversions<R>& f, CUstream_st* stream) {
+  if (n == 0) return;
+  static const int per_sm = [] {
+    int b = 0;
+    FF_CUDA_CHECK(cudaOccupancyMaxActiveBlocksPerMultiprocessor(&b, mark_kernel<R>, kMarkThreads, 0),
+                  "sizing delaunay.detect_inversion's marking");
+    return b > 0 ? b : 1;
+  }();
+  int device = 0, sms = 0;
+  FF_CUDA_CHECK(cudaGetDevice(&device), "sizing delaunay.detect_inversion's marking");
+  FF_CUDA_CHECK(cudaDeviceGetAttribute(&sms, cudaDevAttrMultiProcessorCount, device),
+                "sizing delaunay.detect_inversion's marking");
+  const std::size_t blocks = (n + kMarkThreads - 1) / kMarkThreads;
+  const unsigned grid = unsigned(std::min<std::size_t>(blocks, std::size_t(sms) * std::size_t(per_sm)));
+  mark_kernel<R><<<grid, kMarkThreads, 0, stream>>>(n, f);
+  FF_CUDA_CHECK_LAUNCH("launching delaunay.detect_inversion's marking");
+}
+
+}  // namespace
+
 template <class R>
 DetectInversionLoops<R> detect_inversion_loops(CudaExec) {
-  return {&CudaExec::for_each_bounded<MarkInversions<R>, kMarkBlocks>, &CudaExec::for_each<CheckInverted<R>>};
+  return {&mark_loop<R>, &CudaExec::for_each<CheckInverted<R>>};
 }
 template DetectInversionLoops<float> detect_inversion_loops<float>(CudaExec);
 template DetectInversionLoops<double> detect_inversion_loops<double>(CudaExec);

@@ -62,10 +62,27 @@ struct MarkInversions {
   // run, or nullptr: instead of fills before that run's loop (one host call and a GPU gap
   // fewer on the step's critical path). Nothing else touches that bank during this loop.
   unsigned* reset_next = nullptr;
+  // The device loop only: copy points [0, copy_points) of copy_from (the positions) to copy_to
+  // (position_prev's new storage, which the rollback snapshot handed the field: `prev` is the old
+  // one, so no element read here is written), one point per thread of the first copy_points
+  // edges. Saves the copy's own pass and launch after this loop; 0: no copy.
+  const R* copy_from = nullptr;
+  R* copy_to = nullptr;
+  std::size_t copy_points = 0;
+  // The device loop only (detect_inversion/cuda.cu): when set, the loop's last block writes the
+  // final counters to `publish` (pinned host memory, Counters::landing) itself, so no copy
+  // follows the loop before the host's wait; `blocks_done` (device memory, 0 between launches)
+  // counts the blocks that finished.
+  unsigned* publish = nullptr;
+  unsigned* blocks_done = nullptr;
 
   // The device loop: one edge per thread, each candidate appended on its own.
   FF_HD void operator()(std::size_t i) const {
     if (i == 0 && reset_next) reset_inversion_counters(reset_next);
+    if (i < copy_points) {
+      copy_to[2 * i] = copy_from[2 * i];
+      copy_to[2 * i + 1] = copy_from[2 * i + 1];
+    }
     const int e = int(i);
     if (test(e)) append(&e, 1);
   }

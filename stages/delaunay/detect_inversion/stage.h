@@ -2,8 +2,9 @@
 // single edge flips can repair them (marks them in delaunay.flip_mark for delaunay.flip) or the
 // step must be rolled back (particles through each other, an edge crossed from both sides, a
 // vertex across more than one edge). It copies `position` into `delaunay.position_prev`, the
-// reference for the next step's r⁰·r¹ test, while the host reads its counters (a rollback
-// restores the old position_prev; the copy costs the snapshot nothing: will_overwrite).
+// reference for the next step's r⁰·r¹ test (a rollback restores the old position_prev; the copy
+// costs the snapshot nothing: will_overwrite): on the device within its marking loop when the
+// snapshot takes the old storage, else while the host reads its counters.
 // When delaunay.flip has `on_unrepairable: substep` (status kSubstep), inverted triangles that
 // single flips cannot repair are left to it instead, together with position_prev (not yet
 // overwritten, status kPrevKept), and with `passing: substep` particles through each other too.
@@ -76,7 +77,8 @@ class DetectInversion final : public Stage {
         where_(Exec::where),
         loops_(detect_inversion_loops<R>(exec)),
         mem_(exec.memory()),
-        counters_(exec) {}
+        counters_(exec),
+        blocks_done_(exec) {}
 
   std::vector<Access> accesses() const override {
     // halfedge/vertex_edge are written only when no triangulation exists yet (first step).
@@ -239,11 +241,33 @@ class DetectInversion final : public Stage {
     const std::size_t E = edge_count(s.n());
 
     status(s)[kCandidates] = 0;
-    loops_.mark(E, MarkInversions<R>{m, pts, fresh ? nullptr : prev, mark, c, cand.data<std::int32_t>(ctx),
-                                   unsigned(cand.count()), int(E), counters_.next()},
-              st);
+    MarkInversions<R> f{m, pts, fresh ? nullptr : prev, mark, c, cand.data<std::int32_t>(ctx),
+                        unsigned(cand.count()), int(E), counters_.next()};
+    // On the device the next step's reference is written by the loop itself when the rollback
+    // snapshot takes position_prev's storage (will_overwrite): the loop reads the old values
+    // there and writes the field's new storage, so nothing it reads is written and no copy
+    // follows it. Without a snapshot (the field itself returned) it is copied after the loop.
+    if (copy && where_ == Where::device) {
+      Field& before = ctx.will_overwrite(fields::position_prev);
+      Field& field = s.field(fields::position_prev);
+      if (&before != &field) {
+        if (f.prev) f.prev = before.data<R>(ctx);
+        f.copy_from = pts.p;
+        f.copy_to = field.data<R>(ctx);
+        f.copy_points = s.n();
+        copy = false;
+      }
+    }
+    // On the device the loop's last block publishes the counters (no copy after the loop).
+    const bool publish = where_ == Where::device && E > 0;
+    if (publish) {
+      f.publish = counters_.landing();
+      f.blocks_done = blocks_done_.get(1);
+    }
+    loops_.mark(E, f, st);
     counters_.next_was_reset();
-    counters_.start_read(st);
+    if (publish) counters_.await_published(st);
+    else counters_.start_read(st);
     // The next step's reference, copied on the stream while the host waits for the counters
     // (on CUDA the launches that follow this stage queue behind the copy instead of a gap).
     // Every outcome either keeps it or rolls the step back, which restores the old one.
@@ -416,6 +440,7 @@ class DetectInversion final : public Stage {
   DetectInversionLoops<R> loops_;
   const MemoryOps& mem_;
   Counters<kInversionCounters> counters_;
+  Scratch<unsigned> blocks_done_;  // the device loop's finished blocks (MarkInversions::blocks_done)
 };
 
 }  // namespace ff::delaunay

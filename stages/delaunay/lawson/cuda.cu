@@ -8,48 +8,58 @@ namespace {
 
 constexpr int kTailThreads = 1024;
 
-// A counter that this block's atomics (in L2) changed: read past L1.
+// A counter that the grid kernels before this one changed (in L2): read past L1.
 __device__ unsigned counter(const unsigned* p) { return *static_cast<const volatile unsigned*>(p); }
 
 // LawsonTail's rounds (kernel.h): the grid version's three passes, with block barriers between.
+// The block counts in shared memory (the list lengths its appends claim, the flips, rounds and
+// refusals), so an append waits for a shared atomic instead of an L2 round trip and a list's
+// length is known after the barrier that ends its pass; the counts go to `counters` once, at
+// the end (the same final values: sums, a minimum, and the last lengths). Three barriers a
+// round: each pass needs every write of the one before.
 template <class R>
 __global__ void __launch_bounds__(kTailThreads) tail_kernel(LawsonTail<R> t) {
-  __shared__ unsigned s_len;
+  __shared__ unsigned sc[kLawsonCounters];
   unsigned* c = t.counters;
+  if (threadIdx.x == 0) {
+    reset_lawson_counters(sc);
+    sc[kLawsonMarked] = counter(c + kLawsonMarked);  // the marks of round t.round (the grid's)
+  }
+  __syncthreads();
   std::int32_t round = t.round;
   std::int64_t ran = 0;
   unsigned largest = 0;
   for (; ran < t.max_rounds; ++ran) {
-    if (threadIdx.x == 0) {
-      s_len = counter(c + kLawsonMarked);
-      c[kLawsonQueued] = 0;  // apply lists the next round's edges
-    }
-    __syncthreads();
-    const unsigned marked = s_len;
+    const unsigned marked = sc[kLawsonMarked];
+    // Apply lists the next round's edges (no thread reads the count before apply's barrier).
+    if (threadIdx.x == 0) sc[kLawsonQueued] = 0;
     if (marked == 0 || marked > t.max_marked) break;
     largest = max(largest, marked);
-    const DecideMarked decide{t.mesh, t.marked, round, t.marked_list, t.go, c};
+    const DecideMarked decide{t.mesh, t.marked, round, t.marked_list, t.go, sc};
     for (unsigned i = threadIdx.x; i < marked; i += kTailThreads) decide(i);
     __syncthreads();
-    const ApplyMarked apply{t.mesh, t.marked_list, t.go, t.queued, round + 1, t.list, c};
+    // Every thread holds `marked`: the next marks may be counted from 0 (after apply's barrier).
+    if (threadIdx.x == 0) sc[kLawsonMarked] = 0;
+    const ApplyMarked apply{t.mesh, t.marked_list, t.go, t.queued, round + 1, t.list, sc};
     for (unsigned i = threadIdx.x; i < marked; i += kTailThreads) apply(i);
     __syncthreads();
-    if (threadIdx.x == 0) {
-      s_len = counter(c + kLawsonQueued);
-      c[kLawsonMarked] = 0;
-    }
-    __syncthreads();
     ++round;
-    const unsigned queued = s_len;
-    const MarkNonDelaunay<R> mark{t.mesh, t.pts, t.tol, t.list, nullptr, t.marked, round, t.marked_list, c, queued};
+    const unsigned queued = sc[kLawsonQueued];
+    const MarkNonDelaunay<R> mark{t.mesh, t.pts, t.tol, t.list, nullptr, t.marked, round, t.marked_list, sc, queued};
     for (unsigned i = threadIdx.x; i < queued; i += kTailThreads) mark(i);
     __syncthreads();
   }
   if (threadIdx.x == 0) {
+    // The grid kernels before this one finished, and the block's passes are done (the loop ends
+    // after a barrier): the step's final counts.
+    c[kLawsonMarked] = sc[kLawsonMarked];
+    c[kLawsonQueued] = sc[kLawsonQueued];
+    c[kLawsonFlips] = counter(c + kLawsonFlips) + sc[kLawsonFlips];
+    c[kLawsonRounds] = counter(c + kLawsonRounds) + sc[kLawsonRounds];
+    c[kLawsonTooLong] = counter(c + kLawsonTooLong) + sc[kLawsonTooLong];
+    c[kLawsonTooLongAt] = min(counter(c + kLawsonTooLongAt), sc[kLawsonTooLongAt]);
     c[kLawsonTailRounds] = unsigned(ran);
     c[kLawsonTailLargest] = largest;
-    // The block's atomics are done (the loop ends after a barrier) and the grid kernels before
-    // it finished: these are the step's final counts.
     if (t.publish)
       for (int k = 0; k < kLawsonCounters; ++k) t.publish[k] = counter(c + k);
   }
