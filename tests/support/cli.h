@@ -22,13 +22,19 @@ inline std::string pipeline_exe() {
   return (boost::dll::program_location().parent_path() / "pipeline").string();
 }
 
-// A file of the repository: CTest sets FLIPFLOW_TEST_DATA=<repo>/tests/data; run by hand, the
-// repository is found from this header's own path (<repo>/tests/support/cli.h).
+// A file of the repository: CTest and a bundle's run-tests set FLIPFLOW_TEST_DATA=<root>/tests/data.
+// Run by hand, the first of these that holds the file: the repository from this header's own path
+// (<repo>/tests/support/cli.h; relative to the build folder when ccache rewrote it, so only from
+// there), then the bundle the test binary sits in (<bundle>/bin/test_*, <bundle>/pipelines).
 inline std::filesystem::path repo_file(const std::string& rel) {
   namespace fs = std::filesystem;
-  const char* data = std::getenv("FLIPFLOW_TEST_DATA");
-  fs::path base = data ? fs::path(data) / ".." / ".." : fs::path(__FILE__).parent_path().parent_path().parent_path();
-  return (base / rel).lexically_normal();
+  if (const char* data = std::getenv("FLIPFLOW_TEST_DATA")) return (fs::path(data) / ".." / ".." / rel).lexically_normal();
+  const fs::path from_source = fs::path(__FILE__).parent_path().parent_path().parent_path() / rel;
+  const fs::path from_bundle =
+      fs::path(boost::dll::program_location().parent_path().parent_path().string()) / rel;
+  for (const fs::path& p : {from_source, from_bundle})
+    if (fs::exists(p)) return p.lexically_normal();
+  return from_source.lexically_normal();
 }
 
 // The device the end-to-end tests give `pipeline --device`: FLIPFLOW_TEST_DEVICE, cpu unless set
