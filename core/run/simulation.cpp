@@ -310,27 +310,31 @@ std::vector<std::string> Simulation::snapshot_on_demand_fields() const {
   return snapshot_ ? snapshot_->on_demand_fields() : std::vector<std::string>{};
 }
 
-std::vector<std::string> Simulation::step_local_fields() const {
-  std::set<std::string> local, carried;
-  for (int j : graph_->compute_nodes())
-    for (auto& a : graph_->nodes()[j].accesses)
-      if (writes(a.mode)) (a.step_local ? local : carried).insert(a.field);
+namespace {
+
+// The fields every compute stage that writes them writes so that `local(node, access)` holds.
+template <class Local>
+std::vector<std::string> fields_written_only(const StepGraph& graph, Local local) {
+  std::set<std::string> yes, no;
+  for (int j : graph.compute_nodes())
+    for (auto& a : graph.nodes()[j].accesses)
+      if (writes(a.mode)) (local(j, a) ? yes : no).insert(a.field);
   std::vector<std::string> out;
-  for (auto& f : local)
-    if (!carried.count(f)) out.push_back(f);
+  for (auto& f : yes)
+    if (!no.count(f)) out.push_back(f);
   return out;
 }
 
+}  // namespace
+
+std::vector<std::string> Simulation::step_local_fields() const {
+  return fields_written_only(*graph_, [](int, const Access& a) { return a.step_local; });
+}
+
 std::vector<std::string> Simulation::scratch_fields() const {
-  std::set<std::string> scratch, carried;
-  for (int j : graph_->compute_nodes())
-    for (auto& a : graph_->nodes()[j].accesses)
-      if (writes(a.mode))
-        (a.step_local && graph_->written_before_read(j, a.field) ? scratch : carried).insert(a.field);
-  std::vector<std::string> out;
-  for (auto& f : scratch)
-    if (!carried.count(f)) out.push_back(f);
-  return out;
+  return fields_written_only(*graph_, [this](int j, const Access& a) {
+    return a.step_local && graph_->written_before_read(j, a.field);
+  });
 }
 
 void Simulation::prepare_outputs() {
