@@ -8,17 +8,22 @@
 #   wide    twopass + the grid's iteration 0 in three ordinary kernels (gather, apply, check; a
 #           thread per particle, 64 registers, 4 blocks of 256 an SM against the cooperative
 #           kernel's 2), the cooperative kernel from iteration 1 (oc22's 6b20226)
-#   wide2   wide with iterations 0 and 1 so (kWideIterations = 2)
+#   wide2   wide with iterations 0 and 1 so (kWideIterations = 2;
+#           bench/experiments/overlap-oc22-two-wide-iterations.patch)
+#   lists   wide + iteration 0's lists (kept-fan checks, fan walks) in a kernel of their own before
+#           its gather, at 8 blocks an SM (32 registers); the gather reads the lists
+#           (bench/experiments/overlap-oc22-lists-kernel.patch)
 # Each variant runs from a shadow of the bundle: bin/ copies of pipeline, run-tests and the tests,
 # lib, tests and pipelines linked, plugins/ the bundle's with overlap_correct swapped. (bin/run-tests
 # unsets FLIPFLOW_PLUGIN_PATH, so a variant can only be tested through run-tests that way; the
 # bench runs the shadow's pipeline, the same binary as the bundle's.) Besides, oc22's own build of
 # test_overlap_correct_cpu_cuda runs its one new case (CPU == CUDA where max_iterations 1-3 stops a
 # step at 20000 disks, the grid path) against the variant.
-# Order: the bits of wide and wide2 (run-tests, in the background beside round 1), bench-abp 2^20
-# (100 steps after 20) round 1 (main, twopass, wide), round 2 reversed (wide, twopass, main), then
-# while time is left (a run starts only before 150 s; each takes ~23 s, mostly the set-up): wide2
-# once, phoretic-c2-short 2^20 (50 steps after 20) once for wide, main, twopass.
+# Order: the bits of wide, wide2 and lists (run-tests, in the background beside round 1),
+# bench-abp 2^20 (100 steps after 20) round 1 (main, twopass, wide), round 2 reversed (wide,
+# twopass, main), then while time is left (a run starts only before 150 s; each takes ~23 s,
+# mostly the set-up): wide2 and lists once, phoretic-c2-short 2^20 (50 steps after 20) once for
+# wide, main, twopass.
 set -uo pipefail
 SECONDS=0
 B=$(cd "${1:?BUNDLE}" && pwd)
@@ -54,10 +59,10 @@ bench() {  # bench ARM ROUND PIPELINE STEPS
 {
   nvidia-smi --query-gpu=name,clocks.sm,clocks.max.sm,temperature.gpu --format=csv,noheader 2>/dev/null
   head -n 1 "$B/.flipflow-bundle" 2>/dev/null
-  for v in twopass wide wide2; do shadow $v; done
+  for v in twopass wide wide2 lists; do shadow $v; done
   md5sum "$B/plugins/libflipflow_stage_overlap_correct.so" "$W"/b-*/plugins/libflipflow_stage_overlap_correct.so | sed "s|$W/||"
   # The bits, beside round 1 (they can only slow round 1 down; round 2 is clean).
-  for v in wide wide2; do
+  for v in wide wide2 lists; do
     (cd "$W/b-$v" && FLIPFLOW_TEST_DEVICE=$DEVICE timeout 150 bin/run-tests test_overlap_correct_cpu_cuda \
       test_overlap_correct test_overlap_correct_walls > "$W/tests-$v.txt" 2>&1; echo "exit $?" >> "$W/tests-$v.txt"
      echo "-- oc22's new case (its own build of test_overlap_correct_cpu_cuda):" >> "$W/tests-$v.txt"
@@ -66,13 +71,14 @@ bench() {  # bench ARM ROUND PIPELINE STEPS
   done
   for arm in main twopass wide; do bench $arm 1 bench-abp.yaml 100; done
   wait
-  for v in wide wide2; do
+  for v in wide wide2 lists; do
     echo "== $v: run-tests test_overlap_correct_cpu_cuda test_overlap_correct test_overlap_correct_walls (FLIPFLOW_TEST_DEVICE=$DEVICE)"
     head -c 6000 "$W/tests-$v.txt"
   done
   for arm in wide twopass main; do bench $arm 2 bench-abp.yaml 100; done
-  # Then while time is left (a run starts only before 150 s): wide2 once, phoretic-c2-short once each.
-  for arm in wide2; do
+  # Then while time is left (a run starts only before 150 s): wide2 and lists once,
+  # phoretic-c2-short once each.
+  for arm in wide2 lists; do
     if ((SECONDS > 150)); then echo "== bench-abp: $arm skipped (${SECONDS} s)"; continue; fi
     bench $arm 3 bench-abp.yaml 100
   done
