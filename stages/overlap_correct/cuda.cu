@@ -1,5 +1,6 @@
 // CUDA loop of overlap_correct, host side: DeviceLoops sizes the scratch, launches
-// correct_kernel.cuh's kernel (a cooperative grid launch or a cluster) and reads its counters.
+// correct_kernel.cuh's kernels (on the grid the wide kernels' first iterations, then a cooperative
+// grid launch; or a cluster) and reads their counters.
 // Compiled with -fmad=false (CMakeLists.txt), as the kernels it includes must be.
 #include <cuda_runtime.h>
 
