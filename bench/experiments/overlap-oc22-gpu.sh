@@ -1,13 +1,12 @@
 #!/bin/bash
 # oc22 (issue 20: overlap_correct's CUDA time at 2^20), GPU call of ~11:50 UTC:
-#   bash run.sh BUNDLE OUT      (about 3 minutes; every command has a timeout; writes OUT/oc22-1.txt)
-# Arms (variants.tar.xz: plugins built on branch oc22 from main d78b155, ABI 5, rpath $ORIGIN/../lib):
-#   main    the bundle's own plugins
-#   twopass oc21's two-pass gather (bench/experiments/overlap-oc21-two-pass-gather.patch), oc22's
-#           first commit c6ea010
-#   wide    twopass + the grid's iteration 0 in three ordinary kernels (gather, apply, check; a
-#           thread per particle, 64 registers, 4 blocks of 256 an SM against the cooperative
-#           kernel's 2), the cooperative kernel from iteration 1 (oc22's 6b20226)
+#   bash run.sh BUNDLE OUT      (about 170 s; every command has a timeout; writes OUT/oc22-1.txt)
+# Arms (variants.tar.xz: plugins built on branch oc22 at 546e83c = main f2c9466, which has oc21's
+# two-pass gather, + oc22's commits; ABI 5, rpath $ORIGIN/../lib):
+#   main    the bundle's own plugins (main's HEAD: the two-pass gather is in since f2c9466)
+#   wide    the grid's iteration 0 in three ordinary kernels (gather, apply, check; a thread per
+#           particle, 64 registers, 4 blocks of 256 an SM against the cooperative kernel's 2),
+#           the cooperative kernel from iteration 1 (branch oc22)
 #   wide2   wide with iterations 0 and 1 so (kWideIterations = 2;
 #           bench/experiments/overlap-oc22-two-wide-iterations.patch)
 #   lists   wide + iteration 0's lists (kept-fan checks, fan walks) in a kernel of their own before
@@ -19,11 +18,10 @@
 # bench runs the shadow's pipeline, the same binary as the bundle's.) Besides, oc22's own build of
 # test_overlap_correct_cpu_cuda runs its one new case (CPU == CUDA where max_iterations 1-3 stops a
 # step at 20000 disks, the grid path) against the variant.
-# Order: the bits of wide, wide2 and lists (run-tests, in the background beside round 1),
-# bench-abp 2^20 (100 steps after 20) round 1 (main, twopass, wide), round 2 reversed (wide,
-# twopass, main), then while time is left (a run starts only before 150 s; each takes ~23 s,
-# mostly the set-up): wide2 and lists once, phoretic-c2-short 2^20 (50 steps after 20) once for
-# wide, main, twopass.
+# Order: the bits of wide, wide2 and lists (run-tests, in the background beside round 1: ~45 s
+# each alone), bench-abp 2^20 (100 steps after 20) round 1 (main, wide, wide2), round 2 reversed
+# (wide2, wide, main), then while time is left (a run starts only before 150 s; each takes ~23 s,
+# mostly the set-up): lists once, phoretic-c2-short 2^20 (50 steps after 20) for wide and main.
 set -uo pipefail
 SECONDS=0
 B=$(cd "${1:?BUNDLE}" && pwd)
@@ -59,7 +57,7 @@ bench() {  # bench ARM ROUND PIPELINE STEPS
 {
   nvidia-smi --query-gpu=name,clocks.sm,clocks.max.sm,temperature.gpu --format=csv,noheader 2>/dev/null
   head -n 1 "$B/.flipflow-bundle" 2>/dev/null
-  for v in twopass wide wide2 lists; do shadow $v; done
+  for v in wide wide2 lists; do shadow $v; done
   md5sum "$B/plugins/libflipflow_stage_overlap_correct.so" "$W"/b-*/plugins/libflipflow_stage_overlap_correct.so | sed "s|$W/||"
   # The bits, beside round 1 (they can only slow round 1 down; round 2 is clean).
   for v in wide wide2 lists; do
@@ -69,20 +67,19 @@ bench() {  # bench ARM ROUND PIPELINE STEPS
      FLIPFLOW_TEST_DEVICE=$DEVICE timeout 60 bin/oc22_test_overlap_correct_cpu_cuda "*max_iterations on the grid*" 2>&1 |
        tail -n 25 >> "$W/tests-$v.txt") &
   done
-  for arm in main twopass wide; do bench $arm 1 bench-abp.yaml 100; done
+  for arm in main wide wide2; do bench $arm 1 bench-abp.yaml 100; done
   wait
   for v in wide wide2 lists; do
     echo "== $v: run-tests test_overlap_correct_cpu_cuda test_overlap_correct test_overlap_correct_walls (FLIPFLOW_TEST_DEVICE=$DEVICE)"
     head -c 6000 "$W/tests-$v.txt"
   done
-  for arm in wide twopass main; do bench $arm 2 bench-abp.yaml 100; done
-  # Then while time is left (a run starts only before 150 s): wide2 and lists once,
-  # phoretic-c2-short once each.
-  for arm in wide2 lists; do
+  for arm in wide2 wide main; do bench $arm 2 bench-abp.yaml 100; done
+  # Then while time is left (a run starts only before 150 s).
+  for arm in lists; do
     if ((SECONDS > 150)); then echo "== bench-abp: $arm skipped (${SECONDS} s)"; continue; fi
     bench $arm 3 bench-abp.yaml 100
   done
-  for arm in wide main twopass; do
+  for arm in wide main; do
     if ((SECONDS > 150)); then echo "== phoretic-c2-short: $arm skipped (${SECONDS} s)"; continue; fi
     bench $arm 1 phoretic-c2-short.yaml 50
   done
