@@ -9,7 +9,7 @@
 #      2^16 (grid path: n > 4096), main / wide / wide / main (in the same processes as 3.);
 #   2. phoretic-c2-short 2^20 (50 steps after 20): wide, main (target <= 1.0 ms a step; 1.076 now);
 #   3. bench-abp 2^20 once more, main then wide (call 2's clean round was wide then main).
-# wide: variants.tar.xz's wide/ (branch oc22 at 546e83c, the same code as its HEAD; ABI 5, rpath
+# wide: variants.tar.xz's wide/ (rebuilt at 11:18 on branch oc22 at 179547c = main f69bb85 merged; ABI 5, rpath
 # $ORIGIN/../lib), run from a shadow of the bundle (bin/pipeline copied, lib linked, plugins/ the
 # bundle's with overlap_correct swapped), as in run.sh.
 set -uo pipefail
