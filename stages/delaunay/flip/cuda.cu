@@ -152,7 +152,11 @@ class GraphTries final : public DeviceTries<R> {
     if (build(true)) return true;
     const std::string first = why_;
     drop_graph();
-    if (build(false)) return true;
+    if (build(false)) {
+      std::fprintf(stderr, "delaunay.flip: no switch node for the sub-step tries' branches here (%s): every pass "
+                           "runs in each try, returning at once outside its branch\n", first.c_str());
+      return true;
+    }
     why_ = first + "; " + why_;
     return false;
   }
