@@ -1,4 +1,4 @@
-// delaunay.flip's sub-step tries as the device runs them (DeviceTries, untangle.h; the graph is
+// delaunay.flip's sub-step tries as the device runs them (DeviceTries, untangle.h; the kernel is
 // flip/cuda.cu's): decide_next, one thread's decision of what untangle_step's loop and
 // repair_listed's rounds would do next, from the counters as read_try reads them; and the
 // passes of each branch (run_pass), kernel.h's with the lengths, lists and generations that

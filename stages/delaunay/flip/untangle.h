@@ -34,11 +34,11 @@
 // substep_particles (particles halved at least once).
 //
 // On CUDA the tries after the first failed one run on the device (DeviceTries, flip/cuda.cu):
-// a graph whose loop node repeats a try's kernels while a one-thread kernel, reading the
-// counters as read_try does, decides what the host's loop would (the branches below, the
-// rounds of repair_listed); the host reads the counters once when it stops (at the try end
-// where the host would stop, break or throw) and carries on from there. Same passes on the same
-// lists, so the same bits; the CPU runs the host loop.
+// one cooperative kernel in which one thread, reading the counters as read_try does, decides
+// what the host's loop would (the branches below, the rounds of repair_listed; flip/tries.h)
+// and the grid runs that branch's passes; the host reads the counters once when it stops (at the
+// try end where the host would stop, break or throw) and carries on from there. Same passes on
+// the same lists, so the same bits; the CPU runs the host loop.
 // nvcc-clean: included by stage.h, which both backends compile.
 #pragma once
 #include <algorithm>
@@ -135,7 +135,7 @@ struct TryArgs {
 // The tries on the device (CUDA: flip/cuda.cu); null on the CPU. run: from a try's end that
 // untangle_step would follow with another try, the tries until one ends where it would not (or
 // a marking finds a triangle that does not close: read_try throws); `counters` gets both counter
-// blocks. False: the device cannot run them (a graph it does not support); the host carries on.
+// blocks. False: the device cannot run them (its kernel does not fit); the host carries on.
 template <class R>
 struct DeviceTries {
   virtual ~DeviceTries() = default;
