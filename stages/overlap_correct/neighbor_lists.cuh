@@ -32,7 +32,7 @@ __device__ inline void load_ids(const int* nb, int v, int (&ids)[kCached]) {
   ids[4] = hi.x, ids[5] = hi.y, ids[6] = hi.z, ids[7] = hi.w;
 }
 
-// Calls f(u, xu, yu) for each neighbour u = ids[0 .. d) (d ≤ kCached) with its position,
+// Calls f(k, u, xu, yu) for each neighbour u = ids[k], k in [0, d) (d ≤ kCached), with its position,
 // loading the positions kInFlight at a time: independent loads in flight together, not one
 // after the other (one thread's gathers and checks).
 constexpr int kInFlight = 4;
@@ -46,7 +46,7 @@ __device__ void for_each_loaded(const Overlaps<R, W>& ov, const int (&ids)[kCach
       if (h + i < d) load_xy(ov.pos, ids[h + i], xu[i], yu[i]);
 #pragma unroll
     for (int i = 0; i < kInFlight; ++i)
-      if (h + i < d) f(ids[h + i], xu[i], yu[i]);
+      if (h + i < d) f(h + i, ids[h + i], xu[i], yu[i]);
   }
 }
 
@@ -65,24 +65,17 @@ __device__ VertexPush gather_ids(const Overlaps<R, W>& ov, int v, const int (&id
   load_xy(ov.pos, v, xv, yv);
   const double sv = ov.diameter_of(v);
   unsigned near = 0;
-#pragma unroll
-  for (int h = 0; h < kCached; h += kInFlight) {
-    double xu[kInFlight], yu[kInFlight];
-#pragma unroll
-    for (int i = 0; i < kInFlight; ++i)
-      if (h + i < d) load_xy(ov.pos, ids[h + i], xu[i], yu[i]);
-#pragma unroll
-    for (int i = 0; i < kInFlight; ++i)
-      if (h + i < d && ov.overlaps_at(xv, yv, sv, ids[h + i], xu[i], yu[i])) near |= 1u << (h + i);
-  }
+  for_each_loaded(ov, ids, d, [&](int k, int u, double xu, double yu) {
+    if (ov.overlaps_at(xv, yv, sv, u, xu, yu)) near |= 1u << k;
+  });
   std::int64_t qx = 0, qy = 0;
   while (near) {
-    const int k = __ffs(near) - 1;
+    const int slot = __ffs(near) - 1;
     near &= near - 1;
     int u = ids[0];
 #pragma unroll
-    for (int j = 1; j < kCached; ++j)  // u = ids[k] with a register index
-      if (k == j) u = ids[j];
+    for (int j = 1; j < kCached; ++j)  // u = ids[slot] with a register index
+      if (slot == j) u = ids[j];
     ov.gather_pair(v, xv, yv, sv, u, qx, qy, out);
   }
   ov.gather_wall(v, xv, yv, sv, qx, qy, out);
@@ -179,7 +172,7 @@ __device__ bool thread_check(const Overlaps<R, W>& ov, int v, const int* nb, con
   load_xy(ov.pos, v, xv, yv);
   const double sv = ov.diameter_of(v);
   bool any = false;
-  for_each_loaded(ov, ids, d, [&](int u, double xu, double yu) {
+  for_each_loaded(ov, ids, d, [&](int, int u, double xu, double yu) {
     if (ov.overlaps_after_move_at(xv, yv, sv, u, xu, yu)) {
       f(u);
       any = true;
