@@ -16,7 +16,7 @@
 
 #include "core/backend/cuda/check.h"
 #include "core/backend/cuda/loop.cuh"
-#include "stages/delaunay/flip/tries.h"
+#include "stages/delaunay/flip/untangle.h"  // DeviceTries; flip/tries.h
 
 namespace ff::delaunay {
 
