@@ -1,14 +1,14 @@
 // delaunay.flip's sub-step tries (untangle.h): what the untangling's loop does next and the
-// passes of each branch, one statement for both backends. decide_next decides from the counters
-// of the last marking what comes next: another repair round, an accepted try, a failed one, or a
-// stop (at the targets, a rollback, a throw); the host's loop (Untangle::untangle_step, on the
-// CPU and on CUDA until the device takes over) calls it on the counters it reads, the device's
-// tries (DeviceTries; flip/cuda.cu's cooperative kernel, one thread deciding) on the counters in
-// place. run_pass: the passes of each branch as the device runs them, kernel.h's with the
-// lengths, lists and generations the decision set, each taking elements i, i + threads, ... of
-// its list (ListSpan: every element is taken whatever the grid), and doing nothing outside its
-// branch; the host launches the same passes on the same lists in the same order (untangle.h), so
-// the same bits.
+// passes of each branch, stated once for both backends. decide_next decides from the counters of
+// the last marking: another repair round, an accepted try, a failed one, or a stop (at the
+// targets, a rollback, a throw). The pass functions (copy_pass & co.) build each branch's passes,
+// kernel.h's functors, from TryArgs with the lengths, lists and generations the decision set. The
+// host's loop (Untangle::untangle_step: the CPU, and CUDA until the device takes over) calls
+// decide_next on the counters it reads and launches the passes through the backend's element
+// loops; the device's tries (DeviceTries, flip/cuda.cu: a cooperative kernel) call decide_next
+// on the counters in place from one thread and run the passes over the grid (run_pass; ListSpan:
+// every element is taken whatever the grid). So the same decisions and the same passes on the
+// same lists, in the same order: the same bits.
 // FF_HD; nvcc-clean.
 #pragma once
 #include <cstddef>
@@ -146,9 +146,10 @@ FF_HD unsigned decide_next(const unsigned* f, const unsigned* r, const UntangleL
   return phase;
 }
 
-// Everything the device's passes need that stays put while they run: the passes of kernel.h
-// built on the host with what is known there (the lengths, list choices and generations
-// decide_next sets are filled in on the device), the lists, the stamps, the limits.
+// What the passes need that stays put during a step (Untangle::try_args; the host rebuilds it
+// when the positions' storage changes): the passes of kernel.h with what is known before a try
+// (the lengths, list choices and generations decide_next sets are filled in by the pass
+// functions below), the lists, the stamps, the limits.
 template <class R>
 struct TryArgs {
   MarkListed<R> mark_first, mark_round;
@@ -194,7 +195,116 @@ FF_HD unsigned decide_next(const TryArgs<R>& a, TryState& s) {
   return phase;
 }
 
-// The passes in the order untangle_step launches them, and the branches they belong to.
+// The passes of each branch, as both backends launch them: kernel.h's functors from TryArgs
+// with the lengths, lists and generations decide_next set, and how many elements each loop
+// takes (`elements`; each functor takes element k of its loop). Where a list's length is on
+// the backend (ListSpan), `launched` is what the caller launches over: the device's grid, the
+// host's guess of the length (every element is taken whatever it is).
+template <class F>
+struct TryLoop {
+  F f;
+  std::size_t elements;
+};
+// Accepted: V ← the positions of the active particles and of the last Shallower's (after the
+// first acceptance; the first one copies every value).
+template <class R>
+FF_HD TryLoop<CopyListed<R>> copy_pass(const TryArgs<R>& a, const TryState& s) {
+  CopyListed<R> o = a.copy;
+  o.lists[0] = a.active[1 - s.cur];
+  o.lists[1] = a.active[s.cur];
+  o.counts[0] = s.n_copied;
+  o.counts[1] = s.n_active;
+  return {o, std::size_t(s.n_copied) + s.n_active};
+}
+// Accepted: Shallower, and the next marking's work list: the edges around the particles it
+// moves and the last troubled ones.
+template <class R>
+FF_HD TryLoop<ShallowerAndList<R>> shallower_pass(const TryArgs<R>& a, const TryState& s) {
+  ShallowerAndList<R> o = a.shallower;
+  o.shallower.active = a.active[s.cur];
+  o.shallower.still = a.active[1 - s.cur];
+  o.n_active = s.n_active;
+  o.around.vertices = a.active[s.cur];
+  o.around.span = ListSpan{nullptr, s.n_active};
+  o.around.work_gen = s.wg_try;
+  o.last.list = a.lists[s.last];
+  o.last.span = ListSpan{nullptr, s.n_last};
+  o.last.work_gen = s.wg_try;
+  return {o, std::size_t(s.n_active) + s.n_last};
+}
+// Failed: who goes deeper, judged at the ends of the last troubled edges, of the first
+// marking's and of the edges the try's flips made (FindMoving); those edges go to the next
+// try's work list on the way.
+template <class R>
+FF_HD TryLoop<FindMoving<R>> find_moving_pass(const TryArgs<R>& a, const TryState& s) {
+  FindMoving<R> o = a.find_moving;
+  o.edges[0] = a.lists[s.last];
+  o.counts[0] = s.n_last;
+  o.counts[1] = s.n_first;
+  o.counts[2] = s.n_touched_edges;
+  o.gen = s.vg;
+  o.work_gen = s.wg_try;
+  return {o, std::size_t(s.n_last) + s.n_first + s.n_touched_edges};
+}
+// Failed: the records the try's flips changed back to V's, and in the same loop the moving
+// particles go deeper (`moving` of them: FindMoving's count, or a guess of it).
+template <class R>
+FF_HD TryLoop<RestoreAndDeepen<R>> restore_deepen_pass(const TryArgs<R>& a, const TryState& s, std::size_t moving) {
+  RestoreAndDeepen<R> o = a.restore_deepen;
+  o.restore.n_edges = s.n_touched_edges;
+  o.n_restore = std::size_t(s.n_touched_edges) + s.n_touched_vertices;
+  o.deepen.span.launched = moving > 0 ? moving : 1;
+  o.deepen.active = a.active[s.cur];
+  return {o, o.n_restore + moving};
+}
+// Failed: the next marking's work list gets the edges around the moving particles.
+template <class R>
+FF_HD TryLoop<EdgesAround> edges_around_pass(const TryArgs<R>& a, const TryState& s, std::size_t launched) {
+  EdgesAround o = a.around;
+  o.span.launched = launched;
+  o.work_gen = s.wg_try;
+  return {o, launched};
+}
+// A new try's first marking (MarkListed against V) of its work list.
+template <class R>
+FF_HD TryLoop<MarkListed<R>> mark_first_pass(const TryArgs<R>& a, std::size_t launched) {
+  MarkListed<R> o = a.mark_first;
+  o.span.launched = launched;
+  return {o, launched};
+}
+// A round decides and flips among the last marking's troubled edges: the first marking's (its
+// length on the backend) or the last round's (n_list; `n_list_at`: where the backend reads it,
+// or null: `launched` is the length).
+template <class R>
+FF_HD ListSpan round_span(const TryArgs<R>& a, const TryState& s, const unsigned* n_list_at, std::size_t launched) {
+  return ListSpan{s.list == 0 ? a.first_block + kTroubledCount : n_list_at, launched};
+}
+template <class R>
+FF_HD TryLoop<DecideListed> decide_pass(const TryArgs<R>& a, const TryState& s, ListSpan span) {
+  DecideListed o = a.decide;
+  o.list = a.lists[s.list];
+  o.span = span;
+  o.touched.gen = s.touched_gen;
+  return {o, span.launched};
+}
+template <class R>
+FF_HD TryLoop<ApplyListed> apply_pass(const TryArgs<R>& a, const TryState& s, ListSpan span) {
+  ApplyListed o = a.apply;
+  o.list = a.lists[s.list];
+  o.span = span;
+  o.work_gen = s.wg_round;
+  return {o, span.launched};
+}
+// The round's marking: the troubled edges and those around each flip, listed in trouble_[out].
+template <class R>
+FF_HD TryLoop<MarkListed<R>> mark_round_pass(const TryArgs<R>& a, const TryState& s, std::size_t launched) {
+  MarkListed<R> o = a.mark_round;
+  o.troubled = a.lists[1 + s.out];
+  o.span.launched = launched;
+  return {o, launched};
+}
+
+// The passes in the order the branches launch them, and the branches they belong to.
 enum TryPass : int {
   kPassCopy,            // accepted: V ← the positions (all the first time, else the active lists)
   kPassShallower,       // accepted: ShallowerAndList
@@ -215,99 +325,41 @@ FF_HD constexpr bool pass_runs(int pass, unsigned phase) {
                                      : true);
 }
 
-// Thread i of `threads` in pass `pass`; `sp`: the decided state (device memory on CUDA; a
-// round's list length is read from it).
+// Thread i of `threads` of the device's grid: its elements i, i + threads, ... of a loop.
+template <class F>
+FF_HD void run_loop(const TryLoop<F>& l, std::size_t i, std::size_t threads) {
+  for (std::size_t k = i; k < l.elements; k += threads) l.f(k);
+}
+// Thread i of `threads` in pass `pass` on the device; `sp`: the decided state (device memory;
+// a round's list length is read from it). The passes over lists whose lengths are on the
+// device are launched over the grid; FindMoving's count is read, the pass before.
 template <class R>
 FF_HD void run_pass(int pass, const TryArgs<R>& a, const TryState* sp, std::size_t i, std::size_t threads) {
   const TryState& s = *sp;
   if (!pass_runs(pass, s.phase)) return;
-  const std::int32_t* round_list = a.lists[s.list];
-  const ListSpan round_span{s.list == 0 ? a.first_block + kTroubledCount : &sp->n_list, threads};
   switch (pass) {
-    case kPassCopy: {
+    case kPassCopy:
       if (s.first_accept) {
         for (std::size_t k = i; k < a.values; k += threads) a.copy_to[k] = a.copy_from[k];
         return;
       }
-      CopyListed<R> o = a.copy;
-      o.lists[0] = a.active[1 - s.cur];
-      o.lists[1] = a.active[s.cur];
-      o.counts[0] = s.n_copied;
-      o.counts[1] = s.n_active;
-      for (std::size_t k = i; k < std::size_t(s.n_copied) + s.n_active; k += threads) o(k);
-      return;
-    }
-    case kPassShallower: {
-      ShallowerAndList<R> o = a.shallower;
-      o.shallower.active = a.active[s.cur];
-      o.shallower.still = a.active[1 - s.cur];
-      o.n_active = s.n_active;
-      o.around.vertices = a.active[s.cur];
-      o.around.span = ListSpan{nullptr, s.n_active};
-      o.around.work_gen = s.wg_try;
-      o.last.list = a.lists[s.last];
-      o.last.span = ListSpan{nullptr, s.n_last};
-      o.last.work_gen = s.wg_try;
-      for (std::size_t k = i; k < std::size_t(s.n_active) + s.n_last; k += threads) o(k);
-      return;
-    }
-    case kPassFindMoving: {
-      FindMoving<R> o = a.find_moving;
-      o.edges[0] = a.lists[s.last];
-      o.counts[0] = s.n_last;
-      o.counts[1] = s.n_first;
-      o.counts[2] = s.n_touched_edges;
-      o.gen = s.vg;
-      o.work_gen = s.wg_try;
-      for (std::size_t k = i; k < std::size_t(s.n_last) + s.n_first + s.n_touched_edges; k += threads) o(k);
-      return;
-    }
-    case kPassRestoreDeepen: {
-      RestoreAndDeepen<R> o = a.restore_deepen;
-      const unsigned moving = a.first_block[kMovingCount];  // FindMoving's, the pass before
-      o.restore.n_edges = s.n_touched_edges;
-      o.n_restore = std::size_t(s.n_touched_edges) + s.n_touched_vertices;
-      o.deepen.span.launched = moving > 0 ? moving : 1;
-      o.deepen.active = a.active[s.cur];
-      for (std::size_t k = i; k < o.n_restore + moving; k += threads) o(k);
-      return;
-    }
-    case kPassEdgesAround: {
-      EdgesAround o = a.around;
-      o.span.launched = threads;
-      o.work_gen = s.wg_try;
-      o(i);
-      return;
-    }
-    case kPassMarkFirst: {
-      MarkListed<R> o = a.mark_first;
-      o.span.launched = threads;
-      o(i);
-      return;
-    }
-    case kPassDecide: {
-      DecideListed o = a.decide;
-      o.list = round_list;
-      o.span = round_span;
-      o.touched.gen = s.touched_gen;
-      o(i);
-      return;
-    }
-    case kPassApply: {
-      ApplyListed o = a.apply;
-      o.list = round_list;
-      o.span = round_span;
-      o.work_gen = s.wg_round;
-      o(i);
-      return;
-    }
-    case kPassMarkRound: {
-      MarkListed<R> o = a.mark_round;
-      o.troubled = a.lists[1 + s.out];
-      o.span.launched = threads;
-      o(i);
-      return;
-    }
+      return run_loop(copy_pass(a, s), i, threads);
+    case kPassShallower:
+      return run_loop(shallower_pass(a, s), i, threads);
+    case kPassFindMoving:
+      return run_loop(find_moving_pass(a, s), i, threads);
+    case kPassRestoreDeepen:
+      return run_loop(restore_deepen_pass(a, s, a.first_block[kMovingCount]), i, threads);
+    case kPassEdgesAround:
+      return run_loop(edges_around_pass(a, s, threads), i, threads);
+    case kPassMarkFirst:
+      return run_loop(mark_first_pass(a, threads), i, threads);
+    case kPassDecide:
+      return run_loop(decide_pass(a, s, round_span(a, s, &sp->n_list, threads)), i, threads);
+    case kPassApply:
+      return run_loop(apply_pass(a, s, round_span(a, s, &sp->n_list, threads)), i, threads);
+    case kPassMarkRound:
+      return run_loop(mark_round_pass(a, s, threads), i, threads);
     default:
       return;
   }

@@ -33,12 +33,14 @@
 // (halvings), substep_tries (repair passes), substep_depth (the deepest particle's halvings),
 // substep_particles (particles halved at least once).
 //
-// On CUDA the tries after the first failed one run on the device (DeviceTries, flip/cuda.cu):
-// one cooperative kernel in which one thread, reading the counters as read_try does, decides
-// what the host's loop would (the branches below, the rounds of repair_listed; flip/tries.h)
-// and the grid runs that branch's passes; the host reads the counters once when it stops (at the
-// try end where the host would stop, break or throw) and carries on from there. Same passes on
-// the same lists, so the same bits; the CPU runs the host loop.
+// What the loop does next and the passes of each branch are stated once, in flip/tries.h:
+// decide_next (another repair round, an accepted try, a failed one, a stop) and the pass
+// functions (copy_pass & co.: kernel.h's functors with the lists, lengths and generations the
+// decision set). The host's loop below (untangle_step) calls them on the CPU, and on CUDA until
+// the first failed try; from its decision on the device runs the tries (DeviceTries,
+// flip/cuda.cu: one cooperative kernel in which one thread calls decide_next on the counters in
+// place and the grid runs the branch's passes) and the host reads the counters once, when
+// decide_next stops. Same decisions, same passes on the same lists, so the same bits.
 // nvcc-clean: included by stage.h, which both backends compile.
 #pragma once
 #include <algorithm>
@@ -82,10 +84,11 @@ UntangleLoops<R> untangle_loops(Exec) {
           &Exec::template for_each<ResetTry>};
 }
 
-// The tries on the device (CUDA: flip/cuda.cu); null on the CPU. run: from a try's end that
-// untangle_step would follow with another try, the tries until one ends where it would not (or
-// a marking finds a triangle that does not close: read_try throws); `counters` gets both counter
-// blocks. False: the device cannot run them (its kernel does not fit); the host carries on.
+// The tries on the device (CUDA: flip/cuda.cu); null on the CPU. run: from a decision of the
+// host's loop (`s`, s.decided: its passes still to run), the passes and decisions until
+// decide_next stops (`s` gets the state it stops with: why, the statistics, the generations);
+// `counters` gets both counter blocks. False: the device cannot run them (its kernel does not
+// fit); the host carries on.
 template <class R>
 struct DeviceTries {
   virtual ~DeviceTries() = default;
@@ -203,46 +206,6 @@ class Untangle {
     }
     return t.phase;
   }
-  // The lists by TryState's numbering (TryArgs::lists): first_, trouble_[0], trouble_[1].
-  std::int32_t* list(unsigned k, std::size_t E) { return k == 0 ? first_.get(E) : trouble_[k - 1].get(E); }
-
-  // A try's first marking and first repair round, after reset_try. `work` (`span`; null: every
-  // edge) holds every edge that can be troubled at V's topology and the positions now (see
-  // run_passes); they are marked with the r⁰·r¹ test against V (`prev`), the troubled ones
-  // listed (first_). The first round is launched right after the marking, before the host knows
-  // whether anything is marked (with nothing marked it flips nothing and re-marks the same
-  // edges): one host read a try when a round suffices. Its list has a length only the backend
-  // knows: launched over a guess (ListSpan; the troubled edges are a small part of the marked
-  // ones even when every edge is marked, and a short guess only makes each thread take more).
-  void mark_first(State& s, const Mesh& m, std::uint8_t* go, const Points<R>& pts, const R* prev,
-                  const std::int32_t* work, ListSpan span, CUstream_st* st) {
-    std::uint8_t* mark = s.field(fields::flip_mark).data<std::uint8_t>(where_);
-    const std::size_t E = edge_count(s.n());
-    unsigned* f = first_block();
-    std::int32_t* first = first_.get(E);
-    loops_.mark_listed(span.launched, MarkListed<R>{{m, pts, prev, mark, f}, work, span, first, f}, st);
-    repair_round(s, m, go, pts, first,
-                 ListSpan{f + kTroubledCount, std::max<std::size_t>(1, std::min({E, span.launched, kFirstRoundGuess}))},
-                 st);
-  }
-  // One repair round: decides and flips among `list`'s troubled edges, then re-marks those and
-  // the edges around each flip, listing the troubled ones in trouble_[out] (the generation and
-  // the lists: try_, as decide_next set them). Only rounds that flip count (decide_next).
-  void repair_round(State& s, const Mesh& m, std::uint8_t* go, const Points<R>& pts, const std::int32_t* list,
-                    ListSpan listed, CUstream_st* st) {
-    std::uint8_t* mark = s.field(fields::flip_mark).data<std::uint8_t>(where_);
-    const std::size_t E = edge_count(s.n());
-    unsigned* r = round_block();
-    std::int32_t* w = work_.get(E);
-    const std::size_t n = listed.launched;
-    loops_.decide_listed(n, DecideListed{{m, mark, go, r, kRepairFlips}, list, listed, touch_log(s)}, st);
-    loops_.apply_listed(n, ApplyListed{m, go, list, listed, w, edge_stamp_.get(E), try_.wg_round, r + kWorkCount}, st);
-    // At most the troubled edges and four more a flip; the length is on the backend.
-    const std::size_t bound = std::min<std::size_t>(E, 5 * n);
-    loops_.mark_listed(
-        bound, MarkListed<R>{{m, pts, nullptr, mark, r}, w, ListSpan{r + kWorkCount, bound}, trouble_[try_.out].get(E), r},
-        st);
-  }
 
   // The step's untangling (the top of this file): the first try on every edge, then what
   // decide_next decides after each marking (flip/tries.h: another round, an accepted or a failed
@@ -278,31 +241,34 @@ class Untangle {
       return Outcome::request_rollback("delaunay.flip: " + why + "; the step is retried with a smaller time step",
                                        std::move(who));
     };
+    const auto args = [&] {  // the passes, at the positions now
+      return try_args(s, m, go, s.field(ff::fields::position).data<R>(ctx), s.field(fields::position_prev).data<R>(ctx),
+                      box, step_gen, bytes / sizeof(R));
+    };
+    TryArgs<R> a = args();
     // The first try: every edge, at V's topology and the targets.
     reset_try(true, true, st);
     ++t.tries;
     t.wg_round = next_gen(t.work_gen, edge_stamp_.get(E), E, st);
-    mark_first(s, m, go, Points<R>{s.field(ff::fields::position).data<R>(where_), box},
-               s.field(fields::position_prev).data<R>(where_), nullptr, ListSpan{nullptr, E}, st);
-    const unsigned* both = read_try(s, st);
+    TryLoop<MarkListed<R>> all = mark_first_pass(a, E);
+    all.f.list = nullptr;
+    all.f.span = ListSpan{nullptr, E};
+    const unsigned* both = run_try(s, a, all, st);
     unsigned phase;
     while ((phase = decide(both, n, st)) != kPhaseStop) {
-      R* x = s.field(ff::fields::position).data<R>(ctx);
-      R* v = s.field(fields::position_prev).data<R>(ctx);
       if (phase == kPhaseFail && !announced) {  // the first intermediate position: keep T and V for a rollback
         ctx.will_write(ff::fields::position);
         ctx.will_write(fields::position_prev);
         announced = true;
-        x = s.field(ff::fields::position).data<R>(ctx);
-        v = s.field(fields::position_prev).data<R>(ctx);
-        mem_.copy(target, x, bytes, st);
+        a = args();
+        mem_.copy(target, a.copy_from, bytes, st);  // a.copy_from: the positions, at T
         mem_.fill(depth_.get(n), 0, n * sizeof(std::uint32_t), st);
       }
       // CUDA: the device runs the tries from this decision (every try after the first failed
       // one) until decide_next stops; the host reads the counters once, then.
       if (device_ && announced) {
         t.decided = 1;
-        if (device_->run(try_args(s, m, go, x, v, box, step_gen, bytes / sizeof(R)), t, device_counters_.data(), st)) {
+        if (device_->run(a, t, device_counters_.data(), st)) {
           both = device_counters_.data();
           throw_if_unclosed(s, both, st);
           break;
@@ -310,8 +276,7 @@ class Untangle {
         t.decided = 0;
         device_.reset();  // not on this device: the host's loop from here on
       }
-      run_passes(phase, s, m, go, x, v, box, step_gen, both, st);
-      both = read_try(s, st);
+      both = run_passes(phase, s, a, both, st);
     }
     const SubTally h = tally(both);
     if (t.stop == kStopThrough) {
@@ -347,87 +312,71 @@ class Untangle {
     return Outcome::ok();
   }
 
-  // The passes of decide_next's branch (flip/tries.h, run_pass: the same passes on the same
-  // lists), launched by the host over the lengths it knows; `both`: the counters decide_next
-  // read. The next marking's work list is built on the backend; its loop is launched over a
-  // guess of its length (ListSpan): the host reads counters once a marking, nothing else.
-  void run_passes(unsigned phase, State& s, const Mesh& m, std::uint8_t* go, R* x, R* v,
-                  const PeriodicBox<double>& box, unsigned step_gen, const unsigned* both, CUstream_st* st) {
+  // The passes of decide_next's branch (flip/tries.h: the passes run_pass runs on the device),
+  // launched by the host; returns the counters they leave (read_try). The loops over lists whose
+  // lengths are on the backend (the next marking's work list, the moving particles) are launched
+  // over guesses of them (ListSpan): the host reads counters once a marking, nothing else.
+  // `both`: the counters decide_next decided on.
+  const unsigned* run_passes(unsigned phase, State& s, const TryArgs<R>& a, const unsigned* both, CUstream_st* st) {
     const TryState& t = try_;
-    const std::size_t n = s.n(), E = edge_count(n);
-    if (phase == kPhaseRound) {
-      repair_round(s, m, go, Points<R>{x, box}, list(t.list, E), ListSpan{nullptr, t.n_list}, st);
-      return;
-    }
-    R* target = target_.get(2 * n);
-    std::uint32_t* depth = depth_.get(n);
-    unsigned* c = first_block();
-    std::int32_t* w = work_.get(E);
-    std::int32_t* active = active_[t.cur].get(n);
+    if (phase == kPhaseRound) return run_round(s, a, t.n_list, st);
     std::size_t guess = 0;
     if (phase == kPhaseAccept) {
       // Valid here: the next reference. Before the first acceptance every particle is at its
       // target, away from V; after it only the active particles and the ones the last
       // Shallower moved have left V.
       if (t.first_accept) {
-        mem_.copy(v, x, s.field(ff::fields::position).bytes(), st);
+        mem_.copy(a.copy_to, a.copy_from, a.values * sizeof(R), st);
       } else {
-        loops_.copy_listed(t.n_copied + t.n_active,
-                           CopyListed<R>{{active_[1 - t.cur].get(n), active}, {t.n_copied, t.n_active}, x, v}, st);
+        launch(loops_.copy_listed, copy_pass(a, t), st);
       }
-      // Shallower, and the next marking's work list: the edges around the particles it moves
-      // and the last troubled ones.
-      std::int32_t* other = active_[1 - t.cur].get(n);
-      loops_.shallower_list(
-          t.n_active + t.n_last,
-          ShallowerAndList<R>{
-              Shallower<R>{Points<R>{v, box}, target, x, active, depth, other, c}, t.n_active,
-              EdgesAround{m, active, ListSpan{nullptr, t.n_active}, w, edge_stamp_.get(E), t.wg_try, c},
-              ListEdges{list(t.last, E), ListSpan{nullptr, t.n_last}, w, edge_stamp_.get(E), t.wg_try, c + kWorkCount}},
-          st);
+      launch(loops_.shallower_list, shallower_pass(a, t), st);
       guess = t.n_last + 12 * std::size_t(t.n_shallowed);
     } else {
-      // Who goes deeper: judged at the ends of the last troubled edges, of the first
-      // marking's and of the edges the try's flips made.
-      // The first and last troubled edges go to the next try's work list on the way.
-      std::int32_t* moving = moving_.get(n);
-      const std::size_t n_touched = t.n_touched_edges;
-      loops_.find_moving(t.n_last + t.n_first + n_touched,
-                         FindMoving<R>{MovingRule<R>{m, Points<R>{x, box}, Points<R>{v, box}},
-                                       {list(t.last, E), first_.get(E), touched_edges_.get(E)},
-                                       {t.n_last, t.n_first, unsigned(n_touched)},
-                                       moving,
-                                       vertex_stamp_.get(n),
-                                       t.vg,
-                                       c,
-                                       w,
-                                       edge_stamp_.get(E),
-                                       t.wg_try},
-                         st);
+      launch(loops_.find_moving, find_moving_pass(a, t), st);
       // The flips made for the positions farther out need not be valid nearer V (a flipped
       // triangle can stay inverted however close to V its vertices come): repair from V's.
-      // In the same launch the moving particles go deeper: at most both ends of those edges,
-      // the count is on the backend.
-      const std::size_t n_restore = std::size_t(t.n_touched_edges) + t.n_touched_vertices;
-      const std::size_t n_moving = std::min<std::size_t>(n, 2 * (t.n_last + t.n_first + n_touched));
-      const ListSpan moved{c + kMovingCount, n_moving};
-      loops_.restore_deepen(n_restore + n_moving,
-                            RestoreAndDeepen<R>{restore_records(s, t.n_touched_edges), n_restore,
-                                                Deepen<R>{Points<R>{v, box}, target, x, moving, moved, depth, active,
-                                                          halved_stamp_.get(n), step_gen, c}},
-                            st);
-      loops_.edges_around(n_moving, EdgesAround{m, moving, moved, w, edge_stamp_.get(E), t.wg_try, c}, st);
+      // The moving particles: at most both ends of the edges FindMoving judged.
+      const std::size_t n_moving =
+          std::min<std::size_t>(a.n, 2 * (std::size_t(t.n_last) + t.n_first + t.n_touched_edges));
+      launch(loops_.restore_deepen, restore_deepen_pass(a, t, n_moving), st);
+      launch(loops_.edges_around, edges_around_pass(a, t, n_moving), st);
       const unsigned* f = both;
       const unsigned* r = both + kSubstepCounters;
       guess = t.n_first + t.n_last + 12 * std::size_t(r[kInverted] + f[kThrough]);
     }
-    const std::size_t launched = std::max<std::size_t>(1, std::min(E, guess));
-    mark_first(s, m, go, Points<R>{x, box}, v, w, ListSpan{c + kWorkCount, launched}, st);
+    return run_try(s, a, mark_first_pass(a, std::max<std::size_t>(1, std::min(a.E, guess))), st);
+  }
+  // A try's first marking (`marking`) and first repair round. The round is launched right after
+  // the marking, before the host knows whether anything is marked (with nothing marked it flips
+  // nothing and re-marks the same edges): one host read a try when a round suffices. Its list
+  // has a length only the backend knows: launched over a guess (the troubled edges are a small
+  // part of the marked ones even when every edge is marked, and a short guess only makes each
+  // thread take more).
+  const unsigned* run_try(State& s, const TryArgs<R>& a, const TryLoop<MarkListed<R>>& marking, CUstream_st* st) {
+    launch(loops_.mark_listed, marking, st);
+    return run_round(s, a, std::max<std::size_t>(1, std::min({a.E, marking.elements, kFirstRoundGuess})), st);
+  }
+  // A repair round (decide, apply, mark) over the last marking's troubled edges, launched over
+  // `launched` (their number after a round, a guess of it after a try's first marking);
+  // returns the counters (read_try).
+  const unsigned* run_round(State& s, const TryArgs<R>& a, std::size_t launched, CUstream_st* st) {
+    const TryState& t = try_;
+    const ListSpan span = round_span(a, t, nullptr, launched);
+    launch(loops_.decide_listed, decide_pass(a, t, span), st);
+    launch(loops_.apply_listed, apply_pass(a, t, span), st);
+    // At most the troubled edges and four more a flip; the length is on the backend.
+    launch(loops_.mark_listed, mark_round_pass(a, t, std::min<std::size_t>(a.E, 5 * span.launched)), st);
+    return read_try(s, st);
+  }
+  template <class F>
+  static void launch(ElementLoop<F> loop, const TryLoop<F>& l, CUstream_st* st) {
+    loop(l.elements, l.f, st);
   }
 
-  // The passes run_passes launches, for the device's tries, with what the host knows of them:
-  // the lengths, lists and generations decide_next sets are filled in on the device
-  // (flip/tries.h, run_pass).
+  // The passes of the tries (flip/tries.h) with what is known before a try: the lengths, lists
+  // and generations decide_next sets are filled in by the pass functions of tries.h (copy_pass
+  // & co.), on the host or on the device.
   TryArgs<R> try_args(State& s, const Mesh& m, std::uint8_t* go, R* x, R* v, const PeriodicBox<double>& box,
                       unsigned step_gen, std::size_t values) {
     const std::size_t n = s.n(), E = edge_count(n);
