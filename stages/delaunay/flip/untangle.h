@@ -160,9 +160,6 @@ class Untangle {
   // sub_'s two blocks (kernel.h, ResetTry): the try's first marking and lists, its rounds.
   unsigned* first_block() { return sub_.ptr(); }
   unsigned* round_block() { return sub_.ptr() + kSubstepCounters; }
-  void reset_try(bool active, bool step, CUstream_st* st) {
-    loops_.reset(1, ResetTry{first_block(), round_block(), active, step}, st);
-  }
 
   // Reads both blocks (the try's first marking and lists, then the last round's marking), after
   // the passes launched before; throws where a marking found a triangle that does not close.
@@ -246,8 +243,9 @@ class Untangle {
                       box, step_gen, bytes / sizeof(R));
     };
     TryArgs<R> a = args();
-    // The first try: every edge, at V's topology and the targets.
-    reset_try(true, true, st);
+    // The first try: every edge, at V's topology and the targets (its counters and the step's
+    // statistics start; later tries': decide).
+    loops_.reset(1, ResetTry{first_block(), round_block(), true, true}, st);
     ++t.tries;
     t.wg_round = next_gen(t.work_gen, edge_stamp_.get(E), E, st);
     TryLoop<MarkListed<R>> all = mark_first_pass(a, E);
@@ -443,9 +441,9 @@ class Untangle {
             k.vedge};
   }
   // After a failed try: the records its flips changed back to V's (TouchLog's lists, `edges`
-  // of them and the vertices; RestoreAndDeepen). After an accepted one the new V's topology is the one now: nothing
-  // to copy. Either way a new generation of the lists starts (next_touched_gen; their lengths:
-  // reset_try).
+  // of them and the vertices; RestoreAndDeepen). After an accepted one the new V's topology is
+  // the one now: nothing to copy. Either way a new generation of the lists starts (decide_next;
+  // their lengths: phase_reset).
   TouchedRecords restore_records(State& s, unsigned edges) {
     const Kept k = kept(s);
     return TouchedRecords{touched_edges_.get(edge_count(s.n())),
