@@ -1,8 +1,9 @@
 // delaunay.flip's sub-step tries on the device (untangle.h, DeviceTries): one kernel launch runs
 // the tries that untangle_step's loop would run one host round trip each. A cooperative kernel:
-// thread 0 decides, from the counters as read_try reads them, what the host's loop would do next
-// (another repair round, an accepted try, a failed one, or stop at a try's end the host acts on:
-// at the targets, a rollback, a throw; tries.h, decide_next), then the whole grid runs that
+// thread 0 decides, from the counters in place, what the loop does next (tries.h, decide_next,
+// the host loop's own decision: another repair round, an accepted try, a failed one, or stop at
+// a try's end the host acts on: at the targets, a rollback, a throw; the first decision is the
+// host's, handed over with the state), then the whole grid runs that
 // branch's passes (kernel.h's functors with the lengths, lists and generations read on the
 // device; ListSpan: every element is taken whatever the grid), with grid.sync after the decision
 // and after each pass where the host's loop had a launch boundary. The passes, their lists and
@@ -16,7 +17,7 @@
 
 #include "core/backend/cuda/check.h"
 #include "core/backend/cuda/loop.cuh"
-#include "stages/delaunay/flip/tries.h"
+#include "stages/delaunay/flip/untangle.h"  // DeviceTries; flip/tries.h
 
 namespace ff::delaunay {
 
