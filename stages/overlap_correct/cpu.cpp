@@ -37,6 +37,7 @@
 #include <oneapi/tbb/partitioner.h>
 
 #include <algorithm>
+#include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <type_traits>
@@ -88,6 +89,7 @@ struct Tile {
   std::size_t nremote[3] = {0, 0, 0};
   std::uint64_t c[kCounters];    // this gather's counters
   std::uint64_t next_hash = 0;   // the edge pass's share of the permutation check
+  std::size_t gathered = 0;      // EXPERIMENT log: particles a work-list iteration gathered
 };
 
 struct HostWorkspace {
@@ -98,6 +100,8 @@ struct HostWorkspace {
   std::vector<Tile> tiles;
   bool edge_pass = true;                // the next iteration is an edge pass
   std::size_t last_moved = 0;           // particles the last iteration moved
+  // EXPERIMENT (FF_OC_TILE): the tiled scheme's scratch (tiled_iterate).
+  std::vector<double> tile_disp, tile_step;  // 2 per particle
 };
 
 // The workspace for n particles (from scratch).
@@ -357,10 +361,228 @@ __attribute__((flatten)) void edge_pass(const Overlaps<R, Walls>& ov, Tile& tl, 
   tl.next_hash = hash;
 }
 
+
+// ---------------------------------------------------------------------------------------------
+// EXPERIMENT (issue 20 item 3, branch octile; not for main): tiled iterations.
+//
+// FF_OC_TILE=T (T particles per tile: contiguous index ranges, i.e. pieces of the Hilbert order
+// delaunay.sort made), FF_OC_TILE_INNER=m (inner iterations per tile and global iteration, at
+// most; default 64 = "until the tile converges"), FF_OC_TILE_ORDER=jacobi|gs.
+// A global iteration: a global check at the positions P0 of its start (every edge once: pairs and
+// pairs beyond the tolerance, counted as jacobi counts them; the step ends when none is beyond);
+// then every tile, independently, runs up to m inner iterations on its own particles only, the
+// particles of other tiles held at P0; then every particle moves by the sum of its tile's inner
+// moves (applied once, wrapped).
+//   jacobi: an inner iteration gathers every own particle (pushes of all its neighbours: own ones
+//           at their current inner positions, others at P0), caps and moves them all at once;
+//   gs:     an inner sweep walks the own particles in index order and each one's fan: an edge to a
+//           later own particle moves both ends (the pair rule, each push capped), an edge to another
+//           tile's particle moves the own end only; positions as the sweep leaves them.
+// Cross-tile pairs: each tile moves only its own end, by the full pair rule against the other end
+// frozen at P0; the other end does the same in its own tile. In the first inner iteration that is
+// exactly jacobi's move of that pair (both ends by δ = σ − r, reflect), so the rule keeps the pair
+// rule's physics at tile borders; in the tile's own view the pair is then at contact and pushes no
+// more unless an own neighbour pushes its end back.
+// A tile stops when an inner iteration finds no pair (of an own particle) beyond the tolerance in
+// its view (that iteration's moves are not applied, as the global rule does).
+// FF_OC_LOG=file: one line per global gather (both schemes): k, bad, pairs, particle-gathers (an
+// edge pass counts N, a work list its candidates, a tile pass Σ inner iterations × tile size),
+// tile-iterations, active (particles with an overlapping pair, summed over inner iterations).
+struct TileScheme {
+  std::size_t size = 0;  // 0: off
+  int inner = 64;
+  bool gs = false;
+  bool cross_all = false;  // cross-tile pairs in every inner iteration (else only in the first)
+};
+
+inline TileScheme tile_scheme() {
+  TileScheme t;
+  if (const char* s = std::getenv("FF_OC_TILE")) t.size = std::size_t(std::atol(s));
+  if (const char* s = std::getenv("FF_OC_TILE_INNER")) t.inner = std::atoi(s);
+  if (const char* s = std::getenv("FF_OC_TILE_ORDER")) t.gs = std::strcmp(s, "gs") == 0;
+  if (const char* s = std::getenv("FF_OC_TILE_CROSS")) t.cross_all = std::strcmp(s, "all") == 0;
+  return t;
+}
+
+inline std::FILE* oc_log() {
+  static std::FILE* f = [] {
+    const char* path = std::getenv("FF_OC_LOG");
+    return path ? std::fopen(path, "w") : static_cast<std::FILE*>(nullptr);
+  }();
+  return f;
+}
+
+inline void log_gather(std::int64_t k, const std::uint64_t* c, std::uint64_t gathers, std::uint64_t tile_its,
+                       std::uint64_t active) {
+  if (std::FILE* f = oc_log())
+    std::fprintf(f, "%lld %llu %llu %llu %llu %llu\n", (long long)k, (unsigned long long)c[kBad],
+                 (unsigned long long)c[kPairs], (unsigned long long)gathers, (unsigned long long)tile_its,
+                 (unsigned long long)active);
+}
+
+struct TileStats {
+  std::uint64_t its = 0, active = 0;
+};
+
+// One tile's inner iterations: its own particles' moves summed into disp (2 per particle).
+template <class R, class O>
+TileStats run_tile(const O& ov, const R* pos, std::size_t t0, std::size_t t1, const TileScheme& ts, double* disp,
+                   double* step) {
+  TileStats st;
+  for (std::size_t i = 2 * t0; i < 2 * t1; ++i) disp[i] = 0;
+  auto own = [&](int u) { return std::size_t(u) - t0 < t1 - t0; };
+  auto at = [&](int u, double& x, double& y) {
+    load_xy(pos, u, x, y);
+    if (own(u)) {
+      x += disp[2 * std::size_t(u)];
+      y += disp[2 * std::size_t(u) + 1];
+    }
+  };
+  for (int it = 0; it < ts.inner; ++it) {
+    ++st.its;
+    bool any_bad = false;
+    if (!ts.gs) {
+      for (std::size_t v = t0; v < t1; ++v) {
+        double xv, yv;
+        at(int(v), xv, yv);
+        const double sv = ov.diameter_of(int(v));
+        std::int64_t qx = 0, qy = 0;
+        bool touched = false;
+        ov.for_each_neighbor(int(v), [&](int u, int) {
+          if (it > 0 && !ts.cross_all && !own(u)) return;
+          double xu, yu;
+          at(u, xu, yu);
+          double tx, ty;
+          const double o = pair_term(ov.min_image(xu - xv, 0), ov.min_image(yu - yv, 1), sv, ov.diameter_of(u),
+                                     ov.factor, int(v), u, tx, ty);
+          if (o == kNoOverlap) return;
+          qx -= ov.fixed_push(tx);
+          qy -= ov.fixed_push(ty);
+          touched = true;
+          if (o > ov.tol) any_bad = true;
+        });
+        st.active += touched;
+        VertexPush q;
+        ov.finish(qx, qy, sv, q);
+        step[2 * v] = q.dx;
+        step[2 * v + 1] = q.dy;
+      }
+      if (!any_bad) break;
+      for (std::size_t i = 2 * t0; i < 2 * t1; ++i) disp[i] += step[i];
+    } else {
+      for (std::size_t v = t0; v < t1; ++v) {
+        bool touched = false;
+        ov.for_each_neighbor(int(v), [&](int u, int) {
+          const bool mine = own(u);
+          if (mine && std::size_t(u) < v) return;  // taken from u's side, earlier in the sweep
+          if (it > 0 && !ts.cross_all && !mine) return;
+          double xv, yv, xu, yu;
+          at(int(v), xv, yv);
+          at(u, xu, yu);
+          const double sv = ov.diameter_of(int(v));
+          double tx, ty;
+          const double o = pair_term(ov.min_image(xu - xv, 0), ov.min_image(yu - yv, 1), sv, ov.diameter_of(u),
+                                     ov.factor, int(v), u, tx, ty);
+          if (o == kNoOverlap) return;
+          touched = true;
+          if (o > ov.tol) any_bad = true;
+          const std::int64_t qx = -ov.fixed_push(tx), qy = -ov.fixed_push(ty);
+          const VertexPush a = ov.from_sum(int(v), qx, qy);
+          disp[2 * v] += a.dx;
+          disp[2 * v + 1] += a.dy;
+          if (mine) {
+            const VertexPush b = ov.from_sum(u, -qx, -qy);
+            disp[2 * std::size_t(u)] += b.dx;
+            disp[2 * std::size_t(u) + 1] += b.dy;
+          }
+        });
+        st.active += touched;
+      }
+      if (!any_bad) break;
+    }
+  }
+  return st;
+}
+
+template <class R, class O>
+void tiled_iterate(HostWorkspace* w, const Problem<R>& p, const O& ov, const TileScheme& ts, std::int64_t k0,
+                   std::int64_t max_iterations, Batch& out) {
+  const std::size_t n = p.n, T = ts.size, nt = (n + T - 1) / T;
+  w->tile_disp.resize(2 * n);
+  w->tile_step.resize(2 * n);
+  std::vector<TileStats> stats(nt);
+  out.gathers = 0;
+  for (int j = 0; j < kBatch; ++j) {
+    const std::int64_t k = k0 + j;
+    std::uint64_t* c = out.counters[j];
+    std::memset(c, 0, kCounters * sizeof(std::uint64_t));
+    out.gathers = j + 1;
+    std::uint64_t hash = 0;
+    for (std::size_t e = 0; e < 3 * n; ++e) {  // the global check at P0 (on a GPU: inner iteration 0)
+      int a, b;
+      std::int64_t qx, qy;
+      double o;
+      const int r = ov.template edge<false>(e, a, b, qx, qy, o, hash);
+      if (r == kEdgeCorrupt) ++c[kBroken];
+      if (r != kEdgeOverlap) continue;
+      if (o > 0) {
+        ++c[kPairs];
+        if (o > ov.tol) ++c[kBad];
+      }
+    }
+    if (!keeps_going(c, k, max_iterations)) {
+      log_gather(k, c, n, 0, 0);
+      return;
+    }
+    static const char* watch = std::getenv("FF_OC_WATCH");
+    if (watch && k > 900) {
+      int a = 0, b = 0;
+      std::sscanf(watch, "%d,%d", &a, &b);
+      double xa, ya, xb, yb;
+      load_xy(p.pos, a, xa, ya);
+      load_xy(p.pos, b, xb, yb);
+      std::fprintf(stderr, "k %lld a (%.9f %.9f) b (%.9f %.9f) r %.9f bad %llu\n", (long long)k, xa, ya, xb, yb,
+                   std::sqrt((xb - xa) * (xb - xa) + (yb - ya) * (yb - ya)), (unsigned long long)c[kBad]);
+      ov.for_each_neighbor(a, [&](int u, int) {
+        double xu, yu;
+        load_xy(p.pos, u, xu, yu);
+        std::fprintf(stderr, "   a~%d r %.9f\n", u, std::sqrt((xu - xa) * (xu - xa) + (yu - ya) * (yu - ya)));
+      });
+      ov.for_each_neighbor(b, [&](int u, int) {
+        double xu, yu;
+        load_xy(p.pos, u, xu, yu);
+        std::fprintf(stderr, "   b~%d r %.9f\n", u, std::sqrt((xu - xb) * (xu - xb) + (yu - yb) * (yu - yb)));
+      });
+    }
+    for_each_tile(nt, [&](std::size_t t) {
+      stats[t] = run_tile(ov, p.pos, t * T, std::min(n, (t + 1) * T), ts, w->tile_disp.data(), w->tile_step.data());
+    });
+    std::uint64_t gathers = 0, its = 0, active = 0, corr = 0;
+    for (std::size_t t = 0; t < nt; ++t) {
+      gathers += stats[t].its * (std::min(n, (t + 1) * T) - t * T);
+      its += stats[t].its;
+      active += stats[t].active;
+    }
+    for (std::size_t v = 0; v < n; ++v) {
+      const double dx = w->tile_disp[2 * v], dy = w->tile_disp[2 * v + 1];
+      if (dx == 0 && dy == 0) continue;
+      apply_one(p.pos, p.image, p.box, v, dx, dy);
+      corr += ov.fixed_len(std::sqrt(dx * dx + dy * dy));
+    }
+    c[kCorrection] = corr;
+    log_gather(k, c, gathers, its, active);
+  }
+}
+// ---------------------------------------------------------------------------------------------
+
 // Walls: the wall code compiled in (walls: x | y); Mark: the touched field written (mark: true).
 template <bool Walls, bool Mark, class R>
 void host_iterate(HostWorkspace* w, const Problem<R>& p, std::int64_t k0, std::int64_t max_iterations, Batch& out) {
   const Overlaps<R, Walls> ov = p.overlaps.template with_walls<Walls>();
+  if (!Walls && !Mark) {
+    const TileScheme ts = tile_scheme();
+    if (ts.size > 0) return tiled_iterate(w, p, ov, ts, k0, max_iterations, out);
+  }
   const std::size_t nt = w->tiles.size();
   // A step starts from clean flags (cheap; also covers a step that ended in an error).
   if (k0 == 0) {
@@ -438,6 +660,7 @@ void host_iterate(HostWorkspace* w, const Problem<R>& p, std::int64_t k0, std::i
         std::memset(cur + tl.t0, 0, tl.t1 - tl.t0);  // an edge pass finds every candidate itself
       });
       for (const Tile& tl : w->tiles) c[kTouched] += tl.c[kTouched];
+      log_gather(k, c, w->n, 0, 0);
       if (!go) return;
       for (const Tile& tl : w->tiles) c[kCorrection] += tl.c[kCorrection];
     } else {
@@ -447,6 +670,7 @@ void host_iterate(HostWorkspace* w, const Problem<R>& p, std::int64_t k0, std::i
         std::uint64_t tc[kCounters] = {};
         std::size_t nm = 0;
         const std::size_t count = compact(cur, tl.t0, tl.t1, tl.cand.data());
+        tl.gathered = count;
         for (std::size_t i = 0; i < count; ++i) {
           const int v = tl.cand[i];
           const VertexPush q = ov.gather(v);
@@ -468,8 +692,12 @@ void host_iterate(HostWorkspace* w, const Problem<R>& p, std::int64_t k0, std::i
         std::memcpy(tl.c, tc, sizeof tc);
         tl.nmoved = nm;
       }, serial);
-      for (const Tile& tl : w->tiles)
+      std::size_t gathered = 0;
+      for (const Tile& tl : w->tiles) {
         for (int q = 0; q < kCounters; ++q) c[q] += tl.c[q];
+        gathered += tl.gathered;
+      }
+      log_gather(k, c, gathered, 0, 0);
       if (!keeps_going(c, k, max_iterations)) return;
       for_each_tile(nt, [&](std::size_t t) {
         const Tile& tl = w->tiles[t];
