@@ -102,6 +102,7 @@ struct HostWorkspace {
   std::size_t last_moved = 0;           // particles the last iteration moved
   // EXPERIMENT (FF_OC_TILE): the tiled scheme's scratch (tiled_iterate).
   std::vector<double> tile_disp, tile_step;  // 2 per particle
+  std::size_t last_gathered = 0;             // the log's count of a work-list iteration
 };
 
 // The workspace for n particles (from scratch).
@@ -378,13 +379,23 @@ __attribute__((flatten)) void edge_pass(const Overlaps<R, Walls>& ov, Tile& tl, 
 //   gs:     an inner sweep walks the own particles in index order and each one's fan: an edge to a
 //           later own particle moves both ends (the pair rule, each push capped), an edge to another
 //           tile's particle moves the own end only; positions as the sweep leaves them.
-// Cross-tile pairs: each tile moves only its own end, by the full pair rule against the other end
-// frozen at P0; the other end does the same in its own tile. In the first inner iteration that is
-// exactly jacobi's move of that pair (both ends by δ = σ − r, reflect), so the rule keeps the pair
-// rule's physics at tile borders; in the tile's own view the pair is then at contact and pushes no
-// more unless an own neighbour pushes its end back.
-// A tile stops when an inner iteration finds no pair (of an own particle) beyond the tolerance in
-// its view (that iteration's moves are not applied, as the global rule does).
+// Cross-tile pairs (FF_OC_TILE_CROSS): each tile moves only its own end, by the full pair rule
+// against the other end at P0; the other end does the same in its own tile.
+//   first (default): only in the first inner iteration. That iteration is then exactly a jacobi
+//           iteration (every particle gathers every neighbour at P0): a border pair moves as in
+//           jacobi, both ends by δ = σ − r. Later inner iterations see only the tile's own pairs
+//           (the rest of the system is invisible); a border pair they push back together is found
+//           by the next global iteration.
+//   all:    in every inner iteration, the other end frozen at P0. Loses: a border particle
+//           hemmed in by frozen particles of another tile bounces between them with period 2
+//           under reflect (an even m moves it by exactly 0) and the step never converges
+//           (bench-abp 2^14 stopped at max_iterations in every configuration tried).
+// FF_OC_TILE_SHIFT=1: odd global iterations cut the tiles at T/2 + j·T instead of j·T, so that
+// last iteration's border pairs are inside a tile.
+// A tile stops when an inner iteration finds no pair (of an own particle, seen as above) beyond
+// the tolerance (that iteration's moves are not applied, as the global rule does). With m = 1 the
+// scheme is jacobi (same iterations and pairs; a tile without a pair beyond the tolerance does
+// not apply its in-tolerance moves, the only difference).
 // FF_OC_LOG=file: one line per global gather (both schemes): k, bad, pairs, particle-gathers (an
 // edge pass counts N, a work list its candidates, a tile pass Σ inner iterations × tile size),
 // tile-iterations, active (particles with an overlapping pair, summed over inner iterations).
@@ -393,6 +404,7 @@ struct TileScheme {
   int inner = 64;
   bool gs = false;
   bool cross_all = false;  // cross-tile pairs in every inner iteration (else only in the first)
+  bool shift = false;      // odd global iterations shift the tiles by T/2 (borders become interiors)
 };
 
 inline TileScheme tile_scheme() {
@@ -401,6 +413,7 @@ inline TileScheme tile_scheme() {
   if (const char* s = std::getenv("FF_OC_TILE_INNER")) t.inner = std::atoi(s);
   if (const char* s = std::getenv("FF_OC_TILE_ORDER")) t.gs = std::strcmp(s, "gs") == 0;
   if (const char* s = std::getenv("FF_OC_TILE_CROSS")) t.cross_all = std::strcmp(s, "all") == 0;
+  if (const char* s = std::getenv("FF_OC_TILE_SHIFT")) t.shift = std::atoi(s) != 0;
   return t;
 }
 
@@ -413,11 +426,11 @@ inline std::FILE* oc_log() {
 }
 
 inline void log_gather(std::int64_t k, const std::uint64_t* c, std::uint64_t gathers, std::uint64_t tile_its,
-                       std::uint64_t active) {
+                       std::uint64_t active, std::uint64_t moved = 0, std::uint64_t cross = 0) {
   if (std::FILE* f = oc_log())
-    std::fprintf(f, "%lld %llu %llu %llu %llu %llu\n", (long long)k, (unsigned long long)c[kBad],
+    std::fprintf(f, "%lld %llu %llu %llu %llu %llu %llu %llu\n", (long long)k, (unsigned long long)c[kBad],
                  (unsigned long long)c[kPairs], (unsigned long long)gathers, (unsigned long long)tile_its,
-                 (unsigned long long)active);
+                 (unsigned long long)active, (unsigned long long)moved, (unsigned long long)cross);
 }
 
 struct TileStats {
@@ -517,13 +530,14 @@ void tiled_iterate(HostWorkspace* w, const Problem<R>& p, const O& ov, const Til
     std::uint64_t* c = out.counters[j];
     std::memset(c, 0, kCounters * sizeof(std::uint64_t));
     out.gathers = j + 1;
-    std::uint64_t hash = 0;
+    std::uint64_t hash = 0, cross = 0;  // cross: edges between two tiles (unshifted), for the log
     for (std::size_t e = 0; e < 3 * n; ++e) {  // the global check at P0 (on a GPU: inner iteration 0)
       int a, b;
       std::int64_t qx, qy;
       double o;
       const int r = ov.template edge<false>(e, a, b, qx, qy, o, hash);
       if (r == kEdgeCorrupt) ++c[kBroken];
+      if (r != kEdgeCorrupt && std::size_t(a) / T != std::size_t(b) / T) ++cross;
       if (r != kEdgeOverlap) continue;
       if (o > 0) {
         ++c[kPairs];
@@ -531,35 +545,19 @@ void tiled_iterate(HostWorkspace* w, const Problem<R>& p, const O& ov, const Til
       }
     }
     if (!keeps_going(c, k, max_iterations)) {
-      log_gather(k, c, n, 0, 0);
+      log_gather(k, c, n, 0, 0, 0, cross);
       return;
     }
-    static const char* watch = std::getenv("FF_OC_WATCH");
-    if (watch && k > 900) {
-      int a = 0, b = 0;
-      std::sscanf(watch, "%d,%d", &a, &b);
-      double xa, ya, xb, yb;
-      load_xy(p.pos, a, xa, ya);
-      load_xy(p.pos, b, xb, yb);
-      std::fprintf(stderr, "k %lld a (%.9f %.9f) b (%.9f %.9f) r %.9f bad %llu\n", (long long)k, xa, ya, xb, yb,
-                   std::sqrt((xb - xa) * (xb - xa) + (yb - ya) * (yb - ya)), (unsigned long long)c[kBad]);
-      ov.for_each_neighbor(a, [&](int u, int) {
-        double xu, yu;
-        load_xy(p.pos, u, xu, yu);
-        std::fprintf(stderr, "   a~%d r %.9f\n", u, std::sqrt((xu - xa) * (xu - xa) + (yu - ya) * (yu - ya)));
-      });
-      ov.for_each_neighbor(b, [&](int u, int) {
-        double xu, yu;
-        load_xy(p.pos, u, xu, yu);
-        std::fprintf(stderr, "   b~%d r %.9f\n", u, std::sqrt((xu - xb) * (xu - xb) + (yu - yb) * (yu - yb)));
-      });
-    }
-    for_each_tile(nt, [&](std::size_t t) {
-      stats[t] = run_tile(ov, p.pos, t * T, std::min(n, (t + 1) * T), ts, w->tile_disp.data(), w->tile_step.data());
+    // Tile t is [start(t), start(t + 1)); shifted: [0, T/2) first, then T-ranges from T/2.
+    const std::size_t off = ts.shift && (k & 1) ? T / 2 : 0, ntk = off ? (n - off + T - 1) / T + 1 : nt;
+    auto start = [&](std::size_t t) { return t == 0 ? 0 : std::min(n, off + (off ? t - 1 : t) * T); };
+    stats.resize(ntk);
+    for_each_tile(ntk, [&](std::size_t t) {
+      stats[t] = run_tile(ov, p.pos, start(t), start(t + 1), ts, w->tile_disp.data(), w->tile_step.data());
     });
-    std::uint64_t gathers = 0, its = 0, active = 0, corr = 0;
-    for (std::size_t t = 0; t < nt; ++t) {
-      gathers += stats[t].its * (std::min(n, (t + 1) * T) - t * T);
+    std::uint64_t gathers = 0, its = 0, active = 0, corr = 0, moved = 0;
+    for (std::size_t t = 0; t < ntk; ++t) {
+      gathers += stats[t].its * (start(t + 1) - start(t));
       its += stats[t].its;
       active += stats[t].active;
     }
@@ -568,9 +566,10 @@ void tiled_iterate(HostWorkspace* w, const Problem<R>& p, const O& ov, const Til
       if (dx == 0 && dy == 0) continue;
       apply_one(p.pos, p.image, p.box, v, dx, dy);
       corr += ov.fixed_len(std::sqrt(dx * dx + dy * dy));
+      ++moved;
     }
     c[kCorrection] = corr;
-    log_gather(k, c, gathers, its, active);
+    log_gather(k, c, gathers, its, active, moved, cross);
   }
 }
 // ---------------------------------------------------------------------------------------------
@@ -660,7 +659,7 @@ void host_iterate(HostWorkspace* w, const Problem<R>& p, std::int64_t k0, std::i
         std::memset(cur + tl.t0, 0, tl.t1 - tl.t0);  // an edge pass finds every candidate itself
       });
       for (const Tile& tl : w->tiles) c[kTouched] += tl.c[kTouched];
-      log_gather(k, c, w->n, 0, 0);
+      if (!go) log_gather(k, c, w->n, 0, 0);
       if (!go) return;
       for (const Tile& tl : w->tiles) c[kCorrection] += tl.c[kCorrection];
     } else {
@@ -697,8 +696,9 @@ void host_iterate(HostWorkspace* w, const Problem<R>& p, std::int64_t k0, std::i
         for (int q = 0; q < kCounters; ++q) c[q] += tl.c[q];
         gathered += tl.gathered;
       }
-      log_gather(k, c, gathered, 0, 0);
+      if (!keeps_going(c, k, max_iterations)) log_gather(k, c, gathered, 0, 0);
       if (!keeps_going(c, k, max_iterations)) return;
+      w->last_gathered = gathered;
       for_each_tile(nt, [&](std::size_t t) {
         const Tile& tl = w->tiles[t];
         for (std::size_t i = 0, nm = tl.nmoved; i < nm; ++i)
@@ -707,6 +707,7 @@ void host_iterate(HostWorkspace* w, const Problem<R>& p, std::int64_t k0, std::i
     }
     std::size_t moved = 0;
     for (const Tile& tl : w->tiles) moved += tl.nmoved;
+    log_gather(k, c, edge ? w->n : w->last_gathered, 0, 0, moved);
     w->last_moved = moved;
     w->edge_pass = moved >= w->n / kEdgeMode;
     if (w->edge_pass) continue;  // it finds every overlapping edge itself
