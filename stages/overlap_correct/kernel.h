@@ -453,6 +453,16 @@ struct Overlaps : PushRule {
     return out;
   }
 
+  // Whether u (at xu, yu) overlaps v (at xv, yv with diameter sv) by pair_term's own test
+  // (r² < σ_vu², the same operations): exactly the pairs for which gather_pair_at adds a push.
+  FF_HD bool overlaps_at(double xv, double yv, double sv, int u, double xu, double yu) const {
+    const double r[2] = {min_image(xu - xv, 0), min_image(yu - yv, 1)};
+    const double s = 0.5 * (sv + diameter_of(u));
+    double r2 = r[0] * r[0];
+    r2 += r[1] * r[1];
+    return r2 < s * s;
+  }
+
   // One neighbour u's part of v's gather (v at xv, yv with diameter sv): its push subtracted
   // from the fixed-point sum (qx, qy), and out's touched / pairs / bad. The parts of v's
   // neighbours may be summed in any order, or apart and then added (the device's lane groups).
