@@ -103,6 +103,14 @@ struct HostWorkspace {
   // EXPERIMENT (FF_OC_TILE): the tiled scheme's scratch (tiled_iterate).
   std::vector<double> tile_disp, tile_step;  // 2 per particle
   std::size_t last_gathered = 0;             // the log's count of a work-list iteration
+  std::vector<std::uint32_t> tile_of;        // per particle: its tile in this global iteration
+  std::vector<int> tile_members;             // particles by tile (tile_start: offsets)
+  std::vector<std::size_t> tile_start;
+  struct Cells {
+    std::vector<std::uint32_t> tile_of;
+    std::vector<int> members;
+    std::vector<std::size_t> start;
+  } step_cells[2];                           // FF_OC_TILE_CELLS=2: the step's unshifted and shifted cells
 };
 
 // The workspace for n particles (from scratch).
@@ -405,6 +413,8 @@ struct TileScheme {
   bool gs = false;
   bool cross_all = false;  // cross-tile pairs in every inner iteration (else only in the first)
   bool shift = false;      // odd global iterations shift the tiles by T/2 (borders become interiors)
+  int cells = 0;           // tiles by spatial cells instead of index ranges: 1 from each global
+                           // iteration's positions, 2 from the step's start (both grids)
 };
 
 inline TileScheme tile_scheme() {
@@ -414,6 +424,7 @@ inline TileScheme tile_scheme() {
   if (const char* s = std::getenv("FF_OC_TILE_ORDER")) t.gs = std::strcmp(s, "gs") == 0;
   if (const char* s = std::getenv("FF_OC_TILE_CROSS")) t.cross_all = std::strcmp(s, "all") == 0;
   if (const char* s = std::getenv("FF_OC_TILE_SHIFT")) t.shift = std::atoi(s) != 0;
+  if (const char* s = std::getenv("FF_OC_TILE_CELLS")) t.cells = std::atoi(s);
   return t;
 }
 
@@ -439,11 +450,11 @@ struct TileStats {
 
 // One tile's inner iterations: its own particles' moves summed into disp (2 per particle).
 template <class R, class O>
-TileStats run_tile(const O& ov, const R* pos, std::size_t t0, std::size_t t1, const TileScheme& ts, double* disp,
-                   double* step) {
+TileStats run_tile(const O& ov, const R* pos, std::uint32_t t, const int* members, std::size_t count,
+                   const std::uint32_t* tile_of, const TileScheme& ts, double* disp, double* step) {
   TileStats st;
-  for (std::size_t i = 2 * t0; i < 2 * t1; ++i) disp[i] = 0;
-  auto own = [&](int u) { return std::size_t(u) - t0 < t1 - t0; };
+  for (std::size_t i = 0; i < count; ++i) disp[2 * std::size_t(members[i])] = disp[2 * std::size_t(members[i]) + 1] = 0;
+  auto own = [&](int u) { return tile_of[u] == t; };
   auto at = [&](int u, double& x, double& y) {
     load_xy(pos, u, x, y);
     if (own(u)) {
@@ -455,7 +466,8 @@ TileStats run_tile(const O& ov, const R* pos, std::size_t t0, std::size_t t1, co
     ++st.its;
     bool any_bad = false;
     if (!ts.gs) {
-      for (std::size_t v = t0; v < t1; ++v) {
+      for (std::size_t i = 0; i < count; ++i) {
+        const std::size_t v = std::size_t(members[i]);
         double xv, yv;
         at(int(v), xv, yv);
         const double sv = ov.diameter_of(int(v));
@@ -481,9 +493,14 @@ TileStats run_tile(const O& ov, const R* pos, std::size_t t0, std::size_t t1, co
         step[2 * v + 1] = q.dy;
       }
       if (!any_bad) break;
-      for (std::size_t i = 2 * t0; i < 2 * t1; ++i) disp[i] += step[i];
+      for (std::size_t i = 0; i < count; ++i) {
+        const std::size_t v = std::size_t(members[i]);
+        disp[2 * v] += step[2 * v];
+        disp[2 * v + 1] += step[2 * v + 1];
+      }
     } else {
-      for (std::size_t v = t0; v < t1; ++v) {
+      for (std::size_t i = 0; i < count; ++i) {  // members in index order
+        const std::size_t v = std::size_t(members[i]);
         bool touched = false;
         ov.for_each_neighbor(int(v), [&](int u, int) {
           const bool mine = own(u);
@@ -517,27 +534,78 @@ TileStats run_tile(const O& ov, const R* pos, std::size_t t0, std::size_t t1, co
   return st;
 }
 
+// The tiles of a global iteration into w->tile_of / tile_members / tile_start; returns their count.
+//   index order (default): T consecutive indices; shifted: [0, T/2), then T-ranges from T/2.
+//   cells (FF_OC_TILE_CELLS=1): a periodic grid of square-ish cells holding T particles on average,
+//   from the positions at the iteration's start (the tiles follow space whatever the order);
+//   shifted: the grid moved by half a cell along both axes. Members in index order.
+template <class R>
+std::size_t make_tiles(HostWorkspace* w, const Problem<R>& p, const TileScheme& ts, bool shifted, bool fresh = true) {
+  const std::size_t n = p.n, T = ts.size;
+  w->tile_of.resize(n);
+  w->tile_members.resize(n);
+  std::size_t nt;
+  if (!ts.cells) {
+    const std::size_t off = ts.shift && shifted ? T / 2 : 0;
+    nt = off ? (n - off + T - 1) / T + 1 : (n + T - 1) / T;
+    for (std::size_t v = 0; v < n; ++v) {
+      w->tile_of[v] = std::uint32_t(off ? (v < off ? 0 : 1 + (v - off) / T) : v / T);
+      w->tile_members[v] = int(v);
+    }
+  } else if (ts.cells == 2 && !fresh) {  // the step's cells, made at its first iteration
+    auto& c = w->step_cells[shifted];
+    w->tile_of = c.tile_of;
+    w->tile_members = c.members;
+    w->tile_start = c.start;
+    return c.start.size() - 1;
+  } else {
+    const double L0 = double(p.box.L[0]), L1 = double(p.box.L[1]);
+    const double side = std::sqrt(double(T) * L0 * L1 / double(n));
+    const long nx = std::max(1L, std::lround(L0 / side)), ny = std::max(1L, std::lround(L1 / side));
+    const double half = ts.shift && shifted ? 0.5 : 0.0;
+    nt = std::size_t(nx * ny);
+    for (std::size_t v = 0; v < n; ++v) {
+      double x, y;
+      load_xy(p.pos, int(v), x, y);
+      long cx = long(std::floor(x / L0 * double(nx) + half)) % nx, cy = long(std::floor(y / L1 * double(ny) + half)) % ny;
+      if (cx < 0) cx += nx;
+      if (cy < 0) cy += ny;
+      w->tile_of[v] = std::uint32_t(cy * nx + cx);
+    }
+  }
+  w->tile_start.assign(nt + 1, 0);
+  for (std::size_t v = 0; v < n; ++v) ++w->tile_start[w->tile_of[v] + 1];
+  for (std::size_t t = 0; t < nt; ++t) w->tile_start[t + 1] += w->tile_start[t];
+  if (ts.cells) {
+    std::vector<std::size_t> fill(w->tile_start.begin(), w->tile_start.end() - 1);
+    for (std::size_t v = 0; v < n; ++v) w->tile_members[fill[w->tile_of[v]]++] = int(v);
+    if (ts.cells == 2) w->step_cells[shifted] = {w->tile_of, w->tile_members, w->tile_start};
+  }
+  return nt;
+}
+
 template <class R, class O>
 void tiled_iterate(HostWorkspace* w, const Problem<R>& p, const O& ov, const TileScheme& ts, std::int64_t k0,
                    std::int64_t max_iterations, Batch& out) {
-  const std::size_t n = p.n, T = ts.size, nt = (n + T - 1) / T;
+  const std::size_t n = p.n;
   w->tile_disp.resize(2 * n);
   w->tile_step.resize(2 * n);
-  std::vector<TileStats> stats(nt);
+  std::vector<TileStats> stats;
   out.gathers = 0;
   for (int j = 0; j < kBatch; ++j) {
     const std::int64_t k = k0 + j;
     std::uint64_t* c = out.counters[j];
     std::memset(c, 0, kCounters * sizeof(std::uint64_t));
     out.gathers = j + 1;
-    std::uint64_t hash = 0, cross = 0;  // cross: edges between two tiles (unshifted), for the log
+    make_tiles(w, p, ts, false, k == 0);
+    std::uint64_t hash = 0, cross = 0;  // cross: edges between two unshifted tiles, for the log
     for (std::size_t e = 0; e < 3 * n; ++e) {  // the global check at P0 (on a GPU: inner iteration 0)
       int a, b;
       std::int64_t qx, qy;
       double o;
       const int r = ov.template edge<false>(e, a, b, qx, qy, o, hash);
       if (r == kEdgeCorrupt) ++c[kBroken];
-      if (r != kEdgeCorrupt && std::size_t(a) / T != std::size_t(b) / T) ++cross;
+      if (r != kEdgeCorrupt && w->tile_of[std::size_t(a)] != w->tile_of[std::size_t(b)]) ++cross;
       if (r != kEdgeOverlap) continue;
       if (o > 0) {
         ++c[kPairs];
@@ -548,16 +616,16 @@ void tiled_iterate(HostWorkspace* w, const Problem<R>& p, const O& ov, const Til
       log_gather(k, c, n, 0, 0, 0, cross);
       return;
     }
-    // Tile t is [start(t), start(t + 1)); shifted: [0, T/2) first, then T-ranges from T/2.
-    const std::size_t off = ts.shift && (k & 1) ? T / 2 : 0, ntk = off ? (n - off + T - 1) / T + 1 : nt;
-    auto start = [&](std::size_t t) { return t == 0 ? 0 : std::min(n, off + (off ? t - 1 : t) * T); };
+    const std::size_t ntk = make_tiles(w, p, ts, ts.shift && (k & 1), k == 0 || (k == 1 && ts.shift));
     stats.resize(ntk);
     for_each_tile(ntk, [&](std::size_t t) {
-      stats[t] = run_tile(ov, p.pos, start(t), start(t + 1), ts, w->tile_disp.data(), w->tile_step.data());
+      const std::size_t b = w->tile_start[t], e = w->tile_start[t + 1];
+      stats[t] = run_tile(ov, p.pos, std::uint32_t(t), w->tile_members.data() + b, e - b, w->tile_of.data(), ts,
+                          w->tile_disp.data(), w->tile_step.data());
     });
     std::uint64_t gathers = 0, its = 0, active = 0, corr = 0, moved = 0;
     for (std::size_t t = 0; t < ntk; ++t) {
-      gathers += stats[t].its * (start(t + 1) - start(t));
+      gathers += stats[t].its * (w->tile_start[t + 1] - w->tile_start[t]);
       its += stats[t].its;
       active += stats[t].active;
     }
