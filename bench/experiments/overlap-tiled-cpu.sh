@@ -6,7 +6,7 @@
 # Per configuration: global iterations, pairs and particle-gathers per step over the 40 steps whose
 # metrics `pipeline bench` reports (its second pass of --steps), inner iterations per tile per
 # global iteration, iterations before the GPU's one-block tail would start (the previous iteration
-# moved <= 512 particles), and the fraction of Delaunay edges between two tiles.
+# moved <= 512 particles), and the fraction of Delaunay edges between two tiles (unshifted).
 # Physics (same build, same variables): test_hard_disk_eos -s; pipelines/abp-carter-phi0.4.yaml
 # with steps 3000, an observe.h5md every 3000 and --set run.seed=42..45 (MSD at t = 30 from
 # /observables/observe.msd/msd/value).
@@ -61,5 +61,7 @@ for phase in early:early.yaml:20 from3000:from3000.yaml:0 own3000:early.yaml:300
       run "$p-T$T-m$m" "$yaml" "$warm" "$T" "$m"
       run "$p-T$T-m$m-shift" "$yaml" "$warm" "$T" "$m" FF_OC_TILE_SHIFT=1
     done
+    # tiles by spatial cells, made once per step (FF_OC_TILE_CELLS=2), shifted grid in odd iterations
+    run "$p-T$T-m4-cells-shift" "$yaml" "$warm" "$T" 4 FF_OC_TILE_SHIFT=1 FF_OC_TILE_CELLS=2
   done
 done

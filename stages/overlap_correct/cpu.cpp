@@ -437,11 +437,13 @@ inline std::FILE* oc_log() {
 }
 
 inline void log_gather(std::int64_t k, const std::uint64_t* c, std::uint64_t gathers, std::uint64_t tile_its,
-                       std::uint64_t active, std::uint64_t moved = 0, std::uint64_t cross = 0) {
+                       std::uint64_t active, std::uint64_t moved = 0, std::uint64_t cross = 0,
+                       std::uint64_t largest = 0) {
   if (std::FILE* f = oc_log())
-    std::fprintf(f, "%lld %llu %llu %llu %llu %llu %llu %llu\n", (long long)k, (unsigned long long)c[kBad],
+    std::fprintf(f, "%lld %llu %llu %llu %llu %llu %llu %llu %llu\n", (long long)k, (unsigned long long)c[kBad],
                  (unsigned long long)c[kPairs], (unsigned long long)gathers, (unsigned long long)tile_its,
-                 (unsigned long long)active, (unsigned long long)moved, (unsigned long long)cross);
+                 (unsigned long long)active, (unsigned long long)moved, (unsigned long long)cross,
+                 (unsigned long long)largest);
 }
 
 struct TileStats {
@@ -623,8 +625,9 @@ void tiled_iterate(HostWorkspace* w, const Problem<R>& p, const O& ov, const Til
       stats[t] = run_tile(ov, p.pos, std::uint32_t(t), w->tile_members.data() + b, e - b, w->tile_of.data(), ts,
                           w->tile_disp.data(), w->tile_step.data());
     });
-    std::uint64_t gathers = 0, its = 0, active = 0, corr = 0, moved = 0;
+    std::uint64_t gathers = 0, its = 0, active = 0, corr = 0, moved = 0, largest = 0;
     for (std::size_t t = 0; t < ntk; ++t) {
+      largest = std::max<std::uint64_t>(largest, w->tile_start[t + 1] - w->tile_start[t]);
       gathers += stats[t].its * (w->tile_start[t + 1] - w->tile_start[t]);
       its += stats[t].its;
       active += stats[t].active;
@@ -637,7 +640,7 @@ void tiled_iterate(HostWorkspace* w, const Problem<R>& p, const O& ov, const Til
       ++moved;
     }
     c[kCorrection] = corr;
-    log_gather(k, c, gathers, its, active, moved, cross);
+    log_gather(k, c, gathers, its, active, moved, cross, largest);
   }
 }
 // ---------------------------------------------------------------------------------------------
