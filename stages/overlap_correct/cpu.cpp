@@ -37,7 +37,6 @@
 #include <oneapi/tbb/partitioner.h>
 
 #include <algorithm>
-#include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <type_traits>
@@ -89,7 +88,6 @@ struct Tile {
   std::size_t nremote[3] = {0, 0, 0};
   std::uint64_t c[kCounters];    // this gather's counters
   std::uint64_t next_hash = 0;   // the edge pass's share of the permutation check
-  std::size_t gathered = 0;      // EXPERIMENT log: particles a work-list iteration gathered
 };
 
 struct HostWorkspace {
@@ -100,17 +98,6 @@ struct HostWorkspace {
   std::vector<Tile> tiles;
   bool edge_pass = true;                // the next iteration is an edge pass
   std::size_t last_moved = 0;           // particles the last iteration moved
-  // EXPERIMENT (FF_OC_TILE): the tiled scheme's scratch (tiled_iterate).
-  std::vector<double> tile_disp, tile_step;  // 2 per particle
-  std::size_t last_gathered = 0;             // the log's count of a work-list iteration
-  std::vector<std::uint32_t> tile_of;        // per particle: its tile in this global iteration
-  std::vector<int> tile_members;             // particles by tile (tile_start: offsets)
-  std::vector<std::size_t> tile_start;
-  struct Cells {
-    std::vector<std::uint32_t> tile_of;
-    std::vector<int> members;
-    std::vector<std::size_t> start;
-  } step_cells[2];                           // FF_OC_TILE_CELLS=2: the step's unshifted and shifted cells
 };
 
 // The workspace for n particles (from scratch).
@@ -370,289 +357,10 @@ __attribute__((flatten)) void edge_pass(const Overlaps<R, Walls>& ov, Tile& tl, 
   tl.next_hash = hash;
 }
 
-
-// ---------------------------------------------------------------------------------------------
-// EXPERIMENT (issue 20 item 3, branch octile; not for main): tiled iterations.
-//
-// FF_OC_TILE=T (T particles per tile: contiguous index ranges, i.e. pieces of the Hilbert order
-// delaunay.sort made), FF_OC_TILE_INNER=m (inner iterations per tile and global iteration, at
-// most; default 64 = "until the tile converges"), FF_OC_TILE_ORDER=jacobi|gs.
-// A global iteration: a global check at the positions P0 of its start (every edge once: pairs and
-// pairs beyond the tolerance, counted as jacobi counts them; the step ends when none is beyond);
-// then every tile, independently, runs up to m inner iterations on its own particles only, the
-// particles of other tiles held at P0; then every particle moves by the sum of its tile's inner
-// moves (applied once, wrapped).
-//   jacobi: an inner iteration gathers every own particle (pushes of all its neighbours: own ones
-//           at their current inner positions, others at P0), caps and moves them all at once;
-//   gs:     an inner sweep walks the own particles in index order and each one's fan: an edge to a
-//           later own particle moves both ends (the pair rule, each push capped), an edge to another
-//           tile's particle moves the own end only; positions as the sweep leaves them.
-// Cross-tile pairs (FF_OC_TILE_CROSS): each tile moves only its own end, by the full pair rule
-// against the other end at P0; the other end does the same in its own tile.
-//   first (default): only in the first inner iteration. That iteration is then exactly a jacobi
-//           iteration (every particle gathers every neighbour at P0): a border pair moves as in
-//           jacobi, both ends by δ = σ − r. Later inner iterations see only the tile's own pairs
-//           (the rest of the system is invisible); a border pair they push back together is found
-//           by the next global iteration.
-//   all:    in every inner iteration, the other end frozen at P0. Loses: a border particle
-//           hemmed in by frozen particles of another tile bounces between them with period 2
-//           under reflect (an even m moves it by exactly 0) and the step never converges
-//           (bench-abp 2^14 stopped at max_iterations in every configuration tried).
-// FF_OC_TILE_SHIFT=1: odd global iterations cut the tiles at T/2 + j·T instead of j·T, so that
-// last iteration's border pairs are inside a tile.
-// A tile stops when an inner iteration finds no pair (of an own particle, seen as above) beyond
-// the tolerance (that iteration's moves are not applied, as the global rule does). With m = 1 the
-// scheme is jacobi (same iterations and pairs; a tile without a pair beyond the tolerance does
-// not apply its in-tolerance moves, the only difference).
-// FF_OC_LOG=file: one line per global gather (both schemes): k, bad, pairs, particle-gathers (an
-// edge pass counts N, a work list its candidates, a tile pass Σ inner iterations × tile size),
-// tile-iterations, active (particles with an overlapping pair, summed over inner iterations).
-struct TileScheme {
-  std::size_t size = 0;  // 0: off
-  int inner = 64;
-  bool gs = false;
-  bool cross_all = false;  // cross-tile pairs in every inner iteration (else only in the first)
-  bool shift = false;      // odd global iterations shift the tiles by T/2 (borders become interiors)
-  int cells = 0;           // tiles by spatial cells instead of index ranges: 1 from each global
-                           // iteration's positions, 2 from the step's start (both grids)
-};
-
-inline TileScheme tile_scheme() {
-  TileScheme t;
-  if (const char* s = std::getenv("FF_OC_TILE")) t.size = std::size_t(std::atol(s));
-  if (const char* s = std::getenv("FF_OC_TILE_INNER")) t.inner = std::atoi(s);
-  if (const char* s = std::getenv("FF_OC_TILE_ORDER")) t.gs = std::strcmp(s, "gs") == 0;
-  if (const char* s = std::getenv("FF_OC_TILE_CROSS")) t.cross_all = std::strcmp(s, "all") == 0;
-  if (const char* s = std::getenv("FF_OC_TILE_SHIFT")) t.shift = std::atoi(s) != 0;
-  if (const char* s = std::getenv("FF_OC_TILE_CELLS")) t.cells = std::atoi(s);
-  return t;
-}
-
-inline std::FILE* oc_log() {
-  static std::FILE* f = [] {
-    const char* path = std::getenv("FF_OC_LOG");
-    return path ? std::fopen(path, "w") : static_cast<std::FILE*>(nullptr);
-  }();
-  return f;
-}
-
-inline void log_gather(std::int64_t k, const std::uint64_t* c, std::uint64_t gathers, std::uint64_t tile_its,
-                       std::uint64_t active, std::uint64_t moved = 0, std::uint64_t cross = 0,
-                       std::uint64_t largest = 0) {
-  if (std::FILE* f = oc_log())
-    std::fprintf(f, "%lld %llu %llu %llu %llu %llu %llu %llu %llu\n", (long long)k, (unsigned long long)c[kBad],
-                 (unsigned long long)c[kPairs], (unsigned long long)gathers, (unsigned long long)tile_its,
-                 (unsigned long long)active, (unsigned long long)moved, (unsigned long long)cross,
-                 (unsigned long long)largest);
-}
-
-struct TileStats {
-  std::uint64_t its = 0, active = 0;
-};
-
-// One tile's inner iterations: its own particles' moves summed into disp (2 per particle).
-template <class R, class O>
-TileStats run_tile(const O& ov, const R* pos, std::uint32_t t, const int* members, std::size_t count,
-                   const std::uint32_t* tile_of, const TileScheme& ts, double* disp, double* step) {
-  TileStats st;
-  for (std::size_t i = 0; i < count; ++i) disp[2 * std::size_t(members[i])] = disp[2 * std::size_t(members[i]) + 1] = 0;
-  auto own = [&](int u) { return tile_of[u] == t; };
-  auto at = [&](int u, double& x, double& y) {
-    load_xy(pos, u, x, y);
-    if (own(u)) {
-      x += disp[2 * std::size_t(u)];
-      y += disp[2 * std::size_t(u) + 1];
-    }
-  };
-  for (int it = 0; it < ts.inner; ++it) {
-    ++st.its;
-    bool any_bad = false;
-    if (!ts.gs) {
-      for (std::size_t i = 0; i < count; ++i) {
-        const std::size_t v = std::size_t(members[i]);
-        double xv, yv;
-        at(int(v), xv, yv);
-        const double sv = ov.diameter_of(int(v));
-        std::int64_t qx = 0, qy = 0;
-        bool touched = false;
-        ov.for_each_neighbor(int(v), [&](int u, int) {
-          if (it > 0 && !ts.cross_all && !own(u)) return;
-          double xu, yu;
-          at(u, xu, yu);
-          double tx, ty;
-          const double o = pair_term(ov.min_image(xu - xv, 0), ov.min_image(yu - yv, 1), sv, ov.diameter_of(u),
-                                     ov.factor, int(v), u, tx, ty);
-          if (o == kNoOverlap) return;
-          qx -= ov.fixed_push(tx);
-          qy -= ov.fixed_push(ty);
-          touched = true;
-          if (o > ov.tol) any_bad = true;
-        });
-        st.active += touched;
-        VertexPush q;
-        ov.finish(qx, qy, sv, q);
-        step[2 * v] = q.dx;
-        step[2 * v + 1] = q.dy;
-      }
-      if (!any_bad) break;
-      for (std::size_t i = 0; i < count; ++i) {
-        const std::size_t v = std::size_t(members[i]);
-        disp[2 * v] += step[2 * v];
-        disp[2 * v + 1] += step[2 * v + 1];
-      }
-    } else {
-      for (std::size_t i = 0; i < count; ++i) {  // members in index order
-        const std::size_t v = std::size_t(members[i]);
-        bool touched = false;
-        ov.for_each_neighbor(int(v), [&](int u, int) {
-          const bool mine = own(u);
-          if (mine && std::size_t(u) < v) return;  // taken from u's side, earlier in the sweep
-          if (it > 0 && !ts.cross_all && !mine) return;
-          double xv, yv, xu, yu;
-          at(int(v), xv, yv);
-          at(u, xu, yu);
-          const double sv = ov.diameter_of(int(v));
-          double tx, ty;
-          const double o = pair_term(ov.min_image(xu - xv, 0), ov.min_image(yu - yv, 1), sv, ov.diameter_of(u),
-                                     ov.factor, int(v), u, tx, ty);
-          if (o == kNoOverlap) return;
-          touched = true;
-          if (o > ov.tol) any_bad = true;
-          const std::int64_t qx = -ov.fixed_push(tx), qy = -ov.fixed_push(ty);
-          const VertexPush a = ov.from_sum(int(v), qx, qy);
-          disp[2 * v] += a.dx;
-          disp[2 * v + 1] += a.dy;
-          if (mine) {
-            const VertexPush b = ov.from_sum(u, -qx, -qy);
-            disp[2 * std::size_t(u)] += b.dx;
-            disp[2 * std::size_t(u) + 1] += b.dy;
-          }
-        });
-        st.active += touched;
-      }
-      if (!any_bad) break;
-    }
-  }
-  return st;
-}
-
-// The tiles of a global iteration into w->tile_of / tile_members / tile_start; returns their count.
-//   index order (default): T consecutive indices; shifted: [0, T/2), then T-ranges from T/2.
-//   cells (FF_OC_TILE_CELLS=1): a periodic grid of square-ish cells holding T particles on average,
-//   from the positions at the iteration's start (the tiles follow space whatever the order);
-//   shifted: the grid moved by half a cell along both axes. Members in index order.
-template <class R>
-std::size_t make_tiles(HostWorkspace* w, const Problem<R>& p, const TileScheme& ts, bool shifted, bool fresh = true) {
-  const std::size_t n = p.n, T = ts.size;
-  w->tile_of.resize(n);
-  w->tile_members.resize(n);
-  std::size_t nt;
-  if (!ts.cells) {
-    const std::size_t off = ts.shift && shifted ? T / 2 : 0;
-    nt = off ? (n - off + T - 1) / T + 1 : (n + T - 1) / T;
-    for (std::size_t v = 0; v < n; ++v) {
-      w->tile_of[v] = std::uint32_t(off ? (v < off ? 0 : 1 + (v - off) / T) : v / T);
-      w->tile_members[v] = int(v);
-    }
-  } else if (ts.cells == 2 && !fresh) {  // the step's cells, made at its first iteration
-    auto& c = w->step_cells[shifted];
-    w->tile_of = c.tile_of;
-    w->tile_members = c.members;
-    w->tile_start = c.start;
-    return c.start.size() - 1;
-  } else {
-    const double L0 = double(p.box.L[0]), L1 = double(p.box.L[1]);
-    const double side = std::sqrt(double(T) * L0 * L1 / double(n));
-    const long nx = std::max(1L, std::lround(L0 / side)), ny = std::max(1L, std::lround(L1 / side));
-    const double half = ts.shift && shifted ? 0.5 : 0.0;
-    nt = std::size_t(nx * ny);
-    for (std::size_t v = 0; v < n; ++v) {
-      double x, y;
-      load_xy(p.pos, int(v), x, y);
-      long cx = long(std::floor(x / L0 * double(nx) + half)) % nx, cy = long(std::floor(y / L1 * double(ny) + half)) % ny;
-      if (cx < 0) cx += nx;
-      if (cy < 0) cy += ny;
-      w->tile_of[v] = std::uint32_t(cy * nx + cx);
-    }
-  }
-  w->tile_start.assign(nt + 1, 0);
-  for (std::size_t v = 0; v < n; ++v) ++w->tile_start[w->tile_of[v] + 1];
-  for (std::size_t t = 0; t < nt; ++t) w->tile_start[t + 1] += w->tile_start[t];
-  if (ts.cells) {
-    std::vector<std::size_t> fill(w->tile_start.begin(), w->tile_start.end() - 1);
-    for (std::size_t v = 0; v < n; ++v) w->tile_members[fill[w->tile_of[v]]++] = int(v);
-    if (ts.cells == 2) w->step_cells[shifted] = {w->tile_of, w->tile_members, w->tile_start};
-  }
-  return nt;
-}
-
-template <class R, class O>
-void tiled_iterate(HostWorkspace* w, const Problem<R>& p, const O& ov, const TileScheme& ts, std::int64_t k0,
-                   std::int64_t max_iterations, Batch& out) {
-  const std::size_t n = p.n;
-  w->tile_disp.resize(2 * n);
-  w->tile_step.resize(2 * n);
-  std::vector<TileStats> stats;
-  out.gathers = 0;
-  for (int j = 0; j < kBatch; ++j) {
-    const std::int64_t k = k0 + j;
-    std::uint64_t* c = out.counters[j];
-    std::memset(c, 0, kCounters * sizeof(std::uint64_t));
-    out.gathers = j + 1;
-    make_tiles(w, p, ts, false, k == 0);
-    std::uint64_t hash = 0, cross = 0;  // cross: edges between two unshifted tiles, for the log
-    for (std::size_t e = 0; e < 3 * n; ++e) {  // the global check at P0 (on a GPU: inner iteration 0)
-      int a, b;
-      std::int64_t qx, qy;
-      double o;
-      const int r = ov.template edge<false>(e, a, b, qx, qy, o, hash);
-      if (r == kEdgeCorrupt) ++c[kBroken];
-      if (r != kEdgeCorrupt && w->tile_of[std::size_t(a)] != w->tile_of[std::size_t(b)]) ++cross;
-      if (r != kEdgeOverlap) continue;
-      if (o > 0) {
-        ++c[kPairs];
-        if (o > ov.tol) ++c[kBad];
-      }
-    }
-    if (!keeps_going(c, k, max_iterations)) {
-      log_gather(k, c, n, 0, 0, 0, cross);
-      return;
-    }
-    const std::size_t ntk = make_tiles(w, p, ts, ts.shift && (k & 1), k == 0 || (k == 1 && ts.shift));
-    stats.resize(ntk);
-    for_each_tile(ntk, [&](std::size_t t) {
-      const std::size_t b = w->tile_start[t], e = w->tile_start[t + 1];
-      stats[t] = run_tile(ov, p.pos, std::uint32_t(t), w->tile_members.data() + b, e - b, w->tile_of.data(), ts,
-                          w->tile_disp.data(), w->tile_step.data());
-    });
-    std::uint64_t gathers = 0, its = 0, active = 0, corr = 0, moved = 0, largest = 0;
-    for (std::size_t t = 0; t < ntk; ++t) {
-      largest = std::max<std::uint64_t>(largest, w->tile_start[t + 1] - w->tile_start[t]);
-      gathers += stats[t].its * (w->tile_start[t + 1] - w->tile_start[t]);
-      its += stats[t].its;
-      active += stats[t].active;
-    }
-    for (std::size_t v = 0; v < n; ++v) {
-      const double dx = w->tile_disp[2 * v], dy = w->tile_disp[2 * v + 1];
-      if (dx == 0 && dy == 0) continue;
-      apply_one(p.pos, p.image, p.box, v, dx, dy);
-      corr += ov.fixed_len(std::sqrt(dx * dx + dy * dy));
-      ++moved;
-    }
-    c[kCorrection] = corr;
-    log_gather(k, c, gathers, its, active, moved, cross, largest);
-  }
-}
-// ---------------------------------------------------------------------------------------------
-
 // Walls: the wall code compiled in (walls: x | y); Mark: the touched field written (mark: true).
 template <bool Walls, bool Mark, class R>
 void host_iterate(HostWorkspace* w, const Problem<R>& p, std::int64_t k0, std::int64_t max_iterations, Batch& out) {
   const Overlaps<R, Walls> ov = p.overlaps.template with_walls<Walls>();
-  if (!Walls && !Mark) {
-    const TileScheme ts = tile_scheme();
-    if (ts.size > 0) return tiled_iterate(w, p, ov, ts, k0, max_iterations, out);
-  }
   const std::size_t nt = w->tiles.size();
   // A step starts from clean flags (cheap; also covers a step that ended in an error).
   if (k0 == 0) {
@@ -730,7 +438,6 @@ void host_iterate(HostWorkspace* w, const Problem<R>& p, std::int64_t k0, std::i
         std::memset(cur + tl.t0, 0, tl.t1 - tl.t0);  // an edge pass finds every candidate itself
       });
       for (const Tile& tl : w->tiles) c[kTouched] += tl.c[kTouched];
-      if (!go) log_gather(k, c, w->n, 0, 0);
       if (!go) return;
       for (const Tile& tl : w->tiles) c[kCorrection] += tl.c[kCorrection];
     } else {
@@ -740,7 +447,6 @@ void host_iterate(HostWorkspace* w, const Problem<R>& p, std::int64_t k0, std::i
         std::uint64_t tc[kCounters] = {};
         std::size_t nm = 0;
         const std::size_t count = compact(cur, tl.t0, tl.t1, tl.cand.data());
-        tl.gathered = count;
         for (std::size_t i = 0; i < count; ++i) {
           const int v = tl.cand[i];
           const VertexPush q = ov.gather(v);
@@ -762,14 +468,9 @@ void host_iterate(HostWorkspace* w, const Problem<R>& p, std::int64_t k0, std::i
         std::memcpy(tl.c, tc, sizeof tc);
         tl.nmoved = nm;
       }, serial);
-      std::size_t gathered = 0;
-      for (const Tile& tl : w->tiles) {
+      for (const Tile& tl : w->tiles)
         for (int q = 0; q < kCounters; ++q) c[q] += tl.c[q];
-        gathered += tl.gathered;
-      }
-      if (!keeps_going(c, k, max_iterations)) log_gather(k, c, gathered, 0, 0);
       if (!keeps_going(c, k, max_iterations)) return;
-      w->last_gathered = gathered;
       for_each_tile(nt, [&](std::size_t t) {
         const Tile& tl = w->tiles[t];
         for (std::size_t i = 0, nm = tl.nmoved; i < nm; ++i)
@@ -778,7 +479,6 @@ void host_iterate(HostWorkspace* w, const Problem<R>& p, std::int64_t k0, std::i
     }
     std::size_t moved = 0;
     for (const Tile& tl : w->tiles) moved += tl.nmoved;
-    log_gather(k, c, edge ? w->n : w->last_gathered, 0, 0, moved);
     w->last_moved = moved;
     w->edge_pass = moved >= w->n / kEdgeMode;
     if (w->edge_pass) continue;  // it finds every overlapping edge itself
