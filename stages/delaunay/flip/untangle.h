@@ -32,11 +32,19 @@
 // (ListSpan), so the host waits once a try when one repair round suffices. Metrics: substeps
 // (halvings), substep_tries (repair passes), substep_depth (the deepest particle's halvings),
 // substep_particles (particles halved at least once).
+//
+// On CUDA the tries after the first failed one run on the device (DeviceTries, flip/cuda.cu):
+// one cooperative kernel in which one thread, reading the counters as read_try does, decides
+// what the host's loop would (the branches below, the rounds of repair_listed; flip/tries.h)
+// and the grid runs that branch's passes; the host reads the counters once when it stops (at the
+// try end where the host would stop, break or throw) and carries on from there. Same passes on
+// the same lists, so the same bits; the CPU runs the host loop.
 // nvcc-clean: included by stage.h, which both backends compile.
 #pragma once
 #include <algorithm>
 #include <array>
 #include <cstdint>
+#include <memory>
 #include <string>
 #include <utility>
 #include <vector>
@@ -80,6 +88,66 @@ UntangleLoops<R> untangle_loops(Exec) {
           &Exec::template for_each<ResetTry>};
 }
 
+// What the device's tries (DeviceTries) start from and hand back: untangle_step's variables at a
+// try's end (the host's copies are updated from it), and the device's own bookkeeping.
+struct TryState {
+  std::int64_t halvings, tries, rounds;  // rounds: those of the tries run on the device
+  std::int64_t try_rounds;               // the current try's rounds that flipped
+  unsigned flips;                        // made on the device
+  unsigned now, n_shallowed, accepted;   // untangle_step's
+  unsigned work_gen, vertex_gen, touched_gen;
+  unsigned last;   // which list the last marking's troubled edges are in: 1 + trouble_ index
+  unsigned fresh;  // 1: the try that just ended was the host's (its rounds are counted)
+  // Set by the deciding kernel for the passes after it (TryPhase; lengths and generations).
+  unsigned phase, out, list, n_list;
+  unsigned n_active, n_last, n_first, n_touched_edges, n_touched_vertices;
+  unsigned first_accept, cur, n_copied;  // an accepted try: V ← positions; active_[cur]
+  unsigned wg_try, wg_round, vg;
+};
+enum TryPhase : unsigned { kPhaseRound = 0, kPhaseAccept = 1, kPhaseFail = 2, kPhaseStop = 3 };
+
+// Everything the device's passes need that stays put while they run: the passes of kernel.h
+// built on the host with what is known there (the lengths, list choices and generations the
+// deciding kernel sets are filled in on the device), the lists, the stamps, the limits.
+template <class R>
+struct TryArgs {
+  MarkListed<R> mark_first, mark_round;
+  DecideListed decide;
+  ApplyListed apply;
+  FindMoving<R> find_moving;
+  RestoreAndDeepen<R> restore_deepen;
+  EdgesAround around;
+  ShallowerAndList<R> shallower;
+  CopyListed<R> copy;
+  const R* copy_from;  // the first acceptance: V ← the positions, every value
+  R* copy_to;
+  std::size_t values;
+  std::int32_t* lists[3];   // first_, trouble_[0], trouble_[1]
+  std::int32_t* active[2];  // active_
+  unsigned* first_block;
+  unsigned* round_block;
+  unsigned *edge_stamp, *vertex_stamp, *touched_edge_stamp, *touched_vertex_stamp;
+  std::size_t n, E;
+  std::int64_t max_rounds, max_substeps;
+  bool passing;
+};
+
+// The tries on the device (CUDA: flip/cuda.cu); null on the CPU. run: from a try's end that
+// untangle_step would follow with another try, the tries until one ends where it would not (or
+// a marking finds a triangle that does not close: read_try throws); `counters` gets both counter
+// blocks. False: the device cannot run them (its kernel does not fit); the host carries on.
+template <class R>
+struct DeviceTries {
+  virtual ~DeviceTries() = default;
+  virtual bool run(const TryArgs<R>& a, TryState& s, unsigned* counters, CUstream_st* st) = 0;
+};
+template <class R>
+std::unique_ptr<DeviceTries<R>> device_tries(const CpuExec&) {
+  return nullptr;
+}
+template <class R>
+std::unique_ptr<DeviceTries<R>> device_tries(const CudaExec&);
+
 // The untangling of one stage object: its lists, stamps and copies of T and of V's topology
 // (allocated on the first run, kept from step to step), and the loops of its backend.
 template <class R>
@@ -106,7 +174,8 @@ class Untangle {
         vertex_stamp_(exec),
         touched_edge_stamp_(exec),
         touched_vertex_stamp_(exec),
-        halved_stamp_(exec) {}
+        halved_stamp_(exec),
+        device_(device_tries<R>(exec)) {}
 
   // What a step's untangling did: ok (the particles at T, position_prev = T, the triangulation
   // valid there, status kPrevKept cleared) or a rollback request (`position` holds T again), and
@@ -147,9 +216,9 @@ class Untangle {
   // Reads both blocks: the round block's marking counters (after the last round) with the
   // first marking's reversed edges and the first block's lists and statistics; the lengths of
   // the first and the last troubled lists into n_first_ / n_last_.
-  SubTally read_try(State& s, CUstream_st* st) {
-    const auto& both = sub_.read(st);
-    const unsigned* f = both.data();
+  SubTally read_try(State& s, CUstream_st* st) { return tally(s, sub_.read(st).data(), st); }
+  SubTally tally(State& s, const unsigned* both, CUstream_st* st) {
+    const unsigned* f = both;
     const unsigned* r = f + kSubstepCounters;
     throw_if_too_long(s, where_, mem_, f[kTooLong], f[kTooLongAt], st, "delaunay.flip");
     throw_if_too_long(s, where_, mem_, r[kTooLong], r[kTooLongAt], st, "delaunay.flip");
@@ -233,6 +302,7 @@ class Untangle {
     std::uint32_t* depth = depth_.get(n);
     unsigned* c = first_block();
     bool announced = false, accepted = false;
+    bool from_device = false;  // h is the device's: the head stops (else the host runs a try)
     std::int64_t halvings = 0;
     tries_ = 0;
     const unsigned step_gen = next_gen(step_gen_, halved_stamp_.get(n), n, st);
@@ -270,8 +340,55 @@ class Untangle {
       // The next marking's work list is built on the backend; its loop is launched over a
       // guess of its length (ListSpan): the host reads counters once a marking, nothing else.
       std::size_t guess = 0;
-      if (!h[kInverted] && !h[kThrough]) {
+      const bool valid = !h[kInverted] && !h[kThrough];
+      if (valid) {
         if (n_active == 0) break;  // at the targets
+      } else {
+        if (halvings == limits_.max_substeps) {
+          if (h[kThrough]) {
+            auto ids = edge_vertices(s, where_, mem_, int(h[kThroughAt]), st);
+            return stop("particles " + list_ids(ids) + " passed through each other (r0.r1 < 0) even after halving the "
+                            "moves " + std::to_string(halvings) + " time(s) (max_substeps)",
+                        ids, h);
+          }
+          return stop(std::to_string(h[kInverted]) + " inverted triangle(s) remain after halving the moves " +
+                          std::to_string(halvings) + " time(s) (max_substeps)",
+                      {}, h);
+        }
+        if (!announced) {  // the first intermediate position: keep T and V for a rollback
+          ctx.will_write(ff::fields::position);
+          ctx.will_write(fields::position_prev);
+          announced = true;
+          x = s.field(ff::fields::position).data<R>(ctx);
+          v = s.field(fields::position_prev).data<R>(ctx);
+          mem_.copy(target, x, bytes, st);
+          mem_.fill(depth, 0, n * sizeof(std::uint32_t), st);
+        }
+      }
+      // CUDA: the device runs the tries from here to the next try's end that the head above
+      // stops at (announced: every try after the first failed one).
+      if (device_ && announced && !from_device) {
+        TryState ts = try_state(E, halvings, accepted, now, n_shallowed);
+        if (device_->run(try_args(s, m, go, x, v, box, step_gen, bytes / sizeof(R)), ts, device_counters_.data(), st)) {
+          halvings = ts.halvings;
+          tries_ = ts.tries;
+          flips_ += ts.flips;
+          rounds_ += ts.rounds;
+          accepted = ts.accepted != 0;
+          now = int(ts.now);
+          n_shallowed = ts.n_shallowed;
+          work_gen_ = ts.work_gen;
+          vertex_gen_ = ts.vertex_gen;
+          touched_gen_ = ts.touched_gen;
+          last_ = trouble_[ts.last - 1].get(E);
+          h = tally(s, device_counters_.data(), st);
+          from_device = true;
+          continue;
+        }
+        device_.reset();  // not on this device: the host's loop from here on
+      }
+      from_device = false;
+      if (valid) {
         reset_try(true, false, st);
         // Valid here: the next reference. Before the first acceptance every particle is at its
         // target, away from V; after it only the active particles and the ones the last
@@ -297,26 +414,6 @@ class Untangle {
         n_shallowed = n_active;
         guess = n_last_ + 12 * n_shallowed;
       } else {
-        if (halvings == limits_.max_substeps) {
-          if (h[kThrough]) {
-            auto ids = edge_vertices(s, where_, mem_, int(h[kThroughAt]), st);
-            return stop("particles " + list_ids(ids) + " passed through each other (r0.r1 < 0) even after halving the "
-                            "moves " + std::to_string(halvings) + " time(s) (max_substeps)",
-                        ids, h);
-          }
-          return stop(std::to_string(h[kInverted]) + " inverted triangle(s) remain after halving the moves " +
-                          std::to_string(halvings) + " time(s) (max_substeps)",
-                      {}, h);
-        }
-        if (!announced) {  // the first intermediate position: keep T and V for a rollback
-          ctx.will_write(ff::fields::position);
-          ctx.will_write(fields::position_prev);
-          announced = true;
-          x = s.field(ff::fields::position).data<R>(ctx);
-          v = s.field(fields::position_prev).data<R>(ctx);
-          mem_.copy(target, x, bytes, st);
-          mem_.fill(depth, 0, n * sizeof(std::uint32_t), st);
-        }
         ++halvings;
         reset_try(false, false, st);
         // Who goes deeper: judged at the ends of the last troubled edges, of the first
@@ -371,6 +468,72 @@ class Untangle {
     status(s)[kPrevKept] = 0;
     metrics(h);
     return Outcome::ok();
+  }
+
+  // The device's tries (untangle_step): where the host's loop is at a try's end.
+  TryState try_state(std::size_t E, std::int64_t halvings, bool accepted, int now, std::size_t n_shallowed) {
+    TryState t{};
+    t.halvings = halvings;
+    t.tries = tries_;
+    t.now = unsigned(now);
+    t.n_shallowed = unsigned(n_shallowed);
+    t.accepted = accepted;
+    t.work_gen = work_gen_;
+    t.vertex_gen = vertex_gen_;
+    t.touched_gen = touched_gen_;
+    t.last = last_ == trouble_[0].get(E) ? 1 : 2;  // (the last marking is a round's: trouble_)
+    t.fresh = 1;
+    t.phase = kPhaseStop;
+    return t;
+  }
+  // The passes untangle_step and repair_listed launch, with what the host knows of them: the
+  // lengths, lists and generations a try sets are filled in on the device (flip/cuda.cu).
+  TryArgs<R> try_args(State& s, const Mesh& m, std::uint8_t* go, R* x, R* v, const PeriodicBox<double>& box,
+                      unsigned step_gen, std::size_t values) {
+    const std::size_t n = s.n(), E = edge_count(n);
+    std::uint8_t* mark = s.field(fields::flip_mark).data<std::uint8_t>(where_);
+    unsigned* f = first_block();
+    unsigned* r = round_block();
+    std::int32_t* w = work_.get(E);
+    std::int32_t* first = first_.get(E);
+    std::int32_t* active = active_[0].get(n);
+    std::int32_t* moving = moving_.get(n);
+    unsigned* edge_stamp = edge_stamp_.get(E);
+    const Points<R> at{x, box}, valid{v, box};
+    const ListSpan unknown{nullptr, 0};
+    const TouchedRecords restore = restore_records(s, SubTally{});
+    TryArgs<R> a{
+        MarkListed<R>{{m, at, v, mark, f}, w, ListSpan{f + kWorkCount, 0}, first, f},
+        MarkListed<R>{{m, at, nullptr, mark, r}, w, ListSpan{r + kWorkCount, 0}, nullptr, r},
+        DecideListed{{m, mark, go, r, kRepairFlips}, nullptr, unknown, touch_log(s)},
+        ApplyListed{m, go, nullptr, unknown, w, edge_stamp, 0, r + kWorkCount},
+        FindMoving<R>{MovingRule<R>{m, at, valid}, {nullptr, first, touched_edges_.get(E)}, {0, 0, 0}, moving,
+                      vertex_stamp_.get(n), 0, f, w, edge_stamp, 0},
+        RestoreAndDeepen<R>{restore, 0,
+                            Deepen<R>{valid, target_.get(2 * n), x, moving, ListSpan{f + kMovingCount, 0}, depth_.get(n),
+                                      active, halved_stamp_.get(n), step_gen, f}},
+        EdgesAround{m, moving, ListSpan{f + kMovingCount, 0}, w, edge_stamp, 0, f},
+        ShallowerAndList<R>{Shallower<R>{valid, target_.get(2 * n), x, active, depth_.get(n), active, f}, 0,
+                            EdgesAround{m, active, unknown, w, edge_stamp, 0, f},
+                            ListEdges{nullptr, unknown, w, edge_stamp, 0, f + kWorkCount}},
+        CopyListed<R>{{nullptr, nullptr}, {0, 0}, x, v},
+        x,
+        v,
+        values,
+        {first, trouble_[0].get(E), trouble_[1].get(E)},
+        {active_[0].get(n), active_[1].get(n)},
+        f,
+        r,
+        edge_stamp,
+        vertex_stamp_.get(n),
+        touched_edge_stamp_.get(E),
+        touched_vertex_stamp_.get(n),
+        n,
+        E,
+        limits_.max_rounds,
+        limits_.max_substeps,
+        limits_.passing};
+    return a;
   }
 
   // The copy of V's topology (TouchLog saves into it): the three fields' records, one field
@@ -440,6 +603,10 @@ class Untangle {
   std::int64_t tries_ = 0;   // repair passes in the step (metric substep_tries)
   unsigned flips_ = 0;       // in the step (Result)
   std::int64_t rounds_ = 0;  // in the step (Result)
+  // CUDA: the tries on the device (null on the CPU, or where the device cannot run them) and
+  // the counters they end with.
+  std::unique_ptr<DeviceTries<R>> device_;
+  std::array<unsigned, 2 * kSubstepCounters> device_counters_{};
 };
 
 }  // namespace ff::delaunay
