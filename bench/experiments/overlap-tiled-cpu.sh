@@ -1,7 +1,8 @@
 #!/bin/bash
 # The runs behind bench/experiments/README.md's "Tiled global iterations" section (session 19,
-# branch octile): bench-abp at 2^14 on the CPU (2 threads) with overlap-tiled-cpu.patch applied
-# (its environment switches pick the scheme; without FF_OC_TILE the stage is main's).
+# branch octile): bench-abp at 2^14 (or N) on the CPU (2 threads), BUILD_DIR a build of a tree
+# with overlap-tiled-cpu.patch applied (its environment switches pick the scheme; without
+# FF_OC_TILE the stage is main's). About 15 minutes at 2^14 on 2 cores.
 #   bash overlap-tiled-cpu.sh BUILD_DIR WORK_DIR [N]
 # Per configuration: global iterations, pairs and particle-gathers per step over the 40 steps whose
 # metrics `pipeline bench` reports (its second pass of --steps), inner iterations per tile per
