@@ -47,6 +47,12 @@
 // being slower: edge passes, the check fused with the next gather, teams of blocks for the late
 // iterations: bench/experiments/README.md, bench/overlap_correct-PERF.md.)
 //
+// The grid's first kWideIterations iterations (iteration 0: every particle a candidate, its fans
+// walked or checked, the bulk of the time at 2^20) run before the cooperative kernel, as ordinary
+// launches with few registers and more warps on an SM (wide_gather, wide_apply, wide_check
+// below); the cooperative kernel then starts at the next iteration (Args::j0). A cluster runs
+// every iteration itself.
+//
 // Counters: per-thread sums, a block reduction, then one integer atomic per block into one of
 // kShards copies of each counter (spreading same-address atomics); after the barrier every
 // block sums the shards and takes the same decision (keeps_going). Integer sums do not depend
@@ -113,7 +119,11 @@ struct Args {
   u64* next_slots;         // the other launch's slots and claims (kSlotWords + 1): zeroed here
   u64* result;             // kBatch x kCounters + 1 (block 0 writes the sums and the gather count):
                            // pinned host memory, written directly (no copy after the kernel)
+  std::uint8_t* state;     // grid·tile, by particle: what a wide gather found (WideState), for its
+                           // apply and check; disp and crossed are indexed by particle there too
   int tile;                // particles per block, a multiple of 16
+  int j0;                  // the batch's first iteration this kernel runs: those before ran in the
+                           // wide kernels (run_wide), their counters in slots
   long long k0;
   long long max_iterations;
 };
@@ -239,6 +249,16 @@ __device__ u64 load_in_block(const u64* p, int rank) {
 #endif
 }
 
+// Counter q of iteration j of a launch (All counters an iteration), summed over its shards.
+template <int All>
+__device__ u64 slot_total(const u64* slots, int j, int q) {
+  const u64* p = slots + (std::size_t(j) * All + q) * kShards * kShardStride;
+  u64 s = 0;
+#pragma unroll
+  for (int h = 0; h < kShards; ++h) s += __ldcg(p + h * kShardStride);
+  return s;
+}
+
 __device__ u64 warp_sum(u64 x) {
 #pragma unroll
   for (int o = 16; o > 0; o >>= 1) x += __shfl_down_sync(0xffffffffu, x, o);
@@ -277,10 +297,30 @@ __global__ void __launch_bounds__(Threads, MinBlocks) correct_kernel(Args<R, Wal
   for (int w = int(blockIdx.x * Threads + threadIdx.x); w < int(kSlotWords + 1); w += int(gridDim.x) * Threads)
     a.next_slots[w] = 0;
 
-  for (int j = 0; j < kBatch; ++j) {
+  // The batch's iterations before j0 ran in the wide kernels (run_wide): their sums are in the
+  // slots. Block 0 reports them, and every block stops where one of them did not go on (then its
+  // marks are clear: the wide check ran only after iterations that went on).
+  for (int j = 0; j < a.j0; ++j) {
+    if (threadIdx.x < kAll) s_tot[threadIdx.x] = slot_total<kAll>(a.slots, j, int(threadIdx.x));
+    __syncthreads();
+    if (blockIdx.x == 0 && threadIdx.x < kReported)
+      a.result[std::size_t(j) * kCounters + threadIdx.x] = s_tot[threadIdx.x];
+    if (blockIdx.x == 0 && threadIdx.x == 0) a.result[std::size_t(kBatch) * kCounters] = u64(j + 1);
+    std::uint64_t tot[kReported];
+#pragma unroll
+    for (int q = 0; q < kReported; ++q) tot[q] = s_tot[q];
+    __syncthreads();  // (s_tot is written again)
+    if (!keeps_going(tot, a.k0 + j, a.max_iterations)) return;
+  }
+
+  for (int j = a.j0; j < kBatch; ++j) {
     const long long k = a.k0 + j;
+    // Iteration 0 (every particle a candidate) runs here in a cluster only: the grid's runs in
+    // the wide kernels (j0 ≥ 1 whenever k0 = 0), so the grid's kernel leaves its code out (its
+    // fan walks and kept-fan checks; the registers stay ~104-114 either way).
+    const bool first = Team != kGrid && k == 0;
     int count;
-    if (k == 0) {
+    if (first) {
       count = max(0, t1 - t0);
     } else if (!tail) {
       count = compact<Threads>(a.marks, t0, a.tile, cand, s_warp);
@@ -305,8 +345,8 @@ __global__ void __launch_bounds__(Threads, MinBlocks) correct_kernel(Args<R, Wal
       c[kCorrection] += ov.fixed_len(q.len);
       c[kBroken] += q.broken;
       if constexpr (Mark) {
-        if (q.touched && (k == 0 || !a.p.touched[v])) ++c[kTouched];
-        if (q.touched || k == 0) a.p.touched[v] = std::uint8_t(q.touched);
+        if (q.touched && (first || !a.p.touched[v])) ++c[kTouched];
+        if (q.touched || first) a.p.touched[v] = std::uint8_t(q.touched);
       }
       if (q.touched) {
         const bool moves = q.dx != 0 || q.dy != 0;
@@ -323,13 +363,13 @@ __global__ void __launch_bounds__(Threads, MinBlocks) correct_kernel(Args<R, Wal
         }
       }
     };
-    if (k == 0 || count > kGroupBelow<Threads>) {  // one thread per particle
+    if (first || count > kGroupBelow<Threads>) {  // one thread per particle
       for (int i = int(threadIdx.x); i < count; i += Threads) {
-        const int v = k == 0 ? t0 + i : __ldcg(cand + i);
+        const int v = first ? t0 + i : __ldcg(cand + i);
         if (tail)  // its claim: cleared for the next check
           atomicAnd(reinterpret_cast<unsigned*>(a.marks) + (v >> 2), ~(1u << (8 * (v & 3))));
         int ids[kCached], d;
-        take(v, neighbor_ids(ov, v, k == 0, a.nb, a.degree, a.fan, ids, d) ? gather_ids(ov, v, ids, d) : ov.gather(v));
+        take(v, neighbor_ids(ov, v, first, a.nb, a.degree, a.fan, ids, d) ? gather_ids(ov, v, ids, d) : ov.gather(v));
       }
     } else {  // one lane group per particle (the loop is uniform over the block: shuffles)
       const int l = int(threadIdx.x) % kGroup;
@@ -373,9 +413,7 @@ __global__ void __launch_bounds__(Threads, MinBlocks) correct_kernel(Args<R, Wal
           // again only after that, and a block returns only after one more barrier (below).
           for (int r = 0; r < Team; ++r) s += load_in_block(s_part + threadIdx.x, r);
         } else {
-          const u64* p = a.slots + (std::size_t(j) * kAll + threadIdx.x) * kShards * kShardStride;
-#pragma unroll
-          for (int h = 0; h < kShards; ++h) s += __ldcg(p + h * kShardStride);
+          s = slot_total<kAll>(a.slots, j, int(threadIdx.x));
         }
         s_tot[threadIdx.x] = s;
       }
@@ -446,6 +484,143 @@ __global__ void __launch_bounds__(Threads, MinBlocks) correct_kernel(Args<R, Wal
       }
     }
   }
+}
+
+// The wide kernels: the first iterations of a grid's step (kWideIterations of them; iteration 0
+// gathers every particle, the bulk of the stage's time at 2^20) as three ordinary launches each
+// (gather, apply, check), a thread per particle, with few registers and many warps on an SM. The
+// cooperative kernel holds 2 blocks of 256 an SM (104 registers) for its later iterations; one
+// particle's gather is a chain of dependent loads (~9 000 cycles at 2^20, ncu), so what hides its
+// latency is how many chains are in flight. Kernel boundaries stand in for the grid barriers
+// and order the memory the same way.
+//
+// They write what the cooperative kernel's iterations write: the lists (nb, degree, fan) in
+// iteration 0, the touched field, plain marks for the next iteration, and the iteration's sums in
+// the slots (the same shards). What a gather found stays by particle (state, disp, crossed), not
+// in a block's list: the apply and the check take each particle where it is. Every launch sums
+// the slots of the iterations before it and does nothing after one that did not go on
+// (keeps_going), so the host launches them all without waiting, and the cooperative kernel
+// starts at j0 = kWideIterations (it reports the wide iterations' sums). The same particles are
+// gathered with the same functions (kernel.h's fixed-point sums): the same bits, the same
+// iteration counts (test_overlap_correct_cpu_cuda).
+constexpr int kWideThreads = 256;
+constexpr int kWideMinBlocks = 4;  // 64 registers a thread
+constexpr int kWideIterations = 1;
+
+// What particle v's gather found, by particle (Args::state).
+enum WideState : std::uint8_t { kWideUntouched = 0, kWideStill = 1, kWideMoved = 2 };
+
+// Whether iterations 0 .. j of the launch all went on (keeps_going on their summed slots).
+// Every thread of the block must call it; the same answer in every block.
+template <bool Mark, class R, bool Walls>
+__device__ bool went_on(const Args<R, Walls>& a, int j, u64* s_tot) {
+  constexpr int kReported = Sums<Mark>::kReported, kAll = Sums<Mark>::kAll;
+  for (int i = 0; i <= j; ++i) {
+    __syncthreads();  // (s_tot is written again)
+    if (threadIdx.x < kAll) s_tot[threadIdx.x] = slot_total<kAll>(a.slots, i, int(threadIdx.x));
+    __syncthreads();
+    std::uint64_t tot[kReported];
+#pragma unroll
+    for (int q = 0; q < kReported; ++q) tot[q] = s_tot[q];
+    if (!keeps_going(tot, a.k0 + i, a.max_iterations)) return false;
+  }
+  return true;
+}
+
+// Gather j of the launch: every particle (k = 0: from its kept fan or a walk, filling the lists)
+// or the marked ones (clearing their marks), one thread each; sums into slot j.
+template <class R, int Threads, int MinBlocks, bool Walls, bool Mark>
+__global__ void __launch_bounds__(Threads, MinBlocks) wide_gather(Args<R, Walls> a, int j) {
+  constexpr int kMovedSum = Sums<Mark>::kMoved, kAll = Sums<Mark>::kAll;
+  constexpr int kWarps = Threads / 32;
+  __shared__ u64 s_red[kAll][kWarps];
+  __shared__ u64 s_tot[kAll];
+  if (j > 0 && !went_on<Mark>(a, j - 1, s_tot)) return;
+  const Overlaps<R, Walls>& ov = a.ov;
+  const long long k = a.k0 + j;
+  const bool first = k == 0;
+  const int v = int(blockIdx.x) * Threads + int(threadIdx.x);
+  u64 c[kAll] = {};
+  if (v < int(a.p.n)) {
+    bool candidate = first;
+    if (!first && a.marks[v]) {
+      candidate = true;
+      a.marks[v] = 0;
+    }
+    std::uint8_t st = kWideUntouched;
+    if (candidate) {
+      int ids[kCached], d;
+      const VertexPush q =
+          neighbor_ids(ov, v, first, a.nb, a.degree, a.fan, ids, d) ? gather_ids(ov, v, ids, d) : ov.gather(v);
+      c[kBad] += q.bad;
+      c[kPairs] += q.pairs;
+      c[kCorrection] += ov.fixed_len(q.len);
+      c[kBroken] += q.broken;
+      if constexpr (Mark) {
+        if (q.touched && (first || !a.p.touched[v])) ++c[kTouched];
+        if (q.touched || first) a.p.touched[v] = std::uint8_t(q.touched);
+      }
+      if (q.touched) {
+        st = kWideStill;
+        if (q.dx != 0 || q.dy != 0) {  // where v goes (as the cooperative kernel's take)
+          const double dd[2] = {q.dx, q.dy};
+          R x[2];
+          int cr[2];
+          moved_d<2>(a.p.pos, a.p.box, std::size_t(v), dd, x, cr);
+          a.disp[v] = make_double2(double(x[0]), double(x[1]));
+          a.crossed[v] = make_char2(char(cr[0]), char(cr[1]));
+          st = kWideMoved;
+          c[kMovedSum] = 1;
+        }
+      }
+    }
+    a.state[v] = st;
+  }
+  const int lane = threadIdx.x & 31, warp = threadIdx.x >> 5;
+#pragma unroll
+  for (int q = 0; q < kAll; ++q) {
+    const u64 s = warp_sum(c[q]);
+    if (lane == 0) s_red[q][warp] = s;
+  }
+  __syncthreads();
+  if (threadIdx.x < kAll) {
+    u64 s = 0;
+#pragma unroll
+    for (int w = 0; w < kWarps; ++w) s += s_red[threadIdx.x][w];
+    const int shard = int(blockIdx.x % kShards) * kShardStride;
+    if (s) atomicAdd(a.slots + (std::size_t(j) * kAll + threadIdx.x) * kShards * kShardStride + shard, s);
+  }
+}
+
+// Apply j: the particles gather j moved go where it computed (if it went on).
+template <class R, int Threads, bool Walls, bool Mark>
+__global__ void __launch_bounds__(Threads) wide_apply(Args<R, Walls> a, int j) {
+  __shared__ u64 s_tot[Sums<Mark>::kAll];
+  if (!went_on<Mark>(a, j, s_tot)) return;
+  const int v = int(blockIdx.x) * Threads + int(threadIdx.x);
+  if (v >= int(a.p.n) || a.state[v] != kWideMoved) return;
+  const double2 x = a.disp[v];
+  const char2 c = a.crossed[v];
+  store_xy(a.p.pos, v, x.x, x.y);
+  if (c.x) a.p.image[2 * v] += c.x;
+  if (c.y) a.p.image[2 * v + 1] += c.y;
+}
+
+// Check j (positions are the new ones now): plain marks for iteration j + 1, as the cooperative
+// kernel's check (a touched particle that did not move; a moved one's overlapping neighbours and
+// itself when any, or a wall).
+template <class R, int Threads, int MinBlocks, bool Walls, bool Mark>
+__global__ void __launch_bounds__(Threads, MinBlocks) wide_check(Args<R, Walls> a, int j) {
+  __shared__ u64 s_tot[Sums<Mark>::kAll];
+  if (!went_on<Mark>(a, j, s_tot)) return;
+  const int v = int(blockIdx.x) * Threads + int(threadIdx.x);
+  if (v >= int(a.p.n)) return;
+  const std::uint8_t st = a.state[v];
+  std::uint8_t* marks = a.marks;
+  if (st == kWideStill)
+    marks[v] = 1;
+  else if (st == kWideMoved && thread_check(a.ov, v, a.nb, a.degree, [&](int u) { marks[u] = 1; }))
+    marks[v] = 1;
 }
 
 // Blocks and tile for n particles: at most what fits on the device at once (a cooperative

@@ -1,5 +1,6 @@
 // CUDA loop of overlap_correct, host side: DeviceLoops sizes the scratch, launches
-// correct_kernel.cuh's kernel (a cooperative grid launch or a cluster) and reads its counters.
+// correct_kernel.cuh's kernels (on the grid the wide kernels' first iterations, then a cooperative
+// grid launch; or a cluster) and reads their counters.
 // Compiled with -fmad=false (CMakeLists.txt), as the kernels it includes must be.
 #include <cuda_runtime.h>
 
@@ -26,6 +27,7 @@ class DeviceLoops final : public OverlapCorrectLoops<R> {
         nb_(exec),
         degree_(exec),
         fan_(exec),
+        state_(exec),
         slots_{Scratch<u64>(exec), Scratch<u64>(exec)},
         result_(exec) {}
 
@@ -61,9 +63,14 @@ class DeviceLoops final : public OverlapCorrectLoops<R> {
                      slots_[parity_].get(kSlotWords + 1) + kSlotWords,
                      slots_[1 - parity_].get(kSlotWords + 1),
                      result_.get(kResultWords),
+                     state_.get(cap_),
                      tile_,
+                     0,
                      static_cast<long long>(k0),
                      static_cast<long long>(max_iterations)};
+    // The grid's first iterations run in the wide kernels (correct_kernel.cuh), queued at once:
+    // each does nothing after an iteration that did not go on.
+    if (team_ == kGrid && k0 == 0) a.j0 = run_wide<Walls, Mark>(a, s);
     void* args[] = {&a};
     if (team_ == kGrid) {
       FF_CUDA_CHECK(
@@ -80,6 +87,19 @@ class DeviceLoops final : public OverlapCorrectLoops<R> {
       for (int c = 0; c < Sums<Mark>::kReported; ++c) out.counters[j][c] = result[std::size_t(j) * kCounters + c];
       if (!Mark) out.counters[j][kTouched] = 0;
     }
+  }
+
+  // Launches the wide kernels' iterations 0 .. kWideIterations - 1; returns how many.
+  template <bool Walls, bool Mark>
+  static int run_wide(const Args<R, Walls>& a, CUstream_st* s) {
+    const int blocks = int((a.p.n + kWideThreads - 1) / kWideThreads);
+    for (int j = 0; j < kWideIterations; ++j) {
+      wide_gather<R, kWideThreads, kWideMinBlocks, Walls, Mark><<<blocks, kWideThreads, 0, s>>>(a, j);
+      wide_apply<R, kWideThreads, Walls, Mark><<<blocks, kWideThreads, 0, s>>>(a, j);
+      wide_check<R, kWideThreads, kWideMinBlocks, Walls, Mark><<<blocks, kWideThreads, 0, s>>>(a, j);
+    }
+    FF_CUDA_CHECK(cudaGetLastError(), "launching overlap_correct's wide iterations");
+    return kWideIterations;
   }
 
   // A cluster launch of the team's blocks.
@@ -113,6 +133,7 @@ class DeviceLoops final : public OverlapCorrectLoops<R> {
   Scratch<int> nb_;              // kCached x grid·tile: each particle's neighbours
   Scratch<std::uint8_t> degree_; // grid·tile: how many (kept across steps, with fan_)
   Scratch<int> fan_;             // kCached x grid·tile: each listed fan's half-edges (kept_fan)
+  Scratch<std::uint8_t> state_;  // grid·tile: what a wide gather found, by particle
   Scratch<u64> slots_[2];        // kSlotWords + the claims count, per launch parity
   HostScratch<u64> result_;      // pinned: the kernel writes its counters there (no copy after it)
   std::size_t n_ = 0, cap_ = 0;

@@ -1,6 +1,7 @@
 // overlap_correct on CPU and CUDA: the same bits in double and agreement in float; the same bits on
 // either device path (a thread-block cluster for n ≤ kClusterMaxN, the whole grid above), when
-// runs share the GPU (smaller teams), and over many steps of ABP (lists kept across steps). Each
+// runs share the GPU (smaller teams), over many steps of ABP (lists kept across steps), and where
+// max_iterations stops a step on the grid path (the wide kernels decide on the device). Each
 // skips without a CUDA device.
 #include <catch2/catch.hpp>
 #include <algorithm>
@@ -11,6 +12,7 @@
 #include <vector>
 
 #include "core/backend/device.h"
+#include "core/base/error.h"
 #include "stages/overlap_correct/test_support.h"
 #include "support/backends.h"
 #include "support/cli.h"
@@ -139,5 +141,34 @@ TEST_CASE("overlap_correct: CPU and CUDA give the same bits over many steps of A
     CHECK(cpu.pairs == cuda.pairs);
     CHECK(cpu.image == cuda.image);
     CHECK(std::memcmp(cpu.xy.data(), cuda.xy.data(), cpu.xy.size() * sizeof(double)) == 0);
+  }
+}
+
+TEST_CASE("overlap_correct: CPU and CUDA stop alike at max_iterations on the grid path", "[overlap][cuda]") {
+  // The grid's first iterations run in cuda.cu's wide kernels, which decide on the device whether
+  // an iteration goes on (keeps_going: also k < max_iterations) and the cooperative kernel after
+  // them replays that decision. Stopping at iteration 1, 2 or 3 of a step at 20000 disks: the same
+  // error on both backends, whose count of pairs still overlapping (the last gather's) and worst
+  // pair depend on exactly which iterations were applied.
+  if (!test::have_cuda("overlap_correct CPU-vs-CUDA at max_iterations")) return;
+  for (std::int64_t most : {1, 2, 3}) {
+    INFO("max_iterations " << most);
+    const auto spec = correct_spec(20000, 0.8, {{"max_iterations", most}});
+    std::string message[2];
+    for (int b = 0; b < 2; ++b) {
+      auto state = make_initial_state(spec.system, spec.run.precision, spec.run.seed);
+      jiggle(*state, 0.1, 11);
+      Simulation sim(spec, registry(), dry(b == 0 ? Backend::cpu : Backend::cuda), std::move(state));
+      try {
+        sim.advance();
+        sim.synchronize();
+      } catch (const RunError& e) {
+        message[b] = e.what();
+      }
+    }
+    INFO("cpu: " << message[0]);
+    INFO("cuda: " << message[1]);
+    CHECK(message[0].find("max_iterations = " + std::to_string(most)) != std::string::npos);
+    CHECK(message[0] == message[1]);
   }
 }
