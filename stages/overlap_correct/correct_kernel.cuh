@@ -47,11 +47,12 @@
 // being slower: edge passes, the check fused with the next gather, teams of blocks for the late
 // iterations: bench/experiments/README.md, bench/overlap_correct-PERF.md.)
 //
-// The grid's first kWideIterations iterations (iteration 0: every particle a candidate, its fans
-// walked or checked, the bulk of the time at 2^20) run before the cooperative kernel, as ordinary
-// launches with few registers and more warps on an SM (wide_gather, wide_apply, wide_check
-// below); the cooperative kernel then starts at the next iteration (Args::j0). A cluster runs
-// every iteration itself.
+// On a full grid (more particles than the cooperative grid's threads: DeviceLoops::prepare) the
+// first kWideIterations iterations (iteration 0: every particle a candidate, its fans walked or
+// checked, the bulk of the time at 2^20) run before the cooperative kernel, as ordinary launches
+// with few registers and more warps on an SM (wide_gather, wide_apply, wide_check below); the
+// cooperative kernel then starts at the next iteration (Args::j0). Otherwise, and in a cluster,
+// the one kernel runs every iteration itself.
 //
 // Counters: per-thread sums, a block reduction, then one integer atomic per block into one of
 // kShards copies of each counter (spreading same-address atomics); after the barrier every

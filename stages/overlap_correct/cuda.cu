@@ -70,7 +70,7 @@ class DeviceLoops final : public OverlapCorrectLoops<R> {
                      static_cast<long long>(max_iterations)};
     // The grid's first iterations run in the wide kernels (correct_kernel.cuh), queued at once:
     // each does nothing after an iteration that did not go on.
-    if (team_ == kGrid && k0 == 0) a.j0 = run_wide<Walls, Mark>(a, s);
+    if (wide_ && k0 == 0) a.j0 = run_wide<Walls, Mark>(a, s);
     void* args[] = {&a};
     if (team_ == kGrid) {
       FF_CUDA_CHECK(
@@ -117,6 +117,11 @@ class DeviceLoops final : public OverlapCorrectLoops<R> {
     team_ = team_for<R, Walls, Mark>(n);
     shape<R, Walls, Mark>(n, team_, grid_, tile_);
     cap_ = std::size_t(grid_) * std::size_t(tile_);
+    // The wide kernels pay where the cooperative grid, full, gives its threads more than one
+    // particle each in iteration 0 (tile_ > kThreads): there the latency they hide is the
+    // stage's time. Below that, a step is short and their three launches cost more than they
+    // save (bench/README.md, "Session 19, calls 2 and 3": slower at 2^14, even at 2^16).
+    wide_ = team_ == kGrid && tile_ > kThreads;
     for (Scratch<u64>& sl : slots_) sl.reset();
     marks_.reset();  // fresh zeroed arrays even where the size did not change
     parity_ = 0;
@@ -139,6 +144,7 @@ class DeviceLoops final : public OverlapCorrectLoops<R> {
   std::size_t n_ = 0, cap_ = 0;
   int grid_ = 0, tile_ = 0;
   int team_ = kGrid;  // who runs the iterations (team_for): kGrid or kClusterBlocks
+  bool wide_ = false;  // the grid's first iterations in the wide kernels (prepare)
   int parity_ = 0;  // which slots the next launch uses (zero); it zeroes the other
   int variant_ = -1;  // the kernel prepared for: 2·walls + mark (its occupancy sets the grid)
   bool made_ = false;

@@ -76,9 +76,10 @@ TEST_CASE("overlap_correct: CPU and CUDA give the same bits on either device pat
           "[overlap][cuda]") {
   // cuda.cu runs small systems (n ≤ kClusterMaxN = 4096) in a thread-block cluster and larger
   // ones on the whole grid: sizes on both sides, and the threshold itself. (20000, the size of the
-  // tests above, is the grid's.)
+  // tests above, is the grid's.) 150000 fills the grid (more particles than its threads on a GPU
+  // of up to ~290 SMs), so its first iteration runs in the wide kernels (DeviceLoops::prepare).
   if (!test::have_cuda("overlap_correct CPU-vs-CUDA by size")) return;
-  for (std::uint64_t n : {3000u, 4096u, 65536u, 100000u}) {
+  for (std::uint64_t n : {3000u, 4096u, 65536u, 150000u}) {
     INFO("n " << n);
     check_cpu_equals_cuda(n);
   }
@@ -145,15 +146,18 @@ TEST_CASE("overlap_correct: CPU and CUDA give the same bits over many steps of A
 }
 
 TEST_CASE("overlap_correct: CPU and CUDA stop alike at max_iterations on the grid path", "[overlap][cuda]") {
-  // The grid's first iterations run in cuda.cu's wide kernels, which decide on the device whether
-  // an iteration goes on (keeps_going: also k < max_iterations) and the cooperative kernel after
-  // them replays that decision. Stopping at iteration 1, 2 or 3 of a step at 20000 disks: the same
-  // error on both backends, whose count of pairs still overlapping (the last gather's) and worst
-  // pair depend on exactly which iterations were applied.
+  // On a full grid the first iterations run in cuda.cu's wide kernels, which decide on the device
+  // whether an iteration goes on (keeps_going: also k < max_iterations) and the cooperative kernel
+  // after them replays that decision. Stopping at iteration 1, 2 or 3 of a step: the same error on
+  // both backends, whose count of pairs still overlapping (the last gather's) and worst pair depend
+  // on exactly which iterations were applied. 20000 disks: the cooperative kernel alone; 150000:
+  // more than the grid's threads on a GPU of up to ~290 SMs at 2 blocks of 256 an SM, so the wide
+  // kernels first (DeviceLoops::prepare).
   if (!test::have_cuda("overlap_correct CPU-vs-CUDA at max_iterations")) return;
+  for (std::uint64_t n : {20000u, 150000u})
   for (std::int64_t most : {1, 2, 3}) {
-    INFO("max_iterations " << most);
-    const auto spec = correct_spec(20000, 0.8, {{"max_iterations", most}});
+    INFO("n " << n << ", max_iterations " << most);
+    const auto spec = correct_spec(n, 0.8, {{"max_iterations", most}});
     std::string message[2];
     for (int b = 0; b < 2; ++b) {
       auto state = make_initial_state(spec.system, spec.run.precision, spec.run.seed);
