@@ -316,10 +316,9 @@ __global__ void __launch_bounds__(Threads, MinBlocks) correct_kernel(Args<R, Wal
 
   for (int j = a.j0; j < kBatch; ++j) {
     const long long k = a.k0 + j;
-    // Iteration 0 (every particle a candidate) runs here in a cluster only: the grid's runs in
-    // the wide kernels (j0 ≥ 1 whenever k0 = 0), so the grid's kernel leaves its code out (its
-    // fan walks and kept-fan checks; the registers stay ~104-114 either way).
-    const bool first = Team != kGrid && k == 0;
+    // Iteration 0 (every particle a candidate) runs here in a cluster and on a grid that is not
+    // full; on a full grid it ran in the wide kernels (j0 ≥ 1 whenever k0 = 0: DeviceLoops::prepare).
+    const bool first = k == 0;
     int count;
     if (first) {
       count = max(0, t1 - t0);
