@@ -8,6 +8,7 @@
 
 #include "core/backend/cuda/check.h"
 #include "stages/overlap_correct/correct_kernel.cuh"
+#include "stages/overlap_correct/wide_kernels.cuh"
 
 namespace ff::overlap {
 
