@@ -8,8 +8,8 @@
 // device; ListSpan: every element is taken whatever the grid), with grid.sync after the decision
 // and after each pass where the host's loop had a launch boundary. The passes, their lists and
 // their order are the host loop's, so the bits are too. (A CUDA graph with a while node and a
-// switch of the branches did the same 0.3 ms a step slower at 2^18: bench/experiments/README.md,
-// trydev.) Compiled with -fmad=false (the plugin's .cu).
+// switch of the branches did the same, slower: bench/experiments/README.md, trydev.) Compiled
+// with -fmad=false (the plugin's .cu).
 #include <cooperative_groups.h>
 #include <cuda_runtime.h>
 
@@ -17,6 +17,7 @@
 
 #include "core/backend/cuda/check.h"
 #include "core/backend/cuda/loop.cuh"
+#include "core/backend/memory.h"
 #include "stages/delaunay/flip/untangle.h"  // DeviceTries; flip/tries.h
 
 namespace ff::delaunay {
@@ -58,12 +59,7 @@ __global__ void tries_kernel(const TryArgs<R>* a, TryState* sp) {
 template <class R>
 class CooperativeTries final : public DeviceTries<R> {
  public:
-  ~CooperativeTries() override {
-    if (args_) cudaFree(args_);
-    if (state_) cudaFree(state_);
-    if (landing_) cudaFreeHost(landing_);
-    if (landing_counters_) cudaFreeHost(landing_counters_);
-  }
+  explicit CooperativeTries(CudaExec exec) : args_(exec), state_(exec), landing_(exec), landing_counters_(exec) {}
 
   bool run(const TryArgs<R>& a, TryState& s, unsigned* counters, CUstream_st* st) override {
     if (!made_) {
@@ -73,28 +69,27 @@ class CooperativeTries final : public DeviceTries<R> {
       FF_CUDA_CHECK(cudaOccupancyMaxActiveBlocksPerMultiprocessor(&per_sm, tries_kernel<R>, kBlock, 0),
                     "delaunay.flip: the sub-step tries' occupancy");
       grid_ = per_sm > 0 ? unsigned(sms) : 0u;
-      FF_CUDA_ALLOC(args_, sizeof(TryArgs<R>), "delaunay.flip's sub-step tries");
-      FF_CUDA_ALLOC(state_, sizeof(TryState), "delaunay.flip's sub-step tries");
-      FF_CUDA_CHECK(cudaMallocHost(&landing_, sizeof(TryState)), "delaunay.flip: pinned memory");
-      FF_CUDA_CHECK(cudaMallocHost(&landing_counters_, 2 * kSubstepCounters * sizeof(unsigned)),
-                    "delaunay.flip: pinned memory");
       made_ = true;
     }
     if (grid_ == 0) return false;
-    set_tries<R><<<1, 1, 0, st>>>(a, s, args_, state_);
+    TryArgs<R>* args = args_.get(1);
+    TryState* state = state_.get(1);
+    TryState* landing = landing_.get(1);
+    unsigned* landing_counters = landing_counters_.get(2 * kSubstepCounters);
+    set_tries<R><<<1, 1, 0, st>>>(a, s, args, state);
     FF_CUDA_CHECK_LAUNCH("delaunay.flip: passing the sub-step tries their lists");
-    void* params[] = {&args_, &state_};
+    void* params[] = {&args, &state};
     FF_CUDA_CHECK(cudaLaunchCooperativeKernel(reinterpret_cast<const void*>(tries_kernel<R>), dim3(grid_),
                                               dim3(kBlock), params, 0, st),
                   "delaunay.flip: launching the sub-step tries");
-    FF_CUDA_CHECK(cudaMemcpyAsync(landing_, state_, sizeof(TryState), cudaMemcpyDeviceToHost, st),
+    FF_CUDA_CHECK(cudaMemcpyAsync(landing, state, sizeof(TryState), cudaMemcpyDeviceToHost, st),
                   "delaunay.flip: reading the sub-step tries' state");
-    FF_CUDA_CHECK(cudaMemcpyAsync(landing_counters_, a.first_block, 2 * kSubstepCounters * sizeof(unsigned),
+    FF_CUDA_CHECK(cudaMemcpyAsync(landing_counters, a.first_block, 2 * kSubstepCounters * sizeof(unsigned),
                                   cudaMemcpyDeviceToHost, st),
                   "delaunay.flip: reading the sub-step tries' counters");
     FF_CUDA_CHECK(cudaStreamSynchronize(st), "delaunay.flip: the sub-step tries");
-    s = *landing_;
-    std::copy(landing_counters_, landing_counters_ + 2 * kSubstepCounters, counters);
+    s = *landing;
+    std::copy(landing_counters, landing_counters + 2 * kSubstepCounters, counters);
     return true;
   }
 
@@ -102,17 +97,17 @@ class CooperativeTries final : public DeviceTries<R> {
   static constexpr int kBlock = 256;
   bool made_ = false;
   unsigned grid_ = 0;
-  TryArgs<R>* args_ = nullptr;  // device copies of what run() is given
-  TryState* state_ = nullptr;
-  TryState* landing_ = nullptr;  // pinned: what the tries end with
-  unsigned* landing_counters_ = nullptr;
+  Scratch<TryArgs<R>> args_;  // device copies of what run() is given
+  Scratch<TryState> state_;
+  HostScratch<TryState> landing_;  // pinned: what the tries end with
+  HostScratch<unsigned> landing_counters_;
 };
 
 }  // namespace
 
 template <class R>
-std::unique_ptr<DeviceTries<R>> device_tries(const CudaExec&) {
-  return std::make_unique<CooperativeTries<R>>();
+std::unique_ptr<DeviceTries<R>> device_tries(const CudaExec& exec) {
+  return std::make_unique<CooperativeTries<R>>(exec);
 }
 template std::unique_ptr<DeviceTries<float>> device_tries<float>(const CudaExec&);
 template std::unique_ptr<DeviceTries<double>> device_tries<double>(const CudaExec&);
