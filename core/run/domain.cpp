@@ -1,6 +1,7 @@
 #include "core/run/domain.h"
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <cstring>
 #include <numeric>
@@ -9,6 +10,7 @@
 #include "core/physics/box.h"
 #ifdef FLIPFLOW_HAVE_CUDA
 #include "core/backend/cuda/device_buffer.h"
+#include "core/run/cuda/ghost_traffic.h"
 #endif
 
 namespace ff {
@@ -16,8 +18,15 @@ namespace ff {
 struct Domain::Staging {
 #ifdef FLIPFLOW_HAVE_CUDA
   std::vector<std::unique_ptr<DeviceBuffer>> buffers;  // one per transfer slot, grown as needed
+  std::unique_ptr<GhostTraffic> traffic;               // the refresh and the migration test
 #endif
 };
+
+namespace {
+double seconds_since(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+}  // namespace
 
 Domain::~Domain() = default;
 
@@ -85,6 +94,9 @@ Domain::Domain(Communicator& comm, State& s, double band, double slack, std::vec
   if (fill_gap_ && s.dim() != 2)
     throw InputError("a decomposed team fills the gap beyond the band with fixed vertices in 2D only");
   if (fill_gap_ && !(band_ > 0)) throw InputError("a decomposed team that fills the gap needs a band > 0");
+#ifdef FLIPFLOW_HAVE_CUDA
+  if (backend_ == Backend::cuda) staging_->traffic = std::make_unique<GhostTraffic>();
+#endif
   // Global ids, then this rank's share of the whole state (the same on every rank: no message).
   Field& id = s.add_particle_field(fields::particle_id, DType::u32, 1);
   id.acquire(Where::host, Mode::write);
@@ -225,6 +237,9 @@ void Domain::rebuild(State& s, const Layout& lay, std::vector<unsigned char> rec
   x0_.resize(n_owned * D);
   for (std::size_t i = 0; i < n_owned * D; ++i)
     x0_[i] = s.real() == DType::f32 ? double(pos.host<float>()[i]) : pos.host<double>()[i];
+#ifdef FLIPFLOW_HAVE_CUDA
+  if (staging_->traffic) staging_->traffic->set_start(pos.host_raw(), n_owned * D * dtype_size(s.real()));
+#endif
   set_lists(s);
 }
 
@@ -242,6 +257,9 @@ void Domain::set_lists(State& s) {
       recv_[std::size_t(owner_of(x[i]))].push_back(std::uint32_t(i));
     }
   }
+#ifdef FLIPFLOW_HAVE_CUDA
+  if (staging_->traffic) staging_->traffic->set_lists(send_, recv_);
+#endif
 }
 
 void Domain::exchange_counts(const std::vector<std::uint64_t>& send, std::vector<std::uint64_t>& recv) {
@@ -260,13 +278,25 @@ void Domain::exchange_counts(const std::vector<std::uint64_t>& send, std::vector
 // a rank's stage asked for (request_band), which takes effect now.
 bool Domain::due(State& s) {
   double mine[2] = {0, requested_band_};
-  if (slack_ > 0 && (s.real() == DType::f32 ? moved_beyond<float>(s, x0_, slack_) : moved_beyond<double>(s, x0_, slack_)))
-    mine[0] = 1;
+  if (slack_ > 0 && moved(s)) mine[0] = 1;
   comm_.all_reduce(mine, 2, ReduceOp::max);
   requested_band_ = 0;
   const bool widen = mine[1] > band_;
   if (widen) band_ = mine[1];
   return mine[0] != 0 || widen;
+}
+
+bool Domain::moved(State& s) {
+#ifdef FLIPFLOW_HAVE_CUDA
+  if (staging_->traffic) {
+    GhostTraffic& g = *staging_->traffic;
+    g.wait_for_device();  // the last step's stages, on their own streams
+    Field& pos = s.field(fields::position);
+    pos.acquire(Where::device, Mode::read, g.stream());
+    return g.moved_beyond(pos.device_raw(), s.real() == DType::f32, s.n_owned(), s.dim(), s.box.L, slack_);
+  }
+#endif
+  return s.real() == DType::f32 ? moved_beyond<float>(s, x0_, slack_) : moved_beyond<double>(s, x0_, slack_);
 }
 
 double Domain::displacement(State& s, const std::string& field) {
@@ -314,6 +344,7 @@ std::vector<double> Domain::fill_points(const State& s) const {
 }
 
 void Domain::begin_step(State& s) {
+  const auto t0 = std::chrono::steady_clock::now();
   if (due(s)) {
     const Layout lay = layout_of(s, s.particle_field_names());
     auto to = std::vector<std::vector<std::uint32_t>>(std::size_t(ranks_));
@@ -342,9 +373,11 @@ void Domain::begin_step(State& s) {
     for (int q = 0; q < ranks_; ++q) records.insert(records.end(), in[std::size_t(q)].begin(), in[std::size_t(q)].end());
     rebuild(s, lay, std::move(records));
     ++migrations_;
+    migration_seconds_ += seconds_since(t0);
     return;
   }
   refresh(s, refreshed_);
+  step_start_seconds_ += seconds_since(t0);
 }
 
 void Domain::refresh(State& s, const std::vector<std::string>& fields) {
@@ -356,6 +389,12 @@ void Domain::refresh(State& s, const std::vector<std::string>& fields) {
     lay.size.push_back(entry_bytes(s.field(n)));
     lay.bytes += lay.size.back();
   }
+#ifdef FLIPFLOW_HAVE_CUDA
+  if (staging_->traffic) {
+    refresh_on_device(s, lay);
+    return;
+  }
+#endif
   auto out = std::vector<std::vector<unsigned char>>(std::size_t(ranks_)), in = out;
   std::vector<Communicator::Transfer> t;
   for (int q = 0; q < ranks_; ++q) {
@@ -378,6 +417,43 @@ void Domain::refresh(State& s, const std::vector<std::string>& fields) {
     }
   }
   to_device(s, fields);
+}
+
+// The refresh on CUDA: the same records (lay) by the same lists, packed, sent and unpacked on
+// the device. The device side of each field is made current and declared written (so a host
+// copy made current since, by pack or by anything else, is stale again): a stage that calls
+// this within its step wrote its fields on the device after the scheduler's acquire.
+void Domain::refresh_on_device(State& s, const Layout& lay) {
+#ifdef FLIPFLOW_HAVE_CUDA
+  GhostTraffic& g = *staging_->traffic;
+  g.wait_for_device();  // the stages' writes, on their own streams
+  std::vector<void*> data;
+  for (auto& n : lay.names) {
+    Field& f = s.field(n);
+    f.acquire(Where::device, Mode::readwrite, g.stream());
+    data.push_back(f.device_raw());
+  }
+  std::vector<Communicator::Transfer> t;
+  for (int q = 0; q < ranks_; ++q) {
+    if (q == rank_) continue;
+    const std::size_t out = send_[std::size_t(q)].size() * lay.bytes, in = recv_[std::size_t(q)].size() * lay.bytes;
+    if (out) {
+      void* buf = g.send_buffer(q, out);
+      for (std::size_t f = 0; f < lay.names.size(); ++f) g.pack(q, data[f], lay.size[f], lay.bytes, lay.offset[f]);
+      t.push_back({q, buf, out, true});
+    }
+    if (in) t.push_back({q, g.recv_buffer(q, in), in, false});
+  }
+  comm_.exchange(t, g.stream());
+  for (int q = 0; q < ranks_; ++q) {
+    if (q == rank_ || recv_[std::size_t(q)].empty()) continue;
+    for (std::size_t f = 0; f < lay.names.size(); ++f) g.unpack(q, data[f], lay.size[f], lay.bytes, lay.offset[f]);
+  }
+  g.wait();  // the stages' streams do not order with this one
+#else
+  (void)s;
+  (void)lay;
+#endif
 }
 
 void Domain::gather(State& s, State* into, const std::vector<std::string>& names) {

@@ -25,9 +25,11 @@
 // every migration and never sent. A stage may ask for a wider band (request_band): the next
 // begin_step takes the widest request of any rank and migrates with it.
 //
-// Packing and unpacking happen on the host (fields acquired there; on CUDA that copies whole
-// fields each step, a first version: device pack kernels are the next step); on CUDA the packed
-// buffers travel through device staging buffers, as NCCL wants (core/backend/comm.h).
+// On CUDA the per-step work stays on the device (core/run/cuda/ghost_traffic.h): the migration
+// test is a kernel with one flag read back, and a refresh packs the records on the device by index
+// lists kept there, exchanges them (NCCL) and unpacks them there. A migration, and gather, pack
+// and unpack on the host (the fields acquired there: whole fields copied), and their records
+// travel through device staging buffers, as NCCL wants (core/backend/comm.h).
 #pragma once
 #include <cstddef>
 #include <algorithm>
@@ -68,6 +70,11 @@ class Domain final : public GhostExchange {
   void gather(State& state, State* into, const std::vector<std::string>& names);
 
   std::uint64_t migrations() const { return migrations_; }
+  // Host time in begin_step since construction: in the migrations, and in the other steps (the
+  // migration test and the ghost refresh; on CUDA, waiting for the device included). For
+  // `pipeline bench --gpus N`.
+  double migration_seconds() const { return migration_seconds_; }
+  double step_start_seconds() const { return step_start_seconds_; }
   std::uint64_t changed_owner() const { return changed_owner_; }  // particles, summed over migrations (this rank's sends)
   double band() const override { return band_; }
   double displacement(State& state, const std::string& field) override;
@@ -90,6 +97,9 @@ class Domain final : public GhostExchange {
   void pack(State& s, const Layout& lay, const std::vector<std::uint32_t>& which, std::vector<unsigned char>& out) const;
 
   bool due(State& s);
+  bool moved(State& s);  // some owned particle moved more than slack_ since the last migration
+  // refresh() on CUDA: packed, exchanged and unpacked on the device (core/run/cuda/ghost_traffic.h).
+  void refresh_on_device(State& s, const Layout& lay);
   // Rebuilds the state from records (every field of `full`), owned first, then ghosts, by id.
   void rebuild(State& s, const Layout& lay, std::vector<unsigned char> records);
   void set_lists(State& s);
@@ -118,6 +128,7 @@ class Domain final : public GhostExchange {
   std::vector<std::vector<std::uint32_t>> send_, recv_;  // per peer: local indices (refresh)
   std::vector<double> x0_;                                // owned positions at the last migration
   std::uint64_t migrations_ = 0, changed_owner_ = 0;
+  double migration_seconds_ = 0, step_start_seconds_ = 0;
   Backend backend_;
   struct Staging;  // CUDA builds: the device buffers transfer() stages through
   std::unique_ptr<Staging> staging_;

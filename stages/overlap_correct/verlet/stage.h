@@ -217,6 +217,17 @@ class OverlapCorrectVerlet final : public Stage {
         if (!bad) break;
         if (iterations == p_.max_iterations) give_up<D>(ctx, bad);
         pairs += c & ((std::uint64_t(1) << kBadShift) - 1);
+        if (team) {
+          // The apply writes the positions and images on this stage's side. The scheduler's
+          // acquire marked the other side stale before the first iteration only; the refresh of
+          // an iteration may make the other side current again (the domain packs there), so
+          // every apply says again that it writes: else the next refresh reads the copy of
+          // before the apply and writes it back over the apply (on CUDA: the host copy of the
+          // previous iteration uploaded over the device's: from the second iteration on every
+          // apply undone, the same pushes repeated until max_iterations).
+          s.field(fields::position).acquire(where_, Mode::readwrite, st);
+          s.field(fields::image).acquire(where_, Mode::readwrite, st);
+        }
         correction += double(team_sum(loops.apply(rows, apply, sum_, st))) / kFixedOne * unit_;
         if (team) ghosts->refresh(s, {fields::position, fields::image});
         ++iterations;
