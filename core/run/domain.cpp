@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstring>
 #include <numeric>
+#include <type_traits>
 
 #include "core/base/error.h"
 #include "core/physics/box.h"
@@ -106,9 +107,7 @@ Domain::Domain(Communicator& comm, State& s, double band, double slack, std::vec
   const std::vector<double> x = xs(s);
   for (std::size_t i = 0; i < s.n(); ++i)
     if (owner_of(x[i]) == rank_ || ghost_of(rank_, x[i])) mine.push_back(std::uint32_t(i));
-  std::vector<unsigned char> records;
-  pack(s, lay, mine, records);
-  rebuild(s, lay, std::move(records));
+  rebuild(s, lay, mine, {});
 }
 
 std::vector<double> Domain::xs(State& s) const {
@@ -166,51 +165,87 @@ void Domain::pack(State& s, const Layout& lay, const std::vector<std::uint32_t>&
   }
 }
 
-void Domain::rebuild(State& s, const Layout& lay, std::vector<unsigned char> records) {
-  const std::size_t n = lay.bytes ? records.size() / lay.bytes : 0;
-  auto id_of = [&](std::size_t k) {
-    std::uint32_t v;
-    std::memcpy(&v, &records[k * lay.bytes + lay.id_offset], sizeof v);
-    return v;
+namespace {
+
+// dst[k] = *src(k) for k < n, entries of `size` bytes; the common sizes as fixed-size copies
+// (a migration copies every particle field of about a million particles a GPU).
+template <class Src>
+void gather_entries(unsigned char* dst, std::size_t size, std::size_t n, const Src& src) {
+  auto copy = [&](auto fixed) {
+    constexpr std::size_t S = decltype(fixed)::value;
+    for (std::size_t k = 0; k < n; ++k) std::memcpy(dst + k * S, src(k), S);
   };
-  auto x_of_record = [&](std::size_t k) {
-    const std::size_t at = k * lay.bytes +
-                           lay.offset[std::size_t(std::find(lay.names.begin(), lay.names.end(), fields::position) -
-                                                  lay.names.begin())];
+  switch (size) {
+    case 1: copy(std::integral_constant<std::size_t, 1>{}); break;
+    case 4: copy(std::integral_constant<std::size_t, 4>{}); break;
+    case 8: copy(std::integral_constant<std::size_t, 8>{}); break;
+    case 12: copy(std::integral_constant<std::size_t, 12>{}); break;
+    case 16: copy(std::integral_constant<std::size_t, 16>{}); break;
+    case 24: copy(std::integral_constant<std::size_t, 24>{}); break;
+    default:
+      for (std::size_t k = 0; k < n; ++k) std::memcpy(dst + k * size, src(k), size);
+  }
+}
+
+}  // namespace
+
+void Domain::rebuild(State& s, const Layout& lay, const std::vector<std::uint32_t>& kept,
+                     const std::vector<unsigned char>& records) {
+  const std::size_t n_kept = kept.size(), n = n_kept + (lay.bytes ? records.size() / lay.bytes : 0);
+  const std::size_t pos_f =
+      std::size_t(std::find(lay.names.begin(), lay.names.end(), fields::position) - lay.names.begin());
+  const std::size_t id_f =
+      std::size_t(std::find(lay.names.begin(), lay.names.end(), fields::particle_id) - lay.names.begin());
+  // Source k < n_kept: the kept particle kept[k] of the fields as they are; else a record.
+  std::vector<const unsigned char*> current(lay.names.size());
+  for (std::size_t f = 0; f < lay.names.size(); ++f) {
+    Field& field = s.field(lay.names[f]);
+    field.acquire(Where::host, Mode::read);
+    current[f] = static_cast<const unsigned char*>(field.host_raw());
+  }
+  auto entry = [&](std::size_t f, std::size_t k) {
+    return k < n_kept ? current[f] + std::size_t(kept[k]) * lay.size[f]
+                      : &records[(k - n_kept) * lay.bytes + lay.offset[f]];
+  };
+  auto x_of = [&](std::size_t k) {
     if (s.real() == DType::f32) {
       float v;
-      std::memcpy(&v, &records[at], sizeof v);
+      std::memcpy(&v, entry(pos_f, k), sizeof v);
       return double(v);
     }
     double v;
-    std::memcpy(&v, &records[at], sizeof v);
+    std::memcpy(&v, entry(pos_f, k), sizeof v);
     return v;
   };
-  // Owned first, then ghosts; each by id. A particle arrives once: from its one previous owner.
-  std::vector<std::size_t> order(n);
-  std::iota(order.begin(), order.end(), std::size_t(0));
-  std::vector<char> owned(n);
-  for (std::size_t k = 0; k < n; ++k) owned[k] = owner_of(x_of_record(k)) == rank_;
-  std::sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) {
-    if (owned[a] != owned[b]) return owned[a] > owned[b];
-    return id_of(a) < id_of(b);
-  });
+  // Owned first, then ghosts; each by id (a particle arrives once: from its one previous owner).
+  // One key a source: bit 63 a ghost, then the id, then the source (n < 2^31).
+  if (n >= (std::size_t(1) << 31))
+    throw RunError("a rank of a decomposed team would hold " + std::to_string(n) + " particles: at most 2^31");
+  std::vector<std::uint64_t> key(n);
   std::size_t n_owned = 0;
-  for (std::size_t k = 0; k < n; ++k) n_owned += owned[k] ? 1 : 0;
-  // The fill vertices: each a copy of the first held particle's record (so a type and a
+  for (std::size_t k = 0; k < n; ++k) {
+    std::uint32_t id;
+    std::memcpy(&id, entry(id_f, k), sizeof id);
+    const bool owned = owner_of(x_of(k)) == rank_;
+    n_owned += owned ? 1 : 0;
+    key[k] = (owned ? 0 : std::uint64_t(1) << 63) | std::uint64_t(id) << 31 | std::uint64_t(k);
+  }
+  std::sort(key.begin(), key.end());
+  std::vector<std::size_t> order(n);
+  for (std::size_t k = 0; k < n; ++k) order[k] = std::size_t(key[k] & ((std::uint64_t(1) << 31) - 1));
+  key = {};
+  lap("rebuild: order");
+  // The fill vertices: each a copy of the first held particle's entries (so a type and a
   // diameter that exist), with its own position and particle.id kFillId.
   const std::vector<double> fill = fill_gap_ ? fill_points(s) : std::vector<double>{};
   const std::size_t n_fill = fill.size() / 2;
   if (n_fill && n == 0) throw RunError("a rank of a decomposed team holds no particle: use fewer ranks");
-  const std::size_t pos_f =
-      std::size_t(std::find(lay.names.begin(), lay.names.end(), fields::position) - lay.names.begin());
+  std::vector<std::vector<unsigned char>> fresh(lay.names.size());
   for (std::size_t f = 0; f < lay.names.size(); ++f) {
-    Field& field = s.field(lay.names[f]);
-    field.resize(n + n_fill);
-    field.acquire(Where::host, Mode::write);
-    auto* dst = static_cast<unsigned char*>(field.host_raw());
     const std::size_t sz = lay.size[f];
-    for (std::size_t k = 0; k < n; ++k) std::memcpy(dst + k * sz, &records[order[k] * lay.bytes + lay.offset[f]], sz);
+    fresh[f].resize((n + n_fill) * sz);
+    unsigned char* dst = fresh[f].data();
+    gather_entries(dst, sz, n, [&](std::size_t k) { return entry(f, order[k]); });
     for (std::size_t k = 0; k < n_fill; ++k) {
       unsigned char* d = dst + (n + k) * sz;
       if (f == pos_f) {
@@ -222,13 +257,22 @@ void Domain::rebuild(State& s, const Layout& lay, std::vector<unsigned char> rec
             std::memcpy(d + std::size_t(c) * sizeof(double), &fill[2 * k + std::size_t(c)], sizeof(double));
           }
         }
-      } else if (lay.names[f] == fields::particle_id) {
+      } else if (f == id_f) {
         std::memcpy(d, &fields::kFillId, sizeof fields::kFillId);
       } else {
-        std::memcpy(d, &records[order[0] * lay.bytes + lay.offset[f]], sz);
+        std::memcpy(d, entry(f, order[0]), sz);
       }
     }
   }
+  // Only now: the kept particles are read from the fields as they were.
+  for (std::size_t f = 0; f < lay.names.size(); ++f) {
+    Field& field = s.field(lay.names[f]);
+    field.resize(n + n_fill);
+    field.acquire(Where::host, Mode::write);
+    if (!fresh[f].empty()) std::memcpy(field.host_raw(), fresh[f].data(), fresh[f].size());
+    fresh[f] = {};
+  }
+  lap("rebuild: fields");
   n_held_ = n;
   s.set_particles(n + n_fill, n_owned);
   to_device(s, {fields::particle_id});  // read by the stages' kernels without an Access of their own
@@ -241,6 +285,7 @@ void Domain::rebuild(State& s, const Layout& lay, std::vector<unsigned char> rec
   if (staging_->traffic) staging_->traffic->set_start(pos.host_raw(), n_owned * D * dtype_size(s.real()));
 #endif
   set_lists(s);
+  lap("rebuild: lists");
 }
 
 // Who sends what to whom in a refresh: the owner of a ghost decides from the same position
@@ -343,9 +388,18 @@ std::vector<double> Domain::fill_points(const State& s) const {
   return out;
 }
 
+void Domain::lap(const char* phase) {
+  const auto now = std::chrono::steady_clock::now();
+  if (timing_) migration_phase_seconds_[phase] += std::chrono::duration<double>(now - lap_).count();
+  lap_ = now;
+}
+
 void Domain::begin_step(State& s) {
   const auto t0 = std::chrono::steady_clock::now();
+  lap_ = t0;
   if (due(s)) {
+    timing_ = true;
+    lap("test");
     const Layout lay = layout_of(s, s.particle_field_names());
     auto to = std::vector<std::vector<std::uint32_t>>(std::size_t(ranks_));
     const std::vector<double> x = xs(s);
@@ -355,9 +409,11 @@ void Domain::begin_step(State& s) {
       for (int q = 0; q < ranks_; ++q)
         if (q == o || ghost_of(q, x[i])) to[std::size_t(q)].push_back(std::uint32_t(i));
     }
+    lap("destinations");
     std::vector<std::uint64_t> counts(std::size_t(ranks_), 0), incoming;
     for (int q = 0; q < ranks_; ++q) counts[std::size_t(q)] = to[std::size_t(q)].size();
     exchange_counts(counts, incoming);
+    lap("counts");
     auto out = std::vector<std::vector<unsigned char>>(std::size_t(ranks_)), in = out;
     std::vector<Communicator::Transfer> t;
     for (int q = 0; q < ranks_; ++q) {
@@ -367,11 +423,14 @@ void Domain::begin_step(State& s) {
       if (!out[std::size_t(q)].empty()) t.push_back({q, out[std::size_t(q)].data(), out[std::size_t(q)].size(), true});
       if (!in[std::size_t(q)].empty()) t.push_back({q, in[std::size_t(q)].data(), in[std::size_t(q)].size(), false});
     }
+    lap("pack");
     transfer(t);
+    lap("exchange");
     std::vector<unsigned char> records;
-    pack(s, lay, to[std::size_t(rank_)], records);
     for (int q = 0; q < ranks_; ++q) records.insert(records.end(), in[std::size_t(q)].begin(), in[std::size_t(q)].end());
-    rebuild(s, lay, std::move(records));
+    in = {};
+    rebuild(s, lay, to[std::size_t(rank_)], records);
+    timing_ = false;
     ++migrations_;
     migration_seconds_ += seconds_since(t0);
     return;

@@ -33,7 +33,9 @@
 #pragma once
 #include <cstddef>
 #include <algorithm>
+#include <chrono>
 #include <cstdint>
+#include <map>
 #include <memory>
 #include <string>
 #include <vector>
@@ -75,6 +77,9 @@ class Domain final : public GhostExchange {
   // `pipeline bench --gpus N`.
   double migration_seconds() const { return migration_seconds_; }
   double step_start_seconds() const { return step_start_seconds_; }
+  // The host time of the migrations by phase (test, destinations, counts, pack, exchange,
+  // rebuild: order / fields / lists), summed over them.
+  const std::map<std::string, double>& migration_phase_seconds() const { return migration_phase_seconds_; }
   std::uint64_t changed_owner() const { return changed_owner_; }  // particles, summed over migrations (this rank's sends)
   double band() const override { return band_; }
   double displacement(State& state, const std::string& field) override;
@@ -97,11 +102,14 @@ class Domain final : public GhostExchange {
   void pack(State& s, const Layout& lay, const std::vector<std::uint32_t>& which, std::vector<unsigned char>& out) const;
 
   bool due(State& s);
+  void lap(const char* phase);  // a migration's phase ends: its host time since the last lap
   bool moved(State& s);  // some owned particle moved more than slack_ since the last migration
   // refresh() on CUDA: packed, exchanged and unpacked on the device (core/run/cuda/ghost_traffic.h).
   void refresh_on_device(State& s, const Layout& lay);
-  // Rebuilds the state from records (every field of `full`), owned first, then ghosts, by id.
-  void rebuild(State& s, const Layout& lay, std::vector<unsigned char> records);
+  // Rebuilds the state, owned first, then ghosts, by id, from the particles it keeps (`kept`:
+  // indices into the state as it is) and the records of every field of `lay` from the others.
+  void rebuild(State& s, const Layout& lay, const std::vector<std::uint32_t>& kept,
+               const std::vector<unsigned char>& records);
   void set_lists(State& s);
   void exchange_counts(const std::vector<std::uint64_t>& send, std::vector<std::uint64_t>& recv);
   // comm_.exchange of host buffers: on the CPU directly; on CUDA through device staging buffers
@@ -129,6 +137,9 @@ class Domain final : public GhostExchange {
   std::vector<double> x0_;                                // owned positions at the last migration
   std::uint64_t migrations_ = 0, changed_owner_ = 0;
   double migration_seconds_ = 0, step_start_seconds_ = 0;
+  std::map<std::string, double> migration_phase_seconds_;
+  std::chrono::steady_clock::time_point lap_;
+  bool timing_ = false;  // in a migration of begin_step (not the constructor's)
   Backend backend_;
   struct Staging;  // CUDA builds: the device buffers transfer() stages through
   std::unique_ptr<Staging> staging_;

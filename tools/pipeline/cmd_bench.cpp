@@ -74,6 +74,7 @@ struct Result {
   // time of each, and the host time of the other steps' start (migration test, ghost refresh).
   std::uint64_t migrations = 0;
   double migration_ms = 0, step_start_ms = 0;
+  std::map<std::string, double> migration_phase_ms;  // per migration, over the whole run
 };
 
 // One rank's passes (team null: alone). Ranks meet at a barrier before each timed pass.
@@ -148,6 +149,9 @@ Result bench_rank(const Loaded& loaded, std::uint64_t n, Backend backend, std::u
   sim.synchronize();
   for (auto& slot : sim.slots())
     if (slot.calls) r.stage_ms[slot.info.stage_id] = 1e3 * slot.seconds / double(steps);
+  if (const Domain* d = sim.domain(); d && d->migrations())
+    for (auto& [phase, seconds] : d->migration_phase_seconds())
+      r.migration_phase_ms[phase] = 1e3 * seconds / double(d->migrations());
   sim.finish(true);
   return r;
 }
@@ -235,6 +239,11 @@ int cmd_bench(const std::vector<std::string>& args) {
                     << " ms; begin_step (host): " << all[k].step_start_ms << " ms in a step without migration, "
                     << all[k].migrations << " migration(s) in " << steps << " steps, " << all[k].migration_ms
                     << " ms each\n";
+        if (!all[k].migration_phase_ms.empty()) {
+          std::cout << "            rank " << k << ": a migration's phases (host ms):";
+          for (auto& [phase, ms] : all[k].migration_phase_ms) std::cout << " " << phase << "=" << std::setprecision(3) << ms;
+          std::cout << "\n";
+        }
       }
     jsonl << "{\"date\":\"" << date << "\",\"pipeline\":\"" << json_escape(common.file) << "\",\"backend\":\""
           << to_string(backend) << "\",\"device\":\"" << json_escape(device) << "\",\"N\":" << n
