@@ -128,8 +128,7 @@ End run(const test::LoadedPipeline& l, int ranks, std::uint64_t steps, const End
   };
 #ifdef FLIPFLOW_HAVE_CUDA
   if (one_gpu && ranks > 1) {
-    Team team = test::one_gpu_team(ranks);
-    run_team(team, [&](Communicator& comm) { body(&comm); });
+    test::on_one_gpu(ranks, body);
     return end;
   }
 #endif

@@ -449,7 +449,12 @@ void Domain::refresh(State& s, const std::vector<std::string>& fields) {
     lay.bytes += lay.size.back();
   }
 #ifdef FLIPFLOW_HAVE_CUDA
-  if (staging_->traffic) {
+  // From the side the values are current on: the device when every field is current there (a
+  // CUDA stage wrote them); else the host (a host-side stage wrote them: the Delaunay
+  // correction's team loop), as the first version did, which leaves both sides current.
+  bool on_device = staging_->traffic != nullptr;
+  for (auto& n : fields) on_device = on_device && s.field(n).valid_on(Where::device);
+  if (on_device) {
     refresh_on_device(s, lay);
     return;
   }

@@ -10,6 +10,7 @@
 #ifdef FLIPFLOW_HAVE_CUDA
 #include <cuda_runtime.h>
 
+#include <functional>
 #include <memory>
 #include <string>
 #include <vector>
@@ -80,6 +81,12 @@ inline Team one_gpu_team(int ranks) {
     t.ranks.push_back(std::make_unique<OneGpuRank>(std::move(c)));
   }
   return t;
+}
+
+// body(comm) on every rank of one_gpu_team(ranks).
+inline void on_one_gpu(int ranks, const std::function<void(Communicator*)>& body) {
+  Team team = one_gpu_team(ranks);
+  run_team(team, [&](Communicator& comm) { body(&comm); });
 }
 
 }  // namespace ff::test
