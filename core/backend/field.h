@@ -77,6 +77,10 @@ class Field {
   // Change the element count. Contents of the first min(old, new) elements are kept on the
   // host side (the field is brought to the host first).
   void resize(std::size_t count);
+  // CUDA builds: `buffer` (at least count elements, written by the caller) becomes the device
+  // storage and `count` the element count; the device side is current, the host side stale (its
+  // storage resized, not copied). A decomposed team's migration on the device (core/run/domain.h).
+  void adopt_device(std::unique_ptr<DeviceBuffer> buffer, std::size_t count);
 
  private:
   void check_type(DType asked) const;

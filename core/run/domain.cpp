@@ -279,6 +279,7 @@ void Domain::rebuild(State& s, const Layout& lay, const std::vector<std::uint32_
   Field& pos = s.field(fields::position);
   const std::size_t D = std::size_t(s.dim());
   x0_.resize(n_owned * D);
+  x0_on_host_ = true;
   for (std::size_t i = 0; i < n_owned * D; ++i)
     x0_[i] = s.real() == DType::f32 ? double(pos.host<float>()[i]) : pos.host<double>()[i];
 #ifdef FLIPFLOW_HAVE_CUDA
@@ -331,6 +332,23 @@ bool Domain::due(State& s) {
   return mine[0] != 0 || widen;
 }
 
+// x0_ after a migration on the device, which kept the start positions there only.
+void Domain::start_on_host(State& s) {
+  if (x0_on_host_) return;
+#ifdef FLIPFLOW_HAVE_CUDA
+  const std::size_t m = s.n_owned() * std::size_t(s.dim());
+  x0_.resize(m);
+  if (s.real() == DType::f32) {
+    std::vector<float> v(m);
+    staging_->traffic->get_start(v.data(), m * sizeof(float));
+    for (std::size_t i = 0; i < m; ++i) x0_[i] = double(v[i]);
+  } else {
+    staging_->traffic->get_start(x0_.data(), m * sizeof(double));
+  }
+#endif
+  x0_on_host_ = true;
+}
+
 bool Domain::moved(State& s) {
 #ifdef FLIPFLOW_HAVE_CUDA
   if (staging_->traffic) {
@@ -341,10 +359,12 @@ bool Domain::moved(State& s) {
     return g.moved_beyond(pos.device_raw(), s.real() == DType::f32, s.n_owned(), s.dim(), s.box.L, slack_);
   }
 #endif
+  start_on_host(s);
   return s.real() == DType::f32 ? moved_beyond<float>(s, x0_, slack_) : moved_beyond<double>(s, x0_, slack_);
 }
 
 double Domain::displacement(State& s, const std::string& field) {
+  start_on_host(s);
   const std::vector<double> x = owned_values(s, field);
   const int D = s.dim();
   const PeriodicBox<double> box = PeriodicBox<double>::make(s.box.L);
@@ -400,36 +420,11 @@ void Domain::begin_step(State& s) {
   if (due(s)) {
     timing_ = true;
     lap("test");
-    const Layout lay = layout_of(s, s.particle_field_names());
-    auto to = std::vector<std::vector<std::uint32_t>>(std::size_t(ranks_));
-    const std::vector<double> x = xs(s);
-    for (std::size_t i = 0; i < s.n_owned(); ++i) {
-      const int o = owner_of(x[i]);
-      if (o != rank_) ++changed_owner_;
-      for (int q = 0; q < ranks_; ++q)
-        if (q == o || ghost_of(q, x[i])) to[std::size_t(q)].push_back(std::uint32_t(i));
-    }
-    lap("destinations");
-    std::vector<std::uint64_t> counts(std::size_t(ranks_), 0), incoming;
-    for (int q = 0; q < ranks_; ++q) counts[std::size_t(q)] = to[std::size_t(q)].size();
-    exchange_counts(counts, incoming);
-    lap("counts");
-    auto out = std::vector<std::vector<unsigned char>>(std::size_t(ranks_)), in = out;
-    std::vector<Communicator::Transfer> t;
-    for (int q = 0; q < ranks_; ++q) {
-      if (q == rank_) continue;
-      pack(s, lay, to[std::size_t(q)], out[std::size_t(q)]);
-      in[std::size_t(q)].resize(incoming[std::size_t(q)] * lay.bytes);
-      if (!out[std::size_t(q)].empty()) t.push_back({q, out[std::size_t(q)].data(), out[std::size_t(q)].size(), true});
-      if (!in[std::size_t(q)].empty()) t.push_back({q, in[std::size_t(q)].data(), in[std::size_t(q)].size(), false});
-    }
-    lap("pack");
-    transfer(t);
-    lap("exchange");
-    std::vector<unsigned char> records;
-    for (int q = 0; q < ranks_; ++q) records.insert(records.end(), in[std::size_t(q)].begin(), in[std::size_t(q)].end());
-    in = {};
-    rebuild(s, lay, to[std::size_t(rank_)], records);
+#ifdef FLIPFLOW_HAVE_CUDA
+    if (staging_->traffic && !fill_gap_) migrate_on_device(s);
+    else
+#endif
+      migrate_on_host(s);
     timing_ = false;
     ++migrations_;
     migration_seconds_ += seconds_since(t0);
@@ -437,6 +432,117 @@ void Domain::begin_step(State& s) {
   }
   refresh(s, refreshed_);
   step_start_seconds_ += seconds_since(t0);
+}
+
+void Domain::migrate_on_host(State& s) {
+  const Layout lay = layout_of(s, s.particle_field_names());
+  auto to = std::vector<std::vector<std::uint32_t>>(std::size_t(ranks_));
+  const std::vector<double> x = xs(s);
+  for (std::size_t i = 0; i < s.n_owned(); ++i) {
+    const int o = owner_of(x[i]);
+    if (o != rank_) ++changed_owner_;
+    for (int q = 0; q < ranks_; ++q)
+      if (q == o || ghost_of(q, x[i])) to[std::size_t(q)].push_back(std::uint32_t(i));
+  }
+  lap("destinations");
+  std::vector<std::uint64_t> counts(std::size_t(ranks_), 0), incoming;
+  for (int q = 0; q < ranks_; ++q) counts[std::size_t(q)] = to[std::size_t(q)].size();
+  exchange_counts(counts, incoming);
+  lap("counts");
+  auto out = std::vector<std::vector<unsigned char>>(std::size_t(ranks_)), in = out;
+  std::vector<Communicator::Transfer> t;
+  for (int q = 0; q < ranks_; ++q) {
+    if (q == rank_) continue;
+    pack(s, lay, to[std::size_t(q)], out[std::size_t(q)]);
+    in[std::size_t(q)].resize(incoming[std::size_t(q)] * lay.bytes);
+    if (!out[std::size_t(q)].empty()) t.push_back({q, out[std::size_t(q)].data(), out[std::size_t(q)].size(), true});
+    if (!in[std::size_t(q)].empty()) t.push_back({q, in[std::size_t(q)].data(), in[std::size_t(q)].size(), false});
+  }
+  lap("pack");
+  transfer(t);
+  lap("exchange");
+  std::vector<unsigned char> records;
+  for (int q = 0; q < ranks_; ++q) records.insert(records.end(), in[std::size_t(q)].begin(), in[std::size_t(q)].end());
+  in = {};
+  rebuild(s, lay, to[std::size_t(rank_)], records);
+}
+
+// The migration on CUDA without the fields leaving the device (core/run/cuda/ghost_traffic.h):
+// the same destinations, records, order and lists as migrate_on_host, by kernels; only counts
+// come to the host. Not for a team that fills the gap (the Delaunay pipelines: their fill
+// vertices are made on the host).
+void Domain::migrate_on_device(State& s) {
+#ifdef FLIPFLOW_HAVE_CUDA
+  GhostTraffic& g = *staging_->traffic;
+  g.wait_for_device();
+  const Layout lay = layout_of(s, s.particle_field_names());
+  std::vector<void*> data;
+  for (auto& name : lay.names) {
+    Field& f = s.field(name);
+    f.acquire(Where::device, Mode::read, g.stream());
+    data.push_back(f.device_raw());
+  }
+  auto index_of = [&](const char* name) {
+    return std::size_t(std::find(lay.names.begin(), lay.names.end(), name) - lay.names.begin());
+  };
+  const std::size_t pos_f = index_of(fields::position), id_f = index_of(fields::particle_id);
+  const bool f32 = s.real() == DType::f32;
+  const int D = s.dim();
+  const SlabGeometry geo{L_, ranks_, rank_, band_};
+  std::uint64_t changed = 0;
+  const std::vector<std::size_t> dest = g.destinations(data[pos_f], f32, D, s.n_owned(), geo, &changed);
+  changed_owner_ += changed;
+  lap("destinations");
+  std::vector<std::uint64_t> counts(std::size_t(ranks_), 0), incoming;
+  for (int q = 0; q < ranks_; ++q) counts[std::size_t(q)] = dest[std::size_t(q)];
+  exchange_counts(counts, incoming);
+  lap("counts");
+  std::size_t n_in = 0;
+  for (int q = 0; q < ranks_; ++q)
+    if (q != rank_) n_in += incoming[std::size_t(q)];
+  auto* in = static_cast<unsigned char*>(g.records_in(n_in * lay.bytes));
+  std::vector<Communicator::Transfer> t;
+  std::size_t at = 0;
+  for (int q = 0; q < ranks_; ++q) {
+    if (q == rank_) continue;
+    const std::size_t out_bytes = dest[std::size_t(q)] * lay.bytes, in_bytes = incoming[std::size_t(q)] * lay.bytes;
+    if (out_bytes) {
+      void* out = g.send_buffer(q, out_bytes);
+      for (std::size_t f = 0; f < lay.names.size(); ++f)
+        g.pack_destination(q, data[f], lay.size[f], lay.bytes, lay.offset[f], out);
+      t.push_back({q, out, out_bytes, true});
+    }
+    if (in_bytes) {
+      t.push_back({q, in + at, in_bytes, false});
+      at += in_bytes;
+    }
+  }
+  comm_.exchange(t, g.stream());
+  g.wait();
+  lap("exchange");
+  const std::size_t n = dest[std::size_t(rank_)] + n_in;
+  const std::size_t n_owned = g.order(data[pos_f], static_cast<const std::uint32_t*>(data[id_f]), f32, D, n_in,
+                                      lay.bytes, lay.offset[pos_f], lay.offset[id_f], geo);
+  lap("rebuild: order");
+  std::vector<std::unique_ptr<DeviceBuffer>> fresh;
+  for (std::size_t f = 0; f < lay.names.size(); ++f) {
+    fresh.push_back(std::make_unique<DeviceBuffer>(std::max<std::size_t>(n * lay.size[f], 1),
+                                                   "field '" + lay.names[f] + "' after a migration"));
+    g.gather(fresh.back()->data(), data[f], lay.size[f], lay.bytes, lay.offset[f]);
+  }
+  g.wait();  // the fields' old storage is read until here
+  for (std::size_t f = 0; f < lay.names.size(); ++f) s.field(lay.names[f]).adopt_device(std::move(fresh[f]), n);
+  n_held_ = n;
+  s.set_particles(n, n_owned);
+  lap("rebuild: fields");
+  Field& pos = s.field(fields::position);
+  g.set_start_from(pos.device_raw(), n_owned * std::size_t(D) * dtype_size(s.real()));
+  x0_on_host_ = false;
+  g.held_lists(pos.device_raw(), f32, D, n_owned, n, geo, send_, recv_);
+  lap("rebuild: lists");
+#else
+  (void)s;
+#endif
 }
 
 void Domain::refresh(State& s, const std::vector<std::string>& fields) {

@@ -104,6 +104,9 @@ class Domain final : public GhostExchange {
   bool due(State& s);
   void lap(const char* phase);  // a migration's phase ends: its host time since the last lap
   bool moved(State& s);  // some owned particle moved more than slack_ since the last migration
+  void migrate_on_host(State& s);
+  void migrate_on_device(State& s);  // CUDA, no fill vertices: core/run/cuda/ghost_traffic.h
+  void start_on_host(State& s);      // x0_ current
   // refresh() on CUDA: packed, exchanged and unpacked on the device (core/run/cuda/ghost_traffic.h).
   void refresh_on_device(State& s, const Layout& lay);
   // Rebuilds the state, owned first, then ghosts, by id, from the particles it keeps (`kept`:
@@ -143,6 +146,7 @@ class Domain final : public GhostExchange {
   Backend backend_;
   struct Staging;  // CUDA builds: the device buffers transfer() stages through
   std::unique_ptr<Staging> staging_;
+  bool x0_on_host_ = true;  // else only on the device (GhostTraffic's start, after migrate_on_device)
 };
 
 }  // namespace ff

@@ -21,6 +21,14 @@ namespace ff {
 
 class DeviceBuffer;
 
+// Domain::owner_of and ghost_of's parameters: slabs of width L/ranks along x, ghosts within band.
+struct SlabGeometry {
+  double L;
+  int ranks;
+  int rank;
+  double band;
+};
+
 class GhostTraffic {
  public:
   GhostTraffic();  // a stream on the current device (the rank's)
@@ -52,6 +60,36 @@ class GhostTraffic {
   // double) is farther than `slack` (minimum image in the box L) from its position at the
   // migration; waits for the answer.
   bool moved_beyond(const void* position, bool f32, std::size_t owned, int dim, const double* L, double slack);
+  // The start positions from the device: the owned positions of `position` now (after a
+  // migration on the device), and back to the host (Domain::displacement).
+  void set_start_from(const void* position, std::size_t bytes);
+  void get_start(void* host, std::size_t bytes) const;
+
+  // A migration on the device (Domain::migrate_on_device), in this order. Waits where it returns
+  // counts. destinations: for every rank q, the owned particles (of `owned`, positions of the
+  // state's precision) that go to q: q owns it now, or holds it as a ghost; their counts, and
+  // how many change owner.
+  std::vector<std::size_t> destinations(const void* position, bool f32, int dim, std::size_t owned,
+                                        const SlabGeometry& geo, std::uint64_t* changed_owner);
+  // One field's entries of destination q's particles into `out` (records as in pack).
+  void pack_destination(int q, const void* field, std::size_t entry_bytes, std::size_t record_bytes,
+                        std::size_t offset, void* out);
+  // Where every peer's records arrive, one after another (grown as needed).
+  void* records_in(std::size_t bytes);
+  // The held particles from now on: this rank's own destinations (kept, from the fields as they
+  // are) and the n_in records, owned first, then ghosts, each by id (one 64-bit key a particle,
+  // radix-sorted). Returns how many are owned.
+  std::size_t order(const void* position, const std::uint32_t* id, bool f32, int dim, std::size_t n_in,
+                    std::size_t record_bytes, std::size_t position_offset, std::size_t id_offset,
+                    const SlabGeometry& geo);
+  // One field of the held particles in that order into dst (a kept particle's entry from `field`,
+  // a received one's from its record).
+  void gather(void* dst, const void* field, std::size_t entry_bytes, std::size_t record_bytes, std::size_t offset);
+  // The refresh lists of the held particles (`owned` of `n`): per peer q, the owned particles q
+  // holds as ghosts and the ghosts q owns, in index (id) order; into `send` and `recv`, then
+  // set_lists.
+  void held_lists(const void* position, bool f32, int dim, std::size_t owned, std::size_t n, const SlabGeometry& geo,
+                  std::vector<std::vector<std::uint32_t>>& send, std::vector<std::vector<std::uint32_t>>& recv);
 
  private:
   CUstream_st* stream_ = nullptr;
@@ -59,6 +97,14 @@ class GhostTraffic {
   std::unique_ptr<DeviceBuffer> send_idx_, recv_idx_, start_, flag_;
   std::vector<std::unique_ptr<DeviceBuffer>> send_buf_, recv_buf_;
   std::uint32_t* flag_host_ = nullptr;  // pinned
+  // The migration's: per rank, its destinations' indices (rank q's at q·owned), their counts,
+  // the flags and scan they are compacted from, the keys before and after the sort, the records in.
+  std::size_t dest_stride_ = 0, n_kept_ = 0, n_in_ = 0;
+  std::vector<std::size_t> dest_count_;
+  const std::uint32_t* kept_ = nullptr;  // order()'s kept particles (this rank's destinations)
+  std::unique_ptr<DeviceBuffer> dest_, flags_, scan_, keys_, sorted_, temp_, records_in_, counter_;
+  // Compacts the indices i < n with flags[i] != 0 into out (ascending); returns their count.
+  std::size_t compact(const std::uint32_t* flags, std::size_t n, std::uint32_t* out);
 };
 
 }  // namespace ff
