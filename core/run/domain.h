@@ -25,11 +25,13 @@
 // every migration and never sent. A stage may ask for a wider band (request_band): the next
 // begin_step takes the widest request of any rank and migrates with it.
 //
-// On CUDA the per-step work stays on the device (core/run/cuda/ghost_traffic.h): the migration
-// test is a kernel with one flag read back, and a refresh packs the records on the device by index
-// lists kept there, exchanges them (NCCL) and unpacks them there. A migration, and gather, pack
-// and unpack on the host (the fields acquired there: whole fields copied), and their records
-// travel through device staging buffers, as NCCL wants (core/backend/comm.h).
+// On CUDA the work of every step stays on the device (core/run/cuda/ghost_traffic.h): the
+// migration test is a kernel with one flag read back; a refresh packs the records on the device
+// by index lists kept there, exchanges them (NCCL) and unpacks them there; a migration of a team
+// without fill vertices finds destinations, packs, orders (a radix sort of one key a particle) and
+// gathers the fields there too. The Delaunay pipelines' migrations, and gather (observers), pack
+// and unpack on the host (the fields acquired there: whole fields copied), their records through
+// device staging buffers, as NCCL wants (core/backend/comm.h).
 #pragma once
 #include <cstddef>
 #include <algorithm>
