@@ -13,7 +13,8 @@
 #include <cstdint>
 
 #include "core/backend/exec.h"
-#include "stages/neighbors/delaunay/kernel.h"
+#include "stages/neighbors/delaunay/search_parent.h"
+#include "stages/neighbors/delaunay/search_visited.h"
 
 namespace ff::neighbors {
 

@@ -35,7 +35,8 @@
 #include "core/stage/stage.h"
 #include "core/stage/stage_registration.h"
 #include "stages/delaunay/common/fields.h"
-#include "stages/neighbors/delaunay/kernel.h"
+#include "stages/neighbors/delaunay/search_parent.h"
+#include "stages/neighbors/delaunay/search_visited.h"
 #include "stages/neighbors/delaunay/loops.h"
 #include "stages/neighbors/list.h"
 
