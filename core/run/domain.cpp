@@ -557,7 +557,7 @@ void Domain::refresh(State& s, const std::vector<std::string>& fields) {
 #ifdef FLIPFLOW_HAVE_CUDA
   // From the side the values are current on: the device when every field is current there (a
   // CUDA stage wrote them); else the host (a host-side stage wrote them: the Delaunay
-  // correction's team loop), as the first version did, which leaves both sides current.
+  // correction's team loop), which leaves the host side alone current.
   bool on_device = staging_->traffic != nullptr;
   for (auto& n : fields) on_device = on_device && s.field(n).valid_on(Where::device);
   if (on_device) {
@@ -586,7 +586,10 @@ void Domain::refresh(State& s, const std::vector<std::string>& fields) {
         std::memcpy(dst + std::size_t(idx[k]) * sz, &in[std::size_t(q)][k * lay.bytes + lay.offset[f]], sz);
     }
   }
-  to_device(s, fields);
+  // The host copy alone is current now: a caller that refreshes from the host works there (the
+  // Delaunay correction's loop, every iteration), and the next stage on the device copies the
+  // fields once. (The first version uploaded them here, for a caller holding device pointers:
+  // such a caller's fields are current on the device, and those go the device way.)
 }
 
 // The refresh on CUDA: the same records (lay) by the same lists, packed, sent and unpacked on
