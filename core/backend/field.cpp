@@ -88,7 +88,7 @@ void Field::acquire(Where where, Mode mode, CUstream_st* stream) {
   }
 }
 
-void Field::adopt_device(std::unique_ptr<DeviceBuffer> buffer, std::size_t count) {
+std::unique_ptr<DeviceBuffer> Field::adopt_device(std::unique_ptr<DeviceBuffer> buffer, std::size_t count) {
   std::lock_guard<std::mutex> lock(mutex_);
   const std::size_t need = count * std::size_t(components_) * dtype_size(dtype_);
   if (!buffer || buffer->bytes() < need)
@@ -100,14 +100,15 @@ void Field::adopt_device(std::unique_ptr<DeviceBuffer> buffer, std::size_t count
     host_ = aligned_storage(need, false);  // stale until the next acquire on the host copies into it
     count_ = count;
   }
-  device_ = std::move(buffer);
+  std::swap(device_, buffer);
   device_valid_ = true;
   host_valid_ = false;
+  return buffer;
 }
 
 #else
 
-void Field::adopt_device(std::unique_ptr<DeviceBuffer>, std::size_t) {
+std::unique_ptr<DeviceBuffer> Field::adopt_device(std::unique_ptr<DeviceBuffer>, std::size_t) {
   throw RunError("field '" + name_ + "': this flipflow was built without CUDA");
 }
 

@@ -79,8 +79,9 @@ class Field {
   void resize(std::size_t count);
   // CUDA builds: `buffer` (at least count elements, written by the caller) becomes the device
   // storage and `count` the element count; the device side is current, the host side stale (its
-  // storage resized, not copied). A decomposed team's migration on the device (core/run/domain.h).
-  void adopt_device(std::unique_ptr<DeviceBuffer> buffer, std::size_t count);
+  // storage resized, not copied). Returns the storage it replaces (null if none), for the caller
+  // to reuse. A decomposed team's migration on the device (core/run/domain.h).
+  std::unique_ptr<DeviceBuffer> adopt_device(std::unique_ptr<DeviceBuffer> buffer, std::size_t count);
 
  private:
   void check_type(DType asked) const;

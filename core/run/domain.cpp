@@ -4,6 +4,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstring>
+#include <map>
 #include <numeric>
 #include <type_traits>
 
@@ -20,6 +21,9 @@ struct Domain::Staging {
 #ifdef FLIPFLOW_HAVE_CUDA
   std::vector<std::unique_ptr<DeviceBuffer>> buffers;  // one per transfer slot, grown as needed
   std::unique_ptr<GhostTraffic> traffic;               // the refresh and the migration test
+  // Per particle field: the device storage a migration on the device replaced, reused by the
+  // next one (no allocation and free of every field at every migration).
+  std::map<std::string, std::unique_ptr<DeviceBuffer>> spare;
 #endif
 };
 
@@ -526,12 +530,16 @@ void Domain::migrate_on_device(State& s) {
   lap("rebuild: order");
   std::vector<std::unique_ptr<DeviceBuffer>> fresh;
   for (std::size_t f = 0; f < lay.names.size(); ++f) {
-    fresh.push_back(std::make_unique<DeviceBuffer>(std::max<std::size_t>(n * lay.size[f], 1),
-                                                   "field '" + lay.names[f] + "' after a migration"));
-    g.gather(fresh.back()->data(), data[f], lay.size[f], lay.bytes, lay.offset[f]);
+    const std::size_t need = std::max<std::size_t>(n * lay.size[f], 1);
+    std::unique_ptr<DeviceBuffer> buf = std::move(staging_->spare[lay.names[f]]);
+    if (!buf || buf->bytes() < need)  // an eighth more: the held count varies from one migration to the next
+      buf = std::make_unique<DeviceBuffer>(need + need / 8, "field '" + lay.names[f] + "' after a migration");
+    g.gather(buf->data(), data[f], lay.size[f], lay.bytes, lay.offset[f]);
+    fresh.push_back(std::move(buf));
   }
   g.wait();  // the fields' old storage is read until here
-  for (std::size_t f = 0; f < lay.names.size(); ++f) s.field(lay.names[f]).adopt_device(std::move(fresh[f]), n);
+  for (std::size_t f = 0; f < lay.names.size(); ++f)
+    staging_->spare[lay.names[f]] = s.field(lay.names[f]).adopt_device(std::move(fresh[f]), n);
   n_held_ = n;
   s.set_particles(n, n_owned);
   lap("rebuild: fields");
