@@ -74,6 +74,8 @@ std::map<std::uint32_t, std::vector<std::uint32_t>> owned_rows(State& s) {
   count.acquire(Where::host, Mode::read);
   const std::uint32_t cap = neighbors::list_capacity(s);
   const bool has_id = s.has_field(fields::particle_id);
+  // (On CUDA a migration on the device leaves only the device copy of the ids current.)
+  if (has_id) s.field(fields::particle_id).acquire(Where::host, Mode::read);
   const std::uint32_t* id = has_id ? s.field(fields::particle_id).host<std::uint32_t>() : nullptr;
   std::map<std::uint32_t, std::vector<std::uint32_t>> out;
   for (std::size_t i = 0; i < s.n_owned(); ++i) {
