@@ -144,6 +144,21 @@ void Field::swap_contents(Field& other) {
   ++other.version_;
 }
 
+void Field::resize_discarding(std::size_t count) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (count == count_) return;
+  ++version_;
+  const std::size_t need = count * std::size_t(components_) * dtype_size(dtype_);
+  std::free(host_);
+  host_ = aligned_storage(need, false);
+  count_ = count;
+#ifdef FLIPFLOW_HAVE_CUDA
+  if (device_ && device_->bytes() < need) device_.reset();
+#endif
+  host_valid_ = true;  // as resize leaves it: an acquire for writing on either side copies nothing
+  device_valid_ = false;
+}
+
 void Field::resize(std::size_t count) {
   if (count == count_) return;
   acquire(Where::host, Mode::readwrite);  // bumps the version
