@@ -14,6 +14,8 @@
 //   reads ghosts after another wrote them in the step.
 // - `pipeline run --gpus N --device cpu`: rank 0's H5MD file equals the file of a run alone.
 // - With 2 or more GPUs (NCCL; skipped visibly otherwise): 2 and 4 GPUs give one GPU's bits.
+// - With one GPU: 2 and 3 ranks on it (support/one_gpu_team.h: the CUDA team path, exchanges
+//   through the host) give its bits, so the CUDA path is tested where NCCL cannot make a team.
 #include <catch2/catch.hpp>
 
 #include <unistd.h>
@@ -36,6 +38,7 @@
 #include "stages/neighbors/list.h"
 #include "support/cli.h"
 #include "support/pipeline.h"
+#include "support/one_gpu_team.h"
 #include "support/team.h"
 
 using namespace ff;
@@ -71,6 +74,8 @@ std::map<std::uint32_t, std::vector<std::uint32_t>> owned_rows(State& s) {
   count.acquire(Where::host, Mode::read);
   const std::uint32_t cap = neighbors::list_capacity(s);
   const bool has_id = s.has_field(fields::particle_id);
+  // (On CUDA a migration on the device leaves only the device copy of the ids current.)
+  if (has_id) s.field(fields::particle_id).acquire(Where::host, Mode::read);
   const std::uint32_t* id = has_id ? s.field(fields::particle_id).host<std::uint32_t>() : nullptr;
   std::map<std::uint32_t, std::vector<std::uint32_t>> out;
   for (std::size_t i = 0; i < s.n_owned(); ++i) {
@@ -84,9 +89,9 @@ std::map<std::uint32_t, std::vector<std::uint32_t>> owned_rows(State& s) {
 }
 
 // `steps` steps on `ranks` ranks (1: alone, no team). With `alone` given, every rank checks its
-// owned rows against it.
+// owned rows against it. one_gpu: a CUDA team of `ranks` on GPU 0 (support/one_gpu_team.h).
 End run(const test::LoadedPipeline& l, int ranks, std::uint64_t steps, const End* alone = nullptr,
-        Backend backend = Backend::cpu) {
+        Backend backend = Backend::cpu, bool one_gpu = false) {
   End end;
   std::mutex m;
   auto body = [&](Communicator* comm) {
@@ -123,6 +128,12 @@ End run(const test::LoadedPipeline& l, int ranks, std::uint64_t steps, const End
     end.time = sim.state().time;
     sim.finish(true);
   };
+#ifdef FLIPFLOW_HAVE_CUDA
+  if (one_gpu && ranks > 1) {
+    test::on_one_gpu(ranks, body);
+    return end;
+  }
+#endif
   test::on_ranks(backend, ranks, body);
   return end;
 }
@@ -381,6 +392,34 @@ TEST_CASE("decomposition: 2 and 4 GPUs give one GPU's bits (Lennard-Jones, hard 
     auto l = test::load_compute_steps(test::repo_file("tests/data/decomp-hard-spheres.yaml").string(), {});
     const End alone = run(l, 1, 300, nullptr, Backend::cuda);
     check_same(run(l, ranks, 300, nullptr, Backend::cuda), alone,
+               {"neighbors.count", "neighbors.verlet/rebuilds", "neighbors.verlet/max_neighbors",
+                "overlap_correct.verlet/list_rebuilds"});
+  }
+}
+
+TEST_CASE("decomposition: 2 and 3 ranks on one GPU give its bits (the CUDA team path; Lennard-Jones, hard spheres)") {
+  // NCCL puts one rank on a GPU; these ranks share GPU 0 and exchange through the host, and run
+  // everything else as a team of GPUs does. The hard spheres' correction refreshes its ghosts
+  // within its step; on the first run on 2 GPUs (session 20) it stopped at max_iterations on
+  // step 52: each refresh packed the host copy of the positions, current as of the refresh
+  // before, and uploaded it over the iteration's moves. That happens on one GPU as well.
+  if (cuda_device_count() < 1) {
+    WARN("SKIPPED: no CUDA device");
+    return;
+  }
+  auto lj_double = lj("double");
+  auto hs = test::load_compute_steps(test::repo_file("tests/data/decomp-hard-spheres.yaml").string(), {});
+  const End lj_alone = run(lj_double, 1, 400, nullptr, Backend::cuda);
+  const End hs_alone = run(hs, 1, 300, nullptr, Backend::cuda);
+  CHECK(hs_alone.metrics.at("overlap_correct.verlet/pairs") > 0);
+  CHECK(hs_alone.metrics.count("overlap_correct.verlet/iterations"));
+  for (int ranks : {2, 3}) {
+    {
+      INFO(ranks << " ranks on one GPU, Lennard-Jones");
+      check_same(run(lj_double, ranks, 400, &lj_alone, Backend::cuda, true), lj_alone);
+    }
+    INFO(ranks << " ranks on one GPU, hard spheres");
+    check_same(run(hs, ranks, 300, nullptr, Backend::cuda, true), hs_alone,
                {"neighbors.count", "neighbors.verlet/rebuilds", "neighbors.verlet/max_neighbors",
                 "overlap_correct.verlet/list_rebuilds"});
   }

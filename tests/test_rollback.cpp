@@ -5,6 +5,7 @@
 
 #include "core/base/error.h"
 #include "core/backend/host_copy.h"
+#include "core/run/rollback.h"
 #include "core/run/simulation.h"
 #include "support/backends.h"
 #include "support/spec.h"
@@ -89,6 +90,51 @@ TEST_CASE("take_before_overwrite swaps storage instead of copying, and restore s
   CHECK(positions(sim) == p0);
   Field other("other", f.dtype(), f.components(), f.count() + 1);
   CHECK_THROWS_WITH(f.swap_contents(other), Catch::Contains("differ in shape"));
+}
+
+TEST_CASE("a snapshot follows fields whose count a migration changed, growing and shrinking", "[rollback]") {
+  // A decomposed team's migration (core/run/domain.h) changes the count of every particle field
+  // between two steps; the snapshot's copies are resized without their old contents
+  // (Field::resize_discarding) and must still restore the step's start exactly.
+  State s(2, Precision::f64, 8);
+  Snapshot snap({fields::position}, {fields::image});
+  auto fill = [&](double base) {
+    Field& p = s.field(fields::position);
+    Field& img = s.field(fields::image);
+    p.acquire(Where::host, Mode::write);
+    img.acquire(Where::host, Mode::write);
+    for (std::size_t i = 0; i < p.size(); ++i) p.host<double>()[i] = base + 0.25 * double(i);
+    for (std::size_t i = 0; i < img.size(); ++i) img.host<std::int32_t>()[i] = std::int32_t(base) + std::int32_t(i);
+  };
+  auto bytes = [&](const char* name) {
+    Field& f = s.field(name);
+    f.acquire(Where::host, Mode::read);
+    const auto* b = static_cast<const unsigned char*>(f.host_raw());
+    return std::vector<unsigned char>(b, b + f.bytes());
+  };
+  fill(1);
+  snap.take(s, nullptr);
+  snap.take_before_overwrite(s, fields::image);
+  for (std::size_t n : {std::size_t(13), std::size_t(5), std::size_t(5), std::size_t(21)}) {
+    INFO(n << " particles");
+    for (auto& name : s.particle_field_names()) s.field(name).resize(n);
+    s.set_particles(n, n);
+    fill(double(n));
+    const auto p0 = bytes(fields::position), i0 = bytes(fields::image);
+    snap.take(s, nullptr);
+    Field* img_copy = snap.take_before_overwrite(s, fields::image);
+    REQUIRE(img_copy);
+    CHECK(img_copy->count() == n);
+    fill(-100);  // the step writes both
+    snap.restore(s, nullptr);
+    CHECK(bytes(fields::position) == p0);
+    CHECK(bytes(fields::image) == i0);
+  }
+  Field f("f", DType::f64, 3, 4);
+  f.resize_discarding(7);
+  CHECK(f.count() == 7);
+  CHECK(f.bytes() == 7 * 3 * sizeof(double));
+  CHECK(f.valid_on(Where::host));
 }
 
 TEST_CASE("host_copy copies every byte, in one piece or in parallel chunks", "[rollback]") {

@@ -28,7 +28,7 @@ namespace {
 // scattered places, and with 4 KiB pages nearly every such access also misses the TLB.
 constexpr std::size_t kHugePage = std::size_t(2) << 20;
 
-void* aligned_zeroed(std::size_t bytes) {
+void* aligned_storage(std::size_t bytes, bool zero) {
   if (bytes == 0) return nullptr;
   const bool huge = bytes >= kHugePage;
   const std::size_t align = huge ? kHugePage : 64;
@@ -38,9 +38,10 @@ void* aligned_zeroed(std::size_t bytes) {
 #ifdef MADV_HUGEPAGE
   if (huge) madvise(p, rounded, MADV_HUGEPAGE);  // advice only: failure leaves 4 KiB pages
 #endif
-  std::memset(p, 0, rounded);
+  if (zero) std::memset(p, 0, rounded);
   return p;
 }
+void* aligned_zeroed(std::size_t bytes) { return aligned_storage(bytes, true); }
 }  // namespace
 
 Field::Field(std::string name, DType dtype, int components, std::size_t count)
@@ -87,7 +88,29 @@ void Field::acquire(Where where, Mode mode, CUstream_st* stream) {
   }
 }
 
+std::unique_ptr<DeviceBuffer> Field::adopt_device(std::unique_ptr<DeviceBuffer> buffer, std::size_t count) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  const std::size_t need = count * std::size_t(components_) * dtype_size(dtype_);
+  if (!buffer || buffer->bytes() < need)
+    throw std::logic_error("field '" + name_ + "': adopt_device with a buffer smaller than " + std::to_string(need) +
+                           " bytes");
+  ++version_;
+  if (count != count_) {
+    std::free(host_);
+    host_ = aligned_storage(need, false);  // stale until the next acquire on the host copies into it
+    count_ = count;
+  }
+  std::swap(device_, buffer);
+  device_valid_ = true;
+  host_valid_ = false;
+  return buffer;
+}
+
 #else
+
+std::unique_ptr<DeviceBuffer> Field::adopt_device(std::unique_ptr<DeviceBuffer>, std::size_t) {
+  throw RunError("field '" + name_ + "': this flipflow was built without CUDA");
+}
 
 void* Field::device_raw() {
   throw RunError("field '" + name_ + "': this flipflow was built without CUDA");
@@ -119,6 +142,21 @@ void Field::swap_contents(Field& other) {
   std::swap(device_valid_, other.device_valid_);
   ++version_;
   ++other.version_;
+}
+
+void Field::resize_discarding(std::size_t count) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (count == count_) return;
+  ++version_;
+  const std::size_t need = count * std::size_t(components_) * dtype_size(dtype_);
+  std::free(host_);
+  host_ = aligned_storage(need, false);
+  count_ = count;
+#ifdef FLIPFLOW_HAVE_CUDA
+  if (device_ && device_->bytes() < need) device_.reset();
+#endif
+  host_valid_ = true;  // as resize leaves it: an acquire for writing on either side copies nothing
+  device_valid_ = false;
 }
 
 void Field::resize(std::size_t count) {

@@ -77,6 +77,16 @@ class Field {
   // Change the element count. Contents of the first min(old, new) elements are kept on the
   // host side (the field is brought to the host first).
   void resize(std::size_t count);
+  // Change the element count without keeping the contents, for a caller that writes every
+  // element next (a rollback snapshot's copy of a field whose count a decomposed team's
+  // migration changed): nothing is copied to the host, and the device storage is kept when it
+  // is large enough. The contents are undefined until written.
+  void resize_discarding(std::size_t count);
+  // CUDA builds: `buffer` (at least count elements, written by the caller) becomes the device
+  // storage and `count` the element count; the device side is current, the host side stale (its
+  // storage resized, not copied). Returns the storage it replaces (null if none), for the caller
+  // to reuse. A decomposed team's migration on the device (core/run/domain.h).
+  std::unique_ptr<DeviceBuffer> adopt_device(std::unique_ptr<DeviceBuffer> buffer, std::size_t count);
 
  private:
   void check_type(DType asked) const;

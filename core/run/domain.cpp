@@ -1,23 +1,22 @@
 #include "core/run/domain.h"
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <cstring>
 #include <numeric>
 
 #include "core/base/error.h"
 #include "core/physics/box.h"
-#ifdef FLIPFLOW_HAVE_CUDA
-#include "core/backend/cuda/device_buffer.h"
-#endif
+#include "core/run/domain_staging.h"
 
 namespace ff {
 
-struct Domain::Staging {
-#ifdef FLIPFLOW_HAVE_CUDA
-  std::vector<std::unique_ptr<DeviceBuffer>> buffers;  // one per transfer slot, grown as needed
-#endif
-};
+namespace {
+double seconds_since(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+}  // namespace
 
 Domain::~Domain() = default;
 
@@ -85,6 +84,9 @@ Domain::Domain(Communicator& comm, State& s, double band, double slack, std::vec
   if (fill_gap_ && s.dim() != 2)
     throw InputError("a decomposed team fills the gap beyond the band with fixed vertices in 2D only");
   if (fill_gap_ && !(band_ > 0)) throw InputError("a decomposed team that fills the gap needs a band > 0");
+#ifdef FLIPFLOW_HAVE_CUDA
+  if (backend_ == Backend::cuda) staging_->traffic = std::make_unique<GhostTraffic>();
+#endif
   // Global ids, then this rank's share of the whole state (the same on every rank: no message).
   Field& id = s.add_particle_field(fields::particle_id, DType::u32, 1);
   id.acquire(Where::host, Mode::write);
@@ -94,9 +96,7 @@ Domain::Domain(Communicator& comm, State& s, double band, double slack, std::vec
   const std::vector<double> x = xs(s);
   for (std::size_t i = 0; i < s.n(); ++i)
     if (owner_of(x[i]) == rank_ || ghost_of(rank_, x[i])) mine.push_back(std::uint32_t(i));
-  std::vector<unsigned char> records;
-  pack(s, lay, mine, records);
-  rebuild(s, lay, std::move(records));
+  rebuild(s, lay, mine, {});
 }
 
 std::vector<double> Domain::xs(State& s) const {
@@ -154,80 +154,6 @@ void Domain::pack(State& s, const Layout& lay, const std::vector<std::uint32_t>&
   }
 }
 
-void Domain::rebuild(State& s, const Layout& lay, std::vector<unsigned char> records) {
-  const std::size_t n = lay.bytes ? records.size() / lay.bytes : 0;
-  auto id_of = [&](std::size_t k) {
-    std::uint32_t v;
-    std::memcpy(&v, &records[k * lay.bytes + lay.id_offset], sizeof v);
-    return v;
-  };
-  auto x_of_record = [&](std::size_t k) {
-    const std::size_t at = k * lay.bytes +
-                           lay.offset[std::size_t(std::find(lay.names.begin(), lay.names.end(), fields::position) -
-                                                  lay.names.begin())];
-    if (s.real() == DType::f32) {
-      float v;
-      std::memcpy(&v, &records[at], sizeof v);
-      return double(v);
-    }
-    double v;
-    std::memcpy(&v, &records[at], sizeof v);
-    return v;
-  };
-  // Owned first, then ghosts; each by id. A particle arrives once: from its one previous owner.
-  std::vector<std::size_t> order(n);
-  std::iota(order.begin(), order.end(), std::size_t(0));
-  std::vector<char> owned(n);
-  for (std::size_t k = 0; k < n; ++k) owned[k] = owner_of(x_of_record(k)) == rank_;
-  std::sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) {
-    if (owned[a] != owned[b]) return owned[a] > owned[b];
-    return id_of(a) < id_of(b);
-  });
-  std::size_t n_owned = 0;
-  for (std::size_t k = 0; k < n; ++k) n_owned += owned[k] ? 1 : 0;
-  // The fill vertices: each a copy of the first held particle's record (so a type and a
-  // diameter that exist), with its own position and particle.id kFillId.
-  const std::vector<double> fill = fill_gap_ ? fill_points(s) : std::vector<double>{};
-  const std::size_t n_fill = fill.size() / 2;
-  if (n_fill && n == 0) throw RunError("a rank of a decomposed team holds no particle: use fewer ranks");
-  const std::size_t pos_f =
-      std::size_t(std::find(lay.names.begin(), lay.names.end(), fields::position) - lay.names.begin());
-  for (std::size_t f = 0; f < lay.names.size(); ++f) {
-    Field& field = s.field(lay.names[f]);
-    field.resize(n + n_fill);
-    field.acquire(Where::host, Mode::write);
-    auto* dst = static_cast<unsigned char*>(field.host_raw());
-    const std::size_t sz = lay.size[f];
-    for (std::size_t k = 0; k < n; ++k) std::memcpy(dst + k * sz, &records[order[k] * lay.bytes + lay.offset[f]], sz);
-    for (std::size_t k = 0; k < n_fill; ++k) {
-      unsigned char* d = dst + (n + k) * sz;
-      if (f == pos_f) {
-        for (int c = 0; c < 2; ++c) {
-          if (s.real() == DType::f32) {
-            const float v = float(fill[2 * k + std::size_t(c)]);
-            std::memcpy(d + std::size_t(c) * sizeof v, &v, sizeof v);
-          } else {
-            std::memcpy(d + std::size_t(c) * sizeof(double), &fill[2 * k + std::size_t(c)], sizeof(double));
-          }
-        }
-      } else if (lay.names[f] == fields::particle_id) {
-        std::memcpy(d, &fields::kFillId, sizeof fields::kFillId);
-      } else {
-        std::memcpy(d, &records[order[0] * lay.bytes + lay.offset[f]], sz);
-      }
-    }
-  }
-  n_held_ = n;
-  s.set_particles(n + n_fill, n_owned);
-  to_device(s, {fields::particle_id});  // read by the stages' kernels without an Access of their own
-  Field& pos = s.field(fields::position);
-  const std::size_t D = std::size_t(s.dim());
-  x0_.resize(n_owned * D);
-  for (std::size_t i = 0; i < n_owned * D; ++i)
-    x0_[i] = s.real() == DType::f32 ? double(pos.host<float>()[i]) : pos.host<double>()[i];
-  set_lists(s);
-}
-
 // Who sends what to whom in a refresh: the owner of a ghost decides from the same position
 // bits the migration did, so both sides list the same particles in the same (id) order.
 void Domain::set_lists(State& s) {
@@ -242,6 +168,9 @@ void Domain::set_lists(State& s) {
       recv_[std::size_t(owner_of(x[i]))].push_back(std::uint32_t(i));
     }
   }
+#ifdef FLIPFLOW_HAVE_CUDA
+  if (staging_->traffic) staging_->traffic->set_lists(send_, recv_);
+#endif
 }
 
 void Domain::exchange_counts(const std::vector<std::uint64_t>& send, std::vector<std::uint64_t>& recv) {
@@ -260,8 +189,7 @@ void Domain::exchange_counts(const std::vector<std::uint64_t>& send, std::vector
 // a rank's stage asked for (request_band), which takes effect now.
 bool Domain::due(State& s) {
   double mine[2] = {0, requested_band_};
-  if (slack_ > 0 && (s.real() == DType::f32 ? moved_beyond<float>(s, x0_, slack_) : moved_beyond<double>(s, x0_, slack_)))
-    mine[0] = 1;
+  if (slack_ > 0 && moved(s)) mine[0] = 1;
   comm_.all_reduce(mine, 2, ReduceOp::max);
   requested_band_ = 0;
   const bool widen = mine[1] > band_;
@@ -269,7 +197,39 @@ bool Domain::due(State& s) {
   return mine[0] != 0 || widen;
 }
 
+// x0_ after a migration on the device, which kept the start positions there only.
+void Domain::start_on_host(State& s) {
+  if (x0_on_host_) return;
+#ifdef FLIPFLOW_HAVE_CUDA
+  const std::size_t m = s.n_owned() * std::size_t(s.dim());
+  x0_.resize(m);
+  if (s.real() == DType::f32) {
+    std::vector<float> v(m);
+    staging_->traffic->get_start(v.data(), m * sizeof(float));
+    for (std::size_t i = 0; i < m; ++i) x0_[i] = double(v[i]);
+  } else {
+    staging_->traffic->get_start(x0_.data(), m * sizeof(double));
+  }
+#endif
+  x0_on_host_ = true;
+}
+
+bool Domain::moved(State& s) {
+#ifdef FLIPFLOW_HAVE_CUDA
+  if (staging_->traffic) {
+    GhostTraffic& g = *staging_->traffic;
+    g.wait_for_device();  // the last step's stages, on their own streams
+    Field& pos = s.field(fields::position);
+    pos.acquire(Where::device, Mode::read, g.stream());
+    return g.moved_beyond(pos.device_raw(), s.real() == DType::f32, s.n_owned(), s.dim(), s.box.L, slack_);
+  }
+#endif
+  start_on_host(s);
+  return s.real() == DType::f32 ? moved_beyond<float>(s, x0_, slack_) : moved_beyond<double>(s, x0_, slack_);
+}
+
 double Domain::displacement(State& s, const std::string& field) {
+  start_on_host(s);
   const std::vector<double> x = owned_values(s, field);
   const int D = s.dim();
   const PeriodicBox<double> box = PeriodicBox<double>::make(s.box.L);
@@ -296,55 +256,31 @@ std::vector<double> Domain::owned_values(State& s, const std::string& field) con
   return x;
 }
 
-std::vector<double> Domain::fill_points(const State& s) const {
-  std::vector<double> out;
-  const double lo = L_ * double(rank_) / double(ranks_), hi = L_ * double(rank_ + 1) / double(ranks_);
-  const double Ly = s.box.L[1];
-  const double gap = L_ - (hi - lo + 2 * band_);
-  if (!(gap > 0)) return out;
-  const int nx = std::max(1, int(std::ceil(gap / band_))), ny = std::max(3, int(std::ceil(Ly / band_)));
-  for (int i = 0; i < nx; ++i)
-    for (int j = 0; j < ny; ++j) {
-      double x = hi + band_ + (i + 0.5) * gap / nx;
-      x -= L_ * std::floor(x / L_);
-      out.push_back(x);
-      out.push_back((j + 0.25 + 0.5 * (i % 2)) * Ly / ny);
-    }
-  return out;
+
+void Domain::lap(const char* phase) {
+  const auto now = std::chrono::steady_clock::now();
+  if (timing_) migration_phase_seconds_[phase] += std::chrono::duration<double>(now - lap_).count();
+  lap_ = now;
 }
 
 void Domain::begin_step(State& s) {
+  const auto t0 = std::chrono::steady_clock::now();
+  lap_ = t0;
   if (due(s)) {
-    const Layout lay = layout_of(s, s.particle_field_names());
-    auto to = std::vector<std::vector<std::uint32_t>>(std::size_t(ranks_));
-    const std::vector<double> x = xs(s);
-    for (std::size_t i = 0; i < s.n_owned(); ++i) {
-      const int o = owner_of(x[i]);
-      if (o != rank_) ++changed_owner_;
-      for (int q = 0; q < ranks_; ++q)
-        if (q == o || ghost_of(q, x[i])) to[std::size_t(q)].push_back(std::uint32_t(i));
-    }
-    std::vector<std::uint64_t> counts(std::size_t(ranks_), 0), incoming;
-    for (int q = 0; q < ranks_; ++q) counts[std::size_t(q)] = to[std::size_t(q)].size();
-    exchange_counts(counts, incoming);
-    auto out = std::vector<std::vector<unsigned char>>(std::size_t(ranks_)), in = out;
-    std::vector<Communicator::Transfer> t;
-    for (int q = 0; q < ranks_; ++q) {
-      if (q == rank_) continue;
-      pack(s, lay, to[std::size_t(q)], out[std::size_t(q)]);
-      in[std::size_t(q)].resize(incoming[std::size_t(q)] * lay.bytes);
-      if (!out[std::size_t(q)].empty()) t.push_back({q, out[std::size_t(q)].data(), out[std::size_t(q)].size(), true});
-      if (!in[std::size_t(q)].empty()) t.push_back({q, in[std::size_t(q)].data(), in[std::size_t(q)].size(), false});
-    }
-    transfer(t);
-    std::vector<unsigned char> records;
-    pack(s, lay, to[std::size_t(rank_)], records);
-    for (int q = 0; q < ranks_; ++q) records.insert(records.end(), in[std::size_t(q)].begin(), in[std::size_t(q)].end());
-    rebuild(s, lay, std::move(records));
+    timing_ = true;
+    lap("test");
+#ifdef FLIPFLOW_HAVE_CUDA
+    if (staging_->traffic && !fill_gap_) migrate_on_device(s);
+    else
+#endif
+      migrate_on_host(s);
+    timing_ = false;
     ++migrations_;
+    migration_seconds_ += seconds_since(t0);
     return;
   }
   refresh(s, refreshed_);
+  step_start_seconds_ += seconds_since(t0);
 }
 
 void Domain::refresh(State& s, const std::vector<std::string>& fields) {
@@ -356,6 +292,17 @@ void Domain::refresh(State& s, const std::vector<std::string>& fields) {
     lay.size.push_back(entry_bytes(s.field(n)));
     lay.bytes += lay.size.back();
   }
+#ifdef FLIPFLOW_HAVE_CUDA
+  // From the side the values are current on: the device when every field is current there (a
+  // CUDA stage wrote them); else the host (a host-side stage wrote them: the Delaunay
+  // correction's team loop), which leaves the host side alone current.
+  bool on_device = staging_->traffic != nullptr;
+  for (auto& n : fields) on_device = on_device && s.field(n).valid_on(Where::device);
+  if (on_device) {
+    refresh_on_device(s, lay);
+    return;
+  }
+#endif
   auto out = std::vector<std::vector<unsigned char>>(std::size_t(ranks_)), in = out;
   std::vector<Communicator::Transfer> t;
   for (int q = 0; q < ranks_; ++q) {
@@ -377,7 +324,47 @@ void Domain::refresh(State& s, const std::vector<std::string>& fields) {
         std::memcpy(dst + std::size_t(idx[k]) * sz, &in[std::size_t(q)][k * lay.bytes + lay.offset[f]], sz);
     }
   }
-  to_device(s, fields);
+  // The host copy alone is current now: a caller that refreshes from the host works there (the
+  // Delaunay correction's loop, every iteration), and the next stage on the device copies the
+  // fields once. (The first version uploaded them here, for a caller holding device pointers:
+  // such a caller's fields are current on the device, and those go the device way.)
+}
+
+// The refresh on CUDA: the same records (lay) by the same lists, packed, sent and unpacked on
+// the device. The device side of each field is made current and declared written (so a host
+// copy made current since, by pack or by anything else, is stale again): a stage that calls
+// this within its step wrote its fields on the device after the scheduler's acquire.
+void Domain::refresh_on_device(State& s, const Layout& lay) {
+#ifdef FLIPFLOW_HAVE_CUDA
+  GhostTraffic& g = *staging_->traffic;
+  g.wait_for_device();  // the stages' writes, on their own streams
+  std::vector<void*> data;
+  for (auto& n : lay.names) {
+    Field& f = s.field(n);
+    f.acquire(Where::device, Mode::readwrite, g.stream());
+    data.push_back(f.device_raw());
+  }
+  std::vector<Communicator::Transfer> t;
+  for (int q = 0; q < ranks_; ++q) {
+    if (q == rank_) continue;
+    const std::size_t out = send_[std::size_t(q)].size() * lay.bytes, in = recv_[std::size_t(q)].size() * lay.bytes;
+    if (out) {
+      void* buf = g.send_buffer(q, out);
+      for (std::size_t f = 0; f < lay.names.size(); ++f) g.pack(q, data[f], lay.size[f], lay.bytes, lay.offset[f]);
+      t.push_back({q, buf, out, true});
+    }
+    if (in) t.push_back({q, g.recv_buffer(q, in), in, false});
+  }
+  comm_.exchange(t, g.stream());
+  for (int q = 0; q < ranks_; ++q) {
+    if (q == rank_ || recv_[std::size_t(q)].empty()) continue;
+    for (std::size_t f = 0; f < lay.names.size(); ++f) g.unpack(q, data[f], lay.size[f], lay.bytes, lay.offset[f]);
+  }
+  g.wait();  // the stages' streams do not order with this one
+#else
+  (void)s;
+  (void)lay;
+#endif
 }
 
 void Domain::gather(State& s, State* into, const std::vector<std::string>& names) {

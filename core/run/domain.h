@@ -25,13 +25,19 @@
 // every migration and never sent. A stage may ask for a wider band (request_band): the next
 // begin_step takes the widest request of any rank and migrates with it.
 //
-// Packing and unpacking happen on the host (fields acquired there; on CUDA that copies whole
-// fields each step, a first version: device pack kernels are the next step); on CUDA the packed
-// buffers travel through device staging buffers, as NCCL wants (core/backend/comm.h).
+// On CUDA the work of every step stays on the device (core/run/cuda/ghost_traffic.h): the
+// migration test is a kernel with one flag read back; a refresh packs the records on the device
+// by index lists kept there, exchanges them (NCCL) and unpacks them there; a migration of a team
+// without fill vertices finds destinations, packs, orders (a radix sort of one key a particle) and
+// gathers the fields there too. The Delaunay pipelines' migrations, and gather (observers), pack
+// and unpack on the host (the fields acquired there: whole fields copied), their records through
+// device staging buffers, as NCCL wants (core/backend/comm.h).
 #pragma once
 #include <cstddef>
 #include <algorithm>
+#include <chrono>
 #include <cstdint>
+#include <map>
 #include <memory>
 #include <string>
 #include <vector>
@@ -68,6 +74,14 @@ class Domain final : public GhostExchange {
   void gather(State& state, State* into, const std::vector<std::string>& names);
 
   std::uint64_t migrations() const { return migrations_; }
+  // Host time in begin_step since construction: in the migrations, and in the other steps (the
+  // migration test and the ghost refresh; on CUDA, waiting for the device included). For
+  // `pipeline bench --gpus N`.
+  double migration_seconds() const { return migration_seconds_; }
+  double step_start_seconds() const { return step_start_seconds_; }
+  // The host time of the migrations by phase (test, destinations, counts, pack, exchange,
+  // rebuild: order / fields / lists), summed over them.
+  const std::map<std::string, double>& migration_phase_seconds() const { return migration_phase_seconds_; }
   std::uint64_t changed_owner() const { return changed_owner_; }  // particles, summed over migrations (this rank's sends)
   double band() const override { return band_; }
   double displacement(State& state, const std::string& field) override;
@@ -90,8 +104,17 @@ class Domain final : public GhostExchange {
   void pack(State& s, const Layout& lay, const std::vector<std::uint32_t>& which, std::vector<unsigned char>& out) const;
 
   bool due(State& s);
-  // Rebuilds the state from records (every field of `full`), owned first, then ghosts, by id.
-  void rebuild(State& s, const Layout& lay, std::vector<unsigned char> records);
+  void lap(const char* phase);  // a migration's phase ends: its host time since the last lap
+  bool moved(State& s);  // some owned particle moved more than slack_ since the last migration
+  void migrate_on_host(State& s);
+  void migrate_on_device(State& s);  // CUDA, no fill vertices: core/run/cuda/ghost_traffic.h
+  void start_on_host(State& s);      // x0_ current
+  // refresh() on CUDA: packed, exchanged and unpacked on the device (core/run/cuda/ghost_traffic.h).
+  void refresh_on_device(State& s, const Layout& lay);
+  // Rebuilds the state, owned first, then ghosts, by id, from the particles it keeps (`kept`:
+  // indices into the state as it is) and the records of every field of `lay` from the others.
+  void rebuild(State& s, const Layout& lay, const std::vector<std::uint32_t>& kept,
+               const std::vector<unsigned char>& records);
   void set_lists(State& s);
   void exchange_counts(const std::vector<std::uint64_t>& send, std::vector<std::uint64_t>& recv);
   // comm_.exchange of host buffers: on the CPU directly; on CUDA through device staging buffers
@@ -118,9 +141,14 @@ class Domain final : public GhostExchange {
   std::vector<std::vector<std::uint32_t>> send_, recv_;  // per peer: local indices (refresh)
   std::vector<double> x0_;                                // owned positions at the last migration
   std::uint64_t migrations_ = 0, changed_owner_ = 0;
+  double migration_seconds_ = 0, step_start_seconds_ = 0;
+  std::map<std::string, double> migration_phase_seconds_;
+  std::chrono::steady_clock::time_point lap_;
+  bool timing_ = false;  // in a migration of begin_step (not the constructor's)
   Backend backend_;
   struct Staging;  // CUDA builds: the device buffers transfer() stages through
   std::unique_ptr<Staging> staging_;
+  bool x0_on_host_ = true;  // else only on the device (GhostTraffic's start, after migrate_on_device)
 };
 
 }  // namespace ff

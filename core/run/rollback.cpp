@@ -14,7 +14,9 @@
 namespace ff {
 
 void copy_field_contents(Field& dst, Field& src, Where where, CUstream_st* stream) {
-  if (dst.count() != src.count()) dst.resize(src.count());
+  // Every element is written below: a count that differs (a decomposed team's migration changed
+  // the field's) needs no copy of the old contents (Field::resize would bring them to the host).
+  if (dst.count() != src.count()) dst.resize_discarding(src.count());
   if (where == Where::host) {
     src.acquire(Where::host, Mode::read);
     dst.acquire(Where::host, Mode::write);
@@ -80,8 +82,8 @@ Field* Snapshot::take_before_overwrite(State& state, const std::string& field) {
   for (Entry& e : entries_)
     if (e.on_demand && !e.taken && e.name == field) {
       Field& f = state.field(e.name);
-      if (!e.copy || e.copy->count() != f.count())
-        e.copy = std::make_unique<Field>(e.name, f.dtype(), f.components(), f.count());
+      if (!e.copy) e.copy = std::make_unique<Field>(e.name, f.dtype(), f.components(), f.count());
+      e.copy->resize_discarding(f.count());  // a migration changed the count: the caller writes it all
       e.side = current_side(f);
       f.swap_contents(*e.copy);
       f.mark_written(e.side);  // (stale contents: the caller writes every element next)

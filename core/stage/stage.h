@@ -170,6 +170,10 @@ struct DeviceRollbackFlag {
 class GhostExchange {
  public:
   virtual ~GhostExchange() = default;
+  // Sends from the side the fields are current on (on CUDA: from the device when every field
+  // is current there, else from the host; only that side is current after it), so a stage that
+  // wrote them after the scheduler's acquire acquires them again for writing, on its side,
+  // before calling it.
   virtual void refresh(State& state, const std::vector<std::string>& fields) = 0;
   // Asks for ghosts within at least `band` of the slab from the next step on: the core takes the
   // largest request of any rank at the start of the next step and migrates with the wider band

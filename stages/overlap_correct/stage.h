@@ -337,6 +337,10 @@ class OverlapCorrect final : public Stage {
                        ": the triangulation is corrupt on a rank of the team (a fan that does not close)");
       if (!c[0]) break;
       if (iterations == p_.max_iterations) give_up(ctx, std::uint64_t(c[0]));
+      // The moves are written on the host: say so before every apply (a refresh sends from
+      // the device when every field is current there; Domain::refresh).
+      s.field(fields::position).acquire(Where::host, Mode::readwrite, ctx.stream);
+      s.field(fields::image).acquire(Where::host, Mode::readwrite, ctx.stream);
       std::int64_t moved = 0;
       for (std::size_t v = 0; v < owned; ++v) {
         const VertexPush& p = push[v];

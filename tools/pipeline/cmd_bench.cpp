@@ -23,6 +23,7 @@
 #include "core/backend/device.h"
 #include "core/base/error.h"
 #include "core/backend/comm.h"
+#include "core/run/domain.h"
 #include "core/run/simulation.h"
 #include "core/run/team.h"
 #include "tools/pipeline/commands.h"
@@ -69,6 +70,11 @@ struct Result {
   // (Communicator::communication_seconds: on CUDA device time of the collectives, waiting for
   // the slowest rank included, plus the host wait of the per-step agreement).
   double comm_ms = 0;
+  // In a decomposed team, over the throughput pass (core/run/domain.h): the migrations, the host
+  // time of each, and the host time of the other steps' start (migration test, ghost refresh).
+  std::uint64_t migrations = 0;
+  double migration_ms = 0, step_start_ms = 0;
+  std::map<std::string, double> migration_phase_ms;  // per migration, over the whole run
 };
 
 // One rank's passes (team null: alone). Ranks meet at a barrier before each timed pass.
@@ -102,11 +108,19 @@ Result bench_rank(const Loaded& loaded, std::uint64_t n, Backend backend, std::u
   {
     meet();
     if (team) team->reset_communication_seconds();
+    const Domain* d = sim.domain();
+    const std::uint64_t m0 = d ? d->migrations() : 0;
+    const double mig0 = d ? d->migration_seconds() : 0, start0 = d ? d->step_start_seconds() : 0;
     const auto t0 = std::chrono::steady_clock::now();
     for (std::uint64_t i = 0; i < steps; ++i) sim.advance();
     sim.synchronize();
     r.throughput = double(steps) / std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     if (team) r.comm_ms = 1e3 * team->communication_seconds() / double(steps);
+    if (d) {
+      r.migrations = d->migrations() - m0;
+      if (r.migrations) r.migration_ms = 1e3 * (d->migration_seconds() - mig0) / double(r.migrations);
+      if (steps > r.migrations) r.step_start_ms = 1e3 * (d->step_start_seconds() - start0) / double(steps - r.migrations);
+    }
   }
   meet();
   std::vector<double> ms;
@@ -135,6 +149,9 @@ Result bench_rank(const Loaded& loaded, std::uint64_t n, Backend backend, std::u
   sim.synchronize();
   for (auto& slot : sim.slots())
     if (slot.calls) r.stage_ms[slot.info.stage_id] = 1e3 * slot.seconds / double(steps);
+  if (const Domain* d = sim.domain(); d && d->migrations())
+    for (auto& [phase, seconds] : d->migration_phase_seconds())
+      r.migration_phase_ms[phase] = 1e3 * seconds / double(d->migrations());
   sim.finish(true);
   return r;
 }
@@ -217,6 +234,16 @@ int cmd_bench(const std::vector<std::string>& args) {
                   << " % of the step), per stage (ms):";
         for (auto& kv : all[k].stage_ms) std::cout << " " << kv.first << "=" << std::setprecision(3) << kv.second;
         std::cout << "\n";
+        if (all[k].migrations || all[k].step_start_ms > 0)
+          std::cout << "            rank " << k << ": step mean " << std::setprecision(4) << all[k].mean_ms
+                    << " ms; begin_step (host): " << all[k].step_start_ms << " ms in a step without migration, "
+                    << all[k].migrations << " migration(s) in " << steps << " steps, " << all[k].migration_ms
+                    << " ms each\n";
+        if (!all[k].migration_phase_ms.empty()) {
+          std::cout << "            rank " << k << ": a migration's phases (host ms):";
+          for (auto& [phase, ms] : all[k].migration_phase_ms) std::cout << " " << phase << "=" << std::setprecision(3) << ms;
+          std::cout << "\n";
+        }
       }
     jsonl << "{\"date\":\"" << date << "\",\"pipeline\":\"" << json_escape(common.file) << "\",\"backend\":\""
           << to_string(backend) << "\",\"device\":\"" << json_escape(device) << "\",\"N\":" << n
@@ -228,7 +255,8 @@ int cmd_bench(const std::vector<std::string>& args) {
       // Per rank: communication per step and its share of the step, the profiled stage times.
       jsonl << ",\"per_rank\":[";
       for (std::size_t k = 0; k < all.size(); ++k) {
-        jsonl << (k ? "," : "") << "{\"comm_ms\":" << all[k].comm_ms
+        jsonl << (k ? "," : "") << "{\"comm_ms\":" << all[k].comm_ms << ",\"migrations\":" << all[k].migrations
+              << ",\"migration_ms\":" << all[k].migration_ms << ",\"step_start_ms\":" << all[k].step_start_ms
               << ",\"comm_share\":" << all[k].comm_ms * all[k].throughput / 1e3 << ",\"stage_ms\":{";
         bool f = true;
         for (auto& kv : all[k].stage_ms) {

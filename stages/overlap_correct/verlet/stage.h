@@ -27,6 +27,7 @@
 #include <memory>
 #include <sstream>
 #include <string>
+#include <vector>
 
 #include "core/backend/comm.h"
 #include "core/backend/exec.h"
@@ -189,6 +190,18 @@ class OverlapCorrectVerlet final : public Stage {
     std::int64_t iterations = 0, rebuilds = 0;
     std::uint64_t pairs = 0;
     double correction = 0;
+    // In a team: each iteration's own sum of push lengths (fixed point), summed over the ranks
+    // after the loop, kApplyBatch at once (one all-reduce instead of one an iteration), and
+    // added in iteration order as alone: the same bits.
+    std::vector<std::int64_t> applied;
+    auto add_applied = [&] {
+      for (std::size_t k = 0; k < applied.size(); k += kApplyBatch) {
+        const std::size_t m = std::min(kApplyBatch, applied.size() - k);
+        team_->all_reduce(applied.data() + k, m, ReduceOp::sum);
+        for (std::size_t j = 0; j < m; ++j) correction += double(std::uint64_t(applied[k + j])) / kFixedOne * unit_;
+      }
+      applied.clear();
+    };
     for (;;) {
       const std::uint32_t capacity = list_capacity(s);
       // The gathers' pair counts are summed in 32 bits: each pair is in two rows.
@@ -217,10 +230,24 @@ class OverlapCorrectVerlet final : public Stage {
         if (!bad) break;
         if (iterations == p_.max_iterations) give_up<D>(ctx, bad);
         pairs += c & ((std::uint64_t(1) << kBadShift) - 1);
-        correction += double(team_sum(loops.apply(rows, apply, sum_, st))) / kFixedOne * unit_;
+        if (team) {
+          // The apply writes the positions and images on this stage's side. The scheduler's
+          // acquire marked the other side stale before the first iteration only; the refresh of
+          // an iteration may make the other side current again (the domain packs there), so
+          // every apply says again that it writes: else the next refresh reads the copy of
+          // before the apply and writes it back over the apply (on CUDA: the host copy of the
+          // previous iteration uploaded over the device's: from the second iteration on every
+          // apply undone, the same pushes repeated until max_iterations).
+          s.field(fields::position).acquire(where_, Mode::readwrite, st);
+          s.field(fields::image).acquire(where_, Mode::readwrite, st);
+        }
+        const std::uint64_t moved_here = loops.apply(rows, apply, sum_, st);
+        if (team) applied.push_back(std::int64_t(moved_here));
+        else correction += double(moved_here) / kFixedOne * unit_;
         if (team) ghosts->refresh(s, {fields::position, fields::image});
         ++iterations;
       }
+      if (team) add_applied();
       bool moved = builder_.template moved_too_far<D>(ctx, skin_);
       if (team) {
         std::int64_t m = moved ? 1 : 0;
@@ -302,6 +329,7 @@ class OverlapCorrectVerlet final : public Stage {
     throw RunError(os.str());
   }
 
+  static constexpr std::size_t kApplyBatch = 32;  // values a team all-reduce takes at once (comm.h: NCCL's 64)
   Params p_;
   Communicator* team_;  // a decomposed team's rank (with StepContext::ghosts); else alone
   Where where_;
