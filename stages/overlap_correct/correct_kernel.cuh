@@ -504,6 +504,11 @@ constexpr int kMinBlocks = 2;
 constexpr int kClusterBlocks = 16;
 constexpr int kClusterThreads = 512;
 constexpr std::size_t kClusterMaxN = 4096;
+// Runs that share the GPU and would not fit side by side as grids take a cluster of 8 blocks (8
+// SMs, the portable cluster size) instead of 16: a correction takes a little longer, but twice
+// as many run at once, and a sweep's corrections side by side are what bounds it (bench/README.md,
+// "Session 20": 64 runs of bench-abp 2^14).
+constexpr int kSharedClusterBlocks = 8;
 
 // A team's block size; 128 registers a thread, as the grid's kernel (kMinBlocks).
 template <int Team>
@@ -531,19 +536,20 @@ cudaLaunchConfig_t team_config(cudaLaunchAttribute* attr, CUstream_st* s) {
   return cfg;
 }
 
-// Whether the device can run the cluster team: sm_90 clusters, and its blocks in one GPC at once.
-template <class R, bool Walls, bool Mark>
+// Whether the device can run a cluster team of Team blocks: sm_90 clusters, and its blocks in one
+// GPC at once.
+template <class R, int Team, bool Walls, bool Mark>
 bool cluster_fits() {
   int dev = 0, cluster = 0;
   FF_CUDA_CHECK(cudaGetDevice(&dev), "overlap_correct: current device");
   FF_CUDA_CHECK(cudaDeviceGetAttribute(&cluster, cudaDevAttrClusterLaunch, dev), "overlap_correct: clusters");
   if (!cluster) return false;
-  void* f = kernel_ptr<R, kClusterBlocks, Walls, Mark>();
-  if (kClusterBlocks > 8)  // 8 is the portable cluster size; sm_90 runs 16
+  void* f = kernel_ptr<R, Team, Walls, Mark>();
+  if (Team > 8)  // 8 is the portable cluster size; sm_90 runs 16
     FF_CUDA_CHECK(cudaFuncSetAttribute(f, cudaFuncAttributeNonPortableClusterSizeAllowed, 1),
                   "overlap_correct: cluster size");
   cudaLaunchAttribute attr[1];
-  const cudaLaunchConfig_t cfg = team_config<kClusterBlocks>(attr, nullptr);
+  const cudaLaunchConfig_t cfg = team_config<Team>(attr, nullptr);
   int clusters = 0;
   FF_CUDA_CHECK(cudaOccupancyMaxActiveClusters(&clusters, f, &cfg), "overlap_correct: cluster occupancy");
   return clusters >= 1;
@@ -576,20 +582,21 @@ GridShape grid_shape(std::size_t n) {
 
 // The team for n particles. A run alone: the cluster where the device runs it (n ≤ kClusterMaxN),
 // else the grid, the fastest (bench/overlap_correct-PERF.md). On a GPU that K runs share
-// (runs_sharing_gpu: `pipeline sweep`): the cluster also where K grids would not fit on the GPU at
-// once. What bounds a sweep is how many corrections run side by side: at 2^14 the grid holds 32
-// SMs (64 blocks, two to an SM), the cluster 16 for about as long, so more runs correct at once;
-// alone the grid stays, since the cluster is a little slower there, and one block a run was
-// slower in a sweep too (numbers: bench/README.md, "Sweeps on one GPU"). Who runs the iterations
-// does not change the bits.
+// (runs_sharing_gpu: `pipeline sweep`): a cluster of kSharedClusterBlocks also where K grids would
+// not fit on the GPU at once. What bounds a sweep is how many corrections run side by side: at
+// 2^14 the grid holds 32 SMs (64 blocks, two to an SM), the cluster of 16 holds 16 and that of 8
+// holds 8 for somewhat longer, so more runs correct at once; alone the grid stays, since a cluster
+// is slower there, and one block a run was slower in a sweep too (numbers: bench/README.md,
+// "Sweeps on one GPU" and "Session 20"). Who runs the iterations does not change the bits.
 template <class R, bool Walls, bool Mark>
 int team_for(std::size_t n) {
-  if (!cluster_fits<R, Walls, Mark>()) return kGrid;
+  if (!cluster_fits<R, kClusterBlocks, Walls, Mark>()) return kGrid;
   if (n <= kClusterMaxN) return kClusterBlocks;
   const int sharing = runs_sharing_gpu();
   if (sharing <= 1) return kGrid;
   const GridShape g = grid_shape<R, Walls, Mark>(n);
-  return std::size_t(sharing) * std::size_t(g.sms_held) > std::size_t(g.sms) ? kClusterBlocks : kGrid;
+  if (std::size_t(sharing) * std::size_t(g.sms_held) <= std::size_t(g.sms)) return kGrid;
+  return cluster_fits<R, kSharedClusterBlocks, Walls, Mark>() ? kSharedClusterBlocks : kClusterBlocks;
 }
 
 template <class R, bool Walls, bool Mark>

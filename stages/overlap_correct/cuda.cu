@@ -77,6 +77,8 @@ class DeviceLoops final : public OverlapCorrectLoops<R> {
       FF_CUDA_CHECK(
           cudaLaunchCooperativeKernel(kernel_ptr<R, kGrid, Walls, Mark>(), dim3(grid_), dim3(kThreads), args, 0, s),
           "launching overlap_correct");
+    } else if (team_ == kSharedClusterBlocks) {
+      launch_team<kSharedClusterBlocks, Walls, Mark>(args, s);
     } else {
       launch_team<kClusterBlocks, Walls, Mark>(args, s);
     }
@@ -144,7 +146,7 @@ class DeviceLoops final : public OverlapCorrectLoops<R> {
   HostScratch<u64> result_;      // pinned: the kernel writes its counters there (no copy after it)
   std::size_t n_ = 0, cap_ = 0;
   int grid_ = 0, tile_ = 0;
-  int team_ = kGrid;  // who runs the iterations (team_for): kGrid or kClusterBlocks
+  int team_ = kGrid;  // who runs the iterations (team_for): kGrid, kClusterBlocks or kSharedClusterBlocks
   bool wide_ = false;  // the grid's first iterations in the wide kernels (prepare)
   int parity_ = 0;  // which slots the next launch uses (zero); it zeroes the other
   int variant_ = -1;  // the kernel prepared for: 2·walls + mark (its occupancy sets the grid)
