@@ -1,0 +1,15 @@
+#!/bin/bash
+# Session 20, call 3 (nvidia-h200-x2): octile3's request 2 (tiled with work lists), mgpu's request 2
+# (2-GPU fixes, device migrations), then the sweep's cluster variants (gpu-carry/sweepc).
+set -u
+SECONDS=0
+export NCCL_NVLS_ENABLE=0 TORCH_SYMM_MEM_DISABLE_MULTICAST=1 NVSHMEM_DISABLE_NVLS=1
+tar -xzf gpu-carry/bundle-s20.tar.gz
+B=$PWD/bundle
+nvidia-smi -L > $OUT/info.txt
+timeout 160 bash gpu-carry/octile3/run.sh $B /tmp/oc > $OUT/oc-stdout.txt 2>&1; echo "octile3 rc=$? t=$SECONDS" >> $OUT/info.txt
+timeout 190 bash gpu-carry/mgpu/run.sh $B /tmp/mg > $OUT/mg-stdout.txt 2>&1; echo "mgpu rc=$? t=$SECONDS" >> $OUT/info.txt
+cp /tmp/mg/mgpu.tgz $OUT/ 2>/dev/null
+((SECONDS < 400)) && { timeout $((560 - SECONDS)) bash gpu-carry/sweepc/run.sh $B /tmp/sw > $OUT/sweepc-stdout.txt 2>&1; echo "sweepc rc=$? t=$SECONDS" >> $OUT/info.txt; }
+(cd /tmp && tar -czf $OUT/rest.tgz oc sw 2>/dev/null)
+echo done t=$SECONDS >> $OUT/info.txt
