@@ -10,6 +10,12 @@
 //   same particle alone (entry for entry, so also in the same order).
 // - Rollback agreement: the max_step rollbacks (requested on the rank that owns the fast
 //   particle) are taken by every rank: the team's count equals the count alone.
+// - neighbors.verlet's ghost_margin (docs/multi-gpu.md, "Migrations"): both ways (0: a migration
+//   at every list rebuild; a margin: migrations of their own, the list rebuilt on alone's steps
+//   and kept across migrations) give alone's bits and rebuild steps; the hard spheres migrate
+//   at least 10x less often with the default margin; a list built when every particle has used
+//   98 % of the margin (testing.drift, tests/data/decomp-drift.yaml) lists the pairs that cross
+//   the slab boundaries at the band's edge, as alone.
 // - Refusals naming the stage: a stage that cannot run on a slab (delaunay.dt_bound), a stage that
 //   reads ghosts after another wrote them in the step.
 // - `pipeline run --gpus N --device cpu`: rank 0's H5MD file equals the file of a run alone.
@@ -459,9 +465,9 @@ TEST_CASE("decomposition: 2 and 4 GPUs give one GPU's bits (Lennard-Jones, hard 
     INFO(ranks << " GPUs, hard spheres");
     auto l = test::load_compute_steps(test::repo_file("tests/data/decomp-hard-spheres.yaml").string(), {});
     const End alone = run(l, 1, 300, nullptr, Backend::cuda);
-    check_same(run(l, ranks, 300, nullptr, Backend::cuda), alone,
-               {"neighbors.count", "neighbors.verlet/rebuilds", "neighbors.verlet/max_neighbors",
-                "overlap_correct.verlet/list_rebuilds"});
+    // The default ghost_margin: the team keeps alone's list, so everything is compared (6
+    // migrations in 300 steps on the CPU).
+    check_same(run(l, ranks, 300, nullptr, Backend::cuda), alone, {}, 1);
   }
 }
 
@@ -487,8 +493,6 @@ TEST_CASE("decomposition: 2 and 3 ranks on one GPU give its bits (the CUDA team 
       check_same(run(lj_double, ranks, 400, &lj_alone, Backend::cuda, true), lj_alone);
     }
     INFO(ranks << " ranks on one GPU, hard spheres");
-    check_same(run(hs, ranks, 300, nullptr, Backend::cuda, true), hs_alone,
-               {"neighbors.count", "neighbors.verlet/rebuilds", "neighbors.verlet/max_neighbors",
-                "overlap_correct.verlet/list_rebuilds"});
+    check_same(run(hs, ranks, 300, nullptr, Backend::cuda, true), hs_alone, {}, 1);  // the default ghost_margin
   }
 }
