@@ -64,6 +64,7 @@ struct End {
   Rows rows;                       // alone: every particle's row
   std::vector<std::string> failures;  // team: owned rows that differ from `alone`
   std::vector<std::uint64_t> rebuild_steps;  // the steps on which neighbors.verlet rebuilt the list
+  double in_step_rebuilds = 0;  // overlap_correct.verlet's list_rebuilds, summed over the steps
 };
 
 std::vector<unsigned char> bytes_of(State& s, const std::string& name) {
@@ -110,6 +111,8 @@ End run(const test::LoadedPipeline& l, int ranks, std::uint64_t steps, const End
       sim.advance();
       const auto rebuilt = sim.stats().metrics.find("neighbors.verlet/rebuilds");
       if (first && rebuilt != sim.stats().metrics.end() && rebuilt->second != 0) end.rebuild_steps.push_back(step);
+      const auto in_step = sim.stats().metrics.find("overlap_correct.verlet/list_rebuilds");
+      if (first && in_step != sim.stats().metrics.end()) end.in_step_rebuilds += in_step->second;
     }
     const auto rows = owned_rows(sim.state());
     sim.gather();
@@ -276,6 +279,33 @@ TEST_CASE("decomposition: hard spheres (overlap_correct.verlet) on 2 and 4 ranks
       if (margin) check_same(run(l, ranks, 300, &alone), alone, {}, 1);
       else check_same(run(l, ranks, 300), alone, rebuild_timing);  // rows: another rebuild timing
     }
+  }
+}
+
+TEST_CASE("decomposition: hard spheres whose pushes make the list due within the step (skin 0.1)") {
+  // With skin 0.1 the correction's pushes take a particle past skin/2 since the build on ~9 % of
+  // the steps: alone rebuilds the list within the step and corrects again. With the default
+  // ghost_margin the team does the same from the particles it holds (the band condition holds:
+  // band 1.8, cutoff + skin + 2δ with δ ≤ 0.325 + the pushes) and gives alone's bits, rows and
+  // in-step rebuilds; with ghost_margin 0 it cannot, and stops naming the margin.
+  const std::string yaml = test::repo_file("tests/data/decomp-hard-spheres.yaml").string();
+  auto l = test::load_compute_steps(yaml, {"step.neighbors.verlet.skin=0.1"});
+  const End alone = run(l, 1, 300);
+  CHECK(alone.in_step_rebuilds >= 5);
+  for (int ranks : {2, 4}) {
+    INFO(ranks << " ranks");
+    const End team = run(l, ranks, 300, &alone);
+    check_same(team, alone, {}, 1);
+    CHECK(team.in_step_rebuilds == alone.in_step_rebuilds);
+  }
+  auto l0 = test::load_compute_steps(yaml, {"step.neighbors.verlet.skin=0.1", "step.neighbors.verlet.ghost_margin=0"});
+  try {
+    run(l0, 2, 300);
+    FAIL("a team without a ghost margin rebuilt the list within the step");
+  } catch (const RunError& e) {
+    INFO(e.what());
+    CHECK(std::string(e.what()).find("overlap_correct.verlet") != std::string::npos);
+    CHECK(std::string(e.what()).find("ghost_margin") != std::string::npos);
   }
 }
 
