@@ -142,13 +142,7 @@ End run(const test::LoadedPipeline& l, int ranks, std::uint64_t steps, std::uint
     end.time = sim.state().time;
     sim.finish(true);
   };
-#ifdef FLIPFLOW_HAVE_CUDA
-  if (one_gpu && ranks > 1) {
-    test::on_one_gpu(ranks, body);
-    return end;
-  }
-#endif
-  test::on_ranks(backend, ranks, body);
+  test::on_team(backend, ranks, one_gpu, body);
   return end;
 }
 

@@ -103,6 +103,22 @@ constexpr int kTailMoved = 512;
 
 using u64 = unsigned long long;
 
+// What a gather of v found, added to a thread's counters c (at least Sums<Mark>::kReported of
+// them). The touched field (Mark): iteration 0 (first) gathers every particle and writes each
+// entry, later ones set those they touch (only v's gatherer writes v's entry in an iteration).
+template <bool Mark, class Ov, int K>
+__device__ __forceinline__ void count_gather(u64 (&c)[K], const Ov& ov, const VertexPush& q,
+                                             std::uint8_t* touched, int v, bool first) {
+  c[kBad] += q.bad;
+  c[kPairs] += q.pairs;
+  c[kCorrection] += ov.fixed_len(q.len);
+  c[kBroken] += q.broken;
+  if constexpr (Mark) {
+    if (q.touched && (first || !touched[v])) ++c[kTouched];
+    if (q.touched || first) touched[v] = std::uint8_t(q.touched);
+  }
+}
+
 template <class R, bool Walls>
 struct Args {
   Problem<R> p;
@@ -336,18 +352,10 @@ __global__ void __launch_bounds__(Threads, MinBlocks) correct_kernel(Args<R, Wal
     __syncthreads();
 
     u64 c[kReported] = {};
-    // What a gather found: counted, and the particle listed when it touched an overlap. The
-    // touched field (Mark): iteration 0 gathers every particle and writes each entry, later ones
-    // set those they touch (only v's gatherer writes v's entry in an iteration).
+    // What a gather found: counted (count_gather), and the particle listed when it touched an
+    // overlap.
     auto take = [&](int v, const VertexPush& q) {
-      c[kBad] += q.bad;
-      c[kPairs] += q.pairs;
-      c[kCorrection] += ov.fixed_len(q.len);
-      c[kBroken] += q.broken;
-      if constexpr (Mark) {
-        if (q.touched && (first || !a.p.touched[v])) ++c[kTouched];
-        if (q.touched || first) a.p.touched[v] = std::uint8_t(q.touched);
-      }
+      count_gather<Mark>(c, ov, q, a.p.touched, v, first);
       if (q.touched) {
         const bool moves = q.dx != 0 || q.dy != 0;
         const int m = atomicAdd(&s_seeds, 1);

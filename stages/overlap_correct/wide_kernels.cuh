@@ -75,14 +75,7 @@ __global__ void __launch_bounds__(Threads, MinBlocks) wide_gather(Args<R, Walls>
       int ids[kCached], d;
       const VertexPush q =
           neighbor_ids(ov, v, first, a.nb, a.degree, a.fan, ids, d) ? gather_ids(ov, v, ids, d) : ov.gather(v);
-      c[kBad] += q.bad;
-      c[kPairs] += q.pairs;
-      c[kCorrection] += ov.fixed_len(q.len);
-      c[kBroken] += q.broken;
-      if constexpr (Mark) {
-        if (q.touched && (first || !a.p.touched[v])) ++c[kTouched];
-        if (q.touched || first) a.p.touched[v] = std::uint8_t(q.touched);
-      }
+      count_gather<Mark>(c, ov, q, a.p.touched, v, first);
       if (q.touched) {
         st = kWideStill;
         if (q.dx != 0 || q.dy != 0) {  // where v goes (as the cooperative kernel's take)

@@ -91,3 +91,25 @@ inline void on_one_gpu(int ranks, const std::function<void(Communicator*)>& body
 
 }  // namespace ff::test
 #endif
+
+#include <functional>
+
+#include "support/team.h"
+
+namespace ff::test {
+
+// The team a test case asks for: `ranks` ranks of `backend` (on_ranks), or with `one_gpu` (CUDA
+// builds) that many CUDA ranks sharing one GPU (on_one_gpu).
+inline void on_team(Backend backend, int ranks, bool one_gpu, const std::function<void(Communicator*)>& body) {
+#ifdef FLIPFLOW_HAVE_CUDA
+  if (one_gpu && ranks > 1) {
+    on_one_gpu(ranks, body);
+    return;
+  }
+#else
+  (void)one_gpu;
+#endif
+  on_ranks(backend, ranks, body);
+}
+
+}  // namespace ff::test

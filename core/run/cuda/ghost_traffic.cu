@@ -149,6 +149,20 @@ void grow(std::unique_ptr<DeviceBuffer>& b, std::size_t bytes, const char* what)
   if (!b || b->bytes() < bytes) b = std::make_unique<DeviceBuffer>(bytes, what);
 }
 
+// n entries of `entry` bytes, field[idx[k]], into records of `record` bytes at `offset` in out.
+void launch_pack(const void* field, const std::uint32_t* idx, std::size_t n, std::size_t entry, std::size_t record,
+                 std::size_t offset, void* out, cudaStream_t stream) {
+  if (word_aligned(entry, record, offset)) {
+    const std::size_t words = entry / 4;
+    pack_kernel<<<blocks_for(n * words), kThreads, 0, stream>>>(static_cast<const std::uint32_t*>(field), idx, n, words,
+                                                                  static_cast<std::uint32_t*>(out), record / 4,
+                                                                  offset / 4);
+  } else {
+    pack_kernel<<<blocks_for(n * entry), kThreads, 0, stream>>>(static_cast<const unsigned char*>(field), idx, n, entry,
+                                                                  static_cast<unsigned char*>(out), record, offset);
+  }
+}
+
 }  // namespace
 
 GhostTraffic::GhostTraffic() {
@@ -211,17 +225,7 @@ void GhostTraffic::pack(int peer, const void* field, std::size_t entry, std::siz
   const std::size_t n = send_count_[std::size_t(peer)];
   if (!n) return;
   const auto* idx = static_cast<const std::uint32_t*>(send_idx_->data()) + send_first_[std::size_t(peer)];
-  void* out = send_buf_[std::size_t(peer)]->data();
-  if (word_aligned(entry, record, offset)) {
-    const std::size_t words = entry / 4;
-    pack_kernel<<<blocks_for(n * words), kThreads, 0, stream_>>>(static_cast<const std::uint32_t*>(field), idx, n,
-                                                                   words, static_cast<std::uint32_t*>(out), record / 4,
-                                                                   offset / 4);
-  } else {
-    pack_kernel<<<blocks_for(n * entry), kThreads, 0, stream_>>>(static_cast<const unsigned char*>(field), idx, n,
-                                                                   entry, static_cast<unsigned char*>(out), record,
-                                                                   offset);
-  }
+  launch_pack(field, idx, n, entry, record, offset, send_buf_[std::size_t(peer)]->data(), stream_);
   FF_CUDA_CHECK_LAUNCH("packing ghosts");
 }
 
@@ -342,16 +346,7 @@ void GhostTraffic::pack_destination(int q, const void* field, std::size_t entry,
   const std::size_t n = dest_count_[std::size_t(q)];
   if (!n) return;
   const auto* idx = static_cast<const std::uint32_t*>(dest_->data()) + std::size_t(q) * dest_stride_;
-  if (word_aligned(entry, record, offset)) {
-    const std::size_t words = entry / 4;
-    pack_kernel<<<blocks_for(n * words), kThreads, 0, stream_>>>(static_cast<const std::uint32_t*>(field), idx, n,
-                                                                   words, static_cast<std::uint32_t*>(out), record / 4,
-                                                                   offset / 4);
-  } else {
-    pack_kernel<<<blocks_for(n * entry), kThreads, 0, stream_>>>(static_cast<const unsigned char*>(field), idx, n,
-                                                                   entry, static_cast<unsigned char*>(out), record,
-                                                                   offset);
-  }
+  launch_pack(field, idx, n, entry, record, offset, out, stream_);
   FF_CUDA_CHECK_LAUNCH("packing a migration's records");
 }
 
