@@ -10,6 +10,12 @@
 //   same particle alone (entry for entry, so also in the same order).
 // - Rollback agreement: the max_step rollbacks (requested on the rank that owns the fast
 //   particle) are taken by every rank: the team's count equals the count alone.
+// - neighbors.verlet's ghost_margin (docs/multi-gpu.md, "Migrations"): both ways (0: a migration
+//   at every list rebuild; a margin: migrations of their own, the list rebuilt on alone's steps
+//   and kept across migrations) give alone's bits and rebuild steps; the hard spheres migrate
+//   at least 10x less often with the default margin; a list built when every particle has used
+//   98 % of the margin (testing.drift, tests/data/decomp-drift.yaml) lists the pairs that cross
+//   the slab boundaries at the band's edge, as alone.
 // - Refusals naming the stage: a stage that cannot run on a slab (delaunay.dt_bound), a stage that
 //   reads ghosts after another wrote them in the step.
 // - `pipeline run --gpus N --device cpu`: rank 0's H5MD file equals the file of a run alone.
@@ -57,6 +63,8 @@ struct End {
   double dt = 0, time = 0;
   Rows rows;                       // alone: every particle's row
   std::vector<std::string> failures;  // team: owned rows that differ from `alone`
+  std::vector<std::uint64_t> rebuild_steps;  // the steps on which neighbors.verlet rebuilt the list
+  double in_step_rebuilds = 0;  // overlap_correct.verlet's list_rebuilds, summed over the steps
 };
 
 std::vector<unsigned char> bytes_of(State& s, const std::string& name) {
@@ -97,7 +105,15 @@ End run(const test::LoadedPipeline& l, int ranks, std::uint64_t steps, const End
   auto body = [&](Communicator* comm) {
     const auto simulation = test::rank_simulation(l, backend, comm);
     Simulation& sim = *simulation;
-    for (std::uint64_t i = 0; i < steps; ++i) sim.advance();
+    const bool first = !comm || comm->rank() == 0;
+    for (std::uint64_t i = 0; i < steps; ++i) {
+      const std::uint64_t step = sim.state().step;
+      sim.advance();
+      const auto rebuilt = sim.stats().metrics.find("neighbors.verlet/rebuilds");
+      if (first && rebuilt != sim.stats().metrics.end() && rebuilt->second != 0) end.rebuild_steps.push_back(step);
+      const auto in_step = sim.stats().metrics.find("overlap_correct.verlet/list_rebuilds");
+      if (first && in_step != sim.stats().metrics.end()) end.in_step_rebuilds += in_step->second;
+    }
     const auto rows = owned_rows(sim.state());
     sim.gather();
     std::lock_guard<std::mutex> hold(m);
@@ -138,7 +154,9 @@ void check_same(const End& team, const End& alone, const std::set<std::string>& 
   for (auto& f : team.failures) FAIL_CHECK(f);
   CHECK(team.failures.empty());
   CHECK(team.migrations >= min_migrations);
-  CHECK(team.changed_owner >= 1);  // particles crossed slab boundaries
+  if (min_migrations > 0) CHECK(team.changed_owner >= 1);  // particles crossed slab boundaries
+  // The list was rebuilt on alone's steps (with a ghost margin; else on every migration).
+  if (!not_compared.count("neighbors.verlet/rebuilds")) CHECK(team.rebuild_steps == alone.rebuild_steps);
   CHECK(team.rollbacks == alone.rollbacks);
   CHECK(team.step == alone.step);
   CHECK(team.dt == alone.dt);
@@ -159,24 +177,34 @@ void check_same(const End& team, const End& alone, const std::set<std::string>& 
   }
 }
 
-test::LoadedPipeline lj(const std::string& precision, std::vector<std::string> more = {}) {
+// decomp-lj.yaml with neighbors.verlet's ghost_margin `margin`: 0, ghosts within cutoff + skin and a
+// migration at every list rebuild; a small one (0.02: migrations as often, a list kept or
+// rebuilt between them on its own); the default (0.3) migrates a few times in 400 steps only.
+test::LoadedPipeline lj(const std::string& precision, std::vector<std::string> more = {},
+                        const std::string& margin = "0.02") {
   more.push_back("run.precision=" + precision);
+  more.push_back("step.neighbors.verlet.ghost_margin=" + margin);
   return test::load_compute_steps(test::repo_file("tests/data/decomp-lj.yaml").string(), more);
 }
 
 }  // namespace
 
 TEST_CASE("decomposition: 2 and 4 CPU ranks give one rank's bits, rows and rollbacks after 400 steps") {
-  for (const char* precision : {"double", "float"}) {
-    auto l = lj(precision);
-    const End alone = run(l, 1, 400);
-    // The run must exercise what it tests: rollbacks (max_step) and several list rebuilds.
-    CHECK(alone.rollbacks >= 1);
-    for (int ranks : {2, 4}) {
-      INFO(ranks << " ranks, " << precision);
-      check_same(run(l, ranks, 400, &alone), alone);
+  // Both ways of neighbors.verlet in a team: ghost_margin 0 (a migration at every rebuild) and a
+  // margin (migrations of their own; the list rebuilt on alone's steps by the team's test, and
+  // kept across a migration by making its rows again from the positions at its build).
+  for (const char* margin : {"0", "0.02"})
+    for (const char* precision : {"double", "float"}) {
+      auto l = lj(precision, {}, margin);
+      const End alone = run(l, 1, 400);
+      // The run must exercise what it tests: rollbacks (max_step) and several list rebuilds.
+      CHECK(alone.rollbacks >= 1);
+      CHECK(alone.rebuild_steps.size() >= 5);
+      for (int ranks : {2, 4}) {
+        INFO(ranks << " ranks, " << precision << ", ghost_margin " << margin);
+        check_same(run(l, ranks, 400, &alone), alone);
+      }
     }
-  }
 }
 
 TEST_CASE("decomposition: 2D on 3 ranks, and 3D on 12 ranks, whose slabs are narrower than the band") {
@@ -198,7 +226,8 @@ TEST_CASE("decomposition: phoretic short range with harmonic contacts, and pipel
   // The phoretic velocities (drift: velocity+force), the harmonic forces and their `pairs` metric
   // (summed over the ranks: a pair across two ranks is counted once) equal one rank's.
   {
-    auto l = test::load_compute_steps(test::repo_file("tests/data/decomp-phoretic-short.yaml").string(), {});
+    auto l = test::load_compute_steps(test::repo_file("tests/data/decomp-phoretic-short.yaml").string(),
+                                      {"step.neighbors.verlet.ghost_margin=0.02"});  // migrations: several
     const End alone = run(l, 1, 300);
     CHECK(alone.rollbacks >= 1);
     CHECK(alone.metrics.at("harmonic.forces/pairs") > 0);
@@ -226,19 +255,93 @@ TEST_CASE("decomposition: delaunay.sort sorts the whole state before the split (
 
 TEST_CASE("decomposition: hard spheres (overlap_correct.verlet) on 2 and 4 ranks") {
   // The correction iterates with its pair counts summed over the ranks and the moved positions
-  // sent to the ghosts after every iteration. The team migrates, and so rebuilds the list, at
-  // skin/4 where one rank alone rebuilds at skin/2, also within the step: the row lengths and the
-  // rebuild counts differ, nothing else may (the pushes are fixed-point sums over the overlapping
-  // pairs, which every list holds).
-  auto l = test::load_compute_steps(test::repo_file("tests/data/decomp-hard-spheres.yaml").string(), {});
-  const End alone = run(l, 1, 300);
-  CHECK(alone.metrics.at("overlap_correct.verlet/pairs") > 0);
+  // sent to the ghosts after every iteration. With ghost_margin 0 the team migrates, and so
+  // rebuilds the list, at skin/4 where one rank alone rebuilds at skin/2, also within the step:
+  // the row lengths and the rebuild counts differ, nothing else may (the pushes are fixed-point
+  // sums over the overlapping pairs, which every list holds). With the default margin the team
+  // keeps alone's list (rows, rebuilds, max_neighbors, the correction's own rebuilds): all equal.
+  const std::string yaml = test::repo_file("tests/data/decomp-hard-spheres.yaml").string();
   const std::set<std::string> rebuild_timing = {"neighbors.count", "neighbors.verlet/rebuilds",
                                                 "neighbors.verlet/max_neighbors", "overlap_correct.verlet/list_rebuilds"};
+  for (const bool margin : {false, true}) {
+    auto l = test::load_compute_steps(yaml, margin ? std::vector<std::string>{}
+                                                   : std::vector<std::string>{"step.neighbors.verlet.ghost_margin=0"});
+    const End alone = run(l, 1, 300);
+    CHECK(alone.metrics.at("overlap_correct.verlet/pairs") > 0);
+    for (int ranks : {2, 4}) {
+      INFO(ranks << " ranks, hard spheres, " << (margin ? "the default ghost_margin" : "ghost_margin 0"));
+      if (margin) check_same(run(l, ranks, 300, &alone), alone, {}, 1);
+      else check_same(run(l, ranks, 300), alone, rebuild_timing);  // rows: another rebuild timing
+    }
+  }
+}
+
+TEST_CASE("decomposition: hard spheres whose pushes make the list due within the step (skin 0.1)") {
+  // With skin 0.1 the correction's pushes take a particle past skin/2 since the build on ~9 % of
+  // the steps: alone rebuilds the list within the step and corrects again. With the default
+  // ghost_margin the team does the same from the particles it holds (the band condition holds:
+  // band 1.8, cutoff + skin + 2δ with δ ≤ 0.325 + the pushes) and gives alone's bits, rows and
+  // in-step rebuilds; with ghost_margin 0 it cannot, and stops naming the margin.
+  const std::string yaml = test::repo_file("tests/data/decomp-hard-spheres.yaml").string();
+  auto l = test::load_compute_steps(yaml, {"step.neighbors.verlet.skin=0.1"});
+  const End alone = run(l, 1, 300);
+  CHECK(alone.in_step_rebuilds >= 5);
   for (int ranks : {2, 4}) {
-    INFO(ranks << " ranks, hard spheres");
-    const End team = run(l, ranks, 300);  // rows: another rebuild timing, compared by check_same's fields only
-    check_same(team, alone, rebuild_timing);
+    INFO(ranks << " ranks");
+    const End team = run(l, ranks, 300, &alone);
+    check_same(team, alone, {}, 1);
+    CHECK(team.in_step_rebuilds == alone.in_step_rebuilds);
+  }
+  auto l0 = test::load_compute_steps(yaml, {"step.neighbors.verlet.skin=0.1", "step.neighbors.verlet.ghost_margin=0"});
+  try {
+    run(l0, 2, 300);
+    FAIL("a team without a ghost margin rebuilt the list within the step");
+  } catch (const RunError& e) {
+    INFO(e.what());
+    CHECK(std::string(e.what()).find("overlap_correct.verlet") != std::string::npos);
+    CHECK(std::string(e.what()).find("ghost_margin") != std::string::npos);
+  }
+}
+
+TEST_CASE("decomposition: neighbors.verlet's ghost margin makes the hard spheres migrate less often") {
+  // tests/data/decomp-hard-spheres.yaml on 2 ranks: with ghost_margin 0 the team migrates once a
+  // particle moved skin/4 = 0.075 σ (most steps); with the default margin (0.3 σ) at 0.375 σ.
+  auto migrations = [](const std::string& margin) {
+    auto l = test::load_compute_steps(test::repo_file("tests/data/decomp-hard-spheres.yaml").string(),
+                                      {"system.N=4096", "step.neighbors.verlet.ghost_margin=" + margin});
+    return run(l, 2, 200).migrations;
+  };
+  const std::uint64_t before = migrations("0"), after = migrations("0.3");
+  INFO("migrations in 200 steps: ghost_margin 0: " << before << ", 0.3: " << after);
+  CHECK(before >= 50);
+  CHECK(after * 10 <= before);
+}
+
+TEST_CASE("decomposition: a list built when particles used 98 % of the ghost margin is alone's") {
+  // tests/data/decomp-drift.yaml (testing.drift: known displacements): particles 0 and 1, and 2
+  // and 3, come within cutoff + skin of each other across slab boundaries for the first time at
+  // the build of step 42, when every particle is 0.462 from where it was at the last migration
+  // (the margin allows 0.47), particle 1 0.025 inside rank 0's band; the team migrates on step 43,
+  // where the list is not due and keeps its rows. On 2 and 4 ranks, after steps 0-42 and 0-59:
+  // every owned row and the rebuild steps equal alone's, and the pairs are listed.
+  auto l = test::load_compute_steps(test::repo_file("tests/data/decomp-drift.yaml").string(), {}, {"testing"});
+  for (const std::uint64_t steps : {43, 60}) {
+    const End alone = run(l, 1, steps);
+    REQUIRE(alone.rows.size() >= 4);
+    auto listed = [&](std::uint32_t a, std::uint32_t b) {
+      return std::find(alone.rows[a].begin(), alone.rows[a].end(), b) != alone.rows[a].end();
+    };
+    CHECK(listed(0, 1));
+    CHECK(listed(2, 3));
+    CHECK(alone.rebuild_steps == std::vector<std::uint64_t>(
+                                     steps == 43 ? std::initializer_list<std::uint64_t>{0, 14, 28, 42}
+                                                 : std::initializer_list<std::uint64_t>{0, 14, 28, 42, 56}));
+    for (int ranks : {2, 4}) {
+      INFO(ranks << " ranks, " << steps << " steps");
+      const End team = run(l, ranks, steps, &alone);
+      check_same(team, alone, {}, 0);
+      CHECK(team.migrations == (steps == 43 ? 0u : 1u));
+    }
   }
 }
 
@@ -278,7 +381,8 @@ TEST_CASE("decomposition: a rollback requested on one rank on a migration step i
   const std::string yaml = test::repo_file("tests/data/decomp-lj-agreement.yaml").string();
   auto load = [&](int rank, const std::string& steps) {
     return test::load_compute_steps(yaml, {"step.ask_rollback.rank=" + std::to_string(rank),
-                                           "step.ask_rollback.steps=" + steps}, {"testing"});
+                                           "step.ask_rollback.steps=" + steps,
+                                           "step.neighbors.verlet.ghost_margin=0.02"}, {"testing"});
   };
   const MigrationSteps found = migration_steps(load(-1, "[]"), 2, 400);
   REQUIRE(found.migrated.size() >= 4);
@@ -385,9 +489,9 @@ TEST_CASE("decomposition: 2 and 4 GPUs give one GPU's bits (Lennard-Jones, hard 
     INFO(ranks << " GPUs, hard spheres");
     auto l = test::load_compute_steps(test::repo_file("tests/data/decomp-hard-spheres.yaml").string(), {});
     const End alone = run(l, 1, 300, nullptr, Backend::cuda);
-    check_same(run(l, ranks, 300, nullptr, Backend::cuda), alone,
-               {"neighbors.count", "neighbors.verlet/rebuilds", "neighbors.verlet/max_neighbors",
-                "overlap_correct.verlet/list_rebuilds"});
+    // The default ghost_margin: the team keeps alone's list, so everything is compared (6
+    // migrations in 300 steps on the CPU).
+    check_same(run(l, ranks, 300, nullptr, Backend::cuda), alone, {}, 1);
   }
 }
 
@@ -413,8 +517,6 @@ TEST_CASE("decomposition: 2 and 3 ranks on one GPU give its bits (the CUDA team 
       check_same(run(lj_double, ranks, 400, &lj_alone, Backend::cuda, true), lj_alone);
     }
     INFO(ranks << " ranks on one GPU, hard spheres");
-    check_same(run(hs, ranks, 300, nullptr, Backend::cuda, true), hs_alone,
-               {"neighbors.count", "neighbors.verlet/rebuilds", "neighbors.verlet/max_neighbors",
-                "overlap_correct.verlet/list_rebuilds"});
+    check_same(run(hs, ranks, 300, nullptr, Backend::cuda, true), hs_alone, {}, 1);  // the default ghost_margin
   }
 }

@@ -17,7 +17,9 @@
 // A particle within `band` - 2·slack of an owned one at any time between migrations was within
 // `band` of the slab at the last one, so it is held: what a TeamWork::local stage builds from the
 // held particles (a Verlet list of radius band) is, for the owned particles, what one rank alone
-// builds (the proof and the conditions for bitwise equality: docs/multi-gpu.md).
+// builds (the proof and the conditions for bitwise equality: docs/multi-gpu.md). A wider band
+// than the stage's radius needs lets the team migrate less often than the stage rebuilds
+// (neighbors.verlet's ghost_margin: band cutoff + 2 skin + 2M, slack skin/2 + M).
 //
 // A pipeline that triangulates (Scheduling::fills_gap, the Delaunay stages) also gets fixed fill
 // vertices after the ghosts, on a lattice of spacing `band` in the gap beyond the band, so that

@@ -193,13 +193,6 @@ void Simulation::decompose(const std::vector<bool>& observer) {
       if (sch.reads_ghosts || sch.team == TeamWork::local) ghost_reads.insert(acc.field);
     }
     reserve = std::max(reserve, sch.ghost_reserve);
-    if ((sch.communicates || sch.refreshes_ghosts) && requester_before)
-      throw InputError(e.where.str() + ": step '" + e.id +
-                       "' exchanges with the other ranks of a decomposed team within the step, and a stage before "
-                       "it may roll the step back or limit Δt on one rank only (which then skips the rest of its "
-                       "step): put '" + e.id + "' before it");
-    // A communicating stage agrees on its requests (Scheduling::communicates): every rank stops or none.
-    requester_before = requester_before || ((sch.may_request_rollback || sch.may_limit_dt) && !sch.communicates);
     if (sch.team == TeamWork::local && sch.ghost_band > 0) {
       band = std::max(band, sch.ghost_band);
       slack = slack > 0 ? std::min(slack, sch.ghost_slack) : sch.ghost_slack;
@@ -224,6 +217,15 @@ void Simulation::decompose(const std::vector<bool>& observer) {
                          "' (the same dynamics, one half step apart)");
       }
     }
+    // After the ghosts' check: a stage that reads stale ghosts is told that first (the order of
+    // the step is wrong), also when it communicates (neighbors.verlet with a ghost_margin).
+    if ((sch.communicates || sch.refreshes_ghosts) && requester_before)
+      throw InputError(e.where.str() + ": step '" + e.id +
+                       "' exchanges with the other ranks of a decomposed team within the step, and a stage before "
+                       "it may roll the step back or limit Δt on one rank only (which then skips the rest of its "
+                       "step): put '" + e.id + "' before it");
+    // A communicating stage agrees on its requests (Scheduling::communicates): every rank stops or none.
+    requester_before = requester_before || ((sch.may_request_rollback || sch.may_limit_dt) && !sch.communicates);
     if (sch.team == TeamWork::decomposed)
       for (auto& acc : accesses)
         if (writes(acc.mode) && state_->is_particle_field(acc.field)) stale.emplace(acc.field, j);

@@ -300,12 +300,15 @@ struct Scheduling {
   // A local stage (TeamWork::local): its data for the owned particles is exact while every
   // particle within ghost_band (along x) of the rank's slab, as it was at the last migration, is
   // held, and no particle has moved more than ghost_slack since then (the core migrates, and
-  // renews the ghosts, before any particle has). A Verlet list: cutoff + skin and skin/2.
+  // renews the ghosts, before any particle has). A Verlet list: cutoff + skin and skin/2, built
+  // at every migration; or, with a ghost_margin M, cutoff + 2 skin + 2M and skin/2 + M, rebuilt
+  // between migrations on its own (stages/neighbors/verlet/stage.h).
   double ghost_band = 0;
   double ghost_slack = 0;
   // A decomposed stage that moves particles after the list was built, within the step (the
   // overlap correction): how far it may move one. The core migrates that much earlier (the local
-  // stages' slack less this), so the ghosts still cover every pair after its moves.
+  // stages' slack less this), so the ghosts still cover every pair after its moves (and a list
+  // rebuilt within the step, where the band has room: GhostExchange::displacement).
   double ghost_reserve = 0;
   // A decomposed stage that exchanges with the other ranks inside run() (StepContext::ghosts, an
   // all-reduce through RunInfo::team): every rank must reach it, so no stage before it in the

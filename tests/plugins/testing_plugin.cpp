@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "core/backend/comm.h"
+#include "core/base/error.h"
 #include "core/stage/plugin_api.h"
 
 namespace {
@@ -188,6 +189,67 @@ class LimitDt final : public Stage {
   std::uint64_t runs_ = 0;
 };
 
+// testing.drift: moves every particle `speed` along x each step, +x for even particle ids and
+// -x for odd ones, nothing else: every displacement since any step is known exactly, so a test
+// can put a decomposed team's list builds and migrations on chosen steps. Decomposed (a rank
+// moves its owned particles; ids are particle.id there). With edge: [a, b] (a, b > 0),
+// configure (on the whole state, before a team splits it) places particles 0 and 1 at x = L/2 - a
+// and L/2 + b, 2 and 3 at L - a and b, each pair on a line along x, so that they approach each
+// other across the slab boundaries at L/2 and 0 of 2 or 4 slabs.
+class Drift final : public Stage {
+ public:
+  explicit Drift(const ParamValues& v) : speed_(v.real("speed")), edge_(v.reals("edge")) {}
+  std::vector<Access> accesses() const override {
+    return {{fields::position, Where::host, Mode::readwrite}, {fields::image, Where::host, Mode::readwrite}};
+  }
+  Scheduling scheduling() const override {
+    Scheduling s;
+    s.team = TeamWork::decomposed;
+    return s;
+  }
+  void configure(State& s) override {
+    if (edge_.empty()) return;
+    if (edge_.size() != 2 || s.n() < 4 || s.real() != DType::f64)
+      throw InputError("testing.drift: edge takes [a, b], in double precision, with at least 4 particles");
+    Field& pos = s.field(fields::position);
+    pos.acquire(Where::host, Mode::readwrite);
+    double* x = pos.host<double>();
+    const int D = s.dim();
+    const double L = s.box.L[0];
+    const double at[4] = {0.5 * L - edge_[0], 0.5 * L + edge_[1], L - edge_[0], edge_[1]};
+    for (int p = 0; p < 4; ++p) {
+      x[p * D] = at[p];
+      for (int k = 1; k < D; ++k) x[p * D + k] = s.box.L[k] * (p < 2 ? 0.5 : 0.25);
+    }
+  }
+  Outcome run(StepContext& ctx) override {
+    State& s = ctx.state;
+    double* x = s.field(fields::position).host<double>();
+    std::int32_t* img = s.field(fields::image).host<std::int32_t>();
+    const bool has_id = s.has_field(fields::particle_id);
+    const std::uint32_t* id = has_id ? s.field(fields::particle_id).host<std::uint32_t>() : nullptr;
+    const int D = s.dim();
+    const double L = s.box.L[0];
+    for (std::size_t i = 0; i < s.n_owned(); ++i) {
+      const std::uint32_t who = id ? id[i] : std::uint32_t(i);
+      double& xi = x[i * std::size_t(D)];
+      xi += who % 2 == 0 ? speed_ : -speed_;
+      if (xi >= L) {
+        xi -= L;
+        ++img[i * std::size_t(D)];
+      } else if (xi < 0) {
+        xi += L;
+        --img[i * std::size_t(D)];
+      }
+    }
+    return Outcome::ok();
+  }
+
+ private:
+  double speed_;
+  std::vector<double> edge_;
+};
+
 template <class S>
 StageFactory factory() {
   return [](const ParamValues& v, const RunInfo& info) {
@@ -234,6 +296,12 @@ void register_testing(Registry& r) {
   r.implement("testing.limit_dt", Backend::cpu, factory<LimitDt>());
   r.implement("testing.limit_dt", Backend::cuda, factory<LimitDt>());
   r.implement("testing.count", Backend::cuda, factory<Count>());
+  r.declare({"testing.drift", "moves particles along x at a fixed speed, even ids up, odd ids down (tests only)",
+             {ParamSpec::real("speed", 0.01, "σ per step").at_least(0),
+              ParamSpec{"edge", ParamType::real_list, ParamValue(std::vector<double>{}), {}, {}, false, {},
+                        "[a, b]: particles 0-3 in two pairs across x = L/2 and x = 0 (empty: as they are)"}},
+             {2, 3}, false});
+  r.implement("testing.drift", Backend::cpu, factory<Drift>());
 }
 
 }  // namespace

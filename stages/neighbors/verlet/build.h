@@ -96,12 +96,32 @@ class ListBuild {
   // will_write), so a stage may declare the list fields Access::on_demand_write.
   template <int D>
   void build(StepContext& ctx, double rl, Where where) {
+    build_from<D>(ctx, rl, where, false);
+  }
+
+  // The list as it was last built, for particles numbered anew since (a decomposed team's
+  // migration, core/run/domain.h): the same construction from the positions at that build
+  // (position_at_build, a particle field that moved with the particles), which it leaves as
+  // they are. Rows name the same particles in the same (id) order as before, provided every
+  // particle within rl of a particle's position at build is still held.
+  template <int D>
+  void rebuild_rows(StepContext& ctx, double rl, Where where) {
+    build_from<D>(ctx, rl, where, true);
+  }
+
+  // The longest row of the last build (set: restored from a checkpoint).
+  std::uint32_t max_neighbors() const { return max_neighbors_; }
+  void set_max_neighbors(std::uint32_t m) { max_neighbors_ = m; }
+
+ private:
+  template <int D>
+  void build_from(StepContext& ctx, double rl, Where where, bool at_last_build) {
     for (const char* f : kListFields) ctx.will_write(f);
     State& s = ctx.state;
     const std::size_t n = s.n();
     const auto& L = loops_d<D>();
-    const R* x = s.field(fields::position).data<R>(ctx);
     R* at_build = s.field(kPositionAtBuild).data<R>(ctx);
+    const R* x = at_last_build ? at_build : s.field(fields::position).data<R>(ctx);
     Grid<R, D> grid{PeriodicBox<R>::make(s.box.L), {grid_nc_[0], grid_nc_[1], grid_nc_[2]}};
     std::uint32_t* cell = s.field(kCell).data<std::uint32_t>(ctx);
     std::uint32_t* order = s.field(kOrder).data<std::uint32_t>(ctx);
@@ -117,7 +137,8 @@ class ListBuild {
     Field& list = s.field(kList);
     for (;;) {
       const std::uint32_t cap = list_capacity(s);
-      BuildList<R, D> f{x, order, start, end, grid, R(rl * rl), cap, list.data<std::uint32_t>(ctx), count, at_build, id};
+      BuildList<R, D> f{x, order, start, end, grid, R(rl * rl), cap, list.data<std::uint32_t>(ctx),
+                        count, at_last_build ? nullptr : at_build, id};
       L.build(n, f, ctx.stream);
       max_neighbors_ = n ? loops_.max_count(n, CountOf{count}, max_, ctx.stream) : 0;
       if (max_neighbors_ <= cap) break;
@@ -128,11 +149,6 @@ class ListBuild {
     }
   }
 
-  // The longest row of the last build (set: restored from a checkpoint).
-  std::uint32_t max_neighbors() const { return max_neighbors_; }
-  void set_max_neighbors(std::uint32_t m) { max_neighbors_ = m; }
-
- private:
   template <int D>
   const VerletLoopsD<R, D>& loops_d() const {
     if constexpr (D == 2) return loops_.d2;

@@ -82,7 +82,7 @@ struct BuildList {
   std::uint32_t capacity;
   std::uint32_t* list;              // N x capacity
   std::uint32_t* count;             // true number of neighbours (may exceed capacity: then grow)
-  R* at_build;                      // positions the list was built from
+  R* at_build;                      // positions the list was built from (null: `position` is them already)
   // The particles' global ids in a decomposed team (core/run/domain.h), whose ranks hold their
   // particles in an order of their own: rows are then sorted by id, the order one rank alone
   // sorts them in. Null: by index (= id).
@@ -125,7 +125,8 @@ struct BuildList {
           }
         }
     count[i] = n;
-    for (int k = 0; k < D; ++k) at_build[std::size_t(i) * D + k] = xi[k];
+    if (at_build)
+      for (int k = 0; k < D; ++k) at_build[std::size_t(i) * D + k] = xi[k];
     if (n <= capacity) {  // ascending index (or id) order (insertion sort: rows are short)
       for (std::uint32_t a = 1; a < n; ++a) {
         const std::uint32_t v = row[a];

@@ -16,6 +16,7 @@
 #include <string>
 
 #include "core/base/error.h"
+#include "core/backend/comm.h"
 #include "core/backend/exec.h"
 #include "core/stage/params.h"
 #include "core/stage/stage.h"
@@ -29,6 +30,7 @@ namespace ff::neighbors {
 struct VerletParams {
   double cutoff = 2.5;  // pairs closer than this must be in the list
   double skin = 0.5;    // extra radius: the list stays complete until a particle moves skin/2
+  double ghost_margin = 0.3;  // decomposed teams: the drift beyond skin/2 allowed before a migration
 
   template <class P>
   void describe(P& p) {
@@ -37,6 +39,11 @@ struct VerletParams {
       "Verlet skin (σ): lists hold pairs within r_c + skin and are rebuilt when a particle has moved more than "
       "skin/2")
         .above(0);
+    p(ghost_margin, "ghost_margin",
+      "decomposed teams (--gpus N, docs/multi-gpu.md): a rank holds ghosts within r_c + 2 skin + 2 margin of "
+      "its slab (σ), migrates particles only once one moved skin/2 + margin, and rebuilds the list in between "
+      "on its own; 0: ghosts within r_c + skin, a migration at every rebuild. No effect alone")
+        .at_least(0);
   }
 };
 
@@ -50,8 +57,9 @@ class Verlet final : public Stage {
   }
 
   template <class Exec>
-  Verlet(const ParamValues& v, const RunInfo&, Exec exec)
+  Verlet(const ParamValues& v, const RunInfo& info, Exec exec)
       : p_(params_from<VerletParams>(v)),
+        team_(info.team),
         where_(Exec::where),
         builder_(exec) {}
 
@@ -64,15 +72,28 @@ class Verlet final : public Stage {
   }
 
   // In a decomposed team: built from every particle the rank holds, owned or ghost (the rows of
-  // ghosts are incomplete, and no stage reads them), never exchanged. Exact for the owned
-  // particles while every particle within cutoff + skin of the slab at the last migration is held
-  // and none has moved skin/2 since: then every pair closer than the cutoff is listed, and the
-  // rows, sorted by global id, are those one rank alone builds.
+  // ghosts are incomplete, and no stage reads them), never exchanged; rows sorted by global id.
+  // An owned particle's row is the one alone has when the rank holds every particle within
+  // rl = cutoff + skin of it at the build. Two ways (docs/multi-gpu.md):
+  //  - ghost_margin 0: ghosts within rl of the slab, and the core migrates once a particle moved
+  //    skin/2 since the last migration, which is when the list is due: it is built at every
+  //    migration (the particles renumbered) and only then.
+  //  - ghost_margin M > 0: ghosts within rl + skin + 2M, migrations at skin/2 + M. The list is
+  //    rebuilt when one rank alone rebuilds it: every step the ranks join their tests (one
+  //    all-reduce, so the stage communicates), which is alone's test over every particle. A build
+  //    between migrations, from particles that moved at most skin/2 + M since the last, finds
+  //    every neighbour within rl held (rl + 2(skin/2 + M) of the slab). A migration on which the
+  //    list is not due keeps its rows: they are made again from the positions at the last build,
+  //    at most skin/2 from the migration's (rl + skin of the slab: held). So the list, and every
+  //    rebuild metric, is alone's at every step, which overlap_correct.verlet's in-step rebuilds
+  //    need (stages/overlap_correct/verlet/stage.h).
   Scheduling scheduling() const override {
     Scheduling s;
     s.team = TeamWork::local;
-    s.ghost_band = p_.cutoff + p_.skin;
-    s.ghost_slack = 0.5 * p_.skin;
+    const double rl = p_.cutoff + p_.skin, M = p_.ghost_margin;
+    s.ghost_band = M > 0 ? rl + p_.skin + 2 * M : rl;
+    s.ghost_slack = 0.5 * p_.skin + M;
+    s.communicates = M > 0;
     return s;
   }
 
@@ -151,24 +172,43 @@ class Verlet final : public Stage {
     return moved[0] != 0 && moved[0] == s.field(fields::position).version();
   }
 
+  // Whether some particle moved more than skin/2 since the build: the answer the stage that
+  // moved them published, else the test over the particles held.
+  template <int D>
+  bool moved_too_far(StepContext& ctx) {
+    if (published_applies(ctx.state)) return ctx.state.field(kMoved).host<std::uint64_t>()[1] != 0;
+    return builder_.template moved_too_far<D>(ctx, p_.skin);
+  }
+
   template <int D>
   Outcome run_d(StepContext& ctx) {
     State& s = ctx.state;
+    const double rl = p_.cutoff + p_.skin;
     // A decomposed team's migration renumbered the particles this rank holds: the list's
     // indices are stale (State::particles_version). Compared with the version of the last
     // accepted build: a rollback restores the list an attempt rebuilt, so the retry rebuilds.
-    bool rebuild = !built_ || s.particles_version() != accepted_particles_;
-    if (!rebuild && published_applies(s)) rebuild = s.field(kMoved).host<std::uint64_t>()[1] != 0;
-    else if (!rebuild) rebuild = builder_.template moved_too_far<D>(ctx, p_.skin);
-    if (rebuild) builder_.template build<D>(ctx, p_.cutoff + p_.skin, where_);
+    const bool renumbered = s.particles_version() != accepted_particles_;
+    bool rebuild = !built_, same_rows = false;
+    if (!rebuild && p_.ghost_margin > 0 && ctx.ghosts && in_team(team_)) {
+      // The team's test is alone's: any rank's particle (scheduling() above).
+      std::int64_t due = moved_too_far<D>(ctx) ? 1 : 0;
+      team_->all_reduce(&due, 1, ReduceOp::max);
+      rebuild = due != 0;
+      same_rows = !rebuild && renumbered;
+    } else if (!rebuild) {
+      rebuild = renumbered || moved_too_far<D>(ctx);
+    }
+    if (rebuild) builder_.template build<D>(ctx, rl, where_);
+    if (same_rows) builder_.template rebuild_rows<D>(ctx, rl, where_);
     built_ = true;
-    if (rebuild) built_particles_ = s.particles_version();
+    if (rebuild || same_rows) built_particles_ = s.particles_version();
     ctx.metrics.set("rebuilds", rebuild ? 1.0 : 0.0);
     ctx.metrics.set("max_neighbors", double(builder_.max_neighbors()));
     return Outcome::ok();
   }
 
   VerletParams p_;
+  Communicator* team_;  // a decomposed team's rank (with StepContext::ghosts); else alone
   std::uint64_t built_particles_ = 0;     // State::particles_version() at the last build
   std::uint64_t accepted_particles_ = 0;  // the same, of the last build in an accepted step
   Where where_;

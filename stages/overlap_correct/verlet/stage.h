@@ -136,9 +136,12 @@ class OverlapCorrectVerlet final : public Stage {
   // rows (ghosts among them): every iteration's pair counts are summed over the ranks (so all
   // iterate alike) and the moved positions sent to the ghosts (StepContext::ghosts) before the
   // next gather. Displacements are fixed-point sums over each particle's overlapping pairs, whose
-  // order does not matter, so the bits are one rank's. The list is not rebuilt within the step
-  // there (that would need a migration): the core migrates skin/4 early instead, and a step whose
-  // pushes exceed that stops the run.
+  // order does not matter, so the bits are one rank's. When the pushes make the list due, the
+  // team rebuilds it as alone does, from the particles each rank holds, which it can while the
+  // band condition holds (check_band); the core migrates skin/4 early (ghost_reserve), so that
+  // pushes of up to skin/4 within a step keep it. With neighbors.verlet's ghost_margin 0 the
+  // band has no room for any move (cutoff + skin) and a step whose pushes make the list due
+  // stops the run.
   Scheduling scheduling() const override {
     Scheduling s;
     s.team = TeamWork::decomposed;
@@ -253,11 +256,7 @@ class OverlapCorrectVerlet final : public Stage {
         std::int64_t m = moved ? 1 : 0;
         team_->all_reduce(&m, 1, ReduceOp::max);
         moved = m != 0;
-        if (moved)
-          throw RunError("overlap_correct.verlet: step " + std::to_string(ctx.host_params.step) +
-                         ": the pushes moved a particle farther than skin/4 within the step, past what the ghosts of a "
-                         "decomposed team cover (it migrates particles only at the start of a step): raise "
-                         "neighbors.verlet's skin, or lower run.dt");
+        if (moved) check_band(ctx, *ghosts);
       }
       if (!moved) break;
       // A pair the list leaves out may overlap now: rebuild from the positions now, correct again.
@@ -274,6 +273,24 @@ class OverlapCorrectVerlet final : public Stage {
       ctx.metrics.set("touched_fraction", count / double(team ? std::uint64_t(team_sum(rows)) : n));
     }
     return Outcome::ok();
+  }
+
+  // A decomposed team rebuilds the list within the step as alone does, from the particles the
+  // rank holds: every particle within rl = cutoff + skin of an owned one now must be held. An
+  // owned particle lay in the slab at the last migration, and the ghosts reach `band` beyond it
+  // as it was then, so they do while rl + 2·δ ≤ band, δ the largest move of any particle since
+  // the last migration (the band condition; neighbors.verlet's ghost_margin widens the band).
+  // Past it the run stops: a migration happens only at the start of a step.
+  void check_band(StepContext& ctx, GhostExchange& ghosts) {
+    const double delta = ghosts.displacement(ctx.state, fields::position);  // one all-reduce
+    if (cutoff_ + skin_ + 2 * delta <= ghosts.band()) return;
+    std::ostringstream os;
+    os << "overlap_correct.verlet: step " << ctx.host_params.step << ": the pushes moved particles so that the list "
+       << "is due within the step, and a particle has moved " << delta << " since the decomposed team's last "
+       << "migration: its rebuild would need ghosts within cutoff + skin + 2 x " << delta << " = "
+       << cutoff_ + skin_ + 2 * delta << " of the slab, which hold " << ghosts.band()
+       << " (particles migrate only at the start of a step): raise neighbors.verlet's ghost_margin, or lower run.dt";
+    throw RunError(os.str());
   }
 
   // Every overlapping pair must be in the list: σ_ij ≤ the largest diameter ≤ the cutoff.
