@@ -2,7 +2,7 @@
 # Several GPUs, decomposed teams (issue 21 items 2-3): the 2- and 4-GPU bit tests of the
 # decomposed Verlet and Delaunay pipelines, then weak scaling (2^20 particles a GPU) of the
 # decomposed LJ and hard-sphere pipelines on 1, 2, 4 and 8 GPUs, as many as `nvidia-smi -L` lists.
-# Not yet run: no machine with several GPUs was lent when it was written (session 16).
+# Its parts ran on two H200s in session 20 (bench/README.md, "Session 20"); never yet on 4.
 #
 #   bench/multi_gpu_decomposed.sh BUNDLE OUT
 #
