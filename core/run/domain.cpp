@@ -9,6 +9,7 @@
 #include "core/base/error.h"
 #include "core/physics/box.h"
 #include "core/run/domain_staging.h"
+#include "core/run/slab.h"
 
 namespace ff {
 
@@ -54,21 +55,14 @@ namespace {
 // arithmetic of neighbors.verlet's rebuild test (MovedTooFar) in the state's precision.
 template <class R>
 bool moved_beyond(State& s, const std::vector<double>& x0, double slack) {
-  const int D = s.dim();
   Field& pos = s.field(fields::position);
   pos.acquire(Where::host, Mode::read);
   const R* x = pos.host<R>();
   const PeriodicBox<R> box = PeriodicBox<R>::make(s.box.L);
   const R half = R(slack);
   const R limit2 = half * half;
-  for (std::size_t i = 0; i < s.n_owned(); ++i) {
-    R d2 = 0;
-    for (int k = 0; k < D; ++k) {
-      const R d = box.min_image(x[i * D + k] - R(x0[i * D + k]), k);
-      d2 += d * d;
-    }
-    if (d2 > limit2) return true;
-  }
+  for (std::size_t i = 0; i < s.n_owned(); ++i)
+    if (moved_squared(x, x0.data(), i, s.dim(), box) > limit2) return true;
   return false;
 }
 
@@ -109,22 +103,9 @@ std::vector<double> Domain::xs(State& s) const {
   return x;
 }
 
-int Domain::owner_of(double x) const {
-  const int r = int(std::floor(x / L_ * double(ranks_)));
-  return std::min(std::max(r, 0), ranks_ - 1);
-}
+int Domain::owner_of(double x) const { return slab().owner_of(x); }
 
-bool Domain::ghost_of(int q, double x) const {
-  const double lo = L_ * double(q) / double(ranks_), hi = L_ * double(q + 1) / double(ranks_);
-  // The distance along x from x, or one of its periodic images, to [lo, hi]; a particle on the
-  // slab's edge (rounding may give it to the neighbour) is at distance 0: a ghost.
-  double best = L_;
-  for (int k = -1; k <= 1; ++k) {
-    const double y = x + double(k) * L_;
-    best = std::min(best, std::max({lo - y, y - hi, 0.0}));
-  }
-  return best <= band_ + 1e-9 * L_;  // a margin for the rounding of positions near a slab's edge
-}
+bool Domain::ghost_of(int q, double x) const { return slab().ghost_of(q, x); }
 
 Domain::Layout Domain::layout_of(const State& s, const std::vector<std::string>& names) const {
   Layout lay;

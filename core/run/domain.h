@@ -45,6 +45,7 @@
 #include <vector>
 
 #include "core/backend/comm.h"
+#include "core/run/slab.h"
 #include "core/stage/stage.h"
 #include "core/stage/state.h"
 
@@ -90,9 +91,10 @@ class Domain final : public GhostExchange {
   std::size_t n_held() const { return n_held_; }  // owned and ghosts: the fill vertices come after
 
   // The slab (rank) that owns a particle at x (along axis 0), and whether a particle at x not
-  // owned by rank q lies within the band of q's slab.
+  // owned by rank q lies within the band of q's slab (slab.h, shared with the device).
   int owner_of(double x) const;
   bool ghost_of(int q, double x) const;
+  SlabGeometry slab() const { return {L_, ranks_, rank_, band_}; }
 
  private:
   // The bytes of one particle: every particle field's entry, fields in name order.

@@ -11,6 +11,7 @@
 #include "core/base/error.h"
 #include "core/run/domain.h"
 #include "core/run/domain_staging.h"
+#include "core/run/slab.h"
 
 namespace ff {
 
@@ -68,7 +69,7 @@ void Domain::migrate_on_device(State& s) {
   const std::size_t pos_f = index_of(fields::position), id_f = index_of(fields::particle_id);
   const bool f32 = s.real() == DType::f32;
   const int D = s.dim();
-  const SlabGeometry geo{L_, ranks_, rank_, band_};
+  const SlabGeometry geo = slab();
   std::uint64_t changed = 0;
   const std::vector<std::size_t> dest = g.destinations(data[pos_f], f32, D, s.n_owned(), geo, &changed);
   changed_owner_ += changed;
@@ -182,7 +183,7 @@ void Domain::rebuild(State& s, const Layout& lay, const std::vector<std::uint32_
     return v;
   };
   // Owned first, then ghosts; each by id (a particle arrives once: from its one previous owner).
-  // One key a source: bit 63 a ghost, then the id, then the source (n < 2^31).
+  // One key a source (slab.h's held_key; n < 2^31).
   if (n >= (std::size_t(1) << 31))
     throw RunError("a rank of a decomposed team would hold " + std::to_string(n) + " particles: at most 2^31");
   std::vector<std::uint64_t> key(n);
@@ -192,11 +193,11 @@ void Domain::rebuild(State& s, const Layout& lay, const std::vector<std::uint32_
     std::memcpy(&id, entry(id_f, k), sizeof id);
     const bool owned = owner_of(x_of(k)) == rank_;
     n_owned += owned ? 1 : 0;
-    key[k] = (owned ? 0 : std::uint64_t(1) << 63) | std::uint64_t(id) << 31 | std::uint64_t(k);
+    key[k] = held_key(owned, id, k);
   }
   std::sort(key.begin(), key.end());
   std::vector<std::size_t> order(n);
-  for (std::size_t k = 0; k < n; ++k) order[k] = std::size_t(key[k] & ((std::uint64_t(1) << 31) - 1));
+  for (std::size_t k = 0; k < n; ++k) order[k] = std::size_t(key[k] & kHeldSourceMask);
   key = {};
   lap("rebuild: order");
   // The fill vertices: each a copy of the first held particle's entries (so a type and a

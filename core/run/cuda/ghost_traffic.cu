@@ -39,34 +39,13 @@ __global__ void unpack_kernel(W* __restrict__ field, const std::uint32_t* __rest
   field[std::size_t(idx[k]) * words + w] = in[k * record_words + offset_words + w];
 }
 
-// Domain.cpp's moved_beyond on the device: the same operations in the same precision (this file
-// is compiled with -fmad=false, core/CMakeLists.txt), so the same decisions.
+// The migration test over the owned particles (slab.h's moved_squared, as the host's).
 template <class R>
 __global__ void moved_kernel(const R* __restrict__ x, const R* __restrict__ x0, std::size_t owned, int dim,
                              PeriodicBox<R> box, R limit2, std::uint32_t* flag) {
   const std::size_t i = std::size_t(blockIdx.x) * blockDim.x + threadIdx.x;
   if (i >= owned) return;
-  R d2 = 0;
-  for (int k = 0; k < dim; ++k) {
-    const R d = box.min_image(x[i * dim + k] - x0[i * dim + k], k);
-    d2 += d * d;
-  }
-  if (d2 > limit2) *flag = 1u;  // every writer stores the same value
-}
-
-// Domain::owner_of and ghost_of (domain.cpp), the same operations in the same order.
-__device__ int owner_of(double x, const SlabGeometry& g) {
-  const int r = int(floor(x / g.L * double(g.ranks)));
-  return min(max(r, 0), g.ranks - 1);
-}
-__device__ bool ghost_of(int q, double x, const SlabGeometry& g) {
-  const double lo = g.L * double(q) / double(g.ranks), hi = g.L * double(q + 1) / double(g.ranks);
-  double best = g.L;
-  for (int k = -1; k <= 1; ++k) {
-    const double y = x + double(k) * g.L;
-    best = fmin(best, fmax(fmax(lo - y, y - hi), 0.0));
-  }
-  return best <= g.band + 1e-9 * g.L;
+  if (moved_squared(x, x0, i, dim, box) > limit2) *flag = 1u;  // every writer stores the same value
 }
 
 template <class R>
@@ -75,9 +54,9 @@ __global__ void destinations_kernel(const R* __restrict__ x, int dim, std::size_
   const std::size_t i = std::size_t(blockIdx.x) * blockDim.x + threadIdx.x;
   if (i >= owned) return;
   const double xi = double(x[i * std::size_t(dim)]);
-  const int o = owner_of(xi, g);
+  const int o = g.owner_of(xi);
   if (o != g.rank) atomicAdd(changed, 1ull);
-  for (int q = 0; q < g.ranks; ++q) flags[std::size_t(q) * owned + i] = (q == o || ghost_of(q, xi, g)) ? 1u : 0u;
+  for (int q = 0; q < g.ranks; ++q) flags[std::size_t(q) * owned + i] = (q == o || g.ghost_of(q, xi)) ? 1u : 0u;
 }
 
 // The refresh lists' flags: for an owned particle, whether peer q holds it as a ghost; for a
@@ -88,8 +67,8 @@ __global__ void held_flags_kernel(const R* __restrict__ x, int dim, std::size_t 
   const std::size_t i = std::size_t(blockIdx.x) * blockDim.x + threadIdx.x;
   if (i >= n) return;
   const double xi = double(x[i * std::size_t(dim)]);
-  if (i < owned) send[i] = ghost_of(q, xi, g) ? 1u : 0u;
-  else recv[i - owned] = owner_of(xi, g) == q ? 1u : 0u;
+  if (i < owned) send[i] = g.ghost_of(q, xi) ? 1u : 0u;
+  else recv[i - owned] = g.owner_of(xi) == q ? 1u : 0u;
 }
 
 __global__ void scatter_kernel(const std::uint32_t* __restrict__ flags, const std::uint32_t* __restrict__ scan,
@@ -99,8 +78,6 @@ __global__ void scatter_kernel(const std::uint32_t* __restrict__ flags, const st
   if (flags[i]) out[scan[i]] = std::uint32_t(i);
   if (i == n - 1) *count = scan[i] + flags[i];
 }
-
-constexpr std::uint64_t kSourceMask = (std::uint64_t(1) << 31) - 1;
 
 // One key a held particle: bit 63 a ghost, then its id, then its source (a kept particle k <
 // n_kept, else record k - n_kept): sorted, owned first, then ghosts, each by id.
@@ -124,9 +101,9 @@ __global__ void keys_kernel(const R* __restrict__ x, const std::uint32_t* __rest
     xk = double(v);
     memcpy(&pid, rec + id_offset, sizeof pid);
   }
-  const bool mine = owner_of(xk, g) == g.rank;
+  const bool mine = g.owner_of(xk) == g.rank;
   if (mine) atomicAdd(owned, 1ull);
-  keys[k] = (mine ? 0 : std::uint64_t(1) << 63) | std::uint64_t(pid) << 31 | std::uint64_t(k);
+  keys[k] = held_key(mine, pid, k);
 }
 
 template <class W>
@@ -136,7 +113,7 @@ __global__ void gather_kernel(W* __restrict__ dst, const W* __restrict__ field, 
   const std::size_t t = std::size_t(blockIdx.x) * blockDim.x + threadIdx.x;
   if (t >= n * words) return;
   const std::size_t k = t / words, w = t % words;
-  const std::size_t src = std::size_t(keys[k] & kSourceMask);
+  const std::size_t src = std::size_t(keys[k] & kHeldSourceMask);
   dst[k * words + w] = src < n_kept ? field[std::size_t(kept[src]) * words + w]
                                     : records[(src - n_kept) * record_words + offset_words + w];
 }

@@ -15,19 +15,14 @@
 #include <memory>
 #include <vector>
 
+#include "core/run/slab.h"
+
 struct CUstream_st;
 
 namespace ff {
 
 class DeviceBuffer;
 
-// Domain::owner_of and ghost_of's parameters: slabs of width L/ranks along x, ghosts within band.
-struct SlabGeometry {
-  double L;
-  int ranks;
-  int rank;
-  double band;
-};
 
 class GhostTraffic {
  public:
