@@ -215,14 +215,7 @@ double Domain::displacement(State& s, const std::string& field) {
   const int D = s.dim();
   const PeriodicBox<double> box = PeriodicBox<double>::make(s.box.L);
   double worst = 0;
-  for (std::size_t i = 0; i < s.n_owned(); ++i) {
-    double d2 = 0;
-    for (int k = 0; k < D; ++k) {
-      const double d = box.min_image(x[i * std::size_t(D) + std::size_t(k)] - x0_[i * std::size_t(D) + std::size_t(k)], k);
-      d2 += d * d;
-    }
-    worst = std::max(worst, d2);
-  }
+  for (std::size_t i = 0; i < s.n_owned(); ++i) worst = std::max(worst, moved_squared(x.data(), x0_.data(), i, D, box));
   worst = std::sqrt(worst);
   comm_.all_reduce(&worst, 1, ReduceOp::max);
   return worst;
