@@ -8,6 +8,7 @@
 
 #include "core/backend/cuda/check.h"
 #include "stages/overlap_correct/correct_kernel.cuh"
+#include "stages/overlap_correct/team_shape.cuh"
 #include "stages/overlap_correct/wide_kernels.cuh"
 
 namespace ff::overlap {
@@ -69,7 +70,7 @@ class DeviceLoops final : public OverlapCorrectLoops<R> {
                      0,
                      static_cast<long long>(k0),
                      static_cast<long long>(max_iterations)};
-    // The grid's first iterations run in the wide kernels (correct_kernel.cuh), queued at once:
+    // The grid's first iterations run in the wide kernels (wide_kernels.cuh), queued at once:
     // each does nothing after an iteration that did not go on.
     if (wide_ && k0 == 0) a.j0 = run_wide<Walls, Mark>(a, s);
     void* args[] = {&a};

@@ -1,0 +1,133 @@
+// overlap_correct's CUDA launch shapes: who runs the persistent kernel's iterations (the grid,
+// a cluster of 16 blocks, or of 8 when runs share the GPU) and each block's tile; included by
+// cuda.cu after correct_kernel.cuh, whose kernel they launch. Host code and constants only.
+#pragma once
+#include "stages/overlap_correct/correct_kernel.cuh"
+
+namespace ff::overlap {
+
+namespace {
+
+// Blocks and tile for n particles: at most what fits on the device at once (a cooperative
+// launch needs every block resident), tiles of at least 256 particles, a multiple of 16.
+// 2 blocks of 256 per SM (128 registers), the fastest measured on the H100 (bench-abp) with the
+// gathers' loads kInFlight at a time: 3 blocks get 80 registers and spill, and 8 loads in flight
+// gain nothing. The best count changed with the kernel (3 with one load after the other, 4 with
+// fan walks only), so measure again after changing it (bench/overlap_correct-PERF.md and
+// bench/README.md, "Numbers formerly in source comments").
+constexpr int kMinBlocks = 2;
+
+// Small systems: a cluster of kClusterBlocks blocks of kClusterThreads runs the iterations
+// instead of the grid for n ≤ kClusterMaxN: there an iteration's walks are short, and the grid's
+// three barriers per iteration and its cooperative launch are the time. The shape and the
+// threshold come from the A/B in bench/overlap_correct-PERF.md (session 13): above the threshold
+// the grid's SMs do more than the cluster's barrier saves; one block alone (a variant there)
+// lost at every size. On a GPU that many runs share, team_for gives a run fewer SMs.
+constexpr int kClusterBlocks = 16;
+constexpr int kClusterThreads = 512;
+constexpr std::size_t kClusterMaxN = 4096;
+// Runs that share the GPU and would not fit side by side as grids take a cluster of 8 blocks (8
+// SMs, the portable cluster size) instead of 16: a correction takes a little longer, but twice
+// as many run at once, and a sweep's corrections side by side are what bounds it (bench/README.md,
+// "Session 20": 64 runs of bench-abp 2^14).
+constexpr int kSharedClusterBlocks = 8;
+
+// A team's block size; 128 registers a thread, as the grid's kernel (kMinBlocks).
+template <int Team>
+constexpr int threads_of = Team == kGrid ? kThreads : kClusterThreads;
+template <int Team>
+constexpr int min_blocks_of = Team == kGrid ? kMinBlocks : std::max(1, 512 / threads_of<Team>);
+
+template <class R, int Team, bool Walls, bool Mark>
+void* kernel_ptr() {
+  return reinterpret_cast<void*>(correct_kernel<R, threads_of<Team>, min_blocks_of<Team>, Team, Walls, Mark>);
+}
+
+// The launch's shape for a cluster of Team blocks.
+template <int Team>
+cudaLaunchConfig_t team_config(cudaLaunchAttribute* attr, CUstream_st* s) {
+  cudaLaunchConfig_t cfg = {};
+  cfg.gridDim = dim3(Team);
+  cfg.blockDim = dim3(threads_of<Team>);
+  cfg.stream = s;
+  attr[0].id = cudaLaunchAttributeClusterDimension;
+  attr[0].val.clusterDim.x = Team;
+  attr[0].val.clusterDim.y = attr[0].val.clusterDim.z = 1;
+  cfg.attrs = attr;
+  cfg.numAttrs = 1;
+  return cfg;
+}
+
+// Whether the device can run a cluster team of Team blocks: sm_90 clusters, and its blocks in one
+// GPC at once.
+template <class R, int Team, bool Walls, bool Mark>
+bool cluster_fits() {
+  int dev = 0, cluster = 0;
+  FF_CUDA_CHECK(cudaGetDevice(&dev), "overlap_correct: current device");
+  FF_CUDA_CHECK(cudaDeviceGetAttribute(&cluster, cudaDevAttrClusterLaunch, dev), "overlap_correct: clusters");
+  if (!cluster) return false;
+  void* f = kernel_ptr<R, Team, Walls, Mark>();
+  if (Team > 8)  // 8 is the portable cluster size; sm_90 runs 16
+    FF_CUDA_CHECK(cudaFuncSetAttribute(f, cudaFuncAttributeNonPortableClusterSizeAllowed, 1),
+                  "overlap_correct: cluster size");
+  cudaLaunchAttribute attr[1];
+  const cudaLaunchConfig_t cfg = team_config<Team>(attr, nullptr);
+  int clusters = 0;
+  FF_CUDA_CHECK(cudaOccupancyMaxActiveClusters(&clusters, f, &cfg), "overlap_correct: cluster occupancy");
+  return clusters >= 1;
+}
+
+// The grid for n particles: blocks of kThreads, at most what fits on the device at once (a
+// cooperative launch needs every block resident), tiles of at least 256 particles; and how many
+// SMs those blocks hold (per_sm to an SM).
+struct GridShape {
+  int blocks = 0, sms_held = 0, sms = 0;
+};
+template <class R, bool Walls, bool Mark>
+GridShape grid_shape(std::size_t n) {
+  int dev = 0, sms = 0, per_sm = 0, coop = 0;
+  FF_CUDA_CHECK(cudaGetDevice(&dev), "overlap_correct: current device");
+  FF_CUDA_CHECK(cudaDeviceGetAttribute(&sms, cudaDevAttrMultiProcessorCount, dev), "overlap_correct: SM count");
+  FF_CUDA_CHECK(cudaDeviceGetAttribute(&coop, cudaDevAttrCooperativeLaunch, dev), "overlap_correct: cooperative");
+  if (!coop) throw RunError("overlap_correct: the CUDA device does not support cooperative launches");
+  FF_CUDA_CHECK(cudaOccupancyMaxActiveBlocksPerMultiprocessor(&per_sm, kernel_ptr<R, kGrid, Walls, Mark>(), kThreads, 0),
+                "overlap_correct: occupancy");
+  per_sm = std::max(1, per_sm);
+  const std::size_t most = std::size_t(per_sm) * std::size_t(sms);
+  const std::size_t want = std::max<std::size_t>(1, (n + 255) / 256);
+  GridShape g;
+  g.blocks = int(std::min(most, want));
+  g.sms_held = (g.blocks + per_sm - 1) / per_sm;
+  g.sms = sms;
+  return g;
+}
+
+// The team for n particles. A run alone: the cluster where the device runs it (n ≤ kClusterMaxN),
+// else the grid, the fastest (bench/overlap_correct-PERF.md). On a GPU that K runs share
+// (runs_sharing_gpu: `pipeline sweep`): a cluster of kSharedClusterBlocks also where K grids would
+// not fit on the GPU at once. What bounds a sweep is how many corrections run side by side: at
+// 2^14 the grid holds 32 SMs (64 blocks, two to an SM), the cluster of 16 holds 16 and that of 8
+// holds 8 for somewhat longer, so more runs correct at once; alone the grid stays, since a cluster
+// is slower there, and one block a run was slower in a sweep too (numbers: bench/README.md,
+// "Sweeps on one GPU" and "Session 20"). Who runs the iterations does not change the bits.
+template <class R, bool Walls, bool Mark>
+int team_for(std::size_t n) {
+  if (!cluster_fits<R, kClusterBlocks, Walls, Mark>()) return kGrid;
+  if (n <= kClusterMaxN) return kClusterBlocks;
+  const int sharing = runs_sharing_gpu();
+  if (sharing <= 1) return kGrid;
+  const GridShape g = grid_shape<R, Walls, Mark>(n);
+  if (std::size_t(sharing) * std::size_t(g.sms_held) <= std::size_t(g.sms)) return kGrid;
+  return cluster_fits<R, kSharedClusterBlocks, Walls, Mark>() ? kSharedClusterBlocks : kClusterBlocks;
+}
+
+template <class R, bool Walls, bool Mark>
+void shape(std::size_t n, int team, int& grid, int& tile) {
+  grid = team != kGrid ? team : grid_shape<R, Walls, Mark>(n).blocks;  // a team's blocks share the particles
+  const std::size_t t = (n + grid - 1) / grid;
+  tile = int(std::max<std::size_t>(16, (t + 15) / 16 * 16));
+}
+
+}  // namespace
+
+}  // namespace ff::overlap
