@@ -110,7 +110,7 @@ bool Domain::ghost_of(int q, double x) const { return slab().ghost_of(q, x); }
 Domain::Layout Domain::layout_of(const State& s, const std::vector<std::string>& names) const {
   Layout lay;
   lay.names = names;
-  if (std::find(lay.names.begin(), lay.names.end(), fields::particle_id) == lay.names.end())
+  if (lay.index(fields::particle_id) == lay.names.size())
     lay.names.push_back(fields::particle_id);
   for (auto& n : lay.names) {
     if (n == fields::particle_id) lay.id_offset = lay.bytes;

@@ -103,6 +103,10 @@ class Domain final : public GhostExchange {
     std::vector<std::size_t> offset, size;  // within a record
     std::size_t bytes = 0;
     std::size_t id_offset = 0;
+    // The index of field `name` in names (names.size() when absent).
+    std::size_t index(const std::string& name) const {
+      return std::size_t(std::find(names.begin(), names.end(), name) - names.begin());
+    }
   };
   Layout layout_of(const State& s, const std::vector<std::string>& names) const;
   void pack(State& s, const Layout& lay, const std::vector<std::uint32_t>& which, std::vector<unsigned char>& out) const;

@@ -63,10 +63,7 @@ void Domain::migrate_on_device(State& s) {
     f.acquire(Where::device, Mode::read, g.stream());
     data.push_back(f.device_raw());
   }
-  auto index_of = [&](const char* name) {
-    return std::size_t(std::find(lay.names.begin(), lay.names.end(), name) - lay.names.begin());
-  };
-  const std::size_t pos_f = index_of(fields::position), id_f = index_of(fields::particle_id);
+  const std::size_t pos_f = lay.index(fields::position), id_f = lay.index(fields::particle_id);
   const bool f32 = s.real() == DType::f32;
   const int D = s.dim();
   const SlabGeometry geo = slab();
@@ -157,10 +154,7 @@ void gather_entries(unsigned char* dst, std::size_t size, std::size_t n, const S
 void Domain::rebuild(State& s, const Layout& lay, const std::vector<std::uint32_t>& kept,
                      const std::vector<unsigned char>& records) {
   const std::size_t n_kept = kept.size(), n = n_kept + (lay.bytes ? records.size() / lay.bytes : 0);
-  const std::size_t pos_f =
-      std::size_t(std::find(lay.names.begin(), lay.names.end(), fields::position) - lay.names.begin());
-  const std::size_t id_f =
-      std::size_t(std::find(lay.names.begin(), lay.names.end(), fields::particle_id) - lay.names.begin());
+  const std::size_t pos_f = lay.index(fields::position), id_f = lay.index(fields::particle_id);
   // Source k < n_kept: the kept particle kept[k] of the fields as they are; else a record.
   std::vector<const unsigned char*> current(lay.names.size());
   for (std::size_t f = 0; f < lay.names.size(); ++f) {
