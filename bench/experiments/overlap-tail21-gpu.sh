@@ -20,7 +20,8 @@
 #          tail's check), g32shash, t0 (never the tail), t1024, g64 (kGroupBelow
 #          Threads/4), g32sclaim, profile (main + the phase profile).
 #   g32    the plain plugin with kGroupBelow = Threads / 8 (one constant changed)
-#   shash  the plain plugin with the shared hash set in the tail
+#   shash  the plain plugin with the shared hash set in the tail (bench/experiments/overlap-tail21-shared-set.patch:
+#          the clean source a merge would take; the ab plugin's shash is the same logic)
 # Order: (1) the CPU == CUDA bit tests of g32 and shash from shadow bundles (4 run-tests
 # processes in the background, ~60 s); (2) at 30 s the ab run starts (its first ~20 s are the
 # CPU set-up, so its GPU windows come after the tests); (3) bench-abp 2^20 100 steps after 3000
