@@ -6,7 +6,8 @@
 // and checkpoint) and run again finishes with the same outputs as one never interrupted;
 // --concurrent 2 (child processes, or threads with --in-process) gives the same outputs as
 // --concurrent 1. FLIPFLOW_TEST_DEVICE=cuda runs the [device] cases on the GPU (skipped without
-// one): there --concurrent 2 shares the GPU through CUDA MPS when it starts.
+// one): there --concurrent 2 shares the GPU through CUDA MPS when it starts, and on a machine
+// with two or more GPUs a sweep goes to every GPU with the outputs of one.
 #include <catch2/catch.hpp>
 #include <hdf5.h>
 #include <signal.h>
@@ -195,6 +196,28 @@ TEST_CASE("sweep: a run equals the same `pipeline run --set ...`, bit for bit", 
   CHECK(parameter_text(swept, "/parameters/effective_pipeline") ==
         parameter_text(alone / "trajectory.h5", "/parameters/effective_pipeline"));
   fs::remove_all(alone);
+}
+
+TEST_CASE("sweep: on two or more GPUs the runs go to every GPU and give the outputs of one GPU", "[sweep][device]") {
+  if (!device_available()) return;
+  const int gpus = ff::cuda_device_count();
+  if (gpus < 2) {
+    WARN("SKIPPED (" << gpus << " CUDA device(s)): spreading a sweep over GPUs needs 2 or more");
+    return;
+  }
+  // One GPU (--gpus 0), then every GPU (the default): one run at a time on each.
+  const fs::path one = fresh_dir("gpu0"), all = fresh_dir("gpus");
+  require_success(pipeline(sweep_args(one) + " --gpus 0"));
+  auto r = require_success(pipeline(sweep_args(all)));
+  INFO(r.out);
+  std::map<std::string, int> runs_on;
+  for (auto& row : read_index(one / "index.csv")) CHECK(row.at("gpu") == "0");
+  for (auto& row : read_index(all / "index.csv")) ++runs_on[row.at("gpu")];
+  // 8 runs, the GPU with the fewest under way takes the next: every GPU gets one (up to 8).
+  CHECK(int(runs_on.size()) == std::min(gpus, 8));
+  require_same_sweep(all, one);
+  fs::remove_all(one);
+  fs::remove_all(all);
 }
 
 TEST_CASE("sweep: a bad grid key or value exits 2 naming it, and writes nothing", "[sweep]") {

@@ -26,8 +26,6 @@ namespace ff::delaunay {
 // Grid rounds a CUDA Lawson runs before its tail kernel when the last tail found its list too
 // long (else one).
 inline constexpr std::int64_t kDeviceRoundsPerRead = 3;
-// Round 0 tests at least this many edges: the device does not wait for its count (see run()).
-inline constexpr std::size_t kSkipReadFrom = 64;
 // The device's tail kernel (one block) goes on while a round marks at most this many edges
 // (each then queues at most 4 for the next round's test: a few per thread of the block).
 inline constexpr unsigned kTailMarked = 1024;
@@ -146,12 +144,12 @@ class Lawson final : public Stage {
     // Round 0's marks, read back: when none is needed nothing is announced to the rollback
     // snapshot (no copy of the topology), and the rounds launch over the exact count. On the
     // device, when the core says the read-back may wait (ctx.may_defer_read_back(): every
-    // rollback requester ran before this stage, so no snapshot covers its writes) and round 0 tests at least kSkipReadFrom edges, the read is skipped and
-    // round 1 launches over round 0's list length, an upper bound of its marks: one wait for the
-    // device fewer per step. detect_inversion's candidates fail the in-circle test, so nearly all
-    // of them flip (bench-abp: 1171 candidates and 1182 flips a step at N = 2^16, 18,790 and
-    // 18,950 at 2^20); with only a few a step may flip nothing, and then the read saves three
-    // empty rounds. Flips that would need an edge longer than half the box are refused by the
+    // rollback requester ran before this stage, so no snapshot covers its writes), the read is
+    // skipped (`defer`) and round 1 launches over round 0's list length, an upper bound of its
+    // marks: one wait for the device fewer per step. With few candidates (small systems: bench-abp
+    // tests ~18 a step at N = 2^10, of which most flip) that bound is within kTailMarked, so the
+    // tail kernel alone runs the rounds, and one that finds nothing marked stops at once: no grid
+    // round runs empty. Flips that would need an edge longer than half the box are refused by the
     // marking, so reporting them at a later read is safe.
     std::int32_t round = ++round_;
     MarkNonDelaunay<R> first{m, pts, p_.tolerance, test, nullptr, marked, round, marked_list, c, unsigned(launch)};
@@ -162,7 +160,7 @@ class Lawson final : public Stage {
     // round without the host (`defer`, see the head of this file).
     const bool no_snapshot = where_ == Where::device && ctx.may_defer_read_back();
     const bool defer = no_snapshot && loops_.tail;
-    const bool skip_first_read = no_snapshot && launch >= kSkipReadFrom;
+    const bool skip_first_read = defer;
     std::array<unsigned, kLawsonCounters> h{};
     std::size_t bound = launch;            // this round's marked edges (exact, or an upper bound)
     const unsigned* marked_len = c + kLawsonMarked;  // null: `bound` is exact; else their count, on the backend
