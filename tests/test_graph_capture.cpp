@@ -4,7 +4,9 @@
 // kernels through StepParams, advanced by the graph, and nothing of the captured step is frozen.
 // Free Brownian motion (brownian.yaml's stage), ABP without the Delaunay stages (2D and 3D), and
 // overdamped.integrate with a force drift and per-type D and μ. The CUDA cases are skipped, with a
-// visible warning, without a GPU; what each stage tells the core is checked everywhere.
+// visible warning, without a GPU; what each stage tells the core is checked everywhere. Steps that
+// are never captured read StepParams from slots uploaded ahead (DeviceStepParams): every step
+// reads its own values through rollbacks, Δt changes and the end of the slots.
 #include <catch2/catch.hpp>
 #include <cmath>
 #include <cstring>
@@ -13,6 +15,11 @@
 #include <string>
 #include <vector>
 
+#ifdef FLIPFLOW_HAVE_CUDA
+#include <cuda_runtime.h>
+
+#include "core/run/cuda/graph.h"
+#endif
 #include "core/input/init.h"
 #include "core/run/simulation.h"
 #include "support/backends.h"
@@ -113,6 +120,68 @@ TEST_CASE("the integrators tell the core they are capturable and read StepParams
     CHECK(st->scheduling().reads_step_params);
     CHECK_FALSE(st->scheduling().may_request_rollback);
   }
+}
+
+TEST_CASE("steps never captured read their own StepParams from the slots uploaded ahead", "[graph][cuda]") {
+  if (!test::have_cuda("step parameters uploaded ahead")) return;
+#ifdef FLIPFLOW_HAVE_CUDA
+  DeviceStepParams dp;
+  cudaStream_t stream = nullptr;
+  REQUIRE(cudaStreamCreate(&stream) == cudaSuccess);
+  auto on_device = [&] {
+    StepParams h{};
+    REQUIRE(cudaMemcpyAsync(&h, dp.device(), sizeof h, cudaMemcpyDeviceToHost, stream) == cudaSuccess);
+    REQUIRE(cudaStreamSynchronize(stream) == cudaSuccess);
+    return h;
+  };
+  auto require_holds = [&](const StepParams& p) {
+    const StepParams d = on_device();
+    INFO("step " << p.step << " attempt " << p.attempt << " dt " << p.dt << " time " << p.time);
+    CHECK(d.step == p.step);
+    CHECK(d.attempt == p.attempt);
+    CHECK(std::memcmp(&d.dt, &p.dt, sizeof(double)) == 0);
+    CHECK(std::memcmp(&d.time, &p.time, sizeof(double)) == 0);
+  };
+  // A run as Simulation::advance drives it: 3 kAhead steps, a rollback (attempt 1 at half the
+  // Δt) at step 40 and at step 90 (a Δt limit: the same attempt again at a smaller Δt), Δt
+  // growing back at step 150; time accumulates Δt by the host's additions.
+  std::uint64_t step = 5;
+  double time = 0.37, dt = 0.01;
+  int moves = 0;
+  const StepParams* before = nullptr;
+  for (int k = 0; k < 3 * DeviceStepParams::kAhead; ++k, ++step) {
+    std::uint32_t attempt = 0;
+    if (k == 40) {
+      dp.set(StepParams{step, attempt, dt, time}, stream, true);
+      require_holds(StepParams{step, attempt, dt, time});
+      ++attempt;
+      dt /= 2;
+    }
+    if (k == 90) {
+      dp.set(StepParams{step, attempt, dt, time}, stream, true);
+      require_holds(StepParams{step, attempt, dt, time});
+      dt *= 0.75;
+    }
+    if (k == 150) dt *= 2;
+    const StepParams p{step, attempt, dt, time};
+    dp.set(p, stream, true);
+    if (before && dp.device() == before + 1) ++moves;
+    before = dp.device();
+    require_holds(p);
+    dp.set(p, stream, true);  // the same step again: nothing changes
+    CHECK(dp.device() == before);
+    time += dt;
+  }
+  // Most steps moved to the next slot without an upload (each miss restarts at slot 0).
+  CHECK(moves >= 3 * DeviceStepParams::kAhead - 12);
+  // Without `ahead` the block stays in slot 0, whose address a captured graph holds.
+  dp.set(StepParams{step, 0, dt, time}, stream, false);
+  const StepParams* slot0 = dp.device();
+  dp.set(StepParams{step + 1, 0, dt, time + dt}, stream, false);
+  CHECK(dp.device() == slot0);
+  require_holds(StepParams{step + 1, 0, dt, time + dt});
+  cudaStreamDestroy(stream);
+#endif
 }
 
 TEST_CASE("a captured CUDA step replays brownian.integrate bit for bit", "[graph][cuda]") {

@@ -161,7 +161,10 @@ std::optional<RollbackRequest> Scheduler::run_compute(std::uint64_t step, std::u
   impl_->time = time;
   impl_->params = StepParams{step, attempt, dt, time};
 #ifdef FLIPFLOW_HAVE_CUDA
-  if (impl_->device_params) impl_->device_params->set(impl_->params, main_stream());
+  // Steps never replayed from a graph (a rollback snapshot, or nothing to capture) take their
+  // parameters from slots uploaded ahead (DeviceStepParams::set).
+  const bool never_captured = snapshot_ || !impl_->capturable || !graph_capture_ || impl_->capture_failed;
+  if (impl_->device_params) impl_->device_params->set(impl_->params, main_stream(), never_captured && !impl_->captured.ready());
   const bool captured = run_captured();
   if (captured) {
     ++impl_->steps_run;

@@ -7,7 +7,7 @@
 namespace ff {
 
 DeviceStepParams::DeviceStepParams() {
-  FF_CUDA_CHECK(cudaMalloc(&device_, sizeof(StepParams)), "allocating device step parameters");
+  FF_CUDA_CHECK(cudaMalloc(&device_, sizeof(StepParams) * kAhead), "allocating device step parameters");
 }
 
 DeviceStepParams::~DeviceStepParams() { cudaFree(device_); }
@@ -18,25 +18,44 @@ bool same(const StepParams& a, const StepParams& b) {
 }
 }  // namespace
 
-void DeviceStepParams::set(const StepParams& p, cudaStream_t stream) {
-  if (known_ && same(p, expected_)) return;
-  expected_ = p;
-  known_ = true;
-  // From pageable memory: the runtime stages the bytes before returning, so `expected_` may
-  // change right away; the copy itself is ordered on `stream`.
-  FF_CUDA_CHECK(cudaMemcpyAsync(device_, &expected_, sizeof(StepParams), cudaMemcpyHostToDevice, stream),
+void DeviceStepParams::upload(const StepParams* from, int count, cudaStream_t stream) {
+  // From pageable memory: the runtime stages the bytes before returning, so the slots may change
+  // right away; the copy itself is ordered on `stream`, after the work that reads the old values.
+  FF_CUDA_CHECK(cudaMemcpyAsync(device_, from, sizeof(StepParams) * std::size_t(count), cudaMemcpyHostToDevice, stream),
                 "uploading step parameters");
 }
 
+void DeviceStepParams::set(const StepParams& p, cudaStream_t stream, bool ahead) {
+  // Without `ahead` the block stays in slot 0: a captured graph holds its address.
+  if (known_ && (ahead || slot_ == 0) && same(p, slots_[slot_])) return;
+  if (ahead && slot_ + 1 < filled_ && same(p, slots_[slot_ + 1])) {
+    ++slot_;
+    return;
+  }
+  slot_ = 0;
+  known_ = true;
+  slots_[0] = p;
+  filled_ = ahead ? kAhead : 0;
+  for (int k = 1; k < filled_; ++k) {
+    slots_[k] = slots_[k - 1];
+    slots_[k].step += 1;
+    slots_[k].attempt = 0;
+    slots_[k].time += p.dt;
+  }
+  upload(slots_, ahead ? kAhead : 1, stream);
+}
+
 void DeviceStepParams::advance(cudaStream_t stream) {
-  launch_advance_step(device_, stream);
+  launch_advance_step(device(), stream);
   advanced_by_graph();
 }
 
 void DeviceStepParams::advanced_by_graph() {
-  expected_.step += 1;
-  expected_.time += expected_.dt;
-  expected_.attempt = 0;
+  StepParams& e = slots_[slot_];
+  e.step += 1;
+  e.time += e.dt;
+  e.attempt = 0;
+  filled_ = 0;  // the slots after this one no longer follow it
 }
 
 CapturedStep::~CapturedStep() {

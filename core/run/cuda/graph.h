@@ -22,18 +22,30 @@ class DeviceStepParams {
   DeviceStepParams(const DeviceStepParams&) = delete;
   DeviceStepParams& operator=(const DeviceStepParams&) = delete;
 
-  StepParams* device() const { return device_; }
-  // Make the device block hold `p` for work enqueued after this on `stream` (no-op when the
-  // device already will).
-  void set(const StepParams& p, cudaStream_t stream);
+  // The block the work enqueued next reads (one of kAhead slots).
+  StepParams* device() const { return device_ + slot_; }
+  // Make device() hold `p` for work enqueued after this on `stream` (no upload when it already
+  // will). `ahead`: no captured graph will advance the block before the next set(), so the
+  // upload may also fill the following slots with the steps that come next if each is accepted
+  // at the same Δt (step + k, attempt 0, time + Δt added k times, as Simulation::advance adds
+  // it): while the prediction holds, a step only moves to the next slot. On a step of small
+  // kernels the upload was one host call in eight on the critical path, between the last wait
+  // of one step and the first launch of the next.
+  void set(const StepParams& p, cudaStream_t stream, bool ahead);
   // Enqueue the advance kernel and remember what the device will hold afterwards.
   void advance(cudaStream_t stream);
   // Record that a replayed graph advanced the block.
   void advanced_by_graph();
 
+  static constexpr int kAhead = 64;
+
  private:
-  StepParams* device_ = nullptr;
-  StepParams expected_{};  // what the device holds once enqueued work has run
+  void upload(const StepParams* from, int count, cudaStream_t stream);
+
+  StepParams* device_ = nullptr;  // kAhead slots
+  StepParams slots_[kAhead] = {};  // what each slot holds once enqueued work has run
+  int slot_ = 0;                   // device()'s
+  int filled_ = 0;                 // slots [0, filled_) hold predicted steps (0: only slot_ is known)
   bool known_ = false;
 };
 
