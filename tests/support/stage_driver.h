@@ -105,7 +105,7 @@ class StageDriver {
 #ifdef FLIPFLOW_HAVE_CUDA
     if (info.backend == Backend::cuda) {
       if (!device_params_) device_params_ = std::make_unique<DeviceStepParams>();
-      device_params_->set(params, stream_, false);
+      device_params_->set(params, stream_);
       ctx.params = device_params_->device();
     }
 #endif

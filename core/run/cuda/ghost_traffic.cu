@@ -118,8 +118,15 @@ __global__ void gather_kernel(W* __restrict__ dst, const W* __restrict__ field, 
                                     : records[(src - n_kept) * record_words + offset_words + w];
 }
 
-bool word_aligned(std::size_t entry, std::size_t record, std::size_t offset) {
-  return entry % 4 == 0 && record % 4 == 0 && offset % 4 == 0;
+// Calls launch(unit, entry, record, offset) in the copy's unit: 32-bit words (a std::uint32_t
+// unit, the sizes divided by 4) when every entry, record and offset allows it, else bytes (an
+// unsigned char unit). The kernels above are instantiated for both.
+template <class Launch>
+void in_copy_units(std::size_t entry, std::size_t record, std::size_t offset, Launch&& launch) {
+  if (entry % 4 == 0 && record % 4 == 0 && offset % 4 == 0)
+    launch(std::uint32_t{}, entry / 4, record / 4, offset / 4);
+  else
+    launch((unsigned char){}, entry, record, offset);
 }
 
 void grow(std::unique_ptr<DeviceBuffer>& b, std::size_t bytes, const char* what) {
@@ -129,15 +136,11 @@ void grow(std::unique_ptr<DeviceBuffer>& b, std::size_t bytes, const char* what)
 // n entries of `entry` bytes, field[idx[k]], into records of `record` bytes at `offset` in out.
 void launch_pack(const void* field, const std::uint32_t* idx, std::size_t n, std::size_t entry, std::size_t record,
                  std::size_t offset, void* out, cudaStream_t stream) {
-  if (word_aligned(entry, record, offset)) {
-    const std::size_t words = entry / 4;
-    pack_kernel<<<blocks_for(n * words), kThreads, 0, stream>>>(static_cast<const std::uint32_t*>(field), idx, n, words,
-                                                                  static_cast<std::uint32_t*>(out), record / 4,
-                                                                  offset / 4);
-  } else {
-    pack_kernel<<<blocks_for(n * entry), kThreads, 0, stream>>>(static_cast<const unsigned char*>(field), idx, n, entry,
-                                                                  static_cast<unsigned char*>(out), record, offset);
-  }
+  in_copy_units(entry, record, offset, [&](auto unit, std::size_t e, std::size_t r, std::size_t o) {
+    using W = decltype(unit);
+    pack_kernel<<<blocks_for(n * e), kThreads, 0, stream>>>(static_cast<const W*>(field), idx, n, e, static_cast<W*>(out),
+                                                              r, o);
+  });
 }
 
 }  // namespace
@@ -211,16 +214,11 @@ void GhostTraffic::unpack(int peer, void* field, std::size_t entry, std::size_t 
   if (!n) return;
   const auto* idx = static_cast<const std::uint32_t*>(recv_idx_->data()) + recv_first_[std::size_t(peer)];
   const void* in = recv_buf_[std::size_t(peer)]->data();
-  if (word_aligned(entry, record, offset)) {
-    const std::size_t words = entry / 4;
-    unpack_kernel<<<blocks_for(n * words), kThreads, 0, stream_>>>(static_cast<std::uint32_t*>(field), idx, n, words,
-                                                                     static_cast<const std::uint32_t*>(in), record / 4,
-                                                                     offset / 4);
-  } else {
-    unpack_kernel<<<blocks_for(n * entry), kThreads, 0, stream_>>>(static_cast<unsigned char*>(field), idx, n, entry,
-                                                                     static_cast<const unsigned char*>(in), record,
-                                                                     offset);
-  }
+  in_copy_units(entry, record, offset, [&](auto unit, std::size_t e, std::size_t r, std::size_t o) {
+    using W = decltype(unit);
+    unpack_kernel<<<blocks_for(n * e), kThreads, 0, stream_>>>(static_cast<W*>(field), idx, n, e,
+                                                                 static_cast<const W*>(in), r, o);
+  });
   FF_CUDA_CHECK_LAUNCH("unpacking ghosts");
 }
 
@@ -379,16 +377,13 @@ void GhostTraffic::gather(void* dst, const void* field, std::size_t entry, std::
   if (!n) return;
   const auto* sorted = static_cast<const std::uint64_t*>(sorted_->data());
   const std::uint32_t* kept_list = kept_;
-  if (word_aligned(entry, record, offset)) {
-    const std::size_t words = entry / 4;
-    gather_kernel<<<blocks_for(n * words), kThreads, 0, stream_>>>(
-        static_cast<std::uint32_t*>(dst), static_cast<const std::uint32_t*>(field), kept_list, n_kept_,
-        static_cast<const std::uint32_t*>(records_in_->data()), sorted, n, words, record / 4, offset / 4);
-  } else {
-    gather_kernel<<<blocks_for(n * entry), kThreads, 0, stream_>>>(
-        static_cast<unsigned char*>(dst), static_cast<const unsigned char*>(field), kept_list, n_kept_,
-        static_cast<const unsigned char*>(records_in_->data()), sorted, n, entry, record, offset);
-  }
+  in_copy_units(entry, record, offset, [&](auto unit, std::size_t e, std::size_t r, std::size_t o) {
+    using W = decltype(unit);
+    gather_kernel<<<blocks_for(n * e), kThreads, 0, stream_>>>(static_cast<W*>(dst), static_cast<const W*>(field),
+                                                                 kept_list, n_kept_,
+                                                                 static_cast<const W*>(records_in_->data()), sorted, n,
+                                                                 e, r, o);
+  });
   FF_CUDA_CHECK_LAUNCH("gathering a field after a migration");
 }
 

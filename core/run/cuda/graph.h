@@ -31,7 +31,7 @@ class DeviceStepParams {
   // it): while the prediction holds, a step only moves to the next slot. On a step of small
   // kernels the upload was one host call in eight on the critical path, between the last wait
   // of one step and the first launch of the next.
-  void set(const StepParams& p, cudaStream_t stream, bool ahead);
+  void set(const StepParams& p, cudaStream_t stream, bool ahead = false);
   // Enqueue the advance kernel and remember what the device will hold afterwards.
   void advance(cudaStream_t stream);
   // Record that a replayed graph advanced the block.
