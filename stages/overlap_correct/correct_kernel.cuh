@@ -36,9 +36,10 @@
 // mark with a word atomic and lists the particle that claimed it first in one global list, which
 // block 0 gathers (clearing each mark) without scanning every tile. The first check counts the
 // list's entries with a global atomic; the tail's own checks count them in block 0's shared
-// memory (a tail iteration is a chain of dependent steps, and a global atomic whose answer a
-// thread waits for is a round trip to L2 in it, once for each particle it marks). Block 0's lists
-// then span the whole arrays (grid·tile ≥ N entries; a particle is listed once an iteration).
+// memory, and a thread issues the mark atomics of all it marks for one moved particle before it
+// waits for any (claim_checked): a tail iteration is a chain of dependent steps, and a global
+// atomic whose answer a thread waits for is a round trip to L2 in it. Block 0's lists then span
+// the whole arrays (grid·tile ≥ N entries; a particle is listed once an iteration).
 // The same particles are gathered either way; only who gathers them differs. Iteration 0 copies
 // each particle's neighbours to a list that the later gathers and checks read instead of walking
 // the fan again (kCached below), and keeps the list from the step before where the fan did not
@@ -223,6 +224,42 @@ __device__ void mark(std::uint8_t* marks, int u, bool claim, int* cand, u64* cla
     return;
   }
   if (claim_mark(marks, u)) cand[atomicAdd(claims, 1ull)] = int(u);
+}
+
+// The tail's check of moved particle v by one thread (block 0 alone; claim_one(u): claim_mark
+// and, if new, list u at block 0's shared counter): thread_check's tests for its listed
+// neighbours into a bit mask first, then every claim's word atomic at once (and v's own when any
+// neighbour overlaps or a wall), then the lists: one round trip to L2 for the particle, where
+// thread_check with claim_one waits for one a neighbour in turn. The same marks; a fan that did
+// not fit the list goes through thread_check's walk.
+template <class R, bool W, class F>
+__device__ void claim_checked(const Overlaps<R, W>& ov, int v, const int* nb, const std::uint8_t* degree,
+                              std::uint8_t* marks, int* cand, int* s_claims, F&& claim_one) {
+  const int d = degree[v];
+  int ids[kCached];
+  load_ids(nb, v, ids);
+  if (d == kWalk) {
+    if (ov.overlapping_neighbors(v, claim_one)) claim_one(v);
+    return;
+  }
+  double xv, yv;
+  load_xy(ov.pos, v, xv, yv);
+  const double sv = ov.diameter_of(v);
+  unsigned near = 0;
+  for_each_loaded(ov, ids, d, [&](int k, int u, double xu, double yu) {
+    if (ov.overlaps_after_move_at(xv, yv, sv, u, xu, yu)) near |= 1u << k;
+  });
+  const bool self = ov.wall_after_move(v, xv, yv, sv) || near != 0;
+  unsigned* words = reinterpret_cast<unsigned*>(marks);
+  unsigned old[kCached + 1];
+#pragma unroll
+  for (int k = 0; k < kCached; ++k)
+    if ((near >> k) & 1u) old[k] = atomicOr(words + (ids[k] >> 2), 1u << (8 * (ids[k] & 3)));
+  if (self) old[kCached] = atomicOr(words + (v >> 2), 1u << (8 * (v & 3)));
+#pragma unroll
+  for (int k = 0; k < kCached; ++k)
+    if (((near >> k) & 1u) && !(old[k] & (1u << (8 * (ids[k] & 3))))) cand[atomicAdd(s_claims, 1)] = ids[k];
+  if (self && !(old[kCached] & (1u << (8 * (v & 3))))) cand[atomicAdd(s_claims, 1)] = v;
 }
 
 // A block's gathers (checks) go to lane groups when it has at most this many particles to do
@@ -487,6 +524,8 @@ __global__ void __launch_bounds__(Threads, MinBlocks) correct_kernel(Args<R, Wal
         const int v = seed[i];
         if (v < 0)
           mark_it(~v);
+        else if (in_block)
+          claim_checked(ov, v, a.nb, a.degree, a.marks, a.cand, &s_claims, mark_it);
         else if (thread_check(ov, v, a.nb, a.degree, mark_it))  // (the fan closed in iteration 0)
           mark_it(v);
       }
