@@ -34,8 +34,11 @@
 // is then the chains of dependent loads of its walks, than on the grid with its barriers): the
 // check of that iteration (all blocks, then one last grid barrier) and each one after claims a
 // mark with a word atomic and lists the particle that claimed it first in one global list, which
-// block 0 gathers (clearing each mark) without scanning every tile. Block 0's lists then span the
-// whole arrays (grid·tile ≥ N entries; a particle is listed once an iteration).
+// block 0 gathers (clearing each mark) without scanning every tile. The first check counts the
+// list's entries with a global atomic; the tail's own checks count them in block 0's shared
+// memory (a tail iteration is a chain of dependent steps, and a global atomic whose answer a
+// thread waits for is a round trip to L2 in it, once for each particle it marks). Block 0's lists
+// then span the whole arrays (grid·tile ≥ N entries; a particle is listed once an iteration).
 // The same particles are gathered either way; only who gathers them differs. Iteration 0 copies
 // each particle's neighbours to a list that the later gathers and checks read instead of walking
 // the fan again (kCached below), and keeps the list from the step before where the fan did not
@@ -132,7 +135,7 @@ struct Args {
   std::uint8_t* degree;    // grid·tile: how many (kWalk: more than kCached, walk the fan)
   int* fan;                // kCached x grid·tile: the half-edges of each listed fan, kept across steps
   u64* slots;              // kBatch x Sums::kAll x kShards (sharded counters, zero at launch)
-  u64* claims;             // entries of cand claimed for the tail (zero at launch)
+  u64* claims;             // entries of cand claimed by the check that starts the tail (zero at launch)
   u64* next_slots;         // the other launch's slots and claims (kSlotWords + 1): zeroed here
   u64* result;             // kBatch x kCounters + 1 (block 0 writes the sums and the gather count):
                            // pinned host memory, written directly (no copy after the kernel)
@@ -206,6 +209,12 @@ __device__ void store_xy(R* pos, int v, double x, double y) {
     reinterpret_cast<float2*>(pos)[v] = make_float2(float(x), float(y));
 }
 
+// Whether this thread claimed u's mark: a word atomic, true for the first to set it.
+__device__ bool claim_mark(std::uint8_t* marks, int u) {
+  const unsigned bit = 1u << (8 * (u & 3));
+  return !(atomicOr(reinterpret_cast<unsigned*>(marks) + (u >> 2), bit) & bit);
+}
+
 // Marks u as a candidate of the next iteration: a plain store, or (claim) a word atomic whose
 // first taker lists u in cand.
 __device__ void mark(std::uint8_t* marks, int u, bool claim, int* cand, u64* claims) {
@@ -213,16 +222,17 @@ __device__ void mark(std::uint8_t* marks, int u, bool claim, int* cand, u64* cla
     marks[u] = 1;
     return;
   }
-  const unsigned bit = 1u << (8 * (u & 3));
-  if (!(atomicOr(reinterpret_cast<unsigned*>(marks) + (u >> 2), bit) & bit)) cand[atomicAdd(claims, 1ull)] = int(u);
+  if (claim_mark(marks, u)) cand[atomicAdd(claims, 1ull)] = int(u);
 }
 
 // A block's gathers (checks) go to lane groups when it has at most this many particles to do
-// (half its threads: 128 in the grid's blocks), else one thread each: a group shortens one
-// particle's chain of loads, but puts 8x fewer particles in flight (measured on the H100 with
-// blocks of 256, bench/overlap_correct-PERF.md).
+// (an eighth of its threads: 32 in the grid's blocks, so that one pass of groups does them all),
+// else one thread each: a group shortens one particle's chain of loads, but puts 8x fewer
+// particles in flight, and each further pass of groups is another chain after the first, where
+// threads take up to Threads particles at once (H100 and H200 measurements, from half the
+// threads to an eighth: bench/overlap_correct-PERF.md, bench/experiments/README.md "tail21").
 template <int Threads>
-constexpr int kGroupBelow = Threads / 2;
+constexpr int kGroupBelow = Threads / 8;
 
 // Who runs a launch's iterations (Team): the grid (kGrid: a cooperative launch of every block that
 // fits on the device, grid barriers between phases) or a thread-block cluster of Team blocks
@@ -296,6 +306,7 @@ __global__ void __launch_bounds__(Threads, MinBlocks) correct_kernel(Args<R, Wal
   __shared__ int s_seeds, s_moved, s_count;
   __shared__ u64 s_red[kReported][kWarps];
   __shared__ u64 s_tot[kAll];
+  __shared__ int s_claims;  // the tail's own checks: entries of cand claimed
 
   const Overlaps<R, Walls>& ov = a.ov;
   const int n = int(a.p.n);
@@ -308,7 +319,8 @@ __global__ void __launch_bounds__(Threads, MinBlocks) correct_kernel(Args<R, Wal
   char2* crossed = a.crossed + mine;
   const int lane = threadIdx.x & 31, warp = threadIdx.x >> 5;
   const int shard = int(blockIdx.x % kShards) * kShardStride;
-  bool tail = false;  // block 0 alone runs the iterations
+  bool tail = false;        // block 0 alone runs the iterations
+  bool tail_first = false;  // the tail's first iteration: its candidates were claimed by every block
   // The next launch's counters, zeroed here instead of by a memset before it (a host call on
   // the step's critical path, between Lawson's wait and this launch). No one reads them now.
   for (int w = int(blockIdx.x * Threads + threadIdx.x); w < int(kSlotWords + 1); w += int(gridDim.x) * Threads)
@@ -342,11 +354,12 @@ __global__ void __launch_bounds__(Threads, MinBlocks) correct_kernel(Args<R, Wal
       count = compact<Threads>(a.marks, t0, a.tile, cand, s_warp);
     } else {
       if (threadIdx.x == 0) {
-        s_count = int(__ldcg(a.claims));
-        *a.claims = 0;
+        s_count = tail_first ? int(__ldcg(a.claims)) : s_claims;
+        s_claims = 0;
       }
       __syncthreads();
       count = s_count;
+      tail_first = false;
     }
     if (threadIdx.x == 0) s_seeds = s_moved = 0;
     __syncthreads();
@@ -462,7 +475,13 @@ __global__ void __launch_bounds__(Threads, MinBlocks) correct_kernel(Args<R, Wal
     const bool last = j + 1 == kBatch;
     const bool to_tail = !tail && s_tot[kMoved] <= u64(kTailMoved);
     const bool claim = (tail || to_tail) && !last;
-    auto mark_it = [&](int u) { mark(a.marks, u, claim, a.cand, a.claims); };
+    const bool in_block = tail && !last;  // block 0 alone: the claims counted in its shared memory
+    auto mark_it = [&](int u) {
+      if (!in_block)
+        mark(a.marks, u, claim, a.cand, a.claims);
+      else if (claim_mark(a.marks, u))
+        a.cand[atomicAdd(&s_claims, 1)] = u;
+    };
     if (ns > kGroupBelow<Threads>) {  // one thread per listed particle
       for (int i = int(threadIdx.x); i < ns; i += Threads) {
         const int v = seed[i];
@@ -488,7 +507,7 @@ __global__ void __launch_bounds__(Threads, MinBlocks) correct_kernel(Args<R, Wal
       team_sync<Team>();
       if (to_tail) {
         if (blockIdx.x != 0) return;
-        tail = true;
+        tail = tail_first = true;
       }
     }
   }
