@@ -7,7 +7,8 @@
 // --concurrent 2 (child processes, or threads with --in-process) gives the same outputs as
 // --concurrent 1. FLIPFLOW_TEST_DEVICE=cuda runs the [device] cases on the GPU (skipped without
 // one): there --concurrent 2 shares the GPU through CUDA MPS when it starts, and on a machine
-// with two or more GPUs a sweep goes to every GPU with the outputs of one.
+// with two or more GPUs a sweep goes to every GPU (child processes, or threads with --in-process)
+// with the outputs of one.
 #include <catch2/catch.hpp>
 #include <hdf5.h>
 #include <signal.h>
@@ -198,7 +199,8 @@ TEST_CASE("sweep: a run equals the same `pipeline run --set ...`, bit for bit", 
   fs::remove_all(alone);
 }
 
-TEST_CASE("sweep: on two or more GPUs the runs go to every GPU and give the outputs of one GPU", "[sweep][device]") {
+TEST_CASE("sweep: on two or more GPUs the runs go to every GPU, as processes or threads, with the outputs of one GPU",
+          "[sweep][device]") {
   if (!device_available()) return;
   const int gpus = ff::cuda_device_count();
   if (gpus < 2) {
@@ -216,8 +218,18 @@ TEST_CASE("sweep: on two or more GPUs the runs go to every GPU and give the outp
   // 8 runs, the GPU with the fewest under way takes the next: every GPU gets one (up to 8).
   CHECK(int(runs_on.size()) == std::min(gpus, 8));
   require_same_sweep(all, one);
+  // The same on threads of this process, two at once on each GPU: each run on its thread's GPU.
+  const fs::path threads = fresh_dir("gpus_in_process");
+  auto t = require_success(pipeline(sweep_args(threads) + " --in-process --concurrent 2"));
+  INFO(t.out);
+  CHECK_THAT(t.out, Catch::Contains("per GPU on " + std::to_string(gpus) + " GPUs"));
+  std::map<std::string, int> threads_on;
+  for (auto& row : read_index(threads / "index.csv")) ++threads_on[row.at("gpu")];
+  CHECK(int(threads_on.size()) == std::min(gpus, 4));
+  require_same_sweep(threads, one);
   fs::remove_all(one);
   fs::remove_all(all);
+  fs::remove_all(threads);
 }
 
 TEST_CASE("sweep: a bad grid key or value exits 2 naming it, and writes nothing", "[sweep]") {

@@ -10,6 +10,8 @@
 #include <mutex>
 
 #ifdef FLIPFLOW_HAVE_CUDA
+#include "core/backend/cuda/check.h"
+#include "core/backend/device.h"
 #include "core/run/cuda/graph.h"
 #include "core/run/cuda/streams.h"
 #endif
@@ -27,6 +29,7 @@ struct Scheduler::Impl {
   std::mutex error_mutex;
 #ifdef FLIPFLOW_HAVE_CUDA
   std::unique_ptr<StreamSet> streams;
+  int device = 0;  // the CUDA device the run was made on (its thread's current one)
   std::unique_ptr<DeviceStepParams> device_params;  // when some stage reads ctx.params on CUDA
   CapturedStep captured;
   bool capturable = false;       // every compute stage graph_capturable, none uses `every`
@@ -49,6 +52,7 @@ Scheduler::Scheduler(const StepGraph& graph, std::vector<StageSlot>& slots, Stat
   impl_->chain = graph.is_chain();
 #ifdef FLIPFLOW_HAVE_CUDA
   if (backend == Backend::cuda) {
+    FF_CUDA_CHECK(cudaGetDevice(&impl_->device), "the run's CUDA device");
     bool device_requests = false;
     for (int i : impl_->compute) device_requests = device_requests || slots[i].stage->scheduling().requests_rollback_on_device;
     impl_->streams = std::make_unique<StreamSet>(graph, device_requests);
@@ -103,6 +107,9 @@ void Scheduler::run_node(int i, std::uint64_t step, std::uint32_t attempt, doubl
     CUstream_st* stream = nullptr;
 #ifdef FLIPFLOW_HAVE_CUDA
     if (impl_->streams) {
+      // A branched step runs its stages on oneTBB's workers, whose current device is any: this
+      // run's (a rank of a team, or an in-process sweep's run, may be on another GPU than 0).
+      if (!impl_->chain) use_cuda_device(impl_->device);
       impl_->streams->before(i);
       stream = impl_->streams->stream(i);
     }

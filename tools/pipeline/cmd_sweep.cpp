@@ -22,7 +22,8 @@
 // requires it, `off` never). Under MPS at most 48 clients share a device (Volta MPS's limit), so
 // --concurrent is capped at 48 per GPU there. Several GPUs: the runs are spread over them
 // (`--gpus` chooses them; default: CUDA_VISIBLE_DEVICES, else every GPU in
-// /proc/driver/nvidia/gpus). On the CPU runs go one after another unless --concurrent says
+// /proc/driver/nvidia/gpus; with --in-process the process's device ordinals, every one it sees by
+// default). On the CPU runs go one after another unless --concurrent says
 // otherwise, each with its share of the cores (--threads). With more runs than cores waiting on
 // the GPU in one process (--in-process), a waiting thread sleeps instead of spinning, and the
 // process asks for 32 hardware work queues instead of 8 (CUDA_DEVICE_MAX_CONNECTIONS). Every run
@@ -143,12 +144,12 @@ int cmd_sweep(const std::vector<std::string>& args) {
 
   // Where the runs go and how many at once.
   const bool cuda = backend == Backend::cuda;
-  std::vector<std::string> gpus = cuda ? sweep::visible_gpus(a.gpus) : std::vector<std::string>{""};
+  // Child processes get a GPU by CUDA_VISIBLE_DEVICES (its entries); threads of this process by
+  // its device ordinals.
+  std::vector<std::string> gpus = !cuda         ? std::vector<std::string>{""}
+                                   : a.in_process ? sweep::process_gpus(a.gpus)
+                                                  : sweep::visible_gpus(a.gpus);
   std::string mps_note;
-  if (a.in_process && gpus.size() > 1) {
-    mps_note = "--in-process: every run on the first GPU this process sees (spreading over GPUs needs child processes)";
-    gpus.resize(1);
-  }
   Mps mps(a.mps_mode, cuda && a.concurrent > 1 && !a.in_process, mps_note);
   int per_gpu = a.concurrent;
   if (mps.active() && per_gpu > kMpsClientLimit) {
@@ -166,9 +167,14 @@ int cmd_sweep(const std::vector<std::string>& args) {
   // More runs than cores waiting on the GPU in one process: a waiting thread sleeps instead of
   // spinning, or the spinning ones would keep those whose work is done from their cores.
   if (a.in_process && cuda && slots > cores) {
-    const cudaError_t e = cudaSetDeviceFlags(cudaDeviceScheduleBlockingSync);
-    if (e != cudaSuccess)
-      std::cerr << "sweep: waiting threads will spin (cudaSetDeviceFlags: " << cudaGetErrorString(e) << ")\n";
+    for (const std::string& g : gpus) {  // (a flag of each device's context, set before it exists)
+      use_cuda_device(std::stoi(g));
+      const cudaError_t e = cudaSetDeviceFlags(cudaDeviceScheduleBlockingSync);
+      if (e != cudaSuccess)
+        std::cerr << "sweep: waiting threads will spin on GPU " << g << " (cudaSetDeviceFlags: " << cudaGetErrorString(e)
+                  << ")\n";
+    }
+    use_cuda_device(std::stoi(gpus.front()));
   }
 #endif
 

@@ -81,6 +81,9 @@ std::map<std::string, std::map<std::string, std::string>> read_index(const std::
 // The GPUs to spread runs over: --gpus, else CUDA_VISIBLE_DEVICES, else every GPU the driver lists
 // (/proc/driver/nvidia/gpus); at least one.
 std::vector<std::string> visible_gpus(const std::string& gpus_arg);
+// --in-process: the CUDA device ordinals of this process to use, from --gpus (0,1,...: each
+// below the device count, or an InputError naming it) or every device it sees.
+std::vector<std::string> process_gpus(const std::string& gpus_arg);
 
 // An MPS control daemon for the runs sharing a GPU: one already running (the default pipe
 // directory, or CUDA_MPS_PIPE_DIRECTORY), else one started with a private pipe directory in /tmp

@@ -10,6 +10,7 @@
 #include <sstream>
 #include <thread>
 
+#include "core/backend/device.h"
 #include "core/base/error.h"
 #include "tools/pipeline/sweep.h"
 
@@ -95,6 +96,23 @@ std::vector<std::string> visible_gpus(const std::string& gpus_arg) {
   for (auto it = fs::directory_iterator("/proc/driver/nvidia/gpus", ec); !ec && it != fs::directory_iterator(); ++it)
     ++n;
   for (std::size_t i = 0; i < std::max<std::size_t>(n, 1); ++i) out.push_back(std::to_string(i));
+  return out;
+}
+
+std::vector<std::string> process_gpus(const std::string& gpus_arg) {
+  const int count = cuda_device_count();
+  std::vector<std::string> out;
+  if (gpus_arg.empty()) {
+    for (int d = 0; d < std::max(count, 1); ++d) out.push_back(std::to_string(d));
+    return out;
+  }
+  for (const std::string& g : split(gpus_arg, ',')) {
+    const bool digits = !g.empty() && g.find_first_not_of("0123456789") == std::string::npos;
+    if (!digits || g.size() > 4 || std::stoi(g) >= count)
+      throw InputError("--gpus " + gpus_arg + " with --in-process: '" + g + "' is not a CUDA device of this process (0 to " +
+                       std::to_string(count - 1) + "; CUDA_VISIBLE_DEVICES numbers them from 0)");
+    out.push_back(std::to_string(std::stoi(g)));
+  }
   return out;
 }
 

@@ -25,8 +25,10 @@
 // with the fewest runs under way.
 //
 // `--in-process` runs them instead on threads of this process (run_pipeline, cmd_run.cpp): one
-// CUDA context, each run on its own streams, so kernels of different runs overlap without MPS,
-// on the first GPU only. There no run captures its step into a CUDA graph (the same bits,
+// CUDA context a GPU, each run on its own streams, so kernels of different runs overlap without
+// MPS; on several GPUs each run's thread makes its GPU current before the run is made (the
+// LaunchSettings::gpus are then the process's device ordinals), as a decomposed team's ranks do,
+// and the run's scheduler keeps that device for its stages (Scheduler::run_node). There no run captures its step into a CUDA graph (the same bits,
 // launched directly: the core's Scheduler::set_graph_capture), so another run's device-wide
 // wait cannot break a capture; the outputs are those of `--concurrent 1` (tests/test_sweep.cpp, on the CPU).
 // One failing run's sticky CUDA error would still end the others. Which of the two fills an H100
@@ -55,6 +57,7 @@
 #include <sstream>
 #include <thread>
 
+#include "core/backend/device.h"
 #include "core/base/error.h"
 #include "tools/pipeline/commands.h"
 
@@ -149,7 +152,8 @@ class RunScheduler {
   bool start_pending();
   // `restart`: from the beginning even where a checkpoint is (after a refused --resume).
   void launch(std::size_t i, int gpu, bool restart);
-  void start_thread(ActiveRun& active, const Run& r, const fs::path& dir, const fs::path& log, bool resume) const;
+  void start_thread(ActiveRun& active, const Run& r, int gpu, const fs::path& dir, const fs::path& log,
+                    bool resume) const;
   pid_t start_process(const std::vector<std::string>& argv, int gpu, const fs::path& log) const;
   bool collect_finished();
   // `status`: from waitpid for a process; an exit code shifted into WEXITSTATUS for a thread.
@@ -276,10 +280,11 @@ void RunScheduler::launch(std::size_t i, int gpu, bool restart) {
     std::ofstream l(log, std::ios::app);
     l << "== pipeline sweep" << (s_.in_process ? " (on a thread of the sweep's process)" : "") << ": ";
     for (std::size_t k = 1; k < argv.size(); ++k) l << (k > 1 ? " " : "") << argv[k];
-    l << (cuda_ && !s_.in_process ? "   (CUDA_VISIBLE_DEVICES=" + s_.gpus[gpu] + ")" : "") << "\n";
+    if (cuda_) l << (s_.in_process ? "   (CUDA device " : "   (CUDA_VISIBLE_DEVICES=") << s_.gpus[gpu] << ")";
+    l << "\n";
   }
   ActiveRun active;
-  if (s_.in_process) start_thread(active, r, dir, log, resume);
+  if (s_.in_process) start_thread(active, r, gpu, dir, log, resume);
   else active.pid = start_process(argv, gpu, log);
   r.status = "running";
   r.exit_code = -1;
@@ -295,7 +300,7 @@ void RunScheduler::launch(std::size_t i, int gpu, bool restart) {
 
 // The run as run_pipeline on a thread, its messages appended to its run.log; its exit code as
 // `pipeline run`'s (main.cpp) lands in active.thread_exit.
-void RunScheduler::start_thread(ActiveRun& active, const Run& r, const fs::path& dir, const fs::path& log,
+void RunScheduler::start_thread(ActiveRun& active, const Run& r, int gpu, const fs::path& dir, const fs::path& log,
                              bool resume) const {
   RunRequest req;
   req.file = s_.pipeline_file;
@@ -307,10 +312,12 @@ void RunScheduler::start_thread(ActiveRun& active, const Run& r, const fs::path&
   // One run's device-wide wait would break another's graph capture (this file's header).
   req.no_graph_capture = cuda_ && s_.runs_at_once > 1;
   active.thread_exit = std::make_shared<std::atomic<int>>(-1);
-  active.thread = std::make_shared<std::thread>([req, log, exit = active.thread_exit] {
+  const int device = cuda_ ? std::stoi(s_.gpus[gpu]) : -1;  // (in-process: ordinals, cmd_sweep.cpp)
+  active.thread = std::make_shared<std::thread>([req, log, device, exit = active.thread_exit] {
     std::ofstream out(log, std::ios::app);
     int rc = 1;
     try {
+      if (device >= 0) use_cuda_device(device);  // everything the run makes lives on its GPU
       rc = run_pipeline(req, out, g_stop);
     } catch (const InputError& e) {
       out << "error: " << e.what() << "\n";
