@@ -210,10 +210,15 @@ __device__ void store_xy(R* pos, int v, double x, double y) {
     reinterpret_cast<float2*>(pos)[v] = make_float2(float(x), float(y));
 }
 
+// Particle u's mark (one byte of `marks`) as a bit of the 32-bit word that holds it, for the
+// word atomics that claim and clear marks.
+__device__ unsigned* mark_word(std::uint8_t* marks, int u) { return reinterpret_cast<unsigned*>(marks) + (u >> 2); }
+__device__ unsigned mark_bit(int u) { return 1u << (8 * (u & 3)); }
+
 // Whether this thread claimed u's mark: a word atomic, true for the first to set it.
 __device__ bool claim_mark(std::uint8_t* marks, int u) {
-  const unsigned bit = 1u << (8 * (u & 3));
-  return !(atomicOr(reinterpret_cast<unsigned*>(marks) + (u >> 2), bit) & bit);
+  const unsigned bit = mark_bit(u);
+  return !(atomicOr(mark_word(marks, u), bit) & bit);
 }
 
 // Marks u as a candidate of the next iteration: a plain store, or (claim) a word atomic whose
@@ -250,16 +255,15 @@ __device__ void claim_checked(const Overlaps<R, W>& ov, int v, const int* nb, co
     if (ov.overlaps_after_move_at(xv, yv, sv, u, xu, yu)) near |= 1u << k;
   });
   const bool self = ov.wall_after_move(v, xv, yv, sv) || near != 0;
-  unsigned* words = reinterpret_cast<unsigned*>(marks);
   unsigned old[kCached + 1];
 #pragma unroll
   for (int k = 0; k < kCached; ++k)
-    if ((near >> k) & 1u) old[k] = atomicOr(words + (ids[k] >> 2), 1u << (8 * (ids[k] & 3)));
-  if (self) old[kCached] = atomicOr(words + (v >> 2), 1u << (8 * (v & 3)));
+    if ((near >> k) & 1u) old[k] = atomicOr(mark_word(marks, ids[k]), mark_bit(ids[k]));
+  if (self) old[kCached] = atomicOr(mark_word(marks, v), mark_bit(v));
 #pragma unroll
   for (int k = 0; k < kCached; ++k)
-    if (((near >> k) & 1u) && !(old[k] & (1u << (8 * (ids[k] & 3))))) cand[atomicAdd(s_claims, 1)] = ids[k];
-  if (self && !(old[kCached] & (1u << (8 * (v & 3))))) cand[atomicAdd(s_claims, 1)] = v;
+    if (((near >> k) & 1u) && !(old[k] & mark_bit(ids[k]))) cand[atomicAdd(s_claims, 1)] = ids[k];
+  if (self && !(old[kCached] & mark_bit(v))) cand[atomicAdd(s_claims, 1)] = v;
 }
 
 // A block's gathers (checks) go to lane groups when it has at most this many particles to do
@@ -425,7 +429,7 @@ __global__ void __launch_bounds__(Threads, MinBlocks) correct_kernel(Args<R, Wal
       for (int i = int(threadIdx.x); i < count; i += Threads) {
         const int v = first ? t0 + i : __ldcg(cand + i);
         if (tail)  // its claim: cleared for the next check
-          atomicAnd(reinterpret_cast<unsigned*>(a.marks) + (v >> 2), ~(1u << (8 * (v & 3))));
+          atomicAnd(mark_word(a.marks, v), ~mark_bit(v));
         int ids[kCached], d;
         take(v, neighbor_ids(ov, v, first, a.nb, a.degree, a.fan, ids, d) ? gather_ids(ov, v, ids, d) : ov.gather(v));
       }
@@ -436,7 +440,7 @@ __global__ void __launch_bounds__(Threads, MinBlocks) correct_kernel(Args<R, Wal
         const bool has = i < count;
         const int v = has ? __ldcg(cand + i) : 0;
         if (tail && has && l == 0)  // its claim: cleared for the next check
-          atomicAnd(reinterpret_cast<unsigned*>(a.marks) + (v >> 2), ~(1u << (8 * (v & 3))));
+          atomicAnd(mark_word(a.marks, v), ~mark_bit(v));
         const VertexPush q = group_gather(ov, v, has, l, a.nb, a.degree);
         if (has && l == 0) take(v, q);
       }
