@@ -170,8 +170,8 @@ std::optional<RollbackRequest> Scheduler::run_compute(std::uint64_t step, std::u
 #ifdef FLIPFLOW_HAVE_CUDA
   // Steps never replayed from a graph (a rollback snapshot, or nothing to capture) take their
   // parameters from slots uploaded ahead (DeviceStepParams::set).
-  const bool never_captured = snapshot_ || !impl_->capturable || !graph_capture_ || impl_->capture_failed;
-  if (impl_->device_params) impl_->device_params->set(impl_->params, main_stream(), never_captured && !impl_->captured.ready());
+  if (impl_->device_params)
+    impl_->device_params->set(impl_->params, main_stream(), !may_capture() && !impl_->captured.ready());
   const bool captured = run_captured();
   if (captured) {
     ++impl_->steps_run;
@@ -273,6 +273,14 @@ void Scheduler::enqueue_compute() {
   }
 }
 
+bool Scheduler::may_capture() const {
+#ifdef FLIPFLOW_HAVE_CUDA
+  return impl_->capturable && !snapshot_ && graph_capture_ && !impl_->capture_failed;
+#else
+  return false;
+#endif
+}
+
 bool Scheduler::run_captured() {
 #ifdef FLIPFLOW_HAVE_CUDA
   auto& im = *impl_;
@@ -280,8 +288,7 @@ bool Scheduler::run_captured() {
   // profiling needs each stage's own launches. A run with a rollback snapshot is never captured:
   // the snapshot's on-demand copies and storage swaps (will_write, will_overwrite) are decided
   // on the host in each step, which a replayed graph would skip.
-  if (!im.capturable || snapshot_ || !graph_capture_ || im.capture_failed || profiling_ || im.steps_run == 0)
-    return false;
+  if (!may_capture() || profiling_ || im.steps_run == 0) return false;
   if (!im.captured.ready()) {
     std::string why;
     const bool ok = im.captured.capture(main_stream(), [&] {

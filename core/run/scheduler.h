@@ -103,6 +103,7 @@ class Scheduler {
   // The first stage that ran and limited Δt below `dt` (Outcome::limit_dt), if any.
   std::optional<RollbackRequest> exceeded_dt_limit(double dt) const;
   bool run_captured();     // CUDA: replay (capturing first if needed) the step graph
+  bool may_capture() const;  // CUDA: some step of this run may yet be replayed from a captured graph
   // In a team: the request every rank acts on (set_team), from this rank's own.
   std::optional<RollbackRequest> agree(std::optional<RollbackRequest> mine);
   Communicator* team_ = nullptr;

@@ -158,13 +158,11 @@ class Lawson final : public Stage {
     if (where_ == Where::device && launch > 0) counters_.next_was_reset();
     // Nothing can roll back this stage's writes (the core's answer): the device may run every
     // round without the host (`defer`, see the head of this file).
-    const bool no_snapshot = where_ == Where::device && ctx.may_defer_read_back();
-    const bool defer = no_snapshot && loops_.tail;
-    const bool skip_first_read = defer;
+    const bool defer = where_ == Where::device && ctx.may_defer_read_back() && loops_.tail;
     std::array<unsigned, kLawsonCounters> h{};
     std::size_t bound = launch;            // this round's marked edges (exact, or an upper bound)
     const unsigned* marked_len = c + kLawsonMarked;  // null: `bound` is exact; else their count, on the backend
-    if (skip_first_read) {
+    if (defer) {  // round 0's read skipped too (see above)
       h[kLawsonMarked] = 1;  // not known yet: go into the loop, which reads it
     } else {
       h = counters_.read(st);
