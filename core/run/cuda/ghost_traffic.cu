@@ -126,7 +126,7 @@ void in_copy_units(std::size_t entry, std::size_t record, std::size_t offset, La
   if (entry % 4 == 0 && record % 4 == 0 && offset % 4 == 0)
     launch(std::uint32_t{}, entry / 4, record / 4, offset / 4);
   else
-    launch((unsigned char){}, entry, record, offset);
+    launch(static_cast<unsigned char>(0), entry, record, offset);
 }
 
 void grow(std::unique_ptr<DeviceBuffer>& b, std::size_t bytes, const char* what) {
