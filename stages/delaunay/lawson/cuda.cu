@@ -23,9 +23,17 @@ __global__ void __launch_bounds__(kTailThreads) tail_kernel(LawsonTail<R> t) {
   unsigned* c = t.counters;
   if (threadIdx.x == 0) {
     reset_lawson_counters(sc);
-    sc[kLawsonMarked] = counter(c + kLawsonMarked);  // the marks of round t.round (the grid's)
+    // The marks of round t.round: the grid's, or this block's own (below).
+    if (!t.first_count) sc[kLawsonMarked] = counter(c + kLawsonMarked);
   }
   __syncthreads();
+  if (t.first_count) {  // round 0 in this block: the grid loop's MarkNonDelaunay, counting in sc
+    MarkNonDelaunay<R> mark{t.mesh, t.pts, t.tol, t.first_list, nullptr, t.marked, t.round, t.marked_list, sc,
+                            t.first_count};
+    mark.reset_next = t.first_reset_next;
+    for (unsigned i = threadIdx.x; i < t.first_count; i += kTailThreads) mark(i);
+    __syncthreads();
+  }
   std::int32_t round = t.round;
   std::int64_t ran = 0;
   unsigned largest = 0;
@@ -64,6 +72,8 @@ __global__ void __launch_bounds__(kTailThreads) tail_kernel(LawsonTail<R> t) {
       for (int k = 0; k < kLawsonCounters; ++k) t.publish[k] = counter(c + k);
   }
 }
+
+static_assert(kTailRound0 <= kTailThreads, "round 0 in the tail kernel is one pass of its block");
 
 template <class R>
 void tail(const LawsonTail<R>& t, CUstream_st* stream) {

@@ -206,6 +206,12 @@ struct LawsonTail {
   unsigned max_marked;
   std::int64_t max_rounds;
   unsigned* publish = nullptr;
+  // Round 0's marks made by the tail kernel itself (first_count > 0; MarkNonDelaunay over
+  // first_list, stamped `round`, its element 0 setting first_reset_next to the counters' start
+  // values) instead of by a grid launch before it: the marks of `round` then start from zero.
+  const std::int32_t* first_list = nullptr;
+  unsigned first_count = 0;
+  unsigned* first_reset_next = nullptr;
 };
 
 }  // namespace ff::delaunay

@@ -29,6 +29,10 @@ inline constexpr std::int64_t kDeviceRoundsPerRead = 3;
 // The device's tail kernel (one block) goes on while a round marks at most this many edges
 // (each then queues at most 4 for the next round's test: a few per thread of the block).
 inline constexpr unsigned kTailMarked = 1024;
+// When the read of round 0 is deferred and it tests at most this many candidates (one pass of the
+// tail kernel's block), the tail kernel makes round 0's marks itself: one launch fewer a step.
+inline constexpr unsigned kTailRound0 = 1024;
+static_assert(kTailRound0 <= kTailMarked, "with round 0 in the tail kernel no grid round may run before it");
 
 struct LawsonParams {
   std::int64_t max_rounds = 1000;
@@ -154,11 +158,13 @@ class Lawson final : public Stage {
     std::int32_t round = ++round_;
     MarkNonDelaunay<R> first{m, pts, p_.tolerance, test, nullptr, marked, round, marked_list, c, unsigned(launch)};
     if (where_ == Where::device) first.reset_next = counters_.next();
-    loops_.mark(launch, first, st);
-    if (where_ == Where::device && launch > 0) counters_.next_was_reset();
     // Nothing can roll back this stage's writes (the core's answer): the device may run every
     // round without the host (`defer`, see the head of this file).
     const bool defer = where_ == Where::device && ctx.may_defer_read_back() && loops_.tail;
+    // Few candidates (small systems): round 0's marks are the tail kernel's first pass (kTailRound0).
+    const bool round0_in_tail = defer && test && launch > 0 && launch <= kTailRound0;
+    if (!round0_in_tail) loops_.mark(launch, first, st);
+    if (where_ == Where::device && launch > 0) counters_.next_was_reset();
     std::array<unsigned, kLawsonCounters> h{};
     std::size_t bound = launch;            // this round's marked edges (exact, or an upper bound)
     const unsigned* marked_len = c + kLawsonMarked;  // null: `bound` is exact; else their count, on the backend
@@ -205,11 +211,17 @@ class Lawson final : public Stage {
         marked_len = c + kLawsonMarked;
       }
       const bool tail = loops_.tail && launched < p_.max_rounds;
-      if (tail)
-        loops_.tail(LawsonTail<R>{m, pts, p_.tolerance, marked, queued, go, list, marked_list, c, round,
-                                defer ? ~0u : kTailMarked, p_.max_rounds - launched,
-                                defer ? counters_.landing() : nullptr},
-                  st);
+      if (tail) {
+        LawsonTail<R> t{m, pts, p_.tolerance, marked, queued, go, list, marked_list, c, round,
+                        defer ? ~0u : kTailMarked, p_.max_rounds - launched,
+                        defer ? counters_.landing() : nullptr};
+        if (round0_in_tail && launched == 0) {
+          t.first_list = test;
+          t.first_count = unsigned(launch);
+          t.first_reset_next = first.reset_next;
+        }
+        loops_.tail(t, st);
+      }
       if (tail && defer) {  // the counters are read by after_step (settle)
         counters_.await_published(st);
         pending_ = true;
