@@ -232,11 +232,11 @@ __device__ void mark(std::uint8_t* marks, int u, bool claim, int* cand, u64* cla
 }
 
 // The tail's check of moved particle v by one thread (block 0 alone; claim_one(u): claim_mark
-// and, if new, list u at block 0's shared counter): thread_check's tests for its listed
-// neighbours into a bit mask first, then every claim's word atomic at once (and v's own when any
-// neighbour overlaps or a wall), then the lists: one round trip to L2 for the particle, where
-// thread_check with claim_one waits for one a neighbour in turn. The same marks; a fan that did
-// not fit the list goes through thread_check's walk.
+// and, if new, list u at block 0's shared counter): thread_check's tests (check_listed), then
+// every claim's word atomic at once (and v's own when any neighbour overlaps or a wall), then the
+// lists: one round trip to L2 for the particle, where thread_check with claim_one waits for one a
+// neighbour in turn. The same marks; a fan that did not fit the list goes through thread_check's
+// walk.
 template <class R, bool W, class F>
 __device__ void claim_checked(const Overlaps<R, W>& ov, int v, const int* nb, const std::uint8_t* degree,
                               std::uint8_t* marks, int* cand, int* s_claims, F&& claim_one) {
@@ -247,14 +247,9 @@ __device__ void claim_checked(const Overlaps<R, W>& ov, int v, const int* nb, co
     if (ov.overlapping_neighbors(v, claim_one)) claim_one(v);
     return;
   }
-  double xv, yv;
-  load_xy(ov.pos, v, xv, yv);
-  const double sv = ov.diameter_of(v);
-  unsigned near = 0;
-  for_each_loaded(ov, ids, d, [&](int k, int u, double xu, double yu) {
-    if (ov.overlaps_after_move_at(xv, yv, sv, u, xu, yu)) near |= 1u << k;
-  });
-  const bool self = ov.wall_after_move(v, xv, yv, sv) || near != 0;
+  const CheckedList checked = check_listed(ov, v, ids, d);
+  const unsigned near = checked.near;
+  const bool self = checked.self;
   unsigned old[kCached + 1];
 #pragma unroll
   for (int k = 0; k < kCached; ++k)

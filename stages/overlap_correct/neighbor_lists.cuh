@@ -159,26 +159,40 @@ __device__ bool neighbor_ids(const Overlaps<R, W>& ov, int v, bool first, int* n
   return true;
 }
 
-// The check of moved particle v by one thread, loading as gather_ids: calls f(u) for each
-// neighbour u that overlaps v at the new positions (Overlaps::overlapping_neighbors' test) and
-// returns whether any did.
+// What the check of moved particle v by one thread finds among its listed neighbours ids[0 .. d)
+// (d ≤ kCached), loading as gather_ids: bit k of `near` for each ids[k] that overlaps v at the new
+// positions (Overlaps::overlapping_neighbors' test), and `self`: v overlaps one of them or a wall.
+struct CheckedList {
+  unsigned near = 0;
+  bool self = false;
+};
+template <class R, bool W>
+__device__ CheckedList check_listed(const Overlaps<R, W>& ov, int v, const int (&ids)[kCached], int d) {
+  double xv, yv;
+  load_xy(ov.pos, v, xv, yv);
+  const double sv = ov.diameter_of(v);
+  CheckedList out;
+  for_each_loaded(ov, ids, d, [&](int k, int u, double xu, double yu) {
+    if (ov.overlaps_after_move_at(xv, yv, sv, u, xu, yu)) out.near |= 1u << k;
+  });
+  out.self = ov.wall_after_move(v, xv, yv, sv) || out.near != 0;
+  return out;
+}
+
+// The check of moved particle v by one thread: calls f(u) for each neighbour u that overlaps v at
+// the new positions and returns whether v overlaps anything (a fan that did not fit the list is
+// walked).
 template <class R, bool W, class F>
 __device__ bool thread_check(const Overlaps<R, W>& ov, int v, const int* nb, const std::uint8_t* degree, F&& f) {
   const int d = degree[v];
   int ids[kCached];
   load_ids(nb, v, ids);
   if (d == kWalk) return ov.overlapping_neighbors(v, f);
-  double xv, yv;
-  load_xy(ov.pos, v, xv, yv);
-  const double sv = ov.diameter_of(v);
-  bool any = false;
-  for_each_loaded(ov, ids, d, [&](int, int u, double xu, double yu) {
-    if (ov.overlaps_after_move_at(xv, yv, sv, u, xu, yu)) {
-      f(u);
-      any = true;
-    }
-  });
-  return ov.wall_after_move(v, xv, yv, sv) || any;
+  const CheckedList c = check_listed(ov, v, ids, d);
+#pragma unroll
+  for (int k = 0; k < kCached; ++k)
+    if ((c.near >> k) & 1u) f(ids[k]);
+  return c.self;
 }
 
 // Later iterations read the lists with a group of kGroup lanes per particle: lane l takes
