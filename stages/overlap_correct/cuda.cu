@@ -31,7 +31,12 @@ class DeviceLoops final : public OverlapCorrectLoops<R> {
         fan_(exec),
         state_(exec),
         slots_{Scratch<u64>(exec), Scratch<u64>(exec)},
-        result_(exec) {}
+        result_(exec),
+        ops_(&exec.memory()),
+        done_(ops_->fence_create()) {}
+  ~DeviceLoops() override { ops_->fence_destroy(done_); }
+  DeviceLoops(const DeviceLoops&) = delete;
+  DeviceLoops& operator=(const DeviceLoops&) = delete;
 
   void start(const Problem<R>& p, std::int64_t k0, std::int64_t max_iterations, Batch&, CUstream_st* s) override {
     const bool walls = p.overlaps.wall_axis >= 0, mark = p.touched != nullptr;
@@ -44,9 +49,10 @@ class DeviceLoops final : public OverlapCorrectLoops<R> {
     else
       launch<false, false>(p, k0, max_iterations, s);
   }
-  // Waits for the launch and copies its counters (written by the kernel into pinned memory).
+  // Waits for the launch (its fence: a read left past the step must not wait for what the next
+  // step queued behind it since) and copies its counters (written by the kernel into pinned memory).
   void finish(Batch& out) override {
-    FF_CUDA_CHECK(cudaStreamSynchronize(stream_), "waiting for overlap_correct");
+    ops_->fence_wait(done_);
     unread_ = false;
     const u64* result = result_.get(kResultWords);
     out.gathers = int(result[std::size_t(kDeviceBatch) * kCounters]);
@@ -101,7 +107,7 @@ class DeviceLoops final : public OverlapCorrectLoops<R> {
       launch_team<kClusterBlocks, Walls, Mark>(args, s);
     }
     parity_ = 1 - parity_;
-    stream_ = s;
+    ops_->fence_record(done_, s);
     mark_ = Mark;
     unread_ = true;
   }
@@ -168,7 +174,8 @@ class DeviceLoops final : public OverlapCorrectLoops<R> {
   int last_gathers_ = 0;   // how many gathers the last launch ran (the slots it used)
   bool unread_ = false;    // the last launch was never read back (finish)
   bool mark_ = false;      // the last launch counted first touches
-  CUstream_st* stream_ = nullptr;  // the last launch's
+  const MemoryOps* ops_;
+  void* done_;  // recorded after each launch (finish waits for it)
   int variant_ = -1;  // the kernel prepared for: 2·walls + mark (its occupancy sets the grid)
   bool made_ = false;
 };

@@ -187,7 +187,7 @@ class OverlapCorrect final : public Stage {
 
   Outcome run(StepContext& ctx) override {
     if (team_ && ctx.ghosts) return run_team(ctx);
-    settle_pending(ctx);  // the read the last step left past its end, if any
+    settle(ctx, true);  // the read the last step left past its end, if any (the particles have moved since)
     State& s = ctx.state;
     CUstream_st* st = ctx.stream;
     if (!s.field(delaunay::fields::status).host<std::int32_t>()[delaunay::kBuilt])
@@ -233,18 +233,22 @@ class OverlapCorrect final : public Stage {
     return Outcome::ok();
   }
 
-  void settle_pending(StepContext& ctx) override {
+  void settle_pending(StepContext& ctx) override { settle(ctx, false); }
+
+  // The read left past its step. `moved`: the next step's stages before this one have run (an
+  // error then names the worst pair where the particles are now).
+  void settle(StepContext& ctx, bool moved) {
     if (!pending_) return;
     pending_ = false;
     loops_->finish(batch_);
-    read_back(ctx, pending_step_, nullptr);
+    read_back(ctx, pending_step_, nullptr, moved);
   }
 
   // Replays the loop's rule on each gather's counters (batch_: the loop's first call, finished):
   // error, converged, or apply and go on, calling the loop again while it is not done. A read
   // left past its step has no problem to call it with (`prob` null): its call ran every gather
   // the correction could need, so it ended the correction. Sets the step's metrics.
-  void read_back(StepContext& ctx, std::uint64_t step, const Problem<R>* prob) {
+  void read_back(StepContext& ctx, std::uint64_t step, const Problem<R>* prob, bool moved = false) {
     std::int64_t iterations = 0;
     std::uint64_t pairs = 0, first_touches = 0;
     double correction = 0;
@@ -270,7 +274,7 @@ class OverlapCorrect final : public Stage {
           done = true;
           break;
         }
-        if (iterations == p_.max_iterations) give_up(ctx, step, h[kBad], prob == nullptr);
+        if (iterations == p_.max_iterations) give_up(ctx, step, h[kBad], moved);
         pairs += h[kPairs];
         correction += double(h[kCorrection]) / kFixedOne * unit_;
         ++iterations;
@@ -405,8 +409,8 @@ class OverlapCorrect final : public Stage {
   }
  private:
   // The error path: find the worst pair on the host (fields are copied there) and stop.
-  // `late`: read past its step (may_defer_past_step), when the next step has moved the particles.
-  [[noreturn]] void give_up(StepContext& ctx, std::uint64_t step, std::uint64_t bad, bool late) {
+  // `moved`: read back past its step (may_defer_past_step) after the next step moved the particles.
+  [[noreturn]] void give_up(StepContext& ctx, std::uint64_t step, std::uint64_t bad, bool moved) {
     State& s = ctx.state;
     for (const Access& a : accesses()) s.field(a.field).acquire(Where::host, Mode::read, ctx.stream);
     const R* x = s.field(fields::position).host<R>();
@@ -431,7 +435,7 @@ class OverlapCorrect final : public Stage {
     std::ostringstream os;
     os << "overlap_correct: step " << step << ": " << bad << " pair(s) still overlap by more than tolerance = " << tol_
        << " after max_iterations = " << p_.max_iterations << " iterations; the worst "
-       << (late ? "now (the next step had started when this was read back) " : "") << "is particles " << wa
+       << (moved ? "now (the next step had moved the particles when this was read back) " : "") << "is particles " << wa
        << " and " << wb << " at r = " << wr << " with σ_ij = " << ws << " (overlap " << worst
        << "·σ_ij)" << (wall_axis_ >= 0 ? " or a particle and a wall" : "")
        << ". Lower run.dt (smaller moves make fewer, shallower overlaps), raise max_iterations, or lower "
