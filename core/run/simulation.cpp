@@ -1,8 +1,7 @@
 #include "core/run/simulation.h"
 
-#include <cstdlib>
-
 #include <algorithm>
+#include <cstdlib>
 #include <cstring>
 #include <filesystem>
 #include <map>

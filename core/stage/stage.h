@@ -227,9 +227,9 @@ struct StepContext {
   // behind a wait for the host: true on CUDA, alone (not in a team), when may_defer_read_back()
   // and the core needs nothing of this step before the next one starts (no observer looks at
   // it; not profiling). Its work must then end on the device without the host (a stage that may
-  // need more launches after reading its results cannot defer). Its metrics reach RunStats one
-  // step late, except where the core settles first (Simulation::synchronize, observers,
-  // checkpoints, the end of the run); errors are thrown where it settles.
+  // need more launches after reading its results cannot defer). The core has it settled before
+  // anything looks at the step (Simulation::stats() and synchronize(), observers, checkpoints,
+  // the end of the run), so readers of the metrics see the step's; errors are thrown there.
   bool may_defer_past_step() const { return may_defer_read_back() && step_may_end_pending; }
   // Set by the core (see may_defer_past_step).
   bool step_may_end_pending = false;
