@@ -23,6 +23,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <cstdlib>
 #include <cstring>
 #include <map>
 #include <memory>
@@ -79,16 +80,24 @@ struct Run {
   double box[3] = {0, 0, 0};
 };
 
-Run run(const Loaded& l, Backend b) {
+// per_step false: the stats are read once, at the end (reading them every step has every stage read
+// back each step's results before the next one starts: StepContext::may_defer_past_step).
+Run run(const Loaded& l, Backend b, bool per_step = true) {
   Simulation sim(l.spec, *l.registry, test::dry(b));
   Run r;
   for (std::uint64_t k = 0; k < l.spec.run.steps; ++k) {
     sim.advance();
+    if (!per_step) continue;
     r.metrics.push_back(sim.stats().metrics);
     r.dt.push_back(sim.stats().dt);
     r.rollbacks.push_back(sim.stats().rollbacks);
   }
   sim.synchronize();
+  if (!per_step) {
+    r.metrics.push_back(sim.stats().metrics);
+    r.dt.push_back(sim.stats().dt);
+    r.rollbacks.push_back(sim.stats().rollbacks);
+  }
   State& s = sim.state();
   for (const std::string& name : s.field_names()) {
     Field& f = s.field(name);
@@ -232,6 +241,28 @@ TEST_CASE("CPU and CUDA give the same bits: shipped pipelines, double, 1000 step
     if (diff.empty())
       WARN("BITS IDENTICAL (double): " << name << ", N = " << l.spec.system.N << ", " << kSteps
                                        << " steps, fields: " << field_list(c) << "; metrics, dt, rollbacks of every step");
+  }
+}
+
+// On CUDA, overlap_correct leaves reading its results back past the step (the next step's kernels
+// queue behind its own: StepContext::may_defer_past_step) unless FLIPFLOW_DEFERRED_READS=0. Run
+// without reading the stats in between, so that every step but the last is read back late; the
+// same bits and final metrics either way, and against the CPU.
+TEST_CASE("CUDA: reads left past the step give the same bits as reads within it", "[cuda][bits]") {
+  if (!test::have_cuda("reads left past the step on CUDA")) return;
+  for (const std::string& name : {std::string("abp.yaml"), std::string("hard-disks.yaml")}) {
+    const Loaded l = load(name, kSteps, Precision::f64);
+    const Run late = run(l, Backend::cuda, false);
+    ::setenv("FLIPFLOW_DEFERRED_READS", "0", 1);
+    const Run within = run(l, Backend::cuda, false);
+    ::unsetenv("FLIPFLOW_DEFERRED_READS");
+    const Run cpu = run(l, Backend::cpu, false);
+    const std::string diff = differences(within, late), diff_cpu = differences(cpu, late);
+    INFO(name << ", " << kSteps << " steps, CUDA reading within the step vs past it:\n" << diff);
+    CHECK(diff.empty());
+    INFO(name << ", CPU vs CUDA reading past the step:\n" << diff_cpu);
+    CHECK(diff_cpu.empty());
+    CHECK(late.metrics.back().count("overlap_correct/iterations") == 1);
   }
 }
 

@@ -153,6 +153,9 @@ StepContext Scheduler::context(int i, CUstream_st* stream, std::uint64_t step, s
   StepContext ctx{state_of(i), slot.info, stats_, step, attempt, dt, time, backend_, stream, slot.rng, slot.metrics,
                  flag,   params, snapshot_undone_.size() > std::size_t(i) && snapshot_undone_[i] ? snapshot_ : nullptr};
   if (!graph_.nodes()[i].observer) ctx.ghosts = ghosts_;
+#ifdef FLIPFLOW_HAVE_CUDA
+  ctx.step_may_end_pending = step_may_end_pending_ && impl_->streams && !profiling_ && !graph_.nodes()[i].observer;
+#endif
   return ctx;
 }
 
@@ -356,6 +359,17 @@ void Scheduler::synchronize() {
 #ifdef FLIPFLOW_HAVE_CUDA
   if (impl_->streams) impl_->streams->synchronize();
 #endif
+}
+
+void Scheduler::settle_pending() {
+  for (int i : impl_->compute) {
+    CUstream_st* stream = nullptr;
+#ifdef FLIPFLOW_HAVE_CUDA
+    if (impl_->streams) stream = impl_->streams->stream(i);
+#endif
+    StepContext ctx = context(i, stream, impl_->step, impl_->attempt, impl_->dt, impl_->time);
+    slots_[i].stage->settle_pending(ctx);
+  }
 }
 
 }  // namespace ff

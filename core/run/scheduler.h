@@ -60,6 +60,11 @@ class Scheduler {
   void run_observers(std::uint64_t step, double dt, double time, const std::function<void(int)>& after_each);
   // Wait for all device work of the step (CUDA); a no-op on the CPU.
   void synchronize();
+  // Whether the stages of the next steps may leave their reads past the step
+  // (StepContext::may_defer_past_step; the Simulation decides per step).
+  void set_step_may_end_pending(bool on) { step_may_end_pending_ = on; }
+  // Has every compute stage read back what it left pending (Stage::settle_pending).
+  void settle_pending();
   CUstream_st* main_stream() const;
   // Profiling: wait for each stage's device work before stopping its clock, so per-stage
   // times are real on CUDA (serializes streams; `pipeline bench` reports both ways).
@@ -120,6 +125,7 @@ class Scheduler {
   Backend backend_;
   bool profiling_ = false;
   bool graph_capture_ = true;
+  bool step_may_end_pending_ = false;
   std::atomic<bool> abort_{false};
   std::exception_ptr error_;
   std::atomic<bool> has_error_{false};

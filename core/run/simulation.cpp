@@ -1,6 +1,7 @@
 #include "core/run/simulation.h"
 
 #include <algorithm>
+#include <cstdlib>
 #include <cstring>
 #include <filesystem>
 #include <map>
@@ -84,6 +85,7 @@ void Simulation::build(const Registry& registry) {
   // by another rank's allocations or waits in the same process (as for `pipeline sweep
   // --in-process`). The same bits, launched directly.
   if (in_team(options_.team)) scheduler_->set_graph_capture(false);
+  if (const char* e = std::getenv("FLIPFLOW_DEFERRED_READS")) deferred_reads_ = std::string(e) != "0";
   dt_ = std::make_unique<DtController>(spec_.run.dt, spec_.run.dt_min, spec_.run.dt_grow_after);
   stats_.dt = spec_.run.dt;
 
@@ -442,6 +444,11 @@ void Simulation::advance() {
     before->take(*state_, step_local_fields());
   }
   if (snapshot_) snapshot_->take(*state_, scheduler_->main_stream());
+  // A stage may leave reading its results past this step when nothing looks at the step before
+  // the next one starts (StepContext::may_defer_past_step); alone only.
+  const bool may_end_pending = deferred_reads_ && !domain_ && !in_team(options_.team) && !observer_due(step + 1);
+  scheduler_->set_step_may_end_pending(may_end_pending);
+  pending_possible_ = pending_possible_ || may_end_pending;
   for (std::uint32_t attempt = 0;;) {
     const double dt = dt_->dt();
     auto req = scheduler_->run_compute(step, attempt, dt, state_->time);
@@ -463,10 +470,31 @@ void Simulation::advance() {
       ++attempt;
     }
   }
+  // Observers see this step's metrics: a read left pending by a stage that did not run in this
+  // step is settled first.
+  if (observer_due(state_->step)) settle_pending();
   if (domain_) reduce_metrics();
   for (int i : graph_->compute_nodes())
     if (slots_[i].ran) collect_metrics(i);
   observe(stats_.dt);
+}
+
+void Simulation::synchronize() {
+  scheduler_->synchronize();
+  settle_pending();
+}
+
+void Simulation::settle_pending() {
+  if (!pending_possible_) return;
+  pending_possible_ = false;
+  scheduler_->settle_pending();
+  for (int i : graph_->compute_nodes())
+    if (slots_[i].ran) collect_metrics(i);
+}
+
+const RunStats& Simulation::stats() const {
+  const_cast<Simulation*>(this)->settle_pending();  // (the metrics a stage reads back late)
+  return stats_;
 }
 
 // A decomposed team's compute stages measured their own particles: every rank takes the sum
@@ -507,7 +535,7 @@ void Simulation::run() {
       observe(dt_->dt());
       observed_initial_ = true;
     }
-    scheduler_->synchronize();
+    synchronize();
   } catch (...) {
     try {
       finish(false);
@@ -521,7 +549,7 @@ void Simulation::run() {
 void Simulation::finish(bool completed) {
   if (finished_) return;
   finished_ = true;
-  if (completed) scheduler_->synchronize();
+  if (completed) synchronize();
   std::exception_ptr first;
   for (std::size_t i = 0; i < slots_.size(); ++i) {
     auto& s = slots_[i];

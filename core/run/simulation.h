@@ -60,13 +60,19 @@ class Simulation {
   void finish(bool completed);
 
   State& state() { return *state_; }
-  const RunStats& stats() const { return stats_; }
+  // The run's statistics; stats().metrics are the last step's: reading them first has every
+  // stage read back what it left past the step (StepContext::may_defer_past_step), which waits for
+  // the device and throws the errors those stages report.
+  const RunStats& stats() const;
   const StepGraph& graph() const { return *graph_; }
   const std::vector<StageSlot>& slots() const { return slots_; }
   const PipelineSpec& spec() const { return spec_; }
   const DtController& dt() const { return *dt_; }
   std::uint64_t steps_total() const { return spec_.run.steps; }
-  void synchronize() { scheduler_->synchronize(); }
+  // Waits for the device's work and has every stage read back what it left past its step
+  // (StepContext::may_defer_past_step): stats().metrics are then the last step's, and errors
+  // those stages report are thrown here.
+  void synchronize();
   Scheduler& scheduler() { return *scheduler_; }
   // Fields the rollback snapshot holds (empty when no stage may request a rollback).
   // Fields the rollback snapshot copies before every step, and those it copies only when a stage
@@ -134,6 +140,11 @@ class Simulation {
   std::vector<GraphNode> observer_schedules_;  // every rank's: when rank 0 gathers (schedule, log steps)
   bool observed_initial_ = false;
   bool finished_ = false;
+  // Stages may leave their reads past the step (StepContext::may_defer_past_step) unless the
+  // environment has FLIPFLOW_DEFERRED_READS=0 (to compare both ways: the same bits).
+  bool deferred_reads_ = true;
+  bool pending_possible_ = false;  // a step since the last settle let stages leave reads pending
+  void settle_pending();
 };
 
 }  // namespace ff

@@ -222,6 +222,17 @@ struct StepContext {
   // (no snapshot covers them). When false, a rollback may restore what it writes, so it must
   // announce an on-demand write (will_write) before making it, which needs its results now.
   bool may_defer_read_back() const { return snapshot == nullptr; }
+  // Whether the stage may leave that read past the end of the step, to its next run() or to
+  // settle_pending(), so that the next step's first kernels queue behind its own instead of
+  // behind a wait for the host: true on CUDA, alone (not in a team), when may_defer_read_back()
+  // and the core needs nothing of this step before the next one starts (no observer looks at
+  // it; not profiling). Its work must then end on the device without the host (a stage that may
+  // need more launches after reading its results cannot defer). The core has it settled before
+  // anything looks at the step (Simulation::stats() and synchronize(), observers, checkpoints,
+  // the end of the run), so readers of the metrics see the step's; errors are thrown there.
+  bool may_defer_past_step() const { return may_defer_read_back() && step_may_end_pending; }
+  // Set by the core (see may_defer_past_step).
+  bool step_may_end_pending = false;
 
   // Call before first writing a field declared with Access::on_demand in this step: the
   // rollback snapshot takes its copy now (once per step; a no-op when nothing can roll back the
@@ -354,6 +365,11 @@ class Stage {
   // not request a rollback, and must cope with not being called (a later stage's rollback):
   // its next run() then settles what is pending.
   virtual void after_step(StepContext& ctx) { (void)ctx; }
+  // Reads back what a run() left pending past its step (StepContext::may_defer_past_step): sets
+  // the metrics of that step and throws RunError on what they report. The core calls it on every
+  // compute stage where it needs the results (a no-op without a pending read); the stage's next
+  // run() must settle first too.
+  virtual void settle_pending(StepContext& ctx) { (void)ctx; }
   // Once, after the last step or when the run stops early: flush and close outputs.
   virtual void finish(State& state, bool completed) { (void)state; (void)completed; }
   // Files this stage will create (relative to out_dir): checked before anything is written.

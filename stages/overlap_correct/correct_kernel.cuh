@@ -99,8 +99,8 @@ struct Sums {
 };
 static_assert(kTouched == kCounters - 1, "kTouched is the counter left out without the touched field");
 constexpr int kDevCounters = kCounters + 1;  // the most a kernel sums (the slots' layout)
-constexpr std::size_t kSlotWords = std::size_t(kBatch) * kDevCounters * kShards * kShardStride;
-constexpr std::size_t kResultWords = std::size_t(kBatch) * kCounters + 1;  // + gathers run
+constexpr std::size_t kSlotWords = std::size_t(kDeviceBatch) * kDevCounters * kShards * kShardStride;
+constexpr std::size_t kResultWords = std::size_t(kDeviceBatch) * kCounters + 1;  // + gathers run
 // Iterations after one that moved at most this many particles run in block 0 alone
 // (bench/overlap_correct-PERF.md).
 constexpr int kTailMoved = 512;
@@ -135,10 +135,10 @@ struct Args {
   int* nb;                 // kCached x grid·tile: each particle's neighbours, filled in iteration 0
   std::uint8_t* degree;    // grid·tile: how many (kWalk: more than kCached, walk the fan)
   int* fan;                // kCached x grid·tile: the half-edges of each listed fan, kept across steps
-  u64* slots;              // kBatch x Sums::kAll x kShards (sharded counters, zero at launch)
+  u64* slots;              // kDeviceBatch x Sums::kAll x kShards (sharded counters, zero at launch)
   u64* claims;             // entries of cand claimed by the check that starts the tail (zero at launch)
   u64* next_slots;         // the other launch's slots and claims (kSlotWords + 1): zeroed here
-  u64* result;             // kBatch x kCounters + 1 (block 0 writes the sums and the gather count):
+  u64* result;             // kDeviceBatch x kCounters + 1 (block 0 writes the sums and the gather count):
                            // pinned host memory, written directly (no copy after the kernel)
   std::uint8_t* state;     // grid·tile, by particle: what a wide gather found (WideState), for its
                            // apply and check; disp and crossed are indexed by particle there too
@@ -147,6 +147,7 @@ struct Args {
                            // wide kernels (run_wide), their counters in slots
   long long k0;
   long long max_iterations;
+  long long next_zero;     // words of next_slots to zero (those the last launch used), and its claims
 };
 
 // Exclusive block-wide prefix sum of c; *total gets the sum. Every thread must call it.
@@ -359,8 +360,9 @@ __global__ void __launch_bounds__(Threads, MinBlocks) correct_kernel(Args<R, Wal
   bool tail_first = false;  // the tail's first iteration: its candidates were claimed by every block
   // The next launch's counters, zeroed here instead of by a memset before it (a host call on
   // the step's critical path, between Lawson's wait and this launch). No one reads them now.
-  for (int w = int(blockIdx.x * Threads + threadIdx.x); w < int(kSlotWords + 1); w += int(gridDim.x) * Threads)
+  for (long long w = blockIdx.x * Threads + threadIdx.x; w < a.next_zero; w += (long long)gridDim.x * Threads)
     a.next_slots[w] = 0;
+  if (blockIdx.x == 0 && threadIdx.x == 0) a.next_slots[kSlotWords] = 0;  // the claims count
 
   // The batch's iterations before j0 ran in the wide kernels (run_wide): their sums are in the
   // slots. Block 0 reports them, and every block stops where one of them did not go on (then its
@@ -370,7 +372,7 @@ __global__ void __launch_bounds__(Threads, MinBlocks) correct_kernel(Args<R, Wal
     __syncthreads();
     if (blockIdx.x == 0 && threadIdx.x < kReported)
       a.result[std::size_t(j) * kCounters + threadIdx.x] = s_tot[threadIdx.x];
-    if (blockIdx.x == 0 && threadIdx.x == 0) a.result[std::size_t(kBatch) * kCounters] = u64(j + 1);
+    if (blockIdx.x == 0 && threadIdx.x == 0) a.result[std::size_t(kDeviceBatch) * kCounters] = u64(j + 1);
     std::uint64_t tot[kReported];
 #pragma unroll
     for (int q = 0; q < kReported; ++q) tot[q] = s_tot[q];
@@ -378,7 +380,7 @@ __global__ void __launch_bounds__(Threads, MinBlocks) correct_kernel(Args<R, Wal
     if (!keeps_going(tot, a.k0 + j, a.max_iterations)) return;
   }
 
-  for (int j = a.j0; j < kBatch; ++j) {
+  for (int j = a.j0; j < kDeviceBatch; ++j) {
     const long long k = a.k0 + j;
     // Iteration 0 (every particle a candidate) runs here in a cluster and on a grid that is not
     // full; on a full grid it ran in the wide kernels (j0 ≥ 1 whenever k0 = 0: DeviceLoops::prepare).
@@ -478,7 +480,7 @@ __global__ void __launch_bounds__(Threads, MinBlocks) correct_kernel(Args<R, Wal
     __syncthreads();
     if (blockIdx.x == 0 && threadIdx.x < kReported)
       a.result[std::size_t(j) * kCounters + threadIdx.x] = s_tot[threadIdx.x];
-    if (blockIdx.x == 0 && threadIdx.x == 0) a.result[std::size_t(kBatch) * kCounters] = u64(j + 1);
+    if (blockIdx.x == 0 && threadIdx.x == 0) a.result[std::size_t(kDeviceBatch) * kCounters] = u64(j + 1);
     std::uint64_t tot[kReported];
 #pragma unroll
     for (int q = 0; q < kReported; ++q) tot[q] = s_tot[q];
@@ -508,7 +510,7 @@ __global__ void __launch_bounds__(Threads, MinBlocks) correct_kernel(Args<R, Wal
 
     // The check (positions are the new ones now): marks the next iteration's candidates. The
     // last iteration of a batch leaves plain marks, which the next launch compacts.
-    const bool last = j + 1 == kBatch;
+    const bool last = j + 1 == kDeviceBatch;
     const bool to_tail = !tail && s_tot[kMoved] <= u64(kTailMoved);
     const bool claim = (tail || to_tail) && !last;
     const bool in_block = tail && !last;  // block 0 alone: the claims counted in its shared memory

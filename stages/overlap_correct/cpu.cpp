@@ -498,8 +498,8 @@ void host_iterate(HostWorkspace* w, const Problem<R>& p, std::int64_t k0, std::i
 template <class R>
 class HostLoops final : public OverlapCorrectLoops<R> {
  public:
-  void iterate(const Problem<R>& p, std::int64_t k0, std::int64_t max_iterations, Batch& out,
-               CUstream_st*) override {
+  // The host runs the gathers in start() (kBatch of them at most) and finish() has nothing to wait for.
+  void start(const Problem<R>& p, std::int64_t k0, std::int64_t max_iterations, Batch& out, CUstream_st*) override {
     if (!made_ || ws_.n != p.n) {
       prepare(ws_, p.n);
       made_ = true;
@@ -514,6 +514,8 @@ class HostLoops final : public OverlapCorrectLoops<R> {
     else
       host_iterate<false, false>(&ws_, p, k0, max_iterations, out);
   }
+  void finish(Batch&) override {}
+  int max_gathers() const override { return kBatch; }
 
  private:
   HostWorkspace ws_;

@@ -31,26 +31,48 @@ class DeviceLoops final : public OverlapCorrectLoops<R> {
         fan_(exec),
         state_(exec),
         slots_{Scratch<u64>(exec), Scratch<u64>(exec)},
-        result_(exec) {}
+        result_(exec),
+        ops_(&exec.memory()),
+        done_(ops_->fence_create()) {}
+  ~DeviceLoops() override { ops_->fence_destroy(done_); }
+  DeviceLoops(const DeviceLoops&) = delete;
+  DeviceLoops& operator=(const DeviceLoops&) = delete;
 
-  void iterate(const Problem<R>& p, std::int64_t k0, std::int64_t max_iterations, Batch& out,
-               CUstream_st* s) override {
+  void start(const Problem<R>& p, std::int64_t k0, std::int64_t max_iterations, Batch&, CUstream_st* s) override {
     const bool walls = p.overlaps.wall_axis >= 0, mark = p.touched != nullptr;
     if (walls && mark)
-      launch<true, true>(p, k0, max_iterations, out, s);
+      launch<true, true>(p, k0, max_iterations, s);
     else if (walls)
-      launch<true, false>(p, k0, max_iterations, out, s);
+      launch<true, false>(p, k0, max_iterations, s);
     else if (mark)
-      launch<false, true>(p, k0, max_iterations, out, s);
+      launch<false, true>(p, k0, max_iterations, s);
     else
-      launch<false, false>(p, k0, max_iterations, out, s);
+      launch<false, false>(p, k0, max_iterations, s);
   }
+  // Waits for the launch (its fence: a read left past the step must not wait for what the next
+  // step queued behind it since) and copies its counters (written by the kernel into pinned memory).
+  void finish(Batch& out) override {
+    ops_->fence_wait(done_);
+    unread_ = false;
+    const u64* result = result_.get(kResultWords);
+    out.gathers = int(result[std::size_t(kDeviceBatch) * kCounters]);
+    last_gathers_ = out.gathers;
+    for (int j = 0; j < out.gathers; ++j) {
+      for (int c = 0; c < kCounters; ++c) out.counters[j][c] = result[std::size_t(j) * kCounters + c];
+      if (!mark_) out.counters[j][kTouched] = 0;
+    }
+  }
+  int max_gathers() const override { return kDeviceBatch; }
 
  private:
   template <bool Walls, bool Mark>
-  void launch(const Problem<R>& p, std::int64_t k0, std::int64_t max_iterations, Batch& out, CUstream_st* s) {
+  void launch(const Problem<R>& p, std::int64_t k0, std::int64_t max_iterations, CUstream_st* s) {
     const int variant = 2 * int(Walls) + int(Mark);
     if (!made_ || n_ != p.n || variant_ != variant) prepare<Walls, Mark>(p.n, variant);
+    // The other parity's slots were used by the last launch (its gathers' counters): this one
+    // zeroes those for the next (all when the last one was never read back).
+    const std::size_t zero = unread_ ? kSlotWords
+                                     : std::min(kSlotWords, std::size_t(last_gathers_) * kDevCounters * kShards * kShardStride);
     Args<R, Walls> a{p,
                      p.overlaps.template with_walls<Walls>(),
                      marks_.get(cap_),
@@ -69,7 +91,8 @@ class DeviceLoops final : public OverlapCorrectLoops<R> {
                      tile_,
                      0,
                      static_cast<long long>(k0),
-                     static_cast<long long>(max_iterations)};
+                     static_cast<long long>(max_iterations),
+                     static_cast<long long>(zero)};
     // The grid's first iterations run in the wide kernels (wide_kernels.cuh), queued at once:
     // each does nothing after an iteration that did not go on.
     if (wide_ && k0 == 0) a.j0 = run_wide<Walls, Mark>(a, s);
@@ -84,13 +107,9 @@ class DeviceLoops final : public OverlapCorrectLoops<R> {
       launch_team<kClusterBlocks, Walls, Mark>(args, s);
     }
     parity_ = 1 - parity_;
-    FF_CUDA_CHECK(cudaStreamSynchronize(s), "waiting for overlap_correct");
-    const u64* result = result_.get(kResultWords);
-    out.gathers = int(result[std::size_t(kBatch) * kCounters]);
-    for (int j = 0; j < out.gathers; ++j) {
-      for (int c = 0; c < Sums<Mark>::kReported; ++c) out.counters[j][c] = result[std::size_t(j) * kCounters + c];
-      if (!Mark) out.counters[j][kTouched] = 0;
-    }
+    ops_->fence_record(done_, s);
+    mark_ = Mark;
+    unread_ = true;
   }
 
   // Launches the wide kernels' iterations 0 .. kWideIterations - 1; returns how many.
@@ -129,6 +148,8 @@ class DeviceLoops final : public OverlapCorrectLoops<R> {
     for (Scratch<u64>& sl : slots_) sl.reset();
     marks_.reset();  // fresh zeroed arrays even where the size did not change
     parity_ = 0;
+    last_gathers_ = 0;
+    unread_ = false;
     n_ = n;
     variant_ = variant;
     made_ = true;
@@ -150,6 +171,11 @@ class DeviceLoops final : public OverlapCorrectLoops<R> {
   int team_ = kGrid;  // who runs the iterations (team_for): kGrid, kClusterBlocks or kSharedClusterBlocks
   bool wide_ = false;  // the grid's first iterations in the wide kernels (prepare)
   int parity_ = 0;  // which slots the next launch uses (zero); it zeroes the other
+  int last_gathers_ = 0;   // how many gathers the last launch ran (the slots it used)
+  bool unread_ = false;    // the last launch was never read back (finish)
+  bool mark_ = false;      // the last launch counted first touches
+  const MemoryOps* ops_;
+  void* done_;  // recorded after each launch (finish waits for it)
   int variant_ = -1;  // the kernel prepared for: 2·walls + mark (its occupancy sets the grid)
   bool made_ = false;
 };

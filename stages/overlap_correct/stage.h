@@ -45,10 +45,14 @@
 
 namespace ff::overlap {
 
-// One call of a backend's iteration loop: the counters of each gather it ran, in order.
+// One call of a backend's iteration loop: the counters of each gather it ran, in order. The CPU
+// loop returns to the host's loop every kBatch gathers; the device's runs up to kDeviceBatch in
+// one launch, more than the default max_iterations, so that one launch ends the correction (its
+// read may then wait past the step: StepContext::may_defer_past_step).
 inline constexpr int kBatch = 64;
+inline constexpr int kDeviceBatch = 1024;
 struct Batch {
-  std::uint64_t counters[kBatch][kCounters];
+  std::uint64_t counters[kDeviceBatch][kCounters];
   int gathers = 0;
 };
 
@@ -95,9 +99,18 @@ template <class R>
 struct OverlapCorrectLoops {
   virtual ~OverlapCorrectLoops() = default;
   // Runs gathers k0, k0 + 1, ..., applying the displacements after each one that keeps_going(),
-  // until one does not or kBatch gathers were run; fills `out`. Sizes the scratch for p.n.
-  virtual void iterate(const Problem<R>& p, std::int64_t k0, std::int64_t max_iterations, Batch& out,
-                       CUstream_st* s) = 0;
+  // until one does not or max_gathers() were run, and fills `out` by the time finish() returns:
+  // start() enqueues the work where it can (the device), finish() waits for it. Sizes the
+  // scratch for p.n.
+  virtual void start(const Problem<R>& p, std::int64_t k0, std::int64_t max_iterations, Batch& out,
+                     CUstream_st* s) = 0;
+  virtual void finish(Batch& out) = 0;
+  // The most gathers one start() runs.
+  virtual int max_gathers() const = 0;
+  void iterate(const Problem<R>& p, std::int64_t k0, std::int64_t max_iterations, Batch& out, CUstream_st* s) {
+    start(p, k0, max_iterations, out, s);
+    finish(out);
+  }
 };
 
 // The loops of each backend (cpu.cpp, cuda.cu).
@@ -174,6 +187,7 @@ class OverlapCorrect final : public Stage {
 
   Outcome run(StepContext& ctx) override {
     if (team_ && ctx.ghosts) return run_team(ctx);
+    settle(ctx, true);  // the read the last step left past its end, if any (the particles have moved since)
     State& s = ctx.state;
     CUstream_st* st = ctx.stream;
     if (!s.field(delaunay::fields::status).host<std::int32_t>()[delaunay::kBuilt])
@@ -205,19 +219,53 @@ class OverlapCorrect final : public Stage {
     std::uint8_t* touched = p_.mark ? s.field(touched_field).data<std::uint8_t>(ctx) : nullptr;
     const Problem<R> prob{overlaps, x, img, PeriodicBox<R>::make(s.box.L), n, touched};
 
-    // Replays the loop's rule on each gather's counters: error, converged, or apply and go on.
+    loops_->start(prob, 0, p_.max_iterations, batch_, st);
+    // When one call of the loop runs every gather the correction can need (the device's launch,
+    // max_iterations below kDeviceBatch), nothing after this step depends on its read: it may wait
+    // past the step (the next step's kernels queue behind this one's instead of behind the host).
+    if (ctx.may_defer_past_step() && p_.max_iterations < loops_->max_gathers()) {
+      pending_ = true;
+      pending_step_ = ctx.host_params.step;
+      return Outcome::ok();
+    }
+    loops_->finish(batch_);
+    read_back(ctx, ctx.host_params.step, &prob);
+    return Outcome::ok();
+  }
+
+  void settle_pending(StepContext& ctx) override { settle(ctx, false); }
+
+  // The read left past its step. `moved`: the next step's stages before this one have run (an
+  // error then names the worst pair where the particles are now).
+  void settle(StepContext& ctx, bool moved) {
+    if (!pending_) return;
+    pending_ = false;
+    loops_->finish(batch_);
+    read_back(ctx, pending_step_, nullptr, moved);
+  }
+
+  // Replays the loop's rule on each gather's counters (batch_: the loop's first call, finished):
+  // error, converged, or apply and go on, calling the loop again while it is not done. A read
+  // left past its step has no problem to call it with (`prob` null): its call ran every gather
+  // the correction could need, so it ended the correction. Sets the step's metrics.
+  void read_back(StepContext& ctx, std::uint64_t step, const Problem<R>* prob, bool moved = false) {
     std::int64_t iterations = 0;
     std::uint64_t pairs = 0, first_touches = 0;
     double correction = 0;
-    for (bool done = false; !done;) {
-      loops_->iterate(prob, iterations, p_.max_iterations, batch_, st);
-      if (batch_.gathers < 1 || batch_.gathers > kBatch)
-        throw RunError("overlap_correct: step " + std::to_string(ctx.host_params.step) + ": the iteration loop reported " +
+    for (bool done = false, first = true; !done; first = false) {
+      if (!first) {
+        if (!prob)
+          throw RunError("overlap_correct: step " + std::to_string(step) + ": the device's loop stopped after " +
+                         std::to_string(iterations) + " iterations without ending the correction (internal error)");
+        loops_->iterate(*prob, iterations, p_.max_iterations, batch_, ctx.stream);
+      }
+      if (batch_.gathers < 1 || batch_.gathers > loops_->max_gathers())
+        throw RunError("overlap_correct: step " + std::to_string(step) + ": the iteration loop reported " +
                        std::to_string(batch_.gathers) + " gathers");
       for (int j = 0; j < batch_.gathers && !done; ++j) {
         const std::uint64_t* h = batch_.counters[j];
         if (h[kBroken])
-          throw RunError("overlap_correct: step " + std::to_string(ctx.host_params.step) + ": the triangulation is corrupt (" +
+          throw RunError("overlap_correct: step " + std::to_string(step) + ": the triangulation is corrupt (" +
                          std::to_string(h[kBroken]) + " failed check(s): half-edge indices out of range, next "
                          "pointers that are not a permutation, or the half-edges around a particle that do not "
                          "form a closed fan); a delaunay stage before overlap_correct failed to keep it valid");
@@ -226,7 +274,7 @@ class OverlapCorrect final : public Stage {
           done = true;
           break;
         }
-        if (iterations == p_.max_iterations) give_up(ctx, h[kBad]);
+        if (iterations == p_.max_iterations) give_up(ctx, step, h[kBad], moved);
         pairs += h[kPairs];
         correction += double(h[kCorrection]) / kFixedOne * unit_;
         ++iterations;
@@ -237,9 +285,8 @@ class OverlapCorrect final : public Stage {
     ctx.metrics.set("correction", correction);
     if (p_.mark) {
       ctx.metrics.set("touched", double(first_touches));
-      ctx.metrics.set("touched_fraction", double(first_touches) / double(n));
+      ctx.metrics.set("touched_fraction", double(first_touches) / double(ctx.state.n()));
     }
-    return Outcome::ok();
   }
 
   double effective_tolerance() const { return tol_; }
@@ -336,7 +383,7 @@ class OverlapCorrect final : public Stage {
         throw RunError("overlap_correct: step " + std::to_string(ctx.host_params.step) +
                        ": the triangulation is corrupt on a rank of the team (a fan that does not close)");
       if (!c[0]) break;
-      if (iterations == p_.max_iterations) give_up(ctx, std::uint64_t(c[0]));
+      if (iterations == p_.max_iterations) give_up(ctx, ctx.host_params.step, std::uint64_t(c[0]), false);
       // The moves are written on the host: say so before every apply (a refresh sends from
       // the device when every field is current there; Domain::refresh).
       s.field(fields::position).acquire(Where::host, Mode::readwrite, ctx.stream);
@@ -362,7 +409,8 @@ class OverlapCorrect final : public Stage {
   }
  private:
   // The error path: find the worst pair on the host (fields are copied there) and stop.
-  [[noreturn]] void give_up(StepContext& ctx, std::uint64_t bad) {
+  // `moved`: read back past its step (may_defer_past_step) after the next step moved the particles.
+  [[noreturn]] void give_up(StepContext& ctx, std::uint64_t step, std::uint64_t bad, bool moved) {
     State& s = ctx.state;
     for (const Access& a : accesses()) s.field(a.field).acquire(Where::host, Mode::read, ctx.stream);
     const R* x = s.field(fields::position).host<R>();
@@ -385,8 +433,9 @@ class OverlapCorrect final : public Stage {
       }
     }
     std::ostringstream os;
-    os << "overlap_correct: step " << ctx.host_params.step << ": " << bad << " pair(s) still overlap by more than tolerance = "
-       << tol_ << " after max_iterations = " << p_.max_iterations << " iterations; the worst is particles " << wa
+    os << "overlap_correct: step " << step << ": " << bad << " pair(s) still overlap by more than tolerance = " << tol_
+       << " after max_iterations = " << p_.max_iterations << " iterations; the worst "
+       << (moved ? "now (the next step had moved the particles when this was read back) " : "") << "is particles " << wa
        << " and " << wb << " at r = " << wr << " with σ_ij = " << ws << " (overlap " << worst
        << "·σ_ij)" << (wall_axis_ >= 0 ? " or a particle and a wall" : "")
        << ". Lower run.dt (smaller moves make fewer, shallower overlaps), raise max_iterations, or lower "
@@ -400,6 +449,8 @@ class OverlapCorrect final : public Stage {
   int wall_axis_;  // walls: 0 (x) or 1 (y); -1: none
   std::unique_ptr<OverlapCorrectLoops<R>> loops_;
   Batch batch_;
+  bool pending_ = false;  // a read left past its step (settle_pending)
+  std::uint64_t pending_step_ = 0;
   double unit_ = 1;  // length unit of the fixed-point correction counter (largest diameter)
   DiameterRange diam_;  // min equal to max: the walks read no diameters
   double tol_ = 1e-6;
