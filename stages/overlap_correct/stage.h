@@ -235,60 +235,6 @@ class OverlapCorrect final : public Stage {
 
   void settle_pending(StepContext& ctx) override { settle(ctx, false); }
 
-  // The read left past its step. `moved`: the next step's stages before this one have run (an
-  // error then names the worst pair where the particles are now).
-  void settle(StepContext& ctx, bool moved) {
-    if (!pending_) return;
-    pending_ = false;
-    loops_->finish(batch_);
-    read_back(ctx, pending_step_, nullptr, moved);
-  }
-
-  // Replays the loop's rule on each gather's counters (batch_: the loop's first call, finished):
-  // error, converged, or apply and go on, calling the loop again while it is not done. A read
-  // left past its step has no problem to call it with (`prob` null): its call ran every gather
-  // the correction could need, so it ended the correction. Sets the step's metrics.
-  void read_back(StepContext& ctx, std::uint64_t step, const Problem<R>* prob, bool moved = false) {
-    std::int64_t iterations = 0;
-    std::uint64_t pairs = 0, first_touches = 0;
-    double correction = 0;
-    for (bool done = false, first = true; !done; first = false) {
-      if (!first) {
-        if (!prob)
-          throw RunError("overlap_correct: step " + std::to_string(step) + ": the device's loop stopped after " +
-                         std::to_string(iterations) + " iterations without ending the correction (internal error)");
-        loops_->iterate(*prob, iterations, p_.max_iterations, batch_, ctx.stream);
-      }
-      if (batch_.gathers < 1 || batch_.gathers > loops_->max_gathers())
-        throw RunError("overlap_correct: step " + std::to_string(step) + ": the iteration loop reported " +
-                       std::to_string(batch_.gathers) + " gathers");
-      for (int j = 0; j < batch_.gathers && !done; ++j) {
-        const std::uint64_t* h = batch_.counters[j];
-        if (h[kBroken])
-          throw RunError("overlap_correct: step " + std::to_string(step) + ": the triangulation is corrupt (" +
-                         std::to_string(h[kBroken]) + " failed check(s): half-edge indices out of range, next "
-                         "pointers that are not a permutation, or the half-edges around a particle that do not "
-                         "form a closed fan); a delaunay stage before overlap_correct failed to keep it valid");
-        first_touches += h[kTouched];
-        if (!h[kBad]) {
-          done = true;
-          break;
-        }
-        if (iterations == p_.max_iterations) give_up(ctx, step, h[kBad], moved);
-        pairs += h[kPairs];
-        correction += double(h[kCorrection]) / kFixedOne * unit_;
-        ++iterations;
-      }
-    }
-    ctx.metrics.set("iterations", double(iterations));
-    ctx.metrics.set("pairs", double(pairs));
-    ctx.metrics.set("correction", correction);
-    if (p_.mark) {
-      ctx.metrics.set("touched", double(first_touches));
-      ctx.metrics.set("touched_fraction", double(first_touches) / double(ctx.state.n()));
-    }
-  }
-
   double effective_tolerance() const { return tol_; }
 
   // Why these diameters break the Delaunay-edge argument (see the top of this file), or "".
@@ -408,6 +354,60 @@ class OverlapCorrect final : public Stage {
     return Outcome::ok();
   }
  private:
+  // The read left past its step. `moved`: the next step's stages before this one have run (an
+  // error then names the worst pair where the particles are now).
+  void settle(StepContext& ctx, bool moved) {
+    if (!pending_) return;
+    pending_ = false;
+    loops_->finish(batch_);
+    read_back(ctx, pending_step_, nullptr, moved);
+  }
+
+  // Replays the loop's rule on each gather's counters (batch_: the loop's first call, finished):
+  // error, converged, or apply and go on, calling the loop again while it is not done. A read
+  // left past its step has no problem to call it with (`prob` null): its call ran every gather
+  // the correction could need, so it ended the correction. Sets the step's metrics.
+  void read_back(StepContext& ctx, std::uint64_t step, const Problem<R>* prob, bool moved = false) {
+    std::int64_t iterations = 0;
+    std::uint64_t pairs = 0, first_touches = 0;
+    double correction = 0;
+    for (bool done = false, first = true; !done; first = false) {
+      if (!first) {
+        if (!prob)
+          throw RunError("overlap_correct: step " + std::to_string(step) + ": the device's loop stopped after " +
+                         std::to_string(iterations) + " iterations without ending the correction (internal error)");
+        loops_->iterate(*prob, iterations, p_.max_iterations, batch_, ctx.stream);
+      }
+      if (batch_.gathers < 1 || batch_.gathers > loops_->max_gathers())
+        throw RunError("overlap_correct: step " + std::to_string(step) + ": the iteration loop reported " +
+                       std::to_string(batch_.gathers) + " gathers");
+      for (int j = 0; j < batch_.gathers && !done; ++j) {
+        const std::uint64_t* h = batch_.counters[j];
+        if (h[kBroken])
+          throw RunError("overlap_correct: step " + std::to_string(step) + ": the triangulation is corrupt (" +
+                         std::to_string(h[kBroken]) + " failed check(s): half-edge indices out of range, next "
+                         "pointers that are not a permutation, or the half-edges around a particle that do not "
+                         "form a closed fan); a delaunay stage before overlap_correct failed to keep it valid");
+        first_touches += h[kTouched];
+        if (!h[kBad]) {
+          done = true;
+          break;
+        }
+        if (iterations == p_.max_iterations) give_up(ctx, step, h[kBad], moved);
+        pairs += h[kPairs];
+        correction += double(h[kCorrection]) / kFixedOne * unit_;
+        ++iterations;
+      }
+    }
+    ctx.metrics.set("iterations", double(iterations));
+    ctx.metrics.set("pairs", double(pairs));
+    ctx.metrics.set("correction", correction);
+    if (p_.mark) {
+      ctx.metrics.set("touched", double(first_touches));
+      ctx.metrics.set("touched_fraction", double(first_touches) / double(ctx.state.n()));
+    }
+  }
+
   // The error path: find the worst pair on the host (fields are copied there) and stop.
   // `moved`: read back past its step (may_defer_past_step) after the next step moved the particles.
   [[noreturn]] void give_up(StepContext& ctx, std::uint64_t step, std::uint64_t bad, bool moved) {
