@@ -153,9 +153,7 @@ StepContext Scheduler::context(int i, CUstream_st* stream, std::uint64_t step, s
   StepContext ctx{state_of(i), slot.info, stats_, step, attempt, dt, time, backend_, stream, slot.rng, slot.metrics,
                  flag,   params, snapshot_undone_.size() > std::size_t(i) && snapshot_undone_[i] ? snapshot_ : nullptr};
   if (!graph_.nodes()[i].observer) ctx.ghosts = ghosts_;
-#ifdef FLIPFLOW_HAVE_CUDA
-  ctx.step_may_end_pending = step_may_end_pending_ && impl_->streams && !profiling_ && !graph_.nodes()[i].observer;
-#endif
+  ctx.step_may_end_pending = step_may_end_pending_ && !profiling_ && !graph_.nodes()[i].observer;
   return ctx;
 }
 

@@ -224,9 +224,10 @@ struct StepContext {
   bool may_defer_read_back() const { return snapshot == nullptr; }
   // Whether the stage may leave that read past the end of the step, to its next run() or to
   // settle_pending(), so that the next step's first kernels queue behind its own instead of
-  // behind a wait for the host: true on CUDA, alone (not in a team), when may_defer_read_back()
-  // and the core needs nothing of this step before the next one starts (no observer looks at
-  // it; not profiling). Its work must then end on the device without the host (a stage that may
+  // behind a wait for the host: true alone (not in a team) when may_defer_read_back() and the core
+  // needs nothing of this step before the next one starts (no observer looks at it; not
+  // profiling), on either backend (on the CPU there is no device to keep busy: a stage defers
+  // there only to be tested, tests/plugins/testing_plugin.cpp's testing.defer). Its work must then end on the device without the host (a stage that may
   // need more launches after reading its results cannot defer). The core has it settled before
   // anything looks at the step (Simulation::stats() and synchronize(), observers, checkpoints,
   // the end of the run), so readers of the metrics see the step's; errors are thrown there.

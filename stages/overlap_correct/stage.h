@@ -220,10 +220,10 @@ class OverlapCorrect final : public Stage {
     const Problem<R> prob{overlaps, x, img, PeriodicBox<R>::make(s.box.L), n, touched};
 
     loops_->start(prob, 0, p_.max_iterations, batch_, st);
-    // When one call of the loop runs every gather the correction can need (the device's launch,
-    // max_iterations below kDeviceBatch), nothing after this step depends on its read: it may wait
-    // past the step (the next step's kernels queue behind this one's instead of behind the host).
-    if (ctx.may_defer_past_step() && p_.max_iterations < loops_->max_gathers()) {
+    // When one call of the device's loop runs every gather the correction can need (max_iterations
+    // below kDeviceBatch), nothing after this step depends on its read: it may wait past the step
+    // (the next step's kernels queue behind this one's instead of behind the host).
+    if (where_ == Where::device && ctx.may_defer_past_step() && p_.max_iterations < loops_->max_gathers()) {
       pending_ = true;
       pending_step_ = ctx.host_params.step;
       return Outcome::ok();

@@ -4,6 +4,7 @@
 #include <atomic>
 #include <chrono>
 #include <cmath>
+#include <string>
 #include <thread>
 #include <type_traits>
 #include <vector>
@@ -250,6 +251,60 @@ class Drift final : public Stage {
   std::vector<double> edge_;
 };
 
+// testing.defer: a stage that leaves its result past the step whenever the core allows it
+// (StepContext::may_defer_past_step), as overlap_correct does on CUDA. Metrics: `step`, the step
+// its last settled result belongs to (set where it settles); `deferred`, 1 when this step's run
+// left its result pending, else 0; `settled_in_run`, how many pending results its run() settled
+// (cumulative). With fail_at ≥ 0 the result of that step reports an error when it is settled.
+class Defer final : public Stage {
+ public:
+  explicit Defer(const ParamValues& v) : fail_at_(v.integer("fail_at")) {}
+  std::vector<Access> accesses() const override { return {{fields::position, Where::host, Mode::read}}; }
+  Outcome run(StepContext& ctx) override {
+    if (pending_) ++settled_in_run_;
+    settle_pending(ctx);
+    ctx.metrics.set("settled_in_run", double(settled_in_run_));
+    const bool defer = ctx.may_defer_past_step();
+    ctx.metrics.set("deferred", defer ? 1.0 : 0.0);
+    if (defer) {
+      pending_ = true;
+      pending_step_ = ctx.host_params.step;
+    } else {
+      read(ctx, ctx.host_params.step);
+    }
+    return Outcome::ok();
+  }
+  void settle_pending(StepContext& ctx) override {
+    if (!pending_) return;
+    pending_ = false;
+    read(ctx, pending_step_);
+  }
+
+ private:
+  void read(StepContext& ctx, std::uint64_t step) const {
+    if (fail_at_ >= 0 && step == std::uint64_t(fail_at_))
+      throw RunError("testing.defer: the result of step " + std::to_string(step) + " reports an error");
+    ctx.metrics.set("step", double(step));
+  }
+  std::int64_t fail_at_;
+  bool pending_ = false;
+  std::uint64_t pending_step_ = 0;
+  std::int64_t settled_in_run_ = 0;
+};
+
+// testing.watch (an observer): metric `seen` = what RunStats held for testing.defer/step when it
+// ran (-1: nothing), so a test can check observers see the step's settled metrics.
+class Watch final : public Stage {
+ public:
+  explicit Watch(const ParamValues&) {}
+  std::vector<Access> accesses() const override { return {}; }
+  Outcome run(StepContext& ctx) override {
+    const auto it = ctx.stats.metrics.find("testing.defer/step");
+    ctx.metrics.set("seen", it == ctx.stats.metrics.end() ? -1.0 : it->second);
+    return Outcome::ok();
+  }
+};
+
 template <class S>
 StageFactory factory() {
   return [](const ParamValues& v, const RunInfo& info) {
@@ -302,6 +357,12 @@ void register_testing(Registry& r) {
                         "[a, b]: particles 0-3 in two pairs across x = L/2 and x = 0 (empty: as they are)"}},
              {2, 3}, false});
   r.implement("testing.drift", Backend::cpu, factory<Drift>());
+  r.declare({"testing.defer", "leaves its result past the step when the core allows it (tests only)",
+             {ParamSpec::integer("fail_at", -1, "the step whose result reports an error (-1: none)").at_least(-1)},
+             {2, 3}, false});
+  r.implement("testing.defer", Backend::cpu, factory<Defer>());
+  r.declare({"testing.watch", "records what an observer sees of testing.defer's metric (tests only)", {}, {2, 3}, true});
+  r.implement("testing.watch", Backend::cpu, factory<Watch>());
 }
 
 }  // namespace
