@@ -18,15 +18,9 @@ using namespace ff;
 using Catch::Matchers::Contains;
 using ff::test::dry;
 using ff::test::entry;
+using ff::test::metric;
 
 namespace {
-
-double metric(const Simulation& sim, const std::string& key) {
-  const auto& m = sim.stats().metrics;
-  const auto it = m.find(key);
-  REQUIRE(it != m.end());
-  return it->second;
-}
 
 const StageSlot& slot(const Simulation& sim, const std::string& id) {
   for (const StageSlot& s : sim.slots())

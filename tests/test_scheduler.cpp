@@ -14,14 +14,7 @@ using namespace ff;
 using ff::test::dry;
 using ff::test::entry;
 using ff::test::EntryOptions;
-
-namespace {
-double metric(const Simulation& s, const std::string& key) {
-  auto it = s.stats().metrics.find(key);
-  REQUIRE(it != s.stats().metrics.end());
-  return it->second;
-}
-}  // namespace
+using ff::test::metric;
 
 TEST_CASE("independent stages run concurrently", "[scheduler]") {
   tbb::global_control threads(tbb::global_control::max_allowed_parallelism, 4);

@@ -1,5 +1,7 @@
 // Build PipelineSpecs in tests without YAML.
 #pragma once
+#include <catch2/catch.hpp>
+
 #include <map>
 #include <string>
 #include <vector>
@@ -53,6 +55,14 @@ inline PipelineSpec spec(int dim, std::uint64_t n, double packing_fraction, std:
   s.run.precision = p;
   s.step = std::move(step);
   return s;
+}
+
+// A metric the last step reported ("stage_id/name"); the test fails if there is none.
+inline double metric(const Simulation& sim, const std::string& key) {
+  const auto& m = sim.stats().metrics;
+  const auto it = m.find(key);
+  REQUIRE(it != m.end());
+  return it->second;
 }
 
 }  // namespace ff::test
