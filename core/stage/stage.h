@@ -227,8 +227,9 @@ struct StepContext {
   // behind a wait for the host: true alone (not in a team) when may_defer_read_back() and the core
   // needs nothing of this step before the next one starts (no observer looks at it; not
   // profiling), on either backend (on the CPU there is no device to keep busy: a stage defers
-  // there only to be tested, tests/plugins/testing_plugin.cpp's testing.defer). Its work must then end on the device without the host (a stage that may
-  // need more launches after reading its results cannot defer). The core has it settled before
+  // there only to be tested, tests/plugins/testing_plugin.cpp's testing.defer). Its work must
+  // then end without the host (a stage that may need more launches after reading its results
+  // cannot defer). The core has it settled before
   // anything looks at the step (Simulation::stats() and synchronize(), observers, checkpoints,
   // the end of the run), so readers of the metrics see the step's; errors are thrown there.
   bool may_defer_past_step() const { return may_defer_read_back() && step_may_end_pending; }
