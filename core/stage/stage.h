@@ -229,9 +229,9 @@ struct StepContext {
   // profiling), on either backend (on the CPU there is no device to keep busy: a stage defers
   // there only to be tested, tests/plugins/testing_plugin.cpp's testing.defer). Its work must
   // then end without the host (a stage that may need more launches after reading its results
-  // cannot defer). The core has it settled before
-  // anything looks at the step (Simulation::stats() and synchronize(), observers, checkpoints,
-  // the end of the run), so readers of the metrics see the step's; errors are thrown there.
+  // cannot defer). The core has it settled before anything looks at the step (Simulation::stats()
+  // and synchronize(), observers, checkpoints, the end of the run), so readers of the metrics see
+  // the step's; errors are thrown there.
   bool may_defer_past_step() const { return may_defer_read_back() && step_may_end_pending; }
   // Set by the core (see may_defer_past_step).
   bool step_may_end_pending = false;
