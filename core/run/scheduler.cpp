@@ -37,6 +37,16 @@ struct Scheduler::Impl {
   std::uint64_t steps_run = 0;  // the first runs without the graph, settling every field
   std::vector<int> after_replay;  // compute stages whose after_step runs on replayed steps too (Stage::after_step)
 #endif
+  // Device decisions (StepContext::gate): the decider's node (-1: none), the compute nodes after
+  // it in the chain (each follows the gate), and the gate word (device memory on CUDA, else
+  // host_gate). Per attempt: whether the decider set the gate, and the position in `followers`
+  // of the first follower that refused it (-1: none).
+  int decider = -1;
+  std::vector<int> followers;
+  unsigned* gate = nullptr;
+  unsigned host_gate = 0;
+  bool gate_set = false;
+  int refused_at = -1;
   // Per-attempt parameters read by the node bodies; `params` is their host copy (ctx.params
   // on the CPU).
   std::uint64_t step = 0;
@@ -68,6 +78,27 @@ Scheduler::Scheduler(const StepGraph& graph, std::vector<StageSlot>& slots, Stat
     // launch of the next step.)
     if (any_reads_params || impl_->capturable) impl_->device_params = std::make_unique<DeviceStepParams>();
   }
+#endif
+  // A decider every compute stage after which follows its gate (a chain only: in a branched step
+  // the stages after it could run before its run() returns, and on other streams).
+  if (impl_->chain) {
+    for (std::size_t k = 0; k < impl_->compute.size(); ++k) {
+      if (!slots[impl_->compute[k]].stage->scheduling().decides_on_device) continue;
+      impl_->decider = impl_->compute[k];
+      for (std::size_t j = k + 1; j < impl_->compute.size(); ++j) {
+        if (!slots[impl_->compute[j]].stage->scheduling().follows_gate) {
+          impl_->decider = -1;
+          impl_->followers.clear();
+          break;
+        }
+        impl_->followers.push_back(impl_->compute[j]);
+      }
+      break;
+    }
+  }
+  impl_->gate = &impl_->host_gate;
+#ifdef FLIPFLOW_HAVE_CUDA
+  if (impl_->streams) impl_->gate = impl_->streams->gate();
 #endif
   // The flow graph is built even for a chain (it is what `graph` prints and what a branch
   // needs); a chain is simply run in order on the calling thread, which is the same schedule
@@ -119,6 +150,12 @@ void Scheduler::run_node(int i, std::uint64_t step, std::uint32_t attempt, doubl
     StepContext ctx = context(i, stream, step, attempt, dt, time);
     const auto t0 = std::chrono::steady_clock::now();
     slot.outcome = slot.stage->run(ctx);
+    if (ctx.gate && i == impl_->decider) {
+      impl_->gate_set = ctx.gate_set;
+    } else if (ctx.gate && ctx.gate_refused && impl_->refused_at < 0) {
+      close_gate(stream);
+      impl_->refused_at = int(std::find(impl_->followers.begin(), impl_->followers.end(), i) - impl_->followers.begin());
+    }
 #ifdef FLIPFLOW_HAVE_CUDA
     if (profiling_ && stream) impl_->streams->synchronize();
 #endif
@@ -154,6 +191,10 @@ StepContext Scheduler::context(int i, CUstream_st* stream, std::uint64_t step, s
                  flag,   params, snapshot_undone_.size() > std::size_t(i) && snapshot_undone_[i] ? snapshot_ : nullptr};
   if (!graph_.nodes()[i].observer) ctx.ghosts = ghosts_;
   ctx.step_may_end_pending = step_may_end_pending_ && !profiling_ && !graph_.nodes()[i].observer;
+  if (i == impl_->decider ? gating_offered()
+                          : impl_->gate_set && std::find(impl_->followers.begin(), impl_->followers.end(), i) !=
+                                                   impl_->followers.end())
+    ctx.gate = impl_->gate;
   return ctx;
 }
 
@@ -183,6 +224,7 @@ std::optional<RollbackRequest> Scheduler::run_compute(std::uint64_t step, std::u
     if (impl_->streams) impl_->streams->begin_attempt();
 #endif
     enqueue_compute();
+    if (!error_) resolve_gate();
 #ifdef FLIPFLOW_HAVE_CUDA
     if (impl_->streams) ++impl_->steps_run;
 #endif
@@ -263,6 +305,61 @@ double Scheduler::reported_dt_limit() const {
   for (int i : impl_->compute)
     if (slots_[i].ran) limit = std::min(limit, slots_[i].outcome.dt_limit);
   return limit;
+}
+
+bool Scheduler::has_device_decider() const { return impl_->decider >= 0; }
+
+bool Scheduler::gating_offered() const {
+  return device_decisions_ && impl_->decider >= 0 && !profiling_ && !in_team(team_) && !ghosts_;
+}
+
+void Scheduler::close_gate(CUstream_st* stream) {
+#ifdef FLIPFLOW_HAVE_CUDA
+  if (impl_->gate != &impl_->host_gate) {
+    FF_CUDA_CHECK(cudaMemsetAsync(impl_->gate, 1, sizeof(unsigned), stream), "closing the gate");
+    return;
+  }
+#endif
+  (void)stream;
+  impl_->host_gate = 1;
+}
+
+void Scheduler::resolve_gate() {
+  auto& im = *impl_;
+  if (!im.gate_set) {
+    im.refused_at = -1;
+    return;
+  }
+  const int d = im.decider;
+  StageSlot& slot = slots_[d];
+  Stage::Decision decision;
+  try {
+    CUstream_st* stream = nullptr;
+#ifdef FLIPFLOW_HAVE_CUDA
+    if (im.streams) stream = im.streams->stream(d);
+#endif
+    StepContext ctx = context(d, stream, im.step, im.attempt, im.dt, im.time);
+    const auto t0 = std::chrono::steady_clock::now();
+    decision = slot.stage->decide(ctx);
+    slot.seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  } catch (...) {
+    error_ = std::current_exception();
+    has_error_.store(true);
+    im.gate_set = false;
+    im.refused_at = -1;
+    return;
+  }
+  im.gate_set = false;  // the followers run again without it
+  slot.outcome = decision.outcome;
+  const int from = decision.open ? im.refused_at : 0;
+  im.refused_at = -1;
+  if (slot.outcome.rollback || slot.outcome.dt_limit < im.dt) {
+    abort_.store(true);
+    return;
+  }
+  if (from < 0) return;
+  for (std::size_t k = std::size_t(from); k < im.followers.size(); ++k)
+    run_node(im.followers[k], im.step, im.attempt, im.dt, im.time);
 }
 
 void Scheduler::enqueue_compute() {

@@ -65,6 +65,12 @@ class Scheduler {
   void set_step_may_end_pending(bool on) { step_may_end_pending_ = on; }
   // Has every compute stage read back what it left pending (Stage::settle_pending).
   void settle_pending();
+  // Whether a stage may leave its host decision to the device (StepContext::gate) when the
+  // pipeline allows it (a chain, a decider whose followers all follow the gate, not profiling,
+  // alone); on by default.
+  void set_device_decisions(bool on) { device_decisions_ = on; }
+  // Whether the pipeline has a decider every compute stage after which follows its gate.
+  bool has_device_decider() const;
   CUstream_st* main_stream() const;
   // Profiling: wait for each stage's device work before stopping its clock, so per-stage
   // times are real on CUDA (serializes streams; `pipeline bench` reports both ways).
@@ -105,6 +111,13 @@ class Scheduler {
   StepContext context(int node, CUstream_st* stream, std::uint64_t step, std::uint32_t attempt, double dt,
                       double time);
   void enqueue_compute();  // run every compute stage once (flow graph, or in order for a chain)
+  // After a chain whose decider left its decision to the device: the host's decision
+  // (Stage::decide), then the followers again, without the gate, from the first that did
+  // nothing (all when the gate was closed, else from the first that refused it), unless the
+  // decision stops the attempt.
+  void resolve_gate();
+  bool gating_offered() const;  // the decider may set the gate in this attempt
+  void close_gate(CUstream_st* stream);  // a follower refused: the followers after it do nothing
   // The first stage that ran and limited Δt below `dt` (Outcome::limit_dt), if any.
   std::optional<RollbackRequest> exceeded_dt_limit(double dt) const;
   bool run_captured();     // CUDA: replay (capturing first if needed) the step graph
@@ -126,6 +139,7 @@ class Scheduler {
   bool profiling_ = false;
   bool graph_capture_ = true;
   bool step_may_end_pending_ = false;
+  bool device_decisions_ = true;
   std::atomic<bool> abort_{false};
   std::exception_ptr error_;
   std::atomic<bool> has_error_{false};

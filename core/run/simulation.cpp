@@ -86,6 +86,8 @@ void Simulation::build(const Registry& registry) {
   // --in-process`). The same bits, launched directly.
   if (in_team(options_.team)) scheduler_->set_graph_capture(false);
   if (const char* e = std::getenv("FLIPFLOW_DEFERRED_READS")) deferred_reads_ = std::string(e) != "0";
+  // Device decisions (StepContext::gate): on unless FLIPFLOW_DEVICE_DECISIONS=0 (A/B runs and tests).
+  if (const char* e = std::getenv("FLIPFLOW_DEVICE_DECISIONS")) scheduler_->set_device_decisions(std::string(e) != "0");
   dt_ = std::make_unique<DtController>(spec_.run.dt, spec_.run.dt_min, spec_.run.dt_grow_after);
   stats_.dt = spec_.run.dt;
 

@@ -13,6 +13,7 @@
 #include <utility>
 #include <vector>
 
+#include "core/base/error.h"
 #include "core/backend/field.h"
 #include "core/stage/params.h"
 #include "core/physics/rng.h"
@@ -236,6 +237,24 @@ struct StepContext {
   // Set by the core (see may_defer_past_step).
   bool step_may_end_pending = false;
 
+  // Device decisions (Scheduling::decides_on_device and follows_gate): on CUDA, in a chain of
+  // stages, alone, a stage whose host decision is nearly always "go on" may leave it to its kernels,
+  // so the stages after it launch theirs before the host has read anything (no wait for the
+  // device in the step). `gate` is a device word the core keeps:
+  //  - the decider sees it non-null when it may decide so in this attempt. A run() that does
+  //    launches kernels that write *gate (0: the common case, the stages after it may go on;
+  //    non-zero: the host must decide), sets gate_set and returns Outcome::ok() without waiting
+  //    for the device; the core calls its decide() once the rest of the chain is enqueued.
+  //  - a follower sees it non-null when the decider set it in this attempt. Its kernels read
+  //    *gate, and while it is non-zero change no field and leave the stage's own device state as
+  //    after a run with nothing to do; the core then runs the follower again without the gate in
+  //    the same attempt, after the host's decision. A follower that cannot follow in this
+  //    attempt (what it needs is not there) sets gate_refused before launching anything: the core
+  //    closes the gate, so the stages after it do nothing either, and runs it and them again.
+  unsigned* gate = nullptr;
+  bool gate_set = false;      // (the decider's answer)
+  bool gate_refused = false;  // (a follower's answer)
+
   // Call before first writing a field declared with Access::on_demand in this step: the
   // rollback snapshot takes its copy now (once per step; a no-op when nothing can roll back the
   // write). Stream-ordered on `stream`.
@@ -341,6 +360,12 @@ struct Scheduling {
   // (stages/delaunay/common/slab.h: global coordinates with a gap). Their particle.id is
   // kFillId; no stage moves them and no one owns them.
   bool fills_gap = false;
+  // On CUDA the stage may leave its host decision to its kernels (StepContext::gate) and take it
+  // in decide(). The core offers it in a chain whose every compute stage after this one
+  // follows_gate, alone, when not profiling; FLIPFLOW_DEVICE_DECISIONS=0 turns it off.
+  bool decides_on_device = false;
+  // The stage launches its work gated on a decider's device decision (StepContext::gate).
+  bool follows_gate = false;
   // Not a hint but the core's answer, per attempt: whether a stage may defer reading its results
   // back to after_step is StepContext::may_defer_read_back().
 };
@@ -372,6 +397,20 @@ class Stage {
   // compute stage where it needs the results (a no-op without a pending read); the stage's next
   // run() must settle first too.
   virtual void settle_pending(StepContext& ctx) { (void)ctx; }
+  // Scheduling::decides_on_device: the host's decision of an attempt whose run() left it to the
+  // device (StepContext::gate_set), called once the stages after it are enqueued, with the same
+  // context run() had. Waits for what its kernels found, sets the metrics and decides as run()
+  // would have: `open` says whether its kernels opened the gate (then the outcome is ok and the
+  // followers' gated work stands), the outcome what the step does (a rollback, or ok: with the
+  // gate closed the core then runs the followers again).
+  struct Decision {
+    bool open = false;
+    Outcome outcome;
+  };
+  virtual Decision decide(StepContext& ctx) {
+    (void)ctx;
+    throw RunError("a stage set StepContext::gate_set without overriding Stage::decide");
+  }
   // Once, after the last step or when the run stops early: flush and close outputs.
   virtual void finish(State& state, bool completed) { (void)state; (void)completed; }
   // Files this stage will create (relative to out_dir): checked before anything is written.

@@ -323,6 +323,12 @@ __device__ u64 slot_total(const u64* slots, int j, int q) {
   return s;
 }
 
+// Whether the launch belongs to an attempt decided on the device whose gate is closed (Problem::gate).
+template <class R>
+__device__ bool gate_closed(const Problem<R>& p) {
+  return p.gate && *static_cast<const volatile unsigned*>(p.gate) != 0;
+}
+
 __device__ u64 warp_sum(u64 x) {
 #pragma unroll
   for (int o = 16; o > 0; o >>= 1) x += __shfl_down_sync(0xffffffffu, x, o);
@@ -363,6 +369,12 @@ __global__ void __launch_bounds__(Threads, MinBlocks) correct_kernel(Args<R, Wal
   for (long long w = blockIdx.x * Threads + threadIdx.x; w < a.next_zero; w += (long long)gridDim.x * Threads)
     a.next_slots[w] = 0;
   if (blockIdx.x == 0 && threadIdx.x == 0) a.next_slots[kSlotWords] = 0;  // the claims count
+  // A closed gate (Problem::gate): one gather that found nothing, and no move.
+  if (gate_closed(a.p)) {
+    if (blockIdx.x == 0 && threadIdx.x < kCounters) a.result[threadIdx.x] = 0;
+    if (blockIdx.x == 0 && threadIdx.x == 0) a.result[std::size_t(kDeviceBatch) * kCounters] = 1;
+    return;
+  }
 
   // The batch's iterations before j0 ran in the wide kernels (run_wide): their sums are in the
   // slots. Block 0 reports them, and every block stops where one of them did not go on (then its

@@ -74,6 +74,10 @@ struct Problem {
   PeriodicBox<R> box;
   std::size_t n;
   std::uint8_t* touched = nullptr;  // the touched field (mark: true), else null
+  // The device only: an attempt decided on the device (StepContext::gate). While *gate is
+  // non-zero the launch moves nothing and reports one gather that found nothing (the
+  // correction ends at iteration 0).
+  const unsigned* gate = nullptr;
 };
 
 // overlap_correct's parameters: the corrections' (params.h) and the diameter-ratio check.
@@ -177,11 +181,13 @@ class OverlapCorrect final : public Stage {
   // In a decomposed team each rank corrects its owned particles from their stars in its own
   // triangulation (exact: common/team.h's band condition, checked here for the triangulation
   // Lawson left), reading the ghosts' positions, which every iteration's exchange keeps current.
+  // On the device it follows a decider's gate (StepContext::gate; Problem::gate).
   Scheduling scheduling() const override {
     Scheduling sch;
     sch.team = TeamWork::decomposed;
     sch.reads_ghosts = true;
     sch.communicates = true;
+    sch.follows_gate = where_ == Where::device;
     return sch;
   }
 
@@ -217,7 +223,7 @@ class OverlapCorrect final : public Stage {
                                      diam_.max * diam_.max,
                                      wall_axis_ >= 0 ? img : nullptr};
     std::uint8_t* touched = p_.mark ? s.field(touched_field).data<std::uint8_t>(ctx) : nullptr;
-    const Problem<R> prob{overlaps, x, img, PeriodicBox<R>::make(s.box.L), n, touched};
+    const Problem<R> prob{overlaps, x, img, PeriodicBox<R>::make(s.box.L), n, touched, ctx.gate};
 
     loops_->start(prob, 0, p_.max_iterations, batch_, st);
     // When one call of the device's loop runs every gather the correction can need (max_iterations

@@ -58,7 +58,7 @@ __global__ void __launch_bounds__(Threads, MinBlocks) wide_gather(Args<R, Walls>
   constexpr int kWarps = Threads / 32;
   __shared__ u64 s_red[kAll][kWarps];
   __shared__ u64 s_tot[kAll];
-  if (j > 0 && !went_on<Mark>(a, j - 1, s_tot)) return;
+  if (j > 0 ? !went_on<Mark>(a, j - 1, s_tot) : gate_closed(a.p)) return;  // (then its slot stays zero: nothing went on)
   const Overlaps<R, Walls>& ov = a.ov;
   const long long k = a.k0 + j;
   const bool first = k == 0;

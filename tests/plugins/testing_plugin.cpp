@@ -305,6 +305,94 @@ class Watch final : public Stage {
   }
 };
 
+bool listed(const std::vector<double>& steps, std::uint64_t step) {
+  for (double s : steps)
+    if (std::uint64_t(s) == step) return true;
+  return false;
+}
+
+// testing.decide: a decider (Scheduling::decides_on_device), as delaunay.detect_inversion is on
+// CUDA. Offered the gate it "launches" its decision (on the CPU the gate is a host word: it
+// writes it in run()) and leaves the host's decision to decide(). The gate closes on the
+// `closed` steps and on the `rollback` steps, where the decision (attempt 0 only) is a rollback;
+// with fail_at ≥ 0 decide() throws at that step. Metrics: `gated` (1: this attempt left its
+// decision to the device), `decided` (calls of decide(), cumulative).
+class Decide final : public Stage {
+ public:
+  explicit Decide(const ParamValues& v)
+      : closed_(v.reals("closed")), rollback_(v.reals("rollback")), fail_at_(v.integer("fail_at")) {}
+  std::vector<Access> accesses() const override { return {{fields::position, Where::host, Mode::read}}; }
+  Scheduling scheduling() const override {
+    Scheduling s{true, false, false, false};
+    s.decides_on_device = true;
+    return s;
+  }
+  Outcome run(StepContext& ctx) override {
+    ctx.metrics.set("gated", ctx.gate ? 1.0 : 0.0);
+    ctx.metrics.set("decided", double(decided_));
+    if (!ctx.gate) return outcome(ctx);
+    *ctx.gate = open(ctx) ? 0u : 1u;
+    ctx.gate_set = true;
+    return Outcome::ok();
+  }
+  Decision decide(StepContext& ctx) override {
+    ++decided_;
+    ctx.metrics.set("decided", double(decided_));
+    if (fail_at_ >= 0 && ctx.host_params.step == std::uint64_t(fail_at_))
+      throw RunError("testing.decide: the decision of step " + std::to_string(fail_at_) + " reports an error");
+    return {open(ctx), outcome(ctx)};
+  }
+
+ private:
+  bool rolls_back(const StepContext& ctx) const {
+    return ctx.host_params.attempt == 0 && listed(rollback_, ctx.host_params.step);
+  }
+  bool open(const StepContext& ctx) const { return !listed(closed_, ctx.host_params.step) && !rolls_back(ctx); }
+  Outcome outcome(const StepContext& ctx) const {
+    return rolls_back(ctx) ? Outcome::request_rollback("testing.decide asked for it") : Outcome::ok();
+  }
+  std::vector<double> closed_, rollback_;
+  std::int64_t fail_at_;
+  std::int64_t decided_ = 0;
+};
+
+// testing.follow: a follower of the gate (Scheduling::follows_gate unless follows: false), as
+// delaunay.lawson and overlap_correct are on CUDA. It adds 1 to its field (`field`, f64, one
+// element) per run, unless the gate it was given is closed (its "kernels" read the host word
+// when it runs); on the `refuse` steps it refuses a gate. Metrics: `runs` (cumulative),
+// `gated` (1: this run had the gate), `value` (its field after the run).
+class Follow final : public Stage {
+ public:
+  explicit Follow(const ParamValues& v)
+      : field_(v.string("field")), refuse_(v.reals("refuse")), follows_(v.boolean("follows")) {}
+  std::vector<Access> accesses() const override { return {{field_, Where::host, Mode::readwrite}}; }
+  void configure(State& s) override { s.add_field(field_, DType::f64, 1, 1); }
+  Scheduling scheduling() const override {
+    Scheduling s;
+    s.follows_gate = follows_;
+    return s;
+  }
+  Outcome run(StepContext& ctx) override {
+    ++runs_;
+    ctx.metrics.set("runs", double(runs_));
+    ctx.metrics.set("gated", ctx.gate ? 1.0 : 0.0);
+    double& x = ctx.state.field(field_).host<double>()[0];
+    if (ctx.gate && listed(refuse_, ctx.host_params.step)) {
+      ctx.gate_refused = true;
+    } else if (!ctx.gate || *ctx.gate == 0) {
+      x += 1;
+    }
+    ctx.metrics.set("value", x);
+    return Outcome::ok();
+  }
+
+ private:
+  std::string field_;
+  std::vector<double> refuse_;
+  bool follows_;
+  std::int64_t runs_ = 0;
+};
+
 template <class S>
 StageFactory factory() {
   return [](const ParamValues& v, const RunInfo& info) {
@@ -363,6 +451,21 @@ void register_testing(Registry& r) {
   r.implement("testing.defer", Backend::cpu, factory<Defer>());
   r.declare({"testing.watch", "records what an observer sees of testing.defer's metric (tests only)", {}, {2, 3}, true});
   r.implement("testing.watch", Backend::cpu, factory<Watch>());
+  const auto steps = [](const char* name, const char* what) {
+    return ParamSpec{name, ParamType::real_list, ParamValue(std::vector<double>{}), {}, {}, false, {}, what};
+  };
+  r.declare({"testing.decide", "leaves its decision to the device when the core allows it (tests only)",
+             {steps("closed", "steps whose gate closes"),
+              steps("rollback", "steps whose decision is a rollback (attempt 0)"),
+              ParamSpec::integer("fail_at", -1, "the step whose decision throws (-1: none)").at_least(-1)},
+             {2, 3}, false});
+  r.implement("testing.decide", Backend::cpu, factory<Decide>());
+  r.declare({"testing.follow", "adds 1 to its field unless its gate is closed (tests only)",
+             {ParamSpec::string("field", std::string("testing.follow"), "the field it adds to"),
+              steps("refuse", "steps on which it refuses the gate"),
+              ParamSpec::boolean("follows", true, "declare Scheduling::follows_gate")},
+             {2, 3}, false});
+  r.implement("testing.follow", Backend::cpu, factory<Follow>());
 }
 
 }  // namespace

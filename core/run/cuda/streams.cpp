@@ -34,6 +34,8 @@ StreamSet::StreamSet(const StepGraph& graph, bool device_flags) : graph_(graph),
   FF_CUDA_CHECK(cudaMalloc(&flags_, bytes), "allocating rollback flags");
   FF_CUDA_CHECK(cudaMallocHost(&host_flags_, bytes), "allocating pinned rollback flags");
   FF_CUDA_CHECK(cudaMemsetAsync(flags_, 0, bytes, main()), "zeroing rollback flags");
+  FF_CUDA_CHECK(cudaMalloc(&gate_, sizeof(unsigned)), "allocating the gate");
+  FF_CUDA_CHECK(cudaMemsetAsync(gate_, 0, sizeof(unsigned), main()), "zeroing the gate");
 }
 
 StreamSet::~StreamSet() {
@@ -42,6 +44,7 @@ StreamSet::~StreamSet() {
   if (start_) cudaEventDestroy(start_);
   for (auto s : streams_) cudaStreamDestroy(s);
   cudaFree(flags_);
+  cudaFree(gate_);
   cudaFreeHost(host_flags_);
 }
 

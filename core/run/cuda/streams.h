@@ -28,6 +28,8 @@ class StreamSet {
   CUstream_st* main() const { return streams_.front(); }
   CUstream_st* stream(int node) const { return streams_[stream_of_[node]]; }
   DeviceRollbackFlag* rollback_flag(int node) const { return flags_ + node; }
+  // The device word of the step's device decision (StepContext::gate), zeroed once.
+  unsigned* gate() const { return gate_; }
 
   void begin_attempt();        // record the start event, zero the rollback flags
   void before(int node);       // make the node's stream wait for its predecessors
@@ -46,6 +48,7 @@ class StreamSet {
   cudaEvent_t start_ = nullptr;
   DeviceRollbackFlag* flags_ = nullptr;       // device, one per node
   DeviceRollbackFlag* host_flags_ = nullptr;  // pinned
+  unsigned* gate_ = nullptr;                  // device
 };
 
 }  // namespace ff

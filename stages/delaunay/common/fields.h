@@ -29,7 +29,18 @@ inline constexpr const char* status = "delaunay.status";
 // Delaunay (in-circle > 0, flip keeps both triangles positive), a superset of what
 // delaunay.lawson's first round would mark; valid while status kCandidates says so.
 inline constexpr const char* lawson_candidates = "delaunay.lawson_candidates";
+// i32, count 1: how many edges delaunay.lawson_candidates holds, written on the device by
+// detect_inversion's kernel when it decides the attempt there (StepContext::gate) for
+// delaunay.lawson's gated launch, which cannot wait for the host's status kCandidates.
+inline constexpr const char* lawson_candidate_count = "delaunay.lawson_candidate_count";
 }  // namespace fields
+
+// The most Lawson candidates a device-decided attempt leaves to delaunay.lawson's gated launch
+// (one pass of its tail kernel's block): more, and the host decides.
+inline constexpr unsigned kGatedCandidates = 1024;
+// status kCandidates in a device-decided attempt: the list is valid when detect_inversion's
+// kernel opened the gate, its length in lawson_candidate_count.
+inline constexpr std::int32_t kCandidatesOnDevice = -1;
 
 // Components of the `delaunay.status` field.
 enum Status : int {
@@ -39,7 +50,8 @@ enum Status : int {
   // is not locally Delaunay for the current topology and for the positions detect_inversion
   // saw (of version kPositionVersion*); 0 when no such list exists. detect_inversion sets it,
   // anything else that changes the topology (flip, build) clears it, delaunay.lawson consumes it
-  // (testing only those edges in its first round when the positions did not change since).
+  // (testing only those edges in its first round when the positions did not change since);
+  // kCandidatesOnDevice in an attempt detect_inversion decides on the device.
   kCandidates = 2,
   // Field::version() of `position` when detect_inversion filled the candidates (low, high 32
   // bits): delaunay.lawson uses the list only if nothing has written the positions since.

@@ -27,6 +27,7 @@ void add_topology_fields(State& s, const char* stage_name) {
   sized(fields::flip_mark, DType::u8, 1, edge_count(n));
   s.add_field(fields::status, DType::i32, kStatusSize, 1);
   sized(fields::lawson_candidates, DType::i32, 1, candidate_capacity(n));
+  s.add_field(fields::lawson_candidate_count, DType::i32, 1, 1);
 }
 
 std::int32_t* status(State& s) { return s.field(fields::status).host<std::int32_t>(); }

@@ -34,7 +34,15 @@ __global__ void __launch_bounds__(kMarkThreads, kMarkBlocks) mark_kernel(std::si
   __threadfence();
   if (atomicAdd(f.blocks_done, 1u) != gridDim.x - 1) return;
   __threadfence();
-  for (int k = 0; k < kInversionCounters; ++k) f.publish[k] = *static_cast<const volatile unsigned*>(f.counters + k);
+  unsigned c[kInversionCounters];
+  for (int k = 0; k < kInversionCounters; ++k) {
+    c[k] = *static_cast<const volatile unsigned*>(f.counters + k);
+    f.publish[k] = c[k];
+  }
+  if (f.gate) {
+    *f.candidate_count = std::int32_t(c[kCandidateCount]);
+    *f.gate = device_decision_open(c, f.capacity) ? 0u : 1u;
+  }
   *f.blocks_done = 0;  // for the next launch
 }
 

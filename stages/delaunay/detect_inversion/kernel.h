@@ -18,6 +18,7 @@
 #include <cstdint>
 
 #include "core/backend/atomics.h"
+#include "stages/delaunay/common/fields.h"
 #include "stages/delaunay/common/mesh.h"
 
 namespace ff::delaunay {
@@ -43,6 +44,15 @@ enum InversionCounter : int {
 // Start values of the counters: counts 0, the *_at slots ~0u (they keep a minimum).
 FF_HD void reset_inversion_counters(unsigned* c) {
   for (int k = 0; k < kInversionCounters; ++k) c[k] = k >= kThroughAt ? ~0u : 0u;
+}
+
+// Whether an attempt decided on the device goes on without the host (StepContext::gate open),
+// from the final counters: nothing inverted, marked, through each other, crossed twice or too
+// long, and every Lawson candidate listed (within `capacity`) and within kGatedCandidates.
+// The host's decision (DetectInversion::decide) is the same function of the same counters.
+FF_HD bool device_decision_open(const unsigned* c, unsigned capacity) {
+  return c[kInverted] == 0 && c[kMarked] == 0 && c[kThrough] == 0 && c[kTwice] == 0 && c[kUnrepairable] == 0 &&
+         c[kTooLong] == 0 && c[kCandidateCount] <= capacity && c[kCandidateCount] <= kGatedCandidates;
 }
 
 template <class R>
@@ -75,6 +85,11 @@ struct MarkInversions {
   // counts the blocks that finished.
   unsigned* publish = nullptr;
   unsigned* blocks_done = nullptr;
+  // With `publish`, in an attempt decided on the device (StepContext::gate): the last block
+  // also writes 0 to *gate when device_decision_open (else 1), and the candidates' count to
+  // *candidate_count (delaunay.lawson's gated launch reads both).
+  unsigned* gate = nullptr;
+  std::int32_t* candidate_count = nullptr;
 
   // The device loop: one edge per thread, each candidate appended on its own.
   FF_HD void operator()(std::size_t i) const {

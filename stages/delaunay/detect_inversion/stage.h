@@ -90,6 +90,7 @@ class DetectInversion final : public Stage {
             Access::on_demand_write(fields::position_prev, where_),
             Access::step_local_write(fields::flip_mark, where_),
             Access::step_local_write(fields::lawson_candidates, where_),
+            Access::step_local_write(fields::lawson_candidate_count, where_),
             {fields::status, Where::host, Mode::readwrite}};
   }
   void configure(State& s) override {
@@ -102,11 +103,13 @@ class DetectInversion final : public Stage {
       throw InputError("delaunay.detect_inversion: the slack " + std::to_string(slack_) +
                        " must be less than half the band " + std::to_string(band_));
   }
-  // Requests come from run(), after reading the counters. In a decomposed team the stage keeps
+  // Requests come from run(), after reading the counters, or, in an attempt it leaves to the
+  // device, from decide(). In a decomposed team the stage keeps
   // the rank's triangulation of its held particles (TeamWork::local), refreshes the ghosts'
   // positions the integrator moved, and agrees on its requests with the other ranks.
   Scheduling scheduling() const override {
     Scheduling sch{true, false, false, false};
+    sch.decides_on_device = where_ == Where::device;
     sch.team = TeamWork::local;
     sch.ghost_band = band_;
     sch.ghost_slack = slack_;
@@ -125,10 +128,24 @@ class DetectInversion final : public Stage {
     return run_alone(ctx);
   }
 
+  // An attempt whose run() left the decision to the device (StepContext::gate): wait for the
+  // marking's counters and decide as run() would have. The kernel opened the gate exactly when
+  // device_decision_open holds for these counters. Then delaunay.lawson's gated launch has
+  // consumed the candidates (status kCandidates 0), unless it refused the gate: then they stay
+  // for its run without it.
+  Decision decide(StepContext& ctx) override {
+    State& s = ctx.state;
+    const auto h = finish_inspect(ctx);
+    const bool open = device_decision_open(h.data(), unsigned(s.field(fields::lawson_candidates).count()));
+    const bool consumed = status(s)[kCandidates] != kCandidatesOnDevice;
+    Decision d{open, conclude(ctx, h, false, gated_inherited_)};
+    if (open && consumed) status(s)[kCandidates] = 0;
+    return d;
+  }
+
  private:
   Outcome run_alone(StepContext& ctx) {
     State& s = ctx.state;
-    CUstream_st* st = ctx.stream;
     // Whether the triangulation is the one this step started with: not when a stage before this
     // one (delaunay.build, or the first topology stage) built it in this step, which announces
     // position_prev (will_build), so the snapshot holds its step-start copy. Asked before this
@@ -142,9 +159,29 @@ class DetectInversion final : public Stage {
     // was valid when something is inverted: position_prev is then written after the counters
     // are read (by this stage when nothing is inverted, else by delaunay.flip).
     const bool substep = status(s)[kSubstep] != 0;
-    const bool passing = status(s)[kSubstep] == 2;  // flip's `passing: substep`
     status(s)[kPrevKept] = 0;
-    auto h = inspect(ctx, fresh, !substep);
+    // The device decides when the core offers it (the stages after this one launch gated on
+    // its answer, Scheduling::follows_gate) and the common case can hold: a triangulation
+    // inherited from the last step (none built now), no substeps, counters the marking's last
+    // block publishes. Its kernel writes the verdict and the candidates' count; decide() reads.
+    if (ctx.gate && where_ == Where::device && !fresh && !substep && edge_count(s.n()) > 0) {
+      launch_inspect(ctx, false, true, ctx.gate);
+      status(s)[kCandidates] = kCandidatesOnDevice;
+      set_position_version(status(s), s.field(ff::fields::position).version());
+      gated_inherited_ = inherited;
+      ctx.gate_set = true;
+      return Outcome::ok();
+    }
+    return conclude(ctx, inspect(ctx, fresh, !substep), fresh, inherited);
+  }
+
+  // The host's decision on the marking's counters `h` (run() after inspect, or decide()):
+  // metrics, a rollback request, or the status for delaunay.flip and delaunay.lawson.
+  Outcome conclude(StepContext& ctx, std::array<unsigned, kInversionCounters> h, bool fresh, bool inherited) {
+    State& s = ctx.state;
+    CUstream_st* st = ctx.stream;
+    const bool substep = status(s)[kSubstep] != 0;
+    const bool passing = status(s)[kSubstep] == 2;  // flip's `passing: substep`
     // A rollback helps only if this step broke the triangulation: retried with a smaller Δt,
     // the moves shrink toward the positions the step started from. When the triangulation is
     // already not valid for those (the previous step's overlap correction pushed a particle
@@ -229,6 +266,13 @@ class DetectInversion final : public Stage {
   // position_prev (nothing to judge against when the triangulation was just built). With
   // `copy`, leaves position_prev = position (the next step's reference).
   const std::array<unsigned, kInversionCounters>& inspect(StepContext& ctx, bool fresh, bool copy) {
+    launch_inspect(ctx, fresh, copy, nullptr);
+    return finish_inspect(ctx);
+  }
+
+  // inspect's launches; with `gate` (the device loop, counters published) the marking's last
+  // block also writes the device decision there (MarkInversions::gate).
+  void launch_inspect(StepContext& ctx, bool fresh, bool copy, unsigned* gate) {
     State& s = ctx.state;
     CUstream_st* st = ctx.stream;
     const Mesh m = mesh_view(s, where_);
@@ -263,6 +307,10 @@ class DetectInversion final : public Stage {
     if (publish) {
       f.publish = counters_.landing();
       f.blocks_done = blocks_done_.get(1);
+      if (gate) {
+        f.gate = gate;
+        f.candidate_count = s.field(fields::lawson_candidate_count).data<std::int32_t>(ctx);
+      }
     }
     loops_.mark(E, f, st);
     counters_.next_was_reset();
@@ -272,10 +320,19 @@ class DetectInversion final : public Stage {
     // (on CUDA the launches that follow this stage queue behind the copy instead of a gap).
     // Every outcome either keeps it or rolls the step back, which restores the old one.
     if (copy) copy_prev(ctx);
+  }
+
+  // inspect's read: waits for the counters (and runs the check of inverted triangles).
+  const std::array<unsigned, kInversionCounters>& finish_inspect(StepContext& ctx) {
+    State& s = ctx.state;
+    CUstream_st* st = ctx.stream;
     const auto& h = counters_.finish_read();
     throw_if_too_long(s, where_, mem_, h[kTooLong], h[kTooLongAt], st, "delaunay.detect_inversion");
     if (h[kInverted]) {
-      loops_.check(halfedge_count(s.n()), CheckInverted<R>{m, pts, mark, c}, st);
+      loops_.check(halfedge_count(s.n()),
+                   CheckInverted<R>{mesh_view(s, where_), points_view<R>(s, ff::fields::position, where_),
+                                    s.field(fields::flip_mark).data<std::uint8_t>(ctx), counters_.ptr()},
+                   st);
       return counters_.read(st);
     }
     return h;
@@ -436,6 +493,7 @@ class DetectInversion final : public Stage {
   Communicator* team_;  // a decomposed team's rank; null alone
   double band_ = 0, slack_ = 0;
   std::uint64_t built_for_ = ~std::uint64_t(0);  // particles_version of the last accepted step's triangulation
+  bool gated_inherited_ = false;  // a device-decided attempt: whether its triangulation was inherited (decide)
   Where where_;
   DetectInversionLoops<R> loops_;
   const MemoryOps& mem_;

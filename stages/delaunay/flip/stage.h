@@ -117,9 +117,12 @@ class Flip final : public Stage {
     status(s)[kSubstep] = substep_ ? (passing_ ? 2 : 1) : 0;
   }
   // Requests come from run(), after reading the counters. In a decomposed team: the rank's own
-  // triangulation (TeamWork::local), requests agreed with the other ranks.
+  // triangulation (TeamWork::local), requests agreed with the other ranks. In an attempt
+  // delaunay.detect_inversion decides on the device (StepContext::gate) the stage launches
+  // nothing: the gate opens only when nothing is left to repair.
   Scheduling scheduling() const override {
     Scheduling sch{true, false, false, false};
+    sch.follows_gate = true;
     sch.team = TeamWork::local;
     sch.communicates = true;
     return sch;
@@ -133,6 +136,7 @@ class Flip final : public Stage {
     ctx.metrics.set("flips", 0);
     ctx.metrics.set("flip_rounds", 0);
     if (substep_) ctx.metrics.set("substeps", 0);
+    if (ctx.gate) return Outcome::ok();  // repairs only ever follow a closed gate (then without it)
     // kPrevKept: detect_inversion (substep mode) found something inverted and left
     // position_prev at the positions where the triangulation was valid.
     const bool kept = status(s)[kPrevKept] != 0;

@@ -20,18 +20,25 @@ __device__ unsigned counter(const unsigned* p) { return *static_cast<const volat
 template <class R>
 __global__ void __launch_bounds__(kTailThreads) tail_kernel(LawsonTail<R> t) {
   __shared__ unsigned sc[kLawsonCounters];
+  __shared__ unsigned s_first;
   unsigned* c = t.counters;
   if (threadIdx.x == 0) {
     reset_lawson_counters(sc);
-    // The marks of round t.round: the grid's, or this block's own (below).
-    if (!t.first_count) sc[kLawsonMarked] = counter(c + kLawsonMarked);
+    unsigned first = t.first_count;
+    if (t.gate) {  // a device-decided attempt: nothing to test while the gate is closed
+      first = *static_cast<const volatile unsigned*>(t.gate) ? 0u : unsigned(*t.first_count_at);
+      if (!first) reset_lawson_counters(t.first_reset_next);  // (else round 0's element 0 does)
+    } else if (!first) {
+      sc[kLawsonMarked] = counter(c + kLawsonMarked);  // the marks of round t.round: the grid's
+    }
+    s_first = first;
   }
   __syncthreads();
-  if (t.first_count) {  // round 0 in this block: the grid loop's MarkNonDelaunay, counting in sc
-    MarkNonDelaunay<R> mark{t.mesh, t.pts, t.tol, t.first_list, nullptr, t.marked, t.round, t.marked_list, sc,
-                            t.first_count};
+  const unsigned first = s_first;
+  if (first) {  // round 0 in this block: the grid loop's MarkNonDelaunay, counting in sc
+    MarkNonDelaunay<R> mark{t.mesh, t.pts, t.tol, t.first_list, nullptr, t.marked, t.round, t.marked_list, sc, first};
     mark.reset_next = t.first_reset_next;
-    for (unsigned i = threadIdx.x; i < t.first_count; i += kTailThreads) mark(i);
+    for (unsigned i = threadIdx.x; i < first; i += kTailThreads) mark(i);
     __syncthreads();
   }
   std::int32_t round = t.round;
@@ -74,6 +81,7 @@ __global__ void __launch_bounds__(kTailThreads) tail_kernel(LawsonTail<R> t) {
 }
 
 static_assert(kTailRound0 <= kTailThreads, "round 0 in the tail kernel is one pass of its block");
+static_assert(kGatedCandidates <= kTailRound0, "a gated launch's round 0 is one pass of the tail kernel's block");
 
 template <class R>
 void tail(const LawsonTail<R>& t, CUstream_st* stream) {

@@ -212,6 +212,11 @@ struct LawsonTail {
   const std::int32_t* first_list = nullptr;
   unsigned first_count = 0;
   unsigned* first_reset_next = nullptr;
+  // An attempt delaunay.detect_inversion decided on the device (StepContext::gate): round 0's
+  // list length is *first_count_at (detect's kernel wrote it), and none while *gate is non-zero
+  // (the kernel then flips nothing and only sets first_reset_next to the start values).
+  const unsigned* gate = nullptr;
+  const std::int32_t* first_count_at = nullptr;
 };
 
 }  // namespace ff::delaunay

@@ -91,6 +91,7 @@ class Lawson final : public Stage {
   std::vector<Access> accesses() const override {
     return {{ff::fields::position, where_, Mode::read},
             {fields::lawson_candidates, where_, Mode::read},
+            {fields::lawson_candidate_count, where_, Mode::read},
             Access::on_demand_write(fields::halfedge, where_),
             Access::on_demand_write(fields::opposite, where_),
             Access::on_demand_write(fields::vertex_edge, where_),
@@ -99,9 +100,12 @@ class Lawson final : public Stage {
   void configure(State& s) override { add_topology_fields(s, "delaunay.lawson"); }
   // In a decomposed team it flips the rank's own triangulation of its held particles (built by
   // delaunay.detect_inversion, which says how far the ghosts must reach).
+  // On the device it follows delaunay.detect_inversion's device decisions (run_gated) where
+  // detect's candidates may stand for round 0 (the tolerance: see run()).
   Scheduling scheduling() const override {
     Scheduling sch;
     sch.team = TeamWork::local;
+    sch.follows_gate = where_ == Where::device && p_.tolerance >= kCandidateTolerance;
     return sch;
   }
 
@@ -122,6 +126,7 @@ class Lawson final : public Stage {
       queued_.reset();
       round_ = 0;
     }
+    if (ctx.gate) return run_gated(ctx);
     std::int32_t* marked = marked_.get(E);
     std::int32_t* queued = queued_.get(E);
     std::uint8_t* go = go_.get(E);
@@ -141,7 +146,7 @@ class Lawson final : public Stage {
     // The candidates are those with in-circle determinant > 0, computed by the same code in
     // another loop; at tolerance 0 a co-circular quad (determinant at rounding level) could
     // in principle round differently there (FMA contraction on the device), so test all.
-    if (hint > 0 && p_.tolerance >= 1e-13 &&
+    if (hint > 0 && p_.tolerance >= kCandidateTolerance &&
         position_version(status(s)) == s.field(ff::fields::position).version()) {
       launch = unsigned(hint - 1);  // the list's length: the launch's own size
       test = s.field(fields::lawson_candidates).data<std::int32_t>(ctx);
@@ -247,6 +252,40 @@ class Lawson final : public Stage {
   void after_step(StepContext& ctx) override { settle(ctx.state, ctx.stream, &ctx.metrics); }
 
  private:
+  // Below this tolerance detect_inversion's candidates are not used (see run()).
+  static constexpr double kCandidateTolerance = 1e-13;
+
+  // An attempt delaunay.detect_inversion decides on the device (StepContext::gate): the
+  // deferring run()'s one launch with few candidates (round 0 in the tail kernel), its count
+  // taken from detect's kernel (LawsonTail::gate). Refused (before anything is launched) when
+  // the candidates are not this step's (a stage between wrote the positions) or the read cannot
+  // wait (a snapshot covers this stage's writes).
+  Outcome run_gated(StepContext& ctx) {
+    State& s = ctx.state;
+    CUstream_st* st = ctx.stream;
+    if (status(s)[kCandidates] != kCandidatesOnDevice || !ctx.may_defer_read_back() || !loops_.tail ||
+        position_version(status(s)) != s.field(ff::fields::position).version()) {
+      ctx.gate_refused = true;
+      return Outcome::ok();
+    }
+    status(s)[kCandidates] = 0;  // consumed
+    const Mesh m = mesh_view(s, where_);
+    const Points<R> pts = points_view<R>(s, ff::fields::position, where_);
+    const std::size_t E = edge_count(s.n());
+    counters_.begin(std::array<int, 1>{kLawsonTooLongAt}, st);
+    LawsonTail<R> t{m, pts, p_.tolerance, marked_.get(E), queued_.get(E), go_.get(E), list_.get(E),
+                    marked_list_.get(E), counters_.ptr(), ++round_, ~0u, p_.max_rounds, counters_.landing()};
+    t.first_list = s.field(fields::lawson_candidates).data<std::int32_t>(ctx);
+    t.first_reset_next = counters_.next();
+    t.gate = ctx.gate;
+    t.first_count_at = s.field(fields::lawson_candidate_count).data<std::int32_t>(ctx);
+    loops_.tail(t, st);
+    counters_.next_was_reset();
+    counters_.await_published(st);
+    pending_ = true;  // read by after_step (settle)
+    return Outcome::ok();
+  }
+
   void report(const std::array<unsigned, kLawsonCounters>& h, Metrics& metrics) {
     metrics.set("lawson_rounds", double(h[kLawsonRounds]));  // rounds that flipped something
     metrics.set("lawson_flips", h[kLawsonFlips]);
