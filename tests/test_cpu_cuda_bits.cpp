@@ -15,7 +15,11 @@
 //   neighbors.moved             the Verlet list's rebuild test answered by overdamped.integrate
 //                               (stages/neighbors/list.h): published on CUDA only, and word 0
 //                               is such a version; not compared (the decisions it carries are,
-//                               as the rebuilds metric of every step).
+//                               as the rebuilds metric of every step);
+//   delaunay.lawson_candidate_count  written on CUDA only, in steps detect_inversion decides on
+//                               the device (StepContext::gate); not compared, nor its metric
+//                               decided_on_device (where the decision was taken), which Run
+//                               counts apart.
 // Without a GPU the CUDA cases are skipped with a visible warning; the CPU cases (math.h's
 // accuracy, the comparison itself on two CPU runs) run everywhere.
 #include <catch2/catch.hpp>
@@ -75,6 +79,7 @@ struct Run {
   std::vector<std::map<std::string, double>> metrics;
   std::vector<double> dt;
   std::vector<std::uint64_t> rollbacks;
+  std::uint64_t decided_on_device = 0;  // steps whose detect_inversion decided on the device (read per step)
   std::uint64_t step = 0;
   double time = 0;
   double box[3] = {0, 0, 0};
@@ -85,16 +90,30 @@ struct Run {
 Run run(const Loaded& l, Backend b, bool per_step = true) {
   Simulation sim(l.spec, *l.registry, test::dry(b));
   Run r;
+  auto metrics = [&] {
+    auto m = sim.stats().metrics;
+    for (auto it = m.begin(); it != m.end();) {
+      const std::string suffix = "/decided_on_device";
+      const std::string& k = it->first;
+      if (k.size() > suffix.size() && k.compare(k.size() - suffix.size(), suffix.size(), suffix) == 0) {
+        r.decided_on_device += it->second != 0;
+        it = m.erase(it);
+      } else {
+        ++it;
+      }
+    }
+    return m;
+  };
   for (std::uint64_t k = 0; k < l.spec.run.steps; ++k) {
     sim.advance();
     if (!per_step) continue;
-    r.metrics.push_back(sim.stats().metrics);
+    r.metrics.push_back(metrics());
     r.dt.push_back(sim.stats().dt);
     r.rollbacks.push_back(sim.stats().rollbacks);
   }
   sim.synchronize();
   if (!per_step) {
-    r.metrics.push_back(sim.stats().metrics);
+    r.metrics.push_back(metrics());
     r.dt.push_back(sim.stats().dt);
     r.rollbacks.push_back(sim.stats().rollbacks);
   }
@@ -209,7 +228,7 @@ std::string differences(const Run& a, const Run& b) {
       }
     } else if (kv.first == "delaunay.status") {
       d = byte_difference(fa, fb, 3, 5);  // words 3-4: Field::version() of position
-    } else if (kv.first == "neighbors.moved") {
+    } else if (kv.first == "neighbors.moved" || kv.first == "delaunay.lawson_candidate_count") {
       // (published on CUDA only: see the top)
     } else {
       d = byte_difference(fa, fb);
@@ -263,6 +282,33 @@ TEST_CASE("CUDA: reads left past the step give the same bits as reads within it"
     INFO(name << ", CPU vs CUDA reading past the step:\n" << diff_cpu);
     CHECK(diff_cpu.empty());
     CHECK(late.metrics.back().count("overlap_correct/iterations") == 1);
+  }
+}
+
+// On CUDA, delaunay.detect_inversion leaves its decision to its kernel when nothing is to be
+// repaired or rolled back, and delaunay.flip, delaunay.lawson and overlap_correct launch gated on
+// it (StepContext::gate) unless FLIPFLOW_DEVICE_DECISIONS=0; steps whose gate closed (inversions,
+// rollbacks, many Lawson candidates) run those stages again after the host's decision. The same
+// bits and metrics every step either way, and against the CPU (how many steps were decided on
+// the device is reported).
+TEST_CASE("CUDA: steps decided on the device give the same bits as steps decided on the host", "[cuda][bits]") {
+  if (!test::have_cuda("device decisions on CUDA")) return;
+  for (const std::string& name : {std::string("abp.yaml"), std::string("hard-disks.yaml")}) {
+    const Loaded l = load(name, kSteps, Precision::f64);
+    const Run device = run(l, Backend::cuda);
+    ::setenv("FLIPFLOW_DEVICE_DECISIONS", "0", 1);
+    const Run host = run(l, Backend::cuda);
+    ::unsetenv("FLIPFLOW_DEVICE_DECISIONS");
+    const Run cpu = run(l, Backend::cpu);
+    const std::string diff = differences(host, device), diff_cpu = differences(cpu, device);
+    INFO(name << ", " << kSteps << " steps, CUDA deciding on the host vs on the device:\n" << diff);
+    CHECK(diff.empty());
+    INFO(name << ", CPU vs CUDA deciding on the device:\n" << diff_cpu);
+    CHECK(diff_cpu.empty());
+    CHECK(host.decided_on_device == 0);
+    CHECK(device.decided_on_device > 0);
+    WARN(name << ": " << device.decided_on_device << " of " << kSteps << " steps decided on the device, "
+              << device.rollbacks.back() << " rollbacks");
   }
 }
 

@@ -1,6 +1,7 @@
 #include "core/run/scheduler.h"
 
 #include "core/backend/comm.h"
+#include "core/base/error.h"
 
 #include <oneapi/tbb/flow_graph.h>
 
@@ -351,6 +352,14 @@ void Scheduler::resolve_gate() {
   }
   im.gate_set = false;  // the followers run again without it
   slot.outcome = decision.outcome;
+  if (decision.open && (slot.outcome.rollback || slot.outcome.limits_dt())) {
+    // The followers' gated work stands and no snapshot covers it: the attempt cannot be undone.
+    error_ = std::make_exception_ptr(RunError("stage '" + graph_.nodes()[d].id +
+                                              "' decided a rollback or a Δt limit (Stage::decide) with its gate open"));
+    has_error_.store(true);
+    im.refused_at = -1;
+    return;
+  }
   const int from = decision.open ? im.refused_at : 0;
   im.refused_at = -1;
   if (slot.outcome.rollback || slot.outcome.dt_limit < im.dt) {

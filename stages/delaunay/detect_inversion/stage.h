@@ -140,6 +140,13 @@ class DetectInversion final : public Stage {
     const bool consumed = status(s)[kCandidates] != kCandidatesOnDevice;
     Decision d{open, conclude(ctx, h, false, gated_inherited_)};
     if (open && consumed) status(s)[kCandidates] = 0;
+    ctx.metrics.set("decided_on_device", open ? 1 : 0);
+    if (open) {
+      gate_backoff_ = 1;
+    } else {
+      gate_wait_ = gate_backoff_;
+      gate_backoff_ = std::min(2 * gate_backoff_, 64);
+    }
     return d;
   }
 
@@ -164,7 +171,12 @@ class DetectInversion final : public Stage {
     // its answer, Scheduling::follows_gate) and the common case can hold: a triangulation
     // inherited from the last step (none built now), no substeps, counters the marking's last
     // block publishes. Its kernel writes the verdict and the candidates' count; decide() reads.
-    if (ctx.gate && where_ == Where::device && !fresh && !substep && edge_count(s.n()) > 0) {
+    // After a closed gate it waits a few steps before offering again (1, 2, 4 ... 64 after
+    // closures in a row): where the common case seldom holds (more than kGatedCandidates Lawson
+    // candidates a step in large systems) the stages after it then rarely launch for nothing.
+    const bool waiting = gate_wait_ > 0;
+    if (waiting) --gate_wait_;
+    if (ctx.gate && !waiting && where_ == Where::device && !fresh && !substep && edge_count(s.n()) > 0) {
       launch_inspect(ctx, false, true, ctx.gate);
       status(s)[kCandidates] = kCandidatesOnDevice;
       set_position_version(status(s), s.field(ff::fields::position).version());
@@ -172,6 +184,7 @@ class DetectInversion final : public Stage {
       ctx.gate_set = true;
       return Outcome::ok();
     }
+    ctx.metrics.set("decided_on_device", 0);
     return conclude(ctx, inspect(ctx, fresh, !substep), fresh, inherited);
   }
 
@@ -494,6 +507,8 @@ class DetectInversion final : public Stage {
   double band_ = 0, slack_ = 0;
   std::uint64_t built_for_ = ~std::uint64_t(0);  // particles_version of the last accepted step's triangulation
   bool gated_inherited_ = false;  // a device-decided attempt: whether its triangulation was inherited (decide)
+  int gate_wait_ = 0;     // attempts left before the gate is tried again (run_alone)
+  int gate_backoff_ = 1;  // the wait after the next closed gate
   Where where_;
   DetectInversionLoops<R> loops_;
   const MemoryOps& mem_;
