@@ -171,11 +171,11 @@ class DetectInversion final : public Stage {
     // its answer, Scheduling::follows_gate) and the common case can hold: a triangulation
     // inherited from the last step (none built now), no substeps, counters the marking's last
     // block publishes. Its kernel writes the verdict and the candidates' count; decide() reads.
-    // After a closed gate it waits a few steps before offering again (1, 2, 4 ... 64 after
-    // closures in a row): where the common case seldom holds (more than kGatedCandidates Lawson
-    // candidates a step in large systems) the stages after it then rarely launch for nothing.
-    const bool waiting = gate_wait_ > 0;
-    if (waiting) --gate_wait_;
+    // Not while the last attempt had more Lawson candidates than a gated launch takes (large
+    // systems: it would close), and after a closed gate not for a few attempts (1, 2, 4 ... 64
+    // after closures in a row): the stages after it then rarely launch for nothing.
+    const bool waiting = gate_wait_ > 0 || last_candidates_ > kGatedCandidates;
+    if (gate_wait_ > 0) --gate_wait_;
     if (ctx.gate && !waiting && where_ == Where::device && !fresh && !substep && edge_count(s.n()) > 0) {
       launch_inspect(ctx, false, true, ctx.gate);
       status(s)[kCandidates] = kCandidatesOnDevice;
@@ -218,6 +218,7 @@ class DetectInversion final : public Stage {
     ctx.metrics.set("inversions", h[kInverted]);
     ctx.metrics.set("repairable", h[kMarked]);
     ctx.metrics.set("lawson_candidates", h[kCandidateCount]);
+    last_candidates_ = h[kCandidateCount];
 
     const char* retry = "; the step is retried with a smaller time step";
     if (h[kThrough] && !passing) {
@@ -508,6 +509,7 @@ class DetectInversion final : public Stage {
   std::uint64_t built_for_ = ~std::uint64_t(0);  // particles_version of the last accepted step's triangulation
   bool gated_inherited_ = false;  // a device-decided attempt: whether its triangulation was inherited (decide)
   int gate_wait_ = 0;     // attempts left before the gate is tried again (run_alone)
+  unsigned last_candidates_ = 0;  // the Lawson candidates of the last attempt decided (conclude)
   int gate_backoff_ = 1;  // the wait after the next closed gate
   Where where_;
   DetectInversionLoops<R> loops_;
