@@ -18,18 +18,8 @@ using namespace ff;
 using Catch::Matchers::Contains;
 using ff::test::dry;
 using ff::test::entry;
+using ff::test::slot;
 using ff::test::metric;
-
-namespace {
-
-const StageSlot& slot(const Simulation& sim, const std::string& id) {
-  for (const StageSlot& s : sim.slots())
-    if (s.info.stage_id == id) return s;
-  FAIL("no stage " << id);
-  return sim.slots().front();
-}
-
-}  // namespace
 
 TEST_CASE("a result left past the step is the step's wherever it is read", "[deferred]") {
   auto r = test::registry_with({}, {"testing"});

@@ -20,15 +20,9 @@ using namespace ff;
 using Catch::Matchers::Contains;
 using ff::test::dry;
 using ff::test::entry;
+using ff::test::slot;
 
 namespace {
-
-const StageSlot& slot(const Simulation& sim, const std::string& id) {
-  for (const StageSlot& s : sim.slots())
-    if (s.info.stage_id == id) return s;
-  FAIL("no stage " << id);
-  return sim.slots().front();
-}
 
 double value(const Simulation& sim, const std::string& id, const std::string& name) {
   const auto& v = slot(sim, id).metrics.values();

@@ -308,8 +308,6 @@ double Scheduler::reported_dt_limit() const {
   return limit;
 }
 
-bool Scheduler::has_device_decider() const { return impl_->decider >= 0; }
-
 bool Scheduler::gating_offered() const {
   return device_decisions_ && impl_->decider >= 0 && !profiling_ && !in_team(team_) && !ghosts_;
 }

@@ -69,8 +69,6 @@ class Scheduler {
   // pipeline allows it (a chain, a decider whose followers all follow the gate, not profiling,
   // alone); on by default.
   void set_device_decisions(bool on) { device_decisions_ = on; }
-  // Whether the pipeline has a decider every compute stage after which follows its gate.
-  bool has_device_decider() const;
   CUstream_st* main_stream() const;
   // Profiling: wait for each stage's device work before stopping its clock, so per-stage
   // times are real on CUDA (serializes streams; `pipeline bench` reports both ways).

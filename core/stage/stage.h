@@ -237,10 +237,12 @@ struct StepContext {
   // Set by the core (see may_defer_past_step).
   bool step_may_end_pending = false;
 
-  // Device decisions (Scheduling::decides_on_device and follows_gate): on CUDA, in a chain of
-  // stages, alone, a stage whose host decision is nearly always "go on" may leave it to its kernels,
-  // so the stages after it launch theirs before the host has read anything (no wait for the
-  // device in the step). `gate` is a device word the core keeps:
+  // Device decisions (Scheduling::decides_on_device and follows_gate): in a chain of stages,
+  // alone, a stage whose host decision is nearly always "go on" may leave it to its kernels, so
+  // the stages after it launch theirs before the host has read anything (no wait for the device
+  // in the step). `gate` is a word the core keeps, in device memory on CUDA (on the CPU in host
+  // memory, which a stage writes and reads in run(): stages decide there only to be tested,
+  // tests/plugins/testing_plugin.cpp's testing.decide and testing.follow):
   //  - the decider sees it non-null when it may decide so in this attempt. A run() that does
   //    launches kernels that write *gate (0: the common case, the stages after it may go on;
   //    non-zero: the host must decide), sets gate_set and returns Outcome::ok() without waiting
@@ -360,8 +362,8 @@ struct Scheduling {
   // (stages/delaunay/common/slab.h: global coordinates with a gap). Their particle.id is
   // kFillId; no stage moves them and no one owns them.
   bool fills_gap = false;
-  // On CUDA the stage may leave its host decision to its kernels (StepContext::gate) and take it
-  // in decide(). The core offers it in a chain whose every compute stage after this one
+  // The stage may leave its host decision to its kernels (StepContext::gate) and take it in
+  // decide(). The core offers it in a chain whose every compute stage after this one
   // follows_gate, alone, when not profiling; FLIPFLOW_DEVICE_DECISIONS=0 turns it off.
   bool decides_on_device = false;
   // The stage launches its work gated on a decider's device decision (StepContext::gate).

@@ -65,4 +65,12 @@ inline double metric(const Simulation& sim, const std::string& key) {
   return it->second;
 }
 
+// The slot of stage `id` (its last run's metrics, whether it ran); the test fails if there is none.
+inline const StageSlot& slot(const Simulation& sim, const std::string& id) {
+  for (const StageSlot& s : sim.slots())
+    if (s.info.stage_id == id) return s;
+  FAIL("no stage " << id);
+  return sim.slots().front();
+}
+
 }  // namespace ff::test

@@ -8,6 +8,9 @@
 // When delaunay.flip has `on_unrepairable: substep` (status kSubstep), inverted triangles that
 // single flips cannot repair are left to it instead, together with position_prev (not yet
 // overwritten, status kPrevKept), and with `passing: substep` particles through each other too.
+// On CUDA, where the core offers it (StepContext::gate), it leaves its decision to the marking
+// kernel (nothing inverted, through, crossed twice or too long, few Lawson candidates: the
+// stages after it go on without a host wait) and takes it on the host in decide().
 // In a decomposed team (run_team; docs/multi-gpu.md "The Delaunay pipelines") it keeps the
 // rank's triangulation of the particles it holds and decides with the other ranks.
 #pragma once

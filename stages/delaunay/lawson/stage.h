@@ -9,8 +9,10 @@
 // roll the step back after this stage, not before the step ends: the tail kernel then runs every
 // round left and writes the counters to pinned host memory, and after_step() reads them, so the
 // stages after this one queue behind its kernels instead of behind a wait for the host (with few
-// candidates the tail kernel then makes round 0's marks too: the stage is one launch). The
-// input must be a valid (all triangles positive) triangulation: run delaunay.flip first.
+// candidates the tail kernel then makes round 0's marks too: the stage is one launch). In an
+// attempt delaunay.detect_inversion decides on the device (StepContext::gate) that one launch
+// goes before the host knows the candidates' count: the kernel reads it, and the gate (run_gated).
+// The input must be a valid (all triangles positive) triangulation: run delaunay.flip first.
 #pragma once
 #include <algorithm>
 #include <array>
