@@ -59,12 +59,11 @@ const std::vector<std::string>& pipelines() {
 
 using Loaded = test::LoadedPipeline;
 
-// The shipped pipeline with `steps` steps in `precision`, compute stages only.
-Loaded load(const std::string& name, std::uint64_t steps, Precision precision) {
-  return test::load_compute_steps(
-      test::repo_file("pipelines/" + name).string(),
-      {"run.steps=" + std::to_string(steps),
-       std::string("run.precision=") + (precision == Precision::f32 ? "float" : "double")});
+// The shipped pipeline with `steps` steps in `precision`, compute stages only, and `extra` overrides.
+Loaded load(const std::string& name, std::uint64_t steps, Precision precision, std::vector<std::string> extra = {}) {
+  extra.push_back("run.steps=" + std::to_string(steps));
+  extra.push_back(std::string("run.precision=") + (precision == Precision::f32 ? "float" : "double"));
+  return test::load_compute_steps(test::repo_file("pipelines/" + name).string(), extra);
 }
 
 struct FieldBytes {
@@ -310,6 +309,31 @@ TEST_CASE("CUDA: steps decided on the device give the same bits as steps decided
     WARN(name << ": " << device.decided_on_device << " of " << kSteps << " steps decided on the device, "
               << device.rollbacks.back() << " rollbacks");
   }
+}
+
+// The same where the gate often closes: abp.yaml at Δt = 0.18 (0.44 inverted triangles a step
+// on the CPU, ~790 Lawson candidates), so steps decided on the device alternate with steps whose
+// gated flip, Lawson and correction did nothing and ran again after the host's decision (every
+// repair flip is one of those).
+TEST_CASE("CUDA: closed gates give the same bits as steps decided on the host", "[cuda][bits]") {
+  if (!test::have_cuda("closed gates on CUDA")) return;
+  constexpr std::uint64_t steps = 300;
+  const Loaded l = load("abp.yaml", steps, Precision::f64, {"run.dt=0.18"});
+  const Run device = run(l, Backend::cuda);
+  ::setenv("FLIPFLOW_DEVICE_DECISIONS", "0", 1);
+  const Run host = run(l, Backend::cuda);
+  ::unsetenv("FLIPFLOW_DEVICE_DECISIONS");
+  const Run cpu = run(l, Backend::cpu);
+  const std::string diff = differences(host, device), diff_cpu = differences(cpu, device);
+  INFO("abp.yaml, dt 0.18, CUDA deciding on the host vs on the device:\n" << diff);
+  CHECK(diff.empty());
+  INFO("CPU vs CUDA deciding on the device:\n" << diff_cpu);
+  CHECK(diff_cpu.empty());
+  double flips = 0;
+  for (const auto& m : device.metrics) flips += m.at("delaunay.flip/flips");
+  CHECK(flips > 0);  // repairs: the gate closed on those steps
+  CHECK(device.decided_on_device > 0);
+  CHECK(device.decided_on_device < steps - flips);
 }
 
 // Float is not required to match, but nothing in these pipelines should differ either: the same
