@@ -132,9 +132,21 @@ TEST_CASE("no gate where the core cannot gate", "[gate]") {
   }
 }
 
-TEST_CASE("an error in the host's decision of a gated step is thrown by advance()", "[gate]") {
+TEST_CASE("an error in a gated step is thrown by advance(), and leaves no gate behind", "[gate]") {
   auto r = test::registry_with({}, {"testing"});
-  Simulation sim(pipeline(*r, 4, {{"fail_at", std::int64_t(1)}}), *r, dry());
-  sim.advance();
-  CHECK_THROWS_WITH(sim.advance(), Contains("the decision of step 1 reports an error"));
+  SECTION("in the host's decision") {
+    Simulation sim(pipeline(*r, 4, {{"fail_at", std::int64_t(1)}}), *r, dry());
+    sim.advance();
+    CHECK_THROWS_WITH(sim.advance(), Contains("the decision of step 1 reports an error"));
+  }
+  SECTION("in a follower's gated run: the next attempt, without a gate offered, gives none") {
+    Simulation sim(pipeline(*r, 4, {}, {{"fail_at", std::int64_t(1)}}), *r, dry());
+    sim.advance();
+    CHECK_THROWS_WITH(sim.advance(), Contains("the gated run of step 1 fails"));
+    sim.scheduler().set_profiling(true);  // (no gate is offered while profiling)
+    sim.advance();
+    CHECK(value(sim, "testing.decide", "gated") == 0.0);
+    CHECK(value(sim, "a", "gated") == 0.0);
+    CHECK(value(sim, "b", "gated") == 0.0);
+  }
 }

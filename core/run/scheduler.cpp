@@ -205,6 +205,8 @@ std::optional<RollbackRequest> Scheduler::run_compute(std::uint64_t step, std::u
   agreed_ = false;
   error_ = nullptr;
   has_error_.store(false);
+  impl_->gate_set = false;  // (an attempt that threw may have left them set)
+  impl_->refused_at = -1;
   impl_->step = step;
   impl_->attempt = attempt;
   impl_->dt = dt;

@@ -359,12 +359,16 @@ class Decide final : public Stage {
 // testing.follow: a follower of the gate (Scheduling::follows_gate unless follows: false), as
 // delaunay.lawson and overlap_correct are on CUDA. It adds 1 to its field (`field`, f64, one
 // element) per run, unless the gate it was given is closed (its "kernels" read the host word
-// when it runs); on the `refuse` steps it refuses a gate. Metrics: `runs` (cumulative),
-// `gated` (1: this run had the gate), `value` (its field after the run).
+// when it runs); on the `refuse` steps it refuses a gate; with fail_at ≥ 0 a gated run at that
+// step throws. Metrics: `runs` (cumulative), `gated` (1: this run had the gate), `value` (its
+// field after the run).
 class Follow final : public Stage {
  public:
   explicit Follow(const ParamValues& v)
-      : field_(v.string("field")), refuse_(v.reals("refuse")), follows_(v.boolean("follows")) {}
+      : field_(v.string("field")),
+        refuse_(v.reals("refuse")),
+        follows_(v.boolean("follows")),
+        fail_at_(v.integer("fail_at")) {}
   std::vector<Access> accesses() const override { return {{field_, Where::host, Mode::readwrite}}; }
   void configure(State& s) override { s.add_field(field_, DType::f64, 1, 1); }
   Scheduling scheduling() const override {
@@ -377,6 +381,8 @@ class Follow final : public Stage {
     ctx.metrics.set("runs", double(runs_));
     ctx.metrics.set("gated", ctx.gate ? 1.0 : 0.0);
     double& x = ctx.state.field(field_).host<double>()[0];
+    if (ctx.gate && fail_at_ >= 0 && ctx.host_params.step == std::uint64_t(fail_at_))
+      throw RunError("testing.follow: the gated run of step " + std::to_string(fail_at_) + " fails");
     if (ctx.gate && listed(refuse_, ctx.host_params.step)) {
       ctx.gate_refused = true;
     } else if (!ctx.gate || *ctx.gate == 0) {
@@ -390,6 +396,7 @@ class Follow final : public Stage {
   std::string field_;
   std::vector<double> refuse_;
   bool follows_;
+  std::int64_t fail_at_;
   std::int64_t runs_ = 0;
 };
 
@@ -463,7 +470,8 @@ void register_testing(Registry& r) {
   r.declare({"testing.follow", "adds 1 to its field unless its gate is closed (tests only)",
              {ParamSpec::string("field", std::string("testing.follow"), "the field it adds to"),
               steps("refuse", "steps on which it refuses the gate"),
-              ParamSpec::boolean("follows", true, "declare Scheduling::follows_gate")},
+              ParamSpec::boolean("follows", true, "declare Scheduling::follows_gate"),
+              ParamSpec::integer("fail_at", -1, "the step whose gated run throws (-1: none)").at_least(-1)},
              {2, 3}, false});
   r.implement("testing.follow", Backend::cpu, factory<Follow>());
 }
