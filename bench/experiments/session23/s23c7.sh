@@ -3,8 +3,9 @@
 # moves at most this many particles; 512 since session 21, tuned at 2^20 after 3000 steps) at 256,
 # 1 024 and 2 048 against main's 512, in shadow bundles (branch tailmoved): bench-abp at 2^10,
 # 2^12, 2^14 (two interleaved rounds) and 2^20 (one).
-#   carry: gpu-carry/<bundle>.tar.gz gpu-carry/tm{256,1024,2048}/libflipflow_stage_overlap_correct.so
+#   carry: gpu-carry/<bundle>.tar.gz gpu-carry/tm-variants.tgz (tm{256,1024,2048}/libflipflow_stage_overlap_correct.so)
 source tools/gpu/call_lib.sh c7 "$1"
+tar -xzf gpu-carry/tm-variants.tgz -C gpu-carry
 declare -A D=([512]=$B)
 for v in 256 1024 2048; do D[$v]=$(shadow tm$v gpu-carry/tm$v); done
 b() { local v=$1 tag=$2; shift 2
