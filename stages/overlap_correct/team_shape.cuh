@@ -58,7 +58,8 @@ cudaLaunchConfig_t team_config(cudaLaunchAttribute* attr, CUstream_st* s) {
   return cfg;
 }
 
-// team_config, launched after the previous kernel programmatically (attr holds two).
+// team_config, launched after the previous kernel programmatically (core/backend/cuda/pdl.cuh;
+// attr holds two): in a small step the cluster is scheduled while Lawson's tail kernel runs.
 template <int Team>
 cudaLaunchConfig_t team_config_after_previous(cudaLaunchAttribute* attr, CUstream_st* s) {
   cudaLaunchConfig_t cfg = team_config<Team>(attr, s);

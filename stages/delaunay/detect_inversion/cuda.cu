@@ -26,6 +26,8 @@ constexpr int kMarkThreads = 256;
 // hold its block's slot for an L2 round trip or two after its edges are done).
 template <class R>
 __global__ void __launch_bounds__(kMarkThreads, kMarkBlocks) mark_kernel(std::size_t n, MarkInversions<R> f) {
+  // Launched after the integrator programmatically (core/backend/cuda/pdl.cuh); Lawson's tail
+  // kernel may be scheduled as soon as every block is here.
   wait_for_previous_kernel();
   allow_next_kernel();
   // Edge ids are ints (3N < 2^31, common/mesh.h): 32-bit indices, fewer registers.

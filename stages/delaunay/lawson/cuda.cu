@@ -22,6 +22,8 @@ template <class R>
 __global__ void __launch_bounds__(kTailThreads) tail_kernel(LawsonTail<R> t) {
   __shared__ unsigned sc[kLawsonCounters];
   __shared__ unsigned s_first;
+  // Launched programmatically (core/backend/cuda/pdl.cuh); the correction's kernel may be
+  // scheduled from here on.
   wait_for_previous_kernel();
   allow_next_kernel();
   unsigned* c = t.counters;
