@@ -128,8 +128,8 @@ class DeviceLoops final : public OverlapCorrectLoops<R> {
   // A cluster launch of the team's blocks.
   template <int Team, bool Walls, bool Mark>
   static void launch_team(void** args, CUstream_st* s) {
-    cudaLaunchAttribute attr[1];
-    const cudaLaunchConfig_t cfg = team_config<Team>(attr, s);
+    cudaLaunchAttribute attr[2];
+    const cudaLaunchConfig_t cfg = team_config_after_previous<Team>(attr, s);
     FF_CUDA_CHECK(cudaLaunchKernelExC(&cfg, kernel_ptr<R, Team, Walls, Mark>(), args),
                   "launching overlap_correct (a team of blocks)");
   }

@@ -58,6 +58,15 @@ cudaLaunchConfig_t team_config(cudaLaunchAttribute* attr, CUstream_st* s) {
   return cfg;
 }
 
+// team_config, launched after the previous kernel programmatically (core/backend/cuda/pdl.cuh;
+// attr holds two): in a small step the cluster is scheduled while Lawson's tail kernel runs.
+template <int Team>
+cudaLaunchConfig_t team_config_after_previous(cudaLaunchAttribute* attr, CUstream_st* s) {
+  cudaLaunchConfig_t cfg = team_config<Team>(attr, s);
+  cfg.numAttrs = programmatic_attr(attr, cfg.numAttrs);
+  return cfg;
+}
+
 // Whether the device can run a cluster team of Team blocks: sm_90 clusters, and its blocks in one
 // GPC at once.
 template <class R, int Team, bool Walls, bool Mark>

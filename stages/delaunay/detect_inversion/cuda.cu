@@ -2,6 +2,7 @@
 
 #include "core/backend/cuda/check.h"
 #include "core/backend/cuda/loop.cuh"
+#include "core/backend/cuda/pdl.cuh"
 #include "stages/delaunay/detect_inversion/stage.h"
 
 namespace ff::delaunay {
@@ -25,6 +26,10 @@ constexpr int kMarkThreads = 256;
 // hold its block's slot for an L2 round trip or two after its edges are done).
 template <class R>
 __global__ void __launch_bounds__(kMarkThreads, kMarkBlocks) mark_kernel(std::size_t n, MarkInversions<R> f) {
+  // Launched after the integrator programmatically (core/backend/cuda/pdl.cuh); Lawson's tail
+  // kernel may be scheduled as soon as every block is here.
+  wait_for_previous_kernel();
+  allow_next_kernel();
   // Edge ids are ints (3N < 2^31, common/mesh.h): 32-bit indices, fewer registers.
   const unsigned stride = gridDim.x * kMarkThreads, end = unsigned(n);
   for (unsigned i = blockIdx.x * kMarkThreads + threadIdx.x; i < end; i += stride) f(i);
@@ -61,8 +66,7 @@ void mark_loop(std::size_t n, const MarkInversions<R>& f, CUstream_st* stream) {
                 "sizing delaunay.detect_inversion's marking");
   const std::size_t blocks = (n + kMarkThreads - 1) / kMarkThreads;
   const unsigned grid = unsigned(std::min<std::size_t>(blocks, std::size_t(sms) * std::size_t(per_sm)));
-  mark_kernel<R><<<grid, kMarkThreads, 0, stream>>>(n, f);
-  FF_CUDA_CHECK_LAUNCH("launching delaunay.detect_inversion's marking");
+  launch_after_previous(mark_kernel<R>, dim3(grid), dim3(kMarkThreads), stream, n, f);
 }
 
 }  // namespace

@@ -1,5 +1,6 @@
 #include "core/backend/cuda/check.h"
 #include "core/backend/cuda/loop.cuh"
+#include "core/backend/cuda/pdl.cuh"
 #include "stages/delaunay/lawson/stage.h"
 
 namespace ff::delaunay {
@@ -21,6 +22,10 @@ template <class R>
 __global__ void __launch_bounds__(kTailThreads) tail_kernel(LawsonTail<R> t) {
   __shared__ unsigned sc[kLawsonCounters];
   __shared__ unsigned s_first;
+  // Launched programmatically (core/backend/cuda/pdl.cuh); the correction's kernel may be
+  // scheduled from here on.
+  wait_for_previous_kernel();
+  allow_next_kernel();
   unsigned* c = t.counters;
   if (threadIdx.x == 0) {
     reset_lawson_counters(sc);
@@ -85,8 +90,7 @@ static_assert(kGatedCandidates <= kTailRound0, "a gated launch's round 0 is one 
 
 template <class R>
 void tail(const LawsonTail<R>& t, CUstream_st* stream) {
-  tail_kernel<R><<<1, kTailThreads, 0, stream>>>(t);
-  FF_CUDA_CHECK_LAUNCH("launching delaunay.lawson's tail rounds");
+  launch_after_previous(tail_kernel<R>, dim3(1), dim3(kTailThreads), stream, t);
 }
 
 }  // namespace
