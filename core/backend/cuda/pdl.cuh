@@ -4,11 +4,13 @@
 // that returns once the previous kernel has ended and its writes are visible, so the results
 // are those of an ordinary launch. A kernel that calls allow_next_kernel() (once every block
 // has) lets the next such launch be scheduled while it runs. In a step of short kernels each
-// one queued behind the last (bench-abp at small N with device decisions) this removes the
-// ~1 µs between a kernel's end and the next one's start. Without sm_90 both calls are empty
-// and the launch is an ordinary one.
+// one queued behind the last (bench-abp at small N with device decisions) this removes the gap
+// between a kernel's end and the next one's start. On a device before sm_90 the launch is an
+// ordinary one and both calls are empty.
 #pragma once
 #include <cuda_runtime.h>
+
+#include <atomic>
 
 #include "core/backend/cuda/check.h"
 
@@ -26,8 +28,27 @@ __device__ __forceinline__ void allow_next_kernel() {
 #endif
 }
 
-// Adds the programmatic-serialization attribute to `attrs` at `count` (returns the new count).
+// Whether the current device has programmatic dependent launches (sm_90 and later); asked once
+// per device.
+inline bool programmatic_launches() {
+  static std::atomic<int> known[64] = {};  // per device: 0 not asked yet, 1 no, 2 yes
+  int device = 0;
+  FF_CUDA_CHECK(cudaGetDevice(&device), "the current device");
+  if (device < 0 || device >= 64) return false;
+  int k = known[device].load(std::memory_order_relaxed);
+  if (k == 0) {
+    int major = 0;
+    FF_CUDA_CHECK(cudaDeviceGetAttribute(&major, cudaDevAttrComputeCapabilityMajor, device), "its compute capability");
+    k = major >= 9 ? 2 : 1;
+    known[device].store(k, std::memory_order_relaxed);
+  }
+  return k == 2;
+}
+
+// Adds the programmatic-serialization attribute to `attrs` at `count` where the device has it;
+// returns the new count.
 inline unsigned programmatic_attr(cudaLaunchAttribute* attrs, unsigned count) {
+  if (!programmatic_launches()) return count;
   attrs[count].id = cudaLaunchAttributeProgrammaticStreamSerialization;
   attrs[count].val.programmaticStreamSerializationAllowed = 1;
   return count + 1;
