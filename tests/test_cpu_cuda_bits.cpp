@@ -290,22 +290,32 @@ TEST_CASE("CUDA: reads left past the step give the same bits as reads within it"
 // rollbacks, many Lawson candidates) run those stages again after the host's decision. The same
 // bits and metrics every step either way, and against the CPU (how many steps were decided on
 // the device is reported).
+namespace {
+
+// `l` on CUDA deciding on the device (the default) and on the host (FLIPFLOW_DEVICE_DECISIONS=0),
+// checked against each other and against the CPU; returns the run that decided on the device.
+Run decided_both_ways(const Loaded& l, const std::string& what) {
+  Run device = run(l, Backend::cuda);
+  ::setenv("FLIPFLOW_DEVICE_DECISIONS", "0", 1);
+  const Run host = run(l, Backend::cuda);
+  ::unsetenv("FLIPFLOW_DEVICE_DECISIONS");
+  const Run cpu = run(l, Backend::cpu);
+  const std::string diff = differences(host, device), diff_cpu = differences(cpu, device);
+  INFO(what << ", CUDA deciding on the host vs on the device:\n" << diff);
+  CHECK(diff.empty());
+  INFO(what << ", CPU vs CUDA deciding on the device:\n" << diff_cpu);
+  CHECK(diff_cpu.empty());
+  CHECK(host.decided_on_device == 0);
+  CHECK(device.decided_on_device > 0);
+  return device;
+}
+
+}  // namespace
+
 TEST_CASE("CUDA: steps decided on the device give the same bits as steps decided on the host", "[cuda][bits]") {
   if (!test::have_cuda("device decisions on CUDA")) return;
   for (const std::string& name : {std::string("abp.yaml"), std::string("hard-disks.yaml")}) {
-    const Loaded l = load(name, kSteps, Precision::f64);
-    const Run device = run(l, Backend::cuda);
-    ::setenv("FLIPFLOW_DEVICE_DECISIONS", "0", 1);
-    const Run host = run(l, Backend::cuda);
-    ::unsetenv("FLIPFLOW_DEVICE_DECISIONS");
-    const Run cpu = run(l, Backend::cpu);
-    const std::string diff = differences(host, device), diff_cpu = differences(cpu, device);
-    INFO(name << ", " << kSteps << " steps, CUDA deciding on the host vs on the device:\n" << diff);
-    CHECK(diff.empty());
-    INFO(name << ", CPU vs CUDA deciding on the device:\n" << diff_cpu);
-    CHECK(diff_cpu.empty());
-    CHECK(host.decided_on_device == 0);
-    CHECK(device.decided_on_device > 0);
+    const Run device = decided_both_ways(load(name, kSteps, Precision::f64), name + ", " + std::to_string(kSteps) + " steps");
     WARN(name << ": " << device.decided_on_device << " of " << kSteps << " steps decided on the device, "
               << device.rollbacks.back() << " rollbacks");
   }
@@ -318,21 +328,10 @@ TEST_CASE("CUDA: steps decided on the device give the same bits as steps decided
 TEST_CASE("CUDA: closed gates give the same bits as steps decided on the host", "[cuda][bits]") {
   if (!test::have_cuda("closed gates on CUDA")) return;
   constexpr std::uint64_t steps = 300;
-  const Loaded l = load("abp.yaml", steps, Precision::f64, {"run.dt=0.18"});
-  const Run device = run(l, Backend::cuda);
-  ::setenv("FLIPFLOW_DEVICE_DECISIONS", "0", 1);
-  const Run host = run(l, Backend::cuda);
-  ::unsetenv("FLIPFLOW_DEVICE_DECISIONS");
-  const Run cpu = run(l, Backend::cpu);
-  const std::string diff = differences(host, device), diff_cpu = differences(cpu, device);
-  INFO("abp.yaml, dt 0.18, CUDA deciding on the host vs on the device:\n" << diff);
-  CHECK(diff.empty());
-  INFO("CPU vs CUDA deciding on the device:\n" << diff_cpu);
-  CHECK(diff_cpu.empty());
+  const Run device = decided_both_ways(load("abp.yaml", steps, Precision::f64, {"run.dt=0.18"}), "abp.yaml, dt 0.18");
   double flips = 0;
   for (const auto& m : device.metrics) flips += m.at("delaunay.flip/flips");
   CHECK(flips > 0);  // repairs: the gate closed on those steps
-  CHECK(device.decided_on_device > 0);
   CHECK(device.decided_on_device < steps - flips);
 }
 
