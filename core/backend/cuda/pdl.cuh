@@ -13,6 +13,7 @@
 #include <atomic>
 
 #include "core/backend/cuda/check.h"
+#include "core/backend/device.h"
 
 namespace ff {
 
@@ -45,10 +46,13 @@ inline bool programmatic_launches() {
   return k == 2;
 }
 
-// Adds the programmatic-serialization attribute to `attrs` at `count` where the device has it;
-// returns the new count.
+// Adds the programmatic-serialization attribute to `attrs` at `count` where the device has it
+// and the run has the GPU to itself; returns the new count. When runs share the GPU (`pipeline
+// sweep`, runs_sharing_gpu) a kernel scheduled early holds its SMs while it waits (a correction
+// cluster's block takes a whole SM's registers), SMs another run's kernels could use (a sweep
+// with it on in every run was slower: bench/README.md, "Session 23").
 inline unsigned programmatic_attr(cudaLaunchAttribute* attrs, unsigned count) {
-  if (!programmatic_launches()) return count;
+  if (runs_sharing_gpu() > 1 || !programmatic_launches()) return count;
   attrs[count].id = cudaLaunchAttributeProgrammaticStreamSerialization;
   attrs[count].val.programmaticStreamSerializationAllowed = 1;
   return count + 1;
