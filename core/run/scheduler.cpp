@@ -155,7 +155,8 @@ void Scheduler::run_node(int i, std::uint64_t step, std::uint32_t attempt, doubl
       impl_->gate_set = ctx.gate_set;
     } else if (ctx.gate && ctx.gate_refused && impl_->refused_at < 0) {
       close_gate(stream);
-      impl_->refused_at = int(std::find(impl_->followers.begin(), impl_->followers.end(), i) - impl_->followers.begin());
+      const auto& f = impl_->followers;
+      impl_->refused_at = int(std::find(f.begin(), f.end(), i) - f.begin());
     }
 #ifdef FLIPFLOW_HAVE_CUDA
     if (profiling_ && stream) impl_->streams->synchronize();
@@ -354,8 +355,8 @@ void Scheduler::resolve_gate() {
   slot.outcome = decision.outcome;
   if (decision.open && (slot.outcome.rollback || slot.outcome.limits_dt())) {
     // The followers' gated work stands and no snapshot covers it: the attempt cannot be undone.
-    error_ = std::make_exception_ptr(RunError("stage '" + graph_.nodes()[d].id +
-                                              "' decided a rollback or a Δt limit (Stage::decide) with its gate open"));
+    error_ = std::make_exception_ptr(
+        RunError("stage '" + graph_.nodes()[d].id + "' decided a rollback or a Δt limit (Stage::decide) with its gate open"));
     has_error_.store(true);
     im.refused_at = -1;
     return;

@@ -58,8 +58,10 @@ inline unsigned programmatic_attr(cudaLaunchAttribute* attrs, unsigned count) {
   return count + 1;
 }
 
+// Launches `kernel` so (programmatic_attr); `what` names it in the error of a failed launch.
 template <class... Params, class... Args>
-void launch_after_previous(void (*kernel)(Params...), dim3 grid, dim3 block, CUstream_st* stream, Args... args) {
+void launch_after_previous(const char* what, void (*kernel)(Params...), dim3 grid, dim3 block, CUstream_st* stream,
+                           Args... args) {
   cudaLaunchConfig_t cfg = {};
   cfg.gridDim = grid;
   cfg.blockDim = block;
@@ -67,7 +69,7 @@ void launch_after_previous(void (*kernel)(Params...), dim3 grid, dim3 block, CUs
   cudaLaunchAttribute attr[1];
   cfg.numAttrs = programmatic_attr(attr, 0);
   cfg.attrs = attr;
-  FF_CUDA_CHECK(cudaLaunchKernelEx(&cfg, kernel, args...), "a programmatic dependent launch");
+  FF_CUDA_CHECK(cudaLaunchKernelEx(&cfg, kernel, args...), what);
 }
 
 }  // namespace ff

@@ -66,7 +66,8 @@ void mark_loop(std::size_t n, const MarkInversions<R>& f, CUstream_st* stream) {
                 "sizing delaunay.detect_inversion's marking");
   const std::size_t blocks = (n + kMarkThreads - 1) / kMarkThreads;
   const unsigned grid = unsigned(std::min<std::size_t>(blocks, std::size_t(sms) * std::size_t(per_sm)));
-  launch_after_previous(mark_kernel<R>, dim3(grid), dim3(kMarkThreads), stream, n, f);
+  launch_after_previous("launching delaunay.detect_inversion's marking", mark_kernel<R>, dim3(grid), dim3(kMarkThreads),
+                        stream, n, f);
 }
 
 }  // namespace

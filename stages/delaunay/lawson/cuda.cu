@@ -90,7 +90,8 @@ static_assert(kGatedCandidates <= kTailRound0, "a gated launch's round 0 is one 
 
 template <class R>
 void tail(const LawsonTail<R>& t, CUstream_st* stream) {
-  launch_after_previous(tail_kernel<R>, dim3(1), dim3(kTailThreads), stream, t);
+  launch_after_previous("launching delaunay.lawson's tail rounds", tail_kernel<R>, dim3(1), dim3(kTailThreads), stream,
+                        t);
 }
 
 }  // namespace
