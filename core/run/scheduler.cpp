@@ -355,8 +355,9 @@ void Scheduler::resolve_gate() {
   slot.outcome = decision.outcome;
   if (decision.open && (slot.outcome.rollback || slot.outcome.limits_dt())) {
     // The followers' gated work stands and no snapshot covers it: the attempt cannot be undone.
-    error_ = std::make_exception_ptr(
-        RunError("stage '" + graph_.nodes()[d].id + "' decided a rollback or a Δt limit (Stage::decide) with its gate open"));
+    error_ = std::make_exception_ptr(RunError("stage '" + graph_.nodes()[d].id +
+                                              "' decided a rollback or a Δt limit (Stage::decide) with its "
+                                              "gate open"));
     has_error_.store(true);
     im.refused_at = -1;
     return;
