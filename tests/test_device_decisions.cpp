@@ -41,7 +41,7 @@ PipelineSpec pipeline(const Registry& r, std::uint64_t n_steps, std::map<std::st
   ib.id = "b";
   a["field"] = ParamValue(std::string("testing.a"));
   b["field"] = ParamValue(std::string("testing.b"));
-  return test::spec(2, 32, 0.2, n_steps,  0.01,
+  return test::spec(2, 32, 0.2, n_steps, 0.01,
                     {entry(r, "testing.decide", decide), entry(r, "testing.follow", a, ia),
                      entry(r, "testing.follow", b, ib)});
 }
