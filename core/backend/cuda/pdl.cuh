@@ -70,6 +70,7 @@ void launch_after_previous(const char* what, void (*kernel)(Params...), dim3 gri
   cfg.numAttrs = programmatic_attr(attr, 0);
   cfg.attrs = attr;
   FF_CUDA_CHECK(cudaLaunchKernelEx(&cfg, kernel, args...), what);
+  FF_CUDA_CHECK_LAUNCH(what);  // (with FLIPFLOW_CUDA_SYNC_DEBUG: waits, to blame a fault on this kernel)
 }
 
 }  // namespace ff
