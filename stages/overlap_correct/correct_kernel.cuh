@@ -365,7 +365,7 @@ __global__ void __launch_bounds__(Threads, MinBlocks) correct_kernel(Args<R, Wal
   const int shard = int(blockIdx.x % kShards) * kShardStride;
   bool tail = false;        // block 0 alone runs the iterations
   bool tail_first = false;  // the tail's first iteration: its candidates were claimed by every block
-  wait_for_previous_kernel();  // a cluster's launch is programmatic (team_config_after_previous)
+  wait_for_previous_kernel();  // the launch is programmatic (team_shape.cuh's *_config_after_previous)
   // The next launch's counters, zeroed here instead of by a memset before it (a host call on
   // the step's critical path, between Lawson's wait and this launch). No one reads them now.
   for (long long w = blockIdx.x * Threads + threadIdx.x; w < a.next_zero; w += (long long)gridDim.x * Threads)

@@ -98,9 +98,9 @@ class DeviceLoops final : public OverlapCorrectLoops<R> {
     if (wide_ && k0 == 0) a.j0 = run_wide<Walls, Mark>(a, s);
     void* args[] = {&a};
     if (team_ == kGrid) {
-      FF_CUDA_CHECK(
-          cudaLaunchCooperativeKernel(kernel_ptr<R, kGrid, Walls, Mark>(), dim3(grid_), dim3(kThreads), args, 0, s),
-          "launching overlap_correct");
+      cudaLaunchAttribute attr[2];
+      const cudaLaunchConfig_t cfg = grid_config_after_previous(grid_, attr, s);
+      FF_CUDA_CHECK(cudaLaunchKernelExC(&cfg, kernel_ptr<R, kGrid, Walls, Mark>(), args), "launching overlap_correct");
     } else if (team_ == kSharedClusterBlocks) {
       launch_team<kSharedClusterBlocks, Walls, Mark>(args, s);
     } else {

@@ -67,6 +67,21 @@ cudaLaunchConfig_t team_config_after_previous(cudaLaunchAttribute* attr, CUstrea
   return cfg;
 }
 
+// The cooperative grid's launch (every block resident for its grid barriers), after the previous
+// kernel programmatically as a team's (attr holds two): above kClusterMaxN particles the grid
+// is what follows Lawson's tail kernel in a small step.
+inline cudaLaunchConfig_t grid_config_after_previous(int blocks, cudaLaunchAttribute* attr, CUstream_st* s) {
+  cudaLaunchConfig_t cfg = {};
+  cfg.gridDim = dim3(blocks);
+  cfg.blockDim = dim3(kThreads);
+  cfg.stream = s;
+  attr[0].id = cudaLaunchAttributeCooperative;
+  attr[0].val.cooperative = 1;
+  cfg.attrs = attr;
+  cfg.numAttrs = programmatic_attr(attr, 1);
+  return cfg;
+}
+
 // Whether the device can run a cluster team of Team blocks: sm_90 clusters, and its blocks in one
 // GPC at once.
 template <class R, int Team, bool Walls, bool Mark>

@@ -7,6 +7,7 @@
 #include <cstdint>
 
 #include "core/backend/cuda/check.h"
+#include "core/backend/cuda/pdl.cuh"
 #include "core/backend/exec.h"
 #include "core/backend/field.h"
 #include "core/backend/memory.h"
@@ -26,6 +27,26 @@ void cuda_for_each(std::size_t n, const F& f, CUstream_st* stream) {
   const unsigned grid = unsigned((n + block - 1) / block);
   for_each_kernel<F><<<grid, block, 0, stream>>>(n, f);
   FF_CUDA_CHECK_LAUNCH("launching an element loop");
+}
+
+// The overdamped integrators' loop: cuda_for_each's, launched after the previous kernel
+// programmatically (pdl.cuh). The integrator is the first kernel of a step, so it may be
+// scheduled while the last step's final kernel runs, and lets the next stage's (detect_inversion's
+// marking) be scheduled while it runs.
+template <class F>
+__global__ void overdamped_kernel(std::size_t n, F f) {
+  wait_for_previous_kernel();
+  allow_next_kernel();
+  const std::size_t i = std::size_t(blockIdx.x) * blockDim.x + threadIdx.x;
+  if (i < n) f(i);
+}
+
+template <class F>
+void cuda_overdamped(std::size_t n, const F& f, CUstream_st* stream) {
+  if (n == 0) return;
+  constexpr int block = 256;
+  const unsigned grid = unsigned((n + block - 1) / block);
+  launch_after_previous("launching an integrator's loop", overdamped_kernel<F>, dim3(grid), dim3(block), stream, n, f);
 }
 
 // cuda_for_each with __launch_bounds__(256, MinBlocks): registers capped so that MinBlocks
@@ -98,7 +119,7 @@ struct CudaExec {
   static void for_each_bounded(std::size_t n, const F& f, CUstream_st* s) { cuda_for_each_bounded<F, MinBlocks>(n, f, s); }
   // The overdamped integrators (core/physics/overdamped.h): one particle per thread (F::operator()).
   template <class F>
-  static void overdamped(std::size_t n, const F& f, CUstream_st* s) { cuda_for_each(n, f, s); }
+  static void overdamped(std::size_t n, const F& f, CUstream_st* s) { cuda_overdamped(n, f, s); }
   template <class F>
   static std::uint32_t max(std::size_t n, const F& f, Reduction<std::uint32_t>& r, CUstream_st* s) {
     return cuda_max(n, f, r, s);
