@@ -14,18 +14,22 @@
 
 namespace ff {
 
+// The loops and reductions below: one element a thread, in blocks of kLoopThreads.
+constexpr int kLoopThreads = 256;
+inline unsigned loop_blocks(std::size_t n) { return unsigned((n + kLoopThreads - 1) / kLoopThreads); }
+// This thread's element (n or more for the last block's spare threads).
+__device__ __forceinline__ std::size_t loop_element() { return std::size_t(blockIdx.x) * blockDim.x + threadIdx.x; }
+
 template <class F>
 __global__ void for_each_kernel(std::size_t n, F f) {
-  const std::size_t i = std::size_t(blockIdx.x) * blockDim.x + threadIdx.x;
+  const std::size_t i = loop_element();
   if (i < n) f(i);
 }
 
 template <class F>
 void cuda_for_each(std::size_t n, const F& f, CUstream_st* stream) {
   if (n == 0) return;
-  constexpr int block = 256;
-  const unsigned grid = unsigned((n + block - 1) / block);
-  for_each_kernel<F><<<grid, block, 0, stream>>>(n, f);
+  for_each_kernel<F><<<loop_blocks(n), kLoopThreads, 0, stream>>>(n, f);
   FF_CUDA_CHECK_LAUNCH("launching an element loop");
 }
 
@@ -37,33 +41,30 @@ template <class F>
 __global__ void overdamped_kernel(std::size_t n, F f) {
   wait_for_previous_kernel();
   allow_next_kernel();
-  const std::size_t i = std::size_t(blockIdx.x) * blockDim.x + threadIdx.x;
+  const std::size_t i = loop_element();
   if (i < n) f(i);
 }
 
 template <class F>
 void cuda_overdamped(std::size_t n, const F& f, CUstream_st* stream) {
   if (n == 0) return;
-  constexpr int block = 256;
-  const unsigned grid = unsigned((n + block - 1) / block);
-  launch_after_previous("launching an integrator's loop", overdamped_kernel<F>, dim3(grid), dim3(block), stream, n, f);
+  launch_after_previous("launching an integrator's loop", overdamped_kernel<F>, dim3(loop_blocks(n)),
+                        dim3(kLoopThreads), stream, n, f);
 }
 
 // cuda_for_each with __launch_bounds__(256, MinBlocks): registers capped so that MinBlocks
 // blocks fit on an SM. For a memory-bound loop whose occupancy the default allocation limits
 // (measure first: a cap that forces spills usually loses).
 template <class F, int MinBlocks>
-__global__ void __launch_bounds__(256, MinBlocks) for_each_bounded_kernel(std::size_t n, F f) {
-  const std::size_t i = std::size_t(blockIdx.x) * blockDim.x + threadIdx.x;
+__global__ void __launch_bounds__(kLoopThreads, MinBlocks) for_each_bounded_kernel(std::size_t n, F f) {
+  const std::size_t i = loop_element();
   if (i < n) f(i);
 }
 
 template <class F, int MinBlocks>
 void cuda_for_each_bounded(std::size_t n, const F& f, CUstream_st* stream) {
   if (n == 0) return;
-  constexpr int block = 256;
-  const unsigned grid = unsigned((n + block - 1) / block);
-  for_each_bounded_kernel<F, MinBlocks><<<grid, block, 0, stream>>>(n, f);
+  for_each_bounded_kernel<F, MinBlocks><<<loop_blocks(n), kLoopThreads, 0, stream>>>(n, f);
   FF_CUDA_CHECK_LAUNCH("launching an element loop");
 }
 
@@ -72,7 +73,7 @@ void cuda_for_each_bounded(std::size_t n, const F& f, CUstream_st* stream) {
 // back. Integer max and sum do not depend on the order of the atomics.
 template <class F>
 __global__ void reduce_max_kernel(std::size_t n, F f, std::uint32_t* out) {
-  const std::size_t i = std::size_t(blockIdx.x) * blockDim.x + threadIdx.x;
+  const std::size_t i = loop_element();
   std::uint32_t v = i < n ? std::uint32_t(f(i)) : 0u;
   for (int o = 16; o > 0; o >>= 1) v = max(v, __shfl_down_sync(0xffffffffu, v, o));
   if ((threadIdx.x & 31) == 0 && v) atomicMax(out, v);
@@ -80,7 +81,7 @@ __global__ void reduce_max_kernel(std::size_t n, F f, std::uint32_t* out) {
 
 template <class F, bool Count>
 __global__ void reduce_sum_kernel(std::size_t n, F f, std::uint64_t* out) {
-  const std::size_t i = std::size_t(blockIdx.x) * blockDim.x + threadIdx.x;
+  const std::size_t i = loop_element();
   unsigned long long v = 0;
   if (i < n) v = Count ? (f(i) ? 1ull : 0ull) : static_cast<unsigned long long>(f(i));
   for (int o = 16; o > 0; o >>= 1) v += __shfl_down_sync(0xffffffffu, v, o);
@@ -91,8 +92,7 @@ template <class F>
 std::uint32_t cuda_max(std::size_t n, const F& f, Reduction<std::uint32_t>& r, CUstream_st* stream) {
   if (n == 0) return 0;
   std::uint32_t* word = r.clear(0, stream);
-  constexpr int block = 256;
-  reduce_max_kernel<F><<<unsigned((n + block - 1) / block), block, 0, stream>>>(n, f, word);
+  reduce_max_kernel<F><<<loop_blocks(n), kLoopThreads, 0, stream>>>(n, f, word);
   FF_CUDA_CHECK_LAUNCH("launching a max-reduction");
   return r.read(stream);
 }
@@ -101,8 +101,7 @@ template <class F, bool Count>
 std::uint64_t cuda_sum(std::size_t n, const F& f, Reduction<std::uint64_t>& r, CUstream_st* stream) {
   if (n == 0) return 0;
   std::uint64_t* word = r.clear(0, stream);
-  constexpr int block = 256;
-  reduce_sum_kernel<F, Count><<<unsigned((n + block - 1) / block), block, 0, stream>>>(n, f, word);
+  reduce_sum_kernel<F, Count><<<loop_blocks(n), kLoopThreads, 0, stream>>>(n, f, word);
   FF_CUDA_CHECK_LAUNCH(Count ? "launching a count-reduction" : "launching a sum-reduction");
   return r.read(stream);
 }
