@@ -52,7 +52,7 @@ void cuda_overdamped(std::size_t n, const F& f, CUstream_st* stream) {
                         dim3(kLoopThreads), stream, n, f);
 }
 
-// cuda_for_each with __launch_bounds__(256, MinBlocks): registers capped so that MinBlocks
+// cuda_for_each with __launch_bounds__(kLoopThreads, MinBlocks): registers capped so that MinBlocks
 // blocks fit on an SM. For a memory-bound loop whose occupancy the default allocation limits
 // (measure first: a cap that forces spills usually loses).
 template <class F, int MinBlocks>
