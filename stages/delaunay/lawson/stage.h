@@ -220,9 +220,8 @@ class Lawson final : public Stage {
       }
       const bool tail = loops_.tail && launched < p_.max_rounds;
       if (tail) {
-        LawsonTail<R> t{m, pts, p_.tolerance, marked, queued, go, list, marked_list, c, round,
-                        defer ? ~0u : kTailMarked, p_.max_rounds - launched,
-                        defer ? counters_.landing() : nullptr};
+        LawsonTail<R> t = tail_args(m, pts, E, round, defer ? ~0u : kTailMarked, p_.max_rounds - launched,
+                                    defer ? counters_.landing() : nullptr);
         if (round0_in_tail && launched == 0) {
           t.first_list = test;
           t.first_count = unsigned(launch);
@@ -275,8 +274,7 @@ class Lawson final : public Stage {
     const Points<R> pts = points_view<R>(s, ff::fields::position, where_);
     const std::size_t E = edge_count(s.n());
     counters_.begin(std::array<int, 1>{kLawsonTooLongAt}, st);
-    LawsonTail<R> t{m, pts, p_.tolerance, marked_.get(E), queued_.get(E), go_.get(E), list_.get(E),
-                    marked_list_.get(E), counters_.ptr(), ++round_, ~0u, p_.max_rounds, counters_.landing()};
+    LawsonTail<R> t = tail_args(m, pts, E, ++round_, ~0u, p_.max_rounds, counters_.landing());
     t.first_list = s.field(fields::lawson_candidates).data<std::int32_t>(ctx);
     t.first_reset_next = counters_.next();
     t.gate = ctx.gate;
@@ -286,6 +284,15 @@ class Lawson final : public Stage {
     counters_.await_published(st);
     pending_ = true;  // read by after_step (settle)
     return Outcome::ok();
+  }
+
+  // The tail kernel's arguments that run() and run_gated() share: this step's mesh, positions,
+  // work arrays and counters, from round `round` on.
+  LawsonTail<R> tail_args(const Mesh& m, const Points<R>& pts, std::size_t E, std::int32_t round, unsigned max_marked,
+                          std::int64_t max_rounds, unsigned* publish) {
+    return LawsonTail<R>{m,          pts,          p_.tolerance,    marked_.get(E), queued_.get(E),
+                         go_.get(E), list_.get(E), marked_list_.get(E), counters_.ptr(), round,
+                         max_marked, max_rounds,   publish};
   }
 
   void report(const std::array<unsigned, kLawsonCounters>& h, Metrics& metrics) {
