@@ -19,13 +19,14 @@ constexpr int kMinBlocks = 2;
 
 // Small systems: a cluster of kClusterBlocks blocks of kClusterThreads runs the iterations
 // instead of the grid for n ≤ kClusterMaxN: there an iteration's walks are short, and the grid's
-// three barriers per iteration and its cooperative launch are the time. The shape and the
-// threshold come from the A/B in bench/overlap_correct-PERF.md (session 13): above the threshold
-// the grid's SMs do more than the cluster's barrier saves; one block alone (a variant there)
-// lost at every size. On a GPU that many runs share, team_for gives a run fewer SMs.
+// three barriers per iteration and its cooperative launch are the time. The shape comes from the
+// A/B in bench/overlap_correct-PERF.md (session 13; one block alone, a variant there, lost at
+// every size), the threshold from session 25's (bench/README.md, "Session 25"): the cluster wins
+// at 8192 particles and ties the grid at 16384, above which the grid's SMs do more than the
+// cluster's barrier saves. On a GPU that many runs share, team_for gives a run fewer SMs.
 constexpr int kClusterBlocks = 16;
 constexpr int kClusterThreads = 512;
-constexpr std::size_t kClusterMaxN = 4096;
+constexpr std::size_t kClusterMaxN = 8192;
 // Runs that share the GPU and would not fit side by side as grids take a cluster of 8 blocks (8
 // SMs, the portable cluster size) instead of 16: a correction takes a little longer, but twice
 // as many run at once, and a sweep's corrections side by side are what bounds it (bench/README.md,

@@ -74,12 +74,12 @@ static void check_cpu_equals_cuda(std::uint64_t n) {
 
 TEST_CASE("overlap_correct: CPU and CUDA give the same bits on either device path (team and grid)",
           "[overlap][cuda]") {
-  // cuda.cu runs small systems (n ≤ kClusterMaxN = 4096) in a thread-block cluster and larger
+  // cuda.cu runs small systems (n ≤ kClusterMaxN = 8192) in a thread-block cluster and larger
   // ones on the whole grid: sizes on both sides, and the threshold itself. (20000, the size of the
   // tests above, is the grid's.) 150000 fills the grid (more particles than its threads on a GPU
   // of up to ~290 SMs), so its first iteration runs in the wide kernels (DeviceLoops::prepare).
   if (!test::have_cuda("overlap_correct CPU-vs-CUDA by size")) return;
-  for (std::uint64_t n : {3000u, 4096u, 65536u, 150000u}) {
+  for (std::uint64_t n : {3000u, 8192u, 65536u, 150000u}) {
     INFO("n " << n);
     check_cpu_equals_cuda(n);
   }
