@@ -87,7 +87,7 @@ namespace ff::overlap {
 
 namespace {
 
-constexpr int kThreads = 256;  // the grid kernel's block size
+constexpr int kThreads = 512;  // the grid kernel's block size (team_shape.cuh: kMinBlocks)
 constexpr int kShards = 8;
 constexpr int kShardStride = 4;  // u64 between shards: one 32-byte sector each
 // The counters a kernel sums: kernel.h's, kTouched (the last) only with the touched field (Mark),
@@ -264,11 +264,12 @@ __device__ void claim_checked(const Overlaps<R, W>& ov, int v, const int* nb, co
 }
 
 // A block's gathers (checks) go to lane groups when it has at most this many particles to do
-// (an eighth of its threads: 32 in the grid's blocks, so that one pass of groups does them all),
-// else one thread each: a group shortens one particle's chain of loads, but puts 8x fewer
-// particles in flight, and each further pass of groups is another chain after the first, where
-// threads take up to Threads particles at once (H100 and H200 measurements, from half the
-// threads to an eighth: bench/overlap_correct-PERF.md, bench/experiments/README.md "tail21").
+// (an eighth of its threads: 64 in the grid's and the cluster's blocks of 512, so that one pass
+// of groups does them all), else one thread each: a group shortens one particle's chain of
+// loads, but puts 8x fewer particles in flight, and each further pass of groups is another
+// chain after the first, where threads take up to Threads particles at once (H100 and H200
+// measurements, from half the threads to an eighth: bench/overlap_correct-PERF.md,
+// bench/experiments/README.md "tail21").
 template <int Threads>
 constexpr int kGroupBelow = Threads / 8;
 

@@ -152,7 +152,7 @@ TEST_CASE("overlap_correct: CPU and CUDA stop alike at max_iterations on the gri
   // after them replays that decision. Stopping at iteration 1, 2 or 3 of a step: the same error on
   // both backends, whose count of pairs still overlapping (the last gather's) and worst pair depend
   // on exactly which iterations were applied. 20000 disks: the cooperative kernel alone; 150000:
-  // more than the grid's threads on a GPU of up to ~290 SMs at 2 blocks of 256 an SM, so the wide
+  // more than the grid's threads on a GPU of up to ~290 SMs at one block of 512 an SM, so the wide
   // kernels first (DeviceLoops::prepare).
   if (!test::have_cuda("overlap_correct CPU-vs-CUDA at max_iterations")) return;
   for (std::uint64_t n : {20000u, 150000u})

@@ -12,7 +12,7 @@ namespace {
 // The wide kernels: the first iterations of a grid's step (kWideIterations of them; iteration 0
 // gathers every particle, most of the stage's work on a full grid) as three ordinary launches each
 // (gather, apply, check), a thread per particle, with few registers and many warps on an SM. The
-// cooperative kernel's registers hold it to 2 blocks of 256 an SM for its later iterations; one
+// cooperative kernel's registers hold it to one block of 512 an SM for its later iterations; one
 // particle's gather is a chain of dependent loads (ncu: bench/README.md, session 18), so what
 // hides its latency is how many chains are in flight. Kernel boundaries stand in for the grid barriers
 // and order the memory the same way.
