@@ -9,14 +9,14 @@ namespace ff::overlap {
 namespace {
 
 // Blocks and tile for n particles: at most what fits on the device at once (a cooperative
-// launch needs every block resident), tiles of at least kThreads particles, a multiple of 16.
+// launch needs every block resident), tiles of at least 256 particles, a multiple of 16.
 // One block of 512 per SM (128 registers): against 2 blocks of 256 (the shape from session 4 to
 // 24) the same at 2^14 and 4-7 % faster from 2^16 to 2^20 on the H200 (bench/README.md, "Session
-// 25": half as many blocks meet at each grid barrier). 3 blocks of 256 get 80 registers and
-// spill, and 8 loads in flight (kInFlight) gain nothing. The best shape changed with the kernel
-// (3 blocks with one load after the other, 4 with fan walks only), so measure again after
-// changing it (bench/overlap_correct-PERF.md and bench/README.md, "Numbers formerly in source
-// comments").
+// 25": half as many blocks meet at each grid barrier); with tiles of 256 rather than 512, 2.4 %
+// faster at 2^14 (64 SMs instead of 32). 3 blocks of 256 get 80 registers and spill, and 8
+// loads in flight (kInFlight) gain nothing. The best shape changed with the kernel (3 blocks with
+// one load after the other, 4 with fan walks only), so measure again after changing it
+// (bench/overlap_correct-PERF.md and bench/README.md, "Numbers formerly in source comments").
 constexpr int kMinBlocks = 1;
 
 // Small systems: a cluster of kClusterBlocks blocks of kClusterThreads runs the iterations
@@ -105,7 +105,7 @@ bool cluster_fits() {
 }
 
 // The grid for n particles: blocks of kThreads, at most what fits on the device at once (a
-// cooperative launch needs every block resident), tiles of at least kThreads particles; and how many
+// cooperative launch needs every block resident), tiles of at least 256 particles; and how many
 // SMs those blocks hold (per_sm to an SM).
 struct GridShape {
   int blocks = 0, sms_held = 0, sms = 0;
@@ -121,7 +121,7 @@ GridShape grid_shape(std::size_t n) {
                 "overlap_correct: occupancy");
   per_sm = std::max(1, per_sm);
   const std::size_t most = std::size_t(per_sm) * std::size_t(sms);
-  const std::size_t want = std::max<std::size_t>(1, (n + kThreads - 1) / kThreads);
+  const std::size_t want = std::max<std::size_t>(1, (n + 255) / 256);
   GridShape g;
   g.blocks = int(std::min(most, want));
   g.sms_held = (g.blocks + per_sm - 1) / per_sm;
@@ -133,7 +133,7 @@ GridShape grid_shape(std::size_t n) {
 // else the grid, the fastest (bench/overlap_correct-PERF.md). On a GPU that K runs share
 // (runs_sharing_gpu: `pipeline sweep`): a cluster of kSharedClusterBlocks also where K grids would
 // not fit on the GPU at once. What bounds a sweep is how many corrections run side by side: at
-// 2^14 the grid holds 32 SMs (32 blocks, one to an SM), the cluster of 16 holds 16 and that of 8
+// 2^14 the grid holds 64 SMs (64 blocks, one to an SM), the cluster of 16 holds 16 and that of 8
 // holds 8 for somewhat longer, so more runs correct at once; alone the grid stays, since a cluster
 // is slower there, and one block a run was slower in a sweep too (numbers: bench/README.md,
 // "Sweeps on one GPU" and "Session 20"). Who runs the iterations does not change the bits.
