@@ -105,8 +105,13 @@ bool cluster_fits() {
 }
 
 // The grid for n particles: blocks of kThreads, at most what fits on the device at once (a
-// cooperative launch needs every block resident), tiles of at least 256 particles; and how many
-// SMs those blocks hold (per_sm to an SM).
+// cooperative launch needs every block resident), tiles of at least kMinTile particles; and how
+// many SMs those blocks hold (per_sm to an SM). When runs share the GPU (runs_sharing_gpu) the
+// tiles are at least 512, as a grid's were before session 25 (two blocks of 256 to an SM: 32 SMs
+// at 2^14, where 256 holds 64), so up to 4 runs of 2^14 still take grids side by side (team_for),
+// the sweeps measured so far.
+constexpr std::size_t kMinTile = 256;
+constexpr std::size_t kMinTileShared = 512;
 struct GridShape {
   int blocks = 0, sms_held = 0, sms = 0;
 };
@@ -121,7 +126,8 @@ GridShape grid_shape(std::size_t n) {
                 "overlap_correct: occupancy");
   per_sm = std::max(1, per_sm);
   const std::size_t most = std::size_t(per_sm) * std::size_t(sms);
-  const std::size_t want = std::max<std::size_t>(1, (n + 255) / 256);
+  const std::size_t tile = runs_sharing_gpu() > 1 ? kMinTileShared : kMinTile;
+  const std::size_t want = std::max<std::size_t>(1, (n + tile - 1) / tile);
   GridShape g;
   g.blocks = int(std::min(most, want));
   g.sms_held = (g.blocks + per_sm - 1) / per_sm;
@@ -133,7 +139,7 @@ GridShape grid_shape(std::size_t n) {
 // else the grid, the fastest (bench/overlap_correct-PERF.md). On a GPU that K runs share
 // (runs_sharing_gpu: `pipeline sweep`): a cluster of kSharedClusterBlocks also where K grids would
 // not fit on the GPU at once. What bounds a sweep is how many corrections run side by side: at
-// 2^14 the grid holds 64 SMs (64 blocks, one to an SM), the cluster of 16 holds 16 and that of 8
+// 2^14 a shared grid holds 32 SMs (32 blocks, one to an SM), the cluster of 16 holds 16 and that of 8
 // holds 8 for somewhat longer, so more runs correct at once; alone the grid stays, since a cluster
 // is slower there, and one block a run was slower in a sweep too (numbers: bench/README.md,
 // "Sweeps on one GPU" and "Session 20"). Who runs the iterations does not change the bits.

@@ -88,9 +88,9 @@ TEST_CASE("overlap_correct: CPU and CUDA give the same bits on either device pat
 TEST_CASE("overlap_correct: CPU and CUDA give the same bits when runs share the GPU (smaller teams)",
           "[overlap][cuda]") {
   // On a GPU that many runs share (runs_sharing_gpu, `pipeline sweep`), team_for gives a run the
-  // cluster of 8 blocks (kSharedClusterBlocks) where a run alone takes the grid and K grids would not fit on the GPU
-  // (an H100/H200's 132 SMs: 16384 holds 64 SMs, 65536 all 132; with 2 runs 16384 keeps the grid;
-  // 3000 takes the cluster of 16 whether shared or not).
+  // cluster of 8 blocks (kSharedClusterBlocks) where a run alone takes the grid and K grids would
+  // not fit on the GPU (an H100/H200's 132 SMs: a shared grid of 16384 holds 32 SMs, of 65536 all
+  // 132; with 2 runs 16384 keeps the grid; 3000 takes the cluster of 16 whether shared or not).
   if (!test::have_cuda("overlap_correct CPU-vs-CUDA with shared GPUs")) return;
   for (int sharing : {64, 2}) {
     ff::set_runs_sharing_gpu(sharing);
