@@ -143,6 +143,9 @@ struct Args {
                            // pinned host memory, written directly (no copy after the kernel)
   std::uint8_t* state;     // grid·tile, by particle: what a wide gather found (WideState), for its
                            // apply and check; disp and crossed are indexed by particle there too
+  R* next;                 // 2 x grid·tile, or null: the positions after the iteration's moves
+                           // (the check reads them while the apply writes pos; see the kernel)
+  Overlaps<R, Walls> ov_check;  // ov for the check: its positions are next (or, without, p's)
   int tile;                // particles per block, a multiple of 16
   int j0;                  // the batch's first iteration this kernel runs: those before ran in the
                            // wide kernels (run_wide), their counters in slots
@@ -431,6 +434,7 @@ __global__ void __launch_bounds__(Threads, MinBlocks) correct_kernel(Args<R, Wal
           R x[2];
           int cr[2];
           moved_d<2>(a.p.pos, a.p.box, std::size_t(v), d, x, cr);
+          if (a.next) store_xy(a.next, v, double(x[0]), double(x[1]));
           disp[m] = make_double2(double(x[0]), double(x[1]));
           crossed[m] = make_char2(char(cr[0]), char(cr[1]));
           atomicAdd(&s_moved, 1);
@@ -443,7 +447,14 @@ __global__ void __launch_bounds__(Threads, MinBlocks) correct_kernel(Args<R, Wal
         if (tail)  // its claim: cleared for the next check
           atomicAnd(mark_word(a.marks, v), ~mark_bit(v));
         int ids[kCached], d;
-        take(v, neighbor_ids(ov, v, first, a.nb, a.degree, a.fan, ids, d) ? gather_ids(ov, v, ids, d) : ov.gather(v));
+        const VertexPush q =
+            neighbor_ids(ov, v, first, a.nb, a.degree, a.fan, ids, d) ? gather_ids(ov, v, ids, d) : ov.gather(v);
+        take(v, q);
+        if (first && a.next && !(q.touched && (q.dx != 0 || q.dy != 0))) {  // next = pos where v stays
+          double x, y;
+          load_xy(a.p.pos, v, x, y);
+          store_xy(a.next, v, x, y);
+        }
       }
     } else {  // one lane group per particle (the loop is uniform over the block: shuffles)
       const int l = int(threadIdx.x) % kGroup;
@@ -518,10 +529,15 @@ __global__ void __launch_bounds__(Threads, MinBlocks) correct_kernel(Args<R, Wal
         if (c.y) a.p.image[2 * v + 1] += c.y;
       }
     }
-    if (tail)
+    // With next (a.next): the check reads the new positions from next, complete since the
+    // gathers wrote them before the barrier above, while the apply writes pos, which nothing reads
+    // until the barrier after the check; so only this block's own apply (its image counts, which
+    // the check's wall test reads) needs to be done. Without: every block's apply first.
+    if (tail || a.next)
       __syncthreads();
     else
       team_sync<Team>();
+    const Overlaps<R, Walls>& ovc = a.ov_check;
 
     // The check (positions are the new ones now): marks the next iteration's candidates. The
     // last iteration of a batch leaves plain marks, which the next launch compacts.
@@ -541,8 +557,8 @@ __global__ void __launch_bounds__(Threads, MinBlocks) correct_kernel(Args<R, Wal
         if (v < 0)
           mark_it(~v);
         else if (in_block)
-          claim_checked(ov, v, a.nb, a.degree, a.marks, a.cand, &s_claims, mark_it);
-        else if (thread_check(ov, v, a.nb, a.degree, mark_it))  // (the fan closed in iteration 0)
+          claim_checked(ovc, v, a.nb, a.degree, a.marks, a.cand, &s_claims, mark_it);
+        else if (thread_check(ovc, v, a.nb, a.degree, mark_it))  // (the fan closed in iteration 0)
           mark_it(v);
       }
     } else {
@@ -552,7 +568,7 @@ __global__ void __launch_bounds__(Threads, MinBlocks) correct_kernel(Args<R, Wal
         const int v = i < ns ? seed[i] : ~0;
         if (i < ns && v < 0 && l == 0) mark_it(~v);
         // The fan closed in iteration 0 (else the step ended there), and the walk is range-checked.
-        if (group_check(ov, v, i < ns && v >= 0, l, a.nb, a.degree, mark_it) && l == 0) mark_it(v);
+        if (group_check(ovc, v, i < ns && v >= 0, l, a.nb, a.degree, mark_it) && l == 0) mark_it(v);
       }
     }
     if (last) return;  // the host launches the next batch

@@ -30,6 +30,7 @@ class DeviceLoops final : public OverlapCorrectLoops<R> {
         degree_(exec),
         fan_(exec),
         state_(exec),
+        next_(exec),
         slots_{Scratch<u64>(exec), Scratch<u64>(exec)},
         result_(exec),
         ops_(&exec.memory()),
@@ -88,11 +89,14 @@ class DeviceLoops final : public OverlapCorrectLoops<R> {
                      slots_[1 - parity_].get(kSlotWords + 1),
                      result_.get(kResultWords),
                      state_.get(cap_),
+                     wide_ ? nullptr : next_.get(2 * cap_),
+                     p.overlaps.template with_walls<Walls>(),
                      tile_,
                      0,
                      static_cast<long long>(k0),
                      static_cast<long long>(max_iterations),
                      static_cast<long long>(zero)};
+    if (a.next) a.ov_check.pos = a.next;
     // The grid's first iterations run in the wide kernels (wide_kernels.cuh), queued at once:
     // each does nothing after an iteration that did not go on.
     if (wide_ && k0 == 0) a.j0 = run_wide<Walls, Mark>(a, s);
@@ -164,6 +168,7 @@ class DeviceLoops final : public OverlapCorrectLoops<R> {
   Scratch<std::uint8_t> degree_; // grid·tile: how many (kept across steps, with fan_)
   Scratch<int> fan_;             // kCached x grid·tile: each listed fan's half-edges (kept_fan)
   Scratch<std::uint8_t> state_;  // grid·tile: what a wide gather found, by particle
+  Scratch<R> next_;              // 2 x grid·tile: the positions after an iteration's moves (not wide)
   Scratch<u64> slots_[2];        // kSlotWords + the claims count, per launch parity
   HostScratch<u64> result_;      // pinned: the kernel writes its counters there (no copy after it)
   std::size_t n_ = 0, cap_ = 0;
