@@ -351,10 +351,13 @@ __global__ void __launch_bounds__(Threads, MinBlocks) correct_kernel(Args<R, Wal
   constexpr bool kCluster = Team != kGrid;
   __shared__ u64 s_part[kAll];  // (kCluster) this block's sums of the iteration
   __shared__ int s_warp[kWarps];
-  __shared__ int s_seeds, s_moved, s_count;
+  // Counters by iteration parity (j & 1): iteration j zeroes those of j + 1 (last read in j − 1,
+  // before the barrier that ended it), so no barrier is spent on resetting them.
+  __shared__ int s_seeds[2], s_moved[2];
+  __shared__ int s_claims[2];  // the tail's own checks: entries of cand claimed for iteration j
+  __shared__ u64 s_sum[2][kReported];  // the tail's sums: shared atomics, one barrier
   __shared__ u64 s_red[kReported][kWarps];
   __shared__ u64 s_tot[kAll];
-  __shared__ int s_claims;  // the tail's own checks: entries of cand claimed
 
   const Overlaps<R, Walls>& ov = a.ov;
   const int n = int(a.p.n);
@@ -398,8 +401,12 @@ __global__ void __launch_bounds__(Threads, MinBlocks) correct_kernel(Args<R, Wal
     if (!keeps_going(tot, a.k0 + j, a.max_iterations)) return;
   }
 
+  if (threadIdx.x < 2) s_seeds[threadIdx.x] = s_moved[threadIdx.x] = s_claims[threadIdx.x] = 0;
+  if (threadIdx.x < 2 * kReported) s_sum[threadIdx.x / kReported][threadIdx.x % kReported] = 0;
+  __syncthreads();
   for (int j = a.j0; j < kDeviceBatch; ++j) {
     const long long k = a.k0 + j;
+    const int p = j & 1, p_next = p ^ 1;
     // Iteration 0 (every particle a candidate) runs here in a cluster and on a grid that is not
     // full; on a full grid it ran in the wide kernels (j0 ≥ 1 whenever k0 = 0: DeviceLoops::prepare).
     const bool first = k == 0;
@@ -408,17 +415,13 @@ __global__ void __launch_bounds__(Threads, MinBlocks) correct_kernel(Args<R, Wal
       count = max(0, t1 - t0);
     } else if (!tail) {
       count = compact<Threads>(a.marks, t0, a.tile, cand, s_warp);
+      __syncthreads();  // (its cand entries, for the gathers)
     } else {
-      if (threadIdx.x == 0) {
-        s_count = tail_first ? int(__ldcg(a.claims)) : s_claims;
-        s_claims = 0;
-      }
-      __syncthreads();
-      count = s_count;
+      count = tail_first ? int(__ldcg(a.claims)) : s_claims[p];
       tail_first = false;
     }
-    if (threadIdx.x == 0) s_seeds = s_moved = 0;
-    __syncthreads();
+    if (threadIdx.x == 0) s_seeds[p_next] = s_moved[p_next] = s_claims[p_next] = 0;
+    if (threadIdx.x < kReported) s_sum[p_next][threadIdx.x] = 0;
 
     u64 c[kReported] = {};
     // What a gather found: counted (count_gather), and the particle listed when it touched an
@@ -427,7 +430,7 @@ __global__ void __launch_bounds__(Threads, MinBlocks) correct_kernel(Args<R, Wal
       count_gather<Mark>(c, ov, q, a.p.touched, v, first);
       if (q.touched) {
         const bool moves = q.dx != 0 || q.dy != 0;
-        const int m = atomicAdd(&s_seeds, 1);
+        const int m = atomicAdd(&s_seeds[p], 1);
         seed[m] = moves ? v : ~v;
         if (moves) {  // where v goes (its position is in this SM's cache now): the apply only stores it
           const double d[2] = {q.dx, q.dy};
@@ -437,7 +440,7 @@ __global__ void __launch_bounds__(Threads, MinBlocks) correct_kernel(Args<R, Wal
           if (a.next) store_xy(a.next, v, double(x[0]), double(x[1]));
           disp[m] = make_double2(double(x[0]), double(x[1]));
           crossed[m] = make_char2(char(cr[0]), char(cr[1]));
-          atomicAdd(&s_moved, 1);
+          atomicAdd(&s_moved[p], 1);
         }
       }
     };
@@ -468,48 +471,57 @@ __global__ void __launch_bounds__(Threads, MinBlocks) correct_kernel(Args<R, Wal
         if (has && l == 0) take(v, q);
       }
     }
+    // The iteration's sums: in the tail, shared atomics (u64 sums do not depend on the order) and
+    // one barrier; in a team, warp sums, the block's in s_tot, then the team's.
+    const u64* sums = s_tot;
+    if (tail) {
 #pragma unroll
-    for (int q = 0; q < kReported; ++q) {
-      const u64 s = warp_sum(c[q]);
-      if (lane == 0) s_red[q][warp] = s;
-    }
-    __syncthreads();
-    if (threadIdx.x < kAll) {
-      u64 s = 0;
-      if (threadIdx.x < kReported) {
-#pragma unroll
-        for (int w = 0; w < kWarps; ++w) s += s_red[threadIdx.x][w];
-      } else {
-        s = u64(s_moved);
+      for (int q = 0; q < kReported; ++q) {
+        const u64 s = warp_sum(c[q]);
+        if (lane == 0 && s) atomicAdd(&s_sum[p][q], s);
       }
-      if (tail)
-        s_tot[threadIdx.x] = s;
-      else if (kCluster)
-        s_part[threadIdx.x] = s;
-      else if (s)
-        atomicAdd(a.slots + (std::size_t(j) * kAll + threadIdx.x) * kShards * kShardStride + shard, s);
-    }
-    if (!tail) {
+      __syncthreads();
+      sums = s_sum[p];
+    } else {
+#pragma unroll
+      for (int q = 0; q < kReported; ++q) {
+        const u64 s = warp_sum(c[q]);
+        if (lane == 0) s_red[q][warp] = s;
+      }
+      __syncthreads();
+      if (threadIdx.x < kAll) {
+        u64 s = 0;
+        if (threadIdx.x < kReported) {
+#pragma unroll
+          for (int w = 0; w < kWarps; ++w) s += s_red[threadIdx.x][w];
+        } else {
+          s = u64(s_moved[p]);
+        }
+        if (kCluster)
+          s_part[threadIdx.x] = s;
+        else if (s)
+          atomicAdd(a.slots + (std::size_t(j) * kAll + threadIdx.x) * kShards * kShardStride + shard, s);
+      }
       team_sync<Team>();
       if (threadIdx.x < kAll) {
         u64 s = 0;
         if constexpr (kCluster) {
-          // Read here, between the barrier and the next one (the apply's): s_part is written
-          // again only after that, and a block returns only after one more barrier (below).
+          // Read here, between the barrier and the next team barrier: s_part is written again
+          // only after that, and a block returns only after one more barrier (below).
           for (int r = 0; r < Team; ++r) s += load_in_block(s_part + threadIdx.x, r);
         } else {
           s = slot_total<kAll>(a.slots, j, int(threadIdx.x));
         }
         s_tot[threadIdx.x] = s;
       }
+      __syncthreads();
     }
-    __syncthreads();
     if (blockIdx.x == 0 && threadIdx.x < kReported)
-      a.result[std::size_t(j) * kCounters + threadIdx.x] = s_tot[threadIdx.x];
+      a.result[std::size_t(j) * kCounters + threadIdx.x] = sums[threadIdx.x];
     if (blockIdx.x == 0 && threadIdx.x == 0) a.result[std::size_t(kDeviceBatch) * kCounters] = u64(j + 1);
     std::uint64_t tot[kReported];
 #pragma unroll
-    for (int q = 0; q < kReported; ++q) tot[q] = s_tot[q];
+    for (int q = 0; q < kReported; ++q) tot[q] = sums[q];
     // The step ends here. Every mark is clear: the compaction or the gather cleared each one,
     // and none is set before the check that follows an apply.
     if (!keeps_going(tot, k, a.max_iterations)) {
@@ -518,7 +530,7 @@ __global__ void __launch_bounds__(Threads, MinBlocks) correct_kernel(Args<R, Wal
       return;
     }
 
-    const int ns = s_seeds;
+    const int ns = s_seeds[p];
     for (int i = int(threadIdx.x); i < ns; i += Threads) {
       const int v = seed[i];
       if (v >= 0) {
@@ -531,12 +543,16 @@ __global__ void __launch_bounds__(Threads, MinBlocks) correct_kernel(Args<R, Wal
     }
     // With next (a.next): the check reads the new positions from next, complete since the
     // gathers wrote them before the barrier above, while the apply writes pos, which nothing reads
-    // until the barrier after the check; so only this block's own apply (its image counts, which
-    // the check's wall test reads) needs to be done. Without: every block's apply first.
-    if (tail || a.next)
+    // until the barrier after the check; so only this block's own apply, its image counts, which
+    // the check's wall test reads, needs to be done, and only with walls. Without next: every
+    // block's apply first.
+    if (a.next) {
+      if constexpr (Walls) __syncthreads();
+    } else if (tail) {
       __syncthreads();
-    else
+    } else {
       team_sync<Team>();
+    }
     const Overlaps<R, Walls>& ovc = a.ov_check;
 
     // The check (positions are the new ones now): marks the next iteration's candidates. The
@@ -549,7 +565,7 @@ __global__ void __launch_bounds__(Threads, MinBlocks) correct_kernel(Args<R, Wal
       if (!in_block)
         mark(a.marks, u, claim, a.cand, a.claims);
       else if (claim_mark(a.marks, u))
-        a.cand[atomicAdd(&s_claims, 1)] = u;
+        a.cand[atomicAdd(&s_claims[p_next], 1)] = u;
     };
     if (ns > kGroupBelow<Threads>) {  // one thread per listed particle
       for (int i = int(threadIdx.x); i < ns; i += Threads) {
@@ -557,7 +573,7 @@ __global__ void __launch_bounds__(Threads, MinBlocks) correct_kernel(Args<R, Wal
         if (v < 0)
           mark_it(~v);
         else if (in_block)
-          claim_checked(ovc, v, a.nb, a.degree, a.marks, a.cand, &s_claims, mark_it);
+          claim_checked(ovc, v, a.nb, a.degree, a.marks, a.cand, &s_claims[p_next], mark_it);
         else if (thread_check(ovc, v, a.nb, a.degree, mark_it))  // (the fan closed in iteration 0)
           mark_it(v);
       }
