@@ -11,7 +11,7 @@
 // Work lists (the CPU's rule, cpu.cpp). Block b owns the particles [b·T, (b+1)·T). Iteration 0
 // gathers all of them. Each gather lists, block-private, the particles it touched (an
 // overlapping edge): those that moved, with their displacements, and those that did not (d = 0).
-// After the apply and a grid barrier, the check marks the candidates of iteration k + 1:
+// Once the moves are in (see Barriers below), the check marks the candidates of iteration k + 1:
 //   - each touched particle that did not move;
 //   - both ends of each edge of a moved particle that overlaps at the new positions (tested
 //     with r² < σ²·(1 + 1e-9), a superset of the gather's own test r² < σ², whose r² is the same
@@ -24,8 +24,18 @@
 // CPU loop's result (kernel.h: pushes are summed in 64-bit fixed point, so the CPU's edge passes
 // and these walks give the same bits). The rule before (every neighbour of a moved particle)
 // gathered 2.3x as many in iteration 1 at 2^20 (988k against 429k; bench/overlap_correct-PERF.md);
-// the check costs a third grid barrier per iteration and walks each moved particle once, as the
-// flagging did.
+// the check walks each moved particle once, as the flagging did.
+//
+// Barriers. Below the wide path (Args::next set) the gathers also write each moved particle's new
+// position to a second array, next, and iteration 0 copies every other particle's, so next holds
+// the positions after the iteration's moves from the barrier after the gathers on. The check
+// reads them there while each block applies its own moves to pos, which nothing reads before the
+// barrier after the check: a team iteration meets at two team barriers (gathers | check), and
+// with walls a block waits for its own apply (image counts) before its check. On the wide path
+// (2^17 and up) the apply has its own grid barrier: a second array costs L2 room there
+// (bench/experiments/README.md, "fused25" and session 26). The tail (block 0 alone) keeps its
+// counters in two copies by iteration parity and sums them with shared atomics, so a tail
+// iteration has two block barriers.
 //
 // Marks are one byte per particle. While many particles move, they are plain stores, and after a
 // grid barrier each block compacts the marks of its tile (in index order, clearing them). Once an

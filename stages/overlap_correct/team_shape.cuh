@@ -21,7 +21,7 @@ constexpr int kMinBlocks = 1;
 
 // Small systems: a cluster of kClusterBlocks blocks of kClusterThreads runs the iterations
 // instead of the grid for n ≤ kClusterMaxN: there an iteration's walks are short, and the grid's
-// three barriers per iteration and its cooperative launch are the time. The shape comes from the
+// barriers per iteration and its cooperative launch are the time. The shape comes from the
 // A/B in bench/overlap_correct-PERF.md (session 13; one block alone, a variant there, lost at
 // every size), the threshold from session 25's (bench/README.md, "Session 25"): the cluster wins
 // at 8192 particles and ties the grid at 16384, above which the grid's SMs do more than the
