@@ -39,10 +39,10 @@
 //
 // Marks are one byte per particle. While many particles move, they are plain stores, and after a
 // grid barrier each block compacts the marks of its tile (in index order, clearing them). Once an
-// iteration moves at most kTailMoved particles (a cluster: kClusterTailMoved), the remaining
-// iterations run in block 0 alone with __syncthreads only (an iteration of a few hundred
-// particles is faster in one block, whose time
-// is then the chains of dependent loads of its walks, than on the grid with its barriers): the
+// iteration moves at most kTailMoved particles (a run alone's cluster: kClusterTailMoved), the
+// remaining iterations run in block 0 alone with __syncthreads only (an iteration of a few
+// hundred particles is faster in one block, whose time is then the chains of dependent loads of
+// its walks, than on the grid with its barriers): the
 // check of that iteration (all blocks, then one last grid barrier) and each one after claims a
 // mark with a word atomic and lists the particle that claimed it first in one global list, which
 // block 0 gathers (clearing each mark) without scanning every tile. The first check counts the
@@ -114,10 +114,12 @@ constexpr int kDevCounters = kCounters + 1;  // the most a kernel sums (the slot
 constexpr std::size_t kSlotWords = std::size_t(kDeviceBatch) * kDevCounters * kShards * kShardStride;
 constexpr std::size_t kResultWords = std::size_t(kDeviceBatch) * kCounters + 1;  // + gathers run
 // Iterations after one that moved at most this many particles run in block 0 alone
-// (bench/overlap_correct-PERF.md). A cluster's iterations cost less than a grid's, so a cluster
-// keeps them longer (bench/experiments/README.md, session 26's tail thresholds).
+// (bench/overlap_correct-PERF.md). A run alone's cluster (kClusterTailTeam blocks: team_shape.cuh's
+// kClusterBlocks) keeps its cheaper iterations longer (bench/experiments/README.md, session 26's
+// tail thresholds); the sweeps' smaller clusters keep kTailMoved, as they were measured.
 constexpr int kTailMoved = 512;
 constexpr int kClusterTailMoved = 256;
+constexpr int kClusterTailTeam = 16;
 
 using u64 = unsigned long long;
 
@@ -571,7 +573,7 @@ __global__ void __launch_bounds__(Threads, MinBlocks) correct_kernel(Args<R, Wal
     // The check (positions are the new ones now): marks the next iteration's candidates. The
     // last iteration of a batch leaves plain marks, which the next launch compacts.
     const bool last = j + 1 == kDeviceBatch;
-    const bool to_tail = !tail && s_tot[kMoved] <= u64(kCluster ? kClusterTailMoved : kTailMoved);
+    const bool to_tail = !tail && s_tot[kMoved] <= u64(Team == kClusterTailTeam ? kClusterTailMoved : kTailMoved);
     const bool claim = (tail || to_tail) && !last;
     const bool in_block = tail && !last;  // block 0 alone: the claims counted in its shared memory
     auto mark_it = [&](int u) {

@@ -27,6 +27,7 @@ constexpr int kMinBlocks = 1;
 // at 8192 particles and ties the grid at 16384, above which the grid's SMs do more than the
 // cluster's barrier saves. On a GPU that many runs share, team_for gives a run fewer SMs.
 constexpr int kClusterBlocks = 16;
+static_assert(kClusterBlocks == kClusterTailTeam, "correct_kernel.cuh's tail threshold names this cluster");
 constexpr int kClusterThreads = 512;
 constexpr std::size_t kClusterMaxN = 8192;
 // Runs that share the GPU and would not fit side by side as grids take a cluster of 8 blocks (8
