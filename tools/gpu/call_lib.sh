@@ -13,6 +13,15 @@
 #                        /tmp/sh-V/lib provides); prints the copy's path
 #   tests DIR LOG T...   the CUDA tests T... of the bundle at DIR ([long] left to the CPU suite),
 #                        the output in LOG, its exit code at the end
+#   suite DIR [LIMIT]    every CUDA test of the bundle at DIR in six groups at once (the slow
+#                        executables first, one to a group; logs tests-0..5.txt, LIMIT s each,
+#                        default 280), then test_out_of_memory alone (tests-oom.txt); a summary
+#                        line in info.txt. Jobs started before it run beside it.
+#   bench_abp V TAG A... `pipeline bench` of bench-abp.yaml on CUDA with A..., from the bundle
+#                        ${D[V]} (D: the script's bundles by name, declared before the call); its
+#                        result lines in ab.txt as "V TAG: ...", then step V-TAG
+#   ncu_correction N...  ncu of overlap_correct's kernel at N particles (one launch 120 steps in,
+#                        per-instruction stall sampling): ncu-details-N.txt, ncu-sass-N.csv.xz
 set -u
 SECONDS=0
 call_name=$1
@@ -40,4 +49,46 @@ tests() {
   shift 2
   (cd "$dir" && FLIPFLOW_TEST_DEVICE=cuda CATCH_ARGS="~[long]" timeout "${TEST_TIMEOUT:-150}" bin/run-tests "$@" > "$log" 2>&1
    echo "rc=$?" >> "$log")
+}
+suite() {
+  local dir=$1 limit=${2:-280} g
+  local slow="test_hard_sphere_eos test_decomposition_delaunay test_checkpoint test_overlap_correct_cpu_cuda test_rollback_stress test_tran_aggregation"
+  local rest all pids=()
+  rest=$(cd "$dir/bin" && ls test_* | grep -v '^test_out_of_memory$' | grep -v -x -F "$(echo $slow | tr ' ' '\n')")
+  all=$(echo $slow $rest | tr ' ' '\n' | awk 'NF {print NR % 6, $0}')
+  for g in 0 1 2 3 4 5; do
+    TEST_TIMEOUT=$limit tests "$dir" "$O/tests-$g.txt" $(echo "$all" | awk -v g=$g '$1 == g {print $2}') &
+    pids+=($!)
+  done
+  wait "${pids[@]}"
+  TEST_TIMEOUT=40 tests "$dir" "$O/tests-oom.txt" test_out_of_memory
+  local logs="$O/tests-[0-5].txt $O/tests-oom.txt"
+  { echo "suite: $(cat $logs | grep -c "^PASS") PASS, $(cat $logs | grep -c "^FAIL") FAIL"; cat $logs | grep "^FAIL";
+    grep -h "^rc=" $logs | tr '\n' ' '; echo; } >> "$I"
+}
+bench_abp() {
+  local v=$1 tag=$2
+  shift 2
+  timeout "${BENCH_TIMEOUT:-120}" "${D[$v]}/bin/pipeline" bench "${D[$v]}/pipelines/bench-abp.yaml" --device cuda "$@" 2>&1 |
+    grep -E "^[0-9]|overlap_correct/iter|rror" | sed "s/^/$v $tag: /" >> "$O/ab.txt"
+  step "$v-$tag" "${PIPESTATUS[0]}"
+}
+ncu_correction() {
+  local n ncu
+  ncu=$(command -v ncu || ls /usr/local/cuda*/bin/ncu /opt/nvidia/nsight-compute/*/ncu 2>/dev/null | head -n 1)
+  echo "ncu: ${ncu:-none}" >> "$I"
+  for n in "$@"; do
+    timeout 180 "$ncu" --target-processes all --clock-control none -k regex:correct_kernel \
+      --launch-skip 120 --launch-count 1 \
+      --section LaunchStats --section Occupancy --section SchedulerStats --section WarpStateStats \
+      --section InstructionStats --section SpeedOfLight --section SourceCounters \
+      -f -o "$O/oc-$n" "$B/bin/pipeline" bench "$B/pipelines/bench-abp.yaml" --device cuda --sizes "$n" \
+      --steps 1 --warmup 125 > "$O/ncu-run-$n.txt" 2>&1
+    step "ncu-$n" $?
+    [[ -f $O/oc-$n.ncu-rep ]] || continue
+    "$ncu" -i "$O/oc-$n.ncu-rep" --page details > "$O/ncu-details-$n.txt" 2>&1
+    "$ncu" -i "$O/oc-$n.ncu-rep" --page source --csv --print-source sass 2>&1 | xz > "$O/ncu-sass-$n.csv.xz"
+    rm -f "$O/oc-$n.ncu-rep"
+    step "ncu-export-$n" 0
+  done
 }

@@ -4,6 +4,7 @@
 # 8ad095d's plugin (fused25 merged), both as shadow plugins: bar26's overlap tests on CUDA, then
 # bench-abp 200 steps after 20 at 2^10..2^16 (three rounds), 2^20 (one round each), and 2^20 100
 # steps after 3000 (one each), interleaved.
+# (It ran with its steps written out; they are call_lib.sh's suite and bench_abp now.)
 #   carry: gpu-carry/b26a.tar.gz gpu-carry/v26fused.tgz gpu-carry/v26bar.tgz
 source tools/gpu/call_lib.sh c2 "$1"
 for v in v26fused v26bar; do tar -xzf gpu-carry/$v.tgz -C gpu-carry; done
@@ -14,10 +15,7 @@ TEST_TIMEOUT=200 tests ${D[bar]} $O/tests-b.txt test_overlap_correct test_overla
 wait
 { echo "tests: $(cat $O/tests-[ab].txt | grep -c "^PASS") PASS, $(cat $O/tests-[ab].txt | grep -c "^FAIL") FAIL"; cat $O/tests-[ab].txt | grep "^FAIL"; } >> $I
 step tests 0
-b() { local v=$1 tag=$2; shift 2
-  timeout 90 ${D[$v]}/bin/pipeline bench ${D[$v]}/pipelines/bench-abp.yaml --device cuda "$@" 2>&1 |
-    grep -E "^[0-9]|overlap_correct/iter|rror" | sed "s/^/$v $tag: /" >> $O/ab.txt; step $v-$tag $?; }
-for v in main bar bar main main bar; do b $v small --sizes 1024,4096,8192,16384,65536 --steps 200 --warmup 20; done
-for v in bar main; do b $v big --sizes 1048576 --steps 200 --warmup 20; done
-for v in main bar; do b $v late --sizes 1048576 --steps 100 --warmup 3000; done
+for v in main bar bar main main bar; do bench_abp $v small --sizes 1024,4096,8192,16384,65536 --steps 200 --warmup 20; done
+for v in bar main; do bench_abp $v big --sizes 1048576 --steps 200 --warmup 20; done
+for v in main bar; do bench_abp $v late --sizes 1048576 --steps 100 --warmup 3000; done
 echo done t=$SECONDS >> $I; pack

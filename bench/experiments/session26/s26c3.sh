@@ -6,6 +6,7 @@
 #   t1k - a cluster's tail from an iteration that moved <= 1 024 particles (was 512).
 # Their overlap tests on CUDA, then bench-abp 200 steps after 20 (small: three rounds; 2^18 and
 # 2^20: two), and 2^20 100 steps after 3000 (two rounds).
+# (It ran with its steps written out; they are call_lib.sh's suite and bench_abp now.)
 #   carry: gpu-carry/b26a.tar.gz gpu-carry/v26main.tgz gpu-carry/v26wn.tgz gpu-carry/v26t1k.tgz
 source tools/gpu/call_lib.sh c3 "$1"
 for v in v26main v26wn v26t1k; do tar -xzf gpu-carry/$v.tgz -C gpu-carry; done
@@ -18,10 +19,7 @@ done
 wait
 { echo "tests: $(cat $O/tests-*.txt | grep -c "^PASS") PASS, $(cat $O/tests-*.txt | grep -c "^FAIL") FAIL"; grep -H "^FAIL" $O/tests-*.txt; } >> $I
 step tests 0
-b() { local v=$1 tag=$2; shift 2
-  timeout 120 ${D[$v]}/bin/pipeline bench ${D[$v]}/pipelines/bench-abp.yaml --device cuda "$@" 2>&1 |
-    grep -E "^[0-9]|overlap_correct/iter|rror" | sed "s/^/$v $tag: /" >> $O/ab.txt; step $v-$tag $?; }
-for v in main t1k t1k main main t1k; do b $v small --sizes 1024,4096,8192,16384 --steps 200 --warmup 20; done
-for v in main wn wn main; do b $v big --sizes 262144,1048576 --steps 200 --warmup 20; done
-for v in wn main main wn; do b $v late --sizes 1048576 --steps 100 --warmup 3000; done
+for v in main t1k t1k main main t1k; do bench_abp $v small --sizes 1024,4096,8192,16384 --steps 200 --warmup 20; done
+for v in main wn wn main; do bench_abp $v big --sizes 262144,1048576 --steps 200 --warmup 20; done
+for v in wn main main wn; do bench_abp $v late --sizes 1048576 --steps 100 --warmup 3000; done
 echo done t=$SECONDS >> $I; pack
