@@ -20,8 +20,8 @@
 #   bench_abp V TAG A... `pipeline bench` of bench-abp.yaml on CUDA with A..., from the bundle
 #                        ${D[V]} (D: the script's bundles by name, declared before the call); its
 #                        result lines in ab.txt as "V TAG: ...", then step V-TAG
-#   ncu_correction N...  ncu of overlap_correct's kernel at N particles (one launch 120 steps in,
-#                        per-instruction stall sampling): ncu-details-N.txt, ncu-sass-N.csv.xz
+#   ncu_correction N...  ncu of overlap_correct's kernel at N particles (one launch 120 steps in, L1/L2
+#                        hit rates, per-instruction stall sampling): ncu-details-N.txt, ncu-sass-N.csv.xz
 set -u
 SECONDS=0
 call_name=$1
@@ -81,7 +81,7 @@ ncu_correction() {
     timeout 180 "$ncu" --target-processes all --clock-control none -k regex:correct_kernel \
       --launch-skip 120 --launch-count 1 \
       --section LaunchStats --section Occupancy --section SchedulerStats --section WarpStateStats \
-      --section InstructionStats --section SpeedOfLight --section SourceCounters \
+      --section InstructionStats --section SpeedOfLight --section SourceCounters --section MemoryWorkloadAnalysis \
       -f -o "$O/oc-$n" "$B/bin/pipeline" bench "$B/pipelines/bench-abp.yaml" --device cuda --sizes "$n" \
       --steps 1 --warmup 125 > "$O/ncu-run-$n.txt" 2>&1
     step "ncu-$n" $?
