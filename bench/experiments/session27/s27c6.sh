@@ -19,6 +19,5 @@ for ref in /tmp/ff_ckpt_*_ref_*; do
   [[ -d $out ]] || continue
   for h in $ref/*.h5; do python3 bench/experiments/session27/h5diff.py $h $out/$(basename $h) "$(basename $ref)" >> $O/diff.txt 2>&1; done
   ls -la $ref $out >> $O/kept.txt
-  tar -czf $O/kept-$(basename $out).tgz $ref $out 2>/dev/null
 done
 echo done t=$SECONDS >> $I; pack
