@@ -254,6 +254,25 @@ __device__ u64 warp_sum(u64 x) {
   return x;
 }
 
+// The block's sums of its threads' counters c[0 .. K): each warp's go to s_red[q][warp], and after
+// a barrier thread q < K returns counter q's (the others 0). Every thread of the block calls it.
+template <int K, int Warps>
+__device__ u64 block_sum(const u64 (&c)[K], u64 (&s_red)[K][Warps]) {
+  const int lane = threadIdx.x & 31, warp = threadIdx.x >> 5;
+#pragma unroll
+  for (int q = 0; q < K; ++q) {
+    const u64 s = warp_sum(c[q]);
+    if (lane == 0) s_red[q][warp] = s;
+  }
+  __syncthreads();
+  u64 s = 0;
+  if (threadIdx.x < K) {
+#pragma unroll
+    for (int w = 0; w < Warps; ++w) s += s_red[threadIdx.x][w];
+  }
+  return s;
+}
+
 // Walls: the wall code compiled in (walls: x | y); Mark: the touched field written (mark: true);
 // Team: who runs the iterations (team_sync); Threads: the block size.
 template <class R, int Threads, int MinBlocks, int Team, bool Walls, bool Mark>
@@ -282,7 +301,7 @@ __global__ void __launch_bounds__(Threads, MinBlocks) correct_kernel(Args<R, Wal
   int* seed = a.seed + mine;
   double2* disp = a.disp + mine;
   char2* crossed = a.crossed + mine;
-  const int lane = threadIdx.x & 31, warp = threadIdx.x >> 5;
+  const int lane = threadIdx.x & 31;
   const int shard = int(blockIdx.x % kShards) * kShardStride;
   bool tail = false;        // block 0 alone runs the iterations
   bool tail_first = false;  // the tail's first iteration: its candidates were claimed by every block
@@ -397,20 +416,9 @@ __global__ void __launch_bounds__(Threads, MinBlocks) correct_kernel(Args<R, Wal
       __syncthreads();
       sums = s_sum[p];
     } else {
-#pragma unroll
-      for (int q = 0; q < kReported; ++q) {
-        const u64 s = warp_sum(c[q]);
-        if (lane == 0) s_red[q][warp] = s;
-      }
-      __syncthreads();
+      u64 s = block_sum(c, s_red);
       if (threadIdx.x < kAll) {
-        u64 s = 0;
-        if (threadIdx.x < kReported) {
-#pragma unroll
-          for (int w = 0; w < kWarps; ++w) s += s_red[threadIdx.x][w];
-        } else {
-          s = u64(s_moved[p]);
-        }
+        if (threadIdx.x == kMoved) s = u64(s_moved[p]);
         if (kCluster)
           s_part[threadIdx.x] = s;
         else if (s)

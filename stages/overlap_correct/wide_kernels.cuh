@@ -92,17 +92,8 @@ __global__ void __launch_bounds__(Threads, MinBlocks) wide_gather(Args<R, Walls>
     }
     a.state[v] = st;
   }
-  const int lane = threadIdx.x & 31, warp = threadIdx.x >> 5;
-#pragma unroll
-  for (int q = 0; q < kAll; ++q) {
-    const u64 s = warp_sum(c[q]);
-    if (lane == 0) s_red[q][warp] = s;
-  }
-  __syncthreads();
+  const u64 s = block_sum(c, s_red);
   if (threadIdx.x < kAll) {
-    u64 s = 0;
-#pragma unroll
-    for (int w = 0; w < kWarps; ++w) s += s_red[threadIdx.x][w];
     const int shard = int(blockIdx.x % kShards) * kShardStride;
     if (s) atomicAdd(a.slots + (std::size_t(j) * kAll + threadIdx.x) * kShards * kShardStride + shard, s);
   }
