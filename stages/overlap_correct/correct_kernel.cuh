@@ -248,10 +248,17 @@ __device__ bool gate_closed(const Problem<R>& p) {
   return p.gate && *static_cast<const volatile unsigned*>(p.gate) != 0;
 }
 
+// The warp's sum of x, in every lane (all 32 call it). redux.sync adds 32-bit values in one
+// instruction, so x goes in three slices of 21, 21 and 22 bits, whose 32-lane sums fit 32 bits,
+// recombined modulo 2^64: the same u64 as any order of additions, from three independent
+// instructions instead of a chain of five 64-bit shuffles and adds, which the iteration's sums
+// waited on (bench/experiments/README.md, session 27).
 __device__ u64 warp_sum(u64 x) {
-#pragma unroll
-  for (int o = 16; o > 0; o >>= 1) x += __shfl_down_sync(0xffffffffu, x, o);
-  return x;
+  constexpr unsigned k21 = (1u << 21) - 1;
+  const u64 lo = __reduce_add_sync(0xffffffffu, unsigned(x) & k21);
+  const u64 mid = __reduce_add_sync(0xffffffffu, unsigned(x >> 21) & k21);
+  const u64 hi = __reduce_add_sync(0xffffffffu, unsigned(x >> 42));
+  return lo + (mid << 21) + (hi << 42);
 }
 
 // The block's sums of its threads' counters c[0 .. K): each warp's go to s_red[q][warp], and after
