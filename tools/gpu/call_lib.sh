@@ -22,6 +22,9 @@
 #                        result lines in ab.txt as "V TAG: ...", then step V-TAG
 #   ncu_correction N...  ncu of overlap_correct's kernel at N particles (one launch 120 steps in, L1/L2
 #                        hit rates, per-instruction stall sampling): ncu-details-N.txt, ncu-sass-N.csv.xz
+#   sweep_abp TAG        issue 20's sweep row: 64 runs of bench-abp 2^14 at once on the bundle B
+#                        (`pipeline sweep --in-process --concurrent 64`, 5 000 steps each); its two
+#                        last lines in sweep.txt as "sweep TAG: ...", then step sweepTAG
 set -u
 SECONDS=0
 call_name=$1
@@ -91,4 +94,11 @@ ncu_correction() {
     rm -f "$O/oc-$n.ncu-rep"
     step "ncu-export-$n" 0
   done
+}
+sweep_abp() {
+  rm -rf /tmp/sw
+  timeout 60 "$B/bin/pipeline" sweep "$B/pipelines/bench-abp.yaml" --device cuda --set system.N=16384 \
+    --set run.steps=5000 --replicas 64 --out /tmp/sw --concurrent 64 --in-process 2>&1 | tail -2 |
+    sed "s/^/sweep $1: /" >> "$O/sweep.txt"
+  step "sweep$1" "${PIPESTATUS[0]}"
 }

@@ -10,9 +10,6 @@
 source tools/gpu/call_lib.sh n1 "$1"
 suite $B
 step suite 0
-sw() { rm -rf /tmp/sw; timeout 60 $B/bin/pipeline sweep $B/pipelines/bench-abp.yaml --device cuda --set system.N=16384 \
-  --set run.steps=5000 --replicas 64 --out /tmp/sw --concurrent 64 --in-process 2>&1 | tail -2 | sed "s/^/sweep $1: /" >> $O/sweep.txt
-  step sweep$1 $?; }
-sw 1; sw 2
+sweep_abp 1; sweep_abp 2
 ncu_correction 1024 16384
 echo done t=$SECONDS >> $I; pack
