@@ -6,6 +6,7 @@
 #      session 26 and it was not re-measured), twice;
 #   3. ncu of the correction at 2^10 and 2^14 with L1/L2 hit rates: whether the tail's gathers
 #      wait on L2 (bench/experiments/README.md, session 26).
+# (Run in session 27 as s27c1.sh, with its sweep written out; that is call_lib.sh's sweep_abp now.)
 #   bash bench/experiments/session26/next-call1.sh BUNDLE.tar.gz      carry: the bundle
 source tools/gpu/call_lib.sh n1 "$1"
 suite $B
