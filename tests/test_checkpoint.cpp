@@ -485,3 +485,30 @@ step:
   CHECK_THAT(wrong_n.out, Catch::Contains("has 300 particles; system.N is 301"));
   fs::remove_all(dir);
 }
+
+TEST_CASE("h5md comparison: a differing dataset is reported by its first differing frame, step and entry",
+          "[checkpoint]") {
+  // What a failed comparison above prints instead of the datasets' bytes.
+  Dataset a, b, steps;
+  a.shape = {5, 4, 2};  // 5 frames of 4 particles x 2 int32
+  a.bytes.assign(5 * 4 * 2 * 4, 0);
+  b = a;
+  b.bytes[3 * 32 + 2 * 8 + 4] = 1;  // frame 3, particle 2, component 1: entry 5
+  b.bytes[4 * 32] = 7;              // frame 4, entry 0
+  steps.shape = {5};
+  for (std::int64_t k = 0; k < 5; ++k) {
+    const std::int64_t s = 10 * k;
+    const auto* p = reinterpret_cast<const unsigned char*>(&s);
+    steps.bytes.insert(steps.bytes.end(), p, p + sizeof s);
+  }
+  const std::map<std::string, Dataset> series{{"particles/all/image/step", steps}};
+  CHECK(first_difference("particles/all/image/value", a, a, series) == "");
+  CHECK(first_difference("particles/all/image/value", a, b, series) ==
+        "2 of 5 frames differ; the first is frame 3 (step 30), from its entry 5 (byte 20 of 32)");
+  // Without a step series (or for a dataset that is not a series' value): the frame alone.
+  CHECK(first_difference("observables/x", a, b, {}) ==
+        "2 of 5 frames differ; the first is frame 3, from its entry 5 (byte 20 of 32)");
+  Dataset shorter = a;
+  shorter.bytes.resize(32);
+  CHECK(first_difference("particles/all/image/value", a, shorter, series) == "160 bytes against 32");
+}
