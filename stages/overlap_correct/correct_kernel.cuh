@@ -298,6 +298,10 @@ __global__ void __launch_bounds__(Threads, MinBlocks) correct_kernel(Args<R, Wal
   __shared__ u64 s_sum[2][kReported];  // the tail's sums: shared atomics, one barrier
   __shared__ u64 s_red[kReported][kWarps];
   __shared__ u64 s_tot[kAll];
+  // A team block's candidates when its tile fits (a.tile ≤ Threads): the compaction hands them to
+  // the gathers here, not through cand in global memory and back from L2. Not with walls: ptxas
+  // would spill in some of their kernels.
+  __shared__ int s_cand[Threads];
 
   const Overlaps<R, Walls>& ov = a.ov;
   const int n = int(a.p.n);
@@ -310,6 +314,7 @@ __global__ void __launch_bounds__(Threads, MinBlocks) correct_kernel(Args<R, Wal
   char2* crossed = a.crossed + mine;
   const int lane = threadIdx.x & 31;
   const int shard = int(blockIdx.x % kShards) * kShardStride;
+  const bool cand_shared = !Walls && a.tile <= Threads;  // a team iteration's candidates in s_cand
   bool tail = false;        // block 0 alone runs the iterations
   bool tail_first = false;  // the tail's first iteration: its candidates were claimed by every block
   wait_for_previous_kernel();  // the launch is programmatic (team_shape.cuh's *_config_after_previous)
@@ -354,7 +359,8 @@ __global__ void __launch_bounds__(Threads, MinBlocks) correct_kernel(Args<R, Wal
     if (first) {
       count = max(0, t1 - t0);
     } else if (!tail) {
-      count = compact<Threads>(a.marks, t0, a.tile, cand, s_warp);
+      count = cand_shared ? compact<Threads>(a.marks, t0, a.tile, s_cand, s_warp)
+                          : compact<Threads>(a.marks, t0, a.tile, cand, s_warp);
       __syncthreads();  // (its cand entries, for the gathers)
     } else {
       count = tail_first ? int(__ldcg(a.claims)) : s_claims[p];
@@ -386,7 +392,7 @@ __global__ void __launch_bounds__(Threads, MinBlocks) correct_kernel(Args<R, Wal
     };
     if (first || count > kGroupBelow<Threads>) {  // one thread per particle
       for (int i = int(threadIdx.x); i < count; i += Threads) {
-        const int v = first ? t0 + i : __ldcg(cand + i);
+        const int v = first ? t0 + i : !tail && cand_shared ? s_cand[i] : __ldcg(cand + i);
         if (tail)  // its claim: cleared for the next check
           atomicAnd(mark_word(a.marks, v), ~mark_bit(v));
         int ids[kCached], d;
@@ -404,7 +410,7 @@ __global__ void __launch_bounds__(Threads, MinBlocks) correct_kernel(Args<R, Wal
       for (int base = 0; base < count; base += kGroups) {
         const int i = base + int(threadIdx.x) / kGroup;
         const bool has = i < count;
-        const int v = has ? __ldcg(cand + i) : 0;
+        const int v = !has ? 0 : !tail && cand_shared ? s_cand[i] : __ldcg(cand + i);
         if (tail && has && l == 0)  // its claim: cleared for the next check
           atomicAnd(mark_word(a.marks, v), ~mark_bit(v));
         const VertexPush q = group_gather(ov, v, has, l, a.nb, a.degree);
