@@ -9,11 +9,12 @@ namespace ff::overlap {
 namespace {
 
 // Blocks and tile for n particles: at most what fits on the device at once (a cooperative
-// launch needs every block resident), tiles of at least 256 particles, a multiple of 16.
+// launch needs every block resident), tiles of at least kMinTile particles, a multiple of 16.
 // One block of 512 per SM (128 registers): against 2 blocks of 256 (the shape from session 4 to
 // 24) the same at 2^14 and 4-7 % faster from 2^16 to 2^20 on the H200 (bench/README.md, "Session
 // 25": half as many blocks meet at each grid barrier); with tiles of 256 rather than 512, 2.4 %
-// faster at 2^14 (64 SMs instead of 32). 3 blocks of 256 get 80 registers and spill, and 8
+// faster at 2^14 (64 SMs instead of 32), and of 128 rather than 256 1.9 % more (128 SMs; session
+// 28). 3 blocks of 256 get 80 registers and spill, and 8
 // loads in flight (kInFlight) gain nothing. The best shape changed with the kernel (3 blocks with
 // one load after the other, 4 with fan walks only), so measure again after changing it
 // (bench/overlap_correct-PERF.md and bench/README.md, "Numbers formerly in source comments").
@@ -109,9 +110,9 @@ bool cluster_fits() {
 // cooperative launch needs every block resident), tiles of at least kMinTile particles; and how
 // many SMs those blocks hold (per_sm to an SM). When runs share the GPU (runs_sharing_gpu) the
 // tiles are at least 512, as a grid's were before session 25 (two blocks of 256 to an SM: 32 SMs
-// at 2^14, where 256 holds 64), so up to 4 runs of 2^14 still take grids side by side (team_for),
+// at 2^14, where 128 holds 128), so up to 4 runs of 2^14 still take grids side by side (team_for),
 // the sweeps measured so far.
-constexpr std::size_t kMinTile = 256;
+constexpr std::size_t kMinTile = 128;
 constexpr std::size_t kMinTileShared = 512;
 struct GridShape {
   int blocks = 0, sms_held = 0, sms = 0;
