@@ -121,6 +121,11 @@ constexpr std::size_t kResultWords = std::size_t(kDeviceBatch) * kCounters + 1; 
 constexpr int kTailMoved = 512;
 constexpr int kClusterTailMoved = 256;
 constexpr int kClusterTailTeam = 16;
+// Block 0 holds the last kRowsHeld iterations' sums in shared memory and stores them to result
+// (pinned host memory) when the run is full and when the launch ends, not after each iteration:
+// a store over the bus, followed by the fence of the next team barrier, could hold that barrier
+// until the store's round trip is done.
+constexpr int kRowsHeld = 32;
 
 using u64 = unsigned long long;
 
@@ -156,7 +161,8 @@ struct Args {
   u64* claims;             // entries of cand claimed by the check that starts the tail (zero at launch)
   u64* next_slots;         // the other launch's slots and claims (kSlotWords + 1): zeroed here
   u64* result;             // kDeviceBatch x kCounters + 1 (block 0 writes the sums and the gather count):
-                           // pinned host memory, written directly (no copy after the kernel)
+                           // pinned host memory, written directly (no copy after the kernel), in
+                           // runs of kRowsHeld iterations
   std::uint8_t* state;     // grid·tile, by particle: what a wide gather found (WideState), for its
                            // apply and check; disp and crossed are indexed by particle there too
   R* next;                 // 2 x grid·tile, or null: the positions after the iteration's moves
@@ -280,6 +286,15 @@ __device__ u64 block_sum(const u64 (&c)[K], u64 (&s_red)[K][Warps]) {
   return s;
 }
 
+// Column threadIdx.x of the held rows of iterations [from, end) to result, from the run that row
+// end − 1 is in (the kernel's keep_row / end_rows). Not inlined: it runs once a run of kRowsHeld
+// iterations, and inlined it cost the wall kernels spills.
+template <int Reported>
+__device__ __noinline__ void store_held_rows(u64* result, const u64 (*rows)[Reported], int end) {
+  for (int r = (end - 1) / kRowsHeld * kRowsHeld; r < end; ++r)
+    result[std::size_t(r) * kCounters + threadIdx.x] = rows[r % kRowsHeld][threadIdx.x];
+}
+
 // Walls: the wall code compiled in (walls: x | y); Mark: the touched field written (mark: true);
 // Team: who runs the iterations (team_sync); Threads: the block size.
 template <class R, int Threads, int MinBlocks, int Team, bool Walls, bool Mark>
@@ -298,6 +313,7 @@ __global__ void __launch_bounds__(Threads, MinBlocks) correct_kernel(Args<R, Wal
   __shared__ u64 s_sum[2][kReported];  // the tail's sums: shared atomics, one barrier
   __shared__ u64 s_red[kReported][kWarps];
   __shared__ u64 s_tot[kAll];
+  __shared__ u64 s_rows[kRowsHeld][kReported];  // block 0: the sums of the iterations not yet in result
   // A team block's candidates when its tile fits (a.tile ≤ Threads): the compaction hands them to
   // the gathers here, not through cand in global memory and back from L2. Not with walls: ptxas
   // would spill in some of their kernels.
@@ -317,6 +333,20 @@ __global__ void __launch_bounds__(Threads, MinBlocks) correct_kernel(Args<R, Wal
   const bool cand_shared = !Walls && a.tile <= Threads;  // a team iteration's candidates in s_cand
   bool tail = false;        // block 0 alone runs the iterations
   bool tail_first = false;  // the tail's first iteration: its candidates were claimed by every block
+  // Block 0's thread q < kReported stores column q of the held rows [from, end) to result (each
+  // thread reads only the column it wrote: no barrier). keep_row holds iteration j's sums (storing
+  // a full run), end_rows stores the rest and the gather count where the launch ends.
+  auto store_rows = [&](int end) { store_held_rows<kReported>(a.result, s_rows, end); };
+  auto keep_row = [&](int j, const u64* sums) {
+    if (blockIdx.x != 0 || threadIdx.x >= kReported) return;
+    s_rows[j % kRowsHeld][threadIdx.x] = sums[threadIdx.x];
+    if ((j + 1) % kRowsHeld == 0) store_rows(j + 1);
+  };
+  auto end_rows = [&](int end) {
+    if (blockIdx.x != 0 || threadIdx.x >= kReported) return;
+    if (end % kRowsHeld != 0) store_rows(end);
+    if (threadIdx.x == 0) a.result[std::size_t(kDeviceBatch) * kCounters] = u64(end);
+  };
   wait_for_previous_kernel();  // the launch is programmatic (team_shape.cuh's *_config_after_previous)
   // The next launch's counters, zeroed here instead of by a memset before it (a host call on
   // the step's critical path, between Lawson's wait and this launch). No one reads them now.
@@ -336,14 +366,15 @@ __global__ void __launch_bounds__(Threads, MinBlocks) correct_kernel(Args<R, Wal
   for (int j = 0; j < a.j0; ++j) {
     if (threadIdx.x < kAll) s_tot[threadIdx.x] = slot_total<kAll>(a.slots, j, int(threadIdx.x));
     __syncthreads();
-    if (blockIdx.x == 0 && threadIdx.x < kReported)
-      a.result[std::size_t(j) * kCounters + threadIdx.x] = s_tot[threadIdx.x];
-    if (blockIdx.x == 0 && threadIdx.x == 0) a.result[std::size_t(kDeviceBatch) * kCounters] = u64(j + 1);
+    keep_row(j, s_tot);
     std::uint64_t tot[kReported];
 #pragma unroll
     for (int q = 0; q < kReported; ++q) tot[q] = s_tot[q];
     __syncthreads();  // (s_tot is written again)
-    if (!keeps_going(tot, a.k0 + j, a.max_iterations)) return;
+    if (!keeps_going(tot, a.k0 + j, a.max_iterations)) {
+      end_rows(j + 1);
+      return;
+    }
   }
 
   if (threadIdx.x < 2) s_seeds[threadIdx.x] = s_moved[threadIdx.x] = s_claims[threadIdx.x] = 0;
@@ -451,9 +482,7 @@ __global__ void __launch_bounds__(Threads, MinBlocks) correct_kernel(Args<R, Wal
       }
       __syncthreads();
     }
-    if (blockIdx.x == 0 && threadIdx.x < kReported)
-      a.result[std::size_t(j) * kCounters + threadIdx.x] = sums[threadIdx.x];
-    if (blockIdx.x == 0 && threadIdx.x == 0) a.result[std::size_t(kDeviceBatch) * kCounters] = u64(j + 1);
+    keep_row(j, sums);
     std::uint64_t tot[kReported];
 #pragma unroll
     for (int q = 0; q < kReported; ++q) tot[q] = sums[q];
@@ -462,6 +491,7 @@ __global__ void __launch_bounds__(Threads, MinBlocks) correct_kernel(Args<R, Wal
     if (!keeps_going(tot, k, a.max_iterations)) {
       // A cluster's block keeps its shared memory until the others have read its sums.
       if (kCluster && !tail) team_sync<Team>();
+      end_rows(j + 1);
       return;
     }
 
@@ -522,7 +552,10 @@ __global__ void __launch_bounds__(Threads, MinBlocks) correct_kernel(Args<R, Wal
         if (group_check(ovc, v, i < ns && v >= 0, l, a.nb, a.degree, mark_it) && l == 0) mark_it(v);
       }
     }
-    if (last) return;  // the host launches the next batch
+    if (last) {  // the host launches the next batch
+      end_rows(kDeviceBatch);
+      return;
+    }
     if (tail) {
       __syncthreads();
     } else {
