@@ -187,14 +187,15 @@ __device__ void store_xy(R* pos, int v, double x, double y) {
 }
 
 // A block's gathers (checks) go to lane groups when it has at most this many particles to do
-// (an eighth of its threads: 64 in the grid's and the cluster's blocks of 512, so that one pass
-// of groups does them all), else one thread each: a group shortens one particle's chain of
-// loads, but puts 8x fewer particles in flight, and each further pass of groups is another
-// chain after the first, where threads take up to Threads particles at once (H100 and H200
-// measurements, from half the threads to an eighth: bench/overlap_correct-PERF.md,
-// bench/experiments/README.md "tail21").
+// (a quarter of its threads: 128 in the grid's and the cluster's blocks of 512, two passes of
+// groups), else one thread each: a group shortens one particle's chain of loads, but puts 8x
+// fewer particles in flight, and each further pass of groups is another chain after the first,
+// where threads take up to Threads particles at once. An eighth (one pass) was the best share
+// from session 21 to 27 (H100 and H200 measurements, from half the threads to an eighth:
+// bench/overlap_correct-PERF.md, bench/experiments/README.md "tail21"); with the grid's tiles of
+// 128 a quarter is up to 1.4 % faster at 2^11-2^14 and the same elsewhere (session 28).
 template <int Threads>
-constexpr int kGroupBelow = Threads / 8;
+constexpr int kGroupBelow = Threads / 4;
 
 // Who runs a launch's iterations (Team): the grid (kGrid: a cooperative launch of every block that
 // fits on the device, grid barriers between phases) or a thread-block cluster of Team blocks
