@@ -20,6 +20,10 @@
 #   bench_abp V TAG A... `pipeline bench` of bench-abp.yaml on CUDA with A..., from the bundle
 #                        ${D[V]} (D: the script's bundles by name, declared before the call); its
 #                        result lines in ab.txt as "V TAG: ...", then step V-TAG
+#   correction_tests V...  the correction's six CUDA test executables (test_overlap_correct_cpu_cuda,
+#                        _correct, _walls, _determinism, test_cpu_cuda_bits, test_device_decisions)
+#                        on each bundle ${D[V]} at once (logs V-tests.txt, TEST_TIMEOUT s, default
+#                        200); a "V: P PASS, F FAIL" line each in info.txt, then step variant-tests
 #   ncu_correction N...  ncu of overlap_correct's kernel at N particles (one launch 120 steps in, L1/L2
 #                        hit rates, per-instruction stall sampling): ncu-details-N.txt, ncu-sass-N.csv.xz
 #   sweep_abp TAG        issue 20's sweep row: 64 runs of bench-abp 2^14 at once on the bundle B
@@ -75,6 +79,16 @@ bench_abp() {
   timeout "${BENCH_TIMEOUT:-120}" "${D[$v]}/bin/pipeline" bench "${D[$v]}/pipelines/bench-abp.yaml" --device cuda "$@" 2>&1 |
     grep -E "^[0-9]|overlap_correct/iter|rror" | sed "s/^/$v $tag: /" >> "$O/ab.txt"
   step "$v-$tag" "${PIPESTATUS[0]}"
+}
+correction_tests() {
+  local v
+  for v in "$@"; do
+    TEST_TIMEOUT=${TEST_TIMEOUT:-200} tests "${D[$v]}" "$O/$v-tests.txt" test_overlap_correct_cpu_cuda test_overlap_correct \
+      test_overlap_correct_walls test_overlap_correct_determinism test_cpu_cuda_bits test_device_decisions &
+  done
+  wait
+  for v in "$@"; do echo "$v: $(grep -c "^PASS" "$O/$v-tests.txt") PASS, $(grep -c "^FAIL" "$O/$v-tests.txt") FAIL" >> "$I"; done
+  step variant-tests 0
 }
 ncu_correction() {
   local n ncu

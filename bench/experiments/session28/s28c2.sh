@@ -11,13 +11,7 @@
 source tools/gpu/call_lib.sh c2 "$1"
 for v in v28scand v28rows v28t128; do tar -xzf gpu-carry/$v.tgz -C /tmp; done
 declare -A D=([scand]=$(shadow scand /tmp/v28scand) [rows]=$(shadow rows /tmp/v28rows) [t128]=$(shadow t128 /tmp/v28t128))
-for v in rows t128; do
-  TEST_TIMEOUT=200 tests ${D[$v]} $O/$v-tests.txt test_overlap_correct_cpu_cuda test_overlap_correct \
-    test_overlap_correct_walls test_overlap_correct_determinism test_cpu_cuda_bits test_device_decisions &
-done
-wait
-for v in rows t128; do echo "$v: $(grep -c "^PASS" $O/$v-tests.txt) PASS, $(grep -c "^FAIL" $O/$v-tests.txt) FAIL" >> $I; done
-step variant-tests 0
+correction_tests rows t128
 for v in scand rows t128 t128 rows scand scand t128 rows; do
   bench_abp $v small --sizes 1024,4096,8192,16384,65536 --steps 200 --warmup 20
 done

@@ -10,13 +10,7 @@
 source tools/gpu/call_lib.sh c3 "$1"
 for v in v28main v28g4k v28g4k64 v28g1k64; do tar -xzf gpu-carry/$v.tgz -C /tmp; done
 declare -A D=([main]=$(shadow main /tmp/v28main) [g4k]=$(shadow g4k /tmp/v28g4k) [g4k64]=$(shadow g4k64 /tmp/v28g4k64) [g1k64]=$(shadow g1k64 /tmp/v28g1k64))
-for v in main g4k64 g1k64; do
-  TEST_TIMEOUT=200 tests ${D[$v]} $O/$v-tests.txt test_overlap_correct_cpu_cuda test_overlap_correct \
-    test_overlap_correct_walls test_overlap_correct_determinism test_cpu_cuda_bits test_device_decisions &
-done
-wait
-for v in main g4k64 g1k64; do echo "$v: $(grep -c "^PASS" $O/$v-tests.txt) PASS, $(grep -c "^FAIL" $O/$v-tests.txt) FAIL" >> $I; done
-step variant-tests 0
+correction_tests main g4k64 g1k64
 for v in main g4k g4k64 g1k64 g1k64 g4k64 g4k main main g1k64 g4k g4k64; do
   bench_abp $v small --sizes 1024,2048,4096,8192,16384 --steps 200 --warmup 20
 done

@@ -7,10 +7,7 @@
 source tools/gpu/call_lib.sh c5 "$1"
 for v in v28it0 v28gb128; do tar -xzf gpu-carry/$v.tgz -C /tmp; done
 declare -A D=([main]=$B [it0]=$(shadow it0 /tmp/v28it0) [gb128]=$(shadow gb128 /tmp/v28gb128))
-TEST_TIMEOUT=200 tests ${D[gb128]} $O/gb128-tests.txt test_overlap_correct_cpu_cuda test_overlap_correct \
-  test_overlap_correct_walls test_overlap_correct_determinism test_cpu_cuda_bits test_device_decisions
-echo "gb128: $(grep -c "^PASS" $O/gb128-tests.txt) PASS, $(grep -c "^FAIL" $O/gb128-tests.txt) FAIL" >> $I
-step variant-tests 0
+correction_tests gb128
 for v in main it0 gb128 gb128 it0 main main gb128 it0; do
   bench_abp $v small --sizes 1024,2048,4096,8192,16384,65536 --steps 200 --warmup 20
 done

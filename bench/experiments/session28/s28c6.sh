@@ -6,10 +6,7 @@
 source tools/gpu/call_lib.sh c6 "$1"
 for v in v28gb128 v28gbt; do tar -xzf gpu-carry/$v.tgz -C /tmp; done
 declare -A D=([main]=$B [gb128]=$(shadow gb128 /tmp/v28gb128) [gbt]=$(shadow gbt /tmp/v28gbt))
-TEST_TIMEOUT=200 tests ${D[gbt]} $O/gbt-tests.txt test_overlap_correct_cpu_cuda test_overlap_correct \
-  test_overlap_correct_walls test_overlap_correct_determinism test_cpu_cuda_bits test_device_decisions
-echo "gbt: $(grep -c "^PASS" $O/gbt-tests.txt) PASS, $(grep -c "^FAIL" $O/gbt-tests.txt) FAIL" >> $I
-step variant-tests 0
+correction_tests gbt
 for v in gbt gb128 main main gbt gb128 gb128 main gbt; do
   bench_abp $v small --sizes 1024,2048,4096,8192,16384,65536 --steps 200 --warmup 20
 done
