@@ -6,18 +6,23 @@
 # ~3 750 cycles go (overlap-tail-gather-clocks.patch: the candidate's load, v's own loads, the
 # neighbour's position, the pair math, the group's sums, take; block 0's thread 0, launches
 # 150-155) at 2^10 and 2^14, to decide on a tail with its state in shared memory
-# (bench/experiments/README.md, "The tail's independent groups").
+# (bench/experiments/README.md, "The tail's independent groups"), and branch smtail28 (a team's
+# tail up to 2 048 particles reads positions from a shared-memory copy): its correction tests,
+# then bench-abp against HEAD at 2^10..2^13, three rounds.
 #   rm -rf bundle && tools/bundle build bundle && tar -cf - bundle | gzip -5 > gpu-carry/b29.tar.gz
 #   tclk: git apply bench/experiments/session28/overlap-tail-gather-clocks.patch; cmake --build
 #         build-var --target flipflow_stage_overlap_correct; copy its plugin to /tmp/v29tclk/,
 #         patchelf --set-rpath '$ORIGIN/../../lib', tar -czf gpu-carry/v29tclk.tgz -C /tmp v29tclk;
 #         git checkout -- stages/
-#   bash bench/experiments/session28/next-call1.sh gpu-carry/b29.tar.gz      carry: the bundle, v29tclk
+#   smt:  the same from branch smtail28 (738576c; rebased on HEAD if main moved), into v29smt
+#   bash bench/experiments/session28/next-call1.sh gpu-carry/b29.tar.gz      carry: the bundle, v29tclk, v29smt
 source tools/gpu/call_lib.sh n1 "$1"
-tar -xzf gpu-carry/v29tclk.tgz -C /tmp
-declare -A D=([head]=$B [tclk]=$(shadow tclk /tmp/v29tclk))
+for v in v29tclk v29smt; do tar -xzf gpu-carry/$v.tgz -C /tmp; done
+declare -A D=([head]=$B [tclk]=$(shadow tclk /tmp/v29tclk) [smt]=$(shadow smt /tmp/v29smt))
 suite $B
 step suite 0
+correction_tests smt
+for v in head smt smt head head smt; do bench_abp $v ab --sizes 1024,2048,4096,8192 --steps 200 --warmup 20; done
 sweep_abp 1
 sweep_abp 2
 for r in 1 2 3; do bench_abp head small --sizes 1024,2048,4096,8192,16384,65536 --steps 200 --warmup 20; done
