@@ -277,16 +277,16 @@ __attribute__((flatten)) void edge_pass(const Overlaps<R, Walls>& ov, Tile& tl, 
   auto one = [&](std::size_t e, auto check) {
     int a, b;
     std::int64_t qx, qy;
-    double o;
+    PairOverlap o;
     const int r = m.template edge<decltype(check)::value>(e, a, b, qx, qy, o, hash);
     if (r == kEdgeApart) return;
     if (r == kEdgeCorrupt) {
       ++broken;
       return;
     }
-    if (o > 0) {
+    if (counted(o)) {
       ++pairs;
-      if (o > m.tol) ++bad;
+      if (o == kBeyond) ++bad;
     }
     add(a, qx, qy);
     add(b, -qx, -qy);

@@ -44,8 +44,13 @@ enum Counter : int {
 // No vertex of a sane triangulation has this many neighbours; a longer walk means a broken mesh.
 inline constexpr int kMaxFan = 4096;
 inline constexpr double kFixedOne = 4294967296.0;  // 2^32
-// pair_push's answer for a pair that does not overlap.
-inline constexpr double kNoOverlap = -1.0;
+// What a pair term found (pair_term_d, wall_term): apart (no push), or overlapping (a push) by a
+// depth σ − r that is zero (at contact up to rounding: a zero push, not counted as a pair), within
+// the tolerance (depth ≤ tol·σ) or beyond it. The depth is compared with tol·σ rather than the
+// relative overlap (σ − r)/σ with tol: a division less in the gather's chain of dependent
+// operations, where each double division costs ~100 cycles on the device (bench/experiments,
+// "The pair math of a gather").
+enum PairOverlap : int { kApart = -1, kAtContact = 0, kWithin = 1, kBeyond = 2 };
 // Overlaps::edge's answers.
 inline constexpr int kEdgeApart = 0, kEdgeOverlap = 1, kEdgeCorrupt = -1;
 // Pushes are summed in units of 2^-50·unit: |d| up to 8192 units, resolution 8.9e-16 units.
@@ -60,27 +65,33 @@ FF_HD void add_u64(std::uint64_t* p, std::uint64_t v) {
 }
 
 // The push on particle v from neighbour u at minimum-image offset r = x_u − x_v (D components):
-// the term t that v's displacement loses (d_v −= t). Returns the relative overlap
-// (σ_vu − r)/σ_vu when |r|² < σ_vu², else kNoOverlap (−1; an overlapping pair cannot return it,
-// since |r| < 2σ_vu) and leaves t alone. The term on u from v is −t, bit for bit: r negates
-// exactly, and so does the coincident-centres rule. One rule for the Delaunay variant (2D) and
-// the Verlet-list variant (2D and 3D, verlet/kernel.h), so both push a pair by the same bits.
+// the term t that v's displacement loses (d_v −= t), when |r|² < σ_vu² (else kApart, and t is left
+// alone); the answer classifies the depth σ_vu − r against tol·σ_vu. The term on u from v is −t,
+// bit for bit: r negates exactly, and so does the coincident-centres rule. One rule for the
+// Delaunay variant (2D) and the Verlet-list variant (2D and 3D, verlet/kernel.h), so both push a
+// pair by the same bits. (δ/r is one division for all components: the push is δ/r·r_k.)
 template <int D>
-FF_HD double pair_term_d(const double* r, double sv, double su, double factor, int v, int u, double* t) {
+FF_HD PairOverlap pair_term_d(const double* r, double sv, double su, double factor, double tol, int v, int u,
+                              double* t) {
   const double s = 0.5 * (sv + su);
   double r2 = r[0] * r[0];
   for (int k = 1; k < D; ++k) r2 += r[k] * r[k];
-  if (!(r2 < s * s)) return kNoOverlap;
-  const double len = std::sqrt(r2);
-  const double delta = factor * (s - len);
+  if (!(r2 < s * s)) return kApart;
+  const double len = std::sqrt(r2);  // ≤ s: sqrt is monotone and sqrt(fl(s²)) = s
+  const double depth = s - len;
+  const double delta = factor * depth;
   if (len > 0) {
-    for (int k = 0; k < D; ++k) t[k] = delta * (r[k] / len);
+    const double per_length = delta / len;
+    for (int k = 0; k < D; ++k) t[k] = per_length * r[k];
   } else {  // coincident centres: separate along x, the lower index towards −x
     t[0] = v < u ? delta : -delta;
     for (int k = 1; k < D; ++k) t[k] = 0;
   }
-  return (s - len) / s;
+  return depth > tol * s ? kBeyond : depth > 0 ? kWithin : kAtContact;
 }
+
+// Whether a pair term's answer is a pair the counters count (an overlap deeper than rounding).
+FF_HD bool counted(PairOverlap o) { return o >= kWithin; }
 
 // Hard planar walls at 0 and L along one axis (seed-gaps D2, W1). A particle of diameter sv at
 // distance h < sv/2 from a wall overlaps its mirror image (at 2h, σ = sv), and the pair rule
@@ -90,9 +101,10 @@ FF_HD double pair_term_d(const double* r, double sv, double su, double factor, i
 // carried through a wall (wrapped to the far side, image ±1) has h < 0 and is reflected back
 // (u' = sv − u), which brings its image count back to 0 when the move is applied. (The mirror
 // pair's own formula would push such a particle outwards: the wall's normal is used instead.)
-// Returns the relative overlap (sv − 2h)/sv (> 0; above 1 for a particle beyond the wall) and the
-// signed displacement along the axis in push, or kNoOverlap.
-FF_HD double wall_term(double x, std::int32_t image, double L, double sv, double factor, double& push) {
+// Returns the signed displacement along the axis in push, or kApart (push left alone); the answer
+// classifies the depth sv − 2h (> 0; above sv for a particle beyond the wall) against tol·sv.
+FF_HD PairOverlap wall_term(double x, std::int32_t image, double L, double sv, double factor, double tol,
+                            double& push) {
   const double u = x + L * double(image);
   const double half = 0.5 * sv;
   double h, dir;
@@ -103,11 +115,11 @@ FF_HD double wall_term(double x, std::int32_t image, double L, double sv, double
     h = L - u;
     dir = -1;
   } else {
-    return kNoOverlap;
+    return kApart;
   }
   const double excess = sv - 2 * h;
   push = dir * (factor * excess);
-  return excess / sv;
+  return excess > tol * sv ? kBeyond : kWithin;
 }
 
 // Whether a particle at x (image count `image`) overlaps a wall, a little more loosely than
@@ -121,12 +133,12 @@ FF_HD bool near_wall(double x, std::int32_t image, double L, double sv) {
 }
 
 // pair_term_d in 2D, at offset (rx, ry), into (tx, ty).
-FF_HD double pair_term(double rx, double ry, double sv, double su, double factor, int v, int u, double& tx,
-                       double& ty) {
+FF_HD PairOverlap pair_term(double rx, double ry, double sv, double su, double factor, double tol, int v, int u,
+                            double& tx, double& ty) {
   const double r[2] = {rx, ry};
   double t[2];
-  const double o = pair_term_d<2>(r, sv, su, factor, v, u, t);
-  if (o != kNoOverlap) {
+  const PairOverlap o = pair_term_d<2>(r, sv, su, factor, tol, v, u, t);
+  if (o != kApart) {
     tx = t[0];
     ty = t[1];
   }
@@ -136,12 +148,15 @@ FF_HD double pair_term(double rx, double ry, double sv, double su, double factor
 // A push in the sums' fixed point, 2^-50·unit (rint is odd: the push of −t is −(that of t)).
 FF_HD std::int64_t fixed_push(double t, double inv_unit) { return std::int64_t(std::rint(t * (inv_unit * kPushOne))); }
 
-// A particle's displacement from its summed pushes q (D components, fixed point), capped at
-// cap·σ_v in length, into d; returns its length.
+// The length of one unit of the pushes' fixed point, 2^-50·unit; computed once with the push rule
+// (PushRule::push_length), not in each particle's finish: a division is ~100 cycles on the device.
+FF_HD double push_length(double inv_unit) { return 1.0 / (inv_unit * kPushOne); }
+
+// A particle's displacement from its summed pushes q (D components, fixed point; one unit is
+// push_length), capped at cap·σ_v in length, into d; returns its length.
 template <int D>
-FF_HD double finish_d(const std::int64_t* q, double sv, double cap, double inv_unit, double* d) {
-  const double to_length = 1.0 / (inv_unit * kPushOne);
-  for (int k = 0; k < D; ++k) d[k] = double(q[k]) * to_length;
+FF_HD double finish_d(const std::int64_t* q, double sv, double cap, double push_length, double* d) {
+  for (int k = 0; k < D; ++k) d[k] = double(q[k]) * push_length;
   double len2 = d[0] * d[0];
   for (int k = 1; k < D; ++k) len2 += d[k] * d[k];
   double len = std::sqrt(len2);
@@ -161,11 +176,11 @@ FF_HD std::uint64_t fixed_len(double len, double inv_unit) {
 
 // pair_term added to (dx, dy). (A displacement sum starts at +0 and never becomes −0, since
 // x − x = +0, so subtracting a zero term, of either sign, leaves it as it is.)
-FF_HD double pair_push(double rx, double ry, double sv, double su, double factor, int v, int u, double& dx,
-                       double& dy) {
+FF_HD PairOverlap pair_push(double rx, double ry, double sv, double su, double factor, double tol, int v, int u,
+                            double& dx, double& dy) {
   double tx, ty;
-  const double o = pair_term(rx, ry, sv, su, factor, v, u, tx, ty);
-  if (o != kNoOverlap) {
+  const PairOverlap o = pair_term(rx, ry, sv, su, factor, tol, v, u, tx, ty);
+  if (o != kApart) {
     dx -= tx;
     dy -= ty;
   }
@@ -238,7 +253,8 @@ struct PushRule {
   double factor;    // 1 = reflect, 0.5 = contact
   double cap;       // fraction of σ_v
   double tol;       // relative overlap that still counts as converged
-  double inv_unit;  // 1 / length unit (the largest diameter at configure)
+  double inv_unit;     // 1 / length unit (the largest diameter at configure)
+  double push_length;  // push_length(inv_unit): one unit of the pushes' fixed point
   // Every diameter when they are all equal (else 0): the gathers then read no diameters at all.
   // At N = 2^20 a gather's three loads per neighbour (half-edge, position, diameter) do not fit
   // in the GPU's L2, so one load fewer is traffic saved; the value is the same bits.
@@ -247,6 +263,13 @@ struct PushRule {
   // offset is the plain difference of the coordinates, not the minimum image: no pair interacts
   // across a wall.
   int wall_axis = -1;
+
+  // The rule with its derived field (push_length) filled in: build one through this (or
+  // params.h's push_rule), not field by field.
+  static PushRule make(const PeriodicBox<double>& box, double factor, double cap, double tol, double inv_unit,
+                       double uniform = 0, int wall_axis = -1) {
+    return {box, factor, cap, tol, inv_unit, overlap::push_length(inv_unit), uniform, wall_axis};
+  }
 };
 
 // What one particle's gather found.
@@ -290,13 +313,13 @@ struct Overlaps : PushRule {
                          VertexPush& out) const {
     if constexpr (Walls) {
       double push;
-      const double o =
-          wall_term(wall_axis == 0 ? xv : yv, image[2 * v + wall_axis], box.L[wall_axis], sv, factor, push);
-      if (o == kNoOverlap) return;
+      const PairOverlap o =
+          wall_term(wall_axis == 0 ? xv : yv, image[2 * v + wall_axis], box.L[wall_axis], sv, factor, tol, push);
+      if (o == kApart) return;
       (wall_axis == 0 ? qx : qy) += fixed_push(push);
       out.touched = true;
       ++out.pairs;
-      if (o > tol) ++out.bad;
+      if (o == kBeyond) ++out.bad;
     }
   }
   // Whether v (at xv, yv with diameter sv) overlaps a wall at its new position (near_wall).
@@ -343,13 +366,13 @@ struct Overlaps : PushRule {
   FF_HD std::int64_t fixed_push(double t) const { return overlap::fixed_push(t, inv_unit); }
 
   // Edge e of an edge pass: its ends a, b; whether they overlap, and then the push on a in fixed
-  // point (qx, qy; the push on b is −q) and the relative overlap o. With Check (the first pass of
+  // point (qx, qy; the push on b is −q) and pair_term's answer o. With Check (the first pass of
   // a step) its next pointers are checked too: in range, and added to the permutation check.
   // Returns kEdgeApart, kEdgeOverlap, or kEdgeCorrupt when an index it uses is out of range or
   // the edge is a loop (a = b; nothing else is read then). Most edges end at the reach test,
   // before any diameter is read.
   template <bool Check>
-  FF_HD int edge(std::size_t e, int& a, int& b, std::int64_t& qx, std::int64_t& qy, double& o,
+  FF_HD int edge(std::size_t e, int& a, int& b, std::int64_t& qx, std::int64_t& qy, PairOverlap& o,
                  std::uint64_t& next_hash) const {
     int na, nb;
     load_edge(he, e, a, na, b, nb);
@@ -375,8 +398,8 @@ struct Overlaps : PushRule {
     }
     if (!(rx * rx + ry * ry < reach2)) return kEdgeApart;  // σ_ab ≤ largest diameter
     double tx, ty;
-    o = pair_term(rx, ry, diameter_of(a), diameter_of(b), factor, a, b, tx, ty);
-    if (o == kNoOverlap) return kEdgeApart;
+    o = pair_term(rx, ry, diameter_of(a), diameter_of(b), factor, tol, a, b, tx, ty);
+    if (o == kApart) return kEdgeApart;
     qx = -fixed_push(tx);
     qy = -fixed_push(ty);
     return kEdgeOverlap;
@@ -430,7 +453,7 @@ struct Overlaps : PushRule {
   FF_HD void finish(std::int64_t qx, std::int64_t qy, double sv, VertexPush& out) const {
     const std::int64_t q[2] = {qx, qy};
     double d[2];
-    out.len = finish_d<2>(q, sv, cap, inv_unit, d);
+    out.len = finish_d<2>(q, sv, cap, push_length, d);
     out.dx = d[0];
     out.dy = d[1];
   }
@@ -477,15 +500,15 @@ struct Overlaps : PushRule {
   FF_HD void gather_pair_at(int v, double xv, double yv, double sv, int u, double xu, double yu, std::int64_t& qx,
                             std::int64_t& qy, VertexPush& out) const {
     double tx, ty;
-    const double o =
-        pair_term(min_image(xu - xv, 0), min_image(yu - yv, 1), sv, diameter_of(u), factor, v, u, tx, ty);
-    if (o == kNoOverlap) return;
+    const PairOverlap o =
+        pair_term(min_image(xu - xv, 0), min_image(yu - yv, 1), sv, diameter_of(u), factor, tol, v, u, tx, ty);
+    if (o == kApart) return;
     qx -= fixed_push(tx);
     qy -= fixed_push(ty);
     out.touched = true;
-    if (v < u && o > 0) {
+    if (v < u && counted(o)) {
       ++out.pairs;
-      if (o > tol) ++out.bad;
+      if (o == kBeyond) ++out.bad;
     }
   }
 

@@ -121,13 +121,9 @@ struct DiameterRange {
 // unit the largest diameter at configure, diam the diameters now, wall_axis from wall_axis_of.
 inline PushRule push_rule(const Params& p, const State& s, double tol, double unit, const DiameterRange& diam,
                           int wall_axis) {
-  return {PeriodicBox<double>::make(s.box.L),
-          p.mode == "contact" ? 0.5 : 1.0,
-          p.cap,
-          tol,
-          1.0 / unit,
-          diam.min == diam.max ? diam.max : 0.0,  // all diameters equal: none is read
-          wall_axis};
+  return PushRule::make(PeriodicBox<double>::make(s.box.L), p.mode == "contact" ? 0.5 : 1.0, p.cap, tol, 1.0 / unit,
+                        diam.min == diam.max ? diam.max : 0.0,  // all diameters equal: none is read
+                        wall_axis);
 }
 
 }  // namespace ff::overlap

@@ -321,11 +321,11 @@ class OverlapCorrect final : public Stage {
           if (!(id[u] > id[v])) return;
           double xu, yu, tx, ty;
           load_xy(x, u, xu, yu);
-          const double o = pair_term(ov.min_image(xu - xv, 0), ov.min_image(yu - yv, 1), sv, ov.diameter_of(u),
-                                     ov.factor, int(v), u, tx, ty);
-          if (o == kNoOverlap || !(o > 0)) return;
+          const PairOverlap o = pair_term(ov.min_image(xu - xv, 0), ov.min_image(yu - yv, 1), sv,
+                                          ov.diameter_of(u), ov.factor, ov.tol, int(v), u, tx, ty);
+          if (!counted(o)) return;
           ++pv;
-          if (o > ov.tol) ++bv;
+          if (o == kBeyond) ++bv;
         });
         c[0] += bv;
         c[1] += pv;

@@ -41,13 +41,14 @@ Reference reference(State& s, double factor, double cap, double tol, double unit
   const auto diam = diameters(s);
   const double dmax = *std::max_element(diam.begin(), diam.end());
   if (unit == 0) unit = dmax;
-  const overlap::Overlaps<double> m{{PeriodicBox<double>::make(s.box.L), factor, cap, tol, 1.0 / unit},
-                                    out.xy.data(),
-                                    s.field(fields::diameter).host<double>(),
-                                    s.field(delaunay::fields::halfedge).host<std::int32_t>(),
-                                    s.field(delaunay::fields::vertex_edge).host<std::int32_t>(),
-                                    std::int32_t(n),
-                                    dmax * dmax};
+  const overlap::Overlaps<double> m{
+      overlap::PushRule::make(PeriodicBox<double>::make(s.box.L), factor, cap, tol, 1.0 / unit),
+      out.xy.data(),
+      s.field(fields::diameter).host<double>(),
+      s.field(delaunay::fields::halfedge).host<std::int32_t>(),
+      s.field(delaunay::fields::vertex_edge).host<std::int32_t>(),
+      std::int32_t(n),
+      dmax * dmax};
   jacobi_reference(m, out.xy.data(), image.data(), n, out.iterations, out.pairs);
   return out;
 }
@@ -57,7 +58,7 @@ std::size_t vertices_with_degree_above(State& s, int degree) {
   for (const char* f : {fields::position, fields::diameter, delaunay::fields::halfedge, delaunay::fields::vertex_edge})
     s.field(f).acquire(Where::host, Mode::read);
   const std::size_t n = s.n();
-  const overlap::Overlaps<double> m{{PeriodicBox<double>::make(s.box.L), 1.0, 0.25, 1e-6, 1.0},
+  const overlap::Overlaps<double> m{overlap::PushRule::make(PeriodicBox<double>::make(s.box.L), 1.0, 0.25, 1e-6, 1.0),
                                     s.field(fields::position).host<double>(),
                                     s.field(fields::diameter).host<double>(),
                                     s.field(delaunay::fields::halfedge).host<std::int32_t>(),

@@ -94,15 +94,28 @@ TEST_CASE("overlap_correct: oblique pair, unequal diameters, and coincident cent
   }
   SECTION("coincident centres separate along x, the lower index towards −x") {
     double dxa = 0, dya = 0, dxb = 0, dyb = 0;
-    CHECK(overlap::pair_push(0.0, 0.0, 1.0, 1.0, 1.0, 3, 7, dxa, dya) == 1.0);
-    CHECK(overlap::pair_push(-0.0, 0.0, 1.0, 1.0, 1.0, 7, 3, dxb, dyb) == 1.0);
+    CHECK(overlap::pair_push(0.0, 0.0, 1.0, 1.0, 1.0, 1e-3, 3, 7, dxa, dya) == overlap::kBeyond);
+    CHECK(overlap::pair_push(-0.0, 0.0, 1.0, 1.0, 1.0, 1e-3, 7, 3, dxb, dyb) == overlap::kBeyond);
     CHECK(dxa == -1.0);
     CHECK(dxb == 1.0);
     CHECK(dya == 0.0);
     CHECK(dyb == 0.0);
     double dx = 0, dy = 0;
-    CHECK(overlap::pair_push(1.0, 0.0, 1.0, 1.0, 1.0, 3, 7, dx, dy) < 0);  // contact is no overlap
+    CHECK(overlap::pair_push(1.0, 0.0, 1.0, 1.0, 1.0, 1e-3, 3, 7, dx, dy) == overlap::kApart);  // contact
     CHECK(dx == 0.0);
+  }
+  SECTION("a pair's depth σ − r against tol·σ: within the tolerance, beyond it, apart") {
+    // σ = (1 + 3)/2 = 2, tol = 1e-3: beyond when σ − r > 2e-3.
+    const double tol = 1e-3;
+    double dx = 0, dy = 0;
+    CHECK(overlap::pair_push(0.0, 1.999, 1.0, 3.0, 1.0, tol, 3, 7, dx, dy) == overlap::kWithin);
+    CHECK(overlap::pair_push(0.0, -1.997, 1.0, 3.0, 1.0, tol, 3, 7, dx, dy) == overlap::kBeyond);
+    CHECK(overlap::pair_push(2.0, 0.0, 1.0, 3.0, 1.0, tol, 3, 7, dx, dy) == overlap::kApart);
+    CHECK(overlap::pair_push(1.2, 1.6, 1.0, 3.0, 1.0, tol, 3, 7, dx, dy) == overlap::kApart);  // r = 2
+    // Reflect moves v by δ = σ − r away from u along the line of centres: −0.001 from u above,
+    // +0.003 from u below.
+    CHECK(dx == 0.0);
+    CHECK(dy == Approx(-0.001 + 0.003).margin(1e-15));
   }
 }
 

@@ -218,14 +218,15 @@ Reference reference(State& s, double factor, double cap, double tol, int wall) {
   Reference out{positions(s), images(s), std::vector<std::uint8_t>(n, 0)};
   for (const char* f : {fields::diameter, delaunay::fields::halfedge, delaunay::fields::vertex_edge})
     s.field(f).acquire(Where::host, Mode::read);
-  const overlap::Overlaps<double, true> m{{PeriodicBox<double>::make(s.box.L), factor, cap, tol, 1.0, 0.0, wall},
-                                          out.xy.data(),
-                                          s.field(fields::diameter).host<double>(),
-                                          s.field(delaunay::fields::halfedge).host<std::int32_t>(),
-                                          s.field(delaunay::fields::vertex_edge).host<std::int32_t>(),
-                                          std::int32_t(n),
-                                          1.0,
-                                          out.image.data()};
+  const overlap::Overlaps<double, true> m{
+      overlap::PushRule::make(PeriodicBox<double>::make(s.box.L), factor, cap, tol, 1.0, 0.0, wall),
+      out.xy.data(),
+      s.field(fields::diameter).host<double>(),
+      s.field(delaunay::fields::halfedge).host<std::int32_t>(),
+      s.field(delaunay::fields::vertex_edge).host<std::int32_t>(),
+      std::int32_t(n),
+      1.0,
+      out.image.data()};
   overlap_test::jacobi_reference(m, out.xy.data(), out.image.data(), n, out.iterations, out.pairs,
                                  out.touched.data());
   return out;

@@ -65,30 +65,31 @@ struct Gather : PushRule {
         r[k] = Walls && k == wall_axis ? dk + 0.0 : box.min_image(dk, k);
       }
       const int w = int(id ? id[u] : u);
-      const double o = pair_term_d<D>(r, sv, diameter_of(u), factor, v, w, t);
-      if (o == kNoOverlap) continue;
+      const PairOverlap o = pair_term_d<D>(r, sv, diameter_of(u), factor, tol, v, w, t);
+      if (o == kApart) continue;
       any = true;
       for (int k = 0; k < D; ++k) q[k] -= fixed_push(t[k], inv_unit);
-      if (v < w && o > 0) {
+      if (v < w && counted(o)) {
         ++pairs;
-        if (o > tol) ++bad;
+        if (o == kBeyond) ++bad;
       }
     }
     if constexpr (Walls) {
       double push;
-      const double o = wall_term(xv[wall_axis], image[D * i + wall_axis], box.L[wall_axis], sv, factor, push);
-      if (o != kNoOverlap) {
+      const PairOverlap o =
+          wall_term(xv[wall_axis], image[D * i + wall_axis], box.L[wall_axis], sv, factor, tol, push);
+      if (o != kApart) {
         any = true;
         q[wall_axis] += fixed_push(push, inv_unit);
         ++pairs;
-        if (o > tol) ++bad;
+        if (o == kBeyond) ++bad;
       }
     }
     if constexpr (Mark) {
       if (first || any) touched[i] = std::uint8_t(any);
     }
     double* d = disp + (D + 1) * i;
-    d[D] = finish_d<D>(q, sv, cap, inv_unit, d);
+    d[D] = finish_d<D>(q, sv, cap, push_length, d);
     return pairs | (bad << kBadShift);
   }
 };
