@@ -57,7 +57,7 @@
 // change (kept_fan: checked with independent loads instead of walked as a chain): one thread per
 // particle, its neighbours' positions loaded kInFlight at a time, or, when a block has at most
 // kGroupBelow particles to do (the late iterations), a group of 8 lanes per particle, one
-// neighbour each. A gather also computes where each particle it moves goes (kernel.h's moved_d,
+// neighbour each. A gather also computes where each particle it moves goes (kernel.h's moved_from,
 // with the position it just loaded), so the apply only stores positions. (Tried and not in,
 // being slower: edge passes, the check fused with the next gather, teams of blocks for the late
 // iterations: bench/experiments/README.md, bench/overlap_correct-PERF.md.)
@@ -152,7 +152,7 @@ struct Args {
   std::uint8_t* marks;     // grid·tile bytes, one per particle (padding never set): next candidates
   int* cand;               // grid·tile: each block's candidates, tile-private; in the tail, the claimed
   int* seed;               // grid·tile: each block's touched particles, v if it moved, ~v if not
-  double2* disp;           // grid·tile: where the moved ones go (moved_d), in the order of seed
+  double2* disp;           // grid·tile: where the moved ones go (moved_from), in the order of seed
   char2* crossed;          // grid·tile: the box crossings that adds to their image counts
   int* nb;                 // kCached x grid·tile: each particle's neighbours, filled in iteration 0
   std::uint8_t* degree;    // grid·tile: how many (kWalk: more than kCached, walk the fan)
@@ -411,11 +411,12 @@ __global__ void __launch_bounds__(Threads, MinBlocks) correct_kernel(Args<R, Wal
         const bool moves = q.dx != 0 || q.dy != 0;
         const int m = atomicAdd(&s_seeds[p], 1);
         seed[m] = moves ? v : ~v;
-        if (moves) {  // where v goes (its position is in this SM's cache now): the apply only stores it
+        if (moves) {  // where v goes, from where the gather read it: the apply only stores it
           const double d[2] = {q.dx, q.dy};
+          const R x0[2] = {R(q.x), R(q.y)};  // exact: load_xy widened them from R
           R x[2];
           int cr[2];
-          moved_d<2>(a.p.pos, a.p.box, std::size_t(v), d, x, cr);
+          moved_from<2>(x0, a.p.box, d, x, cr);
           if (a.next) store_xy(a.next, v, double(x[0]), double(x[1]));
           disp[m] = make_double2(double(x[0]), double(x[1]));
           crossed[m] = make_char2(char(cr[0]), char(cr[1]));

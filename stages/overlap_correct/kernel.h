@@ -159,14 +159,15 @@ FF_HD double finish_d(const std::int64_t* q, double sv, double cap, double push_
   for (int k = 0; k < D; ++k) d[k] = double(q[k]) * push_length;
   double len2 = d[0] * d[0];
   for (int k = 1; k < D; ++k) len2 += d[k] * d[k];
-  double len = std::sqrt(len2);
+  // The cap is tested on the squares, so an uncapped d (nearly all) does not wait for the sqrt,
+  // which only its length, a counter, needs.
   const double limit = cap * sv;
-  if (len > limit) {
-    const double s = limit / len;
+  if (len2 > limit * limit) {
+    const double s = limit / std::sqrt(len2);
     for (int k = 0; k < D; ++k) d[k] *= s;
-    len = limit;
+    return limit;
   }
-  return len;
+  return std::sqrt(len2);
 }
 
 // |d_v| in the correction counter's fixed point, 2^-32·unit.
@@ -275,6 +276,7 @@ struct PushRule {
 // What one particle's gather found.
 struct VertexPush {
   double dx = 0, dy = 0;  // capped displacement
+  double x = 0, y = 0;    // v's position as the gather read it (where the device's gather moves it from)
   double len = 0;         // its length
   unsigned pairs = 0;     // overlapping pairs with v < u
   unsigned bad = 0;       // of those, beyond the tolerance
@@ -473,6 +475,8 @@ struct Overlaps : PushRule {
     out.broken = !neighbors([&](int u) { gather_pair(v, xv, yv, sv, u, qx, qy, out); });
     gather_wall(v, xv, yv, sv, qx, qy, out);
     finish(qx, qy, sv, out);
+    out.x = xv;
+    out.y = yv;
     return out;
   }
 
@@ -527,17 +531,23 @@ struct Overlaps : PushRule {
 
 // Where x_v + d_v lands (D components), each coordinate wrapped into the box, and the box
 // crossings that adds to its image counts; a zero component leaves its coordinate as it is (and
-// crosses nothing). The device computes it where it gathered v (the position is in its cache) and
-// its apply only stores the result (correct_kernel.cuh).
+// crosses nothing), for a particle at x0. The device computes it where it gathered v, from the
+// position the gather read (VertexPush::x, y), and its apply only stores the result
+// (correct_kernel.cuh).
 template <int D, class R>
-FF_HD void moved_d(const R* pos, const PeriodicBox<R>& box, std::size_t i, const double* d, R* x, int* crossed) {
+FF_HD void moved_from(const R* x0, const PeriodicBox<R>& box, const double* d, R* x, int* crossed) {
   for (int k = 0; k < D; ++k) {
-    x[k] = pos[D * i + k];
+    x[k] = x0[k];
     crossed[k] = 0;
     if (d[k] == 0) continue;
     x[k] = R(double(x[k]) + d[k]);
     box.wrap(x[k], crossed[k], k);
   }
+}
+// moved_from of particle i's position in pos.
+template <int D, class R>
+FF_HD void moved_d(const R* pos, const PeriodicBox<R>& box, std::size_t i, const double* d, R* x, int* crossed) {
+  moved_from<D>(pos + D * i, box, d, x, crossed);
 }
 
 // x_v += d_v (D components), each coordinate wrapped into the box; a zero component leaves its

@@ -80,6 +80,8 @@ __device__ VertexPush gather_ids(const Overlaps<R, W>& ov, int v, const int (&id
   }
   ov.gather_wall(v, xv, yv, sv, qx, qy, out);
   ov.finish(qx, qy, sv, out);
+  out.x = xv;
+  out.y = yv;
   return out;
 }
 
@@ -224,9 +226,8 @@ __device__ VertexPush group_gather(const Overlaps<R, W>& ov, int v, bool has, in
                                    const std::uint8_t* degree) {
   VertexPush part;
   std::int64_t qx = 0, qy = 0;
-  double sv = 0;
+  double sv = 0, xv = 0, yv = 0;
   if (has) {
-    double xv, yv;
     load_xy(ov.pos, v, xv, yv);
     sv = ov.diameter_of(v);
     const int d = degree[v];
@@ -248,6 +249,8 @@ __device__ VertexPush group_gather(const Overlaps<R, W>& ov, int v, bool has, in
   out.touched = flags & 1u;
   out.broken = flags & 2u;
   ov.finish(qx, qy, sv, out);
+  out.x = xv;
+  out.y = yv;
   return out;
 }
 
