@@ -53,7 +53,7 @@ __device__ void for_each_loaded(const Overlaps<R, W>& ov, const int (&ids)[kCach
 // A gather of v by one thread from its neighbours ids[0 .. d) (from neighbor_ids below), in two
 // passes: the first loads the positions (kInFlight at a time) and only tests which neighbours
 // overlap v (Overlaps::overlaps_at: pair_term's own test, the same bits); the second runs the
-// pair math (a square root, three divisions, two roundings to fixed point) for those alone, one
+// pair math (a square root, a division, two roundings to fixed point) for those alone, one
 // after the other, reloading each one's position (in this SM's L1 now). A warp then runs that
 // math as often as its lane with the most overlaps needs (~3-4 times at 2^20), where an unrolled
 // slot per neighbour ran it in ~98 % of the slots with 4 of 32 lanes active (ncu, session 18).
