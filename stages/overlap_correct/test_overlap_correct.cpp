@@ -116,6 +116,17 @@ TEST_CASE("overlap_correct: oblique pair, unequal diameters, and coincident cent
     // +0.003 from u below.
     CHECK(dx == 0.0);
     CHECK(dy == Approx(-0.001 + 0.003).margin(1e-15));
+    // At contact up to rounding: r² < σ² in double, yet sqrt(r²) rounds to σ (a pair found by a
+    // search over random directions; it is common). A zero push, and not a pair the counters count.
+    const double sigma = 0.584827051590213, rx = 0.5796375852253713, ry = 0.07773641402715939;
+    REQUIRE(rx * rx + ry * ry < sigma * sigma);
+    REQUIRE(std::sqrt(rx * rx + ry * ry) == sigma);
+    double cx = 0.25, cy = -0.5;
+    const overlap::PairOverlap at = overlap::pair_push(rx, ry, sigma, sigma, 1.0, tol, 3, 7, cx, cy);
+    CHECK(at == overlap::kAtContact);
+    CHECK_FALSE(overlap::counted(at));
+    CHECK(cx == 0.25);
+    CHECK(cy == -0.5);
   }
 }
 
