@@ -289,8 +289,8 @@ __device__ u64 block_sum(const u64 (&c)[K], u64 (&s_red)[K][Warps]) {
 
 // Column threadIdx.x of the held rows of iterations [from, end) to result, from the run that row
 // end − 1 is in (the kernel's keep_row / end_rows). Not inlined: it runs once a run of kRowsHeld
-// iterations, and inlined it cost the wall kernels 12-24 bytes of spills (not inlined, 8 bytes
-// remain in the grid's double-precision wall kernel without the touched field).
+// iterations, and inlined it cost the wall kernels 12-24 bytes of spills (not inlined, none
+// since session 29; ptxas, sm_90).
 template <int Reported>
 __device__ __noinline__ void store_held_rows(u64* result, const u64 (*rows)[Reported], int end) {
   for (int r = (end - 1) / kRowsHeld * kRowsHeld; r < end; ++r)

@@ -78,8 +78,8 @@ TEST_CASE("overlap_correct: CPU and CUDA give the same bits on either device pat
   // ones on the whole grid: sizes on both sides, and the threshold itself. (20000, the size of the
   // tests above, is the grid's.) 150000 fills the grid (more particles than its threads on a GPU
   // of up to ~290 SMs), so its first iteration runs in the wide kernels (DeviceLoops::prepare).
-  // 1000 and 2048: a cluster's blocks of at most 64 and 128 particles, and runs small enough for
-  // a tail that keeps every position in shared memory (branch smtail28).
+  // 1000 and 2048: a cluster's blocks of at most 64 and 128 particles (one and two passes of lane
+  // groups).
   if (!test::have_cuda("overlap_correct CPU-vs-CUDA by size")) return;
   for (std::uint64_t n : {1000u, 2048u, 3000u, 8192u, 65536u, 150000u}) {
     INFO("n " << n);
