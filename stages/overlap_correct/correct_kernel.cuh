@@ -174,6 +174,8 @@ struct Args {
   long long k0;
   long long max_iterations;
   long long next_zero;     // words of next_slots to zero (those the last launch used), and its claims
+  bool shared_tail = false;  // a cluster's block 0 runs the tail in shared memory (shared_tail.cuh):
+                             // the launch's dynamic shared memory holds TailState<R>::bytes(n)
 };
 
 // Particle v's position (x, y) stored as one vector (the apply's only store besides rare image
@@ -296,6 +298,17 @@ __device__ __noinline__ void store_held_rows(u64* result, const u64 (*rows)[Repo
   for (int r = (end - 1) / kRowsHeld * kRowsHeld; r < end; ++r)
     result[std::size_t(r) * kCounters + threadIdx.x] = rows[r % kRowsHeld][threadIdx.x];
 }
+
+}  // namespace
+
+}  // namespace ff::overlap
+
+// (after the helpers above, which it uses)
+#include "stages/overlap_correct/shared_tail.cuh"
+
+namespace ff::overlap {
+
+namespace {
 
 // Walls: the wall code compiled in (walls: x | y); Mark: the touched field written (mark: true);
 // Team: who runs the iterations (team_sync); Threads: the block size.
@@ -565,6 +578,15 @@ __global__ void __launch_bounds__(Threads, MinBlocks) correct_kernel(Args<R, Wal
       team_sync<Team>();
       if (to_tail) {
         if (blockIdx.x != 0) return;
+        // A run alone's cluster without walls (with them the kernel would spill): the tail in
+        // block 0's shared memory where the host made room for it (shared_tail.cuh).
+        if constexpr (Team == kClusterTailTeam && !Walls) {
+          if (a.shared_tail) {
+            extern __shared__ __align__(16) unsigned char s_tail[];
+            end_rows(shared_tail<R, Threads, Walls, Mark>(a, j + 1, int(__ldcg(a.claims)), s_tail, keep_row));
+            return;
+          }
+        }
         tail = tail_first = true;
       }
     }

@@ -7,7 +7,6 @@
 #include <algorithm>
 
 #include "core/backend/cuda/check.h"
-#include "stages/overlap_correct/block_kernel.cuh"
 #include "stages/overlap_correct/correct_kernel.cuh"
 #include "stages/overlap_correct/team_shape.cuh"
 #include "stages/overlap_correct/wide_kernels.cuh"
@@ -102,16 +101,16 @@ class DeviceLoops final : public OverlapCorrectLoops<R> {
     // each does nothing after an iteration that did not go on.
     if (wide_ && k0 == 0) a.j0 = run_wide<Walls, Mark>(a, s);
     void* args[] = {&a};
-    if (block_ && k0 == 0 && max_iterations < kDeviceBatch) {  // (one launch runs the whole step)
-      launch_block<R, Walls, Mark>(args, p.n, s);
-    } else if (team_ == kGrid) {
+    // (one launch runs the whole step: the shared-memory tail does not carry marks to the next)
+    a.shared_tail = tail_bytes_ > 0 && max_iterations < kDeviceBatch;
+    if (team_ == kGrid) {
       cudaLaunchAttribute attr[2];
       const cudaLaunchConfig_t cfg = grid_config_after_previous(grid_, attr, s);
       FF_CUDA_CHECK(cudaLaunchKernelExC(&cfg, kernel_ptr<R, kGrid, Walls, Mark>(), args), "launching overlap_correct");
     } else if (team_ == kSharedClusterBlocks) {
-      launch_team<kSharedClusterBlocks, Walls, Mark>(args, s);
+      launch_team<kSharedClusterBlocks, Walls, Mark>(args, 0, s);
     } else {
-      launch_team<kClusterBlocks, Walls, Mark>(args, s);
+      launch_team<kClusterBlocks, Walls, Mark>(args, a.shared_tail ? tail_bytes_ : 0, s);
     }
     parity_ = 1 - parity_;
     ops_->fence_record(done_, s);
@@ -134,9 +133,10 @@ class DeviceLoops final : public OverlapCorrectLoops<R> {
 
   // A cluster launch of the team's blocks.
   template <int Team, bool Walls, bool Mark>
-  static void launch_team(void** args, CUstream_st* s) {
+  static void launch_team(void** args, std::size_t shared_bytes, CUstream_st* s) {
     cudaLaunchAttribute attr[2];
-    const cudaLaunchConfig_t cfg = team_config_after_previous<Team>(attr, s);
+    cudaLaunchConfig_t cfg = team_config_after_previous<Team>(attr, s);
+    cfg.dynamicSmemBytes = shared_bytes;
     FF_CUDA_CHECK(cudaLaunchKernelExC(&cfg, kernel_ptr<R, Team, Walls, Mark>(), args),
                   "launching overlap_correct (a team of blocks)");
   }
@@ -152,9 +152,9 @@ class DeviceLoops final : public OverlapCorrectLoops<R> {
     // stage's time. Below that, a step is short and their three launches cost more than they
     // save (bench/README.md, "Session 19, calls 2 and 3": slower at 2^14, even at 2^16).
     wide_ = team_ == kGrid && tile_ > kThreads;
-    // A run alone of at most kBlockMaxN particles, where they fit one block's shared memory:
-    // the one-block kernel (block_kernel.cuh).
-    block_ = runs_sharing_gpu() <= 1 && n <= kBlockMaxN && n <= block_capacity<R, Walls, Mark>();
+    // A run alone in the cluster of 16, without walls, whose particles fit one block's shared
+    // memory: the tail there (shared_tail.cuh).
+    tail_bytes_ = team_ == kClusterBlocks && !Walls && runs_sharing_gpu() <= 1 ? shared_tail_bytes<R, Walls, Mark>(n) : 0;
     for (Scratch<u64>& sl : slots_) sl.reset();
     marks_.reset();  // fresh zeroed arrays even where the size did not change
     parity_ = 0;
@@ -181,7 +181,7 @@ class DeviceLoops final : public OverlapCorrectLoops<R> {
   int grid_ = 0, tile_ = 0;
   int team_ = kGrid;  // who runs the iterations (team_for): kGrid, kClusterBlocks or kSharedClusterBlocks
   bool wide_ = false;  // the grid's first iterations in the wide kernels (prepare)
-  bool block_ = false;  // steps in the one-block kernel where one launch runs the whole step (prepare)
+  std::size_t tail_bytes_ = 0;  // the shared-memory tail's dynamic shared memory, 0 without it (prepare)
   int parity_ = 0;  // which slots the next launch uses (zero); it zeroes the other
   int last_gathers_ = 0;   // how many gathers the last launch ran (the slots it used)
   bool unread_ = false;    // the last launch was never read back (finish)

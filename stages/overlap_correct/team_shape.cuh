@@ -156,6 +156,25 @@ int team_for(std::size_t n) {
   return cluster_fits<R, kSharedClusterBlocks, Walls, Mark>() ? kSharedClusterBlocks : kClusterBlocks;
 }
 
+// The dynamic shared memory of the cluster of kClusterBlocks' kernel for a tail in shared memory
+// (shared_tail.cuh) of n particles, set as the kernel's limit; 0 where it does not fit beside the
+// kernel's static arrays.
+template <class R, bool Walls, bool Mark>
+std::size_t shared_tail_bytes(std::size_t n) {
+  int dev = 0, optin = 0;
+  FF_CUDA_CHECK(cudaGetDevice(&dev), "overlap_correct: current device");
+  FF_CUDA_CHECK(cudaDeviceGetAttribute(&optin, cudaDevAttrMaxSharedMemoryPerBlockOptin, dev),
+                "overlap_correct: shared memory per block");
+  void* f = kernel_ptr<R, kClusterBlocks, Walls, Mark>();
+  cudaFuncAttributes attr = {};
+  FF_CUDA_CHECK(cudaFuncGetAttributes(&attr, f), "overlap_correct: the cluster kernel's attributes");
+  const std::size_t bytes = TailState<R>::bytes(n);
+  if (attr.sharedSizeBytes + bytes > std::size_t(optin)) return 0;
+  FF_CUDA_CHECK(cudaFuncSetAttribute(f, cudaFuncAttributeMaxDynamicSharedMemorySize, int(bytes)),
+                "overlap_correct: the shared-memory tail");
+  return bytes;
+}
+
 template <class R, bool Walls, bool Mark>
 void shape(std::size_t n, int team, int& grid, int& tile) {
   grid = team != kGrid ? team : grid_shape<R, Walls, Mark>(n).blocks;  // a team's blocks share the particles
