@@ -174,8 +174,6 @@ struct Args {
   long long k0;
   long long max_iterations;
   long long next_zero;     // words of next_slots to zero (those the last launch used), and its claims
-  bool shared_tail = false;  // a cluster's block 0 runs the tail in shared memory (shared_tail.cuh):
-                             // the launch's dynamic shared memory holds TailState<R>::bytes(n)
 };
 
 // Particle v's position (x, y) stored as one vector (the apply's only store besides rare image
@@ -311,9 +309,13 @@ namespace ff::overlap {
 namespace {
 
 // Walls: the wall code compiled in (walls: x | y); Mark: the touched field written (mark: true);
-// Team: who runs the iterations (team_sync); Threads: the block size.
-template <class R, int Threads, int MinBlocks, int Team, bool Walls, bool Mark>
+// Team: who runs the iterations (team_sync); Threads: the block size; SharedTail: block 0 runs the
+// tail in its shared memory (shared_tail.cuh: a run alone's cluster without walls, launched with
+// TailState<R>::bytes(n) of dynamic shared memory where one launch runs the whole step), a kernel
+// of its own so that the others keep their code.
+template <class R, int Threads, int MinBlocks, int Team, bool Walls, bool Mark, bool SharedTail = false>
 __global__ void __launch_bounds__(Threads, MinBlocks) correct_kernel(Args<R, Walls> a) {
+  static_assert(!SharedTail || (Team == kClusterTailTeam && !Walls), "a shared-memory tail: the cluster of 16, no walls");
   constexpr int kReported = Sums<Mark>::kReported, kMoved = Sums<Mark>::kMoved, kAll = Sums<Mark>::kAll;
   constexpr int kWarps = Threads / 32, kGroups = Threads / kGroup;
   // A cluster's blocks sum the counters from each other's shared memory (s_part) instead of
@@ -578,14 +580,10 @@ __global__ void __launch_bounds__(Threads, MinBlocks) correct_kernel(Args<R, Wal
       team_sync<Team>();
       if (to_tail) {
         if (blockIdx.x != 0) return;
-        // A run alone's cluster without walls (with them the kernel would spill): the tail in
-        // block 0's shared memory where the host made room for it (shared_tail.cuh).
-        if constexpr (Team == kClusterTailTeam && !Walls) {
-          if (a.shared_tail) {
-            extern __shared__ __align__(16) unsigned char s_tail[];
-            end_rows(shared_tail<R, Threads, Walls, Mark>(a, j + 1, int(__ldcg(a.claims)), s_tail, keep_row));
-            return;
-          }
+        if constexpr (SharedTail) {
+          extern __shared__ __align__(16) unsigned char s_tail[];
+          end_rows(shared_tail<R, Threads, Walls, Mark>(a, j + 1, int(__ldcg(a.claims)), s_tail, keep_row));
+          return;
         }
         tail = tail_first = true;
       }

@@ -101,16 +101,16 @@ class DeviceLoops final : public OverlapCorrectLoops<R> {
     // each does nothing after an iteration that did not go on.
     if (wide_ && k0 == 0) a.j0 = run_wide<Walls, Mark>(a, s);
     void* args[] = {&a};
-    // (one launch runs the whole step: the shared-memory tail does not carry marks to the next)
-    a.shared_tail = tail_bytes_ > 0 && max_iterations < kDeviceBatch;
     if (team_ == kGrid) {
       cudaLaunchAttribute attr[2];
       const cudaLaunchConfig_t cfg = grid_config_after_previous(grid_, attr, s);
       FF_CUDA_CHECK(cudaLaunchKernelExC(&cfg, kernel_ptr<R, kGrid, Walls, Mark>(), args), "launching overlap_correct");
     } else if (team_ == kSharedClusterBlocks) {
       launch_team<kSharedClusterBlocks, Walls, Mark>(args, 0, s);
+    } else if (tail_bytes_ > 0 && max_iterations < kDeviceBatch) {  // (one launch runs the whole step)
+      if constexpr (!Walls) launch_team<kClusterBlocks, Walls, Mark, true>(args, tail_bytes_, s);
     } else {
-      launch_team<kClusterBlocks, Walls, Mark>(args, a.shared_tail ? tail_bytes_ : 0, s);
+      launch_team<kClusterBlocks, Walls, Mark>(args, 0, s);
     }
     parity_ = 1 - parity_;
     ops_->fence_record(done_, s);
@@ -132,12 +132,12 @@ class DeviceLoops final : public OverlapCorrectLoops<R> {
   }
 
   // A cluster launch of the team's blocks.
-  template <int Team, bool Walls, bool Mark>
+  template <int Team, bool Walls, bool Mark, bool SharedTail = false>
   static void launch_team(void** args, std::size_t shared_bytes, CUstream_st* s) {
     cudaLaunchAttribute attr[2];
     cudaLaunchConfig_t cfg = team_config_after_previous<Team>(attr, s);
     cfg.dynamicSmemBytes = shared_bytes;
-    FF_CUDA_CHECK(cudaLaunchKernelExC(&cfg, kernel_ptr<R, Team, Walls, Mark>(), args),
+    FF_CUDA_CHECK(cudaLaunchKernelExC(&cfg, kernel_ptr<R, Team, Walls, Mark, SharedTail>(), args),
                   "launching overlap_correct (a team of blocks)");
   }
 
@@ -154,7 +154,7 @@ class DeviceLoops final : public OverlapCorrectLoops<R> {
     wide_ = team_ == kGrid && tile_ > kThreads;
     // A run alone in the cluster of 16, without walls, whose particles fit one block's shared
     // memory: the tail there (shared_tail.cuh).
-    tail_bytes_ = team_ == kClusterBlocks && !Walls && runs_sharing_gpu() <= 1 ? shared_tail_bytes<R, Walls, Mark>(n) : 0;
+    tail_bytes_ = team_ == kClusterBlocks && !Walls && runs_sharing_gpu() <= 1 ? shared_tail_bytes<R, Mark>(n) : 0;
     for (Scratch<u64>& sl : slots_) sl.reset();
     marks_.reset();  // fresh zeroed arrays even where the size did not change
     parity_ = 0;
