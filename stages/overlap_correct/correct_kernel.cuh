@@ -51,6 +51,9 @@
 // waits for any (claim_checked): a tail iteration is a chain of dependent steps, and a global
 // atomic whose answer a thread waits for is a round trip to L2 in it. Block 0's lists then span
 // the whole arrays (grid·tile ≥ N entries; a particle is listed once an iteration).
+// A run alone's cluster of 16 without walls whose particles fit block 0's shared memory runs the
+// tail there instead (shared_tail.cuh: positions, lists, candidates and moves copied in when the
+// tail starts, the same iterations; the SharedTail instantiation of the kernel).
 // The same particles are gathered either way; only who gathers them differs. Iteration 0 copies
 // each particle's neighbours to a list that the later gathers and checks read instead of walking
 // the fan again (kCached below), and keeps the list from the step before where the fan did not
@@ -301,7 +304,7 @@ __device__ __noinline__ void store_held_rows(u64* result, const u64 (*rows)[Repo
 
 }  // namespace ff::overlap
 
-// (after the helpers above, which it uses)
+// The shared-memory tail, which the kernel below calls and which uses the helpers above.
 #include "stages/overlap_correct/shared_tail.cuh"
 
 namespace ff::overlap {

@@ -5,12 +5,12 @@
 // barrier, then stores the positions back. Included by correct_kernel.cuh, whose kernel calls it.
 //
 // Why (bench/experiments/README.md, "The tail in shared memory", session 30): a tail iteration
-// of block 0 is a chain of dependent loads and barriers, not work: ~7-8 k cycles at 2^10-2^11
-// for 4-60 candidates, of which the L2 round trips (the candidate, its list, its neighbours'
-// positions, the seeds and moves the apply reloads, the claims' global atomics) are ~3 k. From
-// shared memory the same iterations take ~4.8 k. The large iterations before the tail stay on the
-// cluster's 16 SMs: in one block they were twice as long (a one-block kernel for the whole step
-// tied the cluster at 2^10 and lost 24 % at 2^11, session 30's call 1).
+// of block 0 is a chain of dependent loads and barriers, not work: 7-8 k cycles at 2^10-2^11 for
+// 6-60 candidates (clock64, block 0), of which the L2 round trips (the candidate, its list, its
+// neighbours' positions, the seeds and moves the apply reloads, the claims' global atomics) are
+// ~3 k. From shared memory the same iterations take 4.7-5 k. The large iterations before the tail
+// stay on the cluster's 16 SMs: in one block they took up to twice as long (a one-block kernel for
+// the whole step tied the cluster at 2^10 and lost 24 % at 2^11).
 //
 // The same iterations as the global-memory tail (candidates claimed with word atomics on the
 // marks, counted in shared memory), so the same bits: pushes are summed in fixed point

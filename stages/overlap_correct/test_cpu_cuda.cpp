@@ -181,6 +181,34 @@ TEST_CASE("overlap_correct: CPU and CUDA stop alike at max_iterations on the gri
   }
 }
 
+TEST_CASE("overlap_correct: CPU and CUDA stop alike at max_iterations in a step's last iterations",
+          "[overlap][cuda]") {
+  // A step's last iterations move few particles: the device runs them in block 0 alone, from
+  // shared memory for a run alone of up to ~2 900 particles (shared_tail.cuh: 1000), from global
+  // memory after the cluster (3000) and after the grid (20000). A lattice at η = 0.8 jiggled by 0.3σ
+  // (~38 iterations) stopped two iterations before its step would end: the same error on both
+  // backends (pairs still overlapping, the worst pair).
+  if (!test::have_cuda("overlap_correct CPU-vs-CUDA at max_iterations in the tail")) return;
+  for (std::uint64_t n : {1000u, 3000u, 20000u}) {
+    const std::int64_t needs = std::int64_t(one_step(correct_spec(n, 0.8, {}), Backend::cpu, 0.3).iterations);
+    INFO("n " << n << ", iterations " << needs);
+    REQUIRE(needs >= 8);
+    const auto spec = correct_spec(n, 0.8, {{"max_iterations", needs - 2}});
+    std::string message[2];
+    for (int b = 0; b < 2; ++b) {
+      try {
+        one_step(spec, b == 0 ? Backend::cpu : Backend::cuda, 0.3);
+      } catch (const RunError& e) {
+        message[b] = e.what();
+      }
+    }
+    INFO("cpu: " << message[0]);
+    INFO("cuda: " << message[1]);
+    CHECK(message[0].find("max_iterations = " + std::to_string(needs - 2)) != std::string::npos);
+    CHECK(message[0] == message[1]);
+  }
+}
+
 TEST_CASE("overlap_correct: CPU and CUDA agree on a correction longer than one run of held sums",
           "[overlap][cuda]") {
   // The device kernel keeps each iteration's sums in shared memory and stores them to the host's
