@@ -446,7 +446,7 @@ __global__ void __launch_bounds__(Threads, MinBlocks) correct_kernel(Args<R, Wal
       for (int i = int(threadIdx.x); i < count; i += Threads) {
         const int v = first ? t0 + i : !tail && cand_shared ? s_cand[i] : __ldcg(cand + i);
         if (tail)  // its claim: cleared for the next check
-          atomicAnd(mark_word(a.marks, v), ~mark_bit(v));
+          atomicAnd(mark_word(a.marks, v), ~mark_bit(a.marks, v));
         int ids[kCached], d;
         const VertexPush q =
             neighbor_ids(ov, v, first, a.nb, a.degree, a.fan, ids, d) ? gather_ids(ov, v, ids, d) : ov.gather(v);
@@ -464,7 +464,7 @@ __global__ void __launch_bounds__(Threads, MinBlocks) correct_kernel(Args<R, Wal
         const bool has = i < count;
         const int v = !has ? 0 : !tail && cand_shared ? s_cand[i] : __ldcg(cand + i);
         if (tail && has && l == 0)  // its claim: cleared for the next check
-          atomicAnd(mark_word(a.marks, v), ~mark_bit(v));
+          atomicAnd(mark_word(a.marks, v), ~mark_bit(a.marks, v));
         const VertexPush q = group_gather(ov, v, has, l, a.nb, a.degree);
         if (has && l == 0) take(v, q);
       }

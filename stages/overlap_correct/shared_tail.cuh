@@ -1,6 +1,7 @@
-// overlap_correct's tail in shared memory: where a small run alone on the GPU (a cluster team, n
-// ≤ shared_tail_capacity) reaches its tail (an iteration that moved at most kClusterTailMoved
-// particles), block 0 copies the positions, the neighbour lists and the claimed candidates into
+// overlap_correct's tail in shared memory: where a small run alone on the GPU (the cluster of 16,
+// without walls, n particles that fit: team_shape.cuh's shared_tail_bytes) reaches its tail (an
+// iteration that moved at most kClusterTailMoved particles), block 0 copies the positions, the
+// neighbour lists and the claimed candidates into
 // its shared memory and runs the remaining iterations there, with __syncthreads as the only
 // barrier, then stores the positions back. Included by correct_kernel.cuh, whose kernel calls it.
 //
@@ -31,22 +32,25 @@ namespace ff::overlap {
 
 namespace {
 
-// The tail's shared-memory state of n particles, laid out from `base` (16-byte aligned).
+// The tail's shared-memory state of n particles (n < 65 536), laid out from `base` (16-byte
+// aligned); ids are 16 bits and marks one bit, so that 4 096 particles fit in double.
 template <class R>
 struct TailState {
   double2* disp;         // n: where the iteration's moved particles go, in the order of seed
   R* pos;                // 2n: the current positions (the apply writes them)
-  int* nb;               // kCached·n: each particle's listed neighbours (iteration 0's lists)
-  int* seed;             // n: the touched particles, v if it moved, ~v if not
-  int* cand;             // n: the iteration's candidates
-  char2* crossed;        // n: the moved particles' box crossings
+  std::uint16_t* nb;     // kCached·n: each particle's listed neighbours (iteration 0's lists)
+  unsigned* seed;        // n: the touched particles (Seed)
+  std::uint16_t* cand;   // n: the iteration's candidates
   std::uint8_t* degree;  // n: how many listed (kWalk: walk the fan)
-  std::uint8_t* marks;   // n, rounded up to 16: claimed candidates of the next iteration
+  MarkBits marks;        // n bits: claimed candidates of the next iteration
 
   static constexpr std::size_t bytes_per_particle() {
-    return sizeof(double2) + 2 * sizeof(R) + kCached * sizeof(int) + 2 * sizeof(int) + sizeof(char2) + 2;
+    return sizeof(double2) + 2 * sizeof(R) + kCached * sizeof(std::uint16_t) + sizeof(unsigned) + sizeof(std::uint16_t) + 1;
   }
-  static constexpr std::size_t bytes(std::size_t n) { return n * bytes_per_particle() + 8 * 16; }  // + rounding
+  __host__ __device__ static constexpr std::size_t mark_words(std::size_t n) { return (n + 31) / 32; }
+  static constexpr std::size_t bytes(std::size_t n) {
+    return n * bytes_per_particle() + 4 * mark_words(n) + 7 * 16;  // + rounding
+  }
 
   __device__ TailState(unsigned char* base, int n) {
     auto take = [&](std::size_t b) {
@@ -56,13 +60,23 @@ struct TailState {
     };
     disp = reinterpret_cast<double2*>(take(sizeof(double2) * n));
     pos = reinterpret_cast<R*>(take(2 * sizeof(R) * n));
-    nb = reinterpret_cast<int*>(take(sizeof(int) * kCached * n));
-    seed = reinterpret_cast<int*>(take(sizeof(int) * n));
-    cand = reinterpret_cast<int*>(take(sizeof(int) * n));
-    crossed = reinterpret_cast<char2*>(take(sizeof(char2) * n));
+    nb = reinterpret_cast<std::uint16_t*>(take(sizeof(std::uint16_t) * kCached * n));
+    seed = reinterpret_cast<unsigned*>(take(sizeof(unsigned) * n));
+    cand = reinterpret_cast<std::uint16_t*>(take(sizeof(std::uint16_t) * n));
     degree = take(n);
-    marks = take(n);
+    marks.words = reinterpret_cast<unsigned*>(take(4 * mark_words(n)));
   }
+};
+
+// A seed entry: particle v (16 bits), whether it moved, and its box crossings (-1, 0, 1 each axis).
+struct Seed {
+  __device__ static unsigned make(int v, bool moved, int cx, int cy) {
+    return unsigned(v) | unsigned(moved) << 16 | unsigned(cx + 1) << 17 | unsigned(cy + 1) << 19;
+  }
+  __device__ static int particle(unsigned e) { return int(e & 0xffffu); }
+  __device__ static bool moved(unsigned e) { return (e >> 16) & 1u; }
+  __device__ static int cross_x(unsigned e) { return int((e >> 17) & 3u) - 1; }
+  __device__ static int cross_y(unsigned e) { return int((e >> 19) & 3u) - 1; }
 };
 
 // Block 0's iterations j0, j0 + 1, ... in shared memory (s_dyn: TailState<R>::bytes(n)), from the
@@ -87,15 +101,16 @@ __device__ __forceinline__ int shared_tail(const Args& a, int j0, int count0, un
     load_xy(a.p.pos, v, x, y);
     store_xy(s.pos, v, x, y);
     const int4* from = reinterpret_cast<const int4*>(a.nb + std::size_t(kCached) * v);
-    int4* to = reinterpret_cast<int4*>(s.nb + std::size_t(kCached) * v);
-    to[0] = __ldcg(from);
-    to[1] = __ldcg(from + 1);
+    const int4 lo = __ldcg(from), hi = __ldcg(from + 1);
+    auto two = [](int first, int second) { return (unsigned(first) & 0xffffu) | unsigned(second) << 16; };
+    *reinterpret_cast<uint4*>(s.nb + std::size_t(kCached) * v) =
+        make_uint4(two(lo.x, lo.y), two(lo.z, lo.w), two(hi.x, hi.y), two(hi.z, hi.w));
     s.degree[v] = a.degree[v];
   }
-  for (int w = int(threadIdx.x); w < (n + 15) / 16 * 4; w += Threads) reinterpret_cast<unsigned*>(s.marks)[w] = 0;
+  for (int w = int(threadIdx.x); w < int(TailState<R>::mark_words(n)); w += Threads) s.marks.words[w] = 0;
   for (int i = int(threadIdx.x); i < count0; i += Threads) {
     const int v = __ldcg(a.cand + i);
-    s.cand[i] = v;
+    s.cand[i] = std::uint16_t(v);
     a.marks[v] = 0;
   }
   if (threadIdx.x < 2) s_seeds[threadIdx.x] = s_claims[threadIdx.x] = 0;
@@ -123,25 +138,25 @@ __device__ __forceinline__ int shared_tail(const Args& a, int j0, int count0, un
       if (q.touched) {
         const bool moves = q.dx != 0 || q.dy != 0;
         const int m = atomicAdd(&s_seeds[p], 1);
-        s.seed[m] = moves ? v : ~v;
+        int cr[2] = {0, 0};
         if (moves) {  // where v goes, from where the gather read it: the apply only stores it
           const double d[2] = {q.dx, q.dy};
           const R x0[2] = {R(q.x), R(q.y)};  // exact: load_xy widened them from R
           R x[2];
-          int cr[2];
           moved_from<2>(x0, a.p.box, d, x, cr);
           s.disp[m] = make_double2(double(x[0]), double(x[1]));
-          s.crossed[m] = make_char2(char(cr[0]), char(cr[1]));
         }
+        s.seed[m] = Seed::make(v, moves, cr[0], cr[1]);
       }
     };
     if (count > kGroupBelow<Threads>) {  // one thread per particle
       for (int i = int(threadIdx.x); i < count; i += Threads) {
         const int v = s.cand[i];
-        atomicAnd(mark_word(s.marks, v), ~mark_bit(v));  // its claim: cleared for the next check
-        int ids[kCached], d;
-        const bool listed = neighbor_ids(ov, v, false, s.nb, s.degree, nullptr, ids, d);
-        take(v, listed ? gather_ids(ov, v, ids, d) : ov.gather(v));
+        atomicAnd(mark_word(s.marks, v), ~mark_bit(s.marks, v));  // its claim: cleared for the next check
+        int ids[kCached];
+        const int d = s.degree[v];
+        load_ids(s.nb, v, ids);
+        take(v, d != kWalk ? gather_ids(ov, v, ids, d) : ov.gather(v));
       }
     } else {  // one lane group per particle
       const int l = int(threadIdx.x) % kGroup;
@@ -149,7 +164,7 @@ __device__ __forceinline__ int shared_tail(const Args& a, int j0, int count0, un
         const int i = base + int(threadIdx.x) / kGroup;
         const bool has = i < count;
         const int v = has ? s.cand[i] : 0;
-        if (has && l == 0) atomicAnd(mark_word(s.marks, v), ~mark_bit(v));
+        if (has && l == 0) atomicAnd(mark_word(s.marks, v), ~mark_bit(s.marks, v));
         const VertexPush q = group_gather(ov, v, has, l, s.nb, s.degree);
         if (has && l == 0) take(v, q);
       }
@@ -168,26 +183,27 @@ __device__ __forceinline__ int shared_tail(const Args& a, int j0, int count0, un
 
     const int ns = s_seeds[p];
     for (int i = int(threadIdx.x); i < ns; i += Threads) {
-      const int v = s.seed[i];
-      if (v >= 0) {
+      const unsigned e = s.seed[i];
+      if (Seed::moved(e)) {
+        const int v = Seed::particle(e);
         const double2 x = s.disp[i];
-        const char2 cr = s.crossed[i];
         store_xy(s.pos, v, x.x, x.y);
-        if (cr.x) a.p.image[2 * v] += cr.x;
-        if (cr.y) a.p.image[2 * v + 1] += cr.y;
+        if (const int cx = Seed::cross_x(e)) a.p.image[2 * v] += cx;
+        if (const int cy = Seed::cross_y(e)) a.p.image[2 * v + 1] += cy;
       }
     }
     __syncthreads();
 
     // The check at the new positions: claims the next iteration's candidates.
     auto claim = [&](int u) {
-      if (claim_mark(s.marks, u)) s.cand[atomicAdd(&s_claims[p_next], 1)] = u;
+      if (claim_mark(s.marks, u)) s.cand[atomicAdd(&s_claims[p_next], 1)] = std::uint16_t(u);
     };
     if (ns > kGroupBelow<Threads>) {
       for (int i = int(threadIdx.x); i < ns; i += Threads) {
-        const int v = s.seed[i];
-        if (v < 0)
-          claim(~v);
+        const unsigned e = s.seed[i];
+        const int v = Seed::particle(e);
+        if (!Seed::moved(e))
+          claim(v);
         else
           claim_checked(ov, v, s.nb, s.degree, s.marks, s.cand, &s_claims[p_next], claim);
       }
@@ -195,9 +211,11 @@ __device__ __forceinline__ int shared_tail(const Args& a, int j0, int count0, un
       const int l = int(threadIdx.x) % kGroup;
       for (int base = 0; base < ns; base += kGroups) {
         const int i = base + int(threadIdx.x) / kGroup;
-        const int v = i < ns ? s.seed[i] : ~0;
-        if (i < ns && v < 0 && l == 0) claim(~v);
-        if (group_check(ov, v, i < ns && v >= 0, l, s.nb, s.degree, claim) && l == 0) claim(v);
+        const unsigned e = i < ns ? s.seed[i] : 0u;
+        const int v = Seed::particle(e);
+        const bool moved = i < ns && Seed::moved(e);
+        if (i < ns && !moved && l == 0) claim(v);
+        if (group_check(ov, v, moved, l, s.nb, s.degree, claim) && l == 0) claim(v);
       }
     }
     __syncthreads();

@@ -169,7 +169,7 @@ std::size_t shared_tail_bytes(std::size_t n) {
   cudaFuncAttributes attr = {};
   FF_CUDA_CHECK(cudaFuncGetAttributes(&attr, f), "overlap_correct: the cluster kernel's attributes");
   const std::size_t bytes = TailState<R>::bytes(n);
-  if (attr.sharedSizeBytes + bytes > std::size_t(optin)) return 0;
+  if (n >= 65536 || attr.sharedSizeBytes + bytes > std::size_t(optin)) return 0;  // (16-bit ids)
   FF_CUDA_CHECK(cudaFuncSetAttribute(f, cudaFuncAttributeNonPortableClusterSizeAllowed, 1), "overlap_correct: cluster size");
   FF_CUDA_CHECK(cudaFuncSetAttribute(f, cudaFuncAttributeMaxDynamicSharedMemorySize, int(bytes)),
                 "overlap_correct: the shared-memory tail");
