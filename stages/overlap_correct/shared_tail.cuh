@@ -3,7 +3,8 @@
 // iteration that moved at most kClusterTailMoved particles), block 0 copies the positions, the
 // neighbour lists and the claimed candidates into
 // its shared memory and runs the remaining iterations there, with __syncthreads as the only
-// barrier, then stores the positions back. Included by correct_kernel.cuh, whose kernel calls it.
+// barrier; its applies store each move in both copies. Included by correct_kernel.cuh, whose kernel
+// calls it.
 //
 // Why (bench/experiments/README.md, "The tail in shared memory", session 30): a tail iteration
 // of block 0 is a chain of dependent loads and barriers, not work: 7-8 k cycles at 2^10-2^11 for
@@ -117,15 +118,6 @@ __device__ __forceinline__ int shared_tail(const Args& a, int j0, int count0, un
   if (threadIdx.x < 2 * kReported) s_sum[threadIdx.x / kReported][threadIdx.x % kReported] = 0;
   __syncthreads();
 
-  // Positions back to global memory where the tail ends; returns the gathers run.
-  auto done = [&](int end) {
-    for (int v = int(threadIdx.x); v < n; v += Threads) {
-      double x, y;
-      load_xy(s.pos, v, x, y);
-      store_xy(a.p.pos, v, x, y);
-    }
-    return end;
-  };
   for (int j = j0; j < kDeviceBatch; ++j) {
     const int p = j & 1, p_next = p ^ 1;
     const int count = j == j0 ? count0 : s_claims[p];
@@ -179,7 +171,7 @@ __device__ __forceinline__ int shared_tail(const Args& a, int j0, int count0, un
     std::uint64_t tot[kReported];
 #pragma unroll
     for (int q = 0; q < kReported; ++q) tot[q] = s_sum[p][q];
-    if (!keeps_going(tot, a.k0 + j, a.max_iterations)) return done(j + 1);
+    if (!keeps_going(tot, a.k0 + j, a.max_iterations)) return j + 1;
 
     const int ns = s_seeds[p];
     for (int i = int(threadIdx.x); i < ns; i += Threads) {
@@ -188,6 +180,7 @@ __device__ __forceinline__ int shared_tail(const Args& a, int j0, int count0, un
         const int v = Seed::particle(e);
         const double2 x = s.disp[i];
         store_xy(s.pos, v, x.x, x.y);
+        store_xy(a.p.pos, v, x.x, x.y);  // (written through: nothing to copy back at the end)
         if (const int cx = Seed::cross_x(e)) a.p.image[2 * v] += cx;
         if (const int cy = Seed::cross_y(e)) a.p.image[2 * v + 1] += cy;
       }
@@ -220,7 +213,7 @@ __device__ __forceinline__ int shared_tail(const Args& a, int j0, int count0, un
     }
     __syncthreads();
   }
-  return done(kDeviceBatch);  // (not reached: the host sets shared_tail only where keeps_going stops first)
+  return kDeviceBatch;  // (not reached: the host sets shared_tail only where keeps_going stops first)
 }
 
 }  // namespace
