@@ -51,6 +51,9 @@
 // waits for any (claim_checked): a tail iteration is a chain of dependent steps, and a global
 // atomic whose answer a thread waits for is a round trip to L2 in it. Block 0's lists then span
 // the whole arrays (grid·tile ≥ N entries; a particle is listed once an iteration).
+// A run alone's cluster of 16 without walls whose particles fit block 0's shared memory runs the
+// tail there instead (shared_tail.cuh: positions, lists, candidates and moves copied in when the
+// tail starts, the same iterations; the SharedTail instantiation of the kernel).
 // The same particles are gathered either way; only who gathers them differs. Iteration 0 copies
 // each particle's neighbours to a list that the later gathers and checks read instead of walking
 // the fan again (kCached below), and keeps the list from the step before where the fan did not
@@ -297,10 +300,25 @@ __device__ __noinline__ void store_held_rows(u64* result, const u64 (*rows)[Repo
     result[std::size_t(r) * kCounters + threadIdx.x] = rows[r % kRowsHeld][threadIdx.x];
 }
 
+}  // namespace
+
+}  // namespace ff::overlap
+
+// The shared-memory tail, which the kernel below calls and which uses the helpers above.
+#include "stages/overlap_correct/shared_tail.cuh"
+
+namespace ff::overlap {
+
+namespace {
+
 // Walls: the wall code compiled in (walls: x | y); Mark: the touched field written (mark: true);
-// Team: who runs the iterations (team_sync); Threads: the block size.
-template <class R, int Threads, int MinBlocks, int Team, bool Walls, bool Mark>
+// Team: who runs the iterations (team_sync); Threads: the block size; SharedTail: block 0 runs the
+// tail in its shared memory (shared_tail.cuh: a run alone's cluster without walls, launched with
+// TailState<R>::bytes(n) of dynamic shared memory where one launch runs the whole step), a kernel
+// of its own so that the others keep their code.
+template <class R, int Threads, int MinBlocks, int Team, bool Walls, bool Mark, bool SharedTail = false>
 __global__ void __launch_bounds__(Threads, MinBlocks) correct_kernel(Args<R, Walls> a) {
+  static_assert(!SharedTail || (Team == kClusterTailTeam && !Walls), "a shared-memory tail: the cluster of 16, no walls");
   constexpr int kReported = Sums<Mark>::kReported, kMoved = Sums<Mark>::kMoved, kAll = Sums<Mark>::kAll;
   constexpr int kWarps = Threads / 32, kGroups = Threads / kGroup;
   // A cluster's blocks sum the counters from each other's shared memory (s_part) instead of
@@ -428,7 +446,7 @@ __global__ void __launch_bounds__(Threads, MinBlocks) correct_kernel(Args<R, Wal
       for (int i = int(threadIdx.x); i < count; i += Threads) {
         const int v = first ? t0 + i : !tail && cand_shared ? s_cand[i] : __ldcg(cand + i);
         if (tail)  // its claim: cleared for the next check
-          atomicAnd(mark_word(a.marks, v), ~mark_bit(v));
+          atomicAnd(mark_word(a.marks, v), ~mark_bit(a.marks, v));
         int ids[kCached], d;
         const VertexPush q =
             neighbor_ids(ov, v, first, a.nb, a.degree, a.fan, ids, d) ? gather_ids(ov, v, ids, d) : ov.gather(v);
@@ -446,7 +464,7 @@ __global__ void __launch_bounds__(Threads, MinBlocks) correct_kernel(Args<R, Wal
         const bool has = i < count;
         const int v = !has ? 0 : !tail && cand_shared ? s_cand[i] : __ldcg(cand + i);
         if (tail && has && l == 0)  // its claim: cleared for the next check
-          atomicAnd(mark_word(a.marks, v), ~mark_bit(v));
+          atomicAnd(mark_word(a.marks, v), ~mark_bit(a.marks, v));
         const VertexPush q = group_gather(ov, v, has, l, a.nb, a.degree);
         if (has && l == 0) take(v, q);
       }
@@ -565,6 +583,11 @@ __global__ void __launch_bounds__(Threads, MinBlocks) correct_kernel(Args<R, Wal
       team_sync<Team>();
       if (to_tail) {
         if (blockIdx.x != 0) return;
+        if constexpr (SharedTail) {
+          extern __shared__ __align__(16) unsigned char s_tail[];
+          end_rows(shared_tail<R, Threads, Walls, Mark>(a, j + 1, int(__ldcg(a.claims)), s_tail, keep_row));
+          return;
+        }
         tail = tail_first = true;
       }
     }

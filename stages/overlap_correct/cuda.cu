@@ -106,9 +106,11 @@ class DeviceLoops final : public OverlapCorrectLoops<R> {
       const cudaLaunchConfig_t cfg = grid_config_after_previous(grid_, attr, s);
       FF_CUDA_CHECK(cudaLaunchKernelExC(&cfg, kernel_ptr<R, kGrid, Walls, Mark>(), args), "launching overlap_correct");
     } else if (team_ == kSharedClusterBlocks) {
-      launch_team<kSharedClusterBlocks, Walls, Mark>(args, s);
+      launch_team<kSharedClusterBlocks, Walls, Mark>(args, 0, s);
+    } else if (tail_bytes_ > 0 && max_iterations < kDeviceBatch) {  // (one launch runs the whole step)
+      if constexpr (!Walls) launch_team<kClusterBlocks, Walls, Mark, true>(args, tail_bytes_, s);
     } else {
-      launch_team<kClusterBlocks, Walls, Mark>(args, s);
+      launch_team<kClusterBlocks, Walls, Mark>(args, 0, s);
     }
     parity_ = 1 - parity_;
     ops_->fence_record(done_, s);
@@ -130,11 +132,12 @@ class DeviceLoops final : public OverlapCorrectLoops<R> {
   }
 
   // A cluster launch of the team's blocks.
-  template <int Team, bool Walls, bool Mark>
-  static void launch_team(void** args, CUstream_st* s) {
+  template <int Team, bool Walls, bool Mark, bool SharedTail = false>
+  static void launch_team(void** args, std::size_t shared_bytes, CUstream_st* s) {
     cudaLaunchAttribute attr[2];
-    const cudaLaunchConfig_t cfg = team_config_after_previous<Team>(attr, s);
-    FF_CUDA_CHECK(cudaLaunchKernelExC(&cfg, kernel_ptr<R, Team, Walls, Mark>(), args),
+    cudaLaunchConfig_t cfg = team_config_after_previous<Team>(attr, s);
+    cfg.dynamicSmemBytes = shared_bytes;
+    FF_CUDA_CHECK(cudaLaunchKernelExC(&cfg, kernel_ptr<R, Team, Walls, Mark, SharedTail>(), args),
                   "launching overlap_correct (a team of blocks)");
   }
 
@@ -149,6 +152,9 @@ class DeviceLoops final : public OverlapCorrectLoops<R> {
     // stage's time. Below that, a step is short and their three launches cost more than they
     // save (bench/README.md, "Session 19, calls 2 and 3": slower at 2^14, even at 2^16).
     wide_ = team_ == kGrid && tile_ > kThreads;
+    // A run alone in the cluster of 16, without walls, whose particles fit one block's shared
+    // memory: the tail there (shared_tail.cuh).
+    tail_bytes_ = team_ == kClusterBlocks && !Walls && runs_sharing_gpu() <= 1 ? shared_tail_bytes<R, Mark>(n) : 0;
     for (Scratch<u64>& sl : slots_) sl.reset();
     marks_.reset();  // fresh zeroed arrays even where the size did not change
     parity_ = 0;
@@ -175,6 +181,7 @@ class DeviceLoops final : public OverlapCorrectLoops<R> {
   int grid_ = 0, tile_ = 0;
   int team_ = kGrid;  // who runs the iterations (team_for): kGrid, kClusterBlocks or kSharedClusterBlocks
   bool wide_ = false;  // the grid's first iterations in the wide kernels (prepare)
+  std::size_t tail_bytes_ = 0;  // the shared-memory tail's dynamic shared memory, 0 without it (prepare)
   int parity_ = 0;  // which slots the next launch uses (zero); it zeroes the other
   int last_gathers_ = 0;   // how many gathers the last launch ran (the slots it used)
   bool unread_ = false;    // the last launch was never read back (finish)

@@ -32,6 +32,15 @@ __device__ inline void load_ids(const int* nb, int v, int (&ids)[kCached]) {
   ids[4] = hi.x, ids[5] = hi.y, ids[6] = hi.z, ids[7] = hi.w;
 }
 
+// The same from a list of 16-bit ids (shared_tail.cuh's copy, for fewer than 65 536 particles):
+// one 16-byte load.
+__device__ inline void load_ids(const std::uint16_t* nb, int v, int (&ids)[kCached]) {
+  const uint4 q = *reinterpret_cast<const uint4*>(nb + std::size_t(kCached) * v);
+  const unsigned w[4] = {q.x, q.y, q.z, q.w};
+#pragma unroll
+  for (int k = 0; k < kCached; ++k) ids[k] = int((w[k / 2] >> (16 * (k % 2))) & 0xffffu);
+}
+
 // Calls f(k, u, xu, yu) for each neighbour u = ids[k], k in [0, d) (d ≤ kCached), with its position,
 // loading the positions kInFlight at a time: independent loads in flight together, not one
 // after the other (one thread's gathers and checks).
@@ -184,8 +193,8 @@ __device__ CheckedList check_listed(const Overlaps<R, W>& ov, int v, const int (
 // The check of moved particle v by one thread: calls f(u) for each neighbour u that overlaps v at
 // the new positions and returns whether v overlaps anything (a fan that did not fit the list is
 // walked).
-template <class R, bool W, class F>
-__device__ bool thread_check(const Overlaps<R, W>& ov, int v, const int* nb, const std::uint8_t* degree, F&& f) {
+template <class R, bool W, class Id, class F>
+__device__ bool thread_check(const Overlaps<R, W>& ov, int v, const Id* nb, const std::uint8_t* degree, F&& f) {
   const int d = degree[v];
   int ids[kCached];
   load_ids(nb, v, ids);
@@ -221,8 +230,8 @@ __device__ inline unsigned group_or(unsigned x) {
 // The gather of particle v by its lane group (lane l of kGroup); `has` false: the group has no
 // particle but its lanes still take part in the shuffles. Every lane of the group returns v's
 // VertexPush (meaningful when `has`).
-template <class R, bool W>
-__device__ VertexPush group_gather(const Overlaps<R, W>& ov, int v, bool has, int l, const int* nb,
+template <class R, bool W, class Id>
+__device__ VertexPush group_gather(const Overlaps<R, W>& ov, int v, bool has, int l, const Id* nb,
                                    const std::uint8_t* degree) {
   VertexPush part;
   std::int64_t qx = 0, qy = 0;
@@ -234,7 +243,7 @@ __device__ VertexPush group_gather(const Overlaps<R, W>& ov, int v, bool has, in
     if (d == kWalk) {
       if (l == 0) part.broken = !ov.fan_of(v)([&](int u) { ov.gather_pair(v, xv, yv, sv, u, qx, qy, part); });
     } else if (l < d) {
-      ov.gather_pair(v, xv, yv, sv, nb[std::size_t(kCached) * v + l], qx, qy, part);
+      ov.gather_pair(v, xv, yv, sv, int(nb[std::size_t(kCached) * v + l]), qx, qy, part);
     }
     if (l == 0) ov.gather_wall(v, xv, yv, sv, qx, qy, part);  // one lane adds v's wall term
   }
@@ -257,8 +266,8 @@ __device__ VertexPush group_gather(const Overlaps<R, W>& ov, int v, bool has, in
 // The check of moved particle v by its lane group: calls f(u) for each neighbour u that
 // overlaps v at the new positions (Overlaps::overlapping_neighbors_by's test); every lane of the
 // group returns whether any did.
-template <class R, bool W, class F>
-__device__ bool group_check(const Overlaps<R, W>& ov, int v, bool has, int l, const int* nb, const std::uint8_t* degree,
+template <class R, bool W, class Id, class F>
+__device__ bool group_check(const Overlaps<R, W>& ov, int v, bool has, int l, const Id* nb, const std::uint8_t* degree,
                             F&& f) {
   bool any = false;
   if (has) {
@@ -268,7 +277,7 @@ __device__ bool group_check(const Overlaps<R, W>& ov, int v, bool has, int l, co
     } else if (l < d) {
       double xv, yv;
       load_xy(ov.pos, v, xv, yv);
-      const int u = nb[std::size_t(kCached) * v + l];
+      const int u = int(nb[std::size_t(kCached) * v + l]);
       if (ov.overlaps_after_move(xv, yv, ov.diameter_of(v), u)) {
         f(u);
         any = true;

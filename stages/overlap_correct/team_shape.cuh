@@ -43,9 +43,9 @@ constexpr int threads_of = Team == kGrid ? kThreads : kClusterThreads;
 template <int Team>
 constexpr int min_blocks_of = Team == kGrid ? kMinBlocks : std::max(1, 512 / threads_of<Team>);
 
-template <class R, int Team, bool Walls, bool Mark>
+template <class R, int Team, bool Walls, bool Mark, bool SharedTail = false>
 void* kernel_ptr() {
-  return reinterpret_cast<void*>(correct_kernel<R, threads_of<Team>, min_blocks_of<Team>, Team, Walls, Mark>);
+  return reinterpret_cast<void*>(correct_kernel<R, threads_of<Team>, min_blocks_of<Team>, Team, Walls, Mark, SharedTail>);
 }
 
 // The launch's shape for a cluster of Team blocks.
@@ -154,6 +154,31 @@ int team_for(std::size_t n) {
   const GridShape g = grid_shape<R, Walls, Mark>(n);
   if (std::size_t(sharing) * std::size_t(g.sms_held) <= std::size_t(g.sms)) return kGrid;
   return cluster_fits<R, kSharedClusterBlocks, Walls, Mark>() ? kSharedClusterBlocks : kClusterBlocks;
+}
+
+// The dynamic shared memory of a tail in shared memory (shared_tail.cuh) of n particles, set as the
+// limit of the cluster kernel that runs one; 0 where it does not fit beside the kernel's static
+// arrays or the cluster would not be resident with it.
+template <class R, bool Mark>
+std::size_t shared_tail_bytes(std::size_t n) {
+  int dev = 0, optin = 0;
+  FF_CUDA_CHECK(cudaGetDevice(&dev), "overlap_correct: current device");
+  FF_CUDA_CHECK(cudaDeviceGetAttribute(&optin, cudaDevAttrMaxSharedMemoryPerBlockOptin, dev),
+                "overlap_correct: shared memory per block");
+  void* f = kernel_ptr<R, kClusterBlocks, false, Mark, true>();
+  cudaFuncAttributes attr = {};
+  FF_CUDA_CHECK(cudaFuncGetAttributes(&attr, f), "overlap_correct: the cluster kernel's attributes");
+  const std::size_t bytes = TailState<R>::bytes(n);
+  if (n >= 65536 || attr.sharedSizeBytes + bytes > std::size_t(optin)) return 0;  // (16-bit ids)
+  FF_CUDA_CHECK(cudaFuncSetAttribute(f, cudaFuncAttributeNonPortableClusterSizeAllowed, 1), "overlap_correct: cluster size");
+  FF_CUDA_CHECK(cudaFuncSetAttribute(f, cudaFuncAttributeMaxDynamicSharedMemorySize, int(bytes)),
+                "overlap_correct: the shared-memory tail");
+  cudaLaunchAttribute cluster[1];
+  cudaLaunchConfig_t cfg = team_config<kClusterBlocks>(cluster, nullptr);
+  cfg.dynamicSmemBytes = bytes;
+  int clusters = 0;
+  FF_CUDA_CHECK(cudaOccupancyMaxActiveClusters(&clusters, f, &cfg), "overlap_correct: cluster occupancy");
+  return clusters >= 1 ? bytes : 0;
 }
 
 template <class R, bool Walls, bool Mark>

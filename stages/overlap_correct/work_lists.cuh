@@ -66,11 +66,19 @@ __device__ int compact(std::uint8_t* marks, int t0, int tile, int* cand, int* s_
 // Particle u's mark (one byte of `marks`) as a bit of the 32-bit word that holds it, for the
 // word atomics that claim and clear marks.
 __device__ unsigned* mark_word(std::uint8_t* marks, int u) { return reinterpret_cast<unsigned*>(marks) + (u >> 2); }
-__device__ unsigned mark_bit(int u) { return 1u << (8 * (u & 3)); }
+__device__ unsigned mark_bit(const std::uint8_t*, int u) { return 1u << (8 * (u & 3)); }
+// Marks of one bit a particle (shared_tail.cuh, whose shared memory is short of room): the same
+// claims.
+struct MarkBits {
+  unsigned* words;
+};
+__device__ unsigned* mark_word(MarkBits marks, int u) { return marks.words + (u >> 5); }
+__device__ unsigned mark_bit(MarkBits, int u) { return 1u << (u & 31); }
 
 // Whether this thread claimed u's mark: a word atomic, true for the first to set it.
-__device__ bool claim_mark(std::uint8_t* marks, int u) {
-  const unsigned bit = mark_bit(u);
+template <class Marks>
+__device__ bool claim_mark(Marks marks, int u) {
+  const unsigned bit = mark_bit(marks, u);
   return !(atomicOr(mark_word(marks, u), bit) & bit);
 }
 
@@ -90,9 +98,9 @@ __device__ void mark(std::uint8_t* marks, int u, bool claim, int* cand, unsigned
 // lists: one round trip to L2 for the particle, where thread_check with claim_one waits for one a
 // neighbour in turn. The same marks; a fan that did not fit the list goes through thread_check's
 // walk.
-template <class R, bool W, class F>
-__device__ void claim_checked(const Overlaps<R, W>& ov, int v, const int* nb, const std::uint8_t* degree,
-                              std::uint8_t* marks, int* cand, int* s_claims, F&& claim_one) {
+template <class R, bool W, class Id, class Marks, class Cand, class F>
+__device__ void claim_checked(const Overlaps<R, W>& ov, int v, const Id* nb, const std::uint8_t* degree, Marks marks,
+                              Cand* cand, int* s_claims, F&& claim_one) {
   const int d = degree[v];
   int ids[kCached];
   load_ids(nb, v, ids);
@@ -106,12 +114,12 @@ __device__ void claim_checked(const Overlaps<R, W>& ov, int v, const int* nb, co
   unsigned old[kCached + 1];
 #pragma unroll
   for (int k = 0; k < kCached; ++k)
-    if ((near >> k) & 1u) old[k] = atomicOr(mark_word(marks, ids[k]), mark_bit(ids[k]));
-  if (self) old[kCached] = atomicOr(mark_word(marks, v), mark_bit(v));
+    if ((near >> k) & 1u) old[k] = atomicOr(mark_word(marks, ids[k]), mark_bit(marks, ids[k]));
+  if (self) old[kCached] = atomicOr(mark_word(marks, v), mark_bit(marks, v));
 #pragma unroll
   for (int k = 0; k < kCached; ++k)
-    if (((near >> k) & 1u) && !(old[k] & mark_bit(ids[k]))) cand[atomicAdd(s_claims, 1)] = ids[k];
-  if (self && !(old[kCached] & mark_bit(v))) cand[atomicAdd(s_claims, 1)] = v;
+    if (((near >> k) & 1u) && !(old[k] & mark_bit(marks, ids[k]))) cand[atomicAdd(s_claims, 1)] = Cand(ids[k]);
+  if (self && !(old[kCached] & mark_bit(marks, v))) cand[atomicAdd(s_claims, 1)] = Cand(v);
 }
 
 }  // namespace
