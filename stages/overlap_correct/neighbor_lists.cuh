@@ -32,15 +32,6 @@ __device__ inline void load_ids(const int* nb, int v, int (&ids)[kCached]) {
   ids[4] = hi.x, ids[5] = hi.y, ids[6] = hi.z, ids[7] = hi.w;
 }
 
-// The same from a list of 16-bit ids (shared_tail.cuh's copy, for fewer than 65 536 particles):
-// one 16-byte load.
-__device__ inline void load_ids(const std::uint16_t* nb, int v, int (&ids)[kCached]) {
-  const uint4 q = *reinterpret_cast<const uint4*>(nb + std::size_t(kCached) * v);
-  const unsigned w[4] = {q.x, q.y, q.z, q.w};
-#pragma unroll
-  for (int k = 0; k < kCached; ++k) ids[k] = int((w[k / 2] >> (16 * (k % 2))) & 0xffffu);
-}
-
 // Calls f(k, u, xu, yu) for each neighbour u = ids[k], k in [0, d) (d ≤ kCached), with its position,
 // loading the positions kInFlight at a time: independent loads in flight together, not one
 // after the other (one thread's gathers and checks).
@@ -193,8 +184,8 @@ __device__ CheckedList check_listed(const Overlaps<R, W>& ov, int v, const int (
 // The check of moved particle v by one thread: calls f(u) for each neighbour u that overlaps v at
 // the new positions and returns whether v overlaps anything (a fan that did not fit the list is
 // walked).
-template <class R, bool W, class Id, class F>
-__device__ bool thread_check(const Overlaps<R, W>& ov, int v, const Id* nb, const std::uint8_t* degree, F&& f) {
+template <class R, bool W, class F>
+__device__ bool thread_check(const Overlaps<R, W>& ov, int v, const int* nb, const std::uint8_t* degree, F&& f) {
   const int d = degree[v];
   int ids[kCached];
   load_ids(nb, v, ids);

@@ -96,6 +96,7 @@ __device__ __forceinline__ int shared_tail(const Args& a, int j0, int count0, un
   Overlaps<R, Walls> ov = a.ov;
   ov.pos = s.pos;
   const int lane = threadIdx.x & 31;
+  const int l = int(threadIdx.x) % kGroup;  // the thread's lane in its group
 
   for (int v = int(threadIdx.x); v < n; v += Threads) {
     double x, y;
@@ -141,25 +142,17 @@ __device__ __forceinline__ int shared_tail(const Args& a, int j0, int count0, un
         s.seed[m] = Seed::make(v, moves, cr[0], cr[1]);
       }
     };
-    if (count > kGroupBelow<Threads>) {  // one thread per particle
-      for (int i = int(threadIdx.x); i < count; i += Threads) {
-        const int v = s.cand[i];
-        atomicAnd(mark_word(s.marks, v), ~mark_bit(s.marks, v));  // its claim: cleared for the next check
-        int ids[kCached];
-        const int d = s.degree[v];
-        load_ids(s.nb, v, ids);
-        take(v, d != kWalk ? gather_ids(ov, v, ids, d) : ov.gather(v));
-      }
-    } else {  // one lane group per particle
-      const int l = int(threadIdx.x) % kGroup;
-      for (int base = 0; base < count; base += kGroups) {
-        const int i = base + int(threadIdx.x) / kGroup;
-        const bool has = i < count;
-        const int v = has ? s.cand[i] : 0;
-        if (has && l == 0) atomicAnd(mark_word(s.marks, v), ~mark_bit(s.marks, v));
-        const VertexPush q = group_gather(ov, v, has, l, s.nb, s.degree);
-        if (has && l == 0) take(v, q);
-      }
+    // Every gather by a lane group (one neighbour a lane), whatever the count: from shared memory
+    // a group's parallel pair math beats one thread a particle at every count (bench/experiments/
+    // README.md, "The tail in shared memory": −3 … −15 % with threads below 128 candidates, +0.6 …
+    // +1.2 % with groups above).
+    for (int base = 0; base < count; base += kGroups) {
+      const int i = base + int(threadIdx.x) / kGroup;
+      const bool has = i < count;
+      const int v = has ? s.cand[i] : 0;
+      if (has && l == 0) atomicAnd(mark_word(s.marks, v), ~mark_bit(s.marks, v));
+      const VertexPush q = group_gather(ov, v, has, l, s.nb, s.degree);
+      if (has && l == 0) take(v, q);
     }
 #pragma unroll
     for (int q = 0; q < kReported; ++q) {
@@ -191,25 +184,13 @@ __device__ __forceinline__ int shared_tail(const Args& a, int j0, int count0, un
     auto claim = [&](int u) {
       if (claim_mark(s.marks, u)) s.cand[atomicAdd(&s_claims[p_next], 1)] = std::uint16_t(u);
     };
-    if (ns > kGroupBelow<Threads>) {
-      for (int i = int(threadIdx.x); i < ns; i += Threads) {
-        const unsigned e = s.seed[i];
-        const int v = Seed::particle(e);
-        if (!Seed::moved(e))
-          claim(v);
-        else
-          claim_checked(ov, v, s.nb, s.degree, s.marks, s.cand, &s_claims[p_next], claim);
-      }
-    } else {
-      const int l = int(threadIdx.x) % kGroup;
-      for (int base = 0; base < ns; base += kGroups) {
-        const int i = base + int(threadIdx.x) / kGroup;
-        const unsigned e = i < ns ? s.seed[i] : 0u;
-        const int v = Seed::particle(e);
-        const bool moved = i < ns && Seed::moved(e);
-        if (i < ns && !moved && l == 0) claim(v);
-        if (group_check(ov, v, moved, l, s.nb, s.degree, claim) && l == 0) claim(v);
-      }
+    for (int base = 0; base < ns; base += kGroups) {  // (lane groups, as the gathers)
+      const int i = base + int(threadIdx.x) / kGroup;
+      const unsigned e = i < ns ? s.seed[i] : 0u;
+      const int v = Seed::particle(e);
+      const bool moved = i < ns && Seed::moved(e);
+      if (i < ns && !moved && l == 0) claim(v);
+      if (group_check(ov, v, moved, l, s.nb, s.degree, claim) && l == 0) claim(v);
     }
     __syncthreads();
   }

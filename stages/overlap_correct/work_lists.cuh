@@ -98,9 +98,9 @@ __device__ void mark(std::uint8_t* marks, int u, bool claim, int* cand, unsigned
 // lists: one round trip to L2 for the particle, where thread_check with claim_one waits for one a
 // neighbour in turn. The same marks; a fan that did not fit the list goes through thread_check's
 // walk.
-template <class R, bool W, class Id, class Marks, class Cand, class F>
-__device__ void claim_checked(const Overlaps<R, W>& ov, int v, const Id* nb, const std::uint8_t* degree, Marks marks,
-                              Cand* cand, int* s_claims, F&& claim_one) {
+template <class R, bool W, class F>
+__device__ void claim_checked(const Overlaps<R, W>& ov, int v, const int* nb, const std::uint8_t* degree,
+                              std::uint8_t* marks, int* cand, int* s_claims, F&& claim_one) {
   const int d = degree[v];
   int ids[kCached];
   load_ids(nb, v, ids);
@@ -118,8 +118,8 @@ __device__ void claim_checked(const Overlaps<R, W>& ov, int v, const Id* nb, con
   if (self) old[kCached] = atomicOr(mark_word(marks, v), mark_bit(marks, v));
 #pragma unroll
   for (int k = 0; k < kCached; ++k)
-    if (((near >> k) & 1u) && !(old[k] & mark_bit(marks, ids[k]))) cand[atomicAdd(s_claims, 1)] = Cand(ids[k]);
-  if (self && !(old[kCached] & mark_bit(marks, v))) cand[atomicAdd(s_claims, 1)] = Cand(v);
+    if (((near >> k) & 1u) && !(old[k] & mark_bit(marks, ids[k]))) cand[atomicAdd(s_claims, 1)] = ids[k];
+  if (self && !(old[kCached] & mark_bit(marks, v))) cand[atomicAdd(s_claims, 1)] = v;
 }
 
 }  // namespace
