@@ -1,10 +1,9 @@
 // overlap_correct's tail in shared memory: where a small run alone on the GPU (the cluster of 16,
-// without walls, n particles that fit: team_shape.cuh's shared_tail_bytes) reaches its tail (an
-// iteration that moved at most kClusterTailMoved particles), block 0 copies the positions, the
-// neighbour lists and the claimed candidates into
-// its shared memory and runs the remaining iterations there, with __syncthreads as the only
-// barrier; its applies store each move in both copies. Included by correct_kernel.cuh, whose kernel
-// calls it.
+// without walls, n particles that fit: team_shape.cuh's shared_tail_bytes) reaches its tail (the
+// iterations after one that moved at most kClusterTailMoved particles), block 0 copies the
+// positions, the neighbour lists and the claimed candidates into its shared memory and runs the
+// remaining iterations there, with __syncthreads as the only barrier; each apply stores the moves
+// in both copies, so nothing is copied back. Included by correct_kernel.cuh, whose kernel calls it.
 //
 // Why (bench/experiments/README.md, "The tail in shared memory", session 30): a tail iteration
 // of block 0 is a chain of dependent loads and barriers, not work: 7-8 k cycles at 2^10-2^11 for
@@ -12,15 +11,16 @@
 // neighbours' positions, the seeds and moves the apply reloads, the claims' global atomics) are
 // ~3 k. From shared memory the same iterations take 4.7-5 k. The large iterations before the tail
 // stay on the cluster's 16 SMs: in one block they took up to twice as long (a one-block kernel for
-// the whole step tied the cluster at 2^10 and lost 24 % at 2^11).
+// the whole step tied the cluster at 2^10 and lost 24 % at 2^11). Reading the state where each
+// block of the cluster holds its tile (distributed shared memory) instead of copying it was
+// slower (−1 … −8 %).
 //
 // The same iterations as the global-memory tail (candidates claimed with word atomics on the
 // marks, counted in shared memory), so the same bits: pushes are summed in fixed point
-// (kernel.h) whoever gathers what. Image counts (walls) stay in global memory, which
-// __syncthreads orders within the block as it does shared memory. The host sets
-// Args::shared_tail only where one launch runs the whole step (max_iterations below
-// kDeviceBatch): correct_kernel's batches carry their marks to the next launch in global memory,
-// and this tail does not.
+// (kernel.h) whoever gathers what. The host launches the kernel that runs this tail (correct_kernel's
+// SharedTail) only where one launch runs the whole step (max_iterations below kDeviceBatch):
+// correct_kernel's batches carry their marks to the next launch in global memory, and this tail
+// does not.
 #pragma once
 #include <cuda_runtime.h>
 
