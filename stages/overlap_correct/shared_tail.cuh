@@ -83,7 +83,9 @@ struct Seed {
 // Block 0's iterations j0, j0 + 1, ... in shared memory (s_dyn: TailState<R>::bytes(n)), from the
 // count0 candidates the cluster's last check claimed in a.cand (their global marks are cleared
 // here). keep_row(j, sums) is correct_kernel's. Returns the gathers run (the launch's end row).
-// Every thread of block 0 calls it; not inlined, so the cluster's kernel keeps its registers.
+// Every thread of block 0 calls it. Inlined: called through the ABI (__noinline__) it and its
+// kernel spilled 72-300 bytes (ptxas, sm_90); inlined into its own kernel instantiation
+// (SharedTail) neither spills, and the other kernels keep their code.
 template <class R, int Threads, bool Walls, bool Mark, class Args, class KeepRow>
 __device__ __forceinline__ int shared_tail(const Args& a, int j0, int count0, unsigned char* s_dyn, KeepRow&& keep_row) {
   constexpr int kReported = Sums<Mark>::kReported;
