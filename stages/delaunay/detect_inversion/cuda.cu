@@ -39,11 +39,13 @@ __global__ void __launch_bounds__(kMarkThreads, kMarkBlocks) mark_kernel(std::si
   __threadfence();
   if (atomicAdd(f.blocks_done, 1u) != gridDim.x - 1) return;
   __threadfence();
+  // Every counter loaded (from L2: the other blocks' atomics are there, not in this SM's L1)
+  // before any is published: the loads go out together. A volatile load per counter, each
+  // stored before the next one was loaded, made this block's end a chain of twelve round trips
+  // (~3.7 k cycles; bench/experiments/README.md, "Lawson's tail and detect's end", session 31).
   unsigned c[kInversionCounters];
-  for (int k = 0; k < kInversionCounters; ++k) {
-    c[k] = *static_cast<const volatile unsigned*>(f.counters + k);
-    f.publish[k] = c[k];
-  }
+  for (int k = 0; k < kInversionCounters; ++k) c[k] = __ldcg(f.counters + k);
+  for (int k = 0; k < kInversionCounters; ++k) f.publish[k] = c[k];
   if (f.gate) {
     *f.candidate_count = std::int32_t(c[kCandidateCount]);
     *f.gate = device_decision_open(c, f.capacity) ? 0u : 1u;

@@ -9,9 +9,6 @@ namespace {
 
 constexpr int kTailThreads = 1024;
 
-// A counter that the grid kernels before this one changed (in L2): read past L1.
-__device__ unsigned counter(const unsigned* p) { return *static_cast<const volatile unsigned*>(p); }
-
 // LawsonTail's rounds (kernel.h): the grid version's three passes, with block barriers between.
 // The block counts in shared memory (the list lengths its appends claim, the flips, rounds and
 // refusals), so an append waits for a shared atomic instead of an L2 round trip and a list's
@@ -27,14 +24,20 @@ __global__ void __launch_bounds__(kTailThreads) tail_kernel(LawsonTail<R> t) {
   wait_for_previous_kernel();
   allow_next_kernel();
   unsigned* c = t.counters;
+  // The grid kernels' counts, to which the block's are added at the end: loaded now, with the
+  // gate, so that the end only stores (nothing in this kernel writes c before its end).
+  unsigned grid[kLawsonCounters];
   if (threadIdx.x == 0) {
     reset_lawson_counters(sc);
+    for (int k = 0; k < kLawsonCounters; ++k) grid[k] = __ldcg(c + k);
     unsigned first = t.first_count;
     if (t.gate) {  // a device-decided attempt: nothing to test while the gate is closed
-      first = *static_cast<const volatile unsigned*>(t.gate) ? 0u : unsigned(*t.first_count_at);
+      // (both loaded before either is needed: one round trip)
+      const unsigned closed = __ldcg(t.gate), count = unsigned(__ldcg(t.first_count_at));
+      first = closed ? 0u : count;
       if (!first) reset_lawson_counters(t.first_reset_next);  // (else round 0's element 0 does)
     } else if (!first) {
-      sc[kLawsonMarked] = counter(c + kLawsonMarked);  // the marks of round t.round: the grid's
+      sc[kLawsonMarked] = grid[kLawsonMarked];  // the marks of round t.round: the grid's
     }
     s_first = first;
   }
@@ -70,18 +73,21 @@ __global__ void __launch_bounds__(kTailThreads) tail_kernel(LawsonTail<R> t) {
     __syncthreads();
   }
   if (threadIdx.x == 0) {
-    // The grid kernels before this one finished, and the block's passes are done (the loop ends
-    // after a barrier): the step's final counts.
-    c[kLawsonMarked] = sc[kLawsonMarked];
-    c[kLawsonQueued] = sc[kLawsonQueued];
-    c[kLawsonFlips] = counter(c + kLawsonFlips) + sc[kLawsonFlips];
-    c[kLawsonRounds] = counter(c + kLawsonRounds) + sc[kLawsonRounds];
-    c[kLawsonTooLong] = counter(c + kLawsonTooLong) + sc[kLawsonTooLong];
-    c[kLawsonTooLongAt] = min(counter(c + kLawsonTooLongAt), sc[kLawsonTooLongAt]);
-    c[kLawsonTailRounds] = unsigned(ran);
-    c[kLawsonTailLargest] = largest;
+    // The block's passes are done (the loop ends after a barrier): the step's final counts, to
+    // the counters and, from registers, to the host's copy.
+    unsigned f[kLawsonCounters];
+    f[kLawsonMarked] = sc[kLawsonMarked];
+    f[kLawsonQueued] = sc[kLawsonQueued];
+    f[kLawsonFlips] = grid[kLawsonFlips] + sc[kLawsonFlips];
+    f[kLawsonRounds] = grid[kLawsonRounds] + sc[kLawsonRounds];
+    f[kLawsonTooLong] = grid[kLawsonTooLong] + sc[kLawsonTooLong];
+    f[kLawsonTooLongAt] = min(grid[kLawsonTooLongAt], sc[kLawsonTooLongAt]);
+    f[kLawsonTailRounds] = unsigned(ran);
+    f[kLawsonTailLargest] = largest;
+    static_assert(kLawsonCounters == 8, "every counter is set above");
+    for (int k = 0; k < kLawsonCounters; ++k) c[k] = f[k];
     if (t.publish)
-      for (int k = 0; k < kLawsonCounters; ++k) t.publish[k] = counter(c + k);
+      for (int k = 0; k < kLawsonCounters; ++k) t.publish[k] = f[k];
   }
 }
 
