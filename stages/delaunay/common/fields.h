@@ -36,8 +36,9 @@ inline constexpr const char* lawson_candidate_count = "delaunay.lawson_candidate
 }  // namespace fields
 
 // The most Lawson candidates a device-decided attempt leaves to delaunay.lawson's gated launch
-// (one pass of its tail kernel's block): more, and the host decides.
-inline constexpr unsigned kGatedCandidates = 1024;
+// (a quarter of one pass of its tail kernel's cluster, which systems of 8 192 particles and more
+// get on sm_90; bench-abp lists ~1 150 a step at N = 2^16): more, and the host decides.
+inline constexpr unsigned kGatedCandidates = 4096;
 // status kCandidates in a device-decided attempt: the list is valid when detect_inversion's
 // kernel opened the gate, its length in lawson_candidate_count.
 inline constexpr std::int32_t kCandidatesOnDevice = -1;

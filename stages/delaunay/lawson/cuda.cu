@@ -1,3 +1,5 @@
+#include <cooperative_groups.h>
+
 #include "core/backend/cuda/check.h"
 #include "core/backend/cuda/loop.cuh"
 #include "core/backend/cuda/pdl.cuh"
@@ -7,28 +9,90 @@ namespace ff::delaunay {
 
 namespace {
 
+namespace cg = cooperative_groups;
+
 constexpr int kTailThreads = 1024;
 
-// LawsonTail's rounds (kernel.h): the grid version's three passes, with block barriers between.
-// The block counts in shared memory (the list lengths its appends claim, the flips, rounds and
-// refusals), so an append waits for a shared atomic instead of an L2 round trip and a list's
-// length is known after the barrier that ends its pass; the counts go to `counters` once, at
-// the end (the same final values: sums, a minimum, and the last lengths). Three barriers a
-// round: each pass needs every write of the one before.
-template <class R>
+// The tail's rounds on a thread-block cluster of kTailCluster blocks (sm_90; 16 is above the
+// portable size of 8) where the mesh has at least kTailClusterEdges edges; one block below. A
+// round's passes are chains of dependent loads and stores, one edge a thread; one block's SM
+// also issues every one of them, and with a few hundred edges a pass that SM's memory traffic is
+// the time: at N = 2^14 (~280 flips a step) one block's apply took ~14 k cycles, where 16 flips
+// at 2^10 took ~4.5 k (clock64, bench/experiments/README.md, "Lawson's tail and detect's end").
+// A cluster spreads the edges over 16 SMs, for a barrier that costs more than a block's; small
+// systems keep the one block.
+constexpr int kTailCluster = 16;
+constexpr std::size_t kTailClusterEdges = 3 * 8192;
+
+// A barrier among the tail's blocks that orders global and shared memory: the block's, or the
+// cluster's (a release and an acquire at cluster scope).
+template <int Blocks>
+__device__ __forceinline__ void tail_sync() {
+  if constexpr (Blocks == 1) {
+    __syncthreads();
+  } else {
+#if defined(__CUDA_ARCH__) && __CUDA_ARCH__ >= 900
+    cg::this_cluster().sync();
+#else
+    __trap();  // never launched: tail() launches clusters only on devices that have them
+#endif
+  }
+}
+
+// p (in this block's shared memory) in block 0's shared memory: itself in one block, else through
+// the cluster's distributed shared memory.
+template <int Blocks, class T>
+__device__ __forceinline__ T* in_block0(T* p) {
+  if constexpr (Blocks == 1) {
+    return p;
+  } else {
+#if defined(__CUDA_ARCH__) && __CUDA_ARCH__ >= 900
+    return cg::this_cluster().map_shared_rank(p, 0);
+#else
+    __trap();
+    return p;
+#endif
+  }
+}
+
+template <int Blocks>
+__device__ __forceinline__ unsigned tail_rank() {
+  if constexpr (Blocks == 1) {
+    return 0;
+  } else {
+#if defined(__CUDA_ARCH__) && __CUDA_ARCH__ >= 900
+    return cg::this_cluster().block_rank();
+#else
+    return 0;
+#endif
+  }
+}
+
+// LawsonTail's rounds (kernel.h): the grid version's three passes, with barriers between, in one
+// block or a cluster of Blocks blocks (each thread takes every Blocks·kTailThreads-th element).
+// Block 0 counts in its shared memory (the list lengths the appends claim, the flips, rounds and
+// refusals; the cluster's other blocks through distributed shared memory), so an append waits for
+// a shared atomic instead of an L2 round trip and a list's length is known after the barrier that
+// ends its pass; the counts go to `counters` once, at the end (the same final values: sums, a
+// minimum, and the last lengths). Three barriers a round: each pass needs every write of the one
+// before. Who tests, decides or flips an edge does not change the flips (kernel.h), so one block
+// and a cluster give the same triangulation.
+template <class R, int Blocks>
 __global__ void __launch_bounds__(kTailThreads) tail_kernel(LawsonTail<R> t) {
-  __shared__ unsigned sc[kLawsonCounters];
+  __shared__ unsigned s_counts[kLawsonCounters];
   __shared__ unsigned s_first;
   // Launched programmatically (core/backend/cuda/pdl.cuh); the correction's kernel may be
   // scheduled from here on.
   wait_for_previous_kernel();
   allow_next_kernel();
+  const unsigned rank = tail_rank<Blocks>();
+  const bool lead = rank == 0 && threadIdx.x == 0;  // the thread that sets up and ends
   unsigned* c = t.counters;
-  // The grid kernels' counts, to which the block's are added at the end: loaded now, with the
+  // The grid kernels' counts, to which the tail's are added at the end: loaded now, with the
   // gate, so that the end only stores (nothing in this kernel writes c before its end).
   unsigned grid[kLawsonCounters];
-  if (threadIdx.x == 0) {
-    reset_lawson_counters(sc);
+  if (lead) {
+    reset_lawson_counters(s_counts);
     for (int k = 0; k < kLawsonCounters; ++k) grid[k] = __ldcg(c + k);
     unsigned first = t.first_count;
     if (t.gate) {  // a device-decided attempt: nothing to test while the gate is closed
@@ -37,17 +101,21 @@ __global__ void __launch_bounds__(kTailThreads) tail_kernel(LawsonTail<R> t) {
       first = closed ? 0u : count;
       if (!first) reset_lawson_counters(t.first_reset_next);  // (else round 0's element 0 does)
     } else if (!first) {
-      sc[kLawsonMarked] = grid[kLawsonMarked];  // the marks of round t.round: the grid's
+      s_counts[kLawsonMarked] = grid[kLawsonMarked];  // the marks of round t.round: the grid's
     }
     s_first = first;
   }
-  __syncthreads();
-  const unsigned first = s_first;
-  if (first) {  // round 0 in this block: the grid loop's MarkNonDelaunay, counting in sc
+  // (in a cluster also: every block has started, so block 0's shared memory may be used)
+  tail_sync<Blocks>();
+  unsigned* sc = in_block0<Blocks>(s_counts);
+  const unsigned first = *in_block0<Blocks>(&s_first);
+  const unsigned tid = rank * kTailThreads + threadIdx.x;
+  constexpr unsigned kStride = Blocks * kTailThreads;
+  if (first) {  // round 0 here: the grid loop's MarkNonDelaunay, counting in sc
     MarkNonDelaunay<R> mark{t.mesh, t.pts, t.tol, t.first_list, nullptr, t.marked, t.round, t.marked_list, sc, first};
     mark.reset_next = t.first_reset_next;
-    for (unsigned i = threadIdx.x; i < first; i += kTailThreads) mark(i);
-    __syncthreads();
+    for (unsigned i = tid; i < first; i += kStride) mark(i);
+    tail_sync<Blocks>();
   }
   std::int32_t round = t.round;
   std::int64_t ran = 0;
@@ -55,33 +123,36 @@ __global__ void __launch_bounds__(kTailThreads) tail_kernel(LawsonTail<R> t) {
   for (; ran < t.max_rounds; ++ran) {
     const unsigned marked = sc[kLawsonMarked];
     // Apply lists the next round's edges (no thread reads the count before apply's barrier).
-    if (threadIdx.x == 0) sc[kLawsonQueued] = 0;
+    if (lead) sc[kLawsonQueued] = 0;
     if (marked == 0 || marked > t.max_marked) break;
     largest = max(largest, marked);
     const DecideMarked decide{t.mesh, t.marked, round, t.marked_list, t.go, sc};
-    for (unsigned i = threadIdx.x; i < marked; i += kTailThreads) decide(i);
-    __syncthreads();
+    for (unsigned i = tid; i < marked; i += kStride) decide(i);
+    tail_sync<Blocks>();
     // Every thread holds `marked`: the next marks may be counted from 0 (after apply's barrier).
-    if (threadIdx.x == 0) sc[kLawsonMarked] = 0;
+    if (lead) sc[kLawsonMarked] = 0;
     const ApplyMarked apply{t.mesh, t.marked_list, t.go, t.queued, round + 1, t.list, sc};
-    for (unsigned i = threadIdx.x; i < marked; i += kTailThreads) apply(i);
-    __syncthreads();
+    for (unsigned i = tid; i < marked; i += kStride) apply(i);
+    tail_sync<Blocks>();
     ++round;
     const unsigned queued = sc[kLawsonQueued];
     const MarkNonDelaunay<R> mark{t.mesh, t.pts, t.tol, t.list, nullptr, t.marked, round, t.marked_list, sc, queued};
-    for (unsigned i = threadIdx.x; i < queued; i += kTailThreads) mark(i);
-    __syncthreads();
+    for (unsigned i = tid; i < queued; i += kStride) mark(i);
+    tail_sync<Blocks>();
   }
-  if (threadIdx.x == 0) {
-    // The block's passes are done (the loop ends after a barrier): the step's final counts, to
-    // the counters and, from registers, to the host's copy.
+  // A cluster's blocks read block 0's counts at the loop's head: block 0 keeps its shared memory
+  // until all have.
+  if constexpr (Blocks > 1) tail_sync<Blocks>();
+  if (lead) {
+    // Every pass is done (the loop ends after a barrier): the step's final counts, to the
+    // counters and, from registers, to the host's copy.
     unsigned f[kLawsonCounters];
-    f[kLawsonMarked] = sc[kLawsonMarked];
-    f[kLawsonQueued] = sc[kLawsonQueued];
-    f[kLawsonFlips] = grid[kLawsonFlips] + sc[kLawsonFlips];
-    f[kLawsonRounds] = grid[kLawsonRounds] + sc[kLawsonRounds];
-    f[kLawsonTooLong] = grid[kLawsonTooLong] + sc[kLawsonTooLong];
-    f[kLawsonTooLongAt] = min(grid[kLawsonTooLongAt], sc[kLawsonTooLongAt]);
+    f[kLawsonMarked] = s_counts[kLawsonMarked];
+    f[kLawsonQueued] = s_counts[kLawsonQueued];
+    f[kLawsonFlips] = grid[kLawsonFlips] + s_counts[kLawsonFlips];
+    f[kLawsonRounds] = grid[kLawsonRounds] + s_counts[kLawsonRounds];
+    f[kLawsonTooLong] = grid[kLawsonTooLong] + s_counts[kLawsonTooLong];
+    f[kLawsonTooLongAt] = min(grid[kLawsonTooLongAt], s_counts[kLawsonTooLongAt]);
     f[kLawsonTailRounds] = unsigned(ran);
     f[kLawsonTailLargest] = largest;
     static_assert(kLawsonCounters == 8, "every counter is set above");
@@ -91,14 +162,58 @@ __global__ void __launch_bounds__(kTailThreads) tail_kernel(LawsonTail<R> t) {
   }
 }
 
-static_assert(kTailRound0 <= kTailThreads, "round 0 in the tail kernel is one pass of its block");
-static_assert(kGatedCandidates <= kTailRound0, "a gated launch's round 0 is one pass of the tail kernel's block");
+// Whether this device runs the tail's cluster (sm_90 clusters of kTailCluster blocks of
+// kTailThreads at once); asked once a precision.
+template <class R>
+bool tail_cluster_fits() {
+  static const bool fits = [] {
+    int dev = 0, cluster = 0;
+    FF_CUDA_CHECK(cudaGetDevice(&dev), "delaunay.lawson: current device");
+    FF_CUDA_CHECK(cudaDeviceGetAttribute(&cluster, cudaDevAttrClusterLaunch, dev), "delaunay.lawson: clusters");
+    if (!cluster) return false;
+    auto* f = tail_kernel<R, kTailCluster>;
+    FF_CUDA_CHECK(cudaFuncSetAttribute(f, cudaFuncAttributeNonPortableClusterSizeAllowed, 1),
+                  "delaunay.lawson: cluster size");
+    cudaLaunchConfig_t cfg = {};
+    cfg.gridDim = dim3(kTailCluster);
+    cfg.blockDim = dim3(kTailThreads);
+    cudaLaunchAttribute attr[1];
+    attr[0].id = cudaLaunchAttributeClusterDimension;
+    attr[0].val.clusterDim.x = kTailCluster;
+    attr[0].val.clusterDim.y = attr[0].val.clusterDim.z = 1;
+    cfg.attrs = attr;
+    cfg.numAttrs = 1;
+    int clusters = 0;
+    FF_CUDA_CHECK(cudaOccupancyMaxActiveClusters(&clusters, f, &cfg), "delaunay.lawson: cluster occupancy");
+    return clusters >= 1;
+  }();
+  return fits;
+}
 
 template <class R>
 void tail(const LawsonTail<R>& t, CUstream_st* stream) {
-  launch_after_previous("launching delaunay.lawson's tail rounds", tail_kernel<R>, dim3(1), dim3(kTailThreads), stream,
-                        t);
+  if (t.edges >= kTailClusterEdges && tail_cluster_fits<R>()) {
+    cudaLaunchConfig_t cfg = {};
+    cfg.gridDim = dim3(kTailCluster);
+    cfg.blockDim = dim3(kTailThreads);
+    cfg.stream = stream;
+    cudaLaunchAttribute attr[2];
+    attr[0].id = cudaLaunchAttributeClusterDimension;
+    attr[0].val.clusterDim.x = kTailCluster;
+    attr[0].val.clusterDim.y = attr[0].val.clusterDim.z = 1;
+    cfg.attrs = attr;
+    cfg.numAttrs = programmatic_attr(attr, 1);
+    const char* what = "launching delaunay.lawson's tail rounds (a cluster)";
+    FF_CUDA_CHECK(cudaLaunchKernelEx(&cfg, tail_kernel<R, kTailCluster>, t), what);
+    FF_CUDA_CHECK_LAUNCH(what);
+    return;
+  }
+  launch_after_previous("launching delaunay.lawson's tail rounds", tail_kernel<R, 1>, dim3(1), dim3(kTailThreads),
+                        stream, t);
 }
+
+static_assert(kTailRound0 <= kTailCluster * kTailThreads, "round 0 in the tail kernel is one pass of its cluster");
+static_assert(kGatedCandidates <= kTailRound0, "a gated launch's round 0 is the tail kernel's");
 
 }  // namespace
 

@@ -217,6 +217,8 @@ struct LawsonTail {
   // (the kernel then flips nothing and only sets first_reset_next to the start values).
   const unsigned* gate = nullptr;
   const std::int32_t* first_count_at = nullptr;
+  // The mesh's edges (3N): the backend's launch shape follows the system's size (lawson/cuda.cu).
+  std::size_t edges = 0;
 };
 
 }  // namespace ff::delaunay

@@ -29,12 +29,14 @@ namespace ff::delaunay {
 // Grid rounds a CUDA Lawson runs before its tail kernel when the last tail found its list too
 // long (else one).
 inline constexpr std::int64_t kDeviceRoundsPerRead = 3;
-// The device's tail kernel (one block) goes on while a round marks at most this many edges
-// (each then queues at most 4 for the next round's test: a few per thread of the block).
-inline constexpr unsigned kTailMarked = 1024;
-// When the read of round 0 is deferred and it tests at most this many candidates (one pass of the
-// tail kernel's block), the tail kernel makes round 0's marks itself: one launch fewer a step.
-inline constexpr unsigned kTailRound0 = 1024;
+// The device's tail kernel (one block, or a cluster of 16 from 8 192 particles: lawson/cuda.cu)
+// goes on while a round marks at most this many edges (each then queues at most 4 for the next
+// round's test: a pass of the cluster).
+inline constexpr unsigned kTailMarked = 4096;
+// When the read of round 0 is deferred and it tests at most this many candidates (a quarter pass
+// of the tail kernel's cluster), the tail kernel makes round 0's marks itself: one launch fewer a
+// step.
+inline constexpr unsigned kTailRound0 = 4096;
 static_assert(kTailRound0 <= kTailMarked, "with round 0 in the tail kernel no grid round may run before it");
 
 struct LawsonParams {
@@ -290,9 +292,11 @@ class Lawson final : public Stage {
   // work arrays and counters, from round `round` on.
   LawsonTail<R> tail_args(const Mesh& m, const Points<R>& pts, std::size_t E, std::int32_t round, unsigned max_marked,
                           std::int64_t max_rounds, unsigned* publish) {
-    return LawsonTail<R>{m,          pts,          p_.tolerance,    marked_.get(E), queued_.get(E),
-                         go_.get(E), list_.get(E), marked_list_.get(E), counters_.ptr(), round,
-                         max_marked, max_rounds,   publish};
+    LawsonTail<R> t{m,          pts,          p_.tolerance,    marked_.get(E), queued_.get(E),
+                    go_.get(E), list_.get(E), marked_list_.get(E), counters_.ptr(), round,
+                    max_marked, max_rounds,   publish};
+    t.edges = E;
+    return t;
   }
 
   void report(const std::array<unsigned, kLawsonCounters>& h, Metrics& metrics) {

@@ -309,6 +309,14 @@ TEST_CASE("lawson: errors", "[delaunay][lawson]") {
     Runner r(*s, Backend::cuda);
     CHECK_THROWS_WITH(r.run(*lawson), Catch::Contains("max_rounds = 2"));
   }
+  SECTION("max_rounds reached in CUDA's tail kernel on a cluster (40 000 particles)") {
+    if (!ff::test::have_cuda("lawson max_rounds on CUDA's cluster")) return;
+    auto s = sheared(25, 40000);
+    auto lawson = make_stage("delaunay.lawson", Backend::cuda, Precision::f64, {{"max_rounds", std::int64_t(3)}});
+    lawson->configure(*s);
+    Runner r(*s, Backend::cuda);
+    CHECK_THROWS_WITH(r.run(*lawson), Catch::Contains("max_rounds = 3"));
+  }
   SECTION("unrepaired inversions (no delaunay.flip)") {
     auto s = make_state(random_points(200, 12, 12, 4), 12, 12);
     auto lawson = make_stage("delaunay.lawson", Backend::cpu);
@@ -345,7 +353,7 @@ TEST_CASE("lawson: CPU and CUDA give the same triangulation", "[delaunay][lawson
     };
     flip_back(sheared(1.5));
     // A larger shear: on CUDA the tail kernel's rounds mark more than kTailMarked edges (it runs
-    // them all in its one block when nothing can roll the step back, as here).
+    // them all, on its cluster at this size, when nothing can roll the step back, as here).
     flip_back(sheared(25, 40000));  // ~21,700 flips in 9 rounds
   }
   CHECK(he[0] == he[3]);
