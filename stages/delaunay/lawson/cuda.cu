@@ -109,7 +109,10 @@ __global__ void __launch_bounds__(kTailThreads) tail_kernel(LawsonTail<R> t) {
   tail_sync<Blocks>();
   unsigned* sc = in_block0<Blocks>(s_counts);
   const unsigned first = *in_block0<Blocks>(&s_first);
-  const unsigned tid = rank * kTailThreads + threadIdx.x;
+  // Consecutive elements go to the cluster's blocks in turn: a pass of a few hundred elements is
+  // spread over every SM, not left to block 0's (a round's apply issues 14 scattered stores a
+  // flip, which one SM's queue serializes: bench/experiments/README.md).
+  const unsigned tid = threadIdx.x * Blocks + rank;
   constexpr unsigned kStride = Blocks * kTailThreads;
   if (first) {  // round 0 here: the grid loop's MarkNonDelaunay, counting in sc
     MarkNonDelaunay<R> mark{t.mesh, t.pts, t.tol, t.first_list, nullptr, t.marked, t.round, t.marked_list, sc, first};
