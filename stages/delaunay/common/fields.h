@@ -36,7 +36,7 @@ inline constexpr const char* lawson_candidate_count = "delaunay.lawson_candidate
 }  // namespace fields
 
 // The most Lawson candidates a device-decided attempt leaves to delaunay.lawson's gated launch
-// (a quarter of one pass of its tail kernel's cluster, which systems of 8 192 particles and more
+// (a quarter of one pass of its tail kernel's cluster, which systems of 32 768 particles and more
 // get on sm_90; bench-abp lists ~1 150 a step at N = 2^16): more, and the host decides.
 inline constexpr unsigned kGatedCandidates = 4096;
 // status kCandidates in a device-decided attempt: the list is valid when detect_inversion's

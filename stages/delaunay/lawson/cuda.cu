@@ -15,14 +15,15 @@ constexpr int kTailThreads = 1024;
 
 // The tail's rounds on a thread-block cluster of kTailCluster blocks (sm_90; 16 is above the
 // portable size of 8) where the mesh has at least kTailClusterEdges edges; one block below. A
-// round's passes are chains of dependent loads and stores, one edge a thread; one block's SM
-// also issues every one of them, and with a few hundred edges a pass that SM's memory traffic is
-// the time: at N = 2^14 (~280 flips a step) one block's apply took ~14 k cycles, where 16 flips
-// at 2^10 took ~4.5 k (clock64, bench/experiments/README.md, "Lawson's tail and detect's end").
-// A cluster spreads the edges over 16 SMs, for a barrier that costs more than a block's; small
-// systems keep the one block.
+// flip writes 14 scattered words, and one SM queues them: at N = 2^14 (~290 flips a round) one
+// flip's stores took 2.8-4.8 k cycles and the vertex-edge loads behind them 2.5-5 k, against 0.1 k
+// and 0.4 k with 18 flips at 2^10 (clock64, bench/experiments/README.md, "Lawson's tail and
+// detect's end"). A cluster spreads a pass's elements over 16 SMs, for barriers that cost more
+// than a block's: it tied one block at 2^14, lost 3.7 % at 2^13 and gained 4.7 / 9.2 / 6.1 % at
+// 2^15 / 2^16 / 2^17 (bench-abp, where it also takes device-decided steps with up to
+// kGatedCandidates candidates).
 constexpr int kTailCluster = 16;
-constexpr std::size_t kTailClusterEdges = 3 * 8192;
+constexpr std::size_t kTailClusterEdges = 3 * 32768;
 
 // A barrier among the tail's blocks that orders global and shared memory: the block's, or the
 // cluster's (a release and an acquire at cluster scope).
@@ -110,8 +111,7 @@ __global__ void __launch_bounds__(kTailThreads) tail_kernel(LawsonTail<R> t) {
   unsigned* sc = in_block0<Blocks>(s_counts);
   const unsigned first = *in_block0<Blocks>(&s_first);
   // Consecutive elements go to the cluster's blocks in turn: a pass of a few hundred elements is
-  // spread over every SM, not left to block 0's (a round's apply issues 14 scattered stores a
-  // flip, which one SM's queue serializes: bench/experiments/README.md).
+  // spread over every SM, not left to block 0's (blocks of consecutive ranges: no gain, call 4).
   const unsigned tid = threadIdx.x * Blocks + rank;
   constexpr unsigned kStride = Blocks * kTailThreads;
   if (first) {  // round 0 here: the grid loop's MarkNonDelaunay, counting in sc

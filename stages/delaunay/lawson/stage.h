@@ -29,7 +29,7 @@ namespace ff::delaunay {
 // Grid rounds a CUDA Lawson runs before its tail kernel when the last tail found its list too
 // long (else one).
 inline constexpr std::int64_t kDeviceRoundsPerRead = 3;
-// The device's tail kernel (one block, or a cluster of 16 from 8 192 particles: lawson/cuda.cu)
+// The device's tail kernel (one block, or a cluster of 16 from 32 768 particles: lawson/cuda.cu)
 // goes on while a round marks at most this many edges (each then queues at most 4 for the next
 // round's test: a pass of the cluster).
 inline constexpr unsigned kTailMarked = 4096;
