@@ -2,6 +2,7 @@
 // a cluster of 16 blocks, or of 8 when runs share the GPU) and each block's tile; included by
 // cuda.cu after correct_kernel.cuh, whose kernel they launch. Host code and constants only.
 #pragma once
+#include "core/backend/cuda/cluster.cuh"
 #include "stages/overlap_correct/correct_kernel.cuh"
 
 namespace ff::overlap {
@@ -48,26 +49,12 @@ void* kernel_ptr() {
   return reinterpret_cast<void*>(correct_kernel<R, threads_of<Team>, min_blocks_of<Team>, Team, Walls, Mark, SharedTail>);
 }
 
-// The launch's shape for a cluster of Team blocks.
-template <int Team>
-cudaLaunchConfig_t team_config(cudaLaunchAttribute* attr, CUstream_st* s) {
-  cudaLaunchConfig_t cfg = {};
-  cfg.gridDim = dim3(Team);
-  cfg.blockDim = dim3(threads_of<Team>);
-  cfg.stream = s;
-  attr[0].id = cudaLaunchAttributeClusterDimension;
-  attr[0].val.clusterDim.x = Team;
-  attr[0].val.clusterDim.y = attr[0].val.clusterDim.z = 1;
-  cfg.attrs = attr;
-  cfg.numAttrs = 1;
-  return cfg;
-}
-
-// team_config, launched after the previous kernel programmatically (core/backend/cuda/pdl.cuh;
-// attr holds two): in a small step the cluster is scheduled while Lawson's tail kernel runs.
+// A cluster of Team blocks (core/backend/cuda/cluster.cuh), launched after the previous kernel
+// programmatically (core/backend/cuda/pdl.cuh; attr holds two): in a small step the cluster is
+// scheduled while Lawson's tail kernel runs.
 template <int Team>
 cudaLaunchConfig_t team_config_after_previous(cudaLaunchAttribute* attr, CUstream_st* s) {
-  cudaLaunchConfig_t cfg = team_config<Team>(attr, s);
+  cudaLaunchConfig_t cfg = cluster_config(Team, threads_of<Team>, s, attr);
   cfg.numAttrs = programmatic_attr(attr, cfg.numAttrs);
   return cfg;
 }
@@ -87,23 +74,10 @@ inline cudaLaunchConfig_t grid_config_after_previous(int blocks, cudaLaunchAttri
   return cfg;
 }
 
-// Whether the device can run a cluster team of Team blocks: sm_90 clusters, and its blocks in one
-// GPC at once.
+// Whether the device can run a cluster team of Team blocks (core/backend/cuda/cluster.cuh).
 template <class R, int Team, bool Walls, bool Mark>
-bool cluster_fits() {
-  int dev = 0, cluster = 0;
-  FF_CUDA_CHECK(cudaGetDevice(&dev), "overlap_correct: current device");
-  FF_CUDA_CHECK(cudaDeviceGetAttribute(&cluster, cudaDevAttrClusterLaunch, dev), "overlap_correct: clusters");
-  if (!cluster) return false;
-  void* f = kernel_ptr<R, Team, Walls, Mark>();
-  if (Team > 8)  // 8 is the portable cluster size; sm_90 runs 16
-    FF_CUDA_CHECK(cudaFuncSetAttribute(f, cudaFuncAttributeNonPortableClusterSizeAllowed, 1),
-                  "overlap_correct: cluster size");
-  cudaLaunchAttribute attr[1];
-  const cudaLaunchConfig_t cfg = team_config<Team>(attr, nullptr);
-  int clusters = 0;
-  FF_CUDA_CHECK(cudaOccupancyMaxActiveClusters(&clusters, f, &cfg), "overlap_correct: cluster occupancy");
-  return clusters >= 1;
+bool team_fits() {
+  return cluster_fits(kernel_ptr<R, Team, Walls, Mark>(), Team, threads_of<Team>, 0, "overlap_correct: a cluster team");
 }
 
 // The grid for n particles: blocks of kThreads, at most what fits on the device at once (a
@@ -147,13 +121,13 @@ GridShape grid_shape(std::size_t n) {
 // "Sweeps on one GPU" and "Session 20"). Who runs the iterations does not change the bits.
 template <class R, bool Walls, bool Mark>
 int team_for(std::size_t n) {
-  if (!cluster_fits<R, kClusterBlocks, Walls, Mark>()) return kGrid;
+  if (!team_fits<R, kClusterBlocks, Walls, Mark>()) return kGrid;
   if (n <= kClusterMaxN) return kClusterBlocks;
   const int sharing = runs_sharing_gpu();
   if (sharing <= 1) return kGrid;
   const GridShape g = grid_shape<R, Walls, Mark>(n);
   if (std::size_t(sharing) * std::size_t(g.sms_held) <= std::size_t(g.sms)) return kGrid;
-  return cluster_fits<R, kSharedClusterBlocks, Walls, Mark>() ? kSharedClusterBlocks : kClusterBlocks;
+  return team_fits<R, kSharedClusterBlocks, Walls, Mark>() ? kSharedClusterBlocks : kClusterBlocks;
 }
 
 // The dynamic shared memory of a tail in shared memory (shared_tail.cuh) of n particles, set as the
@@ -170,15 +144,9 @@ std::size_t shared_tail_bytes(std::size_t n) {
   FF_CUDA_CHECK(cudaFuncGetAttributes(&attr, f), "overlap_correct: the cluster kernel's attributes");
   const std::size_t bytes = TailState<R>::bytes(n);
   if (n >= 65536 || attr.sharedSizeBytes + bytes > std::size_t(optin)) return 0;  // (16-bit ids)
-  FF_CUDA_CHECK(cudaFuncSetAttribute(f, cudaFuncAttributeNonPortableClusterSizeAllowed, 1), "overlap_correct: cluster size");
   FF_CUDA_CHECK(cudaFuncSetAttribute(f, cudaFuncAttributeMaxDynamicSharedMemorySize, int(bytes)),
                 "overlap_correct: the shared-memory tail");
-  cudaLaunchAttribute cluster[1];
-  cudaLaunchConfig_t cfg = team_config<kClusterBlocks>(cluster, nullptr);
-  cfg.dynamicSmemBytes = bytes;
-  int clusters = 0;
-  FF_CUDA_CHECK(cudaOccupancyMaxActiveClusters(&clusters, f, &cfg), "overlap_correct: cluster occupancy");
-  return clusters >= 1 ? bytes : 0;
+  return cluster_fits(f, kClusterBlocks, threads_of<kClusterBlocks>, bytes, "overlap_correct: the shared-memory tail") ? bytes : 0;
 }
 
 template <class R, bool Walls, bool Mark>

@@ -1,6 +1,7 @@
 #include <cooperative_groups.h>
 
 #include "core/backend/cuda/check.h"
+#include "core/backend/cuda/cluster.cuh"
 #include "core/backend/cuda/loop.cuh"
 #include "core/backend/cuda/pdl.cuh"
 #include "stages/delaunay/lawson/stage.h"
@@ -165,47 +166,20 @@ __global__ void __launch_bounds__(kTailThreads) tail_kernel(LawsonTail<R> t) {
   }
 }
 
-// Whether this device runs the tail's cluster (sm_90 clusters of kTailCluster blocks of
-// kTailThreads at once); asked once a precision.
+// Whether this device runs the tail's cluster; asked once a precision.
 template <class R>
 bool tail_cluster_fits() {
-  static const bool fits = [] {
-    int dev = 0, cluster = 0;
-    FF_CUDA_CHECK(cudaGetDevice(&dev), "delaunay.lawson: current device");
-    FF_CUDA_CHECK(cudaDeviceGetAttribute(&cluster, cudaDevAttrClusterLaunch, dev), "delaunay.lawson: clusters");
-    if (!cluster) return false;
-    auto* f = tail_kernel<R, kTailCluster>;
-    FF_CUDA_CHECK(cudaFuncSetAttribute(f, cudaFuncAttributeNonPortableClusterSizeAllowed, 1),
-                  "delaunay.lawson: cluster size");
-    cudaLaunchConfig_t cfg = {};
-    cfg.gridDim = dim3(kTailCluster);
-    cfg.blockDim = dim3(kTailThreads);
-    cudaLaunchAttribute attr[1];
-    attr[0].id = cudaLaunchAttributeClusterDimension;
-    attr[0].val.clusterDim.x = kTailCluster;
-    attr[0].val.clusterDim.y = attr[0].val.clusterDim.z = 1;
-    cfg.attrs = attr;
-    cfg.numAttrs = 1;
-    int clusters = 0;
-    FF_CUDA_CHECK(cudaOccupancyMaxActiveClusters(&clusters, f, &cfg), "delaunay.lawson: cluster occupancy");
-    return clusters >= 1;
-  }();
+  static const bool fits = cluster_fits(reinterpret_cast<const void*>(tail_kernel<R, kTailCluster>), kTailCluster,
+                                        kTailThreads, 0, "delaunay.lawson: the tail's cluster");
   return fits;
 }
 
 template <class R>
 void tail(const LawsonTail<R>& t, CUstream_st* stream) {
   if (t.edges >= kTailClusterEdges && tail_cluster_fits<R>()) {
-    cudaLaunchConfig_t cfg = {};
-    cfg.gridDim = dim3(kTailCluster);
-    cfg.blockDim = dim3(kTailThreads);
-    cfg.stream = stream;
     cudaLaunchAttribute attr[2];
-    attr[0].id = cudaLaunchAttributeClusterDimension;
-    attr[0].val.clusterDim.x = kTailCluster;
-    attr[0].val.clusterDim.y = attr[0].val.clusterDim.z = 1;
-    cfg.attrs = attr;
-    cfg.numAttrs = programmatic_attr(attr, 1);
+    cudaLaunchConfig_t cfg = cluster_config(kTailCluster, kTailThreads, stream, attr);
+    cfg.numAttrs = programmatic_attr(attr, cfg.numAttrs);
     const char* what = "launching delaunay.lawson's tail rounds (a cluster)";
     FF_CUDA_CHECK(cudaLaunchKernelEx(&cfg, tail_kernel<R, kTailCluster>, t), what);
     FF_CUDA_CHECK_LAUNCH(what);
