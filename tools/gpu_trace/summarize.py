@@ -9,8 +9,11 @@ runs the marker kernel again, so it shows up as two short steps.
 
 Steps are grouped by their sequence of GPU activities (kind and name) and of host waits
 (cudaStreamSynchronize, cudaMemcpy, ...); the most common group (or --group K) is printed in
-order: per activity its median duration, the median GPU idle gap before it (no GPU activity on
-any stream between the end of everything before it and its start), and the median time from the
+order: per activity its median duration, how far it extends the step (its end minus the later of
+its start and the end of everything before it: a kernel launched programmatically starts while the
+one before it runs, so durations overlap and these do not), the median GPU idle gap before it (no
+GPU activity on any stream between the end of everything before it and its start), and the median
+time from the
 start of the host call that issued it to its start on the GPU (small values: the GPU waited for
 the host). Then totals, the host waits, the other groups in one line each, and a table per
 kernel/copy name over all used steps (robust when the sequence varies, e.g. Lawson's rounds).
@@ -120,6 +123,12 @@ def build_steps(gpu, api, marker):
         s.t1 = gpu[hi].start if hi < len(gpu) else max_end_before[hi]
         s.acts = gpu[lo:hi]
         s.gaps = [None] + [max(0, gpu[j].start - max_end_before[j]) for j in range(lo + 1, hi)]
+        # How far each activity takes the step's GPU work past what ran before it: its end minus
+        # the later of its start and the end of everything before it in the step. A kernel
+        # launched programmatically (core/backend/cuda/pdl.cuh) starts while the one before it
+        # runs, so its duration overlaps that one's; these add up (with the gaps) to the step.
+        s.extends = [max(0, gpu[j].end - max(gpu[j].start, max_end_before[j] if j > lo else s.t0))
+                     for j in range(lo, hi)]
         s.trailing = max(0, s.t1 - max_end_before[hi]) if hi < len(gpu) else 0
         busy, cur_s, cur_e = 0, None, None  # union of the activities, clipped to [t0, t1)
         for a in s.acts:
@@ -207,16 +216,17 @@ def main():
     print(f"\nTypical step: group {args.group} of {len(ranked)}, {len(g)} of {len(steps)} steps "
           f"(steps {', '.join(str(s.index) for s in g[:8])}{', ...' if len(g) > 8 else ''}); "
           f"medians in us")
-    print(f"{'#':>3}  {'kind':<6}  {'name':<52} {'bytes':>10} {'duration':>9} {'gap before':>10} "
-          f"{'issue->start':>12}")
+    print(f"{'#':>3}  {'kind':<6}  {'name':<52} {'bytes':>10} {'duration':>9} {'extends':>9} "
+          f"{'gap before':>10} {'issue->start':>12}")
     for j, a in enumerate(ref.acts):
         dur = med([s.acts[j].end - s.acts[j].start for s in g])
+        ext = med([s.extends[j] for s in g])
         gap = med([s.gaps[j] for s in g])
         issue = med([s.issue[j] for s in g])
         b = med([s.acts[j].bytes for s in g]) if a.kind != "kernel" else None
-        print(f"{j:>3}  {a.kind:<6}  {nm(a):<52} {fmt_bytes(b):>10} {us(dur)} {us(gap, 10)} "
+        print(f"{j:>3}  {a.kind:<6}  {nm(a):<52} {fmt_bytes(b):>10} {us(dur)} {us(ext)} {us(gap, 10)} "
               f"{us(issue, 12)}")
-    print(f"{'':>3}  {'idle':<6}  {'(until the next step marker)':<52} {'':>10} {'':>9} "
+    print(f"{'':>3}  {'idle':<6}  {'(until the next step marker)':<52} {'':>10} {'':>9} {'':>9} "
           f"{us(med([s.trailing for s in g]), 10)}")
     length = med([s.length for s in g])
     busy = med([s.busy for s in g])
