@@ -4,8 +4,9 @@
 // wins both of its triangles, so the result is independent of thread scheduling and backend.
 // The host reads the counters after round 0's marks (on the device not always: see run()) and
 // then after every round on the CPU; on the device after one grid round (none when round 0 marked
-// few enough edges for the tail: small systems) and the rounds of a one-block tail kernel that
-// follow it (each read waits for the device), or, when nothing can
+// few enough edges for the tail: small systems) and the rounds of a tail kernel that follow it
+// (one block; a cluster from 32 768 particles: lawson/cuda.cu; each read waits for the device),
+// or, when nothing can
 // roll the step back after this stage, not before the step ends: the tail kernel then runs every
 // round left and writes the counters to pinned host memory, and after_step() reads them, so the
 // stages after this one queue behind its kernels instead of behind a wait for the host (with few
