@@ -57,6 +57,7 @@ __device__ __forceinline__ T* in_block0(T* p) {
   }
 }
 
+// This block's rank in the tail's cluster (0 in one block).
 template <int Blocks>
 __device__ __forceinline__ unsigned tail_rank() {
   if constexpr (Blocks == 1) {
@@ -112,7 +113,8 @@ __global__ void __launch_bounds__(kTailThreads) tail_kernel(LawsonTail<R> t) {
   unsigned* sc = in_block0<Blocks>(s_counts);
   const unsigned first = *in_block0<Blocks>(&s_first);
   // Consecutive elements go to the cluster's blocks in turn: a pass of a few hundred elements is
-  // spread over every SM, not left to block 0's (blocks of consecutive ranges: no gain, call 4).
+  // spread over every SM (blocks taking consecutive ranges left every pass of fewer than 1 024
+  // elements to block 0, and gained nothing: bench/experiments/README.md).
   const unsigned tid = threadIdx.x * Blocks + rank;
   constexpr unsigned kStride = Blocks * kTailThreads;
   if (first) {  // round 0 here: the grid loop's MarkNonDelaunay, counting in sc
