@@ -345,6 +345,24 @@ TEST_CASE("CUDA: Lawson's tail on a cluster gives the same bits, decided on the 
   WARN("abp.yaml at N 32768: " << device.decided_on_device << " of 100 steps decided on the device");
 }
 
+// The same at N = 2^18 (~4 600 Lawson candidates a step): device-decided steps whose gated launch
+// takes more candidates than a quarter of the cluster's pass (lawson_tail_pass: up to a whole
+// pass, 16 384), and whose rounds mark up to that many edges in the tail kernel.
+TEST_CASE("CUDA: Lawson's gated launch with thousands of candidates gives the same bits", "[cuda][bits]") {
+  if (!test::have_cuda("Lawson's gated launch at N 2^18 on CUDA")) return;
+  constexpr std::uint64_t steps = 20;
+  const Run device =
+      decided_both_ways(load("abp.yaml", steps, Precision::f64, {"system.N=262144"}), "abp.yaml, N 262144");
+  double candidates = 0;
+  for (const auto& m : device.metrics) {
+    const auto it = m.find("delaunay.detect_inversion/lawson_candidates");
+    if (it != m.end()) candidates = std::max(candidates, it->second);
+  }
+  WARN("abp.yaml at N 262144: " << device.decided_on_device << " of " << steps
+                                << " steps decided on the device, at most " << candidates << " Lawson candidates a step");
+  CHECK(candidates > 4096);
+}
+
 // Float is not required to match, but nothing in these pipelines should differ either: the same
 // IEEE float operations on both sides, sin/cos in double (math.h) rounded to float. Reported,
 // not enforced (a difference here is an ulp somewhere, not a broken double run).

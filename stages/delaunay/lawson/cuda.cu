@@ -22,7 +22,7 @@ constexpr int kTailThreads = 1024;
 // detect's end"). A cluster spreads a pass's elements over 16 SMs, for barriers that cost more
 // than a block's: it tied one block at 2^14, lost 3.7 % at 2^13 and gained 4.7 / 9.2 / 6.1 % at
 // 2^15 / 2^16 / 2^17 (bench-abp, where it also takes device-decided steps with up to
-// kGatedCandidates candidates).
+// lawson_tail_pass candidates); clusters of 4 or 8 from 8 192 particles lost 0.7-3 % at 2^13-2^15.
 constexpr int kTailCluster = 16;
 constexpr std::size_t kTailClusterEdges = 3 * 32768;
 
@@ -176,9 +176,15 @@ bool tail_cluster_fits() {
   return fits;
 }
 
+// Whether the tail's rounds on a mesh of so many edges run on the cluster.
+template <class R>
+bool tail_on_cluster(std::size_t edges) {
+  return edges >= kTailClusterEdges && tail_cluster_fits<R>();
+}
+
 template <class R>
 void tail(const LawsonTail<R>& t, CUstream_st* stream) {
-  if (t.edges >= kTailClusterEdges && tail_cluster_fits<R>()) {
+  if (tail_on_cluster<R>(t.edges)) {
     cudaLaunchAttribute attr[2];
     cudaLaunchConfig_t cfg = cluster_config(kTailCluster, kTailThreads, stream, attr);
     cfg.numAttrs = programmatic_attr(attr, cfg.numAttrs);
@@ -191,15 +197,19 @@ void tail(const LawsonTail<R>& t, CUstream_st* stream) {
                         stream, t);
 }
 
-static_assert(kTailRound0 <= kTailCluster * kTailThreads, "round 0 in the tail kernel is one pass of its cluster");
-static_assert(kGatedCandidates <= kTailRound0, "a gated launch's round 0 is the tail kernel's");
-
 }  // namespace
+
+template <class R>
+unsigned lawson_tail_pass(std::size_t edges) {
+  return unsigned(tail_on_cluster<R>(edges) ? kTailCluster * kTailThreads : kTailThreads);
+}
+template unsigned lawson_tail_pass<float>(std::size_t);
+template unsigned lawson_tail_pass<double>(std::size_t);
 
 template <class R>
 LawsonLoops<R> lawson_loops(CudaExec) {
   return {&CudaExec::for_each<MarkNonDelaunay<R>>, &CudaExec::for_each<DecideMarked>, &CudaExec::for_each<ApplyMarked>,
-          &tail<R>};
+          &tail<R>, &lawson_tail_pass<R>};
 }
 template LawsonLoops<float> lawson_loops<float>(CudaExec);
 template LawsonLoops<double> lawson_loops<double>(CudaExec);

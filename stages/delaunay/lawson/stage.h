@@ -30,15 +30,6 @@ namespace ff::delaunay {
 // Grid rounds a CUDA Lawson runs before its tail kernel when the last tail found its list too
 // long (else one).
 inline constexpr std::int64_t kDeviceRoundsPerRead = 3;
-// The device's tail kernel (one block, or a cluster of 16 from 32 768 particles: lawson/cuda.cu)
-// goes on while a round marks at most this many edges (each then queues at most 4 for the next
-// round's test: a pass of the cluster).
-inline constexpr unsigned kTailMarked = 4096;
-// When the read of round 0 is deferred and it tests at most this many candidates (a quarter pass
-// of the tail kernel's cluster), the tail kernel makes round 0's marks itself: one launch fewer a
-// step.
-inline constexpr unsigned kTailRound0 = 4096;
-static_assert(kTailRound0 <= kTailMarked, "with round 0 in the tail kernel no grid round may run before it");
 
 struct LawsonParams {
   std::int64_t max_rounds = 1000;
@@ -61,6 +52,10 @@ struct LawsonLoops {
   ElementLoop<ApplyMarked> apply;
   // The device's later rounds in one kernel (kernel.h, LawsonTail); none on the CPU.
   void (*tail)(const LawsonTail<R>& t, CUstream_st* stream) = nullptr;
+  // How many edges the tail kernel takes in one pass on a mesh of so many edges
+  // (lawson_tail_pass): it goes on while a round marks at most that many, and makes round 0's
+  // marks itself for at most that many candidates.
+  unsigned (*tail_pass)(std::size_t edges) = nullptr;
 };
 
 // The loops of each backend (lawson/cpu.cpp, lawson/cuda.cu).
@@ -162,9 +157,9 @@ class Lawson final : public Stage {
     // rollback requester ran before this stage, so no snapshot covers its writes), the read is
     // skipped (`defer`) and round 1 launches over round 0's list length, an upper bound of its
     // marks: one wait for the device fewer per step. With few candidates (small systems: bench-abp
-    // tests ~18 a step at N = 2^10, of which most flip) that bound is within kTailMarked, so the
-    // tail kernel alone runs the rounds, and one that finds nothing marked stops at once: no grid
-    // round runs empty. Flips that would need an edge longer than half the box are refused by the
+    // tests ~18 a step at N = 2^10, of which most flip) that bound is within a pass of the tail
+    // kernel, so the tail kernel alone runs the rounds, and one that finds nothing marked stops at
+    // once: no grid round runs empty. Flips that would need an edge longer than half the box are refused by the
     // marking, so reporting them at a later read is safe.
     std::int32_t round = ++round_;
     MarkNonDelaunay<R> first{m, pts, p_.tolerance, test, nullptr, marked, round, marked_list, c, unsigned(launch)};
@@ -172,8 +167,9 @@ class Lawson final : public Stage {
     // Nothing can roll back this stage's writes (the core's answer): the device may run every
     // round without the host (`defer`, see the head of this file).
     const bool defer = where_ == Where::device && ctx.may_defer_read_back() && loops_.tail;
-    // Few candidates (small systems): round 0's marks are the tail kernel's first pass (kTailRound0).
-    const bool round0_in_tail = defer && test && launch > 0 && launch <= kTailRound0;
+    // Few candidates (small systems): round 0's marks are the tail kernel's first pass.
+    const unsigned pass = loops_.tail ? loops_.tail_pass(E) : 0;
+    const bool round0_in_tail = defer && test && launch > 0 && launch <= pass;
     if (!round0_in_tail) loops_.mark(launch, first, st);
     if (where_ == Where::device && launch > 0) counters_.next_was_reset();
     std::array<unsigned, kLawsonCounters> h{};
@@ -194,17 +190,17 @@ class Lawson final : public Stage {
     // marked edge queues at most 4 edges), so a step waits for the device once or twice instead
     // of once per round: grid launches for one round (kDeviceRoundsPerRead while the tail kernel
     // finds its lists too long), then the tail kernel, which runs the rounds that follow in one
-    // block until one marks nothing or more than kTailMarked edges (bench-abp at N = 2^20: round
-    // 0 marks ~19,000 edges, the rounds after the first a few hundred and fewer). A round after the
-    // last marking one finds empty lists and does nothing. When deferring, the tail kernel runs
+    // block or cluster until one marks nothing or more than a pass of edges (bench-abp at N = 2^20:
+    // round 0 marks ~19,000 edges, the rounds after the first a few hundred and fewer). A round
+    // after the last marking one finds empty lists and does nothing. When deferring, the tail kernel runs
     // every round left, however long its lists (a round of many edges is slower in one block:
     // the next step then runs kDeviceRoundsPerRead grid rounds first, grid_rounds_).
     std::int64_t grid_rounds = grid_rounds_;
     // Small systems: when round 0 marked no more edges than the tail kernel takes (bench-abp at
     // N = 2^14 tests ~300 candidates), the tail kernel runs from round 1 on, and the grid round's
     // kernels (decide, apply, mark and two counter fills) are not launched. The same rounds run,
-    // in one block: the same flips (the lowest marked edge id wins, whoever runs the round).
-    if (loops_.tail && bound <= kTailMarked) grid_rounds = 0;
+    // in the tail kernel: the same flips (the lowest marked edge id wins, whoever runs the round).
+    if (loops_.tail && bound <= pass) grid_rounds = 0;
     while (h[kLawsonMarked]) {
       if (launched >= p_.max_rounds) throw_not_delaunay(h);
       const std::int64_t per_read = loops_.tail ? grid_rounds : 1;
@@ -223,7 +219,7 @@ class Lawson final : public Stage {
       }
       const bool tail = loops_.tail && launched < p_.max_rounds;
       if (tail) {
-        LawsonTail<R> t = tail_args(m, pts, E, round, defer ? ~0u : kTailMarked, p_.max_rounds - launched,
+        LawsonTail<R> t = tail_args(m, pts, E, round, defer ? ~0u : pass, p_.max_rounds - launched,
                                     defer ? counters_.landing() : nullptr);
         if (round0_in_tail && launched == 0) {
           t.first_list = test;
@@ -314,7 +310,7 @@ class Lawson final : public Stage {
     const std::array<unsigned, kLawsonCounters> h = counters_.finish_read();
     const std::int64_t ran = h[kLawsonTailRounds];
     round_ += std::int32_t(ran);
-    grid_rounds_ = h[kLawsonTailLargest] > kTailMarked ? kDeviceRoundsPerRead : 1;
+    grid_rounds_ = h[kLawsonTailLargest] > loops_.tail_pass(edge_count(s.n())) ? kDeviceRoundsPerRead : 1;
     throw_if_too_long_flip(s, h[kLawsonTooLong], h[kLawsonTooLongAt], st);
     if (h[kLawsonMarked]) throw_not_delaunay(h);
     if (metrics) report(h, *metrics);

@@ -352,8 +352,8 @@ TEST_CASE("lawson: CPU and CUDA give the same triangulation", "[delaunay][lawson
       rounds.push_back(r2.metric("lawson_rounds"));
     };
     flip_back(sheared(1.5));
-    // A larger shear: on CUDA the tail kernel's rounds mark more than kTailMarked edges (it runs
-    // them all, on its cluster at this size, when nothing can roll the step back, as here).
+    // A larger shear: on CUDA the tail kernel's cluster (at this size) runs every round, however
+    // many edges one marks, when nothing can roll the step back, as here.
     flip_back(sheared(25, 40000));  // ~21,700 flips in 9 rounds
   }
   CHECK(he[0] == he[3]);
