@@ -148,6 +148,27 @@ __device__ __forceinline__ void count_gather(u64 (&c)[K], const Ov& ov, const Ve
   }
 }
 
+// What a gather of v found, as the kernel and the shared tail take it: counted (count_gather),
+// and, when v touched an overlap, a slot m of the iteration's list from *listed and
+// `list(m, moves, x, crossed)`: where a moving v goes (x, wrapped, crossed: the box crossings),
+// computed from where the gather read it, so that the apply only stores it.
+template <bool Mark, class R, class Ov, int K, class List>
+__device__ __forceinline__ void take_gather(u64 (&c)[K], const Ov& ov, const PeriodicBox<R>& box, const VertexPush& q,
+                                            std::uint8_t* touched, int v, bool first, int* listed, List list) {
+  count_gather<Mark>(c, ov, q, touched, v, first);
+  if (!q.touched) return;
+  const bool moves = q.dx != 0 || q.dy != 0;
+  const int m = atomicAdd(listed, 1);
+  R x[2] = {R(0), R(0)};
+  int crossed[2] = {0, 0};
+  if (moves) {
+    const double d[2] = {q.dx, q.dy};
+    const R x0[2] = {R(q.x), R(q.y)};  // exact: load_xy widened them from R
+    moved_from<2>(x0, box, d, x, crossed);
+  }
+  list(m, moves, x, crossed);
+}
+
 template <class R, bool Walls>
 struct Args {
   Problem<R> p;
@@ -421,26 +442,18 @@ __global__ void __launch_bounds__(Threads, MinBlocks) correct_kernel(Args<R, Wal
     if (threadIdx.x < kReported) s_sum[p_next][threadIdx.x] = 0;
 
     u64 c[kReported] = {};
-    // What a gather found: counted (count_gather), and the particle listed when it touched an
-    // overlap.
+    // What a gather found (take_gather): the touched particle in seed (~v when it stays), where
+    // a moving one goes in disp, crossed (and next).
     auto take = [&](int v, const VertexPush& q) {
-      count_gather<Mark>(c, ov, q, a.p.touched, v, first);
-      if (q.touched) {
-        const bool moves = q.dx != 0 || q.dy != 0;
-        const int m = atomicAdd(&s_seeds[p], 1);
-        seed[m] = moves ? v : ~v;
-        if (moves) {  // where v goes, from where the gather read it: the apply only stores it
-          const double d[2] = {q.dx, q.dy};
-          const R x0[2] = {R(q.x), R(q.y)};  // exact: load_xy widened them from R
-          R x[2];
-          int cr[2];
-          moved_from<2>(x0, a.p.box, d, x, cr);
-          if (a.next) store_xy(a.next, v, double(x[0]), double(x[1]));
-          disp[m] = make_double2(double(x[0]), double(x[1]));
-          crossed[m] = make_char2(char(cr[0]), char(cr[1]));
-          atomicAdd(&s_moved[p], 1);
-        }
-      }
+      take_gather<Mark>(c, ov, a.p.box, q, a.p.touched, v, first, &s_seeds[p],
+                        [&](int m, bool moves, const R* x, const int* cr) {
+                          seed[m] = moves ? v : ~v;
+                          if (!moves) return;
+                          if (a.next) store_xy(a.next, v, double(x[0]), double(x[1]));
+                          disp[m] = make_double2(double(x[0]), double(x[1]));
+                          crossed[m] = make_char2(char(cr[0]), char(cr[1]));
+                          atomicAdd(&s_moved[p], 1);
+                        });
     };
     if (first || count > kGroupBelow<Threads>) {  // one thread per particle
       for (int i = int(threadIdx.x); i < count; i += Threads) {

@@ -128,21 +128,14 @@ __device__ __forceinline__ int shared_tail(const Args& a, int j0, int count0, un
     if (threadIdx.x < kReported) s_sum[p_next][threadIdx.x] = 0;
 
     u64 c[kReported] = {};
+    // What a gather found (take_gather): the touched particle, its move and crossings packed in
+    // seed, where a moving one goes in disp.
     auto take = [&](int v, const VertexPush& q) {
-      count_gather<Mark>(c, ov, q, a.p.touched, v, false);
-      if (q.touched) {
-        const bool moves = q.dx != 0 || q.dy != 0;
-        const int m = atomicAdd(&s_seeds[p], 1);
-        int cr[2] = {0, 0};
-        if (moves) {  // where v goes, from where the gather read it: the apply only stores it
-          const double d[2] = {q.dx, q.dy};
-          const R x0[2] = {R(q.x), R(q.y)};  // exact: load_xy widened them from R
-          R x[2];
-          moved_from<2>(x0, a.p.box, d, x, cr);
-          s.disp[m] = make_double2(double(x[0]), double(x[1]));
-        }
-        s.seed[m] = Seed::make(v, moves, cr[0], cr[1]);
-      }
+      take_gather<Mark>(c, ov, a.p.box, q, a.p.touched, v, false, &s_seeds[p],
+                        [&](int m, bool moves, const R* x, const int* cr) {
+                          if (moves) s.disp[m] = make_double2(double(x[0]), double(x[1]));
+                          s.seed[m] = Seed::make(v, moves, cr[0], cr[1]);
+                        });
     };
     // Every gather by a lane group (one neighbour a lane), whatever the count: from shared memory
     // a group's parallel pair math beats one thread a particle at every count (bench/experiments/
