@@ -335,6 +335,27 @@ TEST_CASE("CUDA: closed gates give the same bits as steps decided on the host", 
   CHECK(device.decided_on_device < steps - flips);
 }
 
+// The same with more Lawson flips a step than a pass of its tail kernel (1 024 in one block below
+// 32 768 particles): abp.yaml at 16 384 particles and Δt = 0.18, so a device-decided step runs a
+// grid round before the tail kernel (lawson/stage.h, run_gated), its kernels' lengths read on the
+// device, and closed gates leave those kernels nothing to do.
+TEST_CASE("CUDA: Lawson's gated grid round gives the same bits as steps decided on the host", "[cuda][bits]") {
+  if (!test::have_cuda("Lawson's gated grid round on CUDA")) return;
+  constexpr std::uint64_t steps = 200;
+  const Run device = decided_both_ways(load("abp.yaml", steps, Precision::f64, {"system.N=16384", "run.dt=0.18"}),
+                                       "abp.yaml, N 16384, dt 0.18");
+  double flips = 0, repairs = 0;
+  for (const auto& m : device.metrics) {
+    const auto it = m.find("delaunay.lawson/lawson_flips");
+    if (it != m.end()) flips += it->second;
+    repairs += m.at("delaunay.flip/flips");
+  }
+  WARN("abp.yaml at N 16384, dt 0.18: " << device.decided_on_device << " of " << steps << " steps decided on the device, "
+                                        << flips / steps << " Lawson flips a step, " << repairs << " repair flips");
+  CHECK(flips / steps > 1024);  // a pass of the one-block tail: the gated launches after the first run a grid round
+  CHECK(repairs > 0);           // closed gates
+}
+
 // The same from N = 32 768 on, where delaunay.lawson's tail rounds run on a cluster of 16 blocks
 // (lawson/cuda.cu): abp.yaml at 32 768 particles (~570 Lawson candidates a step), its round 0 in
 // the cluster's gated launch, or (deciding on the host) in the cluster's launch after the host's
@@ -346,8 +367,8 @@ TEST_CASE("CUDA: Lawson's tail on a cluster gives the same bits, decided on the 
 }
 
 // The same at N = 2^18 (~4 600 Lawson candidates a step): device-decided steps whose gated launch
-// takes more candidates than a quarter of the cluster's pass (lawson_tail_pass: up to a whole
-// pass, 16 384), and whose rounds mark up to that many edges in the tail kernel.
+// gives the tail kernel's cluster more candidates than a quarter of its pass (16 384), and whose
+// rounds mark up to a pass of edges there.
 TEST_CASE("CUDA: Lawson's gated launch with thousands of candidates gives the same bits", "[cuda][bits]") {
   if (!test::have_cuda("Lawson's gated launch at N 2^18 on CUDA")) return;
   constexpr std::uint64_t steps = 20;

@@ -31,20 +31,11 @@ inline constexpr const char* status = "delaunay.status";
 inline constexpr const char* lawson_candidates = "delaunay.lawson_candidates";
 // i32, count 1: how many edges delaunay.lawson_candidates holds, written on the device by
 // detect_inversion's kernel when it decides the attempt there (StepContext::gate) for
-// delaunay.lawson's gated launch, which cannot wait for the host's status kCandidates.
+// delaunay.lawson's gated launch, which cannot wait for the host's status kCandidates (0 when
+// the kernel closed the gate).
 inline constexpr const char* lawson_candidate_count = "delaunay.lawson_candidate_count";
 }  // namespace fields
 
-// How many edges delaunay.lawson's tail kernel takes in one pass of its threads on a mesh of
-// `edges` edges (lawson/cuda.cu: 16 384 on its cluster of 16 blocks, sm_90 from 32 768 particles;
-// 1 024 in one block): a device-decided attempt leaves at most this many candidates to Lawson's
-// gated launch (more, and the host decides), the tail kernel makes round 0's marks itself for at
-// most this many, and goes on while a round marks at most this many. Measured (bench-abp on an
-// H200, bench/experiments/README.md, "Lawson's tail at its edges"): on the cluster two passes lost
-// at 2^20 and a quarter pass (session 31) left 2^18-2^20 to the host; in one block 2 048 or 4 096
-// lost to the host's grid rounds. Defined with the CUDA loops (lawson/cuda.cu).
-template <class R>
-unsigned lawson_tail_pass(std::size_t edges);
 // status kCandidates in a device-decided attempt: the list is valid when detect_inversion's
 // kernel opened the gate, its length in lawson_candidate_count.
 inline constexpr std::int32_t kCandidatesOnDevice = -1;

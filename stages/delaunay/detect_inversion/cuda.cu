@@ -47,8 +47,9 @@ __global__ void __launch_bounds__(kMarkThreads, kMarkBlocks) mark_kernel(std::si
   for (int k = 0; k < kInversionCounters; ++k) c[k] = __ldcg(f.counters + k);
   for (int k = 0; k < kInversionCounters; ++k) f.publish[k] = c[k];
   if (f.gate) {
-    *f.candidate_count = std::int32_t(c[kCandidateCount]);
-    *f.gate = device_decision_open(c, f.gated) ? 0u : 1u;
+    const bool open = device_decision_open(c, f.capacity);
+    *f.candidate_count = open ? std::int32_t(c[kCandidateCount]) : 0;
+    *f.gate = open ? 0u : 1u;
   }
   *f.blocks_done = 0;  // for the next launch
 }
@@ -76,7 +77,7 @@ void mark_loop(std::size_t n, const MarkInversions<R>& f, CUstream_st* stream) {
 
 template <class R>
 DetectInversionLoops<R> detect_inversion_loops(CudaExec) {
-  return {&mark_loop<R>, &CudaExec::for_each<CheckInverted<R>>, &lawson_tail_pass<R>};
+  return {&mark_loop<R>, &CudaExec::for_each<CheckInverted<R>>};
 }
 template DetectInversionLoops<float> detect_inversion_loops<float>(CudaExec);
 template DetectInversionLoops<double> detect_inversion_loops<double>(CudaExec);

@@ -48,12 +48,12 @@ FF_HD void reset_inversion_counters(unsigned* c) {
 
 // Whether an attempt decided on the device goes on without the host (StepContext::gate open),
 // from the final counters: nothing inverted, marked, through each other, crossed twice or too
-// long, and at most `gated` Lawson candidates: every one listed (within the list's capacity) and
-// within what Lawson's gated launch takes (lawson_tail_pass), the smaller of the two.
+// long, and every Lawson candidate listed (within `capacity`): delaunay.lawson's gated launch
+// takes any number of them (its tail kernel alone, or a grid round first: lawson/stage.h).
 // The host's decision (DetectInversion::decide) is the same function of the same counters.
-FF_HD bool device_decision_open(const unsigned* c, unsigned gated) {
+FF_HD bool device_decision_open(const unsigned* c, unsigned capacity) {
   return c[kInverted] == 0 && c[kMarked] == 0 && c[kThrough] == 0 && c[kTwice] == 0 && c[kUnrepairable] == 0 &&
-         c[kTooLong] == 0 && c[kCandidateCount] <= gated;
+         c[kTooLong] == 0 && c[kCandidateCount] <= capacity;
 }
 
 template <class R>
@@ -87,11 +87,11 @@ struct MarkInversions {
   unsigned* publish = nullptr;
   unsigned* blocks_done = nullptr;
   // With `publish`, in an attempt decided on the device (StepContext::gate): the last block
-  // also writes 0 to *gate when device_decision_open with at most `gated` candidates (else 1),
-  // and the candidates' count to *candidate_count (delaunay.lawson's gated launch reads both).
+  // also writes 0 to *gate when device_decision_open (else 1), and the candidates' count to
+  // *candidate_count, 0 when the gate closes (delaunay.lawson's gated launch reads both; its grid
+  // kernels only the count).
   unsigned* gate = nullptr;
   std::int32_t* candidate_count = nullptr;
-  unsigned gated = 0;
 
   // The device loop: one edge per thread, each candidate appended on its own.
   FF_HD void operator()(std::size_t i) const {

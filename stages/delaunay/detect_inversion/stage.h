@@ -54,9 +54,6 @@ template <class R>
 struct DetectInversionLoops {
   ElementLoop<MarkInversions<R>> mark;
   ElementLoop<CheckInverted<R>> check;
-  // The most Lawson candidates delaunay.lawson's gated launch takes on a mesh of so many edges
-  // (lawson_tail_pass); none on the CPU, which does not decide on the device.
-  unsigned (*gated_candidates)(std::size_t edges) = nullptr;
 };
 
 // The loops of each backend (detect_inversion/cpu.cpp, detect_inversion/cuda.cu).
@@ -142,7 +139,7 @@ class DetectInversion final : public Stage {
   Decision decide(StepContext& ctx) override {
     State& s = ctx.state;
     const auto h = finish_inspect(ctx);
-    const bool open = device_decision_open(h.data(), gated(s));
+    const bool open = device_decision_open(h.data(), unsigned(s.field(fields::lawson_candidates).count()));
     const bool consumed = status(s)[kCandidates] != kCandidatesOnDevice;
     Decision d{open, conclude(ctx, h, false, gated_inherited_)};
     if (open && consumed) status(s)[kCandidates] = 0;
@@ -177,10 +174,10 @@ class DetectInversion final : public Stage {
     // its answer, Scheduling::follows_gate) and the common case can hold: a triangulation
     // inherited from the last step (none built now), no substeps, counters the marking's last
     // block publishes. Its kernel writes the verdict and the candidates' count; decide() reads.
-    // Not while the last attempt had more Lawson candidates than a gated launch takes (large
-    // systems: it would close), and after a closed gate not for a few attempts (1, 2, 4 ... 64
-    // after closures in a row): the stages after it then rarely launch for nothing.
-    const bool waiting = gate_wait_ > 0 || last_candidates_ > gated(s);
+    // Not while the last attempt had more Lawson candidates than its list holds (it would
+    // close), and after a closed gate not for a few attempts (1, 2, 4 ... 64 after closures in a
+    // row): the stages after it then rarely launch for nothing.
+    const bool waiting = gate_wait_ > 0 || last_candidates_ > unsigned(s.field(fields::lawson_candidates).count());
     if (gate_wait_ > 0) --gate_wait_;
     if (ctx.gate && !waiting && where_ == Where::device && !fresh && !substep && edge_count(s.n()) > 0) {
       launch_inspect(ctx, false, true, ctx.gate);
@@ -290,13 +287,6 @@ class DetectInversion final : public Stage {
     return finish_inspect(ctx);
   }
 
-  // The most Lawson candidates a device-decided attempt may list (its kernel and decide() take
-  // the same): what the list holds and Lawson's gated launch takes, the smaller.
-  unsigned gated(State& s) const {
-    if (!loops_.gated_candidates) return 0;
-    return std::min(unsigned(s.field(fields::lawson_candidates).count()), loops_.gated_candidates(edge_count(s.n())));
-  }
-
   // inspect's launches; with `gate` (the device loop, counters published) the marking's last
   // block also writes the device decision there (MarkInversions::gate).
   void launch_inspect(StepContext& ctx, bool fresh, bool copy, unsigned* gate) {
@@ -337,7 +327,6 @@ class DetectInversion final : public Stage {
       if (gate) {
         f.gate = gate;
         f.candidate_count = s.field(fields::lawson_candidate_count).data<std::int32_t>(ctx);
-        f.gated = gated(s);
       }
     }
     loops_.mark(E, f, st);

@@ -21,8 +21,8 @@ constexpr int kTailThreads = 1024;
 // and 0.4 k with 18 flips at 2^10 (clock64, bench/experiments/README.md, "Lawson's tail and
 // detect's end"). A cluster spreads a pass's elements over 16 SMs, for barriers that cost more
 // than a block's: it tied one block at 2^14, lost 3.7 % at 2^13 and gained 4.7 / 9.2 / 6.1 % at
-// 2^15 / 2^16 / 2^17 (bench-abp, where it also takes device-decided steps with up to
-// lawson_tail_pass candidates); clusters of 4 or 8 from 8 192 particles lost 0.7-3 % at 2^13-2^15.
+// 2^15 / 2^16 / 2^17 (bench-abp, device-decided steps included); clusters of 4 or 8 from 8 192
+// particles lost 0.7-3 % at 2^13-2^15 (bench/experiments/README.md, "Lawson's tail at its edges").
 constexpr int kTailCluster = 16;
 constexpr std::size_t kTailClusterEdges = 3 * 32768;
 
@@ -197,19 +197,18 @@ void tail(const LawsonTail<R>& t, CUstream_st* stream) {
                         stream, t);
 }
 
-}  // namespace
-
+// One pass of the tail kernel's threads on a mesh of so many edges (LawsonLoops::tail_pass).
 template <class R>
-unsigned lawson_tail_pass(std::size_t edges) {
+unsigned tail_pass(std::size_t edges) {
   return unsigned(tail_on_cluster<R>(edges) ? kTailCluster * kTailThreads : kTailThreads);
 }
-template unsigned lawson_tail_pass<float>(std::size_t);
-template unsigned lawson_tail_pass<double>(std::size_t);
+
+}  // namespace
 
 template <class R>
 LawsonLoops<R> lawson_loops(CudaExec) {
   return {&CudaExec::for_each<MarkNonDelaunay<R>>, &CudaExec::for_each<DecideMarked>, &CudaExec::for_each<ApplyMarked>,
-          &tail<R>, &lawson_tail_pass<R>};
+          &tail<R>, &tail_pass<R>};
 }
 template LawsonLoops<float> lawson_loops<float>(CudaExec);
 template LawsonLoops<double> lawson_loops<double>(CudaExec);

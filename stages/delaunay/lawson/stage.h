@@ -52,9 +52,10 @@ struct LawsonLoops {
   ElementLoop<ApplyMarked> apply;
   // The device's later rounds in one kernel (kernel.h, LawsonTail); none on the CPU.
   void (*tail)(const LawsonTail<R>& t, CUstream_st* stream) = nullptr;
-  // How many edges the tail kernel takes in one pass on a mesh of so many edges
-  // (lawson_tail_pass): it goes on while a round marks at most that many, and makes round 0's
-  // marks itself for at most that many candidates.
+  // How many edges the tail kernel takes in one pass on a mesh of so many edges (lawson/cuda.cu:
+  // 16 384 on its cluster, 1 024 in one block): it goes on while a round marks at most that many,
+  // makes round 0's marks itself for at most that many candidates, and a device-decided attempt
+  // after a run of more flips runs a grid round first (run_gated).
   unsigned (*tail_pass)(std::size_t edges) = nullptr;
 };
 
@@ -245,6 +246,7 @@ class Lawson final : public Stage {
       bound = h[kLawsonMarked];
       marked_len = nullptr;
     }
+    last_flips_ = h[kLawsonFlips];
     report(h, ctx.metrics);
     return Outcome::ok();
   }
@@ -256,10 +258,15 @@ class Lawson final : public Stage {
   static constexpr double kCandidateTolerance = 1e-13;
 
   // An attempt delaunay.detect_inversion decides on the device (StepContext::gate): the
-  // deferring run()'s one launch with few candidates (round 0 in the tail kernel), its count
-  // taken from detect's kernel (LawsonTail::gate). Refused (before anything is launched) when
-  // the candidates are not this step's (a stage between wrote the positions) or the read cannot
-  // wait (a snapshot covers this stage's writes).
+  // deferring run()'s launches before the host knows the candidates' count, which detect's kernel
+  // wrote on the device (0 when it closed the gate). When the last run flipped at most a pass of
+  // the tail kernel's edges (small and middle systems), its one launch with round 0 in the tail
+  // kernel (LawsonTail::gate); else one grid round first (bench-abp at N = 2^20: ~18 000
+  // candidates, ~19 000 flips a step), its kernels launched over the list's capacity and their
+  // lengths read on the device, so that the cluster's rounds of many edges (slower than the
+  // grid's) are not the tail's. Either shape takes any count: the last flips only choose. Refused (before anything is launched) when the candidates are not this
+  // step's (a stage between wrote the positions) or the read cannot wait (a snapshot covers this
+  // stage's writes).
   Outcome run_gated(StepContext& ctx) {
     State& s = ctx.state;
     CUstream_st* st = ctx.stream;
@@ -273,13 +280,41 @@ class Lawson final : public Stage {
     const Points<R> pts = points_view<R>(s, ff::fields::position, where_);
     const std::size_t E = edge_count(s.n());
     counters_.begin(std::array<int, 1>{kLawsonTooLongAt}, st);
-    LawsonTail<R> t = tail_args(m, pts, E, ++round_, ~0u, p_.max_rounds, counters_.landing());
-    t.first_list = s.field(fields::lawson_candidates).data<std::int32_t>(ctx);
-    t.first_reset_next = counters_.next();
-    t.gate = ctx.gate;
-    t.first_count_at = s.field(fields::lawson_candidate_count).data<std::int32_t>(ctx);
-    loops_.tail(t, st);
-    counters_.next_was_reset();
+    const std::int32_t* candidates = s.field(fields::lawson_candidates).data<std::int32_t>(ctx);
+    const std::int32_t* count = s.field(fields::lawson_candidate_count).data<std::int32_t>(ctx);
+    const bool grid_first = last_flips_ > loops_.tail_pass(E) && p_.max_rounds > 1;
+    std::int32_t round = ++round_;
+    if (grid_first) {
+      unsigned* c = counters_.ptr();
+      std::int32_t* marked = marked_.get(E);
+      std::int32_t* marked_list = marked_list_.get(E);
+      std::uint8_t* go = go_.get(E);
+      std::int32_t* list = list_.get(E);
+      // Round 0 over the candidates (the count's i32 read as unsigned: it is not negative), then
+      // one round, as run()'s grid rounds over upper bounds: the list's capacity, 4 per mark.
+      const std::size_t capacity = s.field(fields::lawson_candidates).count();
+      MarkNonDelaunay<R> first{m, pts, p_.tolerance, candidates, reinterpret_cast<const unsigned*>(count),
+                               marked, round, marked_list, c, unsigned(capacity)};
+      first.reset_next = counters_.next();
+      loops_.mark(capacity, first, st);
+      counters_.next_was_reset();
+      const unsigned* marked_len = c + kLawsonMarked;
+      loops_.decide(capacity, DecideMarked{m, marked, round, marked_list, go, c, marked_len}, st);
+      loops_.apply(capacity, ApplyMarked{m, marked_list, go, queued_.get(E), round + 1, list, c, marked_len}, st);
+      counters_.zero(kLawsonMarked, 1, st);
+      round = ++round_;
+      loops_.mark(std::min<std::size_t>(4 * capacity, E),
+                  MarkNonDelaunay<R>{m, pts, p_.tolerance, list, c + kLawsonQueued, marked, round, marked_list, c}, st);
+      loops_.tail(tail_args(m, pts, E, round, ~0u, p_.max_rounds - 1, counters_.landing()), st);
+    } else {
+      LawsonTail<R> t = tail_args(m, pts, E, round, ~0u, p_.max_rounds, counters_.landing());
+      t.first_list = candidates;
+      t.first_reset_next = counters_.next();
+      t.gate = ctx.gate;
+      t.first_count_at = count;
+      loops_.tail(t, st);
+      counters_.next_was_reset();
+    }
     counters_.await_published(st);
     pending_ = true;  // read by after_step (settle)
     return Outcome::ok();
@@ -313,6 +348,7 @@ class Lawson final : public Stage {
     grid_rounds_ = h[kLawsonTailLargest] > loops_.tail_pass(edge_count(s.n())) ? kDeviceRoundsPerRead : 1;
     throw_if_too_long_flip(s, h[kLawsonTooLong], h[kLawsonTooLongAt], st);
     if (h[kLawsonMarked]) throw_not_delaunay(h);
+    last_flips_ = h[kLawsonFlips];
     if (metrics) report(h, *metrics);
   }
 
@@ -346,6 +382,7 @@ class Lawson final : public Stage {
   std::int32_t round_ = 0;
   std::int64_t grid_rounds_ = 1;        // grid rounds before the tail kernel (see run())
   bool pending_ = false;                // a tail kernel publishes this run's counters (settle)
+  unsigned last_flips_ = 0;             // the last run's flips: the shape of a gated launch (run_gated)
 };
 
 }  // namespace ff::delaunay
