@@ -16,6 +16,6 @@ step tests 0
 for r in 1 2 3; do
   for v in start new; do bench_abp $v r$r --sizes 1024,16384,65536,262144,524288 --steps 200 --warmup 20; done
 done
-for v in start new start new start new; do bench_abp $v m20 --sizes 1048576 --steps 200 --warmup 20; done
+for v in start new start new; do bench_abp $v m20 --sizes 1048576 --steps 200 --warmup 20; done
 for v in new start; do bench_abp $v late --sizes 1048576 --steps 100 --warmup 3000; done
 echo done t=$SECONDS >> $I; pack
