@@ -350,9 +350,10 @@ TEST_CASE("CUDA: Lawson's gated grid round gives the same bits as steps decided 
     if (it != m.end()) flips += it->second;
     repairs += m.at("delaunay.flip/flips");
   }
-  WARN("abp.yaml at N 16384, dt 0.18: " << device.decided_on_device << " of " << steps << " steps decided on the device, "
-                                        << flips / steps << " Lawson flips a step, " << repairs << " repair flips");
-  CHECK(flips / steps > 1024);  // a pass of the one-block tail: the gated launches after the first run a grid round
+  WARN("abp.yaml at N 16384, dt 0.18: " << device.decided_on_device << " of " << steps
+                                        << " steps decided on the device, " << flips / steps << " Lawson flips a step, "
+                                        << repairs << " repair flips");
+  CHECK(flips / steps > 1024);  // a pass of the one-block tail: gated launches after such runs run a grid round
   CHECK(repairs > 0);           // closed gates
 }
 
@@ -379,8 +380,8 @@ TEST_CASE("CUDA: Lawson's gated launch with thousands of candidates gives the sa
     const auto it = m.find("delaunay.detect_inversion/lawson_candidates");
     if (it != m.end()) candidates = std::max(candidates, it->second);
   }
-  WARN("abp.yaml at N 262144: " << device.decided_on_device << " of " << steps
-                                << " steps decided on the device, at most " << candidates << " Lawson candidates a step");
+  WARN("abp.yaml at N 262144: " << device.decided_on_device << " of " << steps << " steps decided on the device, at most "
+                                 << candidates << " Lawson candidates a step");
   CHECK(candidates > 4096);
 }
 

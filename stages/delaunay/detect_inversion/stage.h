@@ -177,7 +177,8 @@ class DetectInversion final : public Stage {
     // Not while the last attempt had more Lawson candidates than its list holds (it would
     // close), and after a closed gate not for a few attempts (1, 2, 4 ... 64 after closures in a
     // row): the stages after it then rarely launch for nothing.
-    const bool waiting = gate_wait_ > 0 || last_candidates_ > unsigned(s.field(fields::lawson_candidates).count());
+    const unsigned listable = unsigned(s.field(fields::lawson_candidates).count());
+    const bool waiting = gate_wait_ > 0 || last_candidates_ > listable;
     if (gate_wait_ > 0) --gate_wait_;
     if (ctx.gate && !waiting && where_ == Where::device && !fresh && !substep && edge_count(s.n()) > 0) {
       launch_inspect(ctx, false, true, ctx.gate);

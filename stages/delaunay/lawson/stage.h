@@ -160,8 +160,8 @@ class Lawson final : public Stage {
     // marks: one wait for the device fewer per step. With few candidates (small systems: bench-abp
     // tests ~18 a step at N = 2^10, of which most flip) that bound is within a pass of the tail
     // kernel, so the tail kernel alone runs the rounds, and one that finds nothing marked stops at
-    // once: no grid round runs empty. Flips that would need an edge longer than half the box are refused by the
-    // marking, so reporting them at a later read is safe.
+    // once: no grid round runs empty. Flips that would need an edge longer than half the box are
+    // refused by the marking, so reporting them at a later read is safe.
     std::int32_t round = ++round_;
     MarkNonDelaunay<R> first{m, pts, p_.tolerance, test, nullptr, marked, round, marked_list, c, unsigned(launch)};
     if (where_ == Where::device) first.reset_next = counters_.next();
@@ -193,9 +193,9 @@ class Lawson final : public Stage {
     // finds its lists too long), then the tail kernel, which runs the rounds that follow in one
     // block or cluster until one marks nothing or more than a pass of edges (bench-abp at N = 2^20:
     // round 0 marks ~19,000 edges, the rounds after the first a few hundred and fewer). A round
-    // after the last marking one finds empty lists and does nothing. When deferring, the tail kernel runs
-    // every round left, however long its lists (a round of many edges is slower in one block:
-    // the next step then runs kDeviceRoundsPerRead grid rounds first, grid_rounds_).
+    // after the last marking one finds empty lists and does nothing. When deferring, the tail
+    // kernel runs every round left, however long its lists (a round of many edges is slower in
+    // one block: the next step then runs kDeviceRoundsPerRead grid rounds first, grid_rounds_).
     std::int64_t grid_rounds = grid_rounds_;
     // Small systems: when round 0 marked no more edges than the tail kernel takes (bench-abp at
     // N = 2^14 tests ~300 candidates), the tail kernel runs from round 1 on, and the grid round's
@@ -264,9 +264,9 @@ class Lawson final : public Stage {
   // kernel (LawsonTail::gate); else one grid round first (bench-abp at N = 2^20: ~18 000
   // candidates, ~19 000 flips a step), its kernels launched over the list's capacity and their
   // lengths read on the device, so that the cluster's rounds of many edges (slower than the
-  // grid's) are not the tail's. Either shape takes any count: the last flips only choose. Refused (before anything is launched) when the candidates are not this
-  // step's (a stage between wrote the positions) or the read cannot wait (a snapshot covers this
-  // stage's writes).
+  // grid's) are not the tail's. Either shape takes any count: the last flips only choose.
+  // Refused (before anything is launched) when the candidates are not this step's (a stage
+  // between wrote the positions) or the read cannot wait (a snapshot covers this stage's writes).
   Outcome run_gated(StepContext& ctx) {
     State& s = ctx.state;
     CUstream_st* st = ctx.stream;
