@@ -3,6 +3,6 @@
 # gated grid rounds, comments after).
 #   bash bench/experiments/session32/s32c5.sh gpu-carry/b32e.tar.gz   carry: b32e
 source tools/gpu/call_lib.sh c5 "$1"
-suite "$B" 180
+suite "$B" 150
 step suite 0
 echo done t=$SECONDS >> $I; pack
