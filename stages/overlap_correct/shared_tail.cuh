@@ -3,7 +3,8 @@
 // iterations after one that moved at most kClusterTailMoved particles), block 0 copies the
 // positions, the neighbour lists and the claimed candidates into its shared memory and runs the
 // remaining iterations there, with __syncthreads as the only barrier; each apply stores the moves
-// in both copies, so nothing is copied back. Included by correct_kernel.cuh, whose kernel calls it.
+// in both copies, so nothing is copied back. Included by correct_kernel.cuh, whose kernel calls it;
+// the parts it shares with that kernel are correct_parts.cuh's.
 //
 // Why (bench/experiments/README.md, "The tail in shared memory", session 30): a tail iteration
 // of block 0 is a chain of dependent loads and barriers, not work: 7-8 k cycles at 2^10-2^11 for
@@ -26,6 +27,7 @@
 
 #include <cstdint>
 
+#include "stages/overlap_correct/correct_parts.cuh"
 #include "stages/overlap_correct/neighbor_lists.cuh"
 #include "stages/overlap_correct/work_lists.cuh"
 

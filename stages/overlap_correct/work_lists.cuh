@@ -1,6 +1,6 @@
 // overlap_correct's work lists on the device: a block's compaction of its tile's marks into its
 // candidate list, and the word atomics that claim a mark for the tail's one global list (what
-// each is for: correct_kernel.cuh's header, "Marks"). Include only from correct_kernel.cuh.
+// each is for: correct_kernel.cuh's header, "Marks"). Include only from correct_parts.cuh.
 #pragma once
 #include <cuda_runtime.h>
 
