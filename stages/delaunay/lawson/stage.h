@@ -129,9 +129,6 @@ class Lawson final : public Stage {
     }
     if (ctx.gate) return run_gated(ctx);
     std::int32_t* marked = marked_.get(E);
-    std::int32_t* queued = queued_.get(E);
-    std::uint8_t* go = go_.get(E);
-    std::int32_t* list = list_.get(E);
     std::int32_t* marked_list = marked_list_.get(E);
     // On the device, the last run's round 0 set the other bank's start values (reset_next).
     counters_.begin(std::array<int, 1>{kLawsonTooLongAt}, st);
@@ -209,13 +206,7 @@ class Lawson final : public Stage {
         // Apply lists the next round's edges. Before the first round the count is still 0 from
         // the reset (round 0's marks do not touch it); the device skips that fill.
         if (launched > 0 || where_ != Where::device) counters_.zero(kLawsonQueued, 1, st);
-        loops_.decide(bound, DecideMarked{m, marked, round, marked_list, go, c, marked_len}, st);
-        loops_.apply(bound, ApplyMarked{m, marked_list, go, queued, round + 1, list, c, marked_len}, st);
-        counters_.zero(kLawsonMarked, 1, st);
-        round = ++round_;
-        bound = std::min<std::size_t>(4 * bound, E);
-        loops_.mark(bound, MarkNonDelaunay<R>{m, pts, p_.tolerance, list, c + kLawsonQueued, marked, round, marked_list, c},
-                  st);
+        bound = grid_round(m, pts, E, bound, marked_len, round, st);
         marked_len = c + kLawsonMarked;
       }
       const bool tail = loops_.tail && launched < p_.max_rounds;
@@ -286,25 +277,15 @@ class Lawson final : public Stage {
     std::int32_t round = ++round_;
     if (grid_first) {
       unsigned* c = counters_.ptr();
-      std::int32_t* marked = marked_.get(E);
-      std::int32_t* marked_list = marked_list_.get(E);
-      std::uint8_t* go = go_.get(E);
-      std::int32_t* list = list_.get(E);
       // Round 0 over the candidates (the count's i32 read as unsigned: it is not negative), then
       // one round, as run()'s grid rounds over upper bounds: the list's capacity, 4 per mark.
       const std::size_t capacity = s.field(fields::lawson_candidates).count();
       MarkNonDelaunay<R> first{m, pts, p_.tolerance, candidates, reinterpret_cast<const unsigned*>(count),
-                               marked, round, marked_list, c, unsigned(capacity)};
+                               marked_.get(E), round, marked_list_.get(E), c, unsigned(capacity)};
       first.reset_next = counters_.next();
       loops_.mark(capacity, first, st);
       counters_.next_was_reset();
-      const unsigned* marked_len = c + kLawsonMarked;
-      loops_.decide(capacity, DecideMarked{m, marked, round, marked_list, go, c, marked_len}, st);
-      loops_.apply(capacity, ApplyMarked{m, marked_list, go, queued_.get(E), round + 1, list, c, marked_len}, st);
-      counters_.zero(kLawsonMarked, 1, st);
-      round = ++round_;
-      loops_.mark(std::min<std::size_t>(4 * capacity, E),
-                  MarkNonDelaunay<R>{m, pts, p_.tolerance, list, c + kLawsonQueued, marked, round, marked_list, c}, st);
+      grid_round(m, pts, E, capacity, c + kLawsonMarked, round, st);
       loops_.tail(tail_args(m, pts, E, round, ~0u, p_.max_rounds - 1, counters_.landing()), st);
     } else {
       LawsonTail<R> t = tail_args(m, pts, E, round, ~0u, p_.max_rounds, counters_.landing());
@@ -318,6 +299,27 @@ class Lawson final : public Stage {
     counters_.await_published(st);
     pending_ = true;  // read by after_step (settle)
     return Outcome::ok();
+  }
+
+  // One grid round after the marks of `round` (at most `bound` of them; their count on the
+  // backend at marked_len, or nullptr: exactly `bound`): decide, apply, and the next round's marks
+  // over its upper bound, 4 per marked edge, stamped with the next round id (`round` and round_
+  // advance to it). Returns that bound. The caller zeroes the queued count before it where needed.
+  std::size_t grid_round(const Mesh& m, const Points<R>& pts, std::size_t E, std::size_t bound,
+                         const unsigned* marked_len, std::int32_t& round, CUstream_st* st) {
+    unsigned* c = counters_.ptr();
+    std::int32_t* marked = marked_.get(E);
+    std::int32_t* marked_list = marked_list_.get(E);
+    std::uint8_t* go = go_.get(E);
+    std::int32_t* list = list_.get(E);
+    loops_.decide(bound, DecideMarked{m, marked, round, marked_list, go, c, marked_len}, st);
+    loops_.apply(bound, ApplyMarked{m, marked_list, go, queued_.get(E), round + 1, list, c, marked_len}, st);
+    counters_.zero(kLawsonMarked, 1, st);
+    round = ++round_;
+    bound = std::min<std::size_t>(4 * bound, E);
+    loops_.mark(bound, MarkNonDelaunay<R>{m, pts, p_.tolerance, list, c + kLawsonQueued, marked, round, marked_list, c},
+                st);
+    return bound;
   }
 
   // The tail kernel's arguments that run() and run_gated() share: this step's mesh, positions,
