@@ -273,7 +273,10 @@ class Lawson final : public Stage {
     counters_.begin(std::array<int, 1>{kLawsonTooLongAt}, st);
     const std::int32_t* candidates = s.field(fields::lawson_candidates).data<std::int32_t>(ctx);
     const std::int32_t* count = s.field(fields::lawson_candidate_count).data<std::int32_t>(ctx);
-    const bool grid_first = last_flips_ > loops_.tail_pass(E) && p_.max_rounds > 1;
+    // A round of more than half a pass of flips runs faster on the grid than in the tail kernel
+    // (bench-abp at 2^19, ~9 000 flips a step: +0.5 %; from a quarter of a pass, 2^14's one
+    // block and 2^18 lost 3 % and 1 %: bench/experiments/README.md, "Lawson's tail at its edges").
+    const bool grid_first = last_flips_ > loops_.tail_pass(E) / 2 && p_.max_rounds > 1;
     std::int32_t round = ++round_;
     if (grid_first) {
       unsigned* c = counters_.ptr();
