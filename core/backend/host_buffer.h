@@ -35,7 +35,12 @@ class StreamMark {
  public:
   StreamMark() = default;
   ~StreamMark();
-  StreamMark(StreamMark&& o) noexcept : event_(o.event_) { o.event_ = nullptr; }
+  // A moved mark keeps its recorded point: a Frame moves through the writer's queue between
+  // its record() and the writer thread's wait().
+  StreamMark(StreamMark&& o) noexcept : event_(o.event_), recorded_(o.recorded_) {
+    o.event_ = nullptr;
+    o.recorded_ = false;
+  }
   StreamMark& operator=(StreamMark&& o) noexcept;
   StreamMark(const StreamMark&) = delete;
   StreamMark& operator=(const StreamMark&) = delete;

@@ -12,6 +12,7 @@
 #include "support/h5py.h"
 #include <csignal>
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 
@@ -23,7 +24,15 @@
 #include "stages/observe/h5md/stage.h"
 #include "stages/observe/msd/stage.h"
 #include "stages/observe/progress/stage.h"
+#include "support/backends.h"
 #include "support/test_plugins.h"
+
+#ifdef FLIPFLOW_HAVE_CUDA
+#include <cuda_runtime.h>
+
+#include <chrono>
+#include <thread>
+#endif
 
 using namespace ff;
 namespace fs = std::filesystem;
@@ -519,3 +528,57 @@ TEST_CASE("H5mdWriter on a full disk: a clear error, and every earlier frame sta
   }
   std::filesystem::remove_all(dir);
 }
+
+#ifdef FLIPFLOW_HAVE_CUDA
+// On CUDA observe.h5md queues a frame's device-to-host copy on the step's stream and hands the
+// frame to the writer thread at once; the writer waits for the frame's StreamMark before it
+// writes. The frame moves through the writer's queue in between, and until session 33 a moved
+// StreamMark forgot that it was recorded: the writer then wrote whatever the recycled pinned
+// buffer held when the copy was late (test_checkpoint's resumed runs on an H200 wrote one frame of
+// 2 001 with the values of an earlier one, twice in six sessions). Here the copy waits ~300 ms
+// behind a host function on its stream, so a writer that does not wait writes zeros.
+TEST_CASE("observe.h5md on CUDA writes a frame after its device copy, however late the copy", "[observe][h5md][cuda]") {
+  if (!ff::test::have_cuda("observe.h5md's writer waiting for a late device copy")) return;
+  TempDir dir("late_copy");
+  const std::string path = dir / "late.h5";
+  const std::size_t n = 64;
+  std::vector<double> values(2 * n);
+  for (std::size_t i = 0; i < values.size(); ++i) values[i] = 1.0 + 0.25 * double(i);
+  const std::size_t bytes = values.size() * sizeof(double);
+  void* device = nullptr;
+  REQUIRE(cudaMalloc(&device, bytes) == cudaSuccess);
+  REQUIRE(cudaMemcpy(device, values.data(), bytes, cudaMemcpyHostToDevice) == cudaSuccess);
+  cudaStream_t stream = nullptr;
+  REQUIRE(cudaStreamCreateWithFlags(&stream, cudaStreamNonBlocking) == cudaSuccess);
+  {
+    ff::H5mdHeader h;
+    h.dim = 2;
+    h.edges[0] = h.edges[1] = 10.0;
+    auto writer = std::make_unique<ff::H5mdWriter>(path, h);
+    writer->add_particle_element("position", ff::DType::f64, n, 2);
+    observe::AsyncFrameWriter async(std::move(writer), observe::H5mdObserver::queue_depth);
+    observe::Frame frame = async.take();
+    frame.step = 7;
+    frame.time = 0.07;
+    frame.fields.resize(1);
+    observe::FieldFrame& out = frame.fields[0];
+    out.name = "position";
+    out.count = n;
+    out.bytes = HostBuffer(true);
+    out.bytes.resize(bytes);
+    std::memset(out.bytes.data(), 0, bytes);
+    auto hold = [](void*) { std::this_thread::sleep_for(std::chrono::milliseconds(300)); };
+    REQUIRE(cudaLaunchHostFunc(stream, hold, nullptr) == cudaSuccess);
+    copy_device_to_host_async(out.bytes.data(), device, bytes, reinterpret_cast<CUstream_st*>(stream));
+    frame.ready.record(reinterpret_cast<CUstream_st*>(stream));
+    async.submit(std::move(frame));
+    async.close(true);
+  }
+  REQUIRE(cudaStreamSynchronize(stream) == cudaSuccess);
+  cudaStreamDestroy(stream);
+  cudaFree(device);
+  const ff::H5mdFrame f = ff::read_h5md_frame(path, 0);
+  CHECK(f.step == 7);
+  CHECK(f.position == values);
+}
+#endif
