@@ -9,7 +9,7 @@
 #   v33h  next-lawson-grid-first-half-pass.patch     (grid round first above half a pass: 2^19, 2^20)
 #   v33q  next-lawson-grid-first-quarter-pass.patch  (above a quarter: 2^14's one block, 2^18-2^20)
 #   bash bench/experiments/session32/next-call1.sh gpu-carry/BUNDLE.tar.gz   carry: the bundle, v33h, v33q
-source tools/gpu/call_lib.sh n1 "$1"
+source tools/gpu/call_lib.sh "${2:-n1}" "$1"  # session 33 ran it as call c2 (s33c2.sh)
 declare -A D=([main]=$B)
 for v in h q; do tar -xzf gpu-carry/v33$v.tgz -C /tmp; D[$v]=$(shadow $v /tmp/v33$v); done
 for v in h q; do
