@@ -8,7 +8,16 @@
 
 #include "backend/results.h"
 #include "core/backend/exec_cpu.h"
+#include "core/backend/field.h"
 #include "support/backends.h"
+
+#ifdef FLIPFLOW_HAVE_CUDA
+#include <cuda_runtime.h>
+
+#include <chrono>
+#include <thread>
+#include <vector>
+#endif
 
 using namespace ff;
 using namespace ff::test;
@@ -61,3 +70,34 @@ TEST_CASE("backend reductions, scratch and counters equal a serial loop on every
   if (have_cuda("CudaExec reductions, scratch and counters")) check_equal(cuda_backend_results(n), expected);
 #endif
 }
+
+#ifdef FLIPFLOW_HAVE_CUDA
+// Two stages on two streams that both read a field valid only on the host (the first step, a
+// resume, after a host stage) are not ordered with each other: the first acquire uploads on its
+// stream, the second finds the field valid on the device. The upload must have landed by then.
+// Here the first reader's stream is held 300 ms by a host function; until session 33 the upload
+// waited behind it while the second reader copied the device buffer, still unwritten.
+TEST_CASE("a field uploaded for one stream's reader is on the device for another stream's", "[backend][cuda]") {
+  if (!have_cuda("two unordered readers of a host-written field")) return;
+  const std::size_t n = 4096;
+  Field f("x", DType::f64, 1, n);
+  f.acquire(Where::host, Mode::write);
+  for (std::size_t i = 0; i < n; ++i) f.host<double>()[i] = 1.5 + double(i);
+  cudaStream_t first = nullptr, second = nullptr;
+  REQUIRE(cudaStreamCreateWithFlags(&first, cudaStreamNonBlocking) == cudaSuccess);
+  REQUIRE(cudaStreamCreateWithFlags(&second, cudaStreamNonBlocking) == cudaSuccess);
+  auto hold = [](void*) { std::this_thread::sleep_for(std::chrono::milliseconds(300)); };
+  REQUIRE(cudaLaunchHostFunc(first, hold, nullptr) == cudaSuccess);
+  f.acquire(Where::device, Mode::read, reinterpret_cast<CUstream_st*>(first));
+  f.acquire(Where::device, Mode::read, reinterpret_cast<CUstream_st*>(second));
+  std::vector<double> seen(n, 0.0);
+  REQUIRE(cudaMemcpyAsync(seen.data(), f.device_raw(), f.bytes(), cudaMemcpyDeviceToHost, second) == cudaSuccess);
+  REQUIRE(cudaStreamSynchronize(second) == cudaSuccess);
+  REQUIRE(cudaStreamSynchronize(first) == cudaSuccess);
+  cudaStreamDestroy(first);
+  cudaStreamDestroy(second);
+  std::size_t wrong = 0;
+  for (std::size_t i = 0; i < n; ++i) wrong += seen[i] != 1.5 + double(i);
+  CHECK(wrong == 0);
+}
+#endif

@@ -7,6 +7,7 @@
 
 #include "core/base/error.h"
 #include "core/run/simulation.h"
+#include "support/backends.h"
 #include "support/spec.h"
 #include "support/test_plugins.h"
 
@@ -180,4 +181,27 @@ TEST_CASE("seven no-op stages make a chain the scheduler runs in order", "[sched
   CHECK(sim.state().step == 100);
   CHECK(sim.state().time == Approx(1.0));
   for (auto& slot : sim.slots()) CHECK(slot.calls == 100);
+}
+
+// On CUDA each branch of a fork gets its own stream, and a stage waits on the events of its
+// direct predecessors on other streams. A predecessor skipped by `every` must still record its
+// event after its own predecessors' work: here `check` (its own stream, after `skipped`) must see
+// what `fill` (held 150 ms on the main stream) wrote this step, also on the steps `skipped` does
+// not run. Until session 33 a skipped stage recorded nothing, and `check` waited on its event of
+// an earlier step: it read the bytes of the step before.
+TEST_CASE("a stage skipped by every still orders its successors on other streams (CUDA)", "[scheduler][cuda]") {
+  if (!ff::test::have_cuda("the join of a stage skipped by every")) return;
+  tbb::global_control threads(tbb::global_control::max_allowed_parallelism, 2);
+  auto r = test::registry_with({}, {"testing"});
+  auto s = test::spec(2, 64, 0.1, 4, 0.01,
+                      {entry(*r, "testing.device_fill", {{"hold_ms", std::int64_t(150)}}, {"fill"}),
+                       entry(*r, "testing.record", {}, {"skipped", {"fill"}, true, 2}),
+                       entry(*r, "testing.record", {}, {"beside", {"skipped"}, true}),
+                       entry(*r, "testing.device_check", {}, {"check", {"skipped"}, true})});
+  Simulation sim(s, *r, dry(Backend::cuda));
+  for (int k = 0; k < 4; ++k) {
+    INFO("step " << k);
+    sim.advance();
+    CHECK(metric(sim, "check/stale") == 0);
+  }
 }

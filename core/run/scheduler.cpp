@@ -134,7 +134,7 @@ void Scheduler::run_node(int i, std::uint64_t step, std::uint32_t attempt, doubl
   StageSlot& slot = slots_[i];
   const GraphNode& node = graph_.nodes()[i];
   slot.ran = false;
-  if (!node.runs_at(step) || abort_.load(std::memory_order_relaxed)) return;
+  if (abort_.load(std::memory_order_relaxed)) return;
   try {
     CUstream_st* stream = nullptr;
 #ifdef FLIPFLOW_HAVE_CUDA
@@ -144,8 +144,13 @@ void Scheduler::run_node(int i, std::uint64_t step, std::uint32_t attempt, doubl
       if (!impl_->chain) use_cuda_device(impl_->device);
       impl_->streams->before(i);
       stream = impl_->streams->stream(i);
+      // A stage not due this step still joins its predecessors and records its event: a
+      // successor on another stream waits on that event alone, so it would otherwise not be
+      // ordered after this step's work before it (test_scheduler, "a stage skipped by every").
+      if (!node.runs_at(step)) impl_->streams->after(i);
     }
 #endif
+    if (!node.runs_at(step)) return;
     for (auto& a : node.accesses) state_of(i).field(a.field).acquire(a.where, a.mode, stream);
     slot.metrics.clear();
     StepContext ctx = context(i, stream, step, attempt, dt, time);

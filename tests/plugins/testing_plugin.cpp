@@ -4,10 +4,15 @@
 #include <atomic>
 #include <chrono>
 #include <cmath>
+#include <cstdint>
 #include <string>
 #include <thread>
 #include <type_traits>
 #include <vector>
+
+#ifdef FLIPFLOW_HAVE_CUDA
+#include <cuda_runtime.h>
+#endif
 
 #include "core/backend/comm.h"
 #include "core/base/error.h"
@@ -400,6 +405,53 @@ class Follow final : public Stage {
   std::int64_t runs_ = 0;
 };
 
+#ifdef FLIPFLOW_HAVE_CUDA
+// The byte testing.device_fill writes on a step and testing.device_check expects.
+unsigned char fill_byte(std::uint64_t step) { return static_cast<unsigned char>(step % 250 + 1); }
+
+// testing.device_fill (CUDA): sets every byte of the device field `testing.filled` (N x f64) to
+// the step's byte, queued on its stream behind a host function that holds the stream `hold_ms`
+// (so any stage not ordered after it reads the last step's bytes).
+class DeviceFill final : public Stage {
+ public:
+  explicit DeviceFill(const ParamValues& v) : hold_ms_(v.integer("hold_ms")) {}
+  std::vector<Access> accesses() const override { return {{"testing.filled", Where::device, Mode::write}}; }
+  void configure(State& s) override { s.add_field("testing.filled", DType::f64, 1, s.n()); }
+  Outcome run(StepContext& ctx) override {
+    Field& f = ctx.state.field("testing.filled");
+    if (hold_ms_ > 0) {
+      auto hold = [](void* ms) { std::this_thread::sleep_for(std::chrono::milliseconds(*static_cast<std::int64_t*>(ms))); };
+      if (cudaLaunchHostFunc(ctx.stream, hold, &hold_ms_) != cudaSuccess) throw RunError("testing.device_fill: hold");
+    }
+    if (cudaMemsetAsync(f.device_raw(), fill_byte(ctx.host_params.step), f.bytes(), ctx.stream) != cudaSuccess)
+      throw RunError("testing.device_fill: memset");
+    return Outcome::ok();
+  }
+
+ private:
+  std::int64_t hold_ms_;
+};
+
+// testing.device_check (CUDA): copies `testing.filled` from the device on its stream and counts
+// the bytes that are not this step's (metric `stale`).
+class DeviceCheck final : public Stage {
+ public:
+  explicit DeviceCheck(const ParamValues&) {}
+  std::vector<Access> accesses() const override { return {{"testing.filled", Where::device, Mode::read}}; }
+  Outcome run(StepContext& ctx) override {
+    Field& f = ctx.state.field("testing.filled");
+    std::vector<unsigned char> seen(f.bytes());
+    if (cudaMemcpyAsync(seen.data(), f.device_raw(), seen.size(), cudaMemcpyDeviceToHost, ctx.stream) != cudaSuccess ||
+        cudaStreamSynchronize(ctx.stream) != cudaSuccess)
+      throw RunError("testing.device_check: copy");
+    double stale = 0;
+    for (unsigned char b : seen) stale += b != fill_byte(ctx.host_params.step);
+    ctx.metrics.set("stale", stale);
+    return Outcome::ok();
+  }
+};
+#endif
+
 template <class S>
 StageFactory factory() {
   return [](const ParamValues& v, const RunInfo& info) {
@@ -431,6 +483,16 @@ void register_testing(Registry& r) {
               ParamSpec::string("reads", std::string(), "field to declare as read")},
              {2, 3}, false});
   r.implement("testing.record", Backend::cpu, factory<Record>());
+  r.implement("testing.record", Backend::cuda, factory<Record>());
+#ifdef FLIPFLOW_HAVE_CUDA
+  r.declare({"testing.device_fill", "sets testing.filled on the device, after holding its stream (tests only)",
+             {ParamSpec::integer("hold_ms", 0, "how long a host function holds the stream first").at_least(0)},
+             {2, 3}, false});
+  r.implement("testing.device_fill", Backend::cuda, factory<DeviceFill>());
+  r.declare({"testing.device_check", "counts the bytes of testing.filled that are not this step's (tests only)",
+             {}, {2, 3}, false});
+  r.implement("testing.device_check", Backend::cuda, factory<DeviceCheck>());
+#endif
   r.declare({"testing.count", "adds 1 to the field testing.count (tests only)",
              {ParamSpec::boolean("on_demand", false, "declare the write on_demand"),
               ParamSpec::boolean("announce", true, "call will_write before writing (with on_demand)"),

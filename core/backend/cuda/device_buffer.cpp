@@ -51,6 +51,10 @@ void DeviceBuffer::upload(const void* host, std::size_t bytes, CUstream_st* stre
   }
   FF_CUDA_CHECK(cudaMemcpyAsync(ptr_, host, bytes, cudaMemcpyHostToDevice, stream),
                 "copying a field to the device");
+  // Wait for it to land: the field is valid on the device from here on, and a stage on another
+  // stream that reads it too (two unordered readers) would not be ordered after this copy.
+  // Uploads follow host writes only (the first step, a resume, a host stage), never a captured step.
+  FF_CUDA_CHECK(cudaStreamSynchronize(stream), "copying a field to the device");
 }
 
 void DeviceBuffer::download(void* host, std::size_t bytes, CUstream_st* stream) {
