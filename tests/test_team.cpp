@@ -15,6 +15,8 @@
 // - Refusal: a team whose pipeline has no stage that splits.
 // - `pipeline run --gpus N`: rank 0's outputs equal a run alone, and a checkpoint written by 2
 //   ranks resumes on 4.
+#include <oneapi/tbb/global_control.h>
+
 #include <catch2/catch.hpp>
 
 #include <unistd.h>
@@ -33,7 +35,9 @@
 #include "core/run/team.h"
 #include "support/cli.h"
 #include "support/pipeline.h"
+#include "support/spec.h"
 #include "support/team.h"
+#include "support/test_plugins.h"
 
 #ifdef FLIPFLOW_HAVE_CUDA
 #include <cuda_runtime.h>
@@ -306,6 +310,42 @@ TEST_CASE("team: a rollback or a Δt limit requested on one rank is taken by eve
     check_same(run_ranks(load_with(requester), Backend::cpu, ranks, 60), alone[0],
                std::to_string(ranks) + " CPU ranks, requests on rank " + std::to_string(requester));
   }
+}
+
+TEST_CASE("team: a branched step makes its stages' collective calls in one order on every rank") {
+  // start -> {left, right} -> end; left and right each all-reduce their tag. Unordered, each
+  // rank's oneTBB would run first whichever is ready: rank 0 sleeps in left and rank 1 in
+  // right, so the ranks would reach the reductions in opposite orders and sum left's tag with
+  // right's (or wait on each other for ever). In a team the core runs a branched step's stages
+  // in one order every rank computes the same (StepGraph::compute_order).
+  tbb::global_control threads(tbb::global_control::max_allowed_parallelism, 4);
+  auto r = test::registry_with({}, {"testing"});
+  const auto tag = [&](const char* id, std::int64_t t, std::int64_t wait_rank) {
+    return test::entry(*r, "testing.team_tag",
+                       {{"tag", t}, {"wait_rank", wait_rank}, {"wait_ms", std::int64_t(50)}}, {id, {"start"}, true});
+  };
+  const auto s = test::spec(2, 64, 0.1, 3, 0.01,
+                            {test::entry(*r, "testing.record", {}, {"start"}), tag("left", 1, 0), tag("right", 2, 1),
+                             test::entry(*r, "testing.record", {}, {"end", {"left", "right"}, true})});
+  std::mutex m;
+  std::vector<double> mismatches;
+  test::on_ranks(Backend::cpu, 2, [&](Communicator* comm) {
+    RunOptions o = test::dry();
+    o.team = comm;
+    std::unique_ptr<Simulation> sim;
+    {
+      static std::mutex setup;
+      std::lock_guard<std::mutex> lock(setup);
+      sim = std::make_unique<Simulation>(s, *r, o);
+    }
+    for (int k = 0; k < 3; ++k) {
+      sim->advance();
+      std::lock_guard<std::mutex> lock(m);
+      for (const char* id : {"left/mismatch", "right/mismatch"}) mismatches.push_back(sim->stats().metrics.at(id));
+    }
+  });
+  REQUIRE(mismatches.size() == 12);
+  for (double x : mismatches) CHECK(x == 0);
 }
 
 TEST_CASE("team: a pipeline in which no stage splits is refused, naming the stages") {

@@ -26,6 +26,7 @@ struct Scheduler::Impl {
   flow::broadcast_node<flow::continue_msg> start{graph};
   std::vector<std::unique_ptr<flow::continue_node<flow::continue_msg>>> nodes;
   bool chain = false;
+  std::vector<int> team_order;  // a branched step's stages one at a time, in a team (enqueue_compute)
   std::vector<int> compute;
   std::mutex error_mutex;
 #ifdef FLIPFLOW_HAVE_CUDA
@@ -61,6 +62,7 @@ Scheduler::Scheduler(const StepGraph& graph, std::vector<StageSlot>& slots, Stat
     : impl_(std::make_unique<Impl>()), graph_(graph), slots_(slots), state_(state), stats_(stats), backend_(backend) {
   impl_->compute = graph.compute_nodes();
   impl_->chain = graph.is_chain();
+  impl_->team_order = graph.compute_order();
 #ifdef FLIPFLOW_HAVE_CUDA
   if (backend == Backend::cuda) {
     FF_CUDA_CHECK(cudaGetDevice(&impl_->device), "the run's CUDA device");
@@ -381,6 +383,11 @@ void Scheduler::resolve_gate() {
 void Scheduler::enqueue_compute() {
   if (impl_->chain) {
     for (int i : impl_->compute) run_node(i, impl_->step, impl_->attempt, impl_->dt, impl_->time);
+  } else if (in_team(team_)) {
+    // Stages talk to the other ranks from run() (all-gathers, reductions), and every rank must
+    // make those calls in the same order, one at a time: in a team a branched step runs its
+    // stages in one order all ranks share. (On CUDA the branches' streams still overlap.)
+    for (int i : impl_->team_order) run_node(i, impl_->step, impl_->attempt, impl_->dt, impl_->time);
   } else {
     impl_->start.try_put(flow::continue_msg());
     impl_->graph.wait_for_all();

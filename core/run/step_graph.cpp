@@ -1,6 +1,7 @@
 #include "core/run/step_graph.h"
 
 #include <map>
+#include <stdexcept>
 #include <sstream>
 
 #include "core/base/error.h"
@@ -102,6 +103,26 @@ std::vector<int> StepGraph::compute_nodes() const {
   for (std::size_t i = 0; i < nodes_.size(); ++i)
     if (!nodes_[i].observer) v.push_back(int(i));
   return v;
+}
+
+std::vector<int> StepGraph::compute_order() const {
+  const std::vector<int> compute = compute_nodes();
+  std::vector<int> order;
+  std::vector<bool> placed(nodes_.size(), false);
+  while (order.size() < compute.size()) {
+    const std::size_t before = order.size();
+    for (int i : compute) {  // the lowest index whose predecessors are all placed
+      if (placed[i]) continue;
+      bool ready = true;
+      for (int p : nodes_[i].preds) ready = ready && placed[p];
+      if (!ready) continue;
+      placed[i] = true;
+      order.push_back(i);
+      break;
+    }
+    if (order.size() == before) throw std::logic_error("StepGraph::compute_order: the compute phase has a cycle");
+  }
+  return order;
 }
 
 bool StepGraph::written_before_read(int w, const std::string& field) const {

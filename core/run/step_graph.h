@@ -40,6 +40,9 @@ class StepGraph {
   // True when a runs before b on every schedule (a path a -> ... -> b).
   bool ordered(int a, int b) const { return reach_[a][b]; }
   std::vector<int> compute_nodes() const;
+  // The compute nodes in one order that keeps every `after` (a stage after all of its
+  // predecessors), the lowest index first among those ready: the same on every rank of a team.
+  std::vector<int> compute_order() const;
   std::vector<int> observer_nodes() const;
   // True when the compute phase is a single chain (no two stages can run concurrently).
   bool is_chain() const;

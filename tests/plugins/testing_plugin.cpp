@@ -405,6 +405,35 @@ class Follow final : public Stage {
   std::int64_t runs_ = 0;
 };
 
+// testing.team_tag: in a team, sums its `tag` over the ranks (Communicator::all_reduce) and
+// reports metric `mismatch` = 1 unless the sum is tag x ranks, i.e. unless every rank's call
+// was this stage's too. It says it splits its work (a team needs one such stage). With wait_ms it
+// first sleeps on rank wait_rank, so that unordered stages would reach the reduction in another
+// order on that rank.
+class TeamTag final : public Stage {
+ public:
+  TeamTag(const ParamValues& v, const RunInfo& info)
+      : tag_(v.integer("tag")), wait_rank_(v.integer("wait_rank")), wait_ms_(v.integer("wait_ms")), info_(info) {}
+  std::vector<Access> accesses() const override { return {}; }
+  Scheduling scheduling() const override {
+    Scheduling s;
+    s.team = TeamWork::split;
+    return s;
+  }
+  Outcome run(StepContext& ctx) override {
+    if (!info_.team) return Outcome::ok();
+    if (info_.team->rank() == wait_rank_) std::this_thread::sleep_for(std::chrono::milliseconds(wait_ms_));
+    std::int64_t sum = tag_;
+    info_.team->all_reduce(&sum, 1, ReduceOp::sum);
+    ctx.metrics.set("mismatch", sum == tag_ * info_.team->size() ? 0.0 : 1.0);
+    return Outcome::ok();
+  }
+
+ private:
+  std::int64_t tag_, wait_rank_, wait_ms_;
+  RunInfo info_;
+};
+
 #ifdef FLIPFLOW_HAVE_CUDA
 // The byte testing.device_fill writes on a step and testing.device_check expects.
 unsigned char fill_byte(std::uint64_t step) { return static_cast<unsigned char>(step % 250 + 1); }
@@ -484,6 +513,12 @@ void register_testing(Registry& r) {
              {2, 3}, false});
   r.implement("testing.record", Backend::cpu, factory<Record>());
   r.implement("testing.record", Backend::cuda, factory<Record>());
+  r.declare({"testing.team_tag", "checks that every rank reduces this stage's tag at once (tests only)",
+             {ParamSpec::integer("tag", 1, "the value each rank adds").at_least(1),
+              ParamSpec::integer("wait_rank", -1, "the rank that sleeps first (-1: none)").at_least(-1),
+              ParamSpec::integer("wait_ms", 0, "how long").at_least(0)},
+             {2, 3}, false});
+  r.implement("testing.team_tag", Backend::cpu, factory<TeamTag>());
 #ifdef FLIPFLOW_HAVE_CUDA
   r.declare({"testing.device_fill", "sets testing.filled on the device, after holding its stream (tests only)",
              {ParamSpec::integer("hold_ms", 0, "how long a host function holds the stream first").at_least(0)},
