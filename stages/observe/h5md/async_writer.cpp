@@ -68,6 +68,13 @@ void AsyncFrameWriter::loop() {
       std::lock_guard<std::mutex> lock(mutex_);
       if (failed) {  // drop the rest: the file is suspect; callers see the error
         error_ = failed;
+        // Their device copies may still be landing in the pinned buffers freed here.
+        for (Frame& q : queue_) {
+          try {
+            q.ready.wait();
+          } catch (...) {  // (the run fails with the write's error)
+          }
+        }
         queue_.clear();
         pending_ = 0;
       } else {
