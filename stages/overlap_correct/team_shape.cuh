@@ -2,6 +2,8 @@
 // a cluster of 16 blocks, or of 8 when runs share the GPU) and each block's tile; included by
 // cuda.cu after correct_kernel.cuh, whose kernel they launch. Host code and constants only.
 #pragma once
+#include <mutex>
+
 #include "core/backend/cuda/cluster.cuh"
 #include "stages/overlap_correct/correct_kernel.cuh"
 
@@ -144,8 +146,19 @@ std::size_t shared_tail_bytes(std::size_t n) {
   FF_CUDA_CHECK(cudaFuncGetAttributes(&attr, f), "overlap_correct: the cluster kernel's attributes");
   const std::size_t bytes = TailState<R>::bytes(n);
   if (n >= 65536 || attr.sharedSizeBytes + bytes > std::size_t(optin)) return 0;  // (16-bit ids)
-  FF_CUDA_CHECK(cudaFuncSetAttribute(f, cudaFuncAttributeMaxDynamicSharedMemorySize, int(bytes)),
-                "overlap_correct: the shared-memory tail");
+  {
+    // The kernel's limit belongs to the device, not to this run, and only grows: runs of other
+    // sizes on this GPU (ranks of a team, a sweep's runs) set it too, and a lower limit set last
+    // would make a larger run's launch fail.
+    static std::mutex mutex;
+    static int limit[64] = {};
+    std::lock_guard<std::mutex> lock(mutex);
+    if (dev < 0 || dev >= 64 || int(bytes) > limit[dev]) {
+      FF_CUDA_CHECK(cudaFuncSetAttribute(f, cudaFuncAttributeMaxDynamicSharedMemorySize, int(bytes)),
+                    "overlap_correct: the shared-memory tail");
+      if (dev >= 0 && dev < 64) limit[dev] = int(bytes);
+    }
+  }
   return cluster_fits(f, kClusterBlocks, threads_of<kClusterBlocks>, bytes, "overlap_correct: the shared-memory tail") ? bytes : 0;
 }
 

@@ -168,12 +168,14 @@ __global__ void __launch_bounds__(kTailThreads) tail_kernel(LawsonTail<R> t) {
   }
 }
 
-// Whether this device runs the tail's cluster; asked once a precision.
+// Whether the current device runs the tail's cluster; asked once a precision and device.
 template <class R>
 bool tail_cluster_fits() {
-  static const bool fits = cluster_fits(reinterpret_cast<const void*>(tail_kernel<R, kTailCluster>), kTailCluster,
-                                        kTailThreads, 0, "delaunay.lawson: the tail's cluster");
-  return fits;
+  static std::atomic<int> known[64] = {};
+  return once_per_device(known, [] {
+    return cluster_fits(reinterpret_cast<const void*>(tail_kernel<R, kTailCluster>), kTailCluster, kTailThreads, 0,
+                        "delaunay.lawson: the tail's cluster");
+  });
 }
 
 // Whether the tail's rounds on a mesh of so many edges run on the cluster.
