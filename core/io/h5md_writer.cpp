@@ -605,4 +605,9 @@ void H5mdWriter::close(bool completed) {
                    "; the complete trajectory is kept at '" + partial + "'");
 }
 
+bool hdf5_thread_safe() {
+  hbool_t safe = 0;
+  return H5is_library_threadsafe(&safe) >= 0 && safe;
+}
+
 }  // namespace ff

@@ -113,4 +113,9 @@ class H5mdWriter {
   std::unique_ptr<Impl> impl_;
 };
 
+// Whether this process's HDF5 library may be called from several threads at once (a thread-safe
+// build, as Debian's): runs of `pipeline sweep --in-process` write their files from their own
+// threads, and refuse to start without it.
+bool hdf5_thread_safe();
+
 }  // namespace ff

@@ -56,7 +56,9 @@ std::string cpu_description() {
 std::string utc_now() {
   const std::time_t t = std::time(nullptr);
   char buf[32];
-  std::strftime(buf, sizeof buf, "%Y-%m-%dT%H:%M:%SZ", std::gmtime(&t));
+  std::tm utc{};
+  gmtime_r(&t, &utc);  // (not std::gmtime: an in-process sweep's runs call this at once)
+  std::strftime(buf, sizeof buf, "%Y-%m-%dT%H:%M:%SZ", &utc);
   return buf;
 }
 
@@ -94,8 +96,8 @@ struct NullBuffer : std::streambuf {
 };
 
 // The run of one rank (`team` null: alone). In a team every rank builds its Simulation from
-// the same loaded pipeline (one after another, under `setup`: HDF5 and the plugins' set-up are
-// not meant for several threads at once), rank 0 alone logs, writes checkpoints and outputs,
+// the same loaded pipeline (one after another, under `setup`, one lock for the process: the
+// plugins' set-up is not meant for several threads at once), rank 0 alone logs, writes checkpoints and outputs,
 // and the ranks agree every step on whether to stop (a signal seen by any rank).
 int run_rank(const RunRequest& req, const Loaded& loaded, Backend backend, std::ostream& log,
              const std::atomic<int>& stop, const std::function<void()>& before_steps, Communicator* team,
@@ -239,7 +241,7 @@ int run_pipeline(const RunRequest& req, std::ostream& log, const std::atomic<int
   const Loaded loaded = load(req.file, req.overrides);
   std::optional<tbb::global_control> limit;
   if (req.threads > 0) limit.emplace(tbb::global_control::max_allowed_parallelism, std::size_t(req.threads));
-  std::mutex setup;
+  static std::mutex setup;  // one for the process: an in-process sweep runs several run_pipeline at once
   if (req.gpus == 1) return run_rank(req, loaded, backend, log, stop, before_steps, nullptr, setup);
   // A team: one thread per rank (on the CPU backend, threads sharing the cores; --gpus N there
   // tests the split, it does not add cores).

@@ -48,6 +48,7 @@
 
 #include "core/backend/device.h"
 #include "core/base/error.h"
+#include "core/io/h5md_writer.h"
 #include "tools/pipeline/commands.h"
 #include "tools/pipeline/sweep.h"
 #include "tools/pipeline/sweep_scheduler.h"
@@ -158,6 +159,10 @@ int cmd_sweep(const std::vector<std::string>& args) {
     per_gpu = kMpsClientLimit;
   }
   const int slots = per_gpu * int(gpus.size());
+  if (a.in_process && slots > 1 && !hdf5_thread_safe())
+    throw InputError("sweep --in-process runs " + std::to_string(slots) +
+                     " runs at once in this process, and this HDF5 library is not built thread-safe: their files "
+                     "would corrupt each other. Leave out --in-process (a process per run), or use --concurrent 1");
   const int cores = tbb::info::default_concurrency();
   const int run_threads = a.threads > 0 ? a.threads : std::max(1, cores / slots);
   std::optional<tbb::global_control> thread_limit;  // --in-process: one limit for all runs
