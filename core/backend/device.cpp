@@ -38,8 +38,10 @@ std::string cuda_device_description() {
   cudaError_t err = cudaGetDeviceCount(&n);
   if (err != cudaSuccess) return std::string("no CUDA device (") + cudaGetErrorString(err) + ")";
   if (n == 0) return "no CUDA device";
+  int current = 0;  // the calling thread's: a rank's or a sweep's run on another GPU than 0
+  if (cudaGetDevice(&current) != cudaSuccess) current = 0;
   cudaDeviceProp p{};
-  cudaGetDeviceProperties(&p, 0);
+  cudaGetDeviceProperties(&p, current);
   return std::string(p.name) + " (sm_" + std::to_string(p.major) + std::to_string(p.minor) + ", " +
          std::to_string(p.multiProcessorCount) + " SMs)";
 #else

@@ -9,7 +9,8 @@ namespace ff {
 bool built_with_cuda();
 // True when built with CUDA and a CUDA device is usable now.
 bool cuda_device_available();
-// A line for logs: "NVIDIA H100 80GB HBM3 (sm_90, 132 SMs)" or why there is none.
+// A line for logs about the current device: "NVIDIA H100 80GB HBM3 (sm_90, 132 SMs)", or why there
+// is none.
 std::string cuda_device_description();
 // CUDA devices visible to this process (0 without CUDA or a driver).
 int cuda_device_count();

@@ -42,7 +42,11 @@ std::string hdf5_error() {
 // The login name for /h5md/author: $USER, else the password database, else "unknown".
 std::string user_name() {
   if (const char* u = std::getenv("USER"); u && *u) return u;
-  if (const passwd* pw = getpwuid(getuid()); pw && pw->pw_name) return pw->pw_name;
+  // (getpwuid_r: runs of an in-process sweep may ask at once.)
+  passwd entry{};
+  passwd* pw = nullptr;
+  char buf[4096];
+  if (getpwuid_r(getuid(), &entry, buf, sizeof buf, &pw) == 0 && pw && pw->pw_name) return pw->pw_name;
   return "unknown";
 }
 
