@@ -8,6 +8,7 @@
 #include <oneapi/tbb/parallel_for.h>
 #include <oneapi/tbb/parallel_reduce.h>
 #include <oneapi/tbb/partitioner.h>
+#include <oneapi/tbb/task_arena.h>
 
 #include <algorithm>
 #include <type_traits>
@@ -43,12 +44,16 @@ void append_by_chunks(std::size_t n, std::int32_t* list, unsigned* len, const Bo
   if (chunks <= 1) {
     for (std::size_t c = 0; c < chunks; ++c) run(c);
   } else {
-    tbb::parallel_for(
-        tbb::blocked_range<std::size_t>(0, chunks, 1),
-        [&](const tbb::blocked_range<std::size_t>& r) {
-          for (std::size_t c = r.begin(); c != r.end(); ++c) run(c);
-        },
-        tbb::simple_partitioner());
+    // Isolated: while this thread waits for the chunks it must not take up an outer task that
+    // could call this function again on this thread and reuse `lists` under its feet.
+    tbb::this_task_arena::isolate([&] {
+      tbb::parallel_for(
+          tbb::blocked_range<std::size_t>(0, chunks, 1),
+          [&](const tbb::blocked_range<std::size_t>& r) {
+            for (std::size_t c = r.begin(); c != r.end(); ++c) run(c);
+          },
+          tbb::simple_partitioner());
+    });
   }
   unsigned at = *len;
   for (std::size_t c = 0; c < chunks; ++c) {
