@@ -75,7 +75,7 @@ TEST_CASE("backend reductions, scratch and counters equal a serial loop on every
 // Two stages on two streams that both read a field valid only on the host (the first step, a
 // resume, after a host stage) are not ordered with each other: the first acquire uploads on its
 // stream, the second finds the field valid on the device. The upload must have landed by then.
-// Here the first reader's stream is held 300 ms by a host function; until session 33 the upload
+// Here a sleeping host function holds the first reader's stream; until session 33 the upload
 // waited behind it while the second reader copied the device buffer, still unwritten.
 TEST_CASE("a field uploaded for one stream's reader is on the device for another stream's", "[backend][cuda]") {
   if (!have_cuda("two unordered readers of a host-written field")) return;

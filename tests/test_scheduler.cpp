@@ -186,7 +186,7 @@ TEST_CASE("seven no-op stages make a chain the scheduler runs in order", "[sched
 // On CUDA each branch of a fork gets its own stream, and a stage waits on the events of its
 // direct predecessors on other streams. A predecessor skipped by `every` must still record its
 // event after its own predecessors' work: here `check` (its own stream, after `skipped`) must see
-// what `fill` (held 150 ms on the main stream) wrote this step, also on the steps `skipped` does
+// what `fill` (held on the main stream by a sleeping host function) wrote this step, also on the steps `skipped` does
 // not run. Until session 33 a skipped stage recorded nothing, and `check` waited on its event of
 // an earlier step: it read the bytes of the step before.
 TEST_CASE("a stage skipped by every still orders its successors on other streams (CUDA)", "[scheduler][cuda]") {

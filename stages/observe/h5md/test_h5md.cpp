@@ -535,8 +535,8 @@ TEST_CASE("H5mdWriter on a full disk: a clear error, and every earlier frame sta
 // writes. The frame moves through the writer's queue in between, and until session 33 a moved
 // StreamMark forgot that it was recorded: the writer then wrote whatever the recycled pinned
 // buffer held when the copy was late (test_checkpoint's resumed runs on an H200 wrote one frame of
-// 2 001 with the values of an earlier one, twice in six sessions). Here the copy waits ~300 ms
-// behind a host function on its stream, so a writer that does not wait writes zeros.
+// 2 001 with the values of an earlier one, twice in six sessions). Here the copy waits behind a
+// sleeping host function on its stream, so a writer that does not wait writes zeros.
 TEST_CASE("observe.h5md on CUDA writes a frame after its device copy, however late the copy", "[observe][h5md][cuda]") {
   if (!ff::test::have_cuda("observe.h5md's writer waiting for a late device copy")) return;
   TempDir dir("late_copy");
