@@ -41,6 +41,7 @@
 #include "core/run/simulation.h"
 #include "support/backends.h"
 #include "support/cli.h"
+#include "support/fields.h"
 #include "support/pipeline.h"
 #include "support/spec.h"
 #include "support/test_plugins.h"
@@ -118,10 +119,8 @@ Run run(const Loaded& l, Backend b, bool per_step = true) {
   }
   State& s = sim.state();
   for (const std::string& name : s.field_names()) {
-    Field& f = s.field(name);
-    f.acquire(Where::host, Mode::read);
-    const auto* p = static_cast<const unsigned char*>(f.host_raw());
-    r.fields[name] = {f.dtype(), f.components(), {p, p + f.bytes()}};
+    const Field& f = s.field(name);
+    r.fields[name] = {f.dtype(), f.components(), test::bytes_of(s, name)};
   }
   r.step = s.step;
   r.time = s.time;

@@ -43,11 +43,13 @@
 #include "core/run/team.h"
 #include "stages/neighbors/list.h"
 #include "support/cli.h"
+#include "support/fields.h"
 #include "support/pipeline.h"
 #include "support/one_gpu_team.h"
 #include "support/team.h"
 
 using namespace ff;
+using ff::test::bytes_of;
 
 namespace {
 
@@ -66,13 +68,6 @@ struct End {
   std::vector<std::uint64_t> rebuild_steps;  // the steps on which neighbors.verlet rebuilt the list
   double in_step_rebuilds = 0;  // overlap_correct.verlet's list_rebuilds, summed over the steps
 };
-
-std::vector<unsigned char> bytes_of(State& s, const std::string& name) {
-  Field& f = s.field(name);
-  f.acquire(Where::host, Mode::read);
-  const auto* p = static_cast<const unsigned char*>(f.host_raw());
-  return {p, p + f.bytes()};
-}
 
 // The Verlet rows of the owned particles of `s` as global ids, keyed by id.
 std::map<std::uint32_t, std::vector<std::uint32_t>> owned_rows(State& s) {

@@ -47,22 +47,17 @@
 #include "stages/delaunay/common/fields.h"
 #include "stages/delaunay/common/slab.h"
 #include "support/cli.h"
+#include "support/fields.h"
 #include "support/pipeline.h"
 #include "support/one_gpu_team.h"
 #include "support/team.h"
 
 using namespace ff;
+using ff::test::bytes_of;
 
 namespace {
 
 using Stars = std::map<std::uint32_t, std::vector<std::uint32_t>>;  // particle id -> star as ids
-
-std::vector<unsigned char> bytes_of(State& s, const std::string& name) {
-  Field& f = s.field(name);
-  f.acquire(Where::host, Mode::read);
-  const auto* p = static_cast<const unsigned char*>(f.host_raw());
-  return {p, p + f.bytes()};
-}
 
 // The stars of the owned particles of `s` (all of them alone) as global ids.
 Stars owned_stars(State& s) {

@@ -23,6 +23,7 @@
 #include "core/input/init.h"
 #include "core/run/simulation.h"
 #include "support/backends.h"
+#include "support/fields.h"
 #include "support/spec.h"
 #include "support/test_plugins.h"
 
@@ -46,13 +47,6 @@ std::unique_ptr<State> initial(const PipelineSpec& s, const Prepare& prepare) {
   return st;
 }
 
-std::vector<unsigned char> bytes(State& s, const std::string& name) {
-  Field& f = s.field(name);
-  f.acquire(Where::host, Mode::read);
-  const auto* p = static_cast<const unsigned char*>(f.host_raw());
-  return {p, p + f.bytes()};
-}
-
 // `steps` steps of `s` on CUDA, captured and launched directly; `fields` must agree bit for bit
 // and must have changed.
 void check_captured_equals_direct(const PipelineSpec& s, const Prepare& prepare, const std::vector<std::string>& fields,
@@ -61,7 +55,7 @@ void check_captured_equals_direct(const PipelineSpec& s, const Prepare& prepare,
   Simulation direct(s, registry(), dry(Backend::cuda), initial(s, prepare));
   direct.scheduler().set_graph_capture(false);
   std::vector<std::vector<unsigned char>> start;
-  for (auto& f : fields) start.push_back(bytes(captured.state(), f));
+  for (auto& f : fields) start.push_back(test::bytes_of(captured.state(), f));
   for (int k = 0; k < steps; ++k) {
     captured.advance();
     direct.advance();
@@ -72,8 +66,8 @@ void check_captured_equals_direct(const PipelineSpec& s, const Prepare& prepare,
   CHECK(captured.state().time == direct.state().time);
   for (std::size_t k = 0; k < fields.size(); ++k) {
     INFO("field " << fields[k]);
-    const auto a = bytes(captured.state(), fields[k]);
-    const auto b = bytes(direct.state(), fields[k]);
+    const auto a = test::bytes_of(captured.state(), fields[k]);
+    const auto b = test::bytes_of(direct.state(), fields[k]);
     REQUIRE(a.size() == b.size());
     CHECK(std::memcmp(a.data(), b.data(), a.size()) == 0);
     CHECK(std::memcmp(a.data(), start[k].data(), a.size()) != 0);

@@ -8,6 +8,7 @@
 #include "core/run/rollback.h"
 #include "core/run/simulation.h"
 #include "support/backends.h"
+#include "support/fields.h"
 #include "support/spec.h"
 #include "support/test_plugins.h"
 
@@ -106,12 +107,7 @@ TEST_CASE("a snapshot follows fields whose count a migration changed, growing an
     for (std::size_t i = 0; i < p.size(); ++i) p.host<double>()[i] = base + 0.25 * double(i);
     for (std::size_t i = 0; i < img.size(); ++i) img.host<std::int32_t>()[i] = std::int32_t(base) + std::int32_t(i);
   };
-  auto bytes = [&](const char* name) {
-    Field& f = s.field(name);
-    f.acquire(Where::host, Mode::read);
-    const auto* b = static_cast<const unsigned char*>(f.host_raw());
-    return std::vector<unsigned char>(b, b + f.bytes());
-  };
+  auto bytes = [&](const char* name) { return test::bytes_of(s, name); };
   fill(1);
   snap.take(s, nullptr);
   snap.take_before_overwrite(s, fields::image);

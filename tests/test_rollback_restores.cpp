@@ -16,6 +16,7 @@
 #include "core/run/simulation.h"
 #include "support/backends.h"
 #include "support/cli.h"
+#include "support/fields.h"
 #include "support/pipeline.h"
 #include "support/spec.h"
 #include "support/test_plugins.h"
@@ -45,13 +46,6 @@ std::vector<std::size_t> requesters(const Loaded& l, Backend b) {
   for (std::size_t i = 0; i < probe.slots().size(); ++i)
     if (probe.slots()[i].stage->scheduling().may_request_rollback) out.push_back(i);
   return out;
-}
-
-std::vector<unsigned char> bytes_of(Simulation& sim, const char* name) {
-  Field& f = sim.state().field(name);
-  f.acquire(Where::host, Mode::read);
-  const auto* p = static_cast<const unsigned char*>(f.host_raw());
-  return {p, p + f.bytes()};
 }
 
 }  // namespace
@@ -103,7 +97,8 @@ TEST_CASE("step-local fields carry nothing: garbage in them between steps leaves
       }
       scrambled.advance();
     }
-    for (const char* f : {fields::position, fields::image}) CHECK(bytes_of(plain, f) == bytes_of(scrambled, f));
+    for (const char* f : {fields::position, fields::image})
+      CHECK(test::bytes_of(plain.state(), f) == test::bytes_of(scrambled.state(), f));
   }
 }
 

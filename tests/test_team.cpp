@@ -34,6 +34,7 @@
 #include "core/run/simulation.h"
 #include "core/run/team.h"
 #include "support/cli.h"
+#include "support/fields.h"
 #include "support/pipeline.h"
 #include "support/spec.h"
 #include "support/team.h"
@@ -175,10 +176,7 @@ Image image_of(State& s) {
   Image out;
   for (auto& name : s.field_names()) {
     if (name == "delaunay.lawson_candidates" || name == "delaunay.status") continue;
-    Field& f = s.field(name);
-    f.acquire(Where::host, Mode::read);
-    const auto* p = static_cast<const unsigned char*>(f.host_raw());
-    out[name].assign(p, p + f.bytes());
+    out[name] = test::bytes_of(s, name);
   }
   return out;
 }

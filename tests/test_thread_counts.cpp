@@ -15,6 +15,7 @@
 
 #include "core/run/simulation.h"
 #include "support/cli.h"
+#include "support/fields.h"
 #include "support/pipeline.h"
 #include "support/spec.h"
 
@@ -40,12 +41,7 @@ Trace run_with_threads(const test::LoadedPipeline& l, int threads) {
       t.dt.push_back(sim.stats().dt);
     }
     State& s = sim.state();
-    for (const std::string& name : s.field_names()) {
-      Field& f = s.field(name);
-      f.acquire(Where::host, Mode::read);
-      const auto* p = static_cast<const unsigned char*>(f.host_raw());
-      t.fields[name] = {p, p + f.bytes()};
-    }
+    for (const std::string& name : s.field_names()) t.fields[name] = test::bytes_of(s, name);
   });
   return t;
 }

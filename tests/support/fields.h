@@ -1,7 +1,8 @@
-// Field contents on the host for checks: unwrapped positions x + image·L (displacements, MSD)
-// and any real field as doubles.
+// Field contents on the host for checks: unwrapped positions x + image·L (displacements, MSD),
+// any real field as doubles, and any field's bytes (bit-for-bit comparisons).
 #pragma once
 #include <cstdint>
+#include <string>
 #include <vector>
 
 #include "core/stage/state.h"
@@ -28,6 +29,14 @@ inline std::vector<double> values(State& s, const char* name) {
   for (std::size_t i = 0; i < v.size(); ++i)
     v[i] = s.precision() == Precision::f64 ? f.host<double>()[i] : double(f.host<float>()[i]);
   return v;
+}
+
+// A field's bytes, fetched to the host.
+inline std::vector<unsigned char> bytes_of(State& s, const std::string& name) {
+  Field& f = s.field(name);
+  f.acquire(Where::host, Mode::read);
+  const auto* p = static_cast<const unsigned char*>(f.host_raw());
+  return {p, p + f.bytes()};
 }
 
 }  // namespace ff::test
