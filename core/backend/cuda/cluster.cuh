@@ -5,7 +5,6 @@
 #pragma once
 #include <cuda_runtime.h>
 
-#include <atomic>
 #include <cstddef>
 
 #include "core/backend/cuda/check.h"
@@ -43,23 +42,6 @@ inline bool cluster_fits(const void* kernel, int blocks, int threads, std::size_
   int clusters = 0;
   FF_CUDA_CHECK(cudaOccupancyMaxActiveClusters(&clusters, kernel, &cfg), who);
   return clusters >= 1;
-}
-
-// `ask()` (a cluster_fits) on the current device, asked once per device and then remembered in
-// `known` (0 not asked, 1 no, 2 yes): its answer and the non-portable cluster size it allows the
-// kernel belong to that device (cudaFuncSetAttribute acts on the current device), so a run on
-// another GPU (a rank of a team, a sweep's run) asks again. Beyond 64 devices it always asks.
-template <class Ask>
-bool once_per_device(std::atomic<int> (&known)[64], Ask ask) {
-  int dev = 0;
-  FF_CUDA_CHECK(cudaGetDevice(&dev), "the current device");
-  if (dev < 0 || dev >= 64) return ask();
-  int k = known[dev].load(std::memory_order_acquire);
-  if (k == 0) {
-    k = ask() ? 2 : 1;  // (two threads asking at once both allow the size: the same attribute)
-    known[dev].store(k, std::memory_order_release);
-  }
-  return k == 2;
 }
 
 }  // namespace ff

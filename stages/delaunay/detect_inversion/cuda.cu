@@ -1,8 +1,10 @@
 #include <algorithm>
+#include <atomic>
 
 #include "core/backend/cuda/check.h"
 #include "core/backend/cuda/loop.cuh"
 #include "core/backend/cuda/pdl.cuh"
+#include "core/backend/cuda/per_device.cuh"
 #include "stages/delaunay/detect_inversion/stage.h"
 
 namespace ff::delaunay {
@@ -57,12 +59,13 @@ __global__ void __launch_bounds__(kMarkThreads, kMarkBlocks) mark_kernel(std::si
 template <class R>
 void mark_loop(std::size_t n, const MarkInversions<R>& f, CUstream_st* stream) {
   if (n == 0) return;
-  static const int per_sm = [] {
+  static std::atomic<int> known_per_sm[64] = {};  // (the occupancy belongs to the device)
+  const int per_sm = once_per_device(known_per_sm, [] {
     int b = 0;
     FF_CUDA_CHECK(cudaOccupancyMaxActiveBlocksPerMultiprocessor(&b, mark_kernel<R>, kMarkThreads, 0),
                   "sizing delaunay.detect_inversion's marking");
     return b > 0 ? b : 1;
-  }();
+  });
   int device = 0, sms = 0;
   FF_CUDA_CHECK(cudaGetDevice(&device), "sizing delaunay.detect_inversion's marking");
   FF_CUDA_CHECK(cudaDeviceGetAttribute(&sms, cudaDevAttrMultiProcessorCount, device),

@@ -1,9 +1,12 @@
 #include <cooperative_groups.h>
 
+#include <atomic>
+
 #include "core/backend/cuda/check.h"
 #include "core/backend/cuda/cluster.cuh"
 #include "core/backend/cuda/loop.cuh"
 #include "core/backend/cuda/pdl.cuh"
+#include "core/backend/cuda/per_device.cuh"
 #include "stages/delaunay/lawson/stage.h"
 
 namespace ff::delaunay {
@@ -172,10 +175,11 @@ __global__ void __launch_bounds__(kTailThreads) tail_kernel(LawsonTail<R> t) {
 template <class R>
 bool tail_cluster_fits() {
   static std::atomic<int> known[64] = {};
+  // (cluster_fits also allows the kernel the non-portable cluster size, on the current device.)
   return once_per_device(known, [] {
-    return cluster_fits(reinterpret_cast<const void*>(tail_kernel<R, kTailCluster>), kTailCluster, kTailThreads, 0,
-                        "delaunay.lawson: the tail's cluster");
-  });
+           return int(cluster_fits(reinterpret_cast<const void*>(tail_kernel<R, kTailCluster>), kTailCluster,
+                                   kTailThreads, 0, "delaunay.lawson: the tail's cluster"));
+         }) != 0;
 }
 
 // Whether the tail's rounds on a mesh of so many edges run on the cluster.
