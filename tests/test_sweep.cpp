@@ -315,6 +315,24 @@ TEST_CASE("sweep: --concurrent 2, in processes or threads, gives the same output
   CHECK_THAT(t.out, Catch::Contains("on threads of this process"));
   require_same_sweep(threads, reference_sweep());
   fs::remove_all(threads);
+  // Each run's messages go to its own run.log, as a child process's would: here observe.progress's
+  // lines (every 20 steps, no interval), which before went to the sweep's stderr, interleaved.
+  const fs::path progress = fresh_dir("in_process_progress");
+  auto p = require_success(pipeline(sweep_args(progress, {"step.observe.progress.every=20", "step.observe.progress.interval=0"}) +
+                                    " --concurrent 2 --in-process"));
+  CHECK_THAT(p.out, !Catch::Contains("step 40/60"));
+  std::size_t logs = 0;
+  for (auto& row : read_index(progress / "index.csv")) {
+    const std::string log = file_text(progress / row.at("folder") / "run.log");
+    INFO(row.at("folder") << "/run.log:\n" << log);
+    CHECK_THAT(log, Catch::Contains("step 20/60") && Catch::Contains("step 40/60") && Catch::Contains("done: 60 steps"));
+    // In order: the run's start line (run_pipeline's log), its progress (the stage), its end.
+    CHECK(log.find("flipflow: ") < log.find("step 20/60"));
+    CHECK(log.find("step 40/60") < log.find("done: 60 steps"));
+    ++logs;
+  }
+  CHECK(logs == 8);
+  fs::remove_all(progress);
 }
 
 TEST_CASE("sweep: killed (SIGKILL) or stopped (SIGTERM) mid-way and run again, it finishes with the same outputs",

@@ -491,7 +491,7 @@ H5mdWriter::~H5mdWriter() {
   try {
     close(false);
   } catch (const std::exception& e) {
-    std::fprintf(stderr, "flipflow: closing '%s' failed: %s\n", partial_path().c_str(), e.what());
+    std::fprintf(messages_, "flipflow: closing '%s' failed: %s\n", partial_path().c_str(), e.what());
   }
 }
 
@@ -591,14 +591,14 @@ void H5mdWriter::close(bool completed) {
     const std::uintmax_t size = std::filesystem::file_size(partial, ec);
     if (!ec && size < want) std::filesystem::resize_file(partial, want, ec);
     if (ec)
-      std::fprintf(stderr, "flipflow: cannot extend '%s' after the failed write (%s); HDF5 may refuse to open it\n",
+      std::fprintf(messages_, "flipflow: cannot extend '%s' after the failed write (%s); HDF5 may refuse to open it\n",
                    partial.c_str(), ec.message().c_str());
   }
   if (!closed)
     throw RunError("closing the H5MD file '" + partial + "' failed: " + hdf5_error() +
                    "; the partial trajectory is kept at '" + partial + "'");
   if (!completed) {
-    std::fprintf(stderr, "flipflow: the run did not complete; the partial trajectory is kept at '%s'\n",
+    std::fprintf(messages_, "flipflow: the run did not complete; the partial trajectory is kept at '%s'\n",
                  partial.c_str());
     return;
   }

@@ -32,7 +32,7 @@
 //
 // Nothing half-written: the file is created as `<path>.partial` and flushed after every frame
 // (flush()), so a killed run leaves a readable partial file; close(true) renames it to `path`,
-// close(false) keeps the .partial and says so on stderr. A write that fails (a full disk)
+// close(false) keeps the .partial and says so (on stderr, or where report_to says). A write that fails (a full disk)
 // throws RunError naming the file; close() then extends the file by a hole to the space HDF5
 // had claimed, so the frames flushed before stay readable.
 //
@@ -40,6 +40,7 @@
 #pragma once
 #include <cstddef>
 #include <cstdint>
+#include <cstdio>
 #include <memory>
 #include <string>
 #include <utility>
@@ -81,6 +82,10 @@ class H5mdWriter {
   const std::string& path() const { return path_; }
   std::string partial_path() const { return path_ + ".partial"; }
   bool is_open() const { return impl_ != nullptr; }
+  // Where the writer's messages to the user go (what a failed run kept): stderr unless told
+  // (observe.h5md passes its run's RunInfo::messages).
+  void report_to(std::FILE* messages) { messages_ = messages; }
+  std::FILE* messages() const { return messages_; }
 
   // /particles/all/species, once. `names` are stored as an attribute (index -> name).
   void write_species(const std::int32_t* species, std::size_t n, const std::vector<std::string>& names);
@@ -103,7 +108,7 @@ class H5mdWriter {
   void flush();
 
   // Close the file. completed: rename the .partial to path() (RunError if that fails, the
-  // .partial is kept). Not completed: keep the .partial and print where it is on stderr.
+  // .partial is kept). Not completed: keep the .partial and print where it is (messages()).
   void close(bool completed);
 
  private:
@@ -111,6 +116,7 @@ class H5mdWriter {
   H5mdWriter() = default;
   std::string path_;
   std::unique_ptr<Impl> impl_;
+  std::FILE* messages_ = stderr;
 };
 
 // Whether this process's HDF5 library may be called from several threads at once (a thread-safe

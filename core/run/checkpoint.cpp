@@ -5,7 +5,6 @@
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
-#include <iostream>
 #include <map>
 #include <set>
 #include <sstream>
@@ -291,12 +290,10 @@ ResumePoint find_resume_point(const std::string& where) {
       rp.data = read_checkpoint_file(rp.path);
       return rp;
     } catch (const InputError& e) {
-      rp.skipped.push_back(e.what());
       const fs::path bad = path.string() + ".invalid";
       std::error_code ec;
       fs::rename(path, bad, ec);
-      std::cerr << "flipflow: warning: " << e.what() << "; skipped (renamed to " << bad.filename().string()
-                << "), trying the previous checkpoint\n";
+      rp.skipped.push_back(std::string(e.what()) + (ec ? "" : " (renamed to " + bad.filename().string() + ")"));
     }
   }
   std::string why;

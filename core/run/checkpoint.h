@@ -75,7 +75,9 @@ class Checkpointer {
 struct ResumePoint {
   std::string path;
   CheckpointData data;
-  std::vector<std::string> skipped;  // newer checkpoints refused, with why (renamed *.invalid)
+  // Newer checkpoints refused, with why (renamed *.invalid): the caller warns of each
+  // (`pipeline run` in its log, which is its run.log in an in-process sweep).
+  std::vector<std::string> skipped;
 };
 // `where` is a checkpoint file (used as it is; InputError if it is not valid) or an output
 // directory: its newest valid checkpoint, skipping (and renaming to <name>.invalid, with a

@@ -60,7 +60,7 @@ void Simulation::build(const Registry& registry) {
     StageSlot& slot = slots_[i];
     slot.info = RunInfo{state_->dim(), spec_.run.precision, options_.backend, spec_.run.seed, spec_.run.steps,
                         spec_.run.dt,  options_.out_dir,    spec_.file,       e.id,  options_.record,
-                        options_.team};
+                        options_.team, options_.messages};
     slot.rng = make_rng_key(spec_.run.seed, e.id.c_str());
     try {
       slot.stage = registry.create(e.stage, options_.backend, e.params, slot.info);

@@ -3,6 +3,7 @@
 // tests all drive this class.
 #pragma once
 #include <cstdint>
+#include <cstdio>
 #include <functional>
 #include <memory>
 #include <optional>
@@ -40,6 +41,9 @@ struct RunOptions {
   // ranks agree on every rollback and Δt limit by an all-reduce, and observers (hence every
   // output) exist on rank 0 only. Null: alone.
   Communicator* team = nullptr;
+  // Where the stages' messages go (RunInfo::messages): stderr, or the run's log in a process of
+  // several runs.
+  std::FILE* messages = stderr;
 };
 
 class Simulation {

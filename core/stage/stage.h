@@ -5,6 +5,7 @@
 // stages include it.
 #pragma once
 #include <cstdint>
+#include <cstdio>
 #include <limits>
 #include <map>
 #include <set>
@@ -128,6 +129,10 @@ struct RunInfo {
   // the run is alone. A stage whose Scheduling::team is TeamWork::split divides its work through
   // it; in a decomposed team the core does every exchange (TeamWork).
   Communicator* team = nullptr;
+  // Where the run's messages to its user go (progress lines, warnings, what a failed run kept):
+  // stderr, or the run's own log when it shares its process with other runs (`pipeline sweep
+  // --in-process` gives each run its run.log), so that no run's lines land among another's.
+  std::FILE* messages = stderr;
 };
 
 // Whole-run observables the core keeps (observe stages write them out).

@@ -131,11 +131,13 @@ int run_rank(const RunRequest& req, const Loaded& loaded, Backend backend, std::
   RunOptions options{backend, out, req.force, loaded.text};
   options.check_rollbacks = req.check_rollbacks;
   options.team = team;
+  options.messages = req.messages;
   std::unique_ptr<Simulation> sim;
   std::string history;
   std::unique_lock<std::mutex> setting_up(setup);
   if (req.resuming) {
     ResumePoint rp = find_resume_point(resume_where.empty() ? out : resume_where);
+    for (auto& s : rp.skipped) log << "flipflow: warning: skipped a checkpoint: " << s << "\n";
     const PipelineChanges changes = compare_with_checkpoint(rp.data, spec);
     if (!changes.structure.empty())
       throw InputError("cannot resume from '" + rp.path + "': the pipeline's structure differs from the run's:" +

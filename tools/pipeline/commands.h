@@ -1,5 +1,6 @@
 #pragma once
 #include <atomic>
+#include <cstdio>
 #include <functional>
 #include <ostream>
 #include <string>
@@ -25,6 +26,9 @@ struct RunRequest {
   // Launch every step's work directly, never from a captured CUDA graph (same bits): for runs
   // sharing a process, where a device-wide wait of one would break another's capture.
   bool no_graph_capture = false;
+  // Where the run's stages write their messages (RunInfo::messages): stderr, or, for a run of an
+  // in-process sweep, the C stream behind its `log` (its run.log), so the lines stay in order.
+  std::FILE* messages = stderr;
 };
 
 // Runs one pipeline as `pipeline run` does, writing its messages to `log`. When `stop` becomes

@@ -11,9 +11,8 @@
 //  - a CUDA error such as an illegal address is sticky for the whole context: one bad run ends
 //    all K;
 //  - `pipeline run` sets process-wide state: the oneTBB thread limit (tbb::global_control), the
-//    SIGINT/SIGTERM handlers that make it write a checkpoint; stages print to the process's
-//    stderr (observe.progress); stages and plugins were never required to be safe to create and
-//    run from several threads at once.
+//    SIGINT/SIGTERM handlers that make it write a checkpoint; stages and plugins were never
+//    required to be safe to create and run from several threads at once.
 // A child process has none of these problems, has its own log file, and is what `pipeline run
 // --resume` already continues. The price: without CUDA MPS, processes sharing a GPU time-slice
 // it instead of running their kernels side by side (measured before this command: two
@@ -31,6 +30,8 @@
 // and the run's scheduler keeps that device for its stages (Scheduler::run_node). There no run captures its step into a CUDA graph (the same bits,
 // launched directly: the core's Scheduler::set_graph_capture), so another run's device-wide
 // wait cannot break a capture; the outputs are those of `--concurrent 1` (tests/test_sweep.cpp, on the CPU).
+// Each run's messages, its stages' included (RunInfo::messages: progress lines, warnings), go to
+// its run.log as a child's would.
 // One failing run's sticky CUDA error would still end the others. Which of the two fills an H100
 // better is measured by bench/sweep_abp.sh.
 //
@@ -47,7 +48,9 @@
 #include <atomic>
 #include <boost/dll/runtime_symbol_info.hpp>
 #include <chrono>
+#include <cerrno>
 #include <csignal>
+#include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <fstream>
@@ -55,6 +58,7 @@
 #include <iostream>
 #include <memory>
 #include <sstream>
+#include <streambuf>
 #include <thread>
 
 #include "core/backend/device.h"
@@ -298,8 +302,28 @@ void RunScheduler::launch(std::size_t i, int gpu, bool restart) {
   if (cuda_) ++runs_on_gpu_[gpu];
 }
 
-// The run as run_pipeline on a thread, its messages appended to its run.log; its exit code as
-// `pipeline run`'s (main.cpp) lands in active.thread_exit.
+// An ostream's buffer writing into a C stream: run_pipeline's log and the run's stages
+// (RunInfo::messages) write into run.log through one FILE, so their lines keep their order.
+class CFileBuf final : public std::streambuf {
+ public:
+  explicit CFileBuf(std::FILE* f) : f_(f) {}
+
+ protected:
+  int_type overflow(int_type c) override {
+    if (traits_type::eq_int_type(c, traits_type::eof())) return traits_type::not_eof(c);
+    return std::fputc(c, f_) == EOF ? traits_type::eof() : c;
+  }
+  std::streamsize xsputn(const char* s, std::streamsize n) override {
+    return std::streamsize(std::fwrite(s, 1, std::size_t(n), f_));
+  }
+  int sync() override { return std::fflush(f_) == 0 ? 0 : -1; }
+
+ private:
+  std::FILE* f_;
+};
+
+// The run as run_pipeline on a thread, its messages and its stages' appended to its run.log; its
+// exit code as `pipeline run`'s (main.cpp) lands in active.thread_exit.
 void RunScheduler::start_thread(ActiveRun& active, const Run& r, int gpu, const fs::path& dir, const fs::path& log,
                              bool resume) const {
   RunRequest req;
@@ -313,9 +337,18 @@ void RunScheduler::start_thread(ActiveRun& active, const Run& r, int gpu, const 
   req.no_graph_capture = cuda_ && s_.runs_at_once > 1;
   active.thread_exit = std::make_shared<std::atomic<int>>(-1);
   const int device = cuda_ ? std::stoi(s_.gpus[gpu]) : -1;  // (in-process: ordinals, cmd_sweep.cpp)
-  active.thread = std::make_shared<std::thread>([req, log, device, exit = active.thread_exit] {
-    std::ofstream out(log, std::ios::app);
+  active.thread = std::make_shared<std::thread>([req, log, device, exit = active.thread_exit]() mutable {
     int rc = 1;
+    std::FILE* file = std::fopen(log.c_str(), "a");
+    if (!file) {  // (the sweep wrote its first line there just before: a full disk, a removed folder)
+      std::fprintf(stderr, "flipflow: sweep: cannot open '%s': %s\n", log.c_str(), std::strerror(errno));
+      exit->store(rc);
+      return;
+    }
+    std::setvbuf(file, nullptr, _IOLBF, 1 << 14);  // a line at a time: `tail -f run.log` follows the run
+    CFileBuf buf(file);
+    std::ostream out(&buf);
+    req.messages = file;
     try {
       if (device >= 0) use_cuda_device(device);  // everything the run makes lives on its GPU
       rc = run_pipeline(req, out, g_stop);
@@ -326,6 +359,7 @@ void RunScheduler::start_thread(ActiveRun& active, const Run& r, int gpu, const 
       out << "run failed: " << e.what() << "\n";
     }
     out.flush();
+    std::fclose(file);
     exit->store(rc);
   });
 }

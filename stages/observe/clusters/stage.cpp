@@ -443,7 +443,7 @@ Outcome Clusters::run(StepContext& ctx) {
     ++fallbacks_;
     if (!warned_) {
       warned_ = true;
-      std::fprintf(stderr,
+      std::fprintf(info_.messages,
                    "flipflow: observe.clusters: step %llu: the %s pairs could not be trusted for this frame (%s); "
                    "its own cell list was used (column `fallback` of %s; not repeated)\n",
                    static_cast<unsigned long long>(ctx.host_params.step), p_.pairs.c_str(), why.c_str(),
@@ -514,7 +514,7 @@ void Clusters::write_csv(const std::string& name, const std::string& header,
   out.close();
   if (!out) throw RunError("observe.clusters: writing '" + partial + "' failed");
   if (!completed) {
-    std::fprintf(stderr, "flipflow: the run did not complete; observe.clusters kept what it had at '%s'\n",
+    std::fprintf(info_.messages, "flipflow: the run did not complete; observe.clusters kept what it had at '%s'\n",
                  partial.c_str());
     return;
   }

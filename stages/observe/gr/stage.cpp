@@ -195,7 +195,7 @@ void Gr::finish(State&, bool completed) {
   out.close();
   if (!out) throw RunError("observe.gr: writing '" + partial + "' failed");
   if (!completed) {
-    std::fprintf(stderr, "flipflow: the run did not complete; g(r) so far is kept at '%s'\n", partial.c_str());
+    std::fprintf(info_.messages, "flipflow: the run did not complete; g(r) so far is kept at '%s'\n", partial.c_str());
     return;
   }
   std::error_code ec;

@@ -5,7 +5,7 @@
 namespace ff::observe {
 
 AsyncFrameWriter::AsyncFrameWriter(std::unique_ptr<H5mdWriter> writer, std::size_t depth)
-    : writer_(std::move(writer)), depth_(depth < 1 ? 1 : depth) {
+    : writer_(std::move(writer)), messages_(writer_->messages()), depth_(depth < 1 ? 1 : depth) {
   thread_ = std::thread([this] { loop(); });
 }
 
@@ -14,7 +14,7 @@ AsyncFrameWriter::~AsyncFrameWriter() {
   try {
     close(false);
   } catch (const std::exception& e) {
-    std::fprintf(stderr, "flipflow: %s\n", e.what());
+    std::fprintf(messages_, "flipflow: %s\n", e.what());
   }
 }
 

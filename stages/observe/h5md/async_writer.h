@@ -38,6 +38,7 @@ class AsyncFrameWriter {
   void rethrow_locked() const;
 
   std::unique_ptr<H5mdWriter> writer_;
+  std::FILE* const messages_;  // the writer's (H5mdWriter::messages), kept for the destructor
   const std::size_t depth_;
   std::mutex mutex_;
   std::condition_variable changed_;

@@ -105,6 +105,7 @@ void H5mdObserver::open(const State& state) {
   for (auto& o : rec.overrides) overrides += o + "\n";
   h.texts.emplace_back("overrides", overrides);
   auto w = std::make_unique<H5mdWriter>(path(), h);
+  w->report_to(info_.messages);
   w->write_species(state.field(fields::type).host<std::int32_t>(), state.n(), state.species);
   for (std::size_t i = 0; i < p_.fields.size(); ++i) {
     if (connectivity_[i]) continue;  // created with its first frame
@@ -166,6 +167,7 @@ void H5mdObserver::restore_state(const StageState&, State& state) {
       {"effective_pipeline", rec.effective_pipeline}};
   auto w = H5mdWriter::reopen(path(), std::int64_t(state.step), history);
   if (!w) return;  // the run that wrote the checkpoint had written no frame yet: open() at the first
+  w->report_to(info_.messages);
   for (std::size_t i = 0; i < p_.fields.size(); ++i) {
     if (connectivity_[i] || w->has_particle_element(p_.fields[i])) continue;
     const Field& f = state.field(p_.fields[i]);
@@ -188,7 +190,7 @@ void H5mdObserver::finish(State& state, bool completed) {
     w->close(completed);
   } catch (const std::exception& e) {
     if (completed) throw;
-    std::fprintf(stderr, "flipflow: observe.h5md: %s\n", e.what());  // the run already failed
+    std::fprintf(info_.messages, "flipflow: observe.h5md: %s\n", e.what());  // the run already failed
   }
 }
 

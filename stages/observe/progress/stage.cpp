@@ -33,7 +33,7 @@ std::string format_progress(const ProgressLine& p) {
 }
 
 Progress::Progress(ProgressParams p, RunInfo info, std::FILE* out)
-    : p_(p), info_(std::move(info)), out_(out), tty_(isatty(fileno(out)) != 0) {}
+    : p_(p), info_(std::move(info)), out_(out ? out : info_.messages), tty_(isatty(fileno(out_)) != 0) {}
 
 Outcome Progress::run(StepContext& ctx) {
   const Clock::time_point now = Clock::now();

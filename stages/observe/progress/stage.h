@@ -19,7 +19,7 @@ struct ProgressParams {
 
   template <class P>
   void describe(P& p) {
-    p(interval, "interval", "seconds between progress lines when stderr is not a terminal").at_least(0);
+    p(interval, "interval", "seconds between progress lines when the output is not a terminal").at_least(0);
   }
 };
 
@@ -45,10 +45,11 @@ class Progress final : public Stage {
             schema_of<ProgressParams>(), {2, 3}, true};
   }
 
-  // Host-only (reads no fields): the same on every backend. Lines go to stderr.
+  // Host-only (reads no fields): the same on every backend. Lines go to the run's messages
+  // (RunInfo::messages: stderr, or a run.log of an in-process sweep).
   Progress(const ParamValues& v, const RunInfo& info) : Progress(params_from<ProgressParams>(v), info) {}
-  // `out` is where lines go (stderr in a run; tests pass a file).
-  Progress(ProgressParams p, RunInfo info, std::FILE* out = stderr);
+  // `out` is where lines go (null: info.messages; tests pass a file).
+  Progress(ProgressParams p, RunInfo info, std::FILE* out = nullptr);
 
   std::vector<Access> accesses() const override { return {}; }
   Outcome run(StepContext& ctx) override;
