@@ -63,6 +63,10 @@ class Domain final : public GhostExchange {
          Backend backend, bool fill_gap = false);
   ~Domain() override;
 
+  // Whether fill vertices close the gap beyond the band: the team triangulates (the Delaunay
+  // pipelines, whose team path still does host work every step: docs/multi-gpu.md).
+  bool fills_gap() const { return fill_gap_; }
+
   // Before the step's snapshot: migrate when due, else refresh the ghosts. Every rank calls it.
   void begin_step(State& state);
 

@@ -177,6 +177,11 @@ int run_rank(const RunRequest& req, const Loaded& loaded, Backend backend, std::
         << (backend == Backend::cuda ? " on GPUs 0-" + std::to_string(team->size() - 1) + ", " + nccl_description()
                                      : " (CPU threads)")
         << "; rank 0 writes the outputs\n";
+  if (team && sim->domain() && sim->domain()->fills_gap())
+    log << "flipflow: warning: a decomposed team of the Delaunay stages is correct but not yet faster than one "
+           "rank: each step does host work (band measures, the correction's team loop, CGAL at every migration; "
+           "docs/multi-gpu.md, \"What remains\"). Measured: 4.2 steps/s for bench-abp at N = 262 144 on two H200s, "
+           "~3 400 on one\n";
 
   if (req.no_graph_capture) sim->scheduler().set_graph_capture(false);
   // Rank 0 alone writes checkpoints (every rank holds the same state); a decomposed team none
