@@ -148,13 +148,25 @@ struct ApplyMarked {
   // it, or e itself when it lost) to out and returns how many. Two elements may list the same
   // edge: the caller keeps each once (`queued`).
   FF_HD int flip_and_list(int e, int out[4]) const {
-    // e's records are read before its decision (not after): both loads wait on the list entry
-    // only, so a winner's chain of dependent loads is one shorter (latency-bound on the device).
+#if defined(__CUDA_ARCH__)
+    // On the device e's records are read before its decision (not after): both loads wait on the
+    // list entry only, so a winner's chain of dependent loads is one shorter (latency-bound). A
+    // losing e's records may be written meanwhile by a neighbouring winner's flip; its value is
+    // then not used (a word access on the device is atomic).
     const int h0n = mesh.next(2 * e), h1n = mesh.next(2 * e + 1);
     if (!go[e]) {
       out[0] = e;
       return 1;
     }
+#else
+    // On the host after it: that early read of a loser's records would race (C++: undefined) with
+    // the winner's plain stores, even with the value discarded. The same flips either way.
+    if (!go[e]) {
+      out[0] = e;
+      return 1;
+    }
+    const int h0n = mesh.next(2 * e), h1n = mesh.next(2 * e + 1);
+#endif
     out[0] = h0n >> 1;
     out[1] = mesh.next(h0n) >> 1;
     out[2] = h1n >> 1;
