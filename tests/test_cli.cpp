@@ -4,6 +4,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <set>
 
 #include "support/backends.h"
 #include "support/cli.h"
@@ -53,6 +54,54 @@ TEST_CASE("pipeline run writes a valid H5MD file; a second run needs --force", "
   CHECK_THAT(again.out, Catch::Contains("exists; use --force"));
   CHECK(run(base + " --force").code == 0);
   fs::remove_all(out);
+}
+
+TEST_CASE("pipeline run: a fresh run refuses an earlier run's checkpoints and kept .partial; --force removes them",
+          "[cli]") {
+  // Before: a fresh run in such a folder pruned its own checkpoints by step against the earlier
+  // run's, and a later --resume continued the earlier run's newest (a trajectory with a gap).
+  const fs::path out = fresh_dir("earlier");
+  const std::string common = "run " + repo_file("pipelines/brownian.yaml").string() +
+                             " --device cpu --set system.N=200 --set 'run.checkpoint={every: 100}' --out " + out.string();
+  require_success(run(common + " --set run.steps=300"));
+  auto names = [&] {
+    std::set<std::string> n;
+    for (auto& e : fs::directory_iterator(out))
+      if (e.path().filename().string().rfind("checkpoint-", 0) == 0) n.insert(e.path().filename().string());
+    return n;
+  };
+  REQUIRE(names() == std::set<std::string>{"checkpoint-000000000200.h5", "checkpoint-000000000300.h5"});
+  // As an interrupted run leaves it: the trajectory kept as .partial, its checkpoints.
+  fs::rename(out / "trajectory.h5", out / "trajectory.h5.partial");
+  auto refused = run(common + " --set run.steps=150");
+  INFO(refused.out);
+  CHECK(refused.code == 2);
+  CHECK_THAT(refused.out, Catch::Contains("holds checkpoints of an earlier run (checkpoint-000000000300.h5 and 1 more)") &&
+                              Catch::Contains("--resume"));
+  CHECK(names().size() == 2);  // nothing removed without --force
+  for (auto& n : names()) fs::remove(out / n);
+  auto kept = run(common + " --set run.steps=150");
+  INFO(kept.out);
+  CHECK(kept.code == 2);
+  CHECK_THAT(kept.out, Catch::Contains("trajectory.h5.partial' exists, kept by a run that did not finish"));
+  // --force: the earlier checkpoints go, the new run's are all that --resume sees.
+  require_success(run(common + " --set run.steps=300 --force"));  // the earlier run again: checkpoints 200, 300
+  fs::rename(out / "trajectory.h5", out / "trajectory.h5.partial");
+  require_success(run(common + " --set run.steps=150 --force"));
+  CHECK(names() == std::set<std::string>{"checkpoint-000000000100.h5", "checkpoint-000000000150.h5"});
+  auto resumed = run(common + " --set run.steps=200 --resume");
+  INFO(resumed.out);
+  CHECK(resumed.code == 0);
+  CHECK_THAT(resumed.out, Catch::Contains("at step 150"));
+  fs::remove_all(out);
+}
+
+TEST_CASE("pipeline run: two steps writing one file are refused, naming both", "[cli]") {
+  auto r = run("validate " + repo_file("pipelines/hard-disks.yaml").string() + " --set step.observe.gr.file=trajectory.h5");
+  INFO(r.out);
+  CHECK(r.code == 2);
+  CHECK_THAT(r.out, Catch::Contains("writes 'trajectory.h5', which step 'observe.gr'") &&
+                        Catch::Contains("give one of them another file name"));
 }
 
 TEST_CASE("pipeline validate: good file exits 0, broken file exits 2 with file:line:column", "[cli]") {

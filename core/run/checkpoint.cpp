@@ -268,6 +268,12 @@ void Checkpointer::prune() const {
   }
 }
 
+std::vector<std::string> checkpoint_files(const std::string& dir) {
+  std::vector<std::string> out;
+  for (auto& [step, path] : checkpoints_in(dir)) out.push_back(path.string());
+  return out;
+}
+
 // ---- resuming ---------------------------------------------------------------------------
 
 ResumePoint find_resume_point(const std::string& where) {

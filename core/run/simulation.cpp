@@ -23,6 +23,7 @@ Simulation::Simulation(const PipelineSpec& spec, const Registry& registry, RunOp
                        std::unique_ptr<State> state)
     : spec_(spec), options_(std::move(options)), state_(std::move(state)) {
   build(registry);
+  check_output_names();
   if (!options_.dry_run) prepare_outputs();
 }
 
@@ -343,6 +344,21 @@ std::vector<std::string> Simulation::scratch_fields() const {
   });
 }
 
+void Simulation::check_output_names() const {
+  // Two stages writing one file would replace each other's output (or rename it away).
+  std::vector<std::pair<fs::path, std::size_t>> seen;  // (file, the step writing it)
+  for (std::size_t i = 0; i < slots_.size(); ++i)
+    for (auto& o : slots_[i].stage->outputs()) {
+      const fs::path p = fs::path(o).lexically_normal();
+      for (auto& [other, j] : seen)
+        if (other == p)
+          throw InputError(spec_.step[i].where.str() + ": step '" + spec_.step[i].id + "' writes '" + o +
+                           "', which step '" + spec_.step[j].id + "' (" + spec_.step[j].where.str() +
+                           ") writes too: give one of them another file name");
+      seen.push_back({p, i});
+    }
+}
+
 void Simulation::prepare_outputs() {
   std::vector<std::string> outputs;
   for (auto& s : slots_)
@@ -351,8 +367,13 @@ void Simulation::prepare_outputs() {
   if (options_.out_dir.empty()) throw InputError("this pipeline writes files but no output directory was given (--out)");
   for (auto& o : outputs) {
     const fs::path p = fs::path(options_.out_dir) / o;
-    if (fs::exists(p) && !options_.force && !options_.resume)
+    if (options_.force || options_.resume) continue;
+    if (fs::exists(p))
       throw InputError("output '" + p.string() + "' exists; use --force to overwrite it or --out to write elsewhere");
+    // What an unfinished run kept (its outputs are written as NAME.partial until they are complete).
+    if (fs::exists(p.string() + ".partial"))
+      throw InputError("output '" + p.string() + ".partial' exists, kept by a run that did not finish; use --resume "
+                       "to continue that run, --force to overwrite it, or --out to write elsewhere");
   }
   std::error_code ec;
   fs::create_directories(options_.out_dir, ec);

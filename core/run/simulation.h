@@ -117,6 +117,7 @@ class Simulation {
   bool observer_due(std::uint64_t step) const;
   void reduce_metrics();
   void make_snapshot();
+  void check_output_names() const;  // InputError: two steps writing one file
   void prepare_outputs();
   void collect_metrics(int node);
   void observe(double dt);

@@ -132,6 +132,14 @@ int run_rank(const RunRequest& req, const Loaded& loaded, Backend backend, std::
   options.check_rollbacks = req.check_rollbacks;
   options.team = team;
   options.messages = req.messages;
+  // A fresh run among an earlier run's checkpoints would mix the two: its own checkpoints would
+  // be pruned by step against the older ones, and a later --resume would continue the newest,
+  // the earlier run's. Refused, or with --force removed once the run is set up (below).
+  const std::vector<std::string> earlier = req.resuming || !lead ? std::vector<std::string>{} : checkpoint_files(out);
+  if (!earlier.empty() && !req.force)
+    throw InputError("'" + out + "' holds checkpoints of an earlier run (" + fs::path(earlier.front()).filename().string() +
+                     (earlier.size() > 1 ? " and " + std::to_string(earlier.size() - 1) + " more" : "") +
+                     "); use --resume to continue it, --force to start over (removes them), or --out to write elsewhere");
   std::unique_ptr<Simulation> sim;
   std::string history;
   std::unique_lock<std::mutex> setting_up(setup);
@@ -168,6 +176,11 @@ int run_rank(const RunRequest& req, const Loaded& loaded, Backend backend, std::
     sim = std::make_unique<Simulation>(spec, *loaded.registry, options);
   }
   setting_up.unlock();
+  for (auto& f : earlier) {
+    std::error_code ec;
+    fs::remove(f, ec);
+    if (ec) throw RunError("--force: cannot remove the earlier run's checkpoint '" + f + "': " + ec.message());
+  }
   log << "flipflow: " << req.file << " — " << spec.system.dimensions << "D, N = " << spec.system.N << ", "
       << spec.run.steps << " steps of Δt = " << spec.run.dt << ", " << to_string(spec.run.precision) << " on "
       << to_string(backend) << (backend == Backend::cuda ? " (" + device + ")" : "") << ", output in " << out
