@@ -93,6 +93,19 @@ TEST_CASE("pipeline run: a fresh run refuses an earlier run's checkpoints and ke
   INFO(resumed.out);
   CHECK(resumed.code == 0);
   CHECK_THAT(resumed.out, Catch::Contains("at step 150"));
+  // The trajectory gone (moved away): the resumed run starts a new file at the checkpoint, warns,
+  // and the file records where it starts.
+  fs::remove(out / "trajectory.h5");
+  auto lost = run(common + " --set run.steps=300 --resume");
+  INFO(lost.out);
+  CHECK(lost.code == 0);
+  CHECK_THAT(lost.out, Catch::Contains("neither") && Catch::Contains("a new file starts at step 200"));
+  const std::string starts =
+      "/usr/bin/python3 -c \"import h5py,sys; f=h5py.File(sys.argv[1],'r'); a=f['parameters'].attrs; "
+      "assert a['first_step'] in ('200', b'200'), a['first_step']; "
+      "assert list(f['particles/all/position/step'][:])==[300], list(f['particles/all/position/step'][:])\" " +
+      (out / "trajectory.h5").string();
+  if (ff::test::can_check_h5md("where a resumed run's new file starts")) CHECK(std::system(starts.c_str()) == 0);
   fs::remove_all(out);
 }
 

@@ -91,6 +91,12 @@ void H5mdObserver::open(const State& state) {
                       {"steps", std::to_string(info_.steps)},
                       {"dt", exact(info_.dt)},
                       {"stage_id", info_.stage_id}};
+  // A file begun by a resumed run (restore_state found neither it nor its .partial): it starts
+  // at the checkpoint, and says so.
+  if (!rec.resumed_from.empty()) {
+    h.run_attributes.push_back({"resumed_from", rec.resumed_from});
+    h.run_attributes.push_back({"first_step", std::to_string(rec.resume_step)});
+  }
   // What produced the run (version, commit, device, ...), unless named above already.
   for (auto& kv : rec.attributes) {
     bool named = false;
@@ -166,7 +172,16 @@ void H5mdObserver::restore_state(const StageState&, State& state) {
       {"overrides", overrides},
       {"effective_pipeline", rec.effective_pipeline}};
   auto w = H5mdWriter::reopen(path(), std::int64_t(state.step), history);
-  if (!w) return;  // the run that wrote the checkpoint had written no frame yet: open() at the first
+  if (!w) {
+    // Neither the file nor its .partial: moved away (a damaged file, as reopen's error advises)
+    // or lost. open() starts a new one at the next frame, recording where it starts.
+    std::fprintf(info_.messages,
+                 "flipflow: warning: observe.h5md: neither '%s' nor its .partial exists; a new file starts at step "
+                 "%llu (the frames before the checkpoint are not in it: its /parameters attributes resumed_from and "
+                 "first_step say so)\n",
+                 path().c_str(), static_cast<unsigned long long>(state.step));
+    return;
+  }
   w->report_to(info_.messages);
   for (std::size_t i = 0; i < p_.fields.size(); ++i) {
     if (connectivity_[i] || w->has_particle_element(p_.fields[i])) continue;
