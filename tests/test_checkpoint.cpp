@@ -343,7 +343,18 @@ TEST_CASE("checkpoint: SIGTERM finishes the step, writes a checkpoint, exits 3; 
     CHECK_THAT(text, Catch::Contains("stopped by SIGTERM"));
     REQUIRE(checkpoints(out).size() == 1);
     CHECK(fs::exists(out / (c.h5 + ".partial")));
-    resumed = require_success(pipeline(run_args(c, out, steps) + " --resume")).out;
+    // Continued with the command the run printed, as a user would paste it: it must carry the
+    // run's --set arguments (N, the steps, ...), which a continuation needs.
+    const std::string hint = "continue with: pipeline ";
+    const std::size_t at = text.find(hint);
+    REQUIRE(at != std::string::npos);
+    const std::string command = text.substr(at + hint.size(), text.find('\n', at) - at - hint.size());
+    CHECK_THAT(command, Catch::Contains("--set run.steps=" + std::to_string(steps)) && Catch::Contains("--resume"));
+    // (pipeline() adds --device and --threads itself: the hint's own are left out.)
+    std::string pasted = command;
+    const std::size_t device = pasted.find(" --device "), resume = pasted.find(" --resume ");
+    if (device != std::string::npos && device < resume) pasted.erase(device, resume - device);
+    resumed = require_success(pipeline(pasted)).out;
   }
   INFO("the resumed run said:\n" << resumed);
   require_same_h5md(ref / c.h5, out / c.h5);

@@ -109,6 +109,33 @@ TEST_CASE("pipeline run: a fresh run refuses an earlier run's checkpoints and ke
   fs::remove_all(out);
 }
 
+TEST_CASE("pipeline bench and run refuse counts and sizes that are not whole numbers in range", "[cli]") {
+  const std::string bench = "bench " + repo_file("pipelines/brownian.yaml").string() + " --device cpu --results " +
+                            fresh_dir("bench_results").string();
+  // Before: "64abc" ran N = 64, "2^70" ran N = 64, "-64" wrapped, and --steps -1 ran for ever.
+  for (const char* bad : {"64abc", "2^70", "-64", "0", "1e3", "2^", "64,,128"}) {
+    auto r = run(bench + " --sizes '" + bad + "' --steps 1");
+    INFO("--sizes '" << bad << "': " << r.out);
+    CHECK(r.code == 2);
+    CHECK_THAT(r.out, Catch::Contains("--sizes") && Catch::Contains("is not a size"));
+  }
+  for (const char* bad : {"--steps=-1", "--steps=0", "--warmup=-1", "--threads=-3"}) {
+    auto r = run(bench + " --sizes 64 " + bad);
+    INFO(bad << ": " << r.out);
+    CHECK(r.code == 2);
+  }
+  auto threads = run("run " + repo_file("pipelines/brownian.yaml").string() + " --device cpu --threads -3 --out " +
+                     fresh_dir("threads").string());
+  INFO(threads.out);
+  CHECK(threads.code == 2);
+  CHECK_THAT(threads.out, Catch::Contains("--threads must be 0"));
+  auto ok = run(bench + " --sizes 64,2^7 --steps 2 --warmup 0");
+  INFO(ok.out);
+  CHECK(ok.code == 0);
+  CHECK_THAT(ok.out, Catch::Contains("\n64 ") && Catch::Contains("\n128 "));
+  fs::remove_all(fresh_dir("bench_results"));
+}
+
 TEST_CASE("pipeline run: two steps writing one file are refused, naming both", "[cli]") {
   auto r = run("validate " + repo_file("pipelines/hard-disks.yaml").string() + " --set step.observe.gr.file=trajectory.h5");
   INFO(r.out);

@@ -10,7 +10,9 @@
 #include <oneapi/tbb/info.h>
 
 #include <algorithm>
+#include <cerrno>
 #include <chrono>
+#include <cstring>
 #include <ctime>
 #include <filesystem>
 #include <fstream>
@@ -40,15 +42,18 @@ std::vector<std::uint64_t> parse_sizes(const std::string& s) {
   std::vector<std::uint64_t> out;
   std::stringstream ss(s);
   std::string item;
+  const auto refuse = [](const std::string& item) {
+    return InputError("--sizes: '" + item + "' is not a size (whole numbers from 1 to 2^31 - 1, e.g. 1024,2^16)");
+  };
   while (std::getline(ss, item, ',')) {
-    try {
-      std::size_t used = 0;
-      // Accept 2^18 as well as 262144.
-      if (item.rfind("2^", 0) == 0) out.push_back(std::uint64_t(1) << std::stoi(item.substr(2), &used));
-      else out.push_back(std::stoull(item, &used));
-    } catch (const std::exception&) {
-      throw InputError("--sizes: '" + item + "' is not a size (use e.g. 1024,2^16)");
-    }
+    // Accept 2^18 as well as 262144; digits only (stoull would take "-64" and "64abc").
+    const bool power = item.rfind("2^", 0) == 0;
+    const std::string digits = power ? item.substr(2) : item;
+    if (digits.empty() || digits.size() > 10 || digits.find_first_not_of("0123456789") != std::string::npos)
+      throw refuse(item);
+    const std::uint64_t v = std::stoull(digits);
+    if (power ? v > 30 : v < 1 || v > 2147483647u) throw refuse(item);
+    out.push_back(power ? std::uint64_t(1) << v : v);
   }
   return out;
 }
@@ -180,19 +185,22 @@ std::string json_escape(const std::string& s) {
 int cmd_bench(const std::vector<std::string>& args) {
   CommonOptions common;
   std::string sizes_arg, results_dir;
-  std::uint64_t steps = 200, warmup = 20;
+  std::int64_t steps_arg = 200, warmup_arg = 20;  // (signed: boost reads "-1" into an unsigned as 2^64 - 1)
   int threads = 0, gpus = 1;
   po::options_description extra;
   extra.add_options()("sizes", po::value<std::string>(&sizes_arg), "comma-separated N (default: the file's N)")(
-      "steps", po::value<std::uint64_t>(&steps)->default_value(200), "timed steps per size")(
-      "warmup", po::value<std::uint64_t>(&warmup)->default_value(20), "untimed steps first")(
+      "steps", po::value<std::int64_t>(&steps_arg)->default_value(200), "timed steps per size")(
+      "warmup", po::value<std::int64_t>(&warmup_arg)->default_value(20), "untimed steps first")(
       "threads", po::value<int>(&threads)->default_value(0), "CPU threads (0 = all cores)")(
       "gpus", po::value<int>(&gpus)->default_value(1),
       "ranks sharing each run (GPUs 0..N-1 through NCCL; N threads on the CPU): per-rank times and the "
       "communication share are reported")(
       "results", po::value<std::string>(&results_dir)->default_value("bench/results"), "where JSON lines go");
   parse_options(args, extra, common);
-  if (steps == 0) throw InputError("--steps must be at least 1");
+  if (steps_arg < 1) throw InputError("--steps must be at least 1 (got " + std::to_string(steps_arg) + ")");
+  if (warmup_arg < 0) throw InputError("--warmup must be 0 or more (got " + std::to_string(warmup_arg) + ")");
+  if (threads < 0) throw InputError("--threads must be 0 (all cores) or more (got " + std::to_string(threads) + ")");
+  const std::uint64_t steps = std::uint64_t(steps_arg), warmup = std::uint64_t(warmup_arg);
   if (gpus < 1) throw InputError("--gpus must be at least 1 (got " + std::to_string(gpus) + ")");
   const Backend backend = resolve_backend(common.device);
   Loaded loaded = load(common.file, common.overrides);
@@ -201,10 +209,14 @@ int cmd_bench(const std::vector<std::string>& args) {
   const int cores = threads > 0 ? threads : tbb::info::default_concurrency();
   auto sizes = sizes_arg.empty() ? std::vector<std::uint64_t>{loaded.spec.system.N} : parse_sizes(sizes_arg);
 
-  fs::create_directories(results_dir);
+  std::error_code ec;
+  fs::create_directories(results_dir, ec);
+  if (ec) throw InputError("--results: cannot create '" + results_dir + "': " + ec.message());
   const std::string stem = fs::path(common.file).stem().string();
   // One file per pipeline and backend, so CPU and GPU results never mix.
-  std::ofstream jsonl(fs::path(results_dir) / (stem + "-" + to_string(backend) + ".jsonl"), std::ios::app);
+  const fs::path jsonl_path = fs::path(results_dir) / (stem + "-" + to_string(backend) + ".jsonl");
+  std::ofstream jsonl(jsonl_path, std::ios::app);
+  if (!jsonl) throw InputError("--results: cannot open '" + jsonl_path.string() + "' for appending: " + std::strerror(errno));
   std::string device = backend == Backend::cuda ? cuda_device_description() : std::to_string(cores) + " CPU threads";
   if (gpus > 1)
     device = std::to_string(gpus) + " ranks: " +
@@ -280,6 +292,10 @@ int cmd_bench(const std::vector<std::string>& args) {
       first = false;
     }
     jsonl << "}}\n";
+    // Each size's line and row as soon as it is measured: an interrupted bench keeps the sizes done.
+    jsonl.flush();
+    std::cout.flush();
+    if (!jsonl) throw RunError("writing '" + jsonl_path.string() + "' failed: " + std::strerror(errno));
   }
   return 0;
 }

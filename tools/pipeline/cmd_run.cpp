@@ -90,6 +90,26 @@ std::string lines(const std::vector<std::string>& v) {
 }  // namespace
 
 namespace {
+// `s` as one shell word.
+std::string shell_word(const std::string& s) {
+  if (!s.empty() && s.find_first_not_of("ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789_./=:,+-@%^") ==
+                        std::string::npos)
+    return s;
+  std::string q = "'";
+  for (char c : s) q += c == '\'' ? std::string("'\\''") : std::string(1, c);
+  return q + "'";
+}
+
+// The command that continues this run: its file and --set arguments (a continuation must have
+// the same structure and parameters), its device, --resume with its folder.
+std::string resume_command(const RunRequest& req, const std::string& out) {
+  std::string c = "pipeline run " + shell_word(req.file);
+  for (auto& o : req.overrides) c += " --set " + shell_word(o);
+  if (req.device != "auto") c += " --device " + shell_word(req.device);
+  if (req.threads > 0) c += " --threads " + std::to_string(req.threads);
+  return c + " --resume " + shell_word(out);
+}
+
 // A stream that writes nowhere: the messages of ranks other than 0.
 struct NullBuffer : std::streambuf {
   int overflow(int c) override { return c; }
@@ -211,11 +231,14 @@ int run_rank(const RunRequest& req, const Loaded& loaded, Backend backend, std::
       if (team) team->all_reduce(&sig, 1, ReduceOp::max);  // every rank stops after the same step
       if (sig) {
         // The step under way was finished: keep it in a checkpoint and stop.
-        const std::string path = checkpoints ? checkpoints->write() : std::string("(none)");
+        const std::string path = checkpoints ? checkpoints->write() : std::string();
         sim->finish(false);
-        log << "flipflow: stopped by " << (sig == SIGINT ? "SIGINT" : "SIGTERM") << " after step "
-            << sim->state().step << "; checkpoint " << path << "; continue with: pipeline run " << req.file
-            << " --resume " << out << "\n";
+        log << "flipflow: stopped by " << (sig == SIGINT ? "SIGINT" : "SIGTERM") << " after step " << sim->state().step;
+        if (path.empty())  // a decomposed team (each rank holds a part of the state)
+          log << "; a decomposed team writes no checkpoints, so this run cannot be continued (run on one GPU, "
+                 "or with --gpus 1, to make it resumable)\n";
+        else
+          log << "; checkpoint " << path << "; continue with: " << resume_command(req, out) << "\n";
         return kExitInterrupted;
       }
       sim->advance();
@@ -294,6 +317,7 @@ int cmd_run(const std::vector<std::string>& raw_args) {
       "after every rollback, check that the whole state was restored bit for bit (slow: copies the state every "
       "step; for stage authors)");
   parse_options(args, extra, common);
+  if (req.threads < 0) throw InputError("--threads must be 0 (all cores) or more (got " + std::to_string(req.threads) + ")");
   req.file = common.file;
   req.overrides = common.overrides;
   req.device = common.device;
