@@ -136,6 +136,22 @@ TEST_CASE("pipeline bench and run refuse counts and sizes that are not whole num
   fs::remove_all(fresh_dir("bench_results"));
 }
 
+TEST_CASE("pipeline run: an output that is not a file name is refused at validate; a subfolder is made", "[cli]") {
+  CHECK(run("validate " + repo_file("pipelines/brownian.yaml").string() + " --set step.observe.h5md.file=").code == 2);
+  for (const char* bad : {".", "..", "sub/", "sub/.."}) {
+    auto r = run("validate " + repo_file("pipelines/brownian.yaml").string() + " --set step.observe.h5md.file=" + bad);
+    INFO(bad << ": " << r.out);
+    CHECK(r.code == 2);
+    CHECK_THAT(r.out, Catch::Contains("is not a file name") && Catch::Contains("brownian.yaml:"));
+  }
+  const fs::path out = fresh_dir("subfolder");
+  require_success(run("run " + repo_file("pipelines/brownian.yaml").string() +
+                      " --device cpu --set run.steps=10 --set system.N=64 --set step.observe.h5md.file=deep/er/t.h5 --out " +
+                      out.string()));
+  CHECK(fs::exists(out / "deep" / "er" / "t.h5"));
+  fs::remove_all(out);
+}
+
 TEST_CASE("pipeline run: two steps writing one file are refused, naming both", "[cli]") {
   auto r = run("validate " + repo_file("pipelines/hard-disks.yaml").string() + " --set step.observe.gr.file=trajectory.h5");
   INFO(r.out);

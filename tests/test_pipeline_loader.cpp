@@ -4,6 +4,7 @@
 // their own location.
 #include <catch2/catch.hpp>
 
+#include <cmath>
 #include <cstdlib>
 #include <memory>
 #include <string>
@@ -11,6 +12,7 @@
 
 #include "core/base/error.h"
 #include "core/input/pipeline_loader.h"
+#include "core/input/pipeline_spec.h"
 #include "core/run/plugin_loader.h"
 
 namespace {
@@ -345,4 +347,37 @@ TEST_CASE("a missing plugin is reported at its place in the file", "[pipeline_lo
                         Contains("/nonexistent-plugin-dir"));
   // Without a location (a caller that has none) the message is find_plugin's own.
   CHECK_THROWS_WITH(ff::find_plugins({"no_such_model"}, path, {}), StartsWith("plugin 'no_such_model' not found"));
+}
+
+TEST_CASE("a log schedule's steps: as round(first·factor^k) one k at a time, also for a factor near 1",
+          "[pipeline_loader]") {
+  // The reference: every k in turn (what log_steps did before it skipped repeats; a factor of
+  // 1 + 1e-10 made `pipeline validate` run for minutes).
+  auto one_by_one = [](const ff::Schedule& s, std::uint64_t steps) {
+    std::vector<std::uint64_t> out;
+    for (long long k = 0;; ++k) {
+      const double v = std::round(double(s.first) * std::pow(s.factor, double(k)));
+      if (!(v < double(steps))) break;
+      if (out.empty() || out.back() != std::uint64_t(v)) out.push_back(std::uint64_t(v));
+    }
+    if (steps > 0 && (out.empty() || out.back() != steps - 1)) out.push_back(steps - 1);
+    return out;
+  };
+  for (std::uint64_t first : {1u, 3u, 100u})
+    for (double factor : {1.0001, 1.01, 1.2, 1.5, 2.0, 10.0})
+      for (std::uint64_t steps : {1u, 2u, 50u, 12345u, 2000001u}) {
+        ff::Schedule s;
+        s.log = true;
+        s.first = first;
+        s.factor = factor;
+        INFO("first " << first << ", factor " << factor << ", steps " << steps);
+        CHECK(s.log_steps(steps) == one_by_one(s, steps));
+      }
+  ff::Schedule near;
+  near.log = true;
+  near.factor = 1.0000000001;
+  const auto steps = near.log_steps(2000);  // every step from 1: 1, 2, ..., 1999
+  REQUIRE(steps.size() == 1999);
+  CHECK(steps.front() == 1);
+  CHECK(steps.back() == 1999);
 }

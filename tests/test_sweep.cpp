@@ -264,10 +264,13 @@ TEST_CASE("sweep: a bad grid key or value exits 2 naming it, and writes nothing"
 }
 
 TEST_CASE("sweep: a run that fails does not stop the others; its row says why; the sweep exits 1", "[sweep]") {
-  // Valid for the loader and the dry run; the second value fails when the run creates its file.
+  // Valid for the loader and the dry run; the second value fails when the run makes its output
+  // folder (a file named `blocker` is in the way).
   const fs::path out = fresh_dir("failing");
+  fs::create_directories(out);
+  std::ofstream(out / "blocker") << "in the way\n";
   auto r = pipeline("sweep " + repo_file("pipelines/brownian.yaml").string() +
-                    " --device cpu --set run.steps=20 --set system.N=50 --grid 'step.observe.h5md.file=a.h5,no/such/b.h5'"
+                    " --device cpu --set run.steps=20 --set system.N=50 --grid 'step.observe.h5md.file=a.h5,../blocker/b.h5'"
                     " --grid run.seed=1,2 --out " + out.string());
   INFO(r.out);
   CHECK(r.code == 1);
@@ -280,12 +283,34 @@ TEST_CASE("sweep: a run that fails does not stop the others; its row says why; t
       CHECK(fs::exists(out / row.at("folder") / "a.h5"));
     } else {
       CHECK(row.at("status") == "failed");
-      CHECK(row.at("exit_code") == "1");
-      CHECK_THAT(row.at("message"), Catch::Contains("cannot create the H5MD file"));
+      CHECK(row.at("exit_code") == "2");
+      CHECK_THAT(row.at("message"), Catch::Contains("cannot create the output folder"));
     }
   }
   CHECK_THAT(r.out, Catch::Contains("2 runs failed"));
   fs::remove_all(out);
+  // A run whose own folder cannot be made (a file in its place) fails alone; before, the sweep
+  // stopped there with a filesystem exception.
+  const fs::path blocked = fresh_dir("blocked");
+  fs::create_directories(blocked);
+  std::ofstream(blocked / "seed=1") << "in the way\n";
+  auto b = pipeline("sweep " + repo_file("pipelines/brownian.yaml").string() +
+                    " --device cpu --set run.steps=20 --set system.N=50 --grid run.seed=1,2,3 --out " + blocked.string());
+  INFO(b.out);
+  CHECK(b.code == 1);
+  for (auto& row : read_index(blocked / "index.csv")) {
+    INFO("row " << row.at("folder"));
+    CHECK(row.at("status") == (row.at("folder") == "seed=1" ? "failed" : "done"));
+    if (row.at("folder") == "seed=1") CHECK_THAT(row.at("message"), Catch::Contains("cannot create its folder"));
+  }
+  fs::remove_all(blocked);
+  // --gpus is for CUDA: refused with the CPU, before anything is written.
+  const fs::path cpu = fresh_dir("gpus_on_cpu");
+  auto g = pipeline("sweep " + repo_file("pipelines/brownian.yaml").string() + " --device cpu --gpus 0,1 --grid run.seed=1,2 --out " +
+                    cpu.string());
+  CHECK(g.code == 2);
+  CHECK_THAT(g.out, Catch::Contains("--gpus is for CUDA"));
+  CHECK_FALSE(fs::exists(cpu));
 }
 
 TEST_CASE("sweep: --concurrent 2, in processes or threads, gives the same outputs as --concurrent 1",

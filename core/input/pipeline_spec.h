@@ -1,6 +1,7 @@
 // A pipeline file after validation: plain data, no YAML. Produced by core/input/pipeline_loader.h,
 // consumed by the step graph and the simulation.
 #pragma once
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <sstream>
@@ -68,10 +69,14 @@ struct Schedule {
   // The steps of a run of `steps` steps (0 ... steps - 1) this schedule runs on, ascending.
   std::vector<std::uint64_t> log_steps(std::uint64_t steps) const {
     std::vector<std::uint64_t> out;
-    for (int k = 0;; ++k) {
+    for (double k = 0;;) {
       const double s = std::round(double(first) * std::pow(factor, k));
       if (!(s < double(steps))) break;
       if (out.empty() || out.back() != std::uint64_t(s)) out.push_back(std::uint64_t(s));
+      // Skip the k whose value rounds to s again (a factor near 1 repeats a step many times: 1 +
+      // 1e-10 would take ~10^11 turns), to two before the first estimated not to: the same steps
+      // as k = 0, 1, 2, ... one by one, since the values only grow with k.
+      k = std::max(k + 1, std::floor(std::log((s + 0.5) / double(first)) / std::log(factor)) - 2);
     }
     if (steps > 0 && (out.empty() || out.back() != steps - 1)) out.push_back(steps - 1);
     return out;

@@ -1,6 +1,10 @@
 #include "core/run/simulation.h"
 
+#include <unistd.h>
+
 #include <algorithm>
+#include <cerrno>
+#include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
@@ -350,6 +354,10 @@ void Simulation::check_output_names() const {
   for (std::size_t i = 0; i < slots_.size(); ++i)
     for (auto& o : slots_[i].stage->outputs()) {
       const fs::path p = fs::path(o).lexically_normal();
+      const std::string name = p.filename().string();
+      if (o.empty() || name.empty() || name == "." || name == "..")
+        throw InputError(spec_.step[i].where.str() + ": step '" + spec_.step[i].id + "' writes to '" + o +
+                         "', which is not a file name: give it a file name such as 'out.h5'");
       for (auto& [other, j] : seen)
         if (other == p)
           throw InputError(spec_.step[i].where.str() + ": step '" + spec_.step[i].id + "' writes '" + o +
@@ -378,6 +386,20 @@ void Simulation::prepare_outputs() {
   std::error_code ec;
   fs::create_directories(options_.out_dir, ec);
   if (ec) throw InputError("cannot create output directory '" + options_.out_dir + "': " + ec.message());
+  // Each output's folder made and written to now, not found unwritable after the run (observe.gr
+  // and observe.clusters write theirs only at the end).
+  std::set<fs::path> folders;
+  for (auto& o : outputs) folders.insert((fs::path(options_.out_dir) / o).parent_path());
+  for (auto& f : folders) {
+    fs::create_directories(f, ec);
+    if (ec) throw InputError("cannot create the output folder '" + f.string() + "': " + ec.message());
+    const fs::path probe = f / (".flipflow-write-test-" + std::to_string(::getpid()));
+    std::FILE* w = std::fopen(probe.c_str(), "w");
+    const int err = errno;
+    if (!w) throw InputError("cannot write in the output folder '" + f.string() + "': " + std::strerror(err));
+    std::fclose(w);
+    fs::remove(probe, ec);
+  }
 }
 
 void Simulation::collect_metrics(int node) {

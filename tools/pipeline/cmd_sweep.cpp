@@ -96,9 +96,16 @@ void claim_folder(const std::string& out, const SweepArgs& a) {
     throw InputError("'" + out + "' holds another sweep (" + def_file.string() +
                      " records its file, --set, --grid and --replicas): use another --out, or --force to run this "
                      "one there from the start");
-  fs::create_directories(root);
+  std::error_code ec;
+  fs::create_directories(root, ec);
+  if (ec) throw InputError("--out: cannot create the sweep's folder '" + out + "': " + ec.message());
   std::ofstream d(def_file, std::ios::trunc);
   d << def;
+  d.close();
+  if (!d) {  // (a full disk: an empty sweep.txt would make the same command "another sweep" next time)
+    fs::remove(def_file, ec);
+    throw InputError("cannot write '" + def_file.string() + "'");
+  }
 }
 
 // Marks the runs an earlier invocation finished (the index says done and the folder is there)
@@ -136,6 +143,14 @@ int cmd_sweep(const std::vector<std::string>& args) {
   if (a.in_process) ::setenv("CUDA_DEVICE_MAX_CONNECTIONS", "32", 0);
   const Backend backend = resolve_backend(a.device);
   std::vector<Run> runs = sweep::plan(a);
+  const bool cuda = backend == Backend::cuda;
+  if (!cuda && !a.gpus.empty())
+    throw InputError("--gpus " + a.gpus + ": the runs are on the CPU (--device " + a.device + "); --gpus is for CUDA");
+  // Child processes get a GPU by CUDA_VISIBLE_DEVICES (its entries); threads of this process by
+  // its device ordinals.
+  std::vector<std::string> gpus = !cuda         ? std::vector<std::string>{""}
+                                   : a.in_process ? sweep::process_gpus(a.gpus)
+                                                  : sweep::visible_gpus(a.gpus);
 
   // Everything is valid: from here on the sweep writes.
   const std::string out = a.out.empty() ? "sweeps/" + fs::path(a.file).stem().string() : a.out;
@@ -144,12 +159,6 @@ int cmd_sweep(const std::vector<std::string>& args) {
   const std::size_t skipped = a.force ? 0 : keep_finished_runs(root, index_file, runs);
 
   // Where the runs go and how many at once.
-  const bool cuda = backend == Backend::cuda;
-  // Child processes get a GPU by CUDA_VISIBLE_DEVICES (its entries); threads of this process by
-  // its device ordinals.
-  std::vector<std::string> gpus = !cuda         ? std::vector<std::string>{""}
-                                   : a.in_process ? sweep::process_gpus(a.gpus)
-                                                  : sweep::visible_gpus(a.gpus);
   std::string mps_note;
   Mps mps(a.mps_mode, cuda && a.concurrent > 1 && !a.in_process, mps_note);
   int per_gpu = a.concurrent;

@@ -87,14 +87,35 @@ std::string file_text(const fs::path& p) {
 }  // namespace
 
 std::vector<std::string> visible_gpus(const std::string& gpus_arg) {
-  if (!gpus_arg.empty()) return split(gpus_arg, ',');
+  std::error_code ec;
+  std::size_t n = 0;  // the machine's GPUs, as the driver lists them (0 where it cannot tell)
+  for (auto it = fs::directory_iterator("/proc/driver/nvidia/gpus", ec); !ec && it != fs::directory_iterator(); ++it)
+    ++n;
+  if (!gpus_arg.empty()) {
+    // Each a CUDA_VISIBLE_DEVICES entry of a child: an index of the machine's GPUs, or a UUID.
+    // Checked here, before any folder is made, not found by every run failing at its start.
+    const std::vector<std::string> gpus = split(gpus_arg, ',');
+    if (gpus.empty()) throw InputError("--gpus '" + gpus_arg + "': no GPU listed (e.g. --gpus 0,1)");
+    for (std::size_t i = 0; i < gpus.size(); ++i) {
+      const std::string& g = gpus[i];
+      const bool index = !g.empty() && g.size() <= 4 && g.find_first_not_of("0123456789") == std::string::npos;
+      const bool uuid = g.rfind("GPU-", 0) == 0 || g.rfind("MIG-", 0) == 0;
+      if (!index && !uuid)
+        throw InputError("--gpus " + gpus_arg + ": '" + g + "' is not a GPU (an index, 0 to " +
+                         (n ? std::to_string(n - 1) : std::string("N - 1")) + ", or a GPU-/MIG- UUID)");
+      if (index && n && std::size_t(std::stoi(g)) >= n)
+        throw InputError("--gpus " + gpus_arg + ": GPU " + g + " does not exist (this machine has " + std::to_string(n) +
+                         ": 0 to " + std::to_string(n - 1) + ")");
+      for (std::size_t j = 0; j < i; ++j)
+        if (gpus[j] == g)
+          throw InputError("--gpus " + gpus_arg + ": GPU " + g + " is listed twice (for more runs at once on a GPU, "
+                           "use --concurrent K)");
+    }
+    return gpus;
+  }
   if (const char* v = std::getenv("CUDA_VISIBLE_DEVICES"))
     if (!split(v, ',').empty()) return split(v, ',');
   std::vector<std::string> out;
-  std::error_code ec;
-  std::size_t n = 0;
-  for (auto it = fs::directory_iterator("/proc/driver/nvidia/gpus", ec); !ec && it != fs::directory_iterator(); ++it)
-    ++n;
   for (std::size_t i = 0; i < std::max<std::size_t>(n, 1); ++i) out.push_back(std::to_string(i));
   return out;
 }

@@ -266,7 +266,16 @@ bool RunScheduler::start_pending() {
 void RunScheduler::launch(std::size_t i, int gpu, bool restart) {
   Run& r = runs_[i];
   const fs::path dir = s_.root / r.folder;
-  fs::create_directories(dir);
+  std::error_code ec;
+  fs::create_directories(dir, ec);
+  if (ec) {  // (a file in its place, a full disk): this run fails, the others go on
+    r.status = "failed";
+    r.exit_code = 2;
+    r.message = "cannot create its folder '" + dir.string() + "': " + ec.message();
+    ++failed_;
+    report_finished(r, "FAILED");
+    return;
+  }
   std::vector<std::string> argv = {exe_, "run", s_.pipeline_file, "--out", dir.string(), "--device", s_.device,
                                    "--threads", std::to_string(s_.threads_per_run)};
   for (auto& s : r.sets) {

@@ -34,7 +34,7 @@ struct GrParams {
   template <class P>
   void describe(P& p) {
     p(r_max, "r_max", "largest distance histogrammed, in units of σ (the mean diameter)").above(0);
-    p(bins, "bins", "histogram bins over [0, r_max)").at_least(1);
+    p(bins, "bins", "histogram bins over [0, r_max)").at_least(1).at_most(1000000);
     p(fit_width, "fit_width",
       "g(σ⁺) is a quadratic fit over the bins in [σ, σ + fit_width·σ] (at least three), in σ")
         .above(0);
