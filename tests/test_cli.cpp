@@ -129,6 +129,16 @@ TEST_CASE("pipeline bench and run refuse counts and sizes that are not whole num
   INFO(threads.out);
   CHECK(threads.code == 2);
   CHECK_THAT(threads.out, Catch::Contains("--threads must be 0"));
+  // Options that did nothing before: a misspelt device for validate, --allow-changes without
+  // --resume, an empty --out.
+  const std::string file = repo_file("pipelines/brownian.yaml").string();
+  for (const std::string& bad : {"validate " + file + " --device bogus", "graph " + file + " --device gpu",
+                                 "run " + file + " --device cpu --allow-changes --out " + fresh_dir("allow").string(),
+                                 "run " + file + " --device cpu --out ''"}) {
+    auto r = run(bad);
+    INFO(bad << ": " << r.out);
+    CHECK(r.code == 2);
+  }
   auto ok = run(bench + " --sizes 64,2^7 --steps 2 --warmup 0");
   INFO(ok.out);
   CHECK(ok.code == 0);

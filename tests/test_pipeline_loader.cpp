@@ -3,9 +3,12 @@
 // exact file:line:column and the key path / expectation; --set overrides apply or fail with
 // their own location.
 #include <catch2/catch.hpp>
+#include <unistd.h>
 
 #include <cmath>
 #include <cstdlib>
+#include <filesystem>
+#include <fstream>
 #include <memory>
 #include <string>
 #include <vector>
@@ -347,6 +350,18 @@ TEST_CASE("a missing plugin is reported at its place in the file", "[pipeline_lo
                         Contains("/nonexistent-plugin-dir"));
   // Without a location (a caller that has none) the message is find_plugin's own.
   CHECK_THROWS_WITH(ff::find_plugins({"no_such_model"}, path, {}), StartsWith("plugin 'no_such_model' not found"));
+  // A file that is no shared library, and one listed twice, are reported at their entry too
+  // (before: Boost's dlopen text without a place, and "registered twice" by the same library).
+  const std::string dir = "/tmp/ff_plugins_" + std::to_string(::getpid());
+  std::filesystem::create_directories(dir);
+  std::ofstream(dir + "/libflipflow_plugin_text.so") << "not a library\n";
+  std::ofstream(dir + "/libflipflow_plugin_elf.so") << "\x7f" << "ELF and the rest\n";
+  CHECK_THROWS_WITH(ff::find_plugins({"text"}, {dir}, [&](std::size_t) { return doc.plugin_location(0); }),
+                    StartsWith("p.yaml:4:5: plugins[0]: plugin 'text'") && Contains("is not a shared library"));
+  CHECK_THROWS_WITH(ff::find_plugins({"elf", dir + "/libflipflow_plugin_elf.so"}, {dir},
+                                     [&](std::size_t i) { return doc.plugin_location(i); }),
+                    StartsWith("p.yaml:5:5: plugins[1]: plugin '" + dir + "/libflipflow_plugin_elf.so' is listed twice"));
+  std::filesystem::remove_all(dir);
 }
 
 TEST_CASE("a log schedule's steps: as round(first·factor^k) one k at a time, also for a factor near 1",

@@ -5,6 +5,7 @@
 #include <boost/dll/shared_library.hpp>
 #include <cstdlib>
 #include <filesystem>
+#include <fstream>
 #include <map>
 #include <mutex>
 #include <set>
@@ -102,7 +103,19 @@ std::vector<std::string> find_plugins(const std::vector<std::string>& names, con
   std::vector<std::string> files;
   for (std::size_t i = 0; i < names.size(); ++i) {
     try {
-      files.push_back(find_plugin(names[i], path));
+      const std::string file = find_plugin(names[i], path);
+      // Checked here, where the list's entry is known: a file that is no shared library (Boost's
+      // load error would not say where it was listed), a library listed twice.
+      char magic[4] = {};
+      std::ifstream(file, std::ios::binary).read(magic, 4);
+      if (!(magic[0] == 0x7f && magic[1] == 'E' && magic[2] == 'L' && magic[3] == 'F'))
+        throw InputError("plugin '" + names[i] + "' (" + file + ") is not a shared library (no ELF header)");
+      for (std::size_t j = 0; j < files.size(); ++j) {
+        std::error_code ec;
+        if (fs::equivalent(files[j], file, ec))
+          throw InputError("plugin '" + names[i] + "' is listed twice (also as plugins[" + std::to_string(j) + "])");
+      }
+      files.push_back(file);
     } catch (const InputError& e) {
       const std::string at = where ? where(i) : std::string();
       if (at.empty()) throw;

@@ -318,6 +318,8 @@ int cmd_run(const std::vector<std::string>& raw_args) {
       "step; for stage authors)");
   parse_options(args, extra, common);
   if (req.threads < 0) throw InputError("--threads must be 0 (all cores) or more (got " + std::to_string(req.threads) + ")");
+  if (req.allow_changes && !req.resuming)
+    throw InputError("--allow-changes applies to a continuation: add --resume, or drop it for a fresh run");
   req.file = common.file;
   req.overrides = common.overrides;
   req.device = common.device;

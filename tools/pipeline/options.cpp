@@ -23,6 +23,11 @@ po::variables_map parse_options(const std::vector<std::string>& args, po::option
     throw InputError(std::string(e.what()) + " (see pipeline --help)");
   }
   if (needs_file && common.file.empty()) throw InputError("missing the pipeline file (see pipeline --help)");
+  // Spelled right for every command, validate and graph included (which do not pick a device).
+  if (common.device != "auto" && common.device != "cpu" && common.device != "cuda")
+    throw InputError("--device must be auto, cpu or cuda (got '" + common.device + "')");
+  if (vm.count("out") && vm["out"].as<std::string>().empty())
+    throw InputError("--out: empty (give a folder, or leave --out out for the default)");
   return vm;
 }
 
