@@ -162,6 +162,27 @@ TEST_CASE("pipeline run: an output that is not a file name is refused at validat
   fs::remove_all(out);
 }
 
+TEST_CASE("pipeline validate: Delaunay stages without the stage they follow are refused, naming it", "[cli]") {
+  // Before: flip and lawson made the topology fields themselves, so integrate, flip, lawson was
+  // valid and ran with inverted triangles left unrepaired (delaunay.check found them).
+  const fs::path file = fresh_dir("order.yaml");
+  auto refused = [&](const std::string& steps) {
+    std::ofstream(file) << "system: {dimensions: 2, N: 256, packing_fraction: 0.5}\n"
+                           "run: {steps: 10, dt: 0.001}\nplugins: [brownian]\n"
+                           "step:\n  - {stage: brownian.integrate, D: 1}\n" << steps;
+    auto r = run("validate " + file.string());
+    INFO(steps << r.out);
+    CHECK(r.code == 2);
+    return r.out;
+  };
+  CHECK_THAT(refused("  - {stage: delaunay.flip}\n  - {stage: delaunay.lawson}\n"),
+             Catch::Contains(file.filename().string() + ":6:") &&
+                 Catch::Contains("step 'delaunay.flip' (delaunay.flip) needs delaunay.detect_inversion earlier"));
+  CHECK_THAT(refused("  - {stage: delaunay.detect_inversion}\n  - {stage: delaunay.lawson}\n"),
+             Catch::Contains("(delaunay.lawson) needs delaunay.flip or delaunay.build earlier"));
+  fs::remove(file);
+}
+
 TEST_CASE("pipeline run: two steps writing one file are refused, naming both", "[cli]") {
   auto r = run("validate " + repo_file("pipelines/hard-disks.yaml").string() + " --set step.observe.gr.file=trajectory.h5");
   INFO(r.out);

@@ -78,7 +78,20 @@ void Simulation::build(const Registry& registry) {
       if (!state_->has_field(a.field))
         throw InputError(e.where.str() + ": step '" + e.id + "' uses field '" + a.field +
                          "', which no stage before it created");
-    observer.push_back(registry.get(e.stage).decl.observer);
+    const StageDecl& decl = registry.get(e.stage).decl;
+    observer.push_back(decl.observer);
+    if (!decl.needs_before.empty()) {
+      bool found = false;
+      for (std::size_t j = 0; j < i && !found; ++j)
+        for (auto& need : decl.needs_before) found = found || registry.get(spec_.step[j].stage).decl.name == need;
+      if (!found) {
+        std::string names;
+        for (std::size_t k = 0; k < decl.needs_before.size(); ++k)
+          names += (k ? (k + 1 == decl.needs_before.size() ? " or " : ", ") : "") + decl.needs_before[k];
+        throw InputError(e.where.str() + ": step '" + e.id + "' (" + decl.name + ") needs " + names +
+                         " earlier in the step");
+      }
+    }
   }
   graph_ = std::make_unique<StepGraph>(spec_, std::move(accesses), observer);
   const bool decomposed = in_team(options_.team) && wants_decomposition(observer);

@@ -22,6 +22,10 @@ struct StageDecl {
   // Observe stages write files, not state; they run after the step is accepted and are never
   // part of the rollback snapshot.
   bool observer = false;
+  // Stages of which at least one must come earlier in the step (delaunay.flip repairs what
+  // delaunay.detect_inversion marks): a pipeline without one is refused at validate, naming them.
+  // Unit tests that make a stage alone are not bound by it.
+  std::vector<std::string> needs_before = {};
 };
 
 struct StageEntryInfo {

@@ -74,7 +74,8 @@ class Flip final : public Stage {
             "repair the inverted triangles marked by delaunay.detect_inversion by parallel edge flips",
             schema_of<FlipParams>(),
             {2},
-            false};
+            false,
+            {"delaunay.detect_inversion"}};
   }
 
   template <class Exec>

@@ -73,7 +73,9 @@ class Lawson final : public Stage {
             "parallel Lawson edge flips until the triangulation is Delaunay",
             schema_of<LawsonParams>(),
             {2},
-            false};
+            false,
+            // (on a valid triangulation: after the repair of what detect_inversion marked, or a build)
+            {"delaunay.flip", "delaunay.build"}};
   }
 
   template <class Exec>
