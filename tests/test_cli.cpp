@@ -183,6 +183,13 @@ TEST_CASE("pipeline validate: Delaunay stages without the stage they follow are 
   fs::remove(file);
 }
 
+TEST_CASE("pipeline describe suggests the stage meant by a typo", "[cli]") {
+  auto r = run("describe brownian.integrat");
+  INFO(r.out);
+  CHECK(r.code == 2);
+  CHECK_THAT(r.out, Catch::Contains("unknown stage 'brownian.integrat'; did you mean 'brownian.integrate'?"));
+}
+
 TEST_CASE("pipeline run: two steps writing one file are refused, naming both", "[cli]") {
   auto r = run("validate " + repo_file("pipelines/hard-disks.yaml").string() + " --set step.observe.gr.file=trajectory.h5");
   INFO(r.out);

@@ -312,6 +312,9 @@ TEST_CASE("malformed overrides are input errors", "[pipeline_loader]") {
              StartsWith("--set sytem.N=3: unknown section 'sytem'; did you mean 'system'?"));
   CHECK_THAT(error_of_text(kMinimal, {"run=3"}), StartsWith("--set run=3: expected one of system.<key>, run.<key>"));
   CHECK_THAT(error_of_text(kMinimal, {"system.types.0.name=B"}), StartsWith("--set system.types.0.name=B: expected"));
+  // A key inside a map: the message shows how to set the map.
+  CHECK_THAT(error_of_text(kMinimal, {"run.checkpoint.every=5"}),
+             Contains("a nested value is set with its whole map, e.g. --set 'run.checkpoint={every: ...}'"));
   CHECK_THAT(error_of_text(kMinimal, {"step.D=3"}), StartsWith("--set step.D=3: expected one of"));
   CHECK(error_of_text(kMinimal, {"step.7.D=3"}) == "--set step.7.D=3: no step[7]: the step list has 2 entries");
   CHECK(error_of_text(kMinimal, {"step.lawson.b.max_rounds=3"}) ==

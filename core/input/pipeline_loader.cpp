@@ -110,6 +110,11 @@ void PipelineDocument::Impl::apply(const std::string& text) {
     const auto last = rest.rfind('.');  // ids contain dots; parameter names do not
     YAML::Node e = entry(rest.substr(0, last), where);
     e[rest.substr(last + 1)] = value;
+  } else if ((head == "system" || head == "run") && rest.find('.') != std::string::npos) {
+    // A key inside a map value (run.checkpoint.every): the map is set whole.
+    const std::string outer = rest.substr(0, rest.find('.'));
+    bad_override(where, "expected one of " + forms + "; a nested value is set with its whole map, e.g. --set '" +
+                            head + "." + outer + "={" + rest.substr(rest.find('.') + 1) + ": ...}'");
   } else if (one_of(head, kTopKeys)) {
     bad_override(where, "expected one of " + forms);
   } else {

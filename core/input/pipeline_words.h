@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include "core/base/suggestion.h"
 #include "core/stage/params.h"
 #include "core/input/pipeline_spec.h"
 
@@ -17,10 +18,8 @@ namespace ff::pipeline_detail {
 std::string join(const std::vector<std::string>& v);  // "a, b, c"
 bool one_of(const std::string& s, const std::vector<std::string>& v);
 
-// Optimal-string-alignment distance (a swap of neighbours costs one).
-std::size_t edit_distance(const std::string& a, const std::string& b);
-// "; did you mean 'x'?" when one known word is a plausible typo of `word`, else "".
-std::string suggestion(const std::string& word, const std::vector<std::string>& known);
+using ff::edit_distance;  // (core/base/suggestion.h: the registry suggests names too)
+using ff::suggestion;
 
 // Key paths: child("run", "dt") = "run.dt", index("step", 2) = "step[2]".
 std::string child(const std::string& path, const std::string& key);

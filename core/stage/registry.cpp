@@ -1,6 +1,7 @@
 #include "core/stage/registry.h"
 
 #include "core/base/error.h"
+#include "core/base/suggestion.h"
 
 namespace ff {
 
@@ -74,7 +75,7 @@ const StageEntryInfo& Registry::get(const std::string& name) const {
   if (it == stages_.end()) {
     std::string known;
     for (auto& kv : stages_) known += (known.empty() ? "" : ", ") + kv.first;
-    throw InputError("unknown stage '" + name + "' (loaded stages: " + known + ")");
+    throw InputError("unknown stage '" + name + "'" + suggestion(name, names()) + " (loaded stages: " + known + ")");
   }
   return it->second;
 }
