@@ -255,6 +255,17 @@ TEST_CASE("sweep: a bad grid key or value exits 2 naming it, and writes nothing"
                           Catch::Contains(b.expect));
     CHECK_FALSE(fs::exists(out));
   }
+  // One parameter on two axes, by index and by id: refused (before, the later axis overwrote the
+  // other in every run, and the folders named values never run).
+  {
+    const fs::path out = fresh_dir("bad_twice");
+    auto r = pipeline("sweep " + file + " --device cpu --set run.steps=10 --grid step.0.D=1,2 --grid step.brownian.integrate.D=3,4 --out " +
+                      out.string());
+    INFO(r.out);
+    CHECK(r.code == 2);
+    CHECK_THAT(r.out, Catch::Contains("sets the same parameter as --grid step.0.D=1,2 (step.brownian.integrate.D)"));
+    CHECK_FALSE(fs::exists(out));
+  }
   // --replicas and a grid over the seed contradict each other.
   const fs::path out = fresh_dir("bad_seed");
   auto r = pipeline("sweep " + file + " --device cpu --replicas 2 --grid run.seed=1,2 --out " + out.string());

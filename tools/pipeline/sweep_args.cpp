@@ -63,6 +63,26 @@ std::string blame(const SweepArgs& a, const Run& run, const std::string& what) {
   return combo.empty() ? what : "with " + combo + ": " + what;
 }
 
+// An axis key as the step entry's id names it: step.<index>.<param> -> step.<id>.<param>.
+std::string canonical_key(const std::string& key, const PipelineSpec& spec) {
+  if (key.rfind("step.", 0) != 0) return key;
+  const std::size_t last = key.rfind('.');
+  const std::string entry = key.substr(5, last - 5);
+  if (entry.empty() || entry.find_first_not_of("0123456789") != std::string::npos || entry.size() > 6) return key;
+  const std::size_t i = std::size_t(std::stoul(entry));
+  return i < spec.step.size() ? "step." + spec.step[i].id + key.substr(last) : key;
+}
+
+// Two axes that set one parameter, spelled once by index and once by id: the later one would
+// overwrite the other in every run, and the folders would name values that were never run.
+void refuse_one_parameter_twice(const SweepArgs& a, const PipelineSpec& spec) {
+  for (std::size_t k = 0; k < a.axes.size(); ++k)
+    for (std::size_t j = 0; j < k; ++j)
+      if (canonical_key(a.axes[k].key, spec) == canonical_key(a.axes[j].key, spec))
+        throw InputError("--grid " + a.grid_args[k] + ": sets the same parameter as --grid " + a.grid_args[j] + " (" +
+                         canonical_key(a.axes[k].key, spec) + ")");
+}
+
 // Fills in every run's seed, sets, N and steps. The first replica of a combination goes through
 // the loader and a dry run; the others differ from it only in the seed, so they are derived from
 // it without loading again.
@@ -92,6 +112,7 @@ void resolve_runs(const SweepArgs& a, std::vector<Run>& runs) {
       auto& registry = registries[plugin_key];
       if (!registry) registry = make_registry(plugins, [&doc](std::size_t i) { return doc.plugin_location(i); });
       const PipelineSpec spec = doc.resolve(*registry);
+      if (&run == &runs.front()) refuse_one_parameter_twice(a, spec);
       run.seed = spec.run.seed;
       run.N = spec.system.N;
       run.steps = spec.run.steps;
