@@ -2,6 +2,7 @@
 
 #include <fcntl.h>
 #include <hdf5.h>
+#include <sys/statvfs.h>
 #include <unistd.h>
 
 #include <cstring>
@@ -152,6 +153,20 @@ void write_checkpoint_file(const std::string& path, const CheckpointData& data) 
     throw RunError("writing the checkpoint '" + path + "' failed: " + what +
                    " (is the disk full? earlier checkpoints are kept)");
   };
+  // Not begun without room for it (the data and ~1 KiB of metadata an entry, and 1 MiB): a file
+  // that runs out of space mid-write may leave HDF5 unable to close it, and the process to crash
+  // at exit (the failure audit of session 34).
+  {
+    std::uint64_t need = 1u << 20;
+    for (auto& [name, e] : data.entries) need += e.bytes.size() + 1024;
+    struct statvfs vfs = {};
+    const std::string folder = target.parent_path().empty() ? "." : target.parent_path().string();
+    if (::statvfs(folder.c_str(), &vfs) == 0 && std::uint64_t(vfs.f_bavail) * std::uint64_t(vfs.f_frsize) < need)
+      throw RunError("writing the checkpoint '" + path + "' was not begun: its disk has " +
+                     std::to_string(std::uint64_t(vfs.f_bavail) * std::uint64_t(vfs.f_frsize) >> 10) +
+                     " KiB free, less than the checkpoint needs (" + std::to_string(need >> 10) +
+                     " KiB); earlier checkpoints are kept");
+  }
   {
     Handle file(H5Fcreate(tmp.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT), H5Fclose);
     if (file.id < 0) fail("cannot create '" + tmp.string() + "'");

@@ -2,6 +2,7 @@
 
 #include <hdf5.h>
 #include <pwd.h>
+#include <sys/statvfs.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -554,6 +555,23 @@ void H5mdWriter::append_connectivity(const std::string& name, std::int64_t step,
     it = impl_->topologies.emplace(name, std::move(s)).first;
   }
   impl_->append(it->second, step, time, triangles, hsize_t(m));
+}
+
+void H5mdWriter::check_space(std::uint64_t frame_bytes) const {
+  if (!impl_) return;
+  struct statvfs fs = {};
+  const std::string folder = std::filesystem::path(impl_->partial).parent_path().string();
+  if (::statvfs(folder.empty() ? "." : folder.c_str(), &fs) != 0) return;  // (cannot tell: write and see)
+  const std::uint64_t free = std::uint64_t(fs.f_bavail) * std::uint64_t(fs.f_frsize);
+  // The frame, a new chunk for every series at worst (value chunks up to 256 KiB, step and time
+  // chunks of 1 024 values), and the metadata a flush and a close write.
+  const std::uint64_t series = impl_->elements.size() + impl_->scalars.size() + impl_->topologies.size() + 1;
+  const std::uint64_t need = frame_bytes + series * ((256u << 10) + (16u << 10)) + (1u << 20);
+  if (free < need)
+    throw RunError("the disk holding '" + impl_->partial + "' has " + std::to_string(free >> 10) +
+                   " KiB free, less than the next frame needs (" + std::to_string(need >> 10) +
+                   " KiB with HDF5's chunks and metadata): stopped before writing it, so the file keeps every "
+                   "frame before it, readable; free some space and continue the run with --resume");
 }
 
 void H5mdWriter::flush() {

@@ -106,6 +106,10 @@ class H5mdWriter {
 
   // Make everything appended so far durable and readable by another process.
   void flush();
+  // RunError when the file's disk has too little space left for a frame of `frame_bytes` (with
+  // the chunks and metadata HDF5 may add): called before a frame is begun, because a write that
+  // runs out of space mid-frame leaves a file HDF5 may not be able to read or close.
+  void check_space(std::uint64_t frame_bytes) const;
 
   // Close the file. completed: rename the .partial to path() (RunError if that fails, the
   // .partial is kept). Not completed: keep the .partial and print where it is (messages()).

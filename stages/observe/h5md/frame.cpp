@@ -4,6 +4,9 @@ namespace ff::observe {
 
 void write_frame(H5mdWriter& w, Frame& f) {
   f.ready.wait();
+  std::uint64_t bytes = 16 * f.observables.size();
+  for (const FieldFrame& field : f.fields) bytes += field.bytes.size();
+  w.check_space(bytes);
   for (const FieldFrame& field : f.fields) {
     if (field.connectivity)
       w.append_connectivity(field.name, f.step, f.time, reinterpret_cast<const std::int32_t*>(field.bytes.data()),

@@ -537,6 +537,42 @@ TEST_CASE("H5mdWriter on a full disk: a clear error, and every earlier frame sta
 // buffer held when the copy was late (test_checkpoint's resumed runs on an H200 wrote one frame of
 // 2 001 with the values of an earlier one, twice in six sessions). Here the copy waits behind a
 // sleeping host function on its stream, so a writer that does not wait writes zeros.
+TEST_CASE("H5mdWriter refuses to begin a frame the disk has no room for, and the file stays whole",
+          "[observe][h5md]") {
+  // A frame begun on a nearly full disk fails mid-write and may leave a file HDF5 cannot read or
+  // close (a segfault at exit in the failure audit of session 34): check_space stops before it.
+  // The disk's real free space against a frame larger than any disk: refused.
+  const auto dir = std::filesystem::temp_directory_path() / ("ff_h5md_space_" + std::to_string(::getpid()));
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  const std::string path = (dir / "space.h5").string();
+  const std::size_t n = 100;
+  std::vector<double> p(2 * n, 0.5);
+  ff::H5mdHeader h;
+  h.dim = 2;
+  h.edges[0] = h.edges[1] = 10.0;
+  std::string error;
+  {
+    ff::H5mdWriter w(path, h);
+    w.add_particle_element("position", ff::DType::f64, n, 2);
+    w.check_space(p.size() * sizeof(double));  // a frame of this size fits
+    w.append_particle_element("position", 0, 0.0, p.data());
+    w.flush();
+    try {
+      w.check_space(std::uint64_t(1) << 60);
+    } catch (const ff::RunError& e) {
+      error = e.what();
+    }
+    w.close(false);
+  }
+  INFO(error);
+  CHECK_THAT(error, Catch::Contains("space.h5.partial") && Catch::Contains("KiB free, less than the next frame needs") &&
+                        Catch::Contains("--resume"));
+  const ff::H5mdFrame f = ff::read_h5md_frame(path + ".partial", 0);
+  CHECK(f.position == p);
+  std::filesystem::remove_all(dir);
+}
+
 TEST_CASE("observe.h5md on CUDA writes a frame after its device copy, however late the copy", "[observe][h5md][cuda]") {
   if (!ff::test::have_cuda("observe.h5md's writer waiting for a late device copy")) return;
   TempDir dir("late_copy");
