@@ -183,6 +183,28 @@ TEST_CASE("pipeline validate: Delaunay stages without the stage they follow are 
   fs::remove(file);
 }
 
+TEST_CASE("pipeline validate: the initial state's errors name the file's line of `init`", "[cli]") {
+  const fs::path file = fresh_dir("init.yaml");
+  auto message = [&](const std::string& system) {
+    std::ofstream(file) << "system: " << system << "\nrun: {steps: 2, dt: 0.01}\nplugins: [brownian]\n"
+                        << "step:\n  - {stage: brownian.integrate, D: 1}\n";
+    auto r = run("validate " + file.string());
+    INFO(system << ": " << r.out);
+    CHECK(r.code == 2);
+    return r.out;
+  };
+  const std::string name = file.filename().string();
+  // A box too small for N: located, and no advice that cannot help.
+  const std::string box = message("{dimensions: 2, N: 64, box: [0.1, 0.1]}");
+  CHECK_THAT(box, Catch::Contains(name + ":1:9: system.init: random") && Catch::Contains("No packing") &&
+                      !Catch::Contains("triangular_lattice_sample"));
+  // A missing start file: at the `init` key, saying where a relative path is read from.
+  const std::string from = message("{dimensions: 2, N: 64, packing_fraction: 0.3, init: {from: no_such.h5}}");
+  CHECK_THAT(from, Catch::Contains(name + ":1:55: system.init.from: the file 'no_such.h5' does not exist") &&
+                       Catch::Contains("a relative path is read from the directory the command runs in"));
+  fs::remove(file);
+}
+
 TEST_CASE("pipeline describe suggests the stage meant by a typo", "[cli]") {
   auto r = run("describe brownian.integrat");
   INFO(r.out);

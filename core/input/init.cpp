@@ -217,9 +217,12 @@ void place_random(const SystemSpec& s, const double* L, const std::vector<double
           std::to_string(n) + " without overlap after " + std::to_string(kMaxDropsPerParticle) +
           " tries: packing fraction " + num(phi) +
           " is too high for random placement (random sequential addition jams near " +
-          (two_d ? "0.547 in 2D" : "0.38 in 3D") + "). Use `init: " +
-          (two_d ? "triangular_lattice_sample" : "lattice_sample") +
-          "`, which reaches " + (two_d ? "0.907" : "0.740") + ", or lower system.packing_fraction");
+          (two_d ? "0.547 in 2D" : "0.38 in 3D") + "). " +
+          (phi < (two_d ? 0.907 : 0.740)
+               ? std::string("Use `init: ") + (two_d ? "triangular_lattice_sample" : "lattice_sample") + "`, which reaches " +
+                     (two_d ? "0.907" : "0.740") + ", or lower the packing fraction"
+               : std::string("No packing of equal disks or spheres reaches it: lower the packing fraction")) +
+          " (system.packing_fraction, or fewer particles in a larger system.box)");
     }
     for (int k = 0; k < dim; ++k) pos[i * dim + std::size_t(k)] = x[k];
     grid.insert(std::int64_t(i), x);

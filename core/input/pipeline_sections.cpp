@@ -129,7 +129,9 @@ SystemSpec read_system(const YAML::Node& n, const Locator& loc) {
   if (v.has("packing_fraction")) s.packing_fraction = v.real("packing_fraction");
   if (v.has("box")) s.box = v.reals("box");
   s.sigma = v.real("sigma");
+  s.where = loc.at(n);
   if (const Item* init = find(items, "init")) {
+    s.where = loc.at(*init);
     if (init->value.IsMap()) {
       const std::string path = "system.init";
       const Schema is{init_from_schema(), {}, {}, "key", known_keys(init_from_schema(), {})};

@@ -38,6 +38,9 @@ struct SystemSpec {
   // init: {from: FILE.h5, frame: k}: start from frame k of an H5MD file (negative: from the end).
   std::string init_from;
   std::int64_t init_frame = -1;
+  // Where the initial state was asked for: the `init` key, else the `system` section (the
+  // errors of making it name this place; empty for a spec built in code).
+  Location where;
 };
 
 struct RunSpec {

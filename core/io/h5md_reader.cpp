@@ -84,7 +84,11 @@ std::int64_t row_of_step(hid_t f, const std::string& group, std::int64_t step, c
 H5mdFrame read_h5md_frame(const std::string& path, std::int64_t frame) {
   QuietErrors quiet;
   if (!std::filesystem::exists(path))
-    throw InputError("system.init.from: the file '" + path + "' does not exist");
+    throw InputError("system.init.from: the file '" + path + "' does not exist" +
+                     (std::filesystem::path(path).is_relative()
+                          ? " (a relative path is read from the directory the command runs in, " +
+                                std::filesystem::current_path().string() + ")"
+                          : std::string()));
   Handle f(H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose);
   if (f.id < 0) throw InputError("system.init.from: '" + path + "' is not a readable HDF5 file");
   const std::string all = "/particles/all";

@@ -21,7 +21,16 @@ namespace fs = std::filesystem;
 namespace ff {
 
 Simulation::Simulation(const PipelineSpec& spec, const Registry& registry, RunOptions options)
-    : Simulation(spec, registry, std::move(options), make_initial_state(spec.system, spec.run.precision, spec.run.seed)) {}
+    : Simulation(spec, registry, std::move(options), initial_state(spec)) {}
+
+std::unique_ptr<State> Simulation::initial_state(const PipelineSpec& spec) {
+  try {
+    return make_initial_state(spec.system, spec.run.precision, spec.run.seed);
+  } catch (const InputError& e) {
+    if (spec.system.where.str().empty()) throw;
+    throw InputError(spec.system.where.str() + ": " + e.what());  // (the file's place of `init`)
+  }
+}
 
 Simulation::Simulation(const PipelineSpec& spec, const Registry& registry, RunOptions options,
                        std::unique_ptr<State> state)

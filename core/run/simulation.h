@@ -118,6 +118,8 @@ class Simulation {
   void reduce_metrics();
   void make_snapshot();
   void check_output_names() const;  // InputError: two steps writing one file
+  // make_initial_state, its errors located at the pipeline's `init` (or `system`).
+  static std::unique_ptr<State> initial_state(const PipelineSpec& spec);
   void prepare_outputs();
   void collect_metrics(int node);
   void observe(double dt);
