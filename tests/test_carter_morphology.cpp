@@ -51,7 +51,9 @@ Numbers morphology(int c) {
     o.id = id;
     o.every = kSteps;
     l.spec.step.push_back(
-        test::entry(*l.registry, "observe.clusters", {{"bond", 1.1}, {"types", types}}, o));
+        test::entry(*l.registry, "observe.clusters", {{"bond", 1.1}, {"types", types}, {"file", "clusters-" + id + ".csv"},
+                     {"sizes_file", "cluster_sizes-" + id + ".csv"}},
+                    o));
   }
   Simulation sim(l.spec, *l.registry, test::dry(Backend::cpu));
   for (std::uint64_t k = 0; k < kSteps; ++k) sim.advance();
