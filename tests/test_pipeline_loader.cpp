@@ -236,6 +236,8 @@ TEST_CASE("a missing file and an empty file are input errors", "[pipeline_loader
   CHECK(error_of_text("", {}) == "inline.yaml:1:1: expected a map with keys system, run, plugins, step, got nothing");
   CHECK(error_of_text("[1, 2]", {}) ==
         "inline.yaml:1:1: expected a map with keys system, run, plugins, step, got a list");
+  CHECK_THAT(error_of_text("system:\n\tN: 3\n", {}), Contains("invalid YAML") && Contains("indents with a tab"));
+  CHECK(error_of_text("[]", {}) == "inline.yaml:1:1: expected a map with keys system, run, plugins, step, got an empty list");
 }
 
 TEST_CASE("scalars are typed strictly", "[pipeline_loader]") {

@@ -13,6 +13,7 @@
 #include <cerrno>
 #include <cstdio>
 #include <cstring>
+#include <sstream>
 
 #include "core/base/error.h"
 #include "core/input/pipeline_yaml.h"
@@ -150,7 +151,15 @@ PipelineDocument PipelineDocument::parse_string(const std::string& yaml, const s
   try {
     impl->root = YAML::Load(yaml);
   } catch (const YAML::ParserException& e) {
-    fail(Location{name, e.mark.line + 1, e.mark.column + 1}, "", "invalid YAML: " + e.msg);
+    // A tab in an indentation is the usual cause of yaml-cpp's less telling messages.
+    bool tab = false;
+    std::istringstream lines(yaml);
+    for (std::string line; !tab && std::getline(lines, line);) {
+      const std::size_t first = line.find_first_not_of(' ');
+      tab = first != std::string::npos && line[first] == '\t';
+    }
+    fail(Location{name, e.mark.line + 1, e.mark.column + 1}, "",
+         "invalid YAML: " + e.msg + (tab ? " (the file indents with a tab: YAML allows only spaces)" : ""));
   }
   // The root must be a map before overrides can write into it; an empty file becomes one.
   if (impl->root.IsDefined() && !impl->root.IsNull() && !impl->root.IsMap())

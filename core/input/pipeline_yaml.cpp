@@ -9,8 +9,8 @@ namespace ff::pipeline_detail {
 std::string found(const YAML::Node& n) {
   switch (n.Type()) {
     case YAML::NodeType::Scalar: return "'" + n.Scalar() + "'";
-    case YAML::NodeType::Sequence: return "a list";
-    case YAML::NodeType::Map: return "a map";
+    case YAML::NodeType::Sequence: return n.size() ? "a list" : "an empty list";
+    case YAML::NodeType::Map: return n.size() ? "a map" : "an empty map";
     default: return "nothing";
   }
 }

@@ -83,8 +83,8 @@ void throw_if_too_long(State& s, Where w, const MemoryOps& mem, unsigned count, 
   throw RunError(std::string(stage) + ": a triangle at the edge between particles " + list_ids(ids) +
                  " no longer closes under minimum image (" + std::to_string(count) +
                  " edge(s)): an edge has grown longer than half the box, which the periodic triangulation cannot "
-                 "store. Use a larger system (more particles at this density) or rebuild the triangulation more often "
-                 "(delaunay.build with every: k)");
+                 "store. Use a larger system (more particles at this density), a smaller run.dt (particles that move "
+                 "far in a step stretch edges), or rebuild the triangulation more often (delaunay.build with every: k)");
 }
 
 std::string list_ids(const std::vector<std::uint64_t>& ids) {
