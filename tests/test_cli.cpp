@@ -205,6 +205,15 @@ TEST_CASE("pipeline validate: the initial state's errors name the file's line of
   fs::remove(file);
 }
 
+TEST_CASE("pipeline validate: a stage's error about a --set value names the --set", "[cli]") {
+  auto r = run("validate " + repo_file("pipelines/brownian.yaml").string() +
+               " --set 'step.observe.h5md.fields=[position, velocityy]'");
+  INFO(r.out);
+  CHECK(r.code == 2);
+  CHECK_THAT(r.out, Catch::Contains("step 'observe.h5md' (with --set step.observe.h5md.fields=[position, velocityy]):") &&
+                        Catch::Contains("no field 'velocityy'"));
+}
+
 TEST_CASE("pipeline describe suggests the stage meant by a typo", "[cli]") {
   auto r = run("describe brownian.integrat");
   INFO(r.out);

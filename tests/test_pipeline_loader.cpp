@@ -323,10 +323,13 @@ TEST_CASE("malformed overrides are input errors", "[pipeline_loader]") {
         "--set step.lawson.b.max_rounds=3: no step entry with id 'lawson.b'; did you mean 'lawson.a'? "
         "(ids: fake.integrate, lawson.a)");
   CHECK_THAT(error_of_text(kMinimal, {"run.dt=[1,"}), StartsWith("--set run.dt=[1,: the value is not valid YAML: "));
-  // A good override by id with a dot in it.
-  const auto spec = ff::PipelineDocument::parse_string(kMinimal, "m.yaml", {"step.lawson.a.max_rounds=4"})
+  // A good override by id with a dot in it; the entries record which --set changed them (a stage's
+  // configure error names them).
+  const auto spec = ff::PipelineDocument::parse_string(kMinimal, "m.yaml", {"step.lawson.a.max_rounds=4", "step.1.verbose=true", "run.dt=0.1"})
                         .resolve(registry());
   CHECK(spec.step[1].params.integer("max_rounds") == 4);
+  CHECK(spec.step[1].set_by == std::vector<std::string>{"step.lawson.a.max_rounds=4", "step.1.verbose=true"});
+  CHECK(spec.step[0].set_by.empty());
 }
 
 // Issue 19, item 6: a plugin that is not found is reported where the file names it, so the

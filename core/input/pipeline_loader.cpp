@@ -202,6 +202,13 @@ PipelineSpec PipelineDocument::resolve(const Registry& registry) const {
   spec.run = read_run(find(top, "run")->value, loc);
   spec.plugins = read_plugins(find(top, "plugins"), loc);
   spec.step = read_steps(find(top, "step")->value, spec.system.dimensions, registry, loc);
+  for (const std::string& text : impl_->applied) {  // (apply() checked their form)
+    if (text.rfind("step.", 0) != 0) continue;
+    const std::string key = text.substr(5, text.find('=') - 5);
+    const std::string entry = key.substr(0, key.rfind('.'));
+    for (std::size_t i = 0; i < spec.step.size(); ++i)
+      if (entry == spec.step[i].id || entry == std::to_string(i)) spec.step[i].set_by.push_back(text);
+  }
   return spec;
 }
 

@@ -103,6 +103,9 @@ struct StepEntry {
   bool after_given = false;       // false: runs after the previous entry
   Schedule schedule;              // `every` or `at`
   Location where;
+  // The --set arguments that changed this entry (step.<id or index>.<param>=...): a stage's
+  // error about its parameters names them beside `where`, which is the file's entry.
+  std::vector<std::string> set_by;
 };
 
 struct PipelineSpec {

@@ -80,7 +80,9 @@ void Simulation::build(const Registry& registry) {
       slot.stage = registry.create(e.stage, options_.backend, e.params, slot.info);
       slot.stage->configure(*state_);
     } catch (const InputError& err) {
-      throw InputError(e.where.str() + ": step '" + e.id + "': " + err.what());
+      std::string set;
+      for (auto& s : e.set_by) set += (set.empty() ? " (with --set " : ", --set ") + s;
+      throw InputError(e.where.str() + ": step '" + e.id + "'" + (set.empty() ? "" : set + ")") + ": " + err.what());
     }
     accesses.push_back(slot.stage->accesses());
     for (auto& a : accesses.back())
