@@ -214,6 +214,17 @@ TEST_CASE("pipeline validate: a stage's error about a --set value names the --se
                         Catch::Contains("no field 'velocityy'"));
 }
 
+TEST_CASE("pipeline COMMAND --help lists the command's options and exits 0", "[cli]") {
+  for (const char* command : {"run", "validate", "graph", "bench", "sweep"}) {
+    auto r = run(std::string(command) + " --help");
+    INFO(command << ": " << r.out);
+    CHECK(r.code == 0);
+    CHECK_THAT(r.out, Catch::Contains("--set") && Catch::Contains("--device"));
+  }
+  CHECK_THAT(run("bench --help").out, Catch::Contains("--results"));
+  CHECK(run("describe --help").code == 0);
+}
+
 TEST_CASE("pipeline describe suggests the stage meant by a typo", "[cli]") {
   auto r = run("describe brownian.integrat");
   INFO(r.out);

@@ -7,6 +7,7 @@
 
 #include "core/base/error.h"
 #include "tools/pipeline/commands.h"
+#include "tools/pipeline/options.h"
 
 namespace {
 const char* kUsage =
@@ -22,6 +23,7 @@ const char* kUsage =
     "  stages                           every stage the plugins on the search path offer\n"
     "  describe STAGE                   one stage: parameters, defaults, reads/writes, backends\n"
     "  bench FILE.yaml [--sizes N,N,...] [--steps S] [--warmup W] [--device ...] [--set ...] [--gpus N]\n"
+    "      [--threads N] [--results DIR]   JSON lines to DIR/<file>-<backend>.jsonl (default bench/results)\n"
     "  sweep FILE.yaml --grid key=v1,v2,... [--grid ...] [--replicas R] [--concurrent K] [--out DIR] [--set ...]\n"
     "      [--device ...] [--threads N] [--mps auto|on|off] [--gpus 0,1,...] [--in-process] [--force]\n"
     "      one run per combination and seed, each in its own folder, with an index CSV; run it again to\n"
@@ -30,6 +32,7 @@ const char* kUsage =
     "      (private pipe directory in /tmp) and stops it when the sweep ends; --mps off never, --mps on requires it\n"
     "\n"
     "Exit codes: 0 done, 1 the run failed, 2 bad input, 3 stopped by SIGINT/SIGTERM after writing a checkpoint.\n"
+    "`pipeline <command> --help` lists a command's options.\n"
     "\n"
     "Plugins are searched in $FLIPFLOW_PLUGIN_PATH, then in ../plugins and ../lib/flipflow/plugins next to\n"
     "this program (a build tree; an installed tree).\n";
@@ -43,6 +46,10 @@ int main(int argc, char** argv) {
   const std::string command = argv[1];
   std::vector<std::string> args(argv + 2, argv + argc);
   try {
+    if ((command == "stages" || command == "describe") && !args.empty() && (args[0] == "--help" || args[0] == "-h")) {
+      std::cout << (command == "stages" ? "usage: pipeline stages\n" : "usage: pipeline describe STAGE\n");
+      return 0;
+    }
     if (command == "run") return ff::cli::cmd_run(args);
     if (command == "validate") return ff::cli::cmd_validate(args);
     if (command == "graph") return ff::cli::cmd_graph(args);
@@ -52,6 +59,8 @@ int main(int argc, char** argv) {
     if (command == "sweep") return ff::cli::cmd_sweep(args);
     std::cerr << "pipeline: unknown command '" << command << "'\n\n" << kUsage;
     return 2;
+  } catch (const ff::cli::HelpShown&) {
+    return 0;
   } catch (const ff::InputError& e) {
     std::cerr << "error: " << e.what() << "\n";
     return 2;

@@ -1,5 +1,7 @@
 #include "tools/pipeline/options.h"
 
+#include <iostream>
+
 #include "core/base/error.h"
 
 namespace po = boost::program_options;
@@ -15,6 +17,11 @@ po::variables_map parse_options(const std::vector<std::string>& args, po::option
   opts.add(extra);
   po::positional_options_description pos;
   pos.add("file", 1);
+  for (auto& a : args)
+    if (a == "--help" || a == "-h") {
+      std::cout << opts << "(pipeline --help: every command, and run's --resume)\n";
+      throw HelpShown{};
+    }
   po::variables_map vm;
   try {
     po::store(po::command_line_parser(args).options(opts).positional(pos).run(), vm);

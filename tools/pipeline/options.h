@@ -12,7 +12,11 @@ struct CommonOptions {
   std::string device = "auto";
 };
 
-// Parses `args` with the given extra options plus FILE/--set/--device; InputError on bad flags.
+// Thrown by parse_options after printing a command's options for --help: `pipeline` exits 0.
+struct HelpShown {};
+
+// Parses `args` with the given extra options plus FILE/--set/--device; InputError on bad flags;
+// with --help (-h), prints the options and throws HelpShown.
 boost::program_options::variables_map parse_options(const std::vector<std::string>& args,
                                                     boost::program_options::options_description extra,
                                                     CommonOptions& common, bool needs_file = true);
