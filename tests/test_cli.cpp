@@ -106,6 +106,18 @@ TEST_CASE("pipeline run: a fresh run refuses an earlier run's checkpoints and ke
       "assert list(f['particles/all/position/step'][:])==[300], list(f['particles/all/position/step'][:])\" " +
       (out / "trajectory.h5").string();
   if (ff::test::can_check_h5md("where a resumed run's new file starts")) CHECK(std::system(starts.c_str()) == 0);
+  // Continuing from an older checkpoint of the folder: the newer one is not its past (pruned by
+  // step, it would delete the continuation's own). Refused until it is moved away.
+  REQUIRE(names() == std::set<std::string>{"checkpoint-000000000200.h5", "checkpoint-000000000300.h5"});
+  const std::string older = common + " --resume " + (out / "checkpoint-000000000200.h5").string();
+  auto mixed = run(older + " --set run.steps=250");
+  INFO(mixed.out);
+  CHECK(mixed.code == 2);
+  CHECK_THAT(mixed.out, Catch::Contains("holds checkpoints that are not the past of step 200") &&
+                            Catch::Contains("checkpoint-000000000300.h5"));
+  fs::rename(out / "checkpoint-000000000300.h5", out / "later.h5");
+  require_success(run(older + " --set run.steps=250"));
+  CHECK(names() == std::set<std::string>{"checkpoint-000000000200.h5", "checkpoint-000000000250.h5"});
   fs::remove_all(out);
 }
 

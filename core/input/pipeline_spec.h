@@ -80,6 +80,7 @@ struct Schedule {
       // 1e-10 would take ~10^11 turns), to two before the first estimated not to: the same steps
       // as k = 0, 1, 2, ... one by one, since the values only grow with k.
       k = std::max(k + 1, std::floor(std::log((s + 0.5) / double(first)) / std::log(factor)) - 2);
+      if (k + 1 == k) break;  // (a factor within ~1e-15 of 1, which the loader refuses: no further step)
     }
     if (steps > 0 && (out.empty() || out.back() != steps - 1)) out.push_back(steps - 1);
     return out;

@@ -157,6 +157,12 @@ Schedule read_schedule(const Head& h, const Locator& loc) {
   s.log = true;
   s.first = std::uint64_t(v.integer("first"));
   s.factor = v.real("factor");
+  // Closer to 1 than 1e-9, the exponents k that separate two steps pass 2^53, where k + 1 == k in
+  // double: Schedule::log_steps could not list the steps.
+  if (s.factor < 1.000000001)
+    for (const Item& it : items)
+      if (it.key == "factor")
+        loc.fail(it.value, log_path + ".factor", "expected a real number of at least 1.000000001, got '" + it.value.Scalar() + "'");
   return s;
 }
 

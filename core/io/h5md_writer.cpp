@@ -571,7 +571,8 @@ void H5mdWriter::check_space(std::uint64_t frame_bytes) const {
     throw RunError("the disk holding '" + impl_->partial + "' has " + std::to_string(free >> 10) +
                    " KiB free, less than the next frame needs (" + std::to_string(need >> 10) +
                    " KiB with HDF5's chunks and metadata): stopped before writing it, so the file keeps every "
-                   "frame before it, readable; free some space and continue the run with --resume");
+                   "frame before it, readable; free some space (a run that wrote checkpoints continues from the last with "
+                   "--resume)");
 }
 
 void H5mdWriter::flush() {

@@ -268,9 +268,9 @@ void Checkpointer::prune() const {
   }
 }
 
-std::vector<std::string> checkpoint_files(const std::string& dir) {
-  std::vector<std::string> out;
-  for (auto& [step, path] : checkpoints_in(dir)) out.push_back(path.string());
+std::vector<std::pair<std::uint64_t, std::string>> checkpoint_files(const std::string& dir) {
+  std::vector<std::pair<std::uint64_t, std::string>> out;
+  for (auto& [step, path] : checkpoints_in(dir)) out.push_back({step, path.string()});
   return out;
 }
 

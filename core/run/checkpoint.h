@@ -34,8 +34,9 @@ namespace ff {
 
 // "checkpoint-000000001000.h5"
 std::string checkpoint_file_name(std::uint64_t step);
-// The checkpoint files in `dir`, newest (highest step) first; none when it does not exist.
-std::vector<std::string> checkpoint_files(const std::string& dir);
+// The checkpoint files in `dir` with their steps, newest (highest step) first; none when it does
+// not exist.
+std::vector<std::pair<std::uint64_t, std::string>> checkpoint_files(const std::string& dir);
 
 // The parameter lines of a pipeline ("run.dt = 0.01", "step.abp.integrate.v0 = 1", ...): every
 // value after defaults and --set, one key per line, sorted. Structure lines apart.

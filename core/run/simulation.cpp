@@ -15,6 +15,7 @@
 #include "core/backend/comm.h"
 #include "core/base/error.h"
 #include "core/input/init.h"
+#include "core/run/checkpoint.h"
 
 namespace fs = std::filesystem;
 
@@ -404,8 +405,10 @@ void Simulation::prepare_outputs() {
       throw InputError("output '" + p.string() + "' exists; use --force to overwrite it or --out to write elsewhere");
     // What an unfinished run kept (its outputs are written as NAME.partial until they are complete).
     if (fs::exists(p.string() + ".partial"))
-      throw InputError("output '" + p.string() + ".partial' exists, kept by a run that did not finish; use --resume "
-                       "to continue that run, --force to overwrite it, or --out to write elsewhere");
+      throw InputError("output '" + p.string() + ".partial' exists, kept by a run that did not finish; use " +
+                       (checkpoint_files(options_.out_dir).empty() ? std::string()
+                                                                   : "--resume to continue that run (from its checkpoint), ") +
+                       "--force to overwrite it, or --out to write elsewhere");
   }
   std::error_code ec;
   fs::create_directories(options_.out_dir, ec);

@@ -107,6 +107,7 @@ std::string resume_command(const RunRequest& req, const std::string& out) {
   for (auto& o : req.overrides) c += " --set " + shell_word(o);
   if (req.device != "auto") c += " --device " + shell_word(req.device);
   if (req.threads > 0) c += " --threads " + std::to_string(req.threads);
+  if (req.gpus > 1) c += " --gpus " + std::to_string(req.gpus);
   return c + " --resume " + shell_word(out);
 }
 
@@ -155,7 +156,11 @@ int run_rank(const RunRequest& req, const Loaded& loaded, Backend backend, std::
   // A fresh run among an earlier run's checkpoints would mix the two: its own checkpoints would
   // be pruned by step against the older ones, and a later --resume would continue the newest,
   // the earlier run's. Refused, or with --force removed once the run is set up (below).
-  const std::vector<std::string> earlier = req.resuming || !lead ? std::vector<std::string>{} : checkpoint_files(out);
+  // A continuation likewise refuses the checkpoints in its folder that are not its past (below),
+  // without a --force (which a continuation does not take).
+  std::vector<std::string> earlier;
+  if (!req.resuming && lead)
+    for (auto& [step, file] : checkpoint_files(out)) earlier.push_back(file);
   if (!earlier.empty() && !req.force)
     throw InputError("'" + out + "' holds checkpoints of an earlier run (" + fs::path(earlier.front()).filename().string() +
                      (earlier.size() > 1 ? " and " + std::to_string(earlier.size() - 1) + " more" : "") +
@@ -178,6 +183,21 @@ int run_rank(const RunRequest& req, const Loaded& loaded, Backend backend, std::
                        "\nPass --allow-changes to continue with them (they are recorded in the H5MD file under "
                        "/parameters/history), or undo them");
     const std::uint64_t step = rp.data.u64("clock/step");
+    // Checkpoints in the folder that are not this continuation's past: newer than the one it
+    // continues (a later point, or another timeline), or any at all when it continues a file from
+    // elsewhere. Pruned by step against its own, they would delete them.
+    if (lead) {
+      std::error_code ec;
+      const bool here = fs::equivalent(fs::path(rp.path).parent_path(), out, ec);
+      for (auto& [s, file] : checkpoint_files(out))
+        if ((s > step || !here) && !fs::equivalent(file, rp.path, ec)) earlier.push_back(file);
+      if (!earlier.empty())  // (--force does not go with --resume: it would overwrite the outputs continued)
+        throw InputError("'" + out + "' holds checkpoints that are not the past of step " + std::to_string(step) + " of " +
+                         rp.path + " (" + fs::path(earlier.front()).filename().string() +
+                         (earlier.size() > 1 ? " and " + std::to_string(earlier.size() - 1) + " more" : "") +
+                         "): continuing among them would mix two runs; move them out of the folder, or continue into "
+                         "another --out");
+    }
     record.resumed_from = rp.path;
     record.resume_step = step;
     for (auto& c : changes.parameters) record.changes += c + "\n";

@@ -3,6 +3,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cstdlib>
 #include <filesystem>
@@ -132,7 +133,11 @@ std::vector<std::string> process_gpus(const std::string& gpus_arg) {
     if (!digits || g.size() > 4 || std::stoi(g) >= count)
       throw InputError("--gpus " + gpus_arg + " with --in-process: '" + g + "' is not a CUDA device of this process (0 to " +
                        std::to_string(count - 1) + "; CUDA_VISIBLE_DEVICES numbers them from 0)");
-    out.push_back(std::to_string(std::stoi(g)));
+    const std::string d = std::to_string(std::stoi(g));
+    if (std::find(out.begin(), out.end(), d) != out.end())
+      throw InputError("--gpus " + gpus_arg + " with --in-process: GPU " + d +
+                       " is listed twice (for more runs at once on a GPU, use --concurrent K)");
+    out.push_back(d);
   }
   return out;
 }

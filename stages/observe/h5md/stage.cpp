@@ -93,7 +93,7 @@ void H5mdObserver::open(const State& state) {
                       {"stage_id", info_.stage_id}};
   // A file begun by a resumed run (restore_state found neither it nor its .partial): it starts
   // at the checkpoint, and says so.
-  if (!rec.resumed_from.empty()) {
+  if (!rec.resumed_from.empty() && starts_at_resume_) {
     h.run_attributes.push_back({"resumed_from", rec.resumed_from});
     h.run_attributes.push_back({"first_step", std::to_string(rec.resume_step)});
   }
@@ -157,9 +157,14 @@ Outcome H5mdObserver::run(StepContext& ctx) {
   return Outcome::ok();
 }
 
-void H5mdObserver::save_state(StageState&) { drain(); }
+void H5mdObserver::save_state(StageState& out) {
+  drain();
+  // Whether the file was begun: a schedule whose first frame comes after the checkpoint has none
+  // yet, and its continuation must not warn of a lost one.
+  out.put("file_begun", std::uint8_t(writer_ ? 1 : 0));
+}
 
-void H5mdObserver::restore_state(const StageState&, State& state) {
+void H5mdObserver::restore_state(const StageState& saved, State& state) {
   const RunRecord& rec = info_.record;
   std::string overrides;
   for (auto& o : rec.overrides) overrides += o + "\n";
@@ -172,7 +177,12 @@ void H5mdObserver::restore_state(const StageState&, State& state) {
       {"overrides", overrides},
       {"effective_pipeline", rec.effective_pipeline}};
   auto w = H5mdWriter::reopen(path(), std::int64_t(state.step), history);
+  // (checkpoints written before file_begun was saved: assume the file was begun, as they all were
+  // but for late first frames)
+  const bool begun = !saved.has("file_begun") || saved.get<std::uint8_t>("file_begun") != 0;
+  if (!w && !begun) return;  // its first frame is still to come: a whole file, nothing to say
   if (!w) {
+    starts_at_resume_ = true;
     // Neither the file nor its .partial: moved away (a damaged file, as reopen's error advises)
     // or lost. open() starts a new one at the next frame, recording where it starts.
     std::fprintf(info_.messages,

@@ -69,6 +69,7 @@ class H5mdObserver final : public Stage {
 
   H5mdParams p_;
   RunInfo info_;
+  bool starts_at_resume_ = false;  // a resumed run's file begun anew after its frames were lost (restore_state)
   std::vector<bool> connectivity_;  // per entry of p_.fields
   std::unique_ptr<AsyncFrameWriter> writer_;
   bool finished_ = false;
