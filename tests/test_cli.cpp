@@ -234,6 +234,7 @@ TEST_CASE("pipeline COMMAND --help lists the command's options and exits 0", "[c
     CHECK_THAT(r.out, Catch::Contains("--set") && Catch::Contains("--device"));
   }
   CHECK_THAT(run("bench --help").out, Catch::Contains("--results"));
+  CHECK_THAT(run("run --help").out, Catch::Contains("--resume"));
   CHECK(run("describe --help").code == 0);
 }
 

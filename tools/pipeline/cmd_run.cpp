@@ -331,6 +331,10 @@ int cmd_run(const std::vector<std::string>& raw_args) {
       "gpus", po::value<int>(&req.gpus)->default_value(1),
       "ranks sharing the run: GPUs 0..N-1 through NCCL on CUDA, N threads on the CPU; every rank holds the state, "
       "stages that can split their work do (docs/multi-gpu.md)")(
+      // (listed for --help only: take_resume takes --resume and its optional value out first)
+      "resume", po::value<std::string>()->implicit_value(""),
+      "[DIR|CHECKPOINT.h5]: continue from the newest valid checkpoint of DIR (default: the output "
+      "directory), or from the given file")(
       "allow-changes", po::bool_switch(&req.allow_changes),
       "with --resume: continue with changed parameters (recorded in the H5MD file's /parameters/history)")(
       "check-rollbacks", po::bool_switch(&req.check_rollbacks),

@@ -19,7 +19,7 @@ po::variables_map parse_options(const std::vector<std::string>& args, po::option
   pos.add("file", 1);
   for (auto& a : args)
     if (a == "--help" || a == "-h") {
-      std::cout << opts << "(pipeline --help: every command, and run's --resume)\n";
+      std::cout << opts << "(pipeline --help: every command)\n";
       throw HelpShown{};
     }
   po::variables_map vm;
