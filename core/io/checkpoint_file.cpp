@@ -2,7 +2,6 @@
 
 #include <fcntl.h>
 #include <hdf5.h>
-#include <sys/statvfs.h>
 #include <unistd.h>
 
 #include <cstring>
@@ -159,11 +158,9 @@ void write_checkpoint_file(const std::string& path, const CheckpointData& data) 
   {
     std::uint64_t need = 1u << 20;
     for (auto& [name, e] : data.entries) need += e.bytes.size() + 1024;
-    struct statvfs vfs = {};
-    const std::string folder = target.parent_path().empty() ? "." : target.parent_path().string();
-    if (::statvfs(folder.c_str(), &vfs) == 0 && std::uint64_t(vfs.f_bavail) * std::uint64_t(vfs.f_frsize) < need)
-      throw RunError("writing the checkpoint '" + path + "' was not begun: its disk has " +
-                     std::to_string(std::uint64_t(vfs.f_bavail) * std::uint64_t(vfs.f_frsize) >> 10) +
+    const std::uint64_t free = hdf5::free_bytes(path);
+    if (free < need)
+      throw RunError("writing the checkpoint '" + path + "' was not begun: its disk has " + std::to_string(free >> 10) +
                      " KiB free, less than the checkpoint needs (" + std::to_string(need >> 10) +
                      " KiB); earlier checkpoints are kept");
   }

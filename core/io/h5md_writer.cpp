@@ -2,7 +2,6 @@
 
 #include <hdf5.h>
 #include <pwd.h>
-#include <sys/statvfs.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -559,10 +558,7 @@ void H5mdWriter::append_connectivity(const std::string& name, std::int64_t step,
 
 void H5mdWriter::check_space(std::uint64_t frame_bytes) const {
   if (!impl_) return;
-  struct statvfs fs = {};
-  const std::string folder = std::filesystem::path(impl_->partial).parent_path().string();
-  if (::statvfs(folder.empty() ? "." : folder.c_str(), &fs) != 0) return;  // (cannot tell: write and see)
-  const std::uint64_t free = std::uint64_t(fs.f_bavail) * std::uint64_t(fs.f_frsize);
+  const std::uint64_t free = hdf5::free_bytes(impl_->partial);
   // The frame, a new chunk for every series at worst (value chunks up to 256 KiB, step and time
   // chunks of 1 024 values), and the metadata a flush and a close write.
   const std::uint64_t series = impl_->elements.size() + impl_->scalars.size() + impl_->topologies.size() + 1;

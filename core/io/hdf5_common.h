@@ -3,10 +3,26 @@
 // flipflow's field types. Internal to core/io's .cpp files (it includes hdf5.h).
 #pragma once
 #include <hdf5.h>
+#include <sys/statvfs.h>
+
+#include <cstdint>
+#include <filesystem>
+#include <limits>
+#include <string>
 
 #include "core/base/types.h"
 
 namespace ff::hdf5 {
+
+// The bytes free to this user on the disk holding `file` (its folder's); the largest value when it
+// cannot tell. The writers check it before a frame or a checkpoint: HDF5 may leave a file it ran
+// out of space in mid-write unreadable, and crash at exit trying to close it.
+inline std::uint64_t free_bytes(const std::string& file) {
+  const std::string folder = std::filesystem::path(file).parent_path().string();
+  struct statvfs vfs = {};
+  if (::statvfs(folder.empty() ? "." : folder.c_str(), &vfs) != 0) return std::numeric_limits<std::uint64_t>::max();
+  return std::uint64_t(vfs.f_bavail) * std::uint64_t(vfs.f_frsize);
+}
 
 // HDF5 prints its error stack by default; core/io reports through exceptions instead.
 class QuietErrors {

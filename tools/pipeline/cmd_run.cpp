@@ -90,6 +90,12 @@ std::string lines(const std::vector<std::string>& v) {
 }  // namespace
 
 namespace {
+// "checkpoint-000000000300.h5 and 2 more": the first file's name and how many follow.
+std::string first_and_more(const std::vector<std::string>& files) {
+  return fs::path(files.front()).filename().string() +
+         (files.size() > 1 ? " and " + std::to_string(files.size() - 1) + " more" : "");
+}
+
 // `s` as one shell word.
 std::string shell_word(const std::string& s) {
   if (!s.empty() && s.find_first_not_of("ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789_./=:,+-@%^") ==
@@ -162,8 +168,7 @@ int run_rank(const RunRequest& req, const Loaded& loaded, Backend backend, std::
   if (!req.resuming && lead)
     for (auto& [step, file] : checkpoint_files(out)) earlier.push_back(file);
   if (!earlier.empty() && !req.force)
-    throw InputError("'" + out + "' holds checkpoints of an earlier run (" + fs::path(earlier.front()).filename().string() +
-                     (earlier.size() > 1 ? " and " + std::to_string(earlier.size() - 1) + " more" : "") +
+    throw InputError("'" + out + "' holds checkpoints of an earlier run (" + first_and_more(earlier) +
                      "); use --resume to continue it, --force to start over (removes them), or --out to write elsewhere");
   std::unique_ptr<Simulation> sim;
   std::string history;
@@ -193,9 +198,7 @@ int run_rank(const RunRequest& req, const Loaded& loaded, Backend backend, std::
         if ((s > step || !here) && !fs::equivalent(file, rp.path, ec)) earlier.push_back(file);
       if (!earlier.empty())  // (--force does not go with --resume: it would overwrite the outputs continued)
         throw InputError("'" + out + "' holds checkpoints that are not the past of step " + std::to_string(step) + " of " +
-                         rp.path + " (" + fs::path(earlier.front()).filename().string() +
-                         (earlier.size() > 1 ? " and " + std::to_string(earlier.size() - 1) + " more" : "") +
-                         "): continuing among them would mix two runs; move them out of the folder, or continue into "
+                         rp.path + " (" + first_and_more(earlier) + "): continuing among them would mix two runs; move them out of the folder, or continue into "
                          "another --out");
     }
     record.resumed_from = rp.path;
