@@ -3,8 +3,9 @@
 # (StageDecl::needs_before, ABI 8; check_space before each H5MD frame; fresh runs refuse earlier
 # checkpoints). The whole CUDA suite on two GPUs; an in-process sweep of hard-disks.yaml over
 # both GPUs whose progress lines must be in each run.log; bench-abp at three sizes.
-#   bash bench/experiments/session34/s34c3.sh gpu-carry/BUNDLE.tar.gz   carry: the bundle
-source tools/gpu/call_lib.sh s34c3 "$1"
+# Calls 4 and 5 ran it again under their own names (s34c4.sh, s34c5.sh).
+#   bash bench/experiments/session34/s34c3.sh gpu-carry/BUNDLE.tar.gz [NAME]   carry: the bundle
+source tools/gpu/call_lib.sh "${2:-s34c3}" "$1"
 suite "$B" 200
 step suite 0
 if (($(nvidia-smi -L | wc -l) >= 2)); then
