@@ -3,9 +3,9 @@
 # half a pass). HOOMD-blue is built on the host's cores while the whole CUDA suite runs (its
 # limits raised for the shared CPU); then HOOMD-blue's ABP + WCA row, flipflow's at 2^14 and 2^20
 # right after, 2^20 after 3 000 steps, Carter side by side and the sweep row.
-#   bash bench/experiments/session33/s33c3.sh gpu-carry/b33b.tar.gz
+#   bash bench/experiments/session33/s33c3.sh gpu-carry/b33b.tar.gz [NAME]
 #   carry: b33b, hoomd-kit.tgz, peers-bundle.tar.gz
-source tools/gpu/call_lib.sh c3 "$1"
+source tools/gpu/call_lib.sh "${2:-c3}" "$1"
 declare -A D=([main]=$B)
 tar -xzf gpu-carry/hoomd-kit.tgz
 (OUT=$O HOOMD_JOBS=16 nice -n 19 bash hoomd-kit/build.sh 420 > $O/hoomd-build.txt 2>&1; echo "build rc=$? t=$SECONDS" >> $O/hoomd-build.txt) &
