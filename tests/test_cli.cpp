@@ -245,6 +245,30 @@ TEST_CASE("pipeline describe suggests the stage meant by a typo", "[cli]") {
   CHECK_THAT(r.out, Catch::Contains("unknown stage 'brownian.integrat'; did you mean 'brownian.integrate'?"));
 }
 
+TEST_CASE("pipeline validate: a stage of a plugin on the path but not listed names the plugin to list", "[cli]") {
+  const fs::path file = fresh_dir("unlisted.yaml");
+  std::ofstream(file) << "system: {dimensions: 2, N: 256, packing_fraction: 0.5}\nrun: {steps: 10, dt: 0.001}\n"
+                         "plugins: [brownian]\nstep:\n  - {stage: neighbors.verlet, cutoff: 1.0, skin: 0.3}\n"
+                         "  - {stage: harmonic.forces}\n  - {stage: overdamped.integrate}\n";
+  auto r = run("validate " + file.string());
+  INFO(r.out);
+  CHECK(r.code == 2);
+  CHECK_THAT(r.out, Catch::Contains(file.filename().string() + ":6:") &&
+                        Catch::Contains("plugin 'harmonic' is on the plugin path but not listed") &&
+                        Catch::Contains("plugins: [harmonic]"));
+  fs::remove(file);
+}
+
+TEST_CASE("pipeline describe lists a pair force's fields, though it cannot be configured alone", "[cli]") {
+  // A pair force needs neighbors.verlet before it; describe still lists what it reads and writes.
+  auto r = run("describe harmonic.forces");
+  INFO(r.out);
+  CHECK(r.code == 0);
+  CHECK_THAT(r.out, Catch::Contains("not configured alone") && Catch::Contains("force") &&
+                        Catch::Contains("neighbors.list") && Catch::Contains("(configured alone it says: needs a neighbors.verlet"));
+  CHECK_THAT(run("describe observe.progress").out, Catch::Contains("    none"));
+}
+
 TEST_CASE("pipeline run: two steps writing one file are refused, naming both", "[cli]") {
   auto r = run("validate " + repo_file("pipelines/hard-disks.yaml").string() + " --set step.observe.gr.file=trajectory.h5");
   INFO(r.out);

@@ -33,6 +33,13 @@ TEST_CASE("two plugins declaring one stage are refused, naming both", "[plugins]
                         Catch::Contains("libflipflow_plugin_testing.so") && Catch::Contains("libflipflow_plugin_duplicate.so"));
 }
 
+TEST_CASE("a plugin that registers no stages is refused, naming the library", "[plugins]") {
+  Registry r;
+  CHECK_THROWS_WITH(load_plugins({test::test_plugin("empty")}, r),
+                    Catch::Contains("libflipflow_plugin_empty.so' registers no stages") &&
+                        Catch::Contains("FLIPFLOW_STAGE(...)"));
+}
+
 TEST_CASE("a file that is not a shared library is refused with the loader's reason", "[plugins]") {
   Registry r;
   CHECK_THROWS_WITH(load_plugins({"/etc/hostname"}, r), Catch::Contains("cannot load plugin '/etc/hostname'"));

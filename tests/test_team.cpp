@@ -265,7 +265,7 @@ TEST_CASE("team: NCCL communicators on 2 and 4 GPUs") {
 
 TEST_CASE("team: NCCL puts at most one rank on a GPU (so one GPU runs no team)") {
   if (cuda_device_count() < 1) {
-    WARN("SKIPPED (no CUDA device: " << cuda_device_description() << "): two ranks on one GPU");
+    WARN("SKIPPED (" << no_cuda_device_reason() << "): two ranks on one GPU");
     return;
   }
   // Not assumed: asked. If a future NCCL accepted it, the team tests below could run on one GPU.

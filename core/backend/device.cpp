@@ -49,6 +49,11 @@ std::string cuda_device_description() {
 #endif
 }
 
+std::string no_cuda_device_reason() {
+  const std::string d = cuda_device_description();
+  return d.rfind("no CUDA device", 0) == 0 ? d : "no CUDA device: " + d;
+}
+
 int cuda_device_count() {
 #ifdef FLIPFLOW_HAVE_CUDA
   int n = 0;

@@ -12,6 +12,8 @@ bool cuda_device_available();
 // A line for logs about the current device: "NVIDIA H100 80GB HBM3 (sm_90, 132 SMs)", or why there
 // is none.
 std::string cuda_device_description();
+// Why cuda_device_available() is false, beginning "no CUDA device" (the tests' SKIPPED lines).
+std::string no_cuda_device_reason();
 // CUDA devices visible to this process (0 without CUDA or a driver).
 int cuda_device_count();
 // Makes `device` the calling thread's current CUDA device (a rank's thread, core/run/team.h).

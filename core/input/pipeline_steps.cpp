@@ -62,10 +62,16 @@ Head read_head(const YAML::Node& e, std::size_t i, int dim, const Registry& reg,
   h.stage = std::get<std::string>(read_value(ParamSpec::string("stage", std::nullopt, ""), stage->value,
                                              at + ".stage", loc));
   if (!reg.has(h.stage)) {
-    const std::string s = suggestion(h.stage, reg.names());
+    // A model plugin's stages are named after it (harmonic.forces in plugin harmonic).
+    const std::string prefix = h.stage.substr(0, h.stage.find('.'));
+    const auto& unlisted = reg.unlisted_plugins();
+    const bool in_unlisted = std::find(unlisted.begin(), unlisted.end(), prefix) != unlisted.end();
+    const std::string s = in_unlisted ? std::string() : suggestion(h.stage, reg.names());
     loc.fail(stage->value, at + ".stage",
              "unknown stage '" + h.stage + "'" + s + " (loaded stages: " + join(reg.names()) + ")" +
-                 (s.empty() ? "; is its plugin listed under 'plugins'?" : ""));
+                 (in_unlisted ? "; plugin '" + prefix + "' is on the plugin path but not listed: add it under "
+                                "'plugins' (plugins: [" + prefix + "])"
+                  : s.empty() ? "; is its plugin listed under 'plugins'?" : ""));
   }
   const StageDecl& decl = reg.get(h.stage).decl;
   if (!std::count(decl.dimensions.begin(), decl.dimensions.end(), dim)) {

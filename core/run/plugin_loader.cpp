@@ -133,6 +133,12 @@ std::vector<std::string> find_model_plugins(const std::vector<std::string>& path
   return find_with_prefix(path, kPluginPrefix);
 }
 
+std::string model_plugin_name(const std::string& file) {
+  std::string n = fs::path(file).stem().string();
+  if (n.rfind(kPluginPrefix, 0) == 0) n.erase(0, std::string(kPluginPrefix).size());
+  return n;
+}
+
 void load_plugins(const std::vector<std::string>& files, Registry& registry) {
   static std::mutex mutex;
   std::lock_guard<std::mutex> lock(mutex);
@@ -163,7 +169,13 @@ void load_plugins(const std::vector<std::string>& files, Registry& registry) {
   // 2. register
   for (auto& o : opened) {
     registry.set_current_plugin(fs::path(o.file).filename().string());
+    const std::size_t before = registry.declared_count();
     o.lib.get_alias<RegisterFunction>("flipflow_register")(registry);
+    // A plugin whose stage.h files were all left out of its build (cmake/flipflow_plugin.cmake)
+    // would otherwise load in silence, and its stages be reported unknown as if it were unlisted.
+    if (registry.declared_count() == before)
+      throw InputError("plugin '" + o.file + "' registers no stages: none of its stage.h files ends in " +
+                       "FLIPFLOW_STAGE(...) or FLIPFLOW_HOST_STAGE(...) (docs/writing-a-model.md)");
     loaded_libraries().push_back(o.lib);
   }
   registry.resolve_aliases();

@@ -32,6 +32,8 @@ std::vector<std::string> find_plugins(const std::vector<std::string>& names, con
 std::vector<std::string> find_stage_libraries(const std::vector<std::string>& path);
 // Every model plugin found on the path (for `pipeline stages`).
 std::vector<std::string> find_model_plugins(const std::vector<std::string>& path);
+// The name a pipeline's `plugins:` gives the model plugin in `file` (libflipflow_plugin_NAME.so).
+std::string model_plugin_name(const std::string& file);
 
 // Open all files, check each exports flipflow_abi_version == FF_ABI_VERSION and
 // flipflow_register, then call each registration function in order.

@@ -78,7 +78,10 @@ void Simulation::build(const Registry& registry) {
     } catch (const InputError& err) {
       std::string set;
       for (auto& s : e.set_by) set += (set.empty() ? " (with --set " : ", --set ") + s;
-      throw InputError(e.where.str() + ": step '" + e.id + "'" + (set.empty() ? "" : set + ")") + ": " + err.what());
+      // Stages start their messages with their own name; where the step's id is that name, once is enough.
+      std::string what = err.what();
+      if (e.id == e.stage && what.rfind(e.stage + ": ", 0) == 0) what.erase(0, e.stage.size() + 2);
+      throw InputError(e.where.str() + ": step '" + e.id + "'" + (set.empty() ? "" : set + ")") + ": " + what);
     }
     accesses.push_back(slot.stage->accesses());
     for (auto& a : accesses.back())

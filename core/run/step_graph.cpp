@@ -75,7 +75,8 @@ void StepGraph::check_overwrites() const {
         throw InputError(nodes_[b].where.str() + ": step '" + nodes_[b].id + "' overwrites field '" + y.field +
                          "', which step '" + nodes_[a].id + "' wrote earlier in the step and no stage in between reads: '" +
                          nodes_[a].id + "' would do nothing (two stages writing '" + y.field +
-                         "' do not add up; only the last one counts)");
+                         "' do not add up; only the last one counts: a stage that adds to '" + y.field +
+                         "' reads it too, declaring it readwrite, README \"Writing a stage or a model\")");
       }
     }
   }

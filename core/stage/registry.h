@@ -53,8 +53,15 @@ class Registry {
   bool has(const std::string& name) const { return stages_.count(name) != 0; }
   const StageEntryInfo& get(const std::string& name) const;  // InputError if unknown
   std::vector<std::string> names() const;
+  // Stages and aliases registered so far (the loader's check that a plugin registered any).
+  std::size_t declared_count() const { return stages_.size() + pending_aliases_.size(); }
   std::unique_ptr<Stage> create(const std::string& name, Backend backend, const ParamValues& params,
                                 const RunInfo& info) const;
+
+  // Model plugins on the search path that the pipeline does not list (names as `plugins:` takes
+  // them), so an unknown stage's message can say which one to list.
+  void set_unlisted_plugins(std::vector<std::string> names) { unlisted_plugins_ = std::move(names); }
+  const std::vector<std::string>& unlisted_plugins() const { return unlisted_plugins_; }
 
   // The loader sets this while a plugin's registration function runs.
   void set_current_plugin(std::string plugin) { current_plugin_ = std::move(plugin); }
@@ -68,6 +75,7 @@ class Registry {
   std::map<std::string, StageEntryInfo> stages_;
   std::vector<PendingAlias> pending_aliases_;
   std::string current_plugin_ = "(built in)";
+  std::vector<std::string> unlisted_plugins_;
 };
 
 }  // namespace ff

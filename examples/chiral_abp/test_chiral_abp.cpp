@@ -290,7 +290,7 @@ int main() {
     initial_angles();
     std::vector<Backend> backends{Backend::cpu};
     if (cuda_device_available()) backends.push_back(Backend::cuda);
-    else std::printf("(no CUDA device: %s; CPU only)\n", cuda_device_description().c_str());
+    else std::printf("(%s; CPU only)\n", no_cuda_device_reason().c_str());
     for (Backend b : backends) {
       circle(b);
       statistics(b, Precision::f64, Model{1.0, 0.0, 0.5, 0.05});

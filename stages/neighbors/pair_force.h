@@ -95,9 +95,9 @@ class PairForceStage final : public Stage {
   }
 
   void configure(State& s) override {
-    const std::string name = Model::name;
+    // The messages do not name the stage: the step's error names it (and its line).
     if (!s.has_field(kList) || !s.has_field(kCutoff))
-      throw InputError(name + ": needs a neighbors.verlet stage earlier in the step list (add `- {stage: "
+      throw InputError("needs a neighbors.verlet stage earlier in the step list (add `- {stage: "
                        "neighbors.verlet, cutoff: 1.0, skin: 0.3}` before it, its cutoff at least the force's range)");
     Field& c = s.field(kCutoff);
     Field& d = s.field(fields::diameter);
@@ -107,8 +107,8 @@ class PairForceStage final : public Stage {
     const double largest = s.n() ? double(*std::max_element(d.host<R>(), d.host<R>() + s.n())) : 0.0;
     const double range = model_.range(largest, largest);
     if (cutoff < range)  // two of the largest particles could feel the force and be missing from the list
-      throw InputError(name + ": the neighbors.verlet cutoff " + std::to_string(cutoff) +
-                       " is shorter than the range " + std::to_string(range) +
+      throw InputError("the neighbors.verlet cutoff " + format_value(ParamValue(cutoff)) +
+                       " is shorter than the range " + format_value(ParamValue(range)) +
                        " of the force between the largest particles; raise neighbors.verlet's `cutoff` to at "
                        "least it (or shrink system.sigma)");
     if (!s.has_field(kForce)) s.add_particle_field(kForce, s.real(), s.dim());  // overdamped.integrate checks its shape

@@ -17,7 +17,7 @@ inline std::vector<Backend> backends() {
 // For CPU-vs-CUDA comparisons: returns false (and warns visibly) when there is no GPU.
 inline bool have_cuda(const char* what) {
   if (cuda_device_available()) return true;
-  WARN(std::string("SKIPPED (no CUDA device: ") + cuda_device_description() + "): " + what);
+  WARN("SKIPPED (" + no_cuda_device_reason() + "): " + what);
   return false;
 }
 

@@ -48,7 +48,7 @@ inline std::string test_device() {
 inline bool test_device_available(const std::string& what) {
   if (test_device() != "cuda") return true;
   if (ff::cuda_device_available()) return true;
-  WARN("SKIPPED (no CUDA device: " + ff::cuda_device_description() + "): " + what);
+  WARN("SKIPPED (" + ff::no_cuda_device_reason() + "): " + what);
   return false;
 }
 

@@ -1,6 +1,7 @@
 // `pipeline validate | graph | stages | describe`: look without running.
 #include <iomanip>
 #include <iostream>
+#include <memory>
 
 #include "core/backend/device.h"
 #include "core/base/error.h"
@@ -81,17 +82,28 @@ int cmd_describe(const std::vector<std::string>& args) {
     std::cout << "    " << std::left << std::setw(16) << p.name << " "
               << (p.default_value ? "default " + format_value(p, *p.default_value) : std::string("required")) << "; "
               << p.expectation() << "\n      " << p.doc << "\n";
-  // Accesses of a default instance (2D if supported, double, CPU).
+  // Accesses of a default instance (2D if supported, double, CPU). A stage that needs others
+  // before it (a pair force needs neighbors.verlet) cannot be configured alone; its accesses
+  // before configure() are still listed, with the reason beside them.
+  std::unique_ptr<Stage> stage;
+  std::string unconfigured;
   try {
     RunInfo info;
     info.dim = e.decl.dimensions.front();
-    auto stage = r->create(e.decl.name, Backend::cpu, ParamValues::defaults(e.decl.params), info);
+    stage = r->create(e.decl.name, Backend::cpu, ParamValues::defaults(e.decl.params), info);
     State state(info.dim, Precision::f64, 16);
-    stage->configure(state);
-    std::cout << "  fields (default parameters, CPU):\n";
-    for (auto& a : stage->accesses())
+    try {
+      stage->configure(state);
+    } catch (const std::exception& ex) {
+      unconfigured = ex.what();
+    }
+    const auto accesses = stage->accesses();
+    std::cout << "  fields (default parameters, CPU" << (unconfigured.empty() ? "" : "; not configured alone") << "):\n";
+    for (auto& a : accesses)
       std::cout << "    " << std::left << std::setw(24) << a.field << " " << to_string(a.mode) << " on "
                 << to_string(a.where) << "\n";
+    if (accesses.empty()) std::cout << "    none\n";
+    if (!unconfigured.empty()) std::cout << "    (configured alone it says: " << unconfigured << ")\n";
   } catch (const std::exception& ex) {
     std::cout << "  fields: depend on the configuration (" << ex.what() << ")\n";
   }

@@ -1,5 +1,6 @@
 #include "tools/pipeline/common.h"
 
+#include <algorithm>
 #include <fstream>
 #include <sstream>
 
@@ -16,6 +17,11 @@ std::unique_ptr<Registry> make_registry(const std::vector<std::string>& plugins,
   std::vector<std::string> files = find_stage_libraries(path);
   for (auto& f : find_plugins(plugins, path, where)) files.push_back(f);
   load_plugins(files, *r);
+  std::vector<std::string> unlisted;
+  for (auto& f : find_model_plugins(path))
+    if (std::find(plugins.begin(), plugins.end(), model_plugin_name(f)) == plugins.end())
+      unlisted.push_back(model_plugin_name(f));
+  r->set_unlisted_plugins(std::move(unlisted));
   return r;
 }
 
