@@ -362,6 +362,68 @@ TEST_CASE("checkpoint: SIGTERM finishes the step, writes a checkpoint, exits 3; 
   fs::remove_all(log.parent_path());
 }
 
+TEST_CASE("checkpoint: SIGKILL leaves g(r) as of a checkpoint beside it, not only inside it", "[checkpoint]") {
+  // Before: observe.gr wrote its CSV only at the run's end, so a run killed outright left its
+  // histogram only as bytes in the checkpoint. Each checkpoint now writes gr.csv.partial first.
+  if (!device_available()) return;
+  const std::uint64_t every = 50, steps = 200000;  // seconds: the kill lands mid-run
+  Case c{repo_file("pipelines/hard-disks.yaml").string(),
+         {"system.N=400", "step.observe.gr.from_step=0", "step.observe.gr.every=5", "step.observe.h5md.every=1000",
+          "step.observe.progress.every=1000000", "run.checkpoint={every: " + std::to_string(every) + ", keep: 2}"},
+         "trajectory.h5",
+         {"gr.csv"}};
+  const fs::path out = fresh_dir("kill_gr");
+  const fs::path log = fresh_dir("kill_gr_log") / "log";
+  const pid_t pid = spawn_pipeline(run_args(c, out, steps), log);
+  const bool checkpointed = wait_for_checkpoint(out, pid, 120);
+  if (checkpointed) CHECK(fs::exists(out / "gr.csv.partial"));  // written before the checkpoint's file
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  ::kill(pid, SIGKILL);
+  int status = 0;
+  waitpid(pid, &status, 0);
+  INFO(file_text(log));
+  REQUIRE(checkpointed);
+  REQUIRE((WIFSIGNALED(status) && WTERMSIG(status) == SIGKILL));
+  // Its frame count is that of a checkpoint's step (g(r) at steps 0, 5, ..., s: s / 5 + 1),
+  // the newest one's or, killed between the CSV and the checkpoint's file, the next one's.
+  const std::string text = file_text(out / "gr.csv.partial");
+  const std::size_t at = text.find("frames = ");
+  REQUIRE(at != std::string::npos);
+  const std::uint64_t frames = std::stoull(text.substr(at + 9));
+  const std::vector<fs::path> written = checkpoints(out);
+  REQUIRE(!written.empty());
+  const std::string name = written.back().stem().string();  // checkpoint-<step>
+  const std::uint64_t newest = std::stoull(name.substr(name.find('-') + 1));
+  INFO("newest checkpoint at step " << newest << ", gr.csv.partial has " << frames << " frames");
+  CHECK((frames == newest / 5 + 1 || frames == (newest + every) / 5 + 1));
+  CHECK(text.find("r_lo,r_hi,r,g,pairs") != std::string::npos);
+  fs::remove_all(out);
+  fs::remove_all(log.parent_path());
+}
+
+TEST_CASE("checkpoint: a failed run names its newest checkpoint and the command that continues it", "[checkpoint]") {
+  if (!device_available()) return;
+  // v0 = 28 at Δt = 0.01 crosses edges from both sides after ~2 000 steps on the CPU, and dt_min
+  // = Δt leaves no smaller step to retry with: the run fails after some checkpoints.
+  Case c = abp_case();
+  c.sets.back() = "run.checkpoint={every: 10, keep: 2}";
+  c.sets.push_back("step.abp.integrate.v0=28");
+  c.sets.push_back("run.dt_min=0.01");
+  const fs::path out = fresh_dir("failed");
+  const auto failed = pipeline(run_args(c, out, 20000));
+  INFO(failed.out);
+  REQUIRE(failed.code == 1);
+  const std::vector<fs::path> written = checkpoints(out);
+  REQUIRE(!written.empty());
+  CHECK_THAT(failed.out, Catch::Contains("the newest checkpoint is " + written.back().string()) &&
+                             Catch::Contains("--resume " + out.string() + " --allow-changes --set KEY=VALUE"));
+  // Continued as the message says, with the change that lets a step be retried at a smaller Δt.
+  const auto continued = pipeline(run_args(c, out, 20000) + " --resume --allow-changes --set run.dt_min=1e-6");
+  INFO(continued.out);
+  CHECK(continued.code == 0);
+  fs::remove_all(out);
+}
+
 TEST_CASE("checkpoint: refusals exit 2 naming the difference; the previous checkpoint still resumes",
           "[checkpoint]") {
   if (!device_available()) return;

@@ -179,6 +179,10 @@ void Checkpointer::after_step() {
   if (every_ > 0 && step % every_ == 0) write();
 }
 
+std::string Checkpointer::newest() const {
+  return written_ ? (fs::path(dir_) / checkpoint_file_name(last_step_)).string() : std::string();
+}
+
 std::string Checkpointer::write() {
   State& s = sim_.state();
   const fs::path path = fs::path(dir_) / checkpoint_file_name(s.step);

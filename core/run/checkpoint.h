@@ -56,6 +56,9 @@ class Checkpointer {
   // Writes a checkpoint of the state now (a no-op when one of this step exists). Returns its path.
   std::string write();
   std::uint64_t written() const { return written_; }
+  // The newest checkpoint this Checkpointer wrote and its step (empty, 0: none yet).
+  std::string newest() const;
+  std::uint64_t newest_step() const { return written_ ? last_step_ : 0; }
   // What the checkpoints written so far cost: seconds in write() after the device was idle
   // (collecting the state, writing, syncing and renaming the file), and the newest file's size.
   double write_seconds() const { return write_seconds_; }

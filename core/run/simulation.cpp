@@ -565,15 +565,19 @@ void Simulation::finish(bool completed) {
   finished_ = true;
   if (completed) synchronize();
   std::exception_ptr first;
-  for (std::size_t i = 0; i < slots_.size(); ++i) {
-    auto& s = slots_[i];
-    try {
-      // Rank 0's observers in a decomposed team finish on the state they observed.
-      s.stage->finish(gathered_ && graph_->nodes()[i].observer ? *gathered_ : *state_, completed);
-    } catch (...) {
-      if (!first) first = std::current_exception();
+  // Stages without files first: observe.progress ends its terminal line before the observers
+  // with files report what an unfinished run kept.
+  for (bool with_files : {false, true})
+    for (std::size_t i = 0; i < slots_.size(); ++i) {
+      auto& s = slots_[i];
+      if (s.stage->outputs().empty() == with_files) continue;
+      try {
+        // Rank 0's observers in a decomposed team finish on the state they observed.
+        s.stage->finish(gathered_ && graph_->nodes()[i].observer ? *gathered_ : *state_, completed);
+      } catch (...) {
+        if (!first) first = std::current_exception();
+      }
     }
-  }
   if (first) std::rethrow_exception(first);
 }
 

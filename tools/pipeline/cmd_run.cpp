@@ -269,6 +269,16 @@ int run_rank(const RunRequest& req, const Loaded& loaded, Backend backend, std::
     }
     sim->synchronize();
     if (spec.run.checkpoint && checkpoints) checkpoints->write();
+  } catch (const RunError& e) {
+    sim->finish(false);
+    // The state at the failure may be what failed (non-finite, overlapping): no checkpoint of it,
+    // but the newest one and the command that continues from it with the parameters changed.
+    const std::string newest = checkpoints && checkpoints->written() ? checkpoints->newest() : record.resumed_from;
+    if (newest.empty() || !lead) throw;
+    const std::uint64_t at = checkpoints && checkpoints->written() ? checkpoints->newest_step() : record.resume_step;
+    throw RunError(std::string(e.what()) + "\nflipflow: the newest checkpoint is " + newest + " (step " +
+                   std::to_string(at) + "); to continue from it with what made the run fail changed: " +
+                   resume_command(req, out) + " --allow-changes --set KEY=VALUE");
   } catch (...) {
     sim->finish(false);
     throw;

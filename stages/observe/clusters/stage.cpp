@@ -493,10 +493,9 @@ Outcome Clusters::run(StepContext& ctx) {
   return Outcome::ok();
 }
 
-void Clusters::write_csv(const std::string& name, const std::string& header,
-                         const std::vector<std::vector<double>>& rows, bool completed) const {
-  const std::filesystem::path path = std::filesystem::path(info_.out_dir) / name;
-  const std::string partial = path.string() + ".partial";
+std::string Clusters::write_partial(const std::string& name, const std::string& header,
+                                    const std::vector<std::vector<double>>& rows) const {
+  const std::string partial = (std::filesystem::path(info_.out_dir) / name).string() + ".partial";
   std::ofstream out(partial);
   if (!out) throw RunError("observe.clusters: cannot write '" + partial + "'");
   out << "# observe.clusters: " << frame_.dim << "D, N = " << frame_.n() << ", bond = " << p_.bond
@@ -513,15 +512,18 @@ void Clusters::write_csv(const std::string& name, const std::string& header,
   }
   out.close();
   if (!out) throw RunError("observe.clusters: writing '" + partial + "' failed");
-  if (!completed) {
-    std::fprintf(info_.messages, "flipflow: the run did not complete; observe.clusters kept what it had at '%s'\n",
-                 partial.c_str());
-    return;
-  }
-  std::error_code ec;
-  std::filesystem::rename(partial, path, ec);
-  if (ec)
-    throw RunError("observe.clusters: cannot rename '" + partial + "' to '" + path.string() + "': " + ec.message());
+  return partial;
+}
+
+// At each checkpoint too (save_state): a run killed outright (kill -9, the node lost) then
+// leaves the rows of its newest checkpoint beside it, not only bytes inside the checkpoint.
+std::vector<std::string> Clusters::write_partials() const {
+  std::string header;
+  for (auto& c : columns_) header += (header.empty() ? "" : ",") + c;
+  std::string sizes = "step,time";
+  for (int k = 1; k < kSizeBins; ++k) sizes += ",n" + std::to_string(k);
+  sizes += ",n" + std::to_string(kSizeBins) + "plus";
+  return {write_partial(p_.file, header, rows_), write_partial(p_.sizes_file, sizes, size_rows_)};
 }
 
 namespace {
@@ -558,6 +560,7 @@ void Clusters::save_state(StageState& out) {
   put_rows(out, "size_rows", size_rows_);
   out.put("fallbacks", fallbacks_);
   out.put("warned", std::uint8_t(warned_ ? 1 : 0));
+  if (!info_.out_dir.empty()) write_partials();
 }
 
 void Clusters::restore_state(const StageState& saved, State&) {
@@ -571,13 +574,21 @@ void Clusters::restore_state(const StageState& saved, State&) {
 void Clusters::finish(State&, bool completed) {
   if (finished_ || info_.out_dir.empty()) return;
   finished_ = true;
-  std::string header;
-  for (auto& c : columns_) header += (header.empty() ? "" : ",") + c;
-  write_csv(p_.file, header, rows_, completed);
-  std::string sizes = "step,time";
-  for (int k = 1; k < kSizeBins; ++k) sizes += ",n" + std::to_string(k);
-  sizes += ",n" + std::to_string(kSizeBins) + "plus";
-  write_csv(p_.sizes_file, sizes, size_rows_, completed);
+  const std::vector<std::string> partials = write_partials();
+  const std::string names[2] = {p_.file, p_.sizes_file};
+  for (int k = 0; k < 2; ++k) {
+    if (!completed) {
+      std::fprintf(info_.messages, "flipflow: the run did not complete; observe.clusters kept what it had at '%s'\n",
+                   partials[k].c_str());
+      continue;
+    }
+    const std::filesystem::path path = std::filesystem::path(info_.out_dir) / names[k];
+    std::error_code ec;
+    std::filesystem::rename(partials[k], path, ec);
+    if (ec)
+      throw RunError("observe.clusters: cannot rename '" + partials[k] + "' to '" + path.string() + "': " +
+                     ec.message());
+  }
 }
 
 }  // namespace ff::observe

@@ -43,7 +43,8 @@
 //             disk's nearest neighbour is a Delaunay edge); otherwise its own cell list
 //             (`fallback` = 1).
 //
-// Files written at finish() in the output directory:
+// Files written at finish() in the output directory (and as NAME.partial at each checkpoint,
+// which a completed run renames):
 //   clusters.csv (`file`): one row per call: step, time, clusters, aggregates, monomers, largest,
 //     largest_fraction, mean_aggregate_size, coordination, bonds, unlike_fraction, percolating,
 //     percolating_x, percolating_y[, percolating_z], bonds_<a>_<b>... (type pairs in order),
@@ -180,8 +181,10 @@ class Clusters final : public Stage {
   void read_frame(const State& s);
   bool verlet_usable(const State& s) const;
   std::string delaunay_unusable(const State& s) const;  // why not, or empty
-  void write_csv(const std::string& name, const std::string& header,
-                 const std::vector<std::vector<double>>& rows, bool completed) const;
+  // One CSV as NAME.partial (returns its path); both files' partials (returns their paths).
+  std::string write_partial(const std::string& name, const std::string& header,
+                            const std::vector<std::vector<double>>& rows) const;
+  std::vector<std::string> write_partials() const;
 
   ClustersParams p_;
   RunInfo info_;

@@ -160,6 +160,7 @@ void Gr::save_state(StageState& out) {
   out.put("frames", frames_);
   out.put("g_contact", g_contact_);
   out.put("z", z_);
+  if (!info_.out_dir.empty()) write_partial();
 }
 
 void Gr::restore_state(const StageState& saved, State&) {
@@ -174,11 +175,10 @@ void Gr::restore_state(const StageState& saved, State&) {
   z_ = saved.get<double>("z");
 }
 
-void Gr::finish(State&, bool completed) {
-  if (finished_ || info_.out_dir.empty()) return;
-  finished_ = true;
-  const std::filesystem::path path = std::filesystem::path(info_.out_dir) / p_.file;
-  const std::string partial = path.string() + ".partial";
+// At each checkpoint too (save_state): a run killed outright (kill -9, the node lost) then
+// leaves the g(r) of its newest checkpoint beside it, not only bytes inside the checkpoint.
+std::string Gr::write_partial() const {
+  const std::string partial = (std::filesystem::path(info_.out_dir) / p_.file).string() + ".partial";
   std::ofstream out(partial);
   if (!out) throw RunError("observe.gr: cannot write '" + partial + "'");
   out.precision(17);
@@ -194,10 +194,18 @@ void Gr::finish(State&, bool completed) {
   }
   out.close();
   if (!out) throw RunError("observe.gr: writing '" + partial + "' failed");
+  return partial;
+}
+
+void Gr::finish(State&, bool completed) {
+  if (finished_ || info_.out_dir.empty()) return;
+  finished_ = true;
+  const std::string partial = write_partial();
   if (!completed) {
     std::fprintf(info_.messages, "flipflow: the run did not complete; g(r) so far is kept at '%s'\n", partial.c_str());
     return;
   }
+  const std::filesystem::path path = std::filesystem::path(info_.out_dir) / p_.file;
   std::error_code ec;
   std::filesystem::rename(partial, path, ec);
   if (ec) throw RunError("observe.gr: cannot rename '" + partial + "' to '" + path.string() + "': " + ec.message());

@@ -12,7 +12,8 @@
 //   Z          the hard-core virial pressure βP/ρ = 1 + 2η g(σ⁺) (2D), 1 + 4η g(σ⁺) (3D), η the
 //              packing fraction
 // finish() writes the histogram as CSV (`file`, default gr.csv) in the output directory:
-// r_lo, r_hi, r, g, pairs, after '#' lines with N, σ, η, frames, g_contact and Z.
+// r_lo, r_hi, r, g, pairs, after '#' lines with N, σ, η, frames, g_contact and Z. Each
+// checkpoint writes it as `file`.partial, which a completed run renames.
 #pragma once
 #include <cstdint>
 #include <string>
@@ -100,6 +101,7 @@ class Gr final : public Stage {
   std::vector<double> xyz_;  // scratch: positions in double
   double g_contact_ = 0, z_ = 1;
   bool finished_ = false;
+  std::string write_partial() const;  // the CSV as `file`.partial; returns its path
 };
 
 }  // namespace ff::observe
