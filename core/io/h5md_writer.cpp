@@ -21,23 +21,10 @@ namespace ff {
 
 namespace {
 
+using hdf5::Handle;
 using hdf5::QuietErrors;
 using hdf5::file_type;
 using hdf5::memory_type;
-
-// ---- errors -----------------------------------------------------------------------------
-
-herr_t collect_error(unsigned n, const H5E_error2_t* e, void* out) {
-  auto& s = *static_cast<std::string*>(out);
-  if (n < 3 && e->desc && *e->desc) s += (s.empty() ? "" : "; ") + std::string(e->desc);
-  return 0;
-}
-
-std::string hdf5_error() {
-  std::string s;
-  H5Ewalk2(H5E_DEFAULT, H5E_WALK_DOWNWARD, collect_error, &s);
-  return s.empty() ? "unknown HDF5 error" : s;
-}
 
 // The login name for /h5md/author: $USER, else the password database, else "unknown".
 std::string user_name() {
@@ -50,47 +37,11 @@ std::string user_name() {
   return "unknown";
 }
 
-// ---- RAII handle ------------------------------------------------------------------------
-
-class Hid {
- public:
-  using Closer = herr_t (*)(hid_t);
-  Hid() = default;
-  Hid(hid_t id, Closer close) : id_(id), close_(close) {}
-  Hid(Hid&& o) noexcept : id_(o.id_), close_(o.close_) { o.id_ = -1; }
-  Hid& operator=(Hid&& o) noexcept {
-    if (this != &o) {
-      reset();
-      id_ = o.id_;
-      close_ = o.close_;
-      o.id_ = -1;
-    }
-    return *this;
-  }
-  Hid(const Hid&) = delete;
-  Hid& operator=(const Hid&) = delete;
-  ~Hid() { reset(); }
-  hid_t get() const { return id_; }
-  hid_t release() {
-    const hid_t id = id_;
-    id_ = -1;
-    return id;
-  }
-  void reset() {
-    if (id_ >= 0 && close_) close_(id_);
-    id_ = -1;
-  }
-
- private:
-  hid_t id_ = -1;
-  Closer close_ = nullptr;
-};
-
 // ---- types ------------------------------------------------------------------------------
 
 // One time-dependent H5MD element: {step, time, value}.
 struct Series {
-  Hid group, step, time, value;
+  Handle group, step, time, value;
   DType dtype = DType::f64;
   std::vector<hsize_t> frame;  // shape of one frame; frame[0] grows for variable row counts
   bool variable_rows = false;
@@ -107,7 +58,7 @@ constexpr double kNominalLz = 1.0;
 
 struct H5mdWriter::Impl {
   std::string partial;
-  Hid file, particles, observables, connectivity;
+  Handle file, particles, observables, connectivity;
   std::map<std::string, Series> elements, scalars, topologies;
   bool readers_layout = false;  // the 3-D-only readers' layout (header)
   bool pad_to_3d = false;       // ... of a 2-D run
@@ -133,12 +84,12 @@ struct H5mdWriter::Impl {
   mutable bool failed = false;  // a write or flush failed (a full disk): close() keeps the file openable
   void check(bool ok, const std::string& what) const {
     if (!ok) failed = true;
-    if (!ok) throw RunError("H5MD file '" + partial + "': " + what + " failed: " + hdf5_error());
+    if (!ok) throw RunError("H5MD file '" + partial + "': " + what + " failed: " + hdf5::error_text());
   }
-  Hid group(hid_t parent, const std::string& name) const {
-    Hid lcpl(H5Pcreate(H5P_LINK_CREATE), H5Pclose);
+  Handle group(hid_t parent, const std::string& name) const {
+    Handle lcpl(H5Pcreate(H5P_LINK_CREATE), H5Pclose);
     H5Pset_create_intermediate_group(lcpl.get(), 1);
-    Hid g(H5Gcreate2(parent, name.c_str(), lcpl.get(), H5P_DEFAULT, H5P_DEFAULT), H5Gclose);
+    Handle g(H5Gcreate2(parent, name.c_str(), lcpl.get(), H5P_DEFAULT, H5P_DEFAULT), H5Gclose);
     check(g.get() >= 0, "creating group '" + name + "'");
     return g;
   }
@@ -146,9 +97,9 @@ struct H5mdWriter::Impl {
   // -- attributes --
   void attr(hid_t obj, const std::string& name, hid_t ftype, hid_t mtype, std::vector<hsize_t> dims,
             const void* data) const {
-    Hid space(dims.empty() ? H5Screate(H5S_SCALAR) : H5Screate_simple(int(dims.size()), dims.data(), nullptr),
+    Handle space(dims.empty() ? H5Screate(H5S_SCALAR) : H5Screate_simple(int(dims.size()), dims.data(), nullptr),
               H5Sclose);
-    Hid a(H5Acreate2(obj, name.c_str(), ftype, space.get(), H5P_DEFAULT, H5P_DEFAULT), H5Aclose);
+    Handle a(H5Acreate2(obj, name.c_str(), ftype, space.get(), H5P_DEFAULT, H5P_DEFAULT), H5Aclose);
     check(a.get() >= 0 && H5Awrite(a.get(), mtype, data) >= 0, "writing attribute '" + name + "'");
   }
   void attr_int(hid_t obj, const std::string& name, std::vector<int> v, bool scalar) const {
@@ -161,12 +112,12 @@ struct H5mdWriter::Impl {
     for (auto& s : v) len = std::max(len, s.size());
     std::string packed(len * v.size(), '\0');
     for (std::size_t i = 0; i < v.size(); ++i) packed.replace(i * len, v[i].size(), v[i]);
-    Hid t = string_type(len);
+    Handle t = string_type(len);
     attr(obj, name, t.get(), t.get(), scalar ? std::vector<hsize_t>{} : std::vector<hsize_t>{v.size()},
          packed.data());
   }
-  Hid string_type(std::size_t len) const {
-    Hid t(H5Tcopy(H5T_C_S1), H5Tclose);
+  Handle string_type(std::size_t len) const {
+    Handle t(H5Tcopy(H5T_C_S1), H5Tclose);
     check(t.get() >= 0 && H5Tset_size(t.get(), len) >= 0 && H5Tset_strpad(t.get(), H5T_STR_NULLPAD) >= 0 &&
               H5Tset_cset(t.get(), H5T_CSET_UTF8) >= 0,
           "making a string type");
@@ -174,13 +125,13 @@ struct H5mdWriter::Impl {
   }
 
   // -- datasets --
-  Hid dataset(hid_t parent, const std::string& name, hid_t ftype, std::vector<hsize_t> dims,
+  Handle dataset(hid_t parent, const std::string& name, hid_t ftype, std::vector<hsize_t> dims,
               std::vector<hsize_t> maxdims, std::vector<hsize_t> chunk, const void* fill) const {
-    Hid space(H5Screate_simple(int(dims.size()), dims.data(), maxdims.empty() ? nullptr : maxdims.data()), H5Sclose);
-    Hid dcpl(H5Pcreate(H5P_DATASET_CREATE), H5Pclose);
+    Handle space(H5Screate_simple(int(dims.size()), dims.data(), maxdims.empty() ? nullptr : maxdims.data()), H5Sclose);
+    Handle dcpl(H5Pcreate(H5P_DATASET_CREATE), H5Pclose);
     if (!chunk.empty()) check(H5Pset_chunk(dcpl.get(), int(chunk.size()), chunk.data()) >= 0, "chunking " + name);
     if (fill) check(H5Pset_fill_value(dcpl.get(), ftype, fill) >= 0, "fill value of " + name);
-    Hid d(H5Dcreate2(parent, name.c_str(), ftype, space.get(), H5P_DEFAULT, dcpl.get(), H5P_DEFAULT), H5Dclose);
+    Handle d(H5Dcreate2(parent, name.c_str(), ftype, space.get(), H5P_DEFAULT, dcpl.get(), H5P_DEFAULT), H5Dclose);
     check(d.get() >= 0, "creating dataset '" + name + "'");
     return d;
   }
@@ -214,8 +165,8 @@ struct H5mdWriter::Impl {
   void put(hid_t d, hsize_t index, hid_t mtype, const void* v) const {
     const hsize_t size = index + 1, one = 1;
     check(H5Dset_extent(d, &size) >= 0, "extending a step/time series");
-    Hid fs(H5Dget_space(d), H5Sclose);
-    Hid ms(H5Screate_simple(1, &one, nullptr), H5Sclose);
+    Handle fs(H5Dget_space(d), H5Sclose);
+    Handle ms(H5Screate_simple(1, &one, nullptr), H5Sclose);
     check(H5Sselect_hyperslab(fs.get(), H5S_SELECT_SET, &index, nullptr, &one, nullptr) >= 0 &&
               H5Dwrite(d, mtype, ms.get(), fs.get(), H5P_DEFAULT, v) >= 0,
           "writing a step/time value");
@@ -247,23 +198,23 @@ struct H5mdWriter::Impl {
         std::memcpy(padded.data() + i * out_row, static_cast<const unsigned char*>(data) + i * in_row, in_row);
       data = padded.data();
     }
-    Hid fs(H5Dget_space(s.value.get()), H5Sclose);
-    Hid ms(H5Screate_simple(int(count.size()), count.data(), nullptr), H5Sclose);
+    Handle fs(H5Dget_space(s.value.get()), H5Sclose);
+    Handle ms(H5Screate_simple(int(count.size()), count.data(), nullptr), H5Sclose);
     check(H5Sselect_hyperslab(fs.get(), H5S_SELECT_SET, start.data(), nullptr, count.data(), nullptr) >= 0 &&
               H5Dwrite(s.value.get(), memory_type(s.dtype), ms.get(), fs.get(), H5P_DEFAULT, data) >= 0,
           "writing a frame");
   }
 
   void write_header(const H5mdHeader& h) const {
-    Hid h5md = group(file.get(), "h5md");
+    Handle h5md = group(file.get(), "h5md");
     attr_int(h5md.get(), "version", {1, 1}, false);
     const std::string author = h.author.empty() ? user_name() : h.author;
     attr_strings(group(h5md.get(), "author").get(), "name", {author}, true);
-    Hid creator = group(h5md.get(), "creator");
+    Handle creator = group(h5md.get(), "creator");
     attr_strings(creator.get(), "name", {"flipflow"}, true);
     attr_strings(creator.get(), "version", {FF_VERSION_STRING}, true);
 
-    Hid box = group(particles.get(), "box");
+    Handle box = group(particles.get(), "box");
     if (pad_to_3d) {
       attr_int(box.get(), "dimension", {3}, true);
       attr_strings(box.get(), "boundary", {"periodic", "periodic", "none"}, false);
@@ -274,17 +225,17 @@ struct H5mdWriter::Impl {
     } else {
       attr_int(box.get(), "dimension", {h.dim}, true);
       attr_strings(box.get(), "boundary", std::vector<std::string>(std::size_t(h.dim), "periodic"), false);
-      Hid edges = dataset(box.get(), "edges", H5T_IEEE_F64LE, {hsize_t(h.dim)}, {}, {}, nullptr);
+      Handle edges = dataset(box.get(), "edges", H5T_IEEE_F64LE, {hsize_t(h.dim)}, {}, {}, nullptr);
       check(H5Dwrite(edges.get(), H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, h.edges) >= 0,
             "writing box edges");
     }
 
-    Hid params = group(file.get(), "parameters");
+    Handle params = group(file.get(), "parameters");
     for (auto& kv : h.run_attributes) attr_strings(params.get(), kv.first, {kv.second}, true);
     if (!h.pipeline_text.empty()) {
-      Hid t = string_type(h.pipeline_text.size());
-      Hid space(H5Screate(H5S_SCALAR), H5Sclose);
-      Hid d(H5Dcreate2(params.get(), "pipeline", t.get(), space.get(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT),
+      Handle t = string_type(h.pipeline_text.size());
+      Handle space(H5Screate(H5S_SCALAR), H5Sclose);
+      Handle d(H5Dcreate2(params.get(), "pipeline", t.get(), space.get(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT),
             H5Dclose);
       check(d.get() >= 0 && H5Dwrite(d.get(), t.get(), H5S_ALL, H5S_ALL, H5P_DEFAULT, h.pipeline_text.data()) >= 0,
             "writing /parameters/pipeline");
@@ -293,9 +244,9 @@ struct H5mdWriter::Impl {
   }
 
   void write_text(hid_t parent, const std::string& name, const std::string& text) const {
-    Hid t = string_type(std::max<std::size_t>(text.size(), 1));
-    Hid space(H5Screate(H5S_SCALAR), H5Sclose);
-    Hid d(H5Dcreate2(parent, name.c_str(), t.get(), space.get(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Dclose);
+    Handle t = string_type(std::max<std::size_t>(text.size(), 1));
+    Handle space(H5Screate(H5S_SCALAR), H5Sclose);
+    Handle d(H5Dcreate2(parent, name.c_str(), t.get(), space.get(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Dclose);
     std::string buf = text.empty() ? std::string(1, '\0') : text;
     check(d.get() >= 0 && H5Dwrite(d.get(), t.get(), H5S_ALL, H5S_ALL, H5P_DEFAULT, buf.data()) >= 0,
           "writing /parameters/" + name);
@@ -314,7 +265,7 @@ struct H5mdWriter::Impl {
     std::vector<std::string> out;
     for (auto& n : names) {
       // H5Oopen + H5Iget_type: one signature across HDF5 versions (H5Oget_info's changed).
-      Hid obj(H5Oopen(g, n.c_str(), H5P_DEFAULT), H5Oclose);
+      Handle obj(H5Oopen(g, n.c_str(), H5P_DEFAULT), H5Oclose);
       if (obj.get() >= 0 && H5Iget_type(obj.get()) == H5I_GROUP) out.push_back(n);
     }
     return out;
@@ -325,15 +276,15 @@ struct H5mdWriter::Impl {
   // Opens the series at g/name and keeps its frames with step <= last_step.
   Series open_series(hid_t g, const std::string& name, bool variable_rows, std::int64_t last_step) const {
     Series s;
-    s.group = Hid(H5Gopen2(g, name.c_str(), H5P_DEFAULT), H5Gclose);
+    s.group = Handle(H5Gopen2(g, name.c_str(), H5P_DEFAULT), H5Gclose);
     check(s.group.get() >= 0, "opening '" + name + "'");
-    s.step = Hid(H5Dopen2(s.group.get(), "step", H5P_DEFAULT), H5Dclose);
-    s.time = Hid(H5Dopen2(s.group.get(), "time", H5P_DEFAULT), H5Dclose);
-    s.value = Hid(H5Dopen2(s.group.get(), "value", H5P_DEFAULT), H5Dclose);
+    s.step = Handle(H5Dopen2(s.group.get(), "step", H5P_DEFAULT), H5Dclose);
+    s.time = Handle(H5Dopen2(s.group.get(), "time", H5P_DEFAULT), H5Dclose);
+    s.value = Handle(H5Dopen2(s.group.get(), "value", H5P_DEFAULT), H5Dclose);
     check(s.step.get() >= 0 && s.time.get() >= 0 && s.value.get() >= 0, "opening the datasets of '" + name + "'");
     s.variable_rows = variable_rows;
     {
-      Hid t(H5Dget_type(s.value.get()), H5Tclose);
+      Handle t(H5Dget_type(s.value.get()), H5Tclose);
       const H5T_class_t c = H5Tget_class(t.get());
       const std::size_t size = H5Tget_size(t.get());
       const bool sgn = c == H5T_INTEGER && H5Tget_sign(t.get()) == H5T_SGN_2;
@@ -342,17 +293,17 @@ struct H5mdWriter::Impl {
       else if (size == 4) s.dtype = sgn ? DType::i32 : DType::u32;
       else s.dtype = sgn ? DType::i64 : DType::u64;
     }
-    Hid vs(H5Dget_space(s.value.get()), H5Sclose);
+    Handle vs(H5Dget_space(s.value.get()), H5Sclose);
     const int rank = H5Sget_simple_extent_ndims(vs.get());
     std::vector<hsize_t> dims(std::size_t(std::max(rank, 1)));
     H5Sget_simple_extent_dims(vs.get(), dims.data(), nullptr);
     s.frame.assign(dims.begin() + 1, dims.end());
     if (H5Aexists(s.value.get(), "flipflow_padded_from") > 0) {
-      Hid a(H5Aopen(s.value.get(), "flipflow_padded_from", H5P_DEFAULT), H5Aclose);
+      Handle a(H5Aopen(s.value.get(), "flipflow_padded_from", H5P_DEFAULT), H5Aclose);
       check(a.get() >= 0 && H5Aread(a.get(), H5T_NATIVE_INT, &s.padded_from) >= 0,
             "reading flipflow_padded_from of '" + name + "'");
     }
-    Hid ss(H5Dget_space(s.step.get()), H5Sclose);
+    Handle ss(H5Dget_space(s.step.get()), H5Sclose);
     hsize_t n = 0;
     H5Sget_simple_extent_dims(ss.get(), &n, nullptr);
     std::vector<std::int64_t> steps(n);
@@ -373,7 +324,7 @@ struct H5mdWriter::Impl {
   // Every series under /observables (names "a/b" for nested groups).
   void open_observables(hid_t g, const std::string& prefix, std::int64_t last_step) {
     for (auto& name : subgroups(g)) {
-      Hid sub(H5Gopen2(g, name.c_str(), H5P_DEFAULT), H5Gclose);
+      Handle sub(H5Gopen2(g, name.c_str(), H5P_DEFAULT), H5Gclose);
       if (has_link(sub.get(), "step") && has_link(sub.get(), "value")) {
         scalars[prefix + name] = open_series(g, name, false, last_step);
       } else {
@@ -392,17 +343,17 @@ H5mdWriter::H5mdWriter(std::string path, const H5mdHeader& header) : path_(std::
   impl->pad_to_3d = header.readers_layout && header.dim == 2;
   for (int k = 0; k < 3; ++k) impl->edges[4 * k] = header.edges[k];
   if (impl->pad_to_3d) impl->edges[8] = kNominalLz;
-  Hid fapl(H5Pcreate(H5P_FILE_ACCESS), H5Pclose);
+  Handle fapl(H5Pcreate(H5P_FILE_ACCESS), H5Pclose);
   H5Pset_fclose_degree(fapl.get(), H5F_CLOSE_STRONG);
-  impl->file = Hid(H5Fcreate(impl->partial.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, fapl.get()), H5Fclose);
+  impl->file = Handle(H5Fcreate(impl->partial.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, fapl.get()), H5Fclose);
   if (impl->file.get() < 0)
-    throw RunError("cannot create the H5MD file '" + impl->partial + "': " + hdf5_error() +
+    throw RunError("cannot create the H5MD file '" + impl->partial + "': " + hdf5::error_text() +
                    " (does the directory exist and is it writable?)");
   impl->particles = impl->group(impl->file.get(), "particles/all");
   impl->observables = impl->group(impl->file.get(), "observables");
   impl->write_header(header);
   if (impl->readers_layout) {
-    Hid box(H5Gopen2(impl->particles.get(), "box", H5P_DEFAULT), H5Gclose);
+    Handle box(H5Gopen2(impl->particles.get(), "box", H5P_DEFAULT), H5Gclose);
     impl->box_edges = impl->series(box.get(), "edges", DType::f64, {3, 3}, false, nullptr);
   }
   impl_ = std::move(impl);
@@ -424,22 +375,22 @@ std::unique_ptr<H5mdWriter> H5mdWriter::reopen(std::string path, std::int64_t la
   w->path_ = std::move(path);
   auto impl = std::make_unique<Impl>();
   impl->partial = partial;
-  Hid fapl(H5Pcreate(H5P_FILE_ACCESS), H5Pclose);
+  Handle fapl(H5Pcreate(H5P_FILE_ACCESS), H5Pclose);
   H5Pset_fclose_degree(fapl.get(), H5F_CLOSE_STRONG);
-  impl->file = Hid(H5Fopen(partial.c_str(), H5F_ACC_RDWR, fapl.get()), H5Fclose);
+  impl->file = Handle(H5Fopen(partial.c_str(), H5F_ACC_RDWR, fapl.get()), H5Fclose);
   if (impl->file.get() < 0)
-    throw RunError("cannot open the H5MD file '" + partial + "' to continue it: " + hdf5_error() +
+    throw RunError("cannot open the H5MD file '" + partial + "' to continue it: " + hdf5::error_text() +
                    " (damaged by the crash? move it away to start the file afresh from the checkpoint)");
   const hid_t f = impl->file.get();
   if (!Impl::has_link(f, "particles") || !Impl::has_link(f, "observables"))
     throw RunError("'" + partial + "' is not an H5MD file flipflow wrote (no /particles or /observables)");
-  impl->particles = Hid(H5Gopen2(f, "particles/all", H5P_DEFAULT), H5Gclose);
-  impl->observables = Hid(H5Gopen2(f, "observables", H5P_DEFAULT), H5Gclose);
+  impl->particles = Handle(H5Gopen2(f, "particles/all", H5P_DEFAULT), H5Gclose);
+  impl->observables = Handle(H5Gopen2(f, "observables", H5P_DEFAULT), H5Gclose);
   impl->check(impl->particles.get() >= 0 && impl->observables.get() >= 0, "opening /particles/all");
   for (auto& name : impl->subgroups(impl->particles.get()))
     if (name != "box") impl->elements[name] = impl->open_series(impl->particles.get(), name, false, last_step);
   {
-    Hid box(H5Gopen2(impl->particles.get(), "box", H5P_DEFAULT), H5Gclose);
+    Handle box(H5Gopen2(impl->particles.get(), "box", H5P_DEFAULT), H5Gclose);
     impl->check(box.get() >= 0, "opening /particles/all/box");
     if (impl->subgroups(box.get()) == std::vector<std::string>{"edges"}) {  // the 3-D-only readers' layout
       impl->readers_layout = true;
@@ -451,8 +402,8 @@ std::unique_ptr<H5mdWriter> H5mdWriter::reopen(std::string path, std::int64_t la
       impl->frame_times.resize(rows);
       if (rows) {
         const hsize_t start = 0, count = rows;
-        Hid ss(H5Dget_space(e.step.get()), H5Sclose), ts(H5Dget_space(e.time.get()), H5Sclose);
-        Hid ms(H5Screate_simple(1, &count, nullptr), H5Sclose);
+        Handle ss(H5Dget_space(e.step.get()), H5Sclose), ts(H5Dget_space(e.time.get()), H5Sclose);
+        Handle ms(H5Screate_simple(1, &count, nullptr), H5Sclose);
         impl->check(H5Sselect_hyperslab(ss.get(), H5S_SELECT_SET, &start, nullptr, &count, nullptr) >= 0 &&
                         H5Sselect_hyperslab(ts.get(), H5S_SELECT_SET, &start, nullptr, &count, nullptr) >= 0 &&
                         H5Dread(e.step.get(), H5T_NATIVE_INT64, ms.get(), ss.get(), H5P_DEFAULT,
@@ -467,16 +418,16 @@ std::unique_ptr<H5mdWriter> H5mdWriter::reopen(std::string path, std::int64_t la
   }
   impl->open_observables(impl->observables.get(), "", last_step);
   if (Impl::has_link(f, "connectivity")) {
-    impl->connectivity = Hid(H5Gopen2(f, "connectivity", H5P_DEFAULT), H5Gclose);
+    impl->connectivity = Handle(H5Gopen2(f, "connectivity", H5P_DEFAULT), H5Gclose);
     for (auto& name : impl->subgroups(impl->connectivity.get()))
       impl->topologies[name] = impl->open_series(impl->connectivity.get(), name, true, last_step);
   }
   {
-    Hid params = Impl::has_link(f, "parameters") ? Hid(H5Gopen2(f, "parameters", H5P_DEFAULT), H5Gclose)
+    Handle params = Impl::has_link(f, "parameters") ? Handle(H5Gopen2(f, "parameters", H5P_DEFAULT), H5Gclose)
                                                   : impl->group(f, "parameters");
-    Hid hist = Impl::has_link(params.get(), "history") ? Hid(H5Gopen2(params.get(), "history", H5P_DEFAULT), H5Gclose)
+    Handle hist = Impl::has_link(params.get(), "history") ? Handle(H5Gopen2(params.get(), "history", H5P_DEFAULT), H5Gclose)
                                                         : impl->group(params.get(), "history");
-    Hid entry = impl->group(hist.get(), std::to_string(impl->subgroups(hist.get()).size()));
+    Handle entry = impl->group(hist.get(), std::to_string(impl->subgroups(hist.get()).size()));
     for (auto& [k, v] : history) impl->attr_strings(entry.get(), k, {v}, true);
   }
   w->impl_ = std::move(impl);
@@ -497,7 +448,7 @@ H5mdWriter::~H5mdWriter() {
 
 void H5mdWriter::write_species(const std::int32_t* species, std::size_t n, const std::vector<std::string>& names) {
   QuietErrors quiet;
-  Hid d = impl_->dataset(impl_->particles.get(), "species", H5T_STD_I32LE, {hsize_t(n)}, {}, {}, nullptr);
+  Handle d = impl_->dataset(impl_->particles.get(), "species", H5T_STD_I32LE, {hsize_t(n)}, {}, {}, nullptr);
   if (n)
     impl_->check(H5Dwrite(d.get(), H5T_NATIVE_INT32, H5S_ALL, H5S_ALL, H5P_DEFAULT, species) >= 0,
                  "writing species");
@@ -610,7 +561,7 @@ void H5mdWriter::close(bool completed) {
                    partial.c_str(), ec.message().c_str());
   }
   if (!closed)
-    throw RunError("closing the H5MD file '" + partial + "' failed: " + hdf5_error() +
+    throw RunError("closing the H5MD file '" + partial + "' failed: " + hdf5::error_text() +
                    "; the partial trajectory is kept at '" + partial + "'");
   if (!completed) {
     std::fprintf(messages_, "flipflow: the run did not complete; the partial trajectory is kept at '%s'\n",

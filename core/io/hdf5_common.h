@@ -40,17 +40,51 @@ class QuietErrors {
   void* data_ = nullptr;
 };
 
-// Closes an HDF5 handle at scope exit.
+// Closes an HDF5 handle at scope exit; movable, so a handle can outlive the scope that opened it
+// (the H5MD writer keeps its file, groups and datasets in members).
 struct Handle {
-  hid_t id;
-  herr_t (*close)(hid_t);
+  hid_t id = -1;
+  herr_t (*close)(hid_t) = nullptr;
+  Handle() = default;
   Handle(hid_t i, herr_t (*c)(hid_t)) : id(i), close(c) {}
-  ~Handle() {
-    if (id >= 0) close(id);
+  Handle(Handle&& o) noexcept : id(o.id), close(o.close) { o.id = -1; }
+  Handle& operator=(Handle&& o) noexcept {
+    if (this != &o) {
+      reset();
+      id = o.id;
+      close = o.close;
+      o.id = -1;
+    }
+    return *this;
   }
   Handle(const Handle&) = delete;
   Handle& operator=(const Handle&) = delete;
+  ~Handle() { reset(); }
+  hid_t get() const { return id; }
+  hid_t release() {
+    const hid_t i = id;
+    id = -1;
+    return i;
+  }
+  void reset() {
+    if (id >= 0 && close) close(id);
+    id = -1;
+  }
 };
+
+// HDF5's own description of the error just raised (the innermost three entries of its stack).
+inline std::string error_text() {
+  std::string s;
+  H5Ewalk2(
+      H5E_DEFAULT, H5E_WALK_DOWNWARD,
+      [](unsigned n, const H5E_error2_t* e, void* out) -> herr_t {
+        auto& text = *static_cast<std::string*>(out);
+        if (n < 3 && e->desc && *e->desc) text += (text.empty() ? "" : "; ") + std::string(e->desc);
+        return 0;
+      },
+      &s);
+  return s.empty() ? "unknown HDF5 error" : s;
+}
 
 // The little-endian file type and the native memory type of a field type.
 inline hid_t file_type(DType t) {
