@@ -1,8 +1,8 @@
 // The observe stages driven alone on hand-made states: observe.h5md (layout, values, float and
-// double files, the .partial of a killed or failed run), observe.msd (a hand-computed value,
-// thread-count determinism, written through observe.h5md) and observe.progress (log lines).
+// double files, the .partial of a killed or failed run) and observe.msd through it (a
+// hand-computed value written to the file). observe.msd's and observe.progress's own tests are in
+// their folders.
 // Files are checked with h5py: /usr/bin/python3 runs a script and must exit 0.
-#include <oneapi/tbb/global_control.h>
 #include <sys/resource.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -23,7 +23,6 @@
 #include "core/stage/state.h"
 #include "stages/observe/h5md/stage.h"
 #include "stages/observe/msd/stage.h"
-#include "stages/observe/progress/stage.h"
 #include "support/backends.h"
 #include "support/test_plugins.h"
 
@@ -368,75 +367,6 @@ m = f["observables/msd/msd"]
 assert list(m["step"][()]) == [0, 4] and list(m["time"][()]) == [0.0, 2.0]
 assert list(m["value"][()]) == [0.0, 68.75], m["value"][()]
 )PY", dir / "trajectory.h5") == 0);
-}
-
-TEST_CASE("observe.msd gives the same bits for any thread count", "[observe][msd]") {
-  const std::size_t n = 200000;
-  State s(3, Precision::f64, n);
-  s.box.L[0] = s.box.L[1] = s.box.L[2] = 50.0;
-  std::uint64_t r = 12345;
-  auto next = [&] {
-    r = r * 6364136223846793005ull + 1442695040888963407ull;
-    return double(r >> 11) / double(1ull << 53);
-  };
-  double* x = s.field(fields::position).host<double>();
-  std::int32_t* im = s.field(fields::image).host<std::int32_t>();
-  for (std::size_t i = 0; i < 3 * n; ++i) x[i] = 50.0 * next();
-  auto value = [&](int threads) {
-    tbb::global_control c(tbb::global_control::max_allowed_parallelism, std::size_t(threads));
-    observe::Msd msd;
-    Observe obs;
-    for (std::size_t i = 0; i < 3 * n; ++i) im[i] = 0;
-    obs(msd, s, 0, 0.0);
-    for (std::size_t i = 0; i < 3 * n; ++i) im[i] = std::int32_t(i % 5) - 2;
-    obs(msd, s, 1, 0.0);
-    return obs.metrics.values().at("msd");
-  };
-  const double one = value(1);
-  // Every image is i % 5 - 2 along each axis: MSD = L² Σ_k (i_k)² averaged = 2500 · 3 · 2 = 15000.
-  CHECK(one == Approx(15000.0).epsilon(1e-3));
-  CHECK(value(4) == one);
-  CHECK(value(2) == one);
-}
-
-TEST_CASE("observe.progress: a line per interval in logs", "[observe][progress]") {
-  observe::ProgressLine l;
-  l.step = 20;
-  l.steps = 100;
-  l.time = 0.2;
-  l.dt = 0.01;
-  l.rate = 50;
-  l.rollbacks = 3;
-  CHECK(observe::format_progress(l) == "step 20/100 (20.0%)  t 0.2  Δt 0.01  50 steps/s  ETA 0:00:02  rollbacks 3");
-  CHECK(observe::format_duration(3725) == "1:02:05");
-  CHECK(observe::format_duration(-1) == "--:--");
-
-  auto lines_for = [](double interval) {
-    std::FILE* out = std::tmpfile();
-    RunInfo info;
-    info.steps = 100;
-    observe::Progress progress(observe::ProgressParams{interval}, info, out);
-    State s(2, Precision::f64, 1);
-    Observe obs;
-    obs.stats.dt = 0.01;
-    for (int k = 1; k <= 3; ++k) {
-      obs.stats.rollbacks = std::uint64_t(k);
-      obs(progress, s, std::uint64_t(10 * k), 0.1 * k);
-    }
-    progress.finish(s, true);
-    std::rewind(out);
-    std::vector<std::string> lines;
-    char buf[512];
-    while (std::fgets(buf, sizeof buf, out)) lines.emplace_back(buf);
-    std::fclose(out);
-    return lines;
-  };
-  const auto every = lines_for(0.0);  // not a terminal, no rate limit: a line per call
-  REQUIRE(every.size() == 3);
-  CHECK(every[0].rfind("step 10/100 (10.0%)  t 0.1  Δt 0.01  0 steps/s  ETA --:--  rollbacks 1\n", 0) == 0);
-  CHECK(every[2].rfind("step 30/100 (30.0%)  t 0.3  Δt 0.01  ", 0) == 0);
-  CHECK(every[2].find("rollbacks 3\n") != std::string::npos);
-  CHECK(lines_for(3600.0).empty());  // a log: nothing before `interval` seconds have passed
 }
 
 TEST_CASE("stage_observe registers three observers, for CUDA runs too", "[observe][plugin]") {
