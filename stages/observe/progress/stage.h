@@ -1,5 +1,6 @@
 // observe.progress: a progress report every time it runs (the pipeline's `every: k`): step,
-// simulated time, Δt, steps/s, ETA, rollbacks and (when a stage limits Δt) Δt limits. On a
+// simulated time, Δt, steps/s (from its second report on, over the steps after its first interval,
+// which holds the first step's one-off work), ETA, rollbacks and (when a stage limits Δt) Δt limits. On a
 // terminal one line updates in place (at most ten times a second); otherwise a plain line at
 // most every `interval` seconds, so logs stay quiet. finish() ends the terminal line (the `pipeline` command prints the summary).
 #pragma once
@@ -63,6 +64,7 @@ class Progress final : public Stage {
   bool tty_;
   bool started_ = false;
   bool line_open_ = false;  // a terminal line was printed without its newline
+  bool rate_restarted_ = false;  // the rate's clock restarted after the first interval of steps
   std::uint64_t first_step_ = 0;
   Clock::time_point start_, last_print_;
   ProgressLine last_;
