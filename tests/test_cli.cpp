@@ -269,6 +269,22 @@ TEST_CASE("pipeline describe lists a pair force's fields, though it cannot be co
   CHECK_THAT(run("describe observe.progress").out, Catch::Contains("    none"));
 }
 
+TEST_CASE("pipeline run: a large system says when its set-up and its triangulation start and end", "[cli]") {
+  // Before: 10^6 particles on a CPU were silent for minutes between the command and the first
+  // progress line (random placement near jamming, then CGAL's build at the first step).
+  const fs::path out = fresh_dir("large");
+  auto r = run("run " + repo_file("pipelines/hard-disks.yaml").string() +
+               " --set system.N=100000 --set run.steps=1 --device cpu --out " + out.string());
+  INFO(r.out);
+  CHECK(r.code == 0);
+  CHECK_THAT(r.out, Catch::Contains("setting up 100000 particles") && Catch::Contains("set up in ") &&
+                        Catch::Contains("delaunay: triangulating 100000 points") && Catch::Contains("triangulated in "));
+  auto small = run("run " + repo_file("pipelines/hard-disks.yaml").string() +
+                   " --set system.N=400 --set run.steps=1 --device cpu --out " + out.string() + " --force");
+  CHECK_THAT(small.out, !Catch::Contains("setting up") && !Catch::Contains("triangulating"));
+  fs::remove_all(out);
+}
+
 TEST_CASE("pipeline run: two steps writing one file are refused, naming both", "[cli]") {
   auto r = run("validate " + repo_file("pipelines/hard-disks.yaml").string() + " --set step.observe.gr.file=trajectory.h5");
   INFO(r.out);

@@ -40,6 +40,8 @@ namespace ff::cli {
 
 namespace {
 std::atomic<int> g_signal{0};
+// From this many particles a fresh run reports its set-up's start and duration.
+constexpr std::uint64_t kLargeSetUp = 100000;
 extern "C" void on_signal(int sig) { g_signal.store(sig); }
 
 // The CPU's model name (/proc/cpuinfo), for the record of what produced a run.
@@ -216,7 +218,18 @@ int run_rank(const RunRequest& req, const Loaded& loaded, Backend backend, std::
           << ": nothing to run (extend the run with --set run.steps=...)\n";
   } else {
     options.record = record;
+    // A large system's set-up (random placement near its jamming fraction, the stages' own) can
+    // take minutes on a CPU: say so, rather than be silent until the first step.
+    const bool large = spec.system.N >= kLargeSetUp;
+    if (large) log << "flipflow: setting up " << spec.system.N << " particles (initial state, stages) ...\n" << std::flush;
+    const auto set_up = std::chrono::steady_clock::now();
     sim = std::make_unique<Simulation>(spec, *loaded.registry, options);
+    if (large) {
+      char buf[64];
+      std::snprintf(buf, sizeof buf, "flipflow: set up in %.1f s\n",
+                    std::chrono::duration<double>(std::chrono::steady_clock::now() - set_up).count());
+      log << buf;
+    }
   }
   setting_up.unlock();
   for (auto& f : earlier) {

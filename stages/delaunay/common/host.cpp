@@ -1,5 +1,8 @@
 #include "stages/delaunay/common/host.h"
 
+#include <chrono>
+#include <cstdio>
+
 #include "core/base/error.h"
 #include "stages/delaunay/build/build.h"
 
@@ -46,7 +49,16 @@ bool ensure_topology(const StepContext& ctx, const std::vector<Access>& acc) {
   CUstream_st* stream = ctx.stream;
   if (status(s)[kBuilt]) return false;
   will_build(ctx);
+  // CGAL's build, once at the first step, takes ~1 s per 10^5 points on a CPU core: a large
+  // run's first progress line would otherwise come minutes after its set-up.
+  const bool large = s.n() >= 100000;
+  const auto t0 = std::chrono::steady_clock::now();
+  if (large)
+    std::fprintf(ctx.run.messages, "flipflow: delaunay: triangulating %zu points (CGAL, once) ...\n", s.n());
   build_topology(s, stream);
+  if (large)
+    std::fprintf(ctx.run.messages, "flipflow: delaunay: triangulated in %.1f s\n",
+                 std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
   for (const Access& a : acc) s.field(a.field).acquire(a.where, a.mode, stream);
   return true;
 }
