@@ -214,6 +214,13 @@ TEST_CASE("pipeline validate: the initial state's errors name the file's line of
   const std::string from = message("{dimensions: 2, N: 64, packing_fraction: 0.3, init: {from: no_such.h5}}");
   CHECK_THAT(from, Catch::Contains(name + ":1:55: system.init.from: the file 'no_such.h5' does not exist") &&
                        Catch::Contains("a relative path is read from the directory the command runs in"));
+  // A --set that made the system impossible is named beside the place of `init`.
+  std::ofstream(file) << "system: {dimensions: 2, N: 64, packing_fraction: 0.3}\nrun: {steps: 2, dt: 0.01}\n"
+                      << "plugins: [brownian]\nstep:\n  - {stage: brownian.integrate, D: 1}\n";
+  auto dense = run("validate " + file.string() + " --set system.packing_fraction=0.95");
+  INFO(dense.out);
+  CHECK(dense.code == 2);
+  CHECK_THAT(dense.out, Catch::Contains(name + ":1:9 (with --set system.packing_fraction=0.95): system.init: random"));
   fs::remove(file);
 }
 

@@ -203,6 +203,7 @@ PipelineSpec PipelineDocument::resolve(const Registry& registry) const {
   spec.plugins = read_plugins(find(top, "plugins"), loc);
   spec.step = read_steps(find(top, "step")->value, spec.system.dimensions, registry, loc);
   for (const std::string& text : impl_->applied) {  // (apply() checked their form)
+    if (text.rfind("system.", 0) == 0 || text.rfind("system=", 0) == 0) spec.system.set_by.push_back(text);
     if (text.rfind("step.", 0) != 0) continue;
     const std::string key = text.substr(5, text.find('=') - 5);
     const std::string entry = key.substr(0, key.rfind('.'));

@@ -41,6 +41,8 @@ struct SystemSpec {
   // Where the initial state was asked for: the `init` key, else the `system` section (the
   // errors of making it name this place; empty for a spec built in code).
   Location where;
+  // The --set arguments that changed `system` (its errors name them beside `where`).
+  std::vector<std::string> set_by;
 };
 
 struct RunSpec {

@@ -24,7 +24,10 @@ std::unique_ptr<State> Simulation::initial_state(const PipelineSpec& spec) {
     return make_initial_state(spec.system, spec.run.precision, spec.run.seed);
   } catch (const InputError& e) {
     if (spec.system.where.str().empty()) throw;
-    throw InputError(spec.system.where.str() + ": " + e.what());  // (the file's place of `init`)
+    std::string set;
+    for (auto& s : spec.system.set_by) set += (set.empty() ? " (with --set " : ", --set ") + s;
+    // (the file's place of `init`, and the --set arguments that changed the system)
+    throw InputError(spec.system.where.str() + (set.empty() ? "" : set + ")") + ": " + e.what());
   }
 }
 
