@@ -42,6 +42,8 @@ namespace {
 std::atomic<int> g_signal{0};
 // From this many particles a fresh run reports its set-up's start and duration.
 constexpr std::uint64_t kLargeSetUp = 100000;
+// Stepping this long without a run.checkpoint section earns one warning.
+constexpr std::chrono::minutes kLongWithoutCheckpoints{10};
 extern "C" void on_signal(int sig) { g_signal.store(sig); }
 
 // The CPU's model name (/proc/cpuinfo), for the record of what produced a run.
@@ -261,6 +263,7 @@ int run_rank(const RunRequest& req, const Loaded& loaded, Backend backend, std::
   const std::uint64_t first = sim->state().step;
   if (team) team->reset_communication_seconds();
   const auto t0 = std::chrono::steady_clock::now();
+  bool warned_no_checkpoints = false;
   try {
     while (sim->state().step < spec.run.steps) {
       std::int64_t sig = stop.load();
@@ -279,6 +282,16 @@ int run_rank(const RunRequest& req, const Loaded& loaded, Backend backend, std::
       }
       sim->advance();
       if (checkpoints) checkpoints->after_step();
+      // A long run without periodic checkpoints loses everything to a kill -9 or a lost node: say
+      // so once, while there is time to stop it (SIGINT keeps it) and add them.
+      if (!spec.run.checkpoint && !warned_no_checkpoints && lead && sim->state().step % 256 == 0 &&
+          std::chrono::steady_clock::now() - t0 > kLongWithoutCheckpoints) {
+        warned_no_checkpoints = true;
+        log << "flipflow: this run has stepped for 10 minutes without a run.checkpoint section: killed outright "
+               "(kill -9, out of memory, a lost node) it could not be continued, and g(r) and cluster rows "
+               "would be lost (docs/checkpoints.md). Ctrl-C stops it with a checkpoint, and "
+            << resume_command(req, out) << " --set 'run.checkpoint={every: N}' continues it with them\n";
+      }
     }
     sim->synchronize();
     if (spec.run.checkpoint && checkpoints) checkpoints->write();
