@@ -176,3 +176,44 @@ TEST_CASE("tools/render colours by a per-particle field (voronoi.area, voronoi.s
   CHECK_FALSE(fs::exists(dir / "x.png"));
   fs::remove_all(dir);
 }
+
+TEST_CASE("tools/render takes σ and the walls from the run's --set overrides (/parameters/effective_pipeline)",
+          "[cli][render][voronoi]") {
+  if (!have_plotting() || std::system("/usr/bin/python3 -c 'import scipy' >/dev/null 2>&1") != 0) {
+    WARN("SKIPPED (no numpy/h5py/matplotlib/scipy in /usr/bin/python3): tools/render --set overrides");
+    return;
+  }
+  const fs::path dir = fs::temp_directory_path() / ("ff_render_set_" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  const std::string render = "/usr/bin/python3 " + repo_file("tools/render").string();
+
+  SECTION("--set system.sigma=2: disks of diameter 2") {
+    require_success(sh(pipeline_exe() + " run " + repo_file("pipelines/hard-disks.yaml").string() +
+                           " --device cpu --set run.steps=100 --set system.N=100 --set system.sigma=2 --out " +
+                           (dir / "run").string(),
+                       dir));
+    auto r = sh(render + " " + (dir / "run" / "trajectory.h5").string() + " --out " + (dir / "s.png").string() +
+                    " --dpi 40",
+                dir);
+    INFO(r.out);
+    CHECK(r.code == 0);
+    CHECK_THAT(r.out, Catch::Contains("diameters from /parameters/effective_pipeline: 2,"));
+    CHECK(is_png(dir / "s.png"));
+  }
+  SECTION("--set ...walls=x: the cells cut by walls at x = 0 and L_x") {
+    require_success(sh(pipeline_exe() + " run " + repo_file("pipelines/hard-disks-slab-voronoi.yaml").string() +
+                           " --device cpu --set run.steps=1000 --set system.N=300 --set step.overlap_correct.walls=x"
+                           " --set step.voronoi.mirror_observer.walls=x --out " +
+                           (dir / "run").string(),
+                       dir));
+    auto r = sh(render + " " + (dir / "run" / "trajectory.h5").string() + " --voronoi --color-by voronoi.area --out " +
+                    (dir / "w.png").string() + " --dpi 40",
+                dir);
+    INFO(r.out);
+    CHECK(r.code == 0);
+    CHECK_THAT(r.out, Catch::Contains("walls ⟂ x") && Catch::Contains("largest difference"));
+    CHECK(is_png(dir / "w.png"));
+  }
+  fs::remove_all(dir);
+}
