@@ -214,6 +214,14 @@ TEST_CASE("tools/render takes σ and the walls from the run's --set overrides (/
     CHECK(r.code == 0);
     CHECK_THAT(r.out, Catch::Contains("walls ⟂ x") && Catch::Contains("largest difference"));
     CHECK(is_png(dir / "w.png"));
+    // The walls on a frame drawn without --voronoi too.
+    auto p = sh(render + " " + (dir / "run" / "trajectory.h5").string() + " --out " + (dir / "p.png").string() +
+                    " --dpi 40",
+                dir);
+    INFO(p.out);
+    CHECK(p.code == 0);
+    CHECK_THAT(p.out, Catch::Contains("colour by species; walls ⟂ x"));
+    CHECK(is_png(dir / "p.png"));
   }
   fs::remove_all(dir);
 }
