@@ -225,3 +225,43 @@ TEST_CASE("tools/render takes σ and the walls from the run's --set overrides (/
   }
   fs::remove_all(dir);
 }
+
+TEST_CASE("tools/render plots gr.csv's g(r) against r/σ; a CSV file without --plot-observable lists its columns",
+          "[cli][render]") {
+  if (!have_plotting()) {
+    WARN("SKIPPED (no numpy/h5py/matplotlib in /usr/bin/python3): tools/render");
+    return;
+  }
+  const fs::path dir = fs::temp_directory_path() / ("ff_render_gr_" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  const std::string render = "/usr/bin/python3 " + repo_file("tools/render").string();
+  require_success(sh(pipeline_exe() + " run " + repo_file("pipelines/hard-disks.yaml").string() +
+                         " --device cpu --set run.steps=300 --set system.N=200 --set step.observe.gr.from_step=100"
+                         " --out " +
+                         (dir / "run").string(),
+                     dir));
+  const fs::path csv = dir / "run" / "gr.csv";
+
+  auto g = sh(render + " " + csv.string() + " --plot-observable g --out " + (dir / "g.png").string() + " --dpi 40",
+              dir);
+  INFO(g.out);
+  CHECK(g.code == 0);
+  CHECK_THAT(g.out, Catch::Contains("x: r/σ"));
+  CHECK(is_png(dir / "g.png"));
+  auto x = sh(render + " " + csv.string() + " --plot-observable g --x r_lo --out " + (dir / "lo.png").string() +
+                  " --dpi 40",
+              dir);
+  INFO(x.out);
+  CHECK(x.code == 0);
+  CHECK_THAT(x.out, Catch::Contains("x: r_lo"));
+  auto bad = sh(render + " " + csv.string() + " --plot-observable g --x nosuch --out " + (dir / "x.png").string(), dir);
+  CHECK(bad.code == 2);
+  CHECK_THAT(bad.out, Catch::Contains("--x nosuch: no such column") && Catch::Contains("r_lo, r_hi, r, g, pairs"));
+  auto bare = sh(render + " " + csv.string() + " --out " + (dir / "x.png").string(), dir);
+  CHECK(bare.code == 2);
+  CHECK_THAT(bare.out, Catch::Contains("gr.csv: a CSV file") && Catch::Contains("--plot-observable") &&
+                           Catch::Contains("r_lo, r_hi, r, g, pairs"));
+  CHECK_FALSE(fs::exists(dir / "x.png"));
+  fs::remove_all(dir);
+}
