@@ -265,3 +265,27 @@ TEST_CASE("tools/render plots gr.csv's g(r) against r/σ; a CSV file without --p
   CHECK_FALSE(fs::exists(dir / "x.png"));
   fs::remove_all(dir);
 }
+
+TEST_CASE("tools/render colours cluster.label by cluster, monomers grey, without a tick per label", "[cli][render]") {
+  if (!have_plotting()) {
+    WARN("SKIPPED (no numpy/h5py/matplotlib in /usr/bin/python3): tools/render");
+    return;
+  }
+  const fs::path dir = fs::temp_directory_path() / ("ff_render_label_" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  const std::string render = "/usr/bin/python3 " + repo_file("tools/render").string();
+  require_success(sh(pipeline_exe() + " run " + repo_file("pipelines/clusters-demo.yaml").string() +
+                         " --device cpu --set run.steps=500 --set system.N=300 --out " + (dir / "run").string(),
+                     dir));
+
+  auto r = sh(render + " " + (dir / "run" / "clusters-demo.h5").string() + " --color-by cluster.label --out " +
+                  (dir / "c.png").string() + " --dpi 40",
+              dir);
+  INFO(r.out);
+  CHECK(r.code == 0);
+  CHECK_THAT(r.out, Catch::Contains("colour by cluster.label (") && Catch::Contains("monomers grey"));
+  CHECK_THAT(r.out, !Catch::Contains("Locator"));
+  CHECK(is_png(dir / "c.png"));
+  fs::remove_all(dir);
+}
