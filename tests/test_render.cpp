@@ -153,8 +153,9 @@ TEST_CASE("tools/render colours by a per-particle field (voronoi.area, voronoi.s
   fs::remove_all(dir);
   fs::create_directories(dir);
   const std::string render = "/usr/bin/python3 " + repo_file("tools/render").string();
+  // Frames at steps 0 and 1000: frame 0 is written before voronoi.geometry first runs (areas 0).
   require_success(sh(pipeline_exe() + " run " + repo_file("pipelines/voronoi-hard-disks.yaml").string() +
-                         " --device cpu --set run.steps=100 --set system.N=400 --out " + (dir / "run").string(),
+                         " --device cpu --set run.steps=1000 --set system.N=400 --out " + (dir / "run").string(),
                      dir));
   const fs::path h5 = dir / "run" / "trajectory.h5";
 
@@ -164,7 +165,17 @@ TEST_CASE("tools/render colours by a per-particle field (voronoi.area, voronoi.s
   INFO(a.out);
   CHECK(a.code == 0);
   CHECK_THAT(a.out, Catch::Contains("colour by voronoi.area") && Catch::Contains("Voronoi cells of 400 points"));
+  CHECK_THAT(a.out, Catch::Contains("largest difference") && !Catch::Contains("warning"));
   CHECK(is_png(dir / "a.png"));
+  auto z = sh(render + " " + h5.string() + " --frame 0 --voronoi --color-by voronoi.area --out " +
+                  (dir / "z.png").string() + " --dpi 40",
+              dir);
+  INFO(z.out);
+  CHECK(z.code == 0);
+  CHECK_THAT(z.out, Catch::Contains("warning") &&
+                        Catch::Contains("cells are not the Voronoi cells of the frame's positions") &&
+                        Catch::Contains("before the voronoi stage first ran") && Catch::Contains("delaunay.lawson"));
+  CHECK(is_png(dir / "z.png"));
   auto s = sh(render + " " + h5.string() + " --color-by voronoi.sides --out " + (dir / "s.png").string() + " --dpi 40",
               dir);
   INFO(s.out);
