@@ -233,6 +233,12 @@ TEST_CASE("tools/render takes σ and the walls from the run's --set overrides (/
     CHECK(p.code == 0);
     CHECK_THAT(p.out, Catch::Contains("colour by species; walls ⟂ x"));
     CHECK(is_png(dir / "p.png"));
+    // The default names of two pictures of one frame differ (hard-disks-slab.yaml suggests both).
+    const std::string h5 = (dir / "run" / "trajectory.h5").string();
+    require_success(sh(render + " " + h5 + " --color-by voronoi.sides --dpi 40", dir));
+    require_success(sh(render + " " + h5 + " --voronoi --color-by voronoi.area --dpi 40", dir));
+    CHECK(is_png(dir / "run" / "trajectory-step1000-voronoi.sides.png"));
+    CHECK(is_png(dir / "run" / "trajectory-step1000-voronoi.area-cells.png"));
   }
   fs::remove_all(dir);
 }
