@@ -78,6 +78,21 @@ TEST_CASE("tools/render draws an H5MD frame and an observable to PNG; bad input 
     auto o = sh(render + " " + h5.string() + " --plot-observable no_such --out " + (dir / "x.png").string(), dir);
     CHECK(o.code == 2);
     CHECK_THAT(o.out, Catch::Contains("/observables/no_such/value") && Catch::Contains("observe.msd/msd"));
+    auto msd = sh(render + " " + h5.string() + " --plot-observable msd --out " + (dir / "x.png").string(), dir);
+    CHECK(msd.code == 2);
+    CHECK_THAT(msd.out, Catch::Contains("did you mean 'observe.msd/msd'?"));
+    auto typo = sh(render + " " + h5.string() + " --color-by orientaton --out " + (dir / "x.png").string(), dir);
+    CHECK(typo.code == 2);
+    CHECK_THAT(typo.out, Catch::Contains("did you mean 'orientation'?"));
+    // One line, no Python traceback, for a colour map or output format matplotlib lacks.
+    auto cmap = sh(render + " " + h5.string() + " --cmap virdis --out " + (dir / "x.png").string(), dir);
+    CHECK(cmap.code == 2);
+    CHECK_THAT(cmap.out, Catch::Contains("--cmap virdis") && Catch::Contains("did you mean viridis") &&
+                             !Catch::Contains("Traceback"));
+    auto txt = sh(render + " " + h5.string() + " --out " + (dir / "x.txt").string(), dir);
+    CHECK(txt.code == 2);
+    CHECK_THAT(txt.out, Catch::Contains("cannot write .txt files") && !Catch::Contains("Traceback"));
+    CHECK_FALSE(fs::exists(dir / "x.txt"));
     auto m = sh(render + " " + (dir / "missing.h5").string(), dir);
     CHECK(m.code == 2);
     CHECK_THAT(m.out, Catch::Contains("missing.h5"));
