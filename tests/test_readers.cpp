@@ -113,6 +113,14 @@ TEST_CASE("tools/convert writes GSD that gsd.hoomd reads back (2-D with orientat
     REQUIRE(fs::exists(out));
     require_ok("gsd " + out.string() + " " + in.string(), dir);
   }
+  // Boids: σ = 0.5 (readers would take a missing diameter as 1) and headings in boids.heading.
+  require_run(repo_file("pipelines/boids.yaml").string() +
+                  " --device cpu --set system.N=300 --set run.steps=200 --out " + (dir / "boids").string(),
+              dir);
+  auto b = require_success(sh(convert + " " + (dir / "boids/boids.h5").string(), dir));
+  CHECK_THAT(b.out, Catch::Contains("orientations from /particles/all/boids.heading") &&
+                        Catch::Contains("diameters from /parameters/effective_pipeline"));
+  require_ok("gsd " + (dir / "boids/boids.gsd").string() + " " + (dir / "boids/boids.h5").string(), dir);
 
   SECTION("bad input exits 2 naming the problem") {
     auto r = sh(convert + " " + (dir / "nothing.h5").string(), dir);

@@ -78,6 +78,21 @@ TEST_CASE("tools/render draws an H5MD frame and an observable to PNG; bad input 
     auto o = sh(render + " " + h5.string() + " --plot-observable no_such --out " + (dir / "x.png").string(), dir);
     CHECK(o.code == 2);
     CHECK_THAT(o.out, Catch::Contains("/observables/no_such/value") && Catch::Contains("observe.msd/msd"));
+    auto msd = sh(render + " " + h5.string() + " --plot-observable msd --out " + (dir / "x.png").string(), dir);
+    CHECK(msd.code == 2);
+    CHECK_THAT(msd.out, Catch::Contains("did you mean 'observe.msd/msd'?"));
+    auto typo = sh(render + " " + h5.string() + " --color-by orientaton --out " + (dir / "x.png").string(), dir);
+    CHECK(typo.code == 2);
+    CHECK_THAT(typo.out, Catch::Contains("did you mean 'orientation'?"));
+    // One line, no Python traceback, for a colour map or output format matplotlib lacks.
+    auto cmap = sh(render + " " + h5.string() + " --cmap virdis --out " + (dir / "x.png").string(), dir);
+    CHECK(cmap.code == 2);
+    CHECK_THAT(cmap.out, Catch::Contains("--cmap virdis") && Catch::Contains("did you mean viridis") &&
+                             !Catch::Contains("Traceback"));
+    auto txt = sh(render + " " + h5.string() + " --out " + (dir / "x.txt").string(), dir);
+    CHECK(txt.code == 2);
+    CHECK_THAT(txt.out, Catch::Contains("cannot write .txt files") && !Catch::Contains("Traceback"));
+    CHECK_FALSE(fs::exists(dir / "x.txt"));
     auto m = sh(render + " " + (dir / "missing.h5").string(), dir);
     CHECK(m.code == 2);
     CHECK_THAT(m.out, Catch::Contains("missing.h5"));
@@ -153,8 +168,9 @@ TEST_CASE("tools/render colours by a per-particle field (voronoi.area, voronoi.s
   fs::remove_all(dir);
   fs::create_directories(dir);
   const std::string render = "/usr/bin/python3 " + repo_file("tools/render").string();
+  // Frames at steps 0 and 1000: frame 0 is written before voronoi.geometry first runs (areas 0).
   require_success(sh(pipeline_exe() + " run " + repo_file("pipelines/voronoi-hard-disks.yaml").string() +
-                         " --device cpu --set run.steps=100 --set system.N=400 --out " + (dir / "run").string(),
+                         " --device cpu --set run.steps=1000 --set system.N=400 --out " + (dir / "run").string(),
                      dir));
   const fs::path h5 = dir / "run" / "trajectory.h5";
 
@@ -164,7 +180,17 @@ TEST_CASE("tools/render colours by a per-particle field (voronoi.area, voronoi.s
   INFO(a.out);
   CHECK(a.code == 0);
   CHECK_THAT(a.out, Catch::Contains("colour by voronoi.area") && Catch::Contains("Voronoi cells of 400 points"));
+  CHECK_THAT(a.out, Catch::Contains("largest difference") && !Catch::Contains("warning"));
   CHECK(is_png(dir / "a.png"));
+  auto z = sh(render + " " + h5.string() + " --frame 0 --voronoi --color-by voronoi.area --out " +
+                  (dir / "z.png").string() + " --dpi 40",
+              dir);
+  INFO(z.out);
+  CHECK(z.code == 0);
+  CHECK_THAT(z.out, Catch::Contains("warning") &&
+                        Catch::Contains("cells are not the Voronoi cells of the frame's positions") &&
+                        Catch::Contains("before the voronoi stage first ran") && Catch::Contains("delaunay.lawson"));
+  CHECK(is_png(dir / "z.png"));
   auto s = sh(render + " " + h5.string() + " --color-by voronoi.sides --out " + (dir / "s.png").string() + " --dpi 40",
               dir);
   INFO(s.out);
@@ -174,5 +200,124 @@ TEST_CASE("tools/render colours by a per-particle field (voronoi.area, voronoi.s
   CHECK(bad.code == 2);
   CHECK_THAT(bad.out, Catch::Contains("/particles/all/voronoi.nosuch/value") && Catch::Contains("voronoi.area"));
   CHECK_FALSE(fs::exists(dir / "x.png"));
+  fs::remove_all(dir);
+}
+
+TEST_CASE("tools/render takes σ and the walls from the run's --set overrides (/parameters/effective_pipeline)",
+          "[cli][render][voronoi]") {
+  if (!have_plotting() || std::system("/usr/bin/python3 -c 'import scipy' >/dev/null 2>&1") != 0) {
+    WARN("SKIPPED (no numpy/h5py/matplotlib/scipy in /usr/bin/python3): tools/render --set overrides");
+    return;
+  }
+  const fs::path dir = fs::temp_directory_path() / ("ff_render_set_" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  const std::string render = "/usr/bin/python3 " + repo_file("tools/render").string();
+
+  SECTION("--set system.sigma=2: disks of diameter 2") {
+    require_success(sh(pipeline_exe() + " run " + repo_file("pipelines/hard-disks.yaml").string() +
+                           " --device cpu --set run.steps=100 --set system.N=100 --set system.sigma=2 --out " +
+                           (dir / "run").string(),
+                       dir));
+    auto r = sh(render + " " + (dir / "run" / "trajectory.h5").string() + " --out " + (dir / "s.png").string() +
+                    " --dpi 40",
+                dir);
+    INFO(r.out);
+    CHECK(r.code == 0);
+    CHECK_THAT(r.out, Catch::Contains("diameters from /parameters/effective_pipeline: 2,"));
+    CHECK(is_png(dir / "s.png"));
+  }
+  SECTION("--set ...walls=x: the cells cut by walls at x = 0 and L_x") {
+    require_success(sh(pipeline_exe() + " run " + repo_file("pipelines/hard-disks-slab-voronoi.yaml").string() +
+                           " --device cpu --set run.steps=1000 --set system.N=300 --set step.overlap_correct.walls=x"
+                           " --set step.voronoi.mirror_observer.walls=x --out " +
+                           (dir / "run").string(),
+                       dir));
+    auto r = sh(render + " " + (dir / "run" / "trajectory.h5").string() + " --voronoi --color-by voronoi.area --out " +
+                    (dir / "w.png").string() + " --dpi 40",
+                dir);
+    INFO(r.out);
+    CHECK(r.code == 0);
+    CHECK_THAT(r.out, Catch::Contains("walls ⟂ x") && Catch::Contains("largest difference"));
+    CHECK(is_png(dir / "w.png"));
+    // The walls on a frame drawn without --voronoi too.
+    auto p = sh(render + " " + (dir / "run" / "trajectory.h5").string() + " --out " + (dir / "p.png").string() +
+                    " --dpi 40",
+                dir);
+    INFO(p.out);
+    CHECK(p.code == 0);
+    CHECK_THAT(p.out, Catch::Contains("colour by species; walls ⟂ x"));
+    CHECK(is_png(dir / "p.png"));
+    // The default names of two pictures of one frame differ (hard-disks-slab.yaml suggests both).
+    const std::string h5 = (dir / "run" / "trajectory.h5").string();
+    require_success(sh(render + " " + h5 + " --color-by voronoi.sides --dpi 40", dir));
+    require_success(sh(render + " " + h5 + " --voronoi --color-by voronoi.area --dpi 40", dir));
+    CHECK(is_png(dir / "run" / "trajectory-step1000-voronoi.sides.png"));
+    CHECK(is_png(dir / "run" / "trajectory-step1000-voronoi.area-cells.png"));
+  }
+  fs::remove_all(dir);
+}
+
+TEST_CASE("tools/render plots gr.csv's g(r) against r/σ; a CSV file without --plot-observable lists its columns",
+          "[cli][render]") {
+  if (!have_plotting()) {
+    WARN("SKIPPED (no numpy/h5py/matplotlib in /usr/bin/python3): tools/render");
+    return;
+  }
+  const fs::path dir = fs::temp_directory_path() / ("ff_render_gr_" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  const std::string render = "/usr/bin/python3 " + repo_file("tools/render").string();
+  require_success(sh(pipeline_exe() + " run " + repo_file("pipelines/hard-disks.yaml").string() +
+                         " --device cpu --set run.steps=300 --set system.N=200 --set step.observe.gr.from_step=100"
+                         " --out " +
+                         (dir / "run").string(),
+                     dir));
+  const fs::path csv = dir / "run" / "gr.csv";
+
+  auto g = sh(render + " " + csv.string() + " --plot-observable g --out " + (dir / "g.png").string() + " --dpi 40",
+              dir);
+  INFO(g.out);
+  CHECK(g.code == 0);
+  CHECK_THAT(g.out, Catch::Contains("x: r/σ"));
+  CHECK(is_png(dir / "g.png"));
+  auto x = sh(render + " " + csv.string() + " --plot-observable g --x r_lo --out " + (dir / "lo.png").string() +
+                  " --dpi 40",
+              dir);
+  INFO(x.out);
+  CHECK(x.code == 0);
+  CHECK_THAT(x.out, Catch::Contains("x: r_lo"));
+  auto bad = sh(render + " " + csv.string() + " --plot-observable g --x nosuch --out " + (dir / "x.png").string(), dir);
+  CHECK(bad.code == 2);
+  CHECK_THAT(bad.out, Catch::Contains("--x nosuch: no such column") && Catch::Contains("r_lo, r_hi, r, g, pairs"));
+  auto bare = sh(render + " " + csv.string() + " --out " + (dir / "x.png").string(), dir);
+  CHECK(bare.code == 2);
+  CHECK_THAT(bare.out, Catch::Contains("gr.csv: a CSV file") && Catch::Contains("--plot-observable") &&
+                           Catch::Contains("r_lo, r_hi, r, g, pairs"));
+  CHECK_FALSE(fs::exists(dir / "x.png"));
+  fs::remove_all(dir);
+}
+
+TEST_CASE("tools/render colours cluster.label by cluster, monomers grey, without a tick per label", "[cli][render]") {
+  if (!have_plotting()) {
+    WARN("SKIPPED (no numpy/h5py/matplotlib in /usr/bin/python3): tools/render");
+    return;
+  }
+  const fs::path dir = fs::temp_directory_path() / ("ff_render_label_" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  const std::string render = "/usr/bin/python3 " + repo_file("tools/render").string();
+  require_success(sh(pipeline_exe() + " run " + repo_file("pipelines/clusters-demo.yaml").string() +
+                         " --device cpu --set run.steps=500 --set system.N=300 --out " + (dir / "run").string(),
+                     dir));
+
+  auto r = sh(render + " " + (dir / "run" / "clusters-demo.h5").string() + " --color-by cluster.label --out " +
+                  (dir / "c.png").string() + " --dpi 40",
+              dir);
+  INFO(r.out);
+  CHECK(r.code == 0);
+  CHECK_THAT(r.out, Catch::Contains("colour by cluster.label (") && Catch::Contains("monomers grey"));
+  CHECK_THAT(r.out, !Catch::Contains("Locator"));
+  CHECK(is_png(dir / "c.png"));
   fs::remove_all(dir);
 }

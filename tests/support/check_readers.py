@@ -73,6 +73,24 @@ def check_refused(native_path):
     fail("MDAnalysis opened the plain 2-D layout: the `layout: mdanalysis` option may be unneeded now")
 
 
+def expected_diameters(f, p):
+    """Each particle's diameter: /particles/all/diameter, else sigma * types[k].diameter of the
+    pipeline the run ran (its --set overrides applied), else None."""
+    if "diameter" in p:
+        return p["diameter/value"][-1]
+    where = next((w for w in ("parameters/effective_pipeline", "parameters/pipeline") if w in f), None)
+    if where is None:
+        return None
+    try:
+        import yaml
+    except ImportError:
+        return None
+    system = yaml.safe_load(f[where][()].decode())["system"]
+    types = system.get("types") or [{}]
+    per = np.array([float(system.get("sigma", 1.0)) * float(t.get("diameter", 1.0)) for t in types])
+    return per[p["species"][:] if len(per) > 1 else np.zeros(p["position/value"].shape[1], dtype=int)]
+
+
 def check_gsd(gsd_path, h5_path):
     import gsd.hoomd
 
@@ -103,18 +121,24 @@ def check_gsd(gsd_path, h5_path):
             fail(f"frame {k}: images differ")
         if not np.array_equal(s.particles.typeid, p["species"][:]):
             fail(f"frame {k}: type ids differ")
-        if "orientation" in p:
+        want_d = expected_diameters(f, p)
+        if want_d is not None and not np.allclose(s.particles.diameter, want_d, rtol=1e-6, atol=0):
+            fail(f"frame {k}: diameters {np.unique(s.particles.diameter)}, expected {np.unique(want_d)}")
+        direction = next((d for d in ("orientation", "boids.heading") if d in p), None)
+        if direction:
             q = s.particles.orientation.astype(np.float64)
             if np.abs(np.linalg.norm(q, axis=1) - 1).max() > 1e-6:
                 fail(f"frame {k}: orientations are not unit quaternions")
             # The body axis (1, 0, 0) rotated by q: (w²+x²-y²-z², 2(xy+wz), 2(xz-wy)).
             w, x, y, z = q.T
             axis = np.stack([w * w + x * x - y * y - z * z, 2 * (x * y + w * z), 2 * (x * z - w * y)], axis=1)
-            o = p["orientation/value"][k]
-            want_axis = np.stack([np.cos(o), np.sin(o), 0 * o], axis=1) if o.ndim == 1 else o[:, :3]
+            o = p[f"{direction}/value"][k]
+            want_axis = (np.stack([np.cos(o), np.sin(o), 0 * o], axis=1) if o.ndim == 1
+                         else np.pad(o[:, :3], ((0, 0), (0, 3 - min(3, o.shape[1])))))  # boids: (u_x, u_y)
             if np.abs(axis - want_axis).max() > 1e-5:
                 fail(f"frame {k}: the quaternions turn (1,0,0) away from the orientation by {np.abs(axis - want_axis).max()}")
-    print(f"ok gsd: {len(t)} frames of {pos.shape[1]} particles, {dim}D, box {list(t[0].configuration.box)}")
+    print(f"ok gsd: {len(t)} frames of {pos.shape[1]} particles, {dim}D, box {list(t[0].configuration.box)}, "
+          f"diameters {np.unique(t[0].particles.diameter)}")
 
 
 def datasets(path):
