@@ -73,8 +73,8 @@ TEST_CASE("whole pipelines give the same bits at 1, 2, 3 and 4 CPU threads", "[d
     std::vector<std::string> overrides;
     std::vector<std::string> busy;  // metrics whose sum over the steps must be > 0: the stages did work
   };
-  // voronoi-hard-disks: sort, brownian, detect_inversion, flip, lawson, overlap_correct,
-  // voronoi.geometry; abp: abp.integrate among them; bench-boids-delaunay: delaunay.build,
+  // voronoi-hard-disks: sort, brownian, detect_inversion, flip, lawson, overlap_correct, lawson
+  // again, voronoi.geometry; abp: abp.integrate among them; bench-boids-delaunay: delaunay.build,
   // neighbors.delaunay, the boids stages and flip's sub-steps.
   const Case cases[] = {
       {"pipelines/voronoi-hard-disks.yaml",

@@ -27,6 +27,13 @@ struct SpeciesSpec {
   double diameter = 1.0;   // in units of system.sigma
 };
 
+// " (with --set a=1, --set b=2)" for the --set arguments behind a section or step; "" for none.
+inline std::string set_by_note(const std::vector<std::string>& set_by) {
+  std::string note;
+  for (auto& s : set_by) note += (note.empty() ? " (with --set " : ", --set ") + s;
+  return note.empty() ? note : note + ")";
+}
+
 struct SystemSpec {
   int dimensions = 2;
   std::uint64_t N = 0;

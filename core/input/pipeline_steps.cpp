@@ -69,8 +69,8 @@ Head read_head(const YAML::Node& e, std::size_t i, int dim, const Registry& reg,
     const std::string s = in_unlisted ? std::string() : suggestion(h.stage, reg.names());
     loc.fail(stage->value, at + ".stage",
              "unknown stage '" + h.stage + "'" + s + " (loaded stages: " + join(reg.names()) + ")" +
-                 (in_unlisted ? "; plugin '" + prefix + "' is on the plugin path but not listed: add it under "
-                                "'plugins' (plugins: [" + prefix + "])"
+                 (in_unlisted ? "; plugin '" + prefix + "' is on the plugin path but not in this pipeline's "
+                                "`plugins:` list: add '" + prefix + "' to it"
                   : s.empty() ? "; is its plugin listed under 'plugins'?" : ""));
   }
   const StageDecl& decl = reg.get(h.stage).decl;

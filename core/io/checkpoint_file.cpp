@@ -1,13 +1,12 @@
 #include "core/io/checkpoint_file.h"
 
-#include <fcntl.h>
 #include <hdf5.h>
-#include <unistd.h>
 
 #include <cstring>
 #include <filesystem>
 
 #include "core/base/error.h"
+#include "core/io/durable_file.h"
 #include "core/io/hdf5_common.h"
 
 namespace fs = std::filesystem;
@@ -57,13 +56,6 @@ struct Hasher {
   }
   void u64(std::uint64_t v) { bytes(&v, 8); }
 };
-
-void fsync_path(const std::string& path, bool directory) {
-  const int fd = ::open(path.c_str(), directory ? O_RDONLY | O_DIRECTORY : O_RDONLY);
-  if (fd < 0) return;
-  ::fsync(fd);
-  ::close(fd);
-}
 
 }  // namespace
 
@@ -205,11 +197,11 @@ void write_checkpoint_file(const std::string& path, const CheckpointData& data) 
     file.id = -1;
     if (H5Fclose(f) < 0) fail("closing '" + tmp.string() + "'");
   }
-  fsync_path(tmp.string(), false);
+  io::fsync_path(tmp.string(), false);
   std::error_code ec;
   fs::rename(tmp, target, ec);
   if (ec) fail("renaming '" + tmp.string() + "': " + ec.message());
-  fsync_path(target.parent_path().empty() ? "." : target.parent_path().string(), true);
+  io::fsync_path(target.parent_path().empty() ? "." : target.parent_path().string(), true);
 }
 
 // ---- reading ----------------------------------------------------------------------------

@@ -24,10 +24,8 @@ std::unique_ptr<State> Simulation::initial_state(const PipelineSpec& spec) {
     return make_initial_state(spec.system, spec.run.precision, spec.run.seed);
   } catch (const InputError& e) {
     if (spec.system.where.str().empty()) throw;
-    std::string set;
-    for (auto& s : spec.system.set_by) set += (set.empty() ? " (with --set " : ", --set ") + s;
     // (the file's place of `init`, and the --set arguments that changed the system)
-    throw InputError(spec.system.where.str() + (set.empty() ? "" : set + ")") + ": " + e.what());
+    throw InputError(spec.system.where.str() + set_by_note(spec.system.set_by) + ": " + e.what());
   }
 }
 
@@ -79,12 +77,13 @@ void Simulation::build(const Registry& registry) {
       slot.stage = registry.create(e.stage, options_.backend, e.params, slot.info);
       slot.stage->configure(*state_);
     } catch (const InputError& err) {
-      std::string set;
-      for (auto& s : e.set_by) set += (set.empty() ? " (with --set " : ", --set ") + s;
-      // Stages start their messages with their own name; where the step's id is that name, once is enough.
+      // Stages often start their messages with their own name: once is enough, and a step with an
+      // id of its own names its stage.
       std::string what = err.what();
-      if (e.id == e.stage && what.rfind(e.stage + ": ", 0) == 0) what.erase(0, e.stage.size() + 2);
-      throw InputError(e.where.str() + ": step '" + e.id + "'" + (set.empty() ? "" : set + ")") + ": " + what);
+      const bool named = what.rfind(e.stage + ": ", 0) == 0;
+      if (named && e.id == e.stage) what.erase(0, e.stage.size() + 2);
+      throw InputError(e.where.str() + ": step '" + e.id + "'" + (named || e.id == e.stage ? "" : " (" + e.stage + ")") +
+                       set_by_note(e.set_by) + ": " + what);
     }
     accesses.push_back(slot.stage->accesses());
     for (auto& a : accesses.back())

@@ -2,6 +2,7 @@
 
 #include <exception>
 #include <mutex>
+#include <string>
 #include <thread>
 
 #include "core/backend/device.h"
@@ -29,23 +30,32 @@ Team make_team(Backend backend, int ranks) {
 void run_team(Team& team, const std::function<void(Communicator&)>& body) {
   std::mutex m;
   std::exception_ptr first;
+  std::string first_what;
+  std::exception_ptr lead;  // rank 0's
+  std::string lead_what;
   auto rank_main = [&](int r) {
     Communicator& comm = *team.ranks[std::size_t(r)];
+    auto keep = [&](std::exception_ptr e, const std::string& what) {
+      {
+        std::lock_guard<std::mutex> lock(m);
+        if (!first) {
+          first = e;
+          first_what = what;
+        }
+        if (r == 0) {
+          lead = e;
+          lead_what = what;
+        }
+      }
+      comm.abort(what);
+    };
     try {
       if (team.backend == Backend::cuda) use_cuda_device(team.devices[std::size_t(r)]);
       body(comm);
     } catch (const std::exception& e) {
-      {
-        std::lock_guard<std::mutex> lock(m);
-        if (!first) first = std::current_exception();
-      }
-      comm.abort(e.what());
+      keep(std::current_exception(), e.what());
     } catch (...) {
-      {
-        std::lock_guard<std::mutex> lock(m);
-        if (!first) first = std::current_exception();
-      }
-      comm.abort("unknown exception");
+      keep(std::current_exception(), "unknown exception");
     }
   };
   if (team.size() == 1) {
@@ -55,6 +65,10 @@ void run_team(Team& team, const std::function<void(Communicator&)>& body) {
     for (int r = 0; r < team.size(); ++r) threads.emplace_back(rank_main, r);
     for (auto& t : threads) t.join();
   }
+  // Every rank meets a failure of the step together; rank 0, which writes the outputs and the
+  // checkpoints, may have added to its message (the newest checkpoint and how to continue) after
+  // a faster rank's plain one arrived first.
+  if (lead && lead != first && lead_what.rfind(first_what, 0) == 0) std::rethrow_exception(lead);
   if (first) std::rethrow_exception(first);
 }
 

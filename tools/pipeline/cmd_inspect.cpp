@@ -92,6 +92,7 @@ int cmd_describe(const std::vector<std::string>& args) {
     info.dim = e.decl.dimensions.front();
     stage = r->create(e.decl.name, Backend::cpu, ParamValues::defaults(e.decl.params), info);
     State state(info.dim, Precision::f64, 16);
+    for (int k = 0; k < info.dim; ++k) state.box.L[k] = 10.0;  // (stages that size grids from the box)
     try {
       stage->configure(state);
     } catch (const std::exception& ex) {

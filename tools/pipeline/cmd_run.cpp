@@ -284,7 +284,7 @@ int run_rank(const RunRequest& req, const Loaded& loaded, Backend backend, std::
       if (checkpoints) checkpoints->after_step();
       // A long run without periodic checkpoints loses everything to a kill -9 or a lost node: say
       // so once, while there is time to stop it (SIGINT keeps it) and add them.
-      if (!spec.run.checkpoint && !warned_no_checkpoints && lead && sim->state().step % 256 == 0 &&
+      if (!spec.run.checkpoint && !warned_no_checkpoints && checkpoints && sim->state().step % 256 == 0 &&
           std::chrono::steady_clock::now() - t0 > kLongWithoutCheckpoints) {
         warned_no_checkpoints = true;
         log << "flipflow: this run has stepped for 10 minutes without a run.checkpoint section: killed outright "
@@ -302,9 +302,14 @@ int run_rank(const RunRequest& req, const Loaded& loaded, Backend backend, std::
     const std::string newest = checkpoints && checkpoints->written() ? checkpoints->newest() : record.resumed_from;
     if (newest.empty() || !lead) throw;
     const std::uint64_t at = checkpoints && checkpoints->written() ? checkpoints->newest_step() : record.resume_step;
+    std::string command = resume_command(req, out);
+    std::error_code ec;
+    if (!fs::equivalent(fs::path(newest).parent_path(), out, ec))  // resumed from elsewhere: that file
+      command.replace(command.rfind(" --resume "), std::string::npos,
+                      " --resume " + shell_word(newest) + " --out " + shell_word(out));
     throw RunError(std::string(e.what()) + "\nflipflow: the newest checkpoint is " + newest + " (step " +
-                   std::to_string(at) + "); to continue from it with what made the run fail changed: " +
-                   resume_command(req, out) + " --allow-changes --set KEY=VALUE");
+                   std::to_string(at) + "); to continue from it with what made the run fail changed: " + command +
+                   " --allow-changes --set KEY=VALUE");
   } catch (...) {
     sim->finish(false);
     throw;

@@ -3,6 +3,7 @@
 #include <chrono>
 #include <cstdio>
 
+#include "core/backend/comm.h"
 #include "core/base/error.h"
 #include "stages/delaunay/build/build.h"
 
@@ -49,12 +50,13 @@ bool ensure_topology(const StepContext& ctx, const std::vector<Access>& acc) {
   CUstream_st* stream = ctx.stream;
   if (status(s)[kBuilt]) return false;
   will_build(ctx);
-  // CGAL's build, once at the first step, takes ~1 s per 10^5 points on a CPU core: a large
-  // run's first progress line would otherwise come minutes after its set-up.
-  const bool large = s.n() >= 100000;
+  // CGAL's build at the first step (again if that step is rolled back) takes ~1 s per 10^5
+  // points on a CPU core: a large run's first progress line would otherwise come minutes after
+  // its set-up. Said by a run alone (a team's ranks each build their share, at once).
+  const bool large = s.n() >= 100000 && !in_team(ctx.run.team);
   const auto t0 = std::chrono::steady_clock::now();
   if (large)
-    std::fprintf(ctx.run.messages, "flipflow: delaunay: triangulating %zu points (CGAL, once) ...\n", s.n());
+    std::fprintf(ctx.run.messages, "flipflow: delaunay: triangulating %zu points (CGAL) ...\n", s.n());
   build_topology(s, stream);
   if (large)
     std::fprintf(ctx.run.messages, "flipflow: delaunay: triangulated in %.1f s\n",

@@ -7,11 +7,11 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
-#include <fstream>
 #include <numeric>
 #include <sstream>
 
 #include "core/base/error.h"
+#include "core/io/durable_file.h"
 #include "stages/observe/cell_grid.h"
 #include "stages/delaunay/common/fields.h"
 #include "stages/delaunay/common/mesh_check.h"
@@ -496,8 +496,7 @@ Outcome Clusters::run(StepContext& ctx) {
 std::string Clusters::write_partial(const std::string& name, const std::string& header,
                                     const std::vector<std::vector<double>>& rows) const {
   const std::string partial = (std::filesystem::path(info_.out_dir) / name).string() + ".partial";
-  std::ofstream out(partial);
-  if (!out) throw RunError("observe.clusters: cannot write '" + partial + "'");
+  std::ostringstream out;
   out << "# observe.clusters: " << frame_.dim << "D, N = " << frame_.n() << ", bond = " << p_.bond
       << ", neighbor_radius = " << neighbor_ << ", min_size = " << p_.min_size << ", pairs = " << p_.pairs;
   if (!p_.types.empty()) {
@@ -510,8 +509,8 @@ std::string Clusters::write_partial(const std::string& name, const std::string& 
     for (std::size_t k = 0; k < row.size(); ++k) out << (k ? "," : "") << row[k];
     out << "\n";
   }
-  out.close();
-  if (!out) throw RunError("observe.clusters: writing '" + partial + "' failed");
+  // Replaced whole: a kill during a checkpoint leaves the previous checkpoint's file.
+  io::write_text_durably(partial, out.str(), "observe.clusters");
   return partial;
 }
 

@@ -7,10 +7,10 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
-#include <fstream>
 #include <sstream>
 
 #include "core/base/error.h"
+#include "core/io/durable_file.h"
 #include "stages/observe/cell_grid.h"
 
 namespace ff::observe {
@@ -179,8 +179,7 @@ void Gr::restore_state(const StageState& saved, State&) {
 // leaves the g(r) of its newest checkpoint beside it, not only bytes inside the checkpoint.
 std::string Gr::write_partial() const {
   const std::string partial = (std::filesystem::path(info_.out_dir) / p_.file).string() + ".partial";
-  std::ofstream out(partial);
-  if (!out) throw RunError("observe.gr: cannot write '" + partial + "'");
+  std::ostringstream out;
   out.precision(17);
   out << "# observe.gr: pair distribution g(r), " << dim_ << "D, N = " << n_ << ", sigma = " << sigma_
       << ", packing_fraction = " << eta_ << ", frames = " << frames_ << "\n";
@@ -192,8 +191,8 @@ std::string Gr::write_partial() const {
     const double lo = double(k) * dr_, hi = double(k + 1) * dr_;
     out << lo << "," << hi << "," << 0.5 * (lo + hi) << "," << gk[k] << "," << hist_[k] << "\n";
   }
-  out.close();
-  if (!out) throw RunError("observe.gr: writing '" + partial + "' failed");
+  // Replaced whole: a kill during a checkpoint leaves the previous checkpoint's file.
+  io::write_text_durably(partial, out.str(), "observe.gr");
   return partial;
 }
 

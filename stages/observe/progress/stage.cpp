@@ -54,7 +54,9 @@ Outcome Progress::run(StepContext& ctx) {
   if (first_interval) {
     // The run's first step does its one-off work (the triangulation's CGAL build, the first
     // Verlet list, a CUDA graph's capture), which at 10^6 particles can outlast a thousand later
-    // steps: the rate from here on leaves that interval out, so the ETA is not hours off.
+    // steps: this report gives no rate, and the rate from here on leaves that interval out, so
+    // the ETA is never hours off.
+    last_.rate = 0.0;
     rate_restarted_ = true;
     start_ = now;
     first_step_ = last_.step;

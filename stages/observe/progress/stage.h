@@ -1,6 +1,7 @@
 // observe.progress: a progress report every time it runs (the pipeline's `every: k`): step,
-// simulated time, Δt, steps/s (from its second report on, over the steps after its first interval,
-// which holds the first step's one-off work), ETA, rollbacks and (when a stage limits Δt) Δt limits. On a
+// simulated time, Δt, steps/s and ETA (over the steps after its first interval, which holds the
+// first step's one-off work: unknown, "--:--", until the report after it), rollbacks and (when a
+// stage limits Δt) Δt limits. On a
 // terminal one line updates in place (at most ten times a second); otherwise a plain line at
 // most every `interval` seconds, so logs stay quiet. finish() ends the terminal line (the `pipeline` command prints the summary).
 #pragma once

@@ -262,8 +262,8 @@ class OverdampedIntegrate final : public Stage {
     if (!count) return Outcome::ok();
     return Outcome::request_rollback("overdamped.integrate: " + std::to_string(count) +
                                          " particle(s) would move farther than max_step = " +
-                                         std::to_string(p_.max_step) + " in one step (the first is particle " +
-                                         std::to_string(first) + ", at Δt = " + std::to_string(ctx.host_params.dt) +
+                                         format_value(ParamValue(p_.max_step)) + " in one step (the first is particle " +
+                                         std::to_string(first) + ", at Δt = " + format_value(ParamValue(ctx.host_params.dt)) +
                                          "); the step is retried with a smaller time step",
                                      {first});
   }
