@@ -26,7 +26,9 @@ struct H5mdParams {
   template <class P>
   void describe(P& p) {
     p(file, "file", "output file, relative to the run's output directory");
-    p(fields, "fields", "state fields to write each frame (per-particle fields, or triangle lists)");
+    p(fields, "fields",
+      "state fields to write each frame (per-particle fields, or triangle lists); [] for a file of the "
+      "observables alone, on a schedule of its own (finer than the frames')");
     p(observables, "observables", "write Δt, rollbacks and every stage metric under /observables");
     p(layout, "layout",
       "h5md: the plain H5MD layout; mdanalysis: what MDAnalysis (2.4) opens: a time-dependent box, flat "

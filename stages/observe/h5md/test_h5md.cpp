@@ -331,6 +331,24 @@ TEST_CASE("H5mdWriter: an unwritable path is a RunError naming the file", "[obse
   }
 }
 
+TEST_CASE("observe.h5md with fields: [] writes the observables alone, at every step it runs", "[observe][h5md]") {
+  // The way to a time series finer than the frames (pipelines/boids.yaml's observables.h5).
+  TempDir dir("observables_only");
+  auto s = make_state(Precision::f64);
+  auto stage = make_h5md(dir.path.string(), {});
+  stage->configure(*s);
+  Observe obs;
+  observe_three_frames<double>(*stage, *s, obs);
+  stage->finish(*s, true);
+  CHECK(python(dir, R"PY(
+f = h5py.File(sys.argv[1], "r")
+assert "position" not in f["particles/all"], list(f["particles/all"])
+m = f["observables/integrate/flips"]
+assert list(m["step"][()]) == [0, 10, 20], m["step"][()]
+assert list(m["value"][()]) == [0.0, 2.5, 5.0], m["value"][()]
+)PY", dir / "trajectory.h5") == 0);
+}
+
 TEST_CASE("observe.msd matches a hand-computed value and reaches the H5MD file", "[observe][msd]") {
   const Precision p = GENERATE(Precision::f32, Precision::f64);
   TempDir dir(std::string("msd_") + to_string(p));
