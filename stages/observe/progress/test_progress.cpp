@@ -12,6 +12,18 @@
 
 using namespace ff;
 
+namespace {
+// The lines written to `out` (a tmpfile), which it closes.
+std::vector<std::string> lines_of(std::FILE* out) {
+  std::rewind(out);
+  std::vector<std::string> lines;
+  char buf[512];
+  while (std::fgets(buf, sizeof buf, out)) lines.emplace_back(buf);
+  std::fclose(out);
+  return lines;
+}
+}  // namespace
+
 TEST_CASE("observe.progress: a line per interval in logs", "[observe][progress]") {
   observe::ProgressLine l;
   l.step = 20;
@@ -37,12 +49,7 @@ TEST_CASE("observe.progress: a line per interval in logs", "[observe][progress]"
       driver.run(progress, s, std::uint64_t(10 * k), 0.01);  // time 0.1 k
     }
     progress.finish(s, true);
-    std::rewind(out);
-    std::vector<std::string> lines;
-    char buf[512];
-    while (std::fgets(buf, sizeof buf, out)) lines.emplace_back(buf);
-    std::fclose(out);
-    return lines;
+    return lines_of(out);
   };
   const auto every = lines_for(0.0);  // not a terminal, no rate limit: a line per call
   REQUIRE(every.size() == 3);
@@ -67,11 +74,7 @@ TEST_CASE("observe.progress: the rate leaves out the first interval, which holds
   std::this_thread::sleep_for(std::chrono::milliseconds(300));  // the first step's one-off work
   for (std::uint64_t k = 1; k <= 11; ++k) driver.run(progress, s, k, 0.01);
   progress.finish(s, true);
-  std::rewind(out);
-  std::vector<std::string> lines;
-  char buf[512];
-  while (std::fgets(buf, sizeof buf, out)) lines.emplace_back(buf);
-  std::fclose(out);
+  const std::vector<std::string> lines = lines_of(out);
   REQUIRE(lines.size() == 12);
   // The report that closes the first interval gives no rate rather than one the sleep drags down.
   CHECK_THAT(lines[1], Catch::Contains("step 1/1000") && Catch::Contains(" 0 steps/s  ETA --:--"));
