@@ -144,8 +144,12 @@ TEST_CASE("tools/render plots a 3D run's aggregates on a log time axis and draws
     auto p = sh(render + " " + frames.string() + " --out " + (dir / "p.png").string() + " --dpi 40", dir);
     INFO(p.out);
     CHECK(p.code == 0);
-    CHECK_THAT(p.out, Catch::Contains("projection along z: 300 spheres drawn"));
+    // Without --color-by, coloured by depth: one colour alone makes the projection a solid blob.
+    CHECK_THAT(p.out, Catch::Contains("colour by depth") && Catch::Contains("projection along z: 300 spheres drawn"));
     CHECK(is_png(dir / "p.png"));
+    auto d = sh(render + " " + frames.string() + " --slice 4 --color-by depth --out " + (dir / "x.png").string(), dir);
+    CHECK(d.code == 2);
+    CHECK_THAT(d.out, Catch::Contains("--color-by depth is for the projection of a 3D frame"));
     auto s = sh(render + " " + frames.string() + " --slice 4 --out " + (dir / "s.png").string() + " --dpi 40", dir);
     INFO(s.out);
     CHECK(s.code == 0);
