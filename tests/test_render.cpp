@@ -153,7 +153,9 @@ TEST_CASE("tools/render plots a 3D run's aggregates on a log time axis and draws
     auto s = sh(render + " " + frames.string() + " --slice 4 --out " + (dir / "s.png").string() + " --dpi 40", dir);
     INFO(s.out);
     CHECK(s.code == 0);
-    CHECK_THAT(s.out, Catch::Contains("slice z ∈"));
+    // Each sphere that cuts the mid-plane as its cross-section with it, not at its full diameter.
+    CHECK_THAT(s.out, Catch::Contains("slice z ∈") && Catch::Contains("cross-sections with z =") &&
+                          Catch::Contains("cross-sections drawn"));
     CHECK(is_png(dir / "s.png"));
     auto two = sh(render + " " + frames.string() + " " + h5.string() + " --out " + (dir / "x.png").string(), dir);
     CHECK(two.code == 2);
