@@ -20,10 +20,24 @@ using ff::test::require_success;
 // `cmd` through the shell, output captured in `dir`/cmd.log.
 ff::test::CommandResult sh(const std::string& cmd, const fs::path& dir) { return ff::test::run_command(cmd, dir / "cmd.log"); }
 
-bool have_plotting() {
-  static const bool ok = std::system("/usr/bin/python3 -c 'import h5py, numpy, matplotlib' >/dev/null 2>&1") == 0;
+// Whether /usr/bin/python3 can plot (and import `also`, for --voronoi); says visibly that the
+// test skips when it cannot.
+bool have_plotting(const std::string& also = "") {
+  const std::string modules = "h5py, numpy, matplotlib" + (also.empty() ? "" : ", " + also);
+  const bool ok = std::system(("/usr/bin/python3 -c 'import " + modules + "' >/dev/null 2>&1").c_str()) == 0;
+  if (!ok) WARN("SKIPPED (no " + modules + " in /usr/bin/python3): tools/render");
   return ok;
 }
+
+// An empty scratch folder for one test case, named after it and this process.
+fs::path fresh_dir(const std::string& name) {
+  const fs::path dir = fs::temp_directory_path() / (name + "_" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  return dir;
+}
+
+std::string render_command() { return "/usr/bin/python3 " + repo_file("tools/render").string(); }
 
 bool is_png(const fs::path& p) {
   std::ifstream in(p, std::ios::binary);
@@ -35,14 +49,9 @@ bool is_png(const fs::path& p) {
 }  // namespace
 
 TEST_CASE("tools/render draws an H5MD frame and an observable to PNG; bad input exits 2", "[cli][render]") {
-  if (!have_plotting()) {
-    WARN("SKIPPED (no numpy/h5py/matplotlib in /usr/bin/python3): tools/render");
-    return;
-  }
-  const fs::path dir = fs::temp_directory_path() / ("ff_render_" + std::to_string(::getpid()));
-  fs::remove_all(dir);
-  fs::create_directories(dir);
-  const std::string render = "/usr/bin/python3 " + repo_file("tools/render").string();
+  if (!have_plotting()) return;
+  const fs::path dir = fresh_dir("ff_render");
+  const std::string render = render_command();
 
   require_success(sh(pipeline_exe() + " run " + repo_file("pipelines/abp.yaml").string() +
                          " --device cpu --set run.steps=200 --set system.N=300 --out " + (dir / "run").string(),
@@ -109,14 +118,9 @@ TEST_CASE("tools/render draws an H5MD frame and an observable to PNG; bad input 
 }
 
 TEST_CASE("tools/render plots a 3D run's aggregates on a log time axis and draws 3D frames", "[cli][render]") {
-  if (!have_plotting()) {
-    WARN("SKIPPED (no numpy/h5py/matplotlib in /usr/bin/python3): tools/render");
-    return;
-  }
-  const fs::path dir = fs::temp_directory_path() / ("ff_render3d_" + std::to_string(::getpid()));
-  fs::remove_all(dir);
-  fs::create_directories(dir);
-  const std::string render = "/usr/bin/python3 " + repo_file("tools/render").string();
+  if (!have_plotting()) return;
+  const fs::path dir = fresh_dir("ff_render3d");
+  const std::string render = render_command();
 
   // Tran's aggregation (pipelines/tran-homo-phi0.20-short.yaml), cut to 300 spheres and 500 steps.
   require_success(sh(pipeline_exe() + " run " + repo_file("pipelines/tran-homo-phi0.20-short.yaml").string() +
@@ -166,14 +170,9 @@ TEST_CASE("tools/render plots a 3D run's aggregates on a log time axis and draws
 
 TEST_CASE("tools/render colours by a per-particle field (voronoi.area, voronoi.sides) and draws Voronoi cells",
           "[cli][render][voronoi]") {
-  if (!have_plotting() || std::system("/usr/bin/python3 -c 'import scipy' >/dev/null 2>&1") != 0) {
-    WARN("SKIPPED (no numpy/h5py/matplotlib/scipy in /usr/bin/python3): tools/render --voronoi");
-    return;
-  }
-  const fs::path dir = fs::temp_directory_path() / ("ff_render_vor_" + std::to_string(::getpid()));
-  fs::remove_all(dir);
-  fs::create_directories(dir);
-  const std::string render = "/usr/bin/python3 " + repo_file("tools/render").string();
+  if (!have_plotting("scipy")) return;
+  const fs::path dir = fresh_dir("ff_render_vor");
+  const std::string render = render_command();
   // Frames at steps 0 and 1000: frame 0 is written before voronoi.geometry first runs (areas 0).
   require_success(sh(pipeline_exe() + " run " + repo_file("pipelines/voronoi-hard-disks.yaml").string() +
                          " --device cpu --set run.steps=1000 --set system.N=400 --out " + (dir / "run").string(),
@@ -211,14 +210,9 @@ TEST_CASE("tools/render colours by a per-particle field (voronoi.area, voronoi.s
 
 TEST_CASE("tools/render takes σ and the walls from the run's --set overrides (/parameters/effective_pipeline)",
           "[cli][render][voronoi]") {
-  if (!have_plotting() || std::system("/usr/bin/python3 -c 'import scipy' >/dev/null 2>&1") != 0) {
-    WARN("SKIPPED (no numpy/h5py/matplotlib/scipy in /usr/bin/python3): tools/render --set overrides");
-    return;
-  }
-  const fs::path dir = fs::temp_directory_path() / ("ff_render_set_" + std::to_string(::getpid()));
-  fs::remove_all(dir);
-  fs::create_directories(dir);
-  const std::string render = "/usr/bin/python3 " + repo_file("tools/render").string();
+  if (!have_plotting("scipy")) return;
+  const fs::path dir = fresh_dir("ff_render_set");
+  const std::string render = render_command();
 
   SECTION("--set system.sigma=2: disks of diameter 2") {
     require_success(sh(pipeline_exe() + " run " + repo_file("pipelines/hard-disks.yaml").string() +
@@ -266,14 +260,9 @@ TEST_CASE("tools/render takes σ and the walls from the run's --set overrides (/
 
 TEST_CASE("tools/render plots gr.csv's g(r) against r/σ; a CSV file without --plot-observable lists its columns",
           "[cli][render]") {
-  if (!have_plotting()) {
-    WARN("SKIPPED (no numpy/h5py/matplotlib in /usr/bin/python3): tools/render");
-    return;
-  }
-  const fs::path dir = fs::temp_directory_path() / ("ff_render_gr_" + std::to_string(::getpid()));
-  fs::remove_all(dir);
-  fs::create_directories(dir);
-  const std::string render = "/usr/bin/python3 " + repo_file("tools/render").string();
+  if (!have_plotting()) return;
+  const fs::path dir = fresh_dir("ff_render_gr");
+  const std::string render = render_command();
   require_success(sh(pipeline_exe() + " run " + repo_file("pipelines/hard-disks.yaml").string() +
                          " --device cpu --set run.steps=300 --set system.N=200 --set step.observe.gr.from_step=100"
                          " --out " +
@@ -305,14 +294,9 @@ TEST_CASE("tools/render plots gr.csv's g(r) against r/σ; a CSV file without --p
 }
 
 TEST_CASE("tools/render colours cluster.label by cluster, monomers grey, without a tick per label", "[cli][render]") {
-  if (!have_plotting()) {
-    WARN("SKIPPED (no numpy/h5py/matplotlib in /usr/bin/python3): tools/render");
-    return;
-  }
-  const fs::path dir = fs::temp_directory_path() / ("ff_render_label_" + std::to_string(::getpid()));
-  fs::remove_all(dir);
-  fs::create_directories(dir);
-  const std::string render = "/usr/bin/python3 " + repo_file("tools/render").string();
+  if (!have_plotting()) return;
+  const fs::path dir = fresh_dir("ff_render_label");
+  const std::string render = render_command();
   require_success(sh(pipeline_exe() + " run " + repo_file("pipelines/clusters-demo.yaml").string() +
                          " --device cpu --set run.steps=500 --set system.N=300 --out " + (dir / "run").string(),
                      dir));
