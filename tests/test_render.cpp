@@ -128,6 +128,10 @@ TEST_CASE("tools/render plots a 3D run's aggregates on a log time axis and draws
                      dir));
   const fs::path h5 = dir / "run" / "tran-homo-phi0.20-short.h5", csv = dir / "run" / "clusters.csv",
                  frames = dir / "run" / "tran-homo-phi0.20-short-frames.h5";
+  // The curves' file has no frames: the message points at the frames' file beside it.
+  auto curves = sh(render + " " + h5.string() + " --out " + (dir / "x.png").string(), dir);
+  CHECK(curves.code == 2);
+  CHECK_THAT(curves.out, Catch::Contains("the positions of this run are in") && Catch::Contains("-frames.h5"));
 
   SECTION("N_agg(t) from the H5MD file and clusters.csv on one plot, as Tran's Fig. 3") {
     auto r = sh(render + " " + h5.string() + " " + csv.string() +
