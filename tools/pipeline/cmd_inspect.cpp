@@ -85,14 +85,13 @@ int cmd_describe(const std::vector<std::string>& args) {
   // Accesses of a default instance (2D if supported, double, CPU). A stage that needs others
   // before it (a pair force needs neighbors.verlet) cannot be configured alone; its accesses
   // before configure() are still listed, with the reason beside them.
-  std::unique_ptr<Stage> stage;
-  std::string unconfigured;
   try {
     RunInfo info;
     info.dim = e.decl.dimensions.front();
-    stage = r->create(e.decl.name, Backend::cpu, ParamValues::defaults(e.decl.params), info);
+    const std::unique_ptr<Stage> stage = r->create(e.decl.name, Backend::cpu, ParamValues::defaults(e.decl.params), info);
     State state(info.dim, Precision::f64, 16);
     for (int k = 0; k < info.dim; ++k) state.box.L[k] = 10.0;  // (stages that size grids from the box)
+    std::string unconfigured;
     try {
       stage->configure(state);
     } catch (const std::exception& ex) {
