@@ -23,6 +23,7 @@
 #include <random>
 #include <sstream>
 #include <thread>
+#include <tuple>
 
 #include "core/backend/device.h"
 #include "support/cli.h"
@@ -360,6 +361,57 @@ TEST_CASE("checkpoint: SIGTERM finishes the step, writes a checkpoint, exits 3; 
   require_same_h5md(ref / c.h5, out / c.h5);
   remove_unless_different(ref, out, c.h5);
   fs::remove_all(log.parent_path());
+}
+
+TEST_CASE("checkpoint: SIGINT during set-up stops at step 0 with a checkpoint; a second stops at once",
+          "[checkpoint]") {
+  // Before: the handlers came with the first step, so Ctrl-C during a long set-up ended the run
+  // with exit 130, no message, and the set-up's work lost.
+  if (!device_available()) return;
+  Case c = abp_case();
+  c.sets.front() = "system.N=200000";  // from 10^5 particles the run says when set-up starts
+  c.sets.back() = "run.checkpoint={every: 1000000}";
+  auto interrupted = [&](const std::string& name, int signals) {
+    const fs::path out = fresh_dir(name), log = fresh_dir(name + "_log") / "log";
+    const pid_t pid = spawn_pipeline(run_args(c, out, 2), log);
+    bool setting_up = false;
+    for (int k = 0; k < 60000 && !setting_up; ++k) {
+      setting_up = fs::exists(log) && file_text(log).find("setting up 200000 particles") != std::string::npos;
+      if (!setting_up) std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    }
+    for (int k = 0; k < signals; ++k) {
+      if (k) std::this_thread::sleep_for(std::chrono::milliseconds(20));
+      ::kill(pid, SIGINT);
+    }
+    int status = 0;
+    waitpid(pid, &status, 0);
+    const std::string text = file_text(log);
+    INFO(text);
+    REQUIRE(setting_up);
+    REQUIRE(WIFEXITED(status));
+    return std::make_tuple(out, WEXITSTATUS(status), text);
+  };
+  {
+    auto [out, code, text] = interrupted("setup_int", 1);
+    CHECK(code == 3);
+    CHECK_THAT(text, Catch::Contains("interrupted during set-up: stops once set-up ends") &&
+                         Catch::Contains("stopped by SIGINT after step 0"));
+    const std::vector<fs::path> written = checkpoints(out);
+    REQUIRE(written.size() == 1);
+    CHECK(written[0].filename() == "checkpoint-000000000000.h5");
+    // The set-up is kept: the run continues from it to its end.
+    auto resumed = require_success(pipeline(run_args(c, out, 2) + " --resume"));
+    CHECK_THAT(resumed.out, Catch::Contains("at step 0"));
+    CHECK(fs::exists(out / c.h5));
+    fs::remove_all(out);
+  }
+  {
+    auto [out, code, text] = interrupted("setup_int2", 2);
+    CHECK(code == 128 + SIGINT);
+    CHECK_THAT(text, Catch::Contains("a second interrupt: stopped at once, without a checkpoint"));
+    CHECK((!fs::exists(out) || checkpoints(out).empty()));
+    fs::remove_all(out);
+  }
 }
 
 TEST_CASE("checkpoint: SIGKILL leaves g(r) as of a checkpoint beside it, not only inside it", "[checkpoint]") {

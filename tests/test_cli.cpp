@@ -195,6 +195,29 @@ TEST_CASE("pipeline validate: Delaunay stages without the stage they follow are 
   fs::remove(file);
 }
 
+TEST_CASE("pipeline validate: a stage that moves the particles, listed twice alike, draws a warning", "[cli]") {
+  // Before: a copied integrator line ran silently, moving every particle twice a step.
+  const fs::path file = fresh_dir("twice.yaml");
+  auto validate = [&](const std::string& steps) {
+    std::ofstream(file) << "system: {dimensions: 2, N: 256, packing_fraction: 0.3}\n"
+                           "run: {steps: 10, dt: 0.001}\nplugins: [brownian]\nstep:\n" << steps;
+    auto r = run("validate " + file.string());
+    INFO(steps << r.out);
+    CHECK(r.code == 0);
+    return r.out;
+  };
+  const std::string once = "  - {stage: brownian.integrate, D: 1}\n";
+  const std::string warned = validate(once + "  - {stage: observe.msd}\n" + once);
+  CHECK_THAT(warned, Catch::Contains("warning: " + file.string() + ":7:") &&  // the second entry's line
+                         Catch::Contains("step 'brownian.integrate#2' repeats step 'brownian.integrate' (line 5)") &&
+                         Catch::Contains("give this one an `id`"));
+  // Meant (its own id), or different parameters: silent.
+  CHECK_THAT(validate(once + "  - {stage: brownian.integrate, D: 1, id: second_half}\n"),
+             !Catch::Contains("warning"));
+  CHECK_THAT(validate(once + "  - {stage: brownian.integrate, D: 2}\n"), !Catch::Contains("warning"));
+  fs::remove(file);
+}
+
 TEST_CASE("pipeline validate: the initial state's errors name the file's line of `init`", "[cli]") {
   const fs::path file = fresh_dir("init.yaml");
   auto message = [&](const std::string& system) {

@@ -19,6 +19,8 @@
 #include <streambuf>
 #include <thread>
 
+#include <unistd.h>
+
 #include "core/backend/device.h"
 #include "core/base/error.h"
 #include "core/base/version.h"
@@ -44,7 +46,26 @@ std::atomic<int> g_signal{0};
 constexpr std::uint64_t kLargeSetUp = 100000;
 // Stepping this long without a run.checkpoint section earns one warning.
 constexpr std::chrono::minutes kLongWithoutCheckpoints{10};
-extern "C" void on_signal(int sig) { g_signal.store(sig); }
+// Set until the run is set up (and cleared by before_steps): the first signal's message says when it stops.
+std::atomic<bool> g_setting_up{true};
+// The first SIGINT/SIGTERM stops the run at the next step's start, with a checkpoint: after the
+// step under way, or at step 0 once set-up ends (which keeps a long set-up's work). A second
+// stops at once, without one. Only async-signal-safe calls here: write and _Exit.
+extern "C" void on_signal(int sig) {
+  auto say = [](const char* text) {
+    std::size_t n = 0;
+    while (text[n]) ++n;
+    [[maybe_unused]] const ssize_t w = ::write(2, text, n);
+  };
+  if (g_signal.exchange(sig) != 0) {
+    say("\nflipflow: a second interrupt: stopped at once, without a checkpoint\n");
+    std::_Exit(128 + sig);
+  }
+  say(g_setting_up.load() ? "\nflipflow: interrupted during set-up: stops once set-up ends, with a checkpoint of step 0 "
+                            "(interrupt again to stop at once, without one)\n"
+                          : "\nflipflow: interrupted: stops after the step under way, with a checkpoint (interrupt "
+                            "again to stop at once, without one)\n");
+}
 
 // The CPU's model name (/proc/cpuinfo), for the record of what produced a run.
 std::string cpu_description() {
@@ -391,11 +412,10 @@ int cmd_run(const std::vector<std::string>& raw_args) {
   req.file = common.file;
   req.overrides = common.overrides;
   req.device = common.device;
-  // SIGINT/SIGTERM from the first step on: the step under way finishes, a checkpoint is written.
-  return run_pipeline(req, std::cerr, g_signal, [] {
-    std::signal(SIGINT, on_signal);
-    std::signal(SIGTERM, on_signal);
-  });
+  // SIGINT/SIGTERM from set-up on (on_signal).
+  std::signal(SIGINT, on_signal);
+  std::signal(SIGTERM, on_signal);
+  return run_pipeline(req, std::cerr, g_signal, [] { g_setting_up.store(false); });
 }
 
 }  // namespace ff::cli
