@@ -172,6 +172,36 @@ TEST_CASE("tools/render plots a 3D run's aggregates on a log time axis and draws
   fs::remove_all(dir);
 }
 
+TEST_CASE("tools/render: a 3D run with orientations is drawn by depth, or by the orientations' azimuth", "[cli][render]") {
+  if (!have_plotting()) return;
+  const fs::path dir = fresh_dir("ff_render3dabp");
+  const std::string render = render_command();
+  std::ofstream(dir / "abp3d.yaml") << R"(system: {dimensions: 3, N: 200, packing_fraction: 0.2, init: random}
+run: {steps: 20, dt: 0.01, seed: 3}
+plugins: [abp]
+step:
+  - {stage: abp.integrate, v0: 1.0, Dr: 0.5, D: 0.01}
+  - {stage: observe.h5md, every: 10, file: abp3d.h5, fields: [position, image, orientation]}
+)";
+  require_success(sh(pipeline_exe() + " run " + (dir / "abp3d.yaml").string() + " --device cpu --out " +
+                         (dir / "run").string(),
+                     dir));
+  const fs::path h5 = dir / "run" / "abp3d.h5";
+  // The default: depth, as for any projection (the azimuth alone would hide which sphere is in front).
+  auto d = sh(render + " " + h5.string() + " --out " + (dir / "d.png").string() + " --dpi 40", dir);
+  INFO(d.out);
+  CHECK(d.code == 0);
+  CHECK_THAT(d.out, Catch::Contains("colour by depth") && Catch::Contains("200 spheres drawn"));
+  CHECK(is_png(dir / "d.png"));
+  // Unit vectors of three components are coloured by their azimuth in the x-y plane.
+  auto o = sh(render + " " + h5.string() + " --color-by orientation --out " + (dir / "o.png").string() + " --dpi 40", dir);
+  INFO(o.out);
+  CHECK(o.code == 0);
+  CHECK_THAT(o.out, Catch::Contains("colour by orientation"));
+  CHECK(is_png(dir / "o.png"));
+  fs::remove_all(dir);
+}
+
 TEST_CASE("tools/render colours by a per-particle field (voronoi.area, voronoi.sides) and draws Voronoi cells",
           "[cli][render][voronoi]") {
   if (!have_plotting("scipy")) return;
