@@ -50,7 +50,10 @@ constexpr std::chrono::minutes kLongWithoutCheckpoints{10};
 std::atomic<bool> g_setting_up{true};
 // The first SIGINT/SIGTERM stops the run at the next step's start, with a checkpoint: after the
 // step under way, or at step 0 once set-up ends (which keeps a long set-up's work). A second
-// stops at once, without one. Only async-signal-safe calls here: write and _Exit.
+// SIGINT (Ctrl-C pressed again) stops at once, without one. A SIGTERM never does: one request
+// to stop often reaches a run twice (a sweep forwards the terminal's Ctrl-C as SIGTERM to runs
+// that got the SIGINT too; a batch system signals every process of the job), and a batch
+// system's SIGKILL follows its grace period anyway. Only async-signal-safe calls here.
 extern "C" void on_signal(int sig) {
   auto say = [](const char* text) {
     std::size_t n = 0;
@@ -58,12 +61,13 @@ extern "C" void on_signal(int sig) {
     [[maybe_unused]] const ssize_t w = ::write(2, text, n);
   };
   if (g_signal.exchange(sig) != 0) {
+    if (sig != SIGINT) return;
     say("\nflipflow: a second interrupt: stopped at once, without a checkpoint\n");
     std::_Exit(128 + sig);
   }
   say(g_setting_up.load() ? "\nflipflow: interrupted during set-up: stops once set-up ends, with a checkpoint of step 0 "
-                            "(interrupt again to stop at once, without one)\n"
-                          : "\nflipflow: interrupted: stops after the step under way, with a checkpoint (interrupt "
+                            "(Ctrl-C again to stop at once, without one)\n"
+                          : "\nflipflow: interrupted: stops after the step under way, with a checkpoint (Ctrl-C "
                             "again to stop at once, without one)\n");
 }
 

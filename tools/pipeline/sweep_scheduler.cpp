@@ -113,7 +113,7 @@ LogSummary read_log(const fs::path& log) {
       const auto open = line.find('(');
       if (open != std::string::npos) sum.steps_per_s = std::atof(line.c_str() + open + 1);
     } else if (line.rfind("error: ", 0) == 0 || line.rfind("run failed: ", 0) == 0 ||
-               line.find("stopped by") != std::string::npos) {
+               line.find("stopped by") != std::string::npos || line.find("a second interrupt") != std::string::npos) {
       sum.error = line;
     }
   }
