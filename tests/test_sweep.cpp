@@ -290,7 +290,7 @@ TEST_CASE("sweep: a run that fails does not stop the others; its row says why; t
   std::ofstream(out / "blocker") << "in the way\n";
   auto r = pipeline("sweep " + repo_file("pipelines/brownian.yaml").string() +
                     " --device cpu --set run.steps=20 --set system.N=50 --grid 'step.observe.h5md.file=a.h5,../blocker/b.h5'"
-                    " --grid run.seed=1,2 --out " + out.string());
+                    " --grid run.seed=1,2 --force --out " + out.string());  // (--force: the folder holds the test's file)
   INFO(r.out);
   CHECK(r.code == 1);
   const auto rows = read_index(out / "index.csv");
@@ -314,7 +314,7 @@ TEST_CASE("sweep: a run that fails does not stop the others; its row says why; t
   fs::create_directories(blocked);
   std::ofstream(blocked / "seed=1") << "in the way\n";
   auto b = pipeline("sweep " + repo_file("pipelines/brownian.yaml").string() +
-                    " --device cpu --set run.steps=20 --set system.N=50 --grid run.seed=1,2,3 --out " + blocked.string());
+                    " --device cpu --set run.steps=20 --set system.N=50 --grid run.seed=1,2,3 --force --out " + blocked.string());
   INFO(b.out);
   CHECK(b.code == 1);
   for (auto& row : read_index(blocked / "index.csv")) {
@@ -330,6 +330,71 @@ TEST_CASE("sweep: a run that fails does not stop the others; its row says why; t
   CHECK(g.code == 2);
   CHECK_THAT(g.out, Catch::Contains("--gpus is for CUDA"));
   CHECK_FALSE(fs::exists(cpu));
+}
+
+TEST_CASE("sweep: its folder: not another's files, not two sweeps at once, extended by grid values, told what differs",
+          "[sweep]") {
+  const std::string file = repo_file("pipelines/brownian.yaml").string();
+  const std::string base = "sweep " + file + " --device cpu --set run.steps=20 --set system.N=50 --set step.observe.progress.every=1000";
+  // A folder that is not a sweep's: refused, nothing in it touched (before: taken over, its index.csv replaced).
+  const fs::path mine = fresh_dir("mine");
+  fs::create_directories(mine);
+  std::ofstream(mine / "index.csv") << "precious\n";
+  auto taken = pipeline(base + " --grid run.seed=1,2 --out " + mine.string());
+  INFO(taken.out);
+  CHECK(taken.code == 2);
+  CHECK_THAT(taken.out, Catch::Contains("is not a sweep's folder (it holds index.csv"));
+  CHECK(file_text(mine / "index.csv") == "precious\n");
+  fs::remove_all(mine);
+
+  const fs::path out = fresh_dir("extend");
+  auto first = require_success(pipeline(base + " --grid 'run.seed=1, 2' --out " + out.string()));  // (the space is trimmed)
+  CHECK(fs::is_directory(out / "seed=2"));
+  // The same command again: nothing to run, and it says so.
+  CHECK_THAT(require_success(pipeline(base + " --grid run.seed=1,2 --out " + out.string())).out,
+             Catch::Contains("nothing to run: all 2 runs were done before"));
+  // Values added to the axis: the sweep goes on in its folder; only the new run runs.
+  auto more = require_success(pipeline(base + " --grid run.seed=1,2,3 --out " + out.string()));
+  CHECK_THAT(more.out, Catch::Contains("extends the sweep in " + out.string() + " with run.seed=3") &&
+                           Catch::Contains("1 to run, 2 done before"));
+  CHECK(read_index(out / "index.csv").size() == 3);
+  // Anything else: refused, saying what differs.
+  auto other = pipeline(base + " --set run.dt=0.02 --grid run.seed=1,2,3 --out " + out.string());
+  INFO(other.out);
+  CHECK(other.code == 2);
+  CHECK_THAT(other.out, Catch::Contains("holds another sweep") && Catch::Contains("now:  set: run.dt=0.02"));
+  auto fewer = pipeline(base + " --grid run.seed=1,3 --out " + out.string());
+  CHECK(fewer.code == 2);
+  CHECK_THAT(fewer.out, Catch::Contains("was:  grid: run.seed=1,2,3") && Catch::Contains("now:  grid: run.seed=1,3"));
+  // A second sweep while one runs there (the lock file held by another process): refused.
+  const fs::path lock = out / ".sweep.lock";
+  const std::string hold = "exec 9<>" + lock.string() + "; flock -n 9 && echo 4242 >&9 && sleep 3";
+  const pid_t holder = [&] {
+    pid_t pid = 0;
+    const char* argv[] = {"/bin/sh", "-c", hold.c_str(), nullptr};
+    REQUIRE(posix_spawn(&pid, "/bin/sh", nullptr, nullptr, const_cast<char* const*>(argv), environ) == 0);
+    return pid;
+  }();
+  std::this_thread::sleep_for(std::chrono::milliseconds(500));
+  auto busy = pipeline(base + " --grid run.seed=1,2,3 --out " + out.string());
+  INFO(busy.out);
+  CHECK(busy.code == 2);
+  CHECK_THAT(busy.out, Catch::Contains("is in use by another pipeline sweep (pid 4242)"));
+  int status = 0;
+  waitpid(holder, &status, 0);
+  fs::remove_all(out);
+
+  // Grid values: one number twice, a --set of the same parameter, a missing file.
+  auto twice = pipeline(base + " --grid step.brownian.integrate.D=1,1.0 --out " + fresh_dir("twice").string());
+  CHECK(twice.code == 2);
+  CHECK_THAT(twice.out, Catch::Contains("the value '1.0' is given twice ('1' is the same value)"));
+  auto both = pipeline(base + " --set step.brownian.integrate.D=5 --grid step.brownian.integrate.D=1,2 --out " +
+                       fresh_dir("both").string());
+  CHECK(both.code == 2);
+  CHECK_THAT(both.out, Catch::Contains("--set step.brownian.integrate.D=5 sets the same parameter"));
+  auto missing = pipeline("sweep nothere.yaml --device cpu --grid run.seed=1,2 --out " + fresh_dir("missing").string());
+  CHECK(missing.code == 2);
+  CHECK_THAT(missing.out, Catch::Contains("cannot read pipeline file 'nothere.yaml'") && !Catch::Contains("with run.seed"));
 }
 
 TEST_CASE("sweep: --concurrent 2, in processes or threads, gives the same outputs as --concurrent 1",

@@ -125,16 +125,6 @@ std::string first_and_more(const std::vector<std::string>& files) {
          (files.size() > 1 ? " and " + std::to_string(files.size() - 1) + " more" : "");
 }
 
-// `s` as one shell word.
-std::string shell_word(const std::string& s) {
-  if (!s.empty() && s.find_first_not_of("ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789_./=:,+-@%^") ==
-                        std::string::npos)
-    return s;
-  std::string q = "'";
-  for (char c : s) q += c == '\'' ? std::string("'\\''") : std::string(1, c);
-  return q + "'";
-}
-
 // The command that continues this run: its file and --set arguments (a continuation must have
 // the same structure and parameters), its device, --resume with its folder.
 std::string resume_command(const RunRequest& req, const std::string& out) {

@@ -13,8 +13,10 @@
 // Running the same command again skips the runs the index says are done, continues the others
 // from their newest checkpoint (`pipeline run --resume`) when they have one and restarts them
 // (--force) otherwise. <out>/sweep.txt records what the sweep is (file, --set, --grid,
-// --replicas); a different sweep in the same folder is refused unless --force, which also runs
-// every run again from the start.
+// --replicas, the device); a different sweep in the same folder is refused unless --force, which
+// also runs every run again from the start, except one whose grid axes gained values (the runs
+// done are kept). A folder that is not a sweep's is refused unless --force, and a lock keeps a
+// second sweep out of a folder while one runs there.
 //
 // Resources: when more than one run shares a GPU, the sweep uses CUDA MPS: a control daemon
 // already running (the default pipe directory, or CUDA_MPS_PIPE_DIRECTORY), else one it starts
@@ -38,8 +40,14 @@
 #include <oneapi/tbb/global_control.h>
 #include <oneapi/tbb/info.h>
 
+#include <fcntl.h>
+#include <sys/file.h>
+#include <unistd.h>
+
 #include <algorithm>
+#include <cerrno>
 #include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <iostream>
@@ -76,9 +84,10 @@ std::string file_text(const fs::path& p) {
 }
 
 // What the sweep is: re-running it in the same folder must mean the same runs.
-std::string definition(const SweepArgs& a) {
+std::string definition(const SweepArgs& a, Backend backend) {
   std::ostringstream d;
   d << "pipeline: " << fs::absolute(a.file).lexically_normal().string() << "\n";
+  d << "device: " << to_string(backend) << "\n";
   for (auto& s : a.sets) d << "set: " << s << "\n";
   for (auto& g : a.grid_args) d << "grid: " << g << "\n";
   d << "replicas: " << a.replicas << "\n";
@@ -86,19 +95,128 @@ std::string definition(const SweepArgs& a) {
   return d.str();
 }
 
+std::vector<std::string> lines_of(const std::string& text) {
+  std::vector<std::string> v;
+  std::istringstream in(text);
+  for (std::string l; std::getline(in, l);) v.push_back(l);
+  return v;
+}
+
+// Whether the sweep recorded as `before` is this one with values added to its grid axes (the
+// same file, device, --set, replicas and axes in the same order, each axis's old values among
+// its new ones): then every run it made is a run of this one, in the same folder with the same
+// parameters, and the folder may be continued. `added` says what was added.
+bool extends(const std::string& before, const std::string& now, std::string& added) {
+  const auto b = lines_of(before), n = lines_of(now);
+  std::vector<std::string> b_rest, n_rest, b_grid, n_grid;
+  for (auto& l : b) (l.rfind("grid: ", 0) == 0 ? b_grid : b_rest).push_back(l.substr(l.rfind("grid: ", 0) == 0 ? 6 : 0));
+  for (auto& l : n) (l.rfind("grid: ", 0) == 0 ? n_grid : n_rest).push_back(l.substr(l.rfind("grid: ", 0) == 0 ? 6 : 0));
+  if (b_rest != n_rest || b_grid.size() != n_grid.size()) return false;
+  for (std::size_t k = 0; k < b_grid.size(); ++k) {
+    sweep::Axis old_axis, new_axis;
+    try {
+      old_axis = sweep::parse_grid(b_grid[k]);
+      new_axis = sweep::parse_grid(n_grid[k]);
+    } catch (const InputError&) {
+      return false;
+    }
+    if (old_axis.key != new_axis.key) return false;
+    for (auto& v : old_axis.values)
+      if (std::find(new_axis.values.begin(), new_axis.values.end(), v) == new_axis.values.end()) return false;
+    for (auto& v : new_axis.values)
+      if (std::find(old_axis.values.begin(), old_axis.values.end(), v) == old_axis.values.end())
+        added += (added.empty() ? "" : ", ") + new_axis.key + "=" + v;
+  }
+  return true;
+}
+
+// The lines of `before` and `now` that differ, for the message that refuses another sweep:
+// "was: ... / now: ..." (the pipeline file's text as "the pipeline file's line L").
+std::string differences(const std::string& before, const std::string& now) {
+  const auto b = lines_of(before), n = lines_of(now);
+  const auto file_start = [](const std::vector<std::string>& v) {
+    return std::size_t(std::find(v.begin(), v.end(), "--- pipeline file ---") - v.begin());
+  };
+  const std::size_t bf = file_start(b), nf = file_start(n);
+  std::string out;
+  int shown = 0;
+  auto note = [&](const std::string& what) {
+    if (shown++ < 4) out += "\n  " + what;
+  };
+  const std::vector<std::string> bh(b.begin(), b.begin() + bf), nh(n.begin(), n.begin() + nf);
+  for (auto& l : bh)
+    if (std::find(nh.begin(), nh.end(), l) == nh.end()) note("was:  " + l);
+  for (auto& l : nh)
+    if (std::find(bh.begin(), bh.end(), l) == bh.end()) note("now:  " + l);
+  const std::size_t bl = b.size() - std::min(b.size(), bf + 1), nl = n.size() - std::min(n.size(), nf + 1);
+  for (std::size_t k = 0; k < std::max(bl, nl); ++k) {
+    const std::string x = k < bl ? b[bf + 1 + k] : "(no line)", y = k < nl ? n[nf + 1 + k] : "(no line)";
+    if (x != y) {
+      note("the pipeline file's line " + std::to_string(k + 1) + " was '" + x + "', now '" + y + "'");
+      break;
+    }
+  }
+  if (shown > 4) out += "\n  (and " + std::to_string(shown - 4) + " more)";
+  return out;
+}
+
+// An exclusive lock on the sweep's folder for as long as the sweep runs: a second sweep
+// started into it (the same command again while the first still runs under nohup or tmux)
+// would run the same runs into the same folders.
+class FolderLock {
+ public:
+  explicit FolderLock(const fs::path& root) {
+    const fs::path file = root / ".sweep.lock";
+    fd_ = ::open(file.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
+    if (fd_ < 0) throw InputError("cannot open '" + file.string() + "': " + std::strerror(errno));
+    if (::flock(fd_, LOCK_EX | LOCK_NB) != 0) {
+      char pid[32] = {};
+      [[maybe_unused]] const ssize_t n = ::pread(fd_, pid, sizeof pid - 1, 0);
+      ::close(fd_);
+      const std::string who = std::string(pid).substr(0, std::string(pid).find('\n'));
+      throw InputError("'" + root.string() + "' is in use by another pipeline sweep" +
+                       (who.empty() ? std::string() : " (pid " + who + ")") +
+                       ": wait for it to end (or stop it: it checkpoints its runs), then run this command again");
+    }
+    const std::string pid = std::to_string(::getpid()) + "\n";
+    if (::ftruncate(fd_, 0) == 0) [[maybe_unused]] const ssize_t w = ::pwrite(fd_, pid.data(), pid.size(), 0);
+  }
+  ~FolderLock() { ::close(fd_); }  // (the lock goes with the descriptor)
+  FolderLock(const FolderLock&) = delete;
+  FolderLock& operator=(const FolderLock&) = delete;
+
+ private:
+  int fd_ = -1;
+};
+
 // Makes `out` this sweep's folder, recording what the sweep is in its sweep.txt: the runs'
-// folders there are overwritten or continued, so another sweep's are refused unless --force.
-void claim_folder(const std::string& out, const SweepArgs& a) {
+// folders there are overwritten or continued, so another sweep's, or a folder that is not a
+// sweep's, are refused unless --force. A sweep whose grid gained values continues its folder.
+std::unique_ptr<FolderLock> claim_folder(const std::string& out, const SweepArgs& a, Backend backend) {
   const fs::path root(out);
-  const std::string def = definition(a);
+  const std::string def = definition(a, backend);
   const fs::path def_file = root / "sweep.txt";
-  if (fs::exists(def_file) && file_text(def_file) != def && !a.force)
-    throw InputError("'" + out + "' holds another sweep (" + def_file.string() +
-                     " records its file, --set, --grid and --replicas): use another --out, or --force to run this "
-                     "one there from the start");
   std::error_code ec;
+  if (!a.force && fs::is_directory(root) && !fs::exists(def_file)) {
+    for (auto& e : fs::directory_iterator(root, ec))
+      if (e.path().filename() != ".sweep.lock")
+        throw InputError("'" + out + "' exists and is not a sweep's folder (it holds " + e.path().filename().string() +
+                         ", and no sweep.txt): use another --out, or --force to write the sweep there (its runs' "
+                         "folders and index.csv would be overwritten)");
+  }
   fs::create_directories(root, ec);
   if (ec) throw InputError("--out: cannot create the sweep's folder '" + out + "': " + ec.message());
+  auto lock = std::make_unique<FolderLock>(root);
+  if (fs::exists(def_file) && !a.force) {
+    const std::string before = file_text(def_file);
+    std::string added;
+    if (before != def && !extends(before, def, added))
+      throw InputError("'" + out + "' holds another sweep (" + def_file.string() + " records its file, device, --set, "
+                       "--grid and --replicas):" + differences(before, def) +
+                       "\nUse another --out; --force to run this one there from the start; or give the same "
+                       "arguments with values added to a --grid axis to extend that sweep");
+    if (before != def) std::cerr << "sweep: extends the sweep in " << out << " with " << added << "\n";
+  }
   std::ofstream d(def_file, std::ios::trunc);
   d << def;
   d.close();
@@ -106,6 +224,7 @@ void claim_folder(const std::string& out, const SweepArgs& a) {
     fs::remove(def_file, ec);
     throw InputError("cannot write '" + def_file.string() + "'");
   }
+  return lock;
 }
 
 // Marks the runs an earlier invocation finished (the index says done and the folder is there)
@@ -155,7 +274,7 @@ int cmd_sweep(const std::vector<std::string>& args) {
   // Everything is valid: from here on the sweep writes.
   const std::string out = a.out.empty() ? "sweeps/" + fs::path(a.file).stem().string() : a.out;
   const fs::path root(out), index_file = root / "index.csv";
-  claim_folder(out, a);
+  const auto lock = claim_folder(out, a, backend);
   const std::size_t skipped = a.force ? 0 : keep_finished_runs(root, index_file, runs);
 
   // Where the runs go and how many at once.

@@ -27,6 +27,9 @@ std::unique_ptr<Registry> make_registry(const std::vector<std::string>& plugins,
                                         const std::function<std::string(std::size_t)>& where = {});
 // Registry with everything found on the plugin path (for `stages` and `describe`).
 std::unique_ptr<Registry> make_full_registry();
+// `s` as one word of a POSIX shell's command line (quoted where it must be), for the commands
+// messages print for pasting.
+std::string shell_word(const std::string& s);
 // Parse + load plugins + validate. InputError on any problem.
 Loaded load(const std::string& file, const std::vector<std::string>& overrides);
 

@@ -1,6 +1,7 @@
 // `pipeline sweep`'s command line and plan (sweep.h): the flags, the --grid axes, and every run
 // checked through the loader and a dry run before the sweep writes anything, so that a bad key
 // or value is exit 2 naming its --grid argument instead of a folder of failed runs.
+#include <filesystem>
 #include <map>
 #include <memory>
 
@@ -10,6 +11,7 @@
 #include "tools/pipeline/options.h"
 #include "tools/pipeline/sweep.h"
 
+namespace fs = std::filesystem;
 namespace po = boost::program_options;
 
 namespace ff::cli::sweep {
@@ -46,7 +48,12 @@ SweepArgs parse_args(const std::vector<std::string>& args) {
       if (a.axes[k].key == added.key) throw InputError("--grid " + g + ": the key '" + added.key + "' has two --grid arguments");
     if (a.replicas > 1 && added.key == "run.seed")
       throw InputError("--grid " + g + ": --replicas sets run.seed (the pipeline's seed + 0 .. R-1); grid over the seed or give --replicas, not both");
+    for (auto& set : a.sets)  // (the grid's value would replace the --set's in every run, silently)
+      if (set.substr(0, set.find('=')) == added.key)
+        throw InputError("--grid " + g + ": --set " + set + " sets the same parameter; give it one or the other");
   }
+  // Before the plan, which would name a combination's values in the message.
+  if (!fs::is_regular_file(a.file)) throw InputError("cannot read pipeline file '" + a.file + "'");
   return a;
 }
 

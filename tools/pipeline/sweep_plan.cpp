@@ -1,5 +1,7 @@
 // `pipeline sweep`: grid arguments, combinations, folder names, the index CSV (sweep.h).
 #include <cstdio>
+#include <cstdlib>
+#include <map>
 #include <filesystem>
 #include <fstream>
 #include <iomanip>
@@ -13,13 +15,21 @@ namespace fs = std::filesystem;
 
 namespace ff::cli::sweep {
 
+namespace {
+std::string trimmed(const std::string& s) {
+  const auto first = s.find_first_not_of(" \t");
+  if (first == std::string::npos) return "";
+  return s.substr(first, s.find_last_not_of(" \t") - first + 1);
+}
+}  // namespace
+
 Axis parse_grid(const std::string& arg) {
   const std::string where = "--grid " + arg;
   const auto eq = arg.find('=');
   if (eq == std::string::npos || eq == 0)
     throw InputError(where + ": expected KEY.PATH=V1,V2,... (keys as for --set, e.g. --grid run.seed=1,2,3)");
   Axis a;
-  a.key = arg.substr(0, eq);
+  a.key = trimmed(arg.substr(0, eq));
   const std::string list = arg.substr(eq + 1);
   int depth = 0;
   char quote = 0;
@@ -42,10 +52,20 @@ Axis parse_grid(const std::string& arg) {
   }
   a.values.push_back(cur);
   if (quote || depth) throw InputError(where + ": unbalanced quote or bracket in the values");
-  std::set<std::string> seen;
+  // ('v0=1, 2' is two values, not '1' and ' 2'; '1' and '1.0' are one number)
+  std::map<std::string, std::string> seen;  // a value's identity -> the value as given
   for (auto& v : a.values) {
+    v = trimmed(v);
     if (v.empty()) throw InputError(where + ": an empty value (two commas in a row, or one at the end)");
-    if (!seen.insert(v).second) throw InputError(where + ": the value '" + v + "' is given twice");
+    char* end = nullptr;
+    const double x = std::strtod(v.c_str(), &end);
+    std::ostringstream number;
+    number << std::setprecision(17) << x;
+    const std::string identity = *end == 0 ? "number " + number.str() : v;
+    auto [it, fresh] = seen.emplace(identity, v);
+    if (!fresh)
+      throw InputError(where + ": the value '" + v + "' is given twice" +
+                       (it->second == v ? std::string() : " ('" + it->second + "' is the same value)"));
   }
   return a;
 }

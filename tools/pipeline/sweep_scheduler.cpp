@@ -64,6 +64,7 @@
 #include "core/backend/device.h"
 #include "core/base/error.h"
 #include "tools/pipeline/commands.h"
+#include "tools/pipeline/common.h"
 
 extern char** environ;
 
@@ -292,8 +293,9 @@ void RunScheduler::launch(std::size_t i, int gpu, bool restart) {
   {
     std::ofstream l(log, std::ios::app);
     l << "== pipeline sweep" << (s_.in_process ? " (on a thread of the sweep's process)" : "") << ": ";
-    for (std::size_t k = 1; k < argv.size(); ++k) l << (k > 1 ? " " : "") << argv[k];
-    if (cuda_) l << (s_.in_process ? "   (CUDA device " : "   (CUDA_VISIBLE_DEVICES=") << s_.gpus[gpu] << ")";
+    if (cuda_ && !s_.in_process) l << "CUDA_VISIBLE_DEVICES=" << shell_word(s_.gpus[gpu]) << " ";
+    for (std::size_t k = 0; k < argv.size(); ++k) l << (k ? " " : "") << shell_word(argv[k]);
+    if (cuda_ && s_.in_process) l << "   (CUDA device " << s_.gpus[gpu] << ")";
     l << "\n";
   }
   ActiveRun active;
@@ -461,8 +463,10 @@ void RunScheduler::finish(std::size_t active_index, int status) {
   } else if (r.exit_code == 3 || (g_stop.load() && !WIFEXITED(status))) {
     // Exit 3: the run stopped on SIGTERM after writing a checkpoint; killed by a signal while
     // the sweep was stopping: interrupted too, not failed, so the next invocation continues it.
+    // (not the run's own "continue with: pipeline run ... --resume", which would leave the index behind)
     r.status = "interrupted";
-    r.message = error;
+    r.message = r.exit_code == 3 ? "stopped with a checkpoint; run the sweep's command again to continue it"
+                                 : error.empty() ? "exit " + std::to_string(r.exit_code) + " (see run.log)" : error;
     ++interrupted_;
     verb = "interrupted";
   } else {
@@ -493,15 +497,19 @@ void RunScheduler::draw_progress(bool final_line) const {
        << failed_ << " failed";
   if (interrupted_) line << ", " << interrupted_ << " interrupted";
   line << ", " << duration(elapsed);
-  const std::size_t finished_here = done_ + failed_;
-  if (!final_line && finished_here > 0 && finished_here < to_run_)
-    line << ", ETA " << duration(elapsed / double(finished_here) * double(to_run_ - finished_here));
+  // From the runs done alone: a run that fails at once says nothing about how long the others take.
+  const std::size_t left = to_run_ - done_ - failed_;
+  if (!final_line && done_ > 0 && left > 0) line << ", ETA " << duration(elapsed / double(done_) * double(left));
   std::cerr << "\r\033[K" << line.str() << (final_line ? "\n" : "") << std::flush;
 }
 
 // The last lines: how many runs finished and the throughput; returns the stop signal, if any.
 int RunScheduler::print_summary() const {
   const double elapsed = seconds_between(t_start_, Clock::now());
+  if (to_run_ == 0) {
+    std::cerr << "sweep: nothing to run: all " << runs_.size() << " runs were done before (" << s_.index_file << ")\n";
+    return g_stop.load();
+  }
   if (tty_) draw_progress(true);
   std::cerr << "sweep: " << done_ << " run" << (done_ == 1 ? "" : "s") << " done in " << duration(elapsed);
   if (particle_steps_ > 0 && elapsed > 0) {
