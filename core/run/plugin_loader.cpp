@@ -104,7 +104,8 @@ std::string find_plugin(const std::string& name, const std::vector<std::string>&
   for (auto& file : find_model_plugins(path)) known.push_back(model_plugin_name(file));
   std::string dirs;
   for (auto& d : path) dirs += "\n  " + d;
-  throw InputError("plugin '" + name + "' not found" + suggestion(name, known) + ": no " + kPluginPrefix + name +
+  const std::string meant = suggestion(name, known);
+  throw InputError("plugin '" + name + "' not found" + (meant.empty() ? ": no " : meant + " No ") + kPluginPrefix + name +
                    ".so in the plugin search path (FLIPFLOW_PLUGIN_PATH, then the build's or the install's "
                    "plugin folder):" + dirs);
 }

@@ -71,7 +71,8 @@ void H5mdObserver::configure(State& state) {
                        "); remove it from `fields`");
     if (!state.has_field(name))
       throw InputError("observe.h5md: there is no field '" + name + "' to write" +
-                       suggestion(name, writable_field_names(state)) + "; fields available: " + writable_fields(state));
+                       suggestion(name, writable_field_names(state)) + " (fields available: " + writable_fields(state) +
+                       ")");
     const Field& f = state.field(name);
     if (f.count() != state.n() && !is_triangle_list(f))
       throw InputError("observe.h5md: field '" + name + "' has " + std::to_string(f.count()) +
