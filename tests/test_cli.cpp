@@ -276,6 +276,8 @@ TEST_CASE("pipeline validate: a misspelt field, plugin or --set form says what w
   INFO(spaced.out);
   CHECK(spaced.code == 2);
   CHECK_THAT(spaced.out, Catch::Contains("'100' is an extra argument; did you mean --set run.steps=100?"));
+  CHECK_THAT(run("validate --set run.steps 100 " + file).out,
+             Catch::Contains("'100' is an extra argument; did you mean --set run.steps=100?"));
   auto second = run("validate " + file + " --device cpu other.yaml");
   CHECK_THAT(second.out, Catch::Contains("'other.yaml' is an extra argument: the command takes one pipeline file"));
 }
