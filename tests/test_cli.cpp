@@ -256,6 +256,32 @@ TEST_CASE("pipeline validate: a stage's error about a --set value names the --se
                         Catch::Contains("no field 'velocityy'"));
 }
 
+TEST_CASE("pipeline validate: a misspelt field, plugin or --set form says what was meant", "[cli]") {
+  const std::string file = repo_file("pipelines/brownian.yaml").string();
+  auto field = run("validate " + file + " --set 'step.observe.h5md.fields=[positon, image]'");
+  INFO(field.out);
+  CHECK(field.code == 2);
+  CHECK_THAT(field.out, Catch::Contains("no field 'positon' to write; did you mean 'position'? (fields available: "));
+  auto plugin = run("validate " + file + " --set 'plugins=[brownain]'");
+  INFO(plugin.out);
+  CHECK(plugin.code == 2);
+  CHECK_THAT(plugin.out, Catch::Contains("plugins[0]: plugin 'brownain' not found; did you mean 'brownian'?"));
+  auto builtin = run("validate " + file + " --set 'plugins=[brownian, delaunay]'");
+  INFO(builtin.out);
+  CHECK(builtin.code == 2);
+  CHECK_THAT(builtin.out, Catch::Contains("plugins[1]: plugin 'delaunay' not found: the delaunay.* stages are built in") &&
+                              Catch::Contains("remove 'delaunay' from `plugins:`"));
+  // "--set KEY VALUE": the value is left over as a second file.
+  auto spaced = run("validate " + file + " --set run.steps 100");
+  INFO(spaced.out);
+  CHECK(spaced.code == 2);
+  CHECK_THAT(spaced.out, Catch::Contains("'100' is an extra argument; did you mean --set run.steps=100?"));
+  CHECK_THAT(run("validate --set run.steps 100 " + file).out,
+             Catch::Contains("'100' is an extra argument; did you mean --set run.steps=100?"));
+  auto second = run("validate " + file + " --device cpu other.yaml");
+  CHECK_THAT(second.out, Catch::Contains("'other.yaml' is an extra argument: the command takes one pipeline file"));
+}
+
 TEST_CASE("pipeline COMMAND --help lists the command's options and exits 0", "[cli]") {
   for (const char* command : {"run", "validate", "graph", "bench", "sweep"}) {
     auto r = run(std::string(command) + " --help");

@@ -198,7 +198,7 @@ TEST_CASE("malformed pipelines fail with file:line:column then the key and the e
       {"bad_box_length", "4:8", "system.box: expected 2 edge lengths (one per dimension; system.dimensions is 2), got 3"},
       {"bad_box_and_fraction", "4:3", "system: give either 'box' or 'packing_fraction', not both"},
       {"bad_syntax", "2:26", "invalid YAML: illegal flow end"},
-      {"bad_precision", "5:14", "run.precision: expected a string (one of: float, double), got 'quad'"},
+      {"bad_precision", "5:14", "run.precision: expected one of: float, double, got 'quad'"},
       {"bad_integer_fraction", "4:38", "step[0] (fake.lawson).max_rounds: expected an integer >= 1, got '1.5'"},
       {"bad_empty_steps", "3:7", "step: expected a non-empty list of stage entries ({stage: <name>, ...}), "
                                  "got an empty list"},
@@ -208,8 +208,8 @@ TEST_CASE("malformed pipelines fail with file:line:column then the key and the e
       {"bad_packing_fraction", "1:35", "system.packing_fraction: expected a real number > 0 and < 1, got '1.2'"},
       {"bad_dt_min", "2:36", "run.dt_min: expected a real number > 0 and <= run.dt (0.01), got '0.1'"},
       {"bad_types", "6:42", "system.types[1].diameter: expected a real number > 0, got '0'"},
-      {"bad_list_item", "4:46", "step[0] (fake.observe).fields[1]: expected a string (one of: position, "
-                                "orientation), got 'velocity'"},
+      {"bad_list_item", "4:46", "step[0] (fake.observe).fields[1]: expected one of: position, "
+                                "orientation, got 'velocity'"},
       {"bad_plugins", "3:10", "plugins: expected a list of strings, got 'abp'"},
   }));
   // clang-format on
@@ -260,7 +260,7 @@ TEST_CASE("scalars are typed strictly", "[pipeline_loader]") {
 
 TEST_CASE("overrides replace or create values before validation", "[pipeline_loader]") {
   const auto spec = ff::PipelineDocument::parse(path_of("good"), {"run.dt=0.001", "run.dt_min=1e-5", "system.N=100",
-                                                                  "step.fake.integrate.D=0.25", "step.1.k=3",
+                                                                  "step.0.D=0.25", "step.1.k=3",
                                                                   "step.lawson.second.max_rounds=7",
                                                                   "step.fake.integrate#2.mode=euler",
                                                                   "step.fake.lawson.verbose=true", "plugins=[a, b]"})
@@ -286,9 +286,9 @@ TEST_CASE("overrides replace or create values before validation", "[pipeline_loa
 TEST_CASE("errors in overridden values are located at the override", "[pipeline_loader]") {
   const std::string good = path_of("good");
   CHECK(error_of(good, {"run.dt=abc"}) == "--set run.dt=abc: run.dt: expected a real number > 0, got 'abc'");
-  CHECK_THAT(error_of(good, {"step.fake.integrate.DD=1"}),
-             StartsWith("--set step.fake.integrate.DD=1: step[0] (fake.integrate).DD: unknown parameter; "
-                        "did you mean 'D'?"));
+  CHECK_THAT(error_of(good, {"step.fake.force.kk=1"}),
+             StartsWith("--set step.fake.force.kk=1: step[1] (fake.force).kk: unknown parameter; "
+                        "did you mean 'k'?"));
   CHECK(error_of(good, {"system.box=[10, 20]"}) ==
         "--set system.box=[10, 20]: system: give either 'box' or 'packing_fraction', not both");
   CHECK(error_of(path_of("bad_box_length"), {"system.box=[10, -1]"}) ==
@@ -403,4 +403,105 @@ TEST_CASE("a log schedule's steps: as round(first·factor^k) one k at a time, al
   REQUIRE(steps.size() == 1999);
   CHECK(steps.front() == 1);
   CHECK(steps.back() == 1999);
+}
+
+// An audit of the messages a user meets first: each says what was meant, not only what was found.
+TEST_CASE("a key and value joined without a space after ':' are named, block and flow", "[pipeline_loader]") {
+  // yaml-cpp reports the block case at the next line ("illegal map value"); the hint names the line.
+  const std::string block =
+      "system:\n  dimensions: 2\n  N:4096\n  packing_fraction: 0.5\nrun: {steps: 10, dt: 0.01}\n"
+      "step: [{stage: fake.integrate}]\n";
+  CHECK_THAT(error_of_text(block, {}), StartsWith("inline.yaml:4:") && Contains("invalid YAML") &&
+                                           Contains("(line 3: 'N:4096' has no space after ':' — write 'N: 4096')"));
+  // The last key of a section: no YAML error, a word where a map should be.
+  CHECK_THAT(error_of_text("system:\n  N:4096\nrun: {steps: 10, dt: 0.01}\nstep: [{stage: fake.integrate}]\n", {}),
+             Contains("system: expected a map of system settings, got 'N:4096' ('N:4096' has no space after ':': "
+                      "write 'N: 4096')"));
+  // A URL's '//' is not the case.
+  CHECK_THAT(error_of_text("system:\n  N: 4\n  http://x\n  dt: 1\n", {}), Contains("invalid YAML") && !Contains("no space"));
+  // In a flow map the joined pair is one unknown key.
+  const std::string flow = "system: {N: 10, packing_fraction: 0.5}\nrun: {steps: 10, dt: 0.01}\n"
+                           "step: [{stage: fake.integrate, D:1.0}]\n";
+  CHECK_THAT(error_of_text(flow, {}),
+             Contains("step[0] (fake.integrate).D:1.0: unknown parameter; 'D:1.0' looks like 'D: 1.0' with no "
+                      "space after ':'"));
+}
+
+TEST_CASE("a value from a fixed set, a YAML 1.1 boolean and a too large integer say what was meant",
+          "[pipeline_loader]") {
+  auto with = [](const std::string& system, const std::string& run, const std::string& step) {
+    return "system: {N: 10, packing_fraction: 0.5" + system + "}\nrun: {steps: 10, dt: 0.01" + run + "}\nstep: [" +
+           step + "]\n";
+  };
+  CHECK_THAT(error_of_text(with("", ", precision: doubel", "{stage: fake.integrate}"), {}),
+             Contains("run.precision: expected one of: float, double, got 'doubel'; did you mean 'double'?"));
+  CHECK_THAT(error_of_text(with("", "", "{stage: fake.integrate, mode: huen}"), {}),
+             Contains("(fake.integrate).mode: expected one of: euler, heun, got 'huen'; did you mean 'heun'?"));
+  CHECK_THAT(error_of_text(with(", init: runs/start.h5", "", "{stage: fake.integrate}"), {}),
+             Contains("system.init: expected one of: random, triangular_lattice_sample, lattice_sample, or a map "
+                      "{from, frame}, got 'runs/start.h5'; to start from a file write init: {from: runs/start.h5, "
+                      "frame: -1}"));
+  CHECK_THAT(error_of_text(with("", "", "{stage: fake.lawson, verbose: no}"), {}),
+             Contains("verbose: expected true or false, got 'no' (write false: YAML 1.2 has no yes/no booleans)"));
+  CHECK_THAT(error_of_text(with("", "", "{stage: fake.lawson, verbose: on}"), {}), Contains("(write true: "));
+  CHECK_THAT(error_of_text(with("", "", "{stage: fake.integrate}"), {"system.N=1e20"}),
+             Contains("system.N: expected an integer >= 1, got '1e20' (out of range: the largest integer is "
+                      "9223372036854775807)"));
+  CHECK_THAT(error_of_text(with("", "", "{stage: fake.integrate}"), {"run.steps=99999999999999999999"}),
+             Contains("(out of range: the largest integer is 9223372036854775807)"));
+  CHECK_THAT(error_of_text(with("", "", "{stage: fake.integrate}"), {"run.steps=2.5"}), !Contains("out of range"));
+  // The largest is the same however it is written: 2^62 in real notation is a whole number.
+  CHECK(ff::PipelineDocument::parse_string(with("", "", "{stage: fake.integrate}"), "t.yaml", {"run.steps=4.6e18"})
+            .resolve(registry())
+            .run.steps == 4600000000000000000ull);
+}
+
+TEST_CASE("an unknown stage is matched by case and by its last part; a misspelt 'stage' is named",
+          "[pipeline_loader]") {
+  auto step = [](const std::string& entry) {
+    return "system: {N: 10, packing_fraction: 0.5}\nrun: {steps: 10, dt: 0.01}\nstep: [" + entry + "]\n";
+  };
+  const std::string lawson = error_of_text(step("{stage: lawson}"), {});
+  CHECK_THAT(lawson, Contains("unknown stage 'lawson'; did you mean 'fake.lawson'?") &&
+                         !Contains("is its plugin listed"));
+  CHECK_THAT(error_of_text(step("{stage: Fake.Lawson}"), {}), Contains("did you mean 'fake.lawson'?"));
+  CHECK_THAT(error_of_text(step("{stage: nothing.like.it}"), {}), Contains("is its plugin listed under 'plugins'?"));
+  CHECK(error_of_text(step("{sage: fake.lawson}"), {}) ==
+        "inline.yaml:3:9: step[0].sage: unknown key 'sage'; did you mean 'stage'?");
+  CHECK_THAT(error_of_text(step("{stage: fake.lawson, at: {log: {first: 1, factor: 1.2}, linear: 5}}"), {}),
+             Contains("at: expected one schedule, 'log' ({log: {first: 1, factor: 1.2}}), got 'linear' besides 'log'"));
+}
+
+TEST_CASE("overrides: step[i] as messages write it, spaces around '=', a step named without a parameter, "
+          "and a stage name that two entries share", "[pipeline_loader]") {
+  const auto spec = ff::PipelineDocument::parse_string(kMinimal, "m.yaml", {"step[1].max_rounds=4", "run.dt = 0.5"})
+                        .resolve(registry());
+  CHECK(spec.step[1].params.integer("max_rounds") == 4);
+  CHECK(spec.step[1].set_by == std::vector<std::string>{"step.1.max_rounds=4"});
+  CHECK(spec.run.dt == Approx(0.5));
+  CHECK(error_of_text(kMinimal, {"step.lawson.a=5"}) ==
+        "--set step.lawson.a=5: 'lawson.a' is a step; set one of its parameters: step.lawson.a.<param>=5");
+  // good.yaml: fake.integrate at step[0] and step[4], neither with an id of its own (fake.lawson's
+  // second entry has one, lawson.second, so the bare fake.lawson means step[2] alone).
+  const std::string good = path_of("good");
+  CHECK(error_of(good, {"step.fake.integrate.D=2"}) ==
+        "--set step.fake.integrate.D=2: 'fake.integrate' is ambiguous: 2 entries have that stage (step[0] id "
+        "fake.integrate, step[4] id fake.integrate#2); set one by index (step.0.D=2, step.4.D=2) or by id "
+        "(step.fake.integrate#2.D=2)");
+  const auto by_id = ff::PipelineDocument::parse(good, {"step.fake.integrate#2.D=2", "step.fake.lawson.max_rounds=9"})
+                         .resolve(registry());
+  CHECK(by_id.step[4].params.real("D") == Approx(2));
+  CHECK(by_id.step[2].params.integer("max_rounds") == 9);
+}
+
+TEST_CASE("a plugin not found: a built-in stage library is named, a typo gets a suggestion", "[pipeline_loader]") {
+  const std::string dir = "/tmp/ff_plugin_names_" + std::to_string(::getpid());
+  std::filesystem::create_directories(dir);
+  std::ofstream(dir + "/libflipflow_plugin_abp.so") << "x";
+  std::ofstream(dir + "/libflipflow_stage_delaunay.so") << "x";
+  CHECK_THROWS_WITH(ff::find_plugin("abpp", {dir}), StartsWith("plugin 'abpp' not found; did you mean 'abp'?"));
+  CHECK_THROWS_WITH(ff::find_plugin("delaunay", {dir}),
+                    StartsWith("plugin 'delaunay' not found: the delaunay.* stages are built in (") &&
+                        Contains("remove 'delaunay' from `plugins:`"));
+  std::filesystem::remove_all(dir);
 }

@@ -9,7 +9,8 @@ namespace ff {
 
 // Optimal-string-alignment distance (a swap of neighbours costs one).
 std::size_t edit_distance(const std::string& a, const std::string& b);
-// "; did you mean 'x'?" when one known word is a plausible typo of `word`, else "".
+// "; did you mean 'x'?" when one known word is a plausible typo of `word`, or the same name in
+// another case, or (for dotted names) has the same last part; else "".
 std::string suggestion(const std::string& word, const std::vector<std::string>& known);
 
 }  // namespace ff

@@ -13,6 +13,7 @@
 #include <cerrno>
 #include <cstdio>
 #include <cstring>
+#include <regex>
 #include <sstream>
 
 #include "core/base/error.h"
@@ -40,7 +41,7 @@ struct PipelineDocument::Impl {
 
  private:
   YAML::Node section(const std::string& name, const std::string& where);
-  YAML::Node entry(const std::string& x, const std::string& where);
+  YAML::Node entry(const std::string& x, const std::string& param, const std::string& value, const std::string& where);
 };
 
 namespace {
@@ -63,8 +64,9 @@ YAML::Node PipelineDocument::Impl::section(const std::string& name, const std::s
   return created;
 }
 
-// step.<x>: an index, or an entry id (as entry_ids() numbers them).
-YAML::Node PipelineDocument::Impl::entry(const std::string& x, const std::string& where) {
+// step.<x>.<param>=<value>: x is an index, or an entry id (as entry_ids() numbers them).
+YAML::Node PipelineDocument::Impl::entry(const std::string& x, const std::string& param, const std::string& value,
+                                         const std::string& where) {
   const YAML::Node& croot = root;
   const YAML::Node steps = croot["step"];
   if (!steps.IsDefined() || !steps.IsSequence()) bad_override(where, "the pipeline has no step list");
@@ -76,24 +78,63 @@ YAML::Node PipelineDocument::Impl::entry(const std::string& x, const std::string
   } else {
     const std::vector<std::string> ids = entry_ids(steps);
     auto it = std::find(ids.begin(), ids.end(), x);
-    if (it == ids.end())
+    if (it == ids.end()) {
+      // step.abp.integrate=5: the whole key is an entry, with no parameter named.
+      if (one_of(x + "." + param, ids))
+        bad_override(where, "'" + x + "." + param + "' is a step; set one of its parameters: step." + x + "." + param +
+                                ".<param>=" + value);
       bad_override(where, "no step entry with id '" + x + "'" + suggestion(x, ids) + " (ids: " + join(ids) + ")");
+    }
     i = std::size_t(it - ids.begin());
+    // The first entry of a stage has the stage's name as its default id; with a second entry of
+    // that stage also without an id of its own (stage#2), the bare name reads as "the stage" and
+    // would silently set only the first. An entry with its own id is not called by the stage.
+    const std::vector<std::string> stages = entry_stages(steps);
+    std::vector<std::size_t> same;
+    for (std::size_t k = 0; k < stages.size(); ++k)
+      if (stages[k] == x && !has_own_id(steps[k])) same.push_back(k);
+    if (same.size() > 1 && !has_own_id(steps[i])) {
+      std::vector<std::string> named, by_index, by_id;
+      for (std::size_t k : same) {
+        named.push_back(index("step", k) + " id " + ids[k]);
+        by_index.push_back("step." + std::to_string(k) + "." + param + "=" + value);
+        if (ids[k] != x) by_id.push_back("step." + ids[k] + "." + param + "=" + value);
+      }
+      bad_override(where, "'" + x + "' is ambiguous: " + std::to_string(same.size()) + " entries have that stage (" +
+                              join(named) + "); set one by index (" + join(by_index) + ")" +
+                              (by_id.empty() ? "" : " or by id (" + join(by_id) + ")"));
+    }
   }
   YAML::Node e = steps[i];
   if (!e.IsMap()) locator().fail(e, index("step", i), "expected a map with at least 'stage: <name>', got " + found(e));
   return e;
 }
 
-void PipelineDocument::Impl::apply(const std::string& text) {
-  const std::string where = "--set " + text;
-  const auto eq = text.find('=');
-  if (eq == std::string::npos || eq == 0)
-    bad_override(where, "expected KEY.PATH=VALUE, e.g. --set run.dt=0.001");
-  const std::string key = text.substr(0, eq);
+namespace {
+
+std::string trimmed(const std::string& s) {
+  const auto first = s.find_first_not_of(" \t");
+  if (first == std::string::npos) return "";
+  return s.substr(first, s.find_last_not_of(" \t") - first + 1);
+}
+
+}  // namespace
+
+void PipelineDocument::Impl::apply(const std::string& given) {
+  const std::string where = "--set " + given;
+  const auto eq = given.find('=');
+  // Spaces around '=' ('run.steps = 100', quoted) are the user's layout, not part of the key.
+  std::string key = eq == std::string::npos ? "" : trimmed(given.substr(0, eq));
+  if (key.empty()) bad_override(where, "expected KEY.PATH=VALUE, e.g. --set run.dt=0.001");
+  // step[1].v0, as the messages name an entry, is step.1.v0.
+  static const std::regex indexed(R"(step\[(\d+)\](\..*)?)");
+  std::smatch m;
+  if (std::regex_match(key, m, indexed)) key = "step." + m[1].str() + m[2].str();
+  const std::string value_text = trimmed(given.substr(eq + 1));
+  const std::string text = key + "=" + value_text;  // as resolve() reads it back
   YAML::Node value;
   try {
-    value = YAML::Load(text.substr(eq + 1));
+    value = YAML::Load(value_text);
   } catch (const YAML::ParserException& e) {
     bad_override(where, "the value is not valid YAML: " + e.msg);
   }
@@ -109,7 +150,7 @@ void PipelineDocument::Impl::apply(const std::string& text) {
   } else if (head == "step" && rest.rfind('.') != std::string::npos && rest.rfind('.') != 0 &&
              rest.rfind('.') + 1 < rest.size()) {
     const auto last = rest.rfind('.');  // ids contain dots; parameter names do not
-    YAML::Node e = entry(rest.substr(0, last), where);
+    YAML::Node e = entry(rest.substr(0, last), rest.substr(last + 1), value_text, where);
     e[rest.substr(last + 1)] = value;
   } else if ((head == "system" || head == "run") && rest.find('.') != std::string::npos) {
     // A key inside a map value (run.checkpoint.every): the map is set whole.
@@ -125,6 +166,27 @@ void PipelineDocument::Impl::apply(const std::string& text) {
   overrides.push_back({value, where});
   applied.push_back(text);
 }
+
+namespace {
+
+// " (line 4: 'N:4096' has no space after ':' — write 'N: 4096')" for a block-map line at or just
+// before `line` (0-based) whose key and value are joined: yaml-cpp reads the pair as one word
+// and reports "illegal map value" on a later line. "" when there is none.
+std::string joined_key_near(const std::vector<std::string>& lines, int line) {
+  for (int i = std::min(line, int(lines.size()) - 1); i >= 0 && i >= line - 2; --i) {
+    std::string text = lines[std::size_t(i)];
+    if (const auto hash = text.find(" #"); hash != std::string::npos) text.erase(hash);
+    const auto first = text.find_first_not_of(' ');
+    if (first == std::string::npos) continue;
+    text.erase(0, text.rfind("- ", first) == first ? text.find_first_not_of(' ', first + 2) : first);
+    text.erase(text.find_last_not_of(" \r") + 1);
+    if (auto spaced = with_space_after_colon(text))
+      return " (line " + std::to_string(i + 1) + ": '" + text + "' has no space after ':' — write '" + *spaced + "')";
+  }
+  return "";
+}
+
+}  // namespace
 
 PipelineDocument::PipelineDocument(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
 PipelineDocument::~PipelineDocument() = default;
@@ -153,13 +215,16 @@ PipelineDocument PipelineDocument::parse_string(const std::string& yaml, const s
   } catch (const YAML::ParserException& e) {
     // A tab in an indentation is the usual cause of yaml-cpp's less telling messages.
     bool tab = false;
-    std::istringstream lines(yaml);
-    for (std::string line; !tab && std::getline(lines, line);) {
+    std::vector<std::string> lines;
+    std::istringstream in(yaml);
+    for (std::string line; std::getline(in, line);) {
       const std::size_t first = line.find_first_not_of(' ');
-      tab = first != std::string::npos && line[first] == '\t';
+      tab = tab || (first != std::string::npos && line[first] == '\t');
+      lines.push_back(line);
     }
     fail(Location{name, e.mark.line + 1, e.mark.column + 1}, "",
-         "invalid YAML: " + e.msg + (tab ? " (the file indents with a tab: YAML allows only spaces)" : ""));
+         "invalid YAML: " + e.msg + (tab ? " (the file indents with a tab: YAML allows only spaces)" : "") +
+             joined_key_near(lines, e.mark.line));
   }
   // The root must be a map before overrides can write into it; an empty file becomes one.
   if (impl->root.IsDefined() && !impl->root.IsNull() && !impl->root.IsMap())

@@ -140,6 +140,14 @@ SystemSpec read_system(const YAML::Node& n, const Locator& loc) {
       s.init_from = iv.string("from");
       s.init_frame = iv.integer("frame");
     } else {
+      // A file name where a placement is expected: the user meant to start from that file.
+      const std::string word = init->value.IsScalar() ? init->value.Scalar() : "";
+      const bool path_like = word.find('/') != std::string::npos ||
+                             (word.size() > 3 && word.compare(word.size() - 3, 3, ".h5") == 0);
+      if (path_like)
+        loc.fail(init->value, "system.init",
+                 "expected " + init_placement().expectation() + ", or a map {from, frame}, got " + found(init->value) +
+                     "; to start from a file write init: {from: " + word + ", frame: -1}");
       s.init = std::get<std::string>(read_value(init_placement(), init->value, "system.init", loc));
     }
   }

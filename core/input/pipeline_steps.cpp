@@ -45,6 +45,17 @@ std::vector<std::string> entry_ids(const YAML::Node& steps) {
   return ids;
 }
 
+std::vector<std::string> entry_stages(const YAML::Node& steps) {
+  std::vector<std::string> stages;
+  for (std::size_t i = 0; i < steps.size(); ++i) {
+    const YAML::Node e = steps[i];
+    stages.push_back(scalar_in(e, "stage") ? e["stage"].Scalar() : "");
+  }
+  return stages;
+}
+
+bool has_own_id(const YAML::Node& entry) { return scalar_in(entry, "id"); }
+
 namespace {
 
 // What the first pass learns about an entry: enough to name it and to resolve `after`.
@@ -58,7 +69,13 @@ Head read_head(const YAML::Node& e, std::size_t i, int dim, const Registry& reg,
   const std::string at = index("step", i);
   Head h{e, items_of(e, at, "a map with at least 'stage: <name>'", loc), {}, at};
   const Item* stage = find(h.items, "stage");
-  if (!stage) loc.fail(e, at, "missing required key 'stage' (the name of a loaded stage)");
+  if (!stage) {
+    // A misspelt 'stage' would otherwise be reported as missing, the word itself unmentioned.
+    for (const Item& item : h.items)
+      if (!one_of(item.key, kEntryKeys) && !suggestion(item.key, {"stage"}).empty())
+        fail(loc.at(item), at + "." + item.key, "unknown key '" + item.key + "'; did you mean 'stage'?");
+    loc.fail(e, at, "missing required key 'stage' (the name of a loaded stage)");
+  }
   h.stage = std::get<std::string>(read_value(ParamSpec::string("stage", std::nullopt, ""), stage->value,
                                              at + ".stage", loc));
   if (!reg.has(h.stage)) {
@@ -150,10 +167,15 @@ Schedule read_schedule(const Head& h, const Locator& loc) {
   if (!at) return s;
   const std::string path = h.label + ".at";
   const std::vector<Item> kinds = items_of(at->value, path, "a map {log: {first: 1, factor: 1.2}}", loc);
-  if (kinds.size() != 1 || kinds[0].key != "log")
-    loc.fail(kinds.empty() ? at->value : kinds[0].key_node, path,
+  // The key to blame: the first that is not 'log', else a second 'log' cannot be (items_of).
+  const Item* wrong = nullptr;
+  for (const Item& k : kinds)
+    if (k.key != "log" && !wrong) wrong = &k;
+  if (kinds.empty() || wrong)
+    loc.fail(kinds.empty() ? at->value : wrong->key_node, path,
              "expected one schedule, 'log' ({log: {first: 1, factor: 1.2}}), got " +
-                 (kinds.empty() ? std::string("an empty map") : "'" + kinds[0].key + "'"));
+                 (kinds.empty() ? std::string("an empty map")
+                                : "'" + wrong->key + "'" + (find(kinds, "log") ? " besides 'log'" : "")));
   const std::vector<ParamSpec> params = {
       ParamSpec::integer("first", 1, "the first step").at_least(1),
       ParamSpec::real("factor", 1.2, "the ratio of successive steps").above(1)};

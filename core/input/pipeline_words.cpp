@@ -57,15 +57,44 @@ std::optional<std::int64_t> to_integer(std::string s) {
     if (r.ec != std::errc()) return std::nullopt;  // out of range
     return v;
   }
+  // Every double from 2^53 up is a whole number, and one below 2^63 converts exactly; the same
+  // largest integer whichever way it is written.
   std::optional<double> d = to_real(s);
-  if (!d || std::floor(*d) != *d || std::fabs(*d) > 9007199254740992.0) return std::nullopt;  // 2^53
+  if (!d || std::floor(*d) != *d || !(std::fabs(*d) < 9223372036854775808.0)) return std::nullopt;  // 2^63
   return static_cast<std::int64_t>(*d);
+}
+
+bool is_whole_number_out_of_range(const std::string& s) {
+  static const std::regex integer(R"([+-]?\d+)");
+  if (std::regex_match(s, integer)) return !to_integer(s);
+  if (std::optional<double> d = to_real(s)) return std::floor(*d) == *d && !to_integer(s);
+  // Past DBL_MAX ("1e400") to_real gives up too; the notation still says a number.
+  static const std::regex real(R"([+-]?(\d+(\.\d*)?|\.\d+)[eE]\+?\d+)");
+  return std::regex_match(s, real);
 }
 
 std::optional<bool> to_boolean(const std::string& s) {
   if (s == "true" || s == "True" || s == "TRUE") return true;
   if (s == "false" || s == "False" || s == "FALSE") return false;
   return std::nullopt;
+}
+
+// YAML 1.1's booleans, which YAML 1.2 (and so this loader) reads as plain words.
+std::optional<bool> yaml11_boolean(const std::string& s) {
+  for (const char* w : {"yes", "Yes", "YES", "on", "On", "ON", "y", "Y"})
+    if (s == w) return true;
+  for (const char* w : {"no", "No", "NO", "off", "Off", "OFF", "n", "N"})
+    if (s == w) return false;
+  return std::nullopt;
+}
+
+// "N:4096" -> "N: 4096": a key and its value that YAML read as one word, for want of the space
+// after ':'. Not a URL ("http://...") nor a C++-style name ("a::b").
+std::optional<std::string> with_space_after_colon(const std::string& s) {
+  static const std::regex joined(R"(([A-Za-z_][A-Za-z0-9_.\-]*):([^\s:].*))");
+  std::smatch m;
+  if (!std::regex_match(s, m, joined) || m[2].str().rfind("//", 0) == 0) return std::nullopt;
+  return m[1].str() + ": " + m[2].str();
 }
 
 std::optional<ParamValue> to_scalar_value(ParamType type, const std::string& s) {

@@ -34,6 +34,12 @@ bool is_number(const std::string& s);  // non-empty, decimal digits only
 std::optional<double> to_real(std::string s);
 std::optional<std::int64_t> to_integer(std::string s);
 std::optional<bool> to_boolean(const std::string& s);
+// A number written as a whole number that to_integer refuses only for its size ("1e20").
+bool is_whole_number_out_of_range(const std::string& s);
+// yes/no/on/off (YAML 1.1 booleans, plain strings in YAML 1.2): what the user meant, else nullopt.
+std::optional<bool> yaml11_boolean(const std::string& s);
+// "N:4096" -> "N: 4096" when `s` looks like a key and a value joined by ':' without a space.
+std::optional<std::string> with_space_after_colon(const std::string& s);
 // A scalar read as `type` (real, integer, boolean, string); nullopt when it is not one.
 std::optional<ParamValue> to_scalar_value(ParamType type, const std::string& s);
 

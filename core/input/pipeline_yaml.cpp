@@ -2,6 +2,8 @@
 // entries, single checked values and maps of parameters. See core/input/pipeline_yaml.h.
 #include "core/input/pipeline_yaml.h"
 
+#include <cstdint>
+#include <limits>
 #include <optional>
 
 namespace ff::pipeline_detail {
@@ -55,7 +57,11 @@ Location Locator::at(const Item& item) const {
 // (yaml-cpp keeps both copies of a duplicated key, and would silently use the first).
 std::vector<Item> items_of(const YAML::Node& map, const std::string& path, const std::string& expected,
                            const Locator& loc) {
-  if (!map.IsMap()) loc.fail(map, path, "expected " + expected + ", got " + found(map));
+  if (!map.IsMap()) {
+    std::optional<std::string> spaced = map.IsScalar() ? with_space_after_colon(map.Scalar()) : std::nullopt;
+    loc.fail(map, path, "expected " + expected + ", got " + found(map) +
+                            (spaced ? " ('" + map.Scalar() + "' has no space after ':': write '" + *spaced + "')" : ""));
+  }
   std::vector<Item> items;
   for (const auto& kv : map) {
     if (!kv.second.IsDefined()) continue;
@@ -76,6 +82,27 @@ const Item* find(const std::vector<Item>& items, const std::string& key) {
 }
 
 // ---- values -------------------------------------------------------------------------------
+
+namespace {
+
+// What a refused scalar probably meant, after "expected X, got 'word'": the word of a fixed set
+// it misspells, the boolean YAML 1.1 would have read, that a whole number is too large.
+std::string hint(const ParamSpec& spec, const std::string& word) {
+  switch (spec.type) {
+    case ParamType::string: return suggestion(word, spec.choices);
+    case ParamType::boolean:
+      if (std::optional<bool> b = yaml11_boolean(word))
+        return std::string(" (write ") + (*b ? "true" : "false") + ": YAML 1.2 has no yes/no booleans)";
+      return "";
+    case ParamType::integer:
+      if (is_whole_number_out_of_range(word))
+        return " (out of range: the largest integer is " + std::to_string(std::numeric_limits<std::int64_t>::max()) + ")";
+      return "";
+    default: return "";
+  }
+}
+
+}  // namespace
 
 // One value checked against its spec: type, range, choices. List items are checked (and
 // reported) one by one, with the spec of a single item.
@@ -103,7 +130,7 @@ ParamValue read_value(const ParamSpec& spec, const YAML::Node& n, const std::str
   std::optional<ParamValue> v;
   if (n.IsScalar()) v = to_scalar_value(spec.type, n.Scalar());
   if (!v || !check_param(spec, *v).empty())
-    loc.fail(n, path, "expected " + spec.expectation() + ", got " + found(n));
+    loc.fail(n, path, "expected " + spec.expectation() + ", got " + found(n) + (n.IsScalar() ? hint(spec, n.Scalar()) : ""));
   return *v;
 }
 
@@ -128,8 +155,13 @@ ParamValues read_params(const YAML::Node& map, const std::vector<Item>& items, c
     if (!spec) {
       std::vector<std::string> words = schema.reserved;
       for (auto& p : schema.params) words.push_back(p.name);
+      // {v0:1.0} in a flow map is one key, 'v0:1.0', with no value.
+      const std::optional<std::string> spaced = with_space_after_colon(item.key);
       fail(loc.at(item), child(path, item.key),
-           "unknown " + schema.kind + suggestion(item.key, words) + " (" + schema.known + ")");
+           "unknown " + schema.kind +
+               (spaced ? "; '" + item.key + "' looks like '" + *spaced + "' with no space after ':'"
+                       : suggestion(item.key, words)) +
+               " (" + schema.known + ")");
     }
     values.set(item.key, read_value(*spec, item.value, child(path, item.key), loc));
   }

@@ -89,6 +89,9 @@ std::vector<std::string> read_plugins(const Item* item, const Locator& loc);  //
 
 // Ids as the user will refer to them (explicit id, else stage, stage#2 ...); lenient.
 std::vector<std::string> entry_ids(const YAML::Node& steps);
+// Each entry's stage name ("" where malformed), and whether it gives its own `id`; lenient too.
+std::vector<std::string> entry_stages(const YAML::Node& steps);
+bool has_own_id(const YAML::Node& entry);
 std::vector<StepEntry> read_steps(const YAML::Node& n, int dim, const Registry& reg, const Locator& loc);
 
 }  // namespace ff::pipeline_detail

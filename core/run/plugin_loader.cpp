@@ -11,6 +11,7 @@
 #include <set>
 
 #include "core/base/error.h"
+#include "core/base/suggestion.h"
 #include "core/stage/plugin_api.h"
 
 namespace fs = std::filesystem;
@@ -91,9 +92,20 @@ std::string find_plugin(const std::string& name, const std::vector<std::string>&
     fs::path p = fs::path(dir) / (kPluginPrefix + name + ".so");
     if (fs::exists(p)) return p.string();
   }
+  // The standard stage libraries (and core.noop) need no listing: naming one is a mistake to
+  // undo, not a library to find.
+  if (name == "core")
+    throw InputError("plugin 'core' not found: the core.* stages are built in; remove 'core' from `plugins:`");
+  for (auto& file : find_stage_libraries(path))
+    if (fs::path(file).stem().string() == kStagePrefix + name)
+      throw InputError("plugin '" + name + "' not found: the " + name + ".* stages are built in (" + file +
+                       ", always loaded); remove '" + name + "' from `plugins:`");
+  std::vector<std::string> known;
+  for (auto& file : find_model_plugins(path)) known.push_back(model_plugin_name(file));
   std::string dirs;
   for (auto& d : path) dirs += "\n  " + d;
-  throw InputError("plugin '" + name + "' not found: no " + kPluginPrefix + name +
+  const std::string meant = suggestion(name, known);
+  throw InputError("plugin '" + name + "' not found" + (meant.empty() ? ": no " : meant + " No ") + kPluginPrefix + name +
                    ".so in the plugin search path (FLIPFLOW_PLUGIN_PATH, then the build's or the install's "
                    "plugin folder):" + dirs);
 }

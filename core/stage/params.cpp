@@ -78,7 +78,8 @@ std::string ParamSpec::expectation() const {
     case ParamType::real: e = "a real number"; break;
     case ParamType::integer: e = "an integer"; break;
     case ParamType::boolean: e = "true or false"; break;
-    case ParamType::string: e = "a string"; break;
+    // A fixed set of words is described by the set alone ("one of: float, double").
+    case ParamType::string: e = choices.empty() ? "a string" : ""; break;
     case ParamType::string_list: e = "a list of strings"; break;
     case ParamType::real_list: e = "a list of real numbers"; break;
     case ParamType::per_type: e = "a real number, or a list of them (one per particle type)"; break;
@@ -86,7 +87,7 @@ std::string ParamSpec::expectation() const {
   if (min && max) e += std::string(" in ") + (min_exclusive ? "(" : "[") + number(*min) + ", " + number(*max) + "]";
   else if (min) e += (min_exclusive ? " > " : " >= ") + number(*min);
   else if (max) e += " <= " + number(*max);
-  if (!choices.empty()) e += (type == ParamType::string ? " (one of: " : " (each one of: ") + join(choices) + ")";
+  if (!choices.empty()) e += type == ParamType::string ? "one of: " + join(choices) : " (each one of: " + join(choices) + ")";
   return e;
 }
 

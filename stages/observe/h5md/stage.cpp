@@ -9,6 +9,7 @@
 #include <sstream>
 
 #include "core/base/error.h"
+#include "core/base/suggestion.h"
 
 namespace ff::observe {
 
@@ -16,12 +17,18 @@ namespace {
 
 bool is_triangle_list(const Field& f) { return f.dtype() == DType::i32 && f.components() == 3; }
 
-std::string writable_fields(const State& s) {
-  std::string out;
+std::vector<std::string> writable_field_names(const State& s) {
+  std::vector<std::string> names;
   for (auto& name : s.field_names()) {
     const Field& f = s.field(name);
-    if (f.count() == s.n() || is_triangle_list(f)) out += (out.empty() ? "" : ", ") + name;
+    if (f.count() == s.n() || is_triangle_list(f)) names.push_back(name);
   }
+  return names;
+}
+
+std::string writable_fields(const State& s) {
+  std::string out;
+  for (auto& name : writable_field_names(s)) out += (out.empty() ? "" : ", ") + name;
   return out;
 }
 
@@ -63,8 +70,9 @@ void H5mdObserver::configure(State& state) {
       throw InputError("observe.h5md: '" + name + "' is written anyway (/particles/all/" + name +
                        "); remove it from `fields`");
     if (!state.has_field(name))
-      throw InputError("observe.h5md: there is no field '" + name + "' to write; fields available: " +
-                       writable_fields(state));
+      throw InputError("observe.h5md: there is no field '" + name + "' to write" +
+                       suggestion(name, writable_field_names(state)) + " (fields available: " + writable_fields(state) +
+                       ")");
     const Field& f = state.field(name);
     if (f.count() != state.n() && !is_triangle_list(f))
       throw InputError("observe.h5md: field '" + name + "' has " + std::to_string(f.count()) +
