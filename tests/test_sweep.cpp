@@ -273,6 +273,11 @@ TEST_CASE("sweep: a bad grid key or value exits 2 naming it, and writes nothing"
     CHECK(r.code == 2);
     CHECK_THAT(r.out, Catch::Contains("sets the same parameter as --grid step.0.D=1,2 (step.brownian.integrate.D)"));
     CHECK_FALSE(fs::exists(out));
+    auto brackets = pipeline("sweep " + file + " --device cpu --set run.steps=10 --grid step.0.D=1,2 --grid 'step[0].D=3,4' --out " +
+                             out.string());
+    CHECK(brackets.code == 2);
+    CHECK_THAT(brackets.out, Catch::Contains("sets the same parameter as --grid step.0.D=1,2"));
+    CHECK_FALSE(fs::exists(out));
   }
   // --replicas and a grid over the seed contradict each other.
   const fs::path out = fresh_dir("bad_seed");

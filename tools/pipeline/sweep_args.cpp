@@ -70,8 +70,13 @@ std::string blame(const SweepArgs& a, const Run& run, const std::string& what) {
   return combo.empty() ? what : "with " + combo + ": " + what;
 }
 
-// An axis key as the step entry's id names it: step.<index>.<param> -> step.<id>.<param>.
-std::string canonical_key(const std::string& key, const PipelineSpec& spec) {
+// An axis key as the step entry's id names it: step.<index>.<param> (or step[<index>].<param>) ->
+// step.<id>.<param>.
+std::string canonical_key(std::string key, const PipelineSpec& spec) {
+  if (key.rfind("step[", 0) == 0) {  // step[i].param, as messages print it: step.i.param
+    const std::size_t close = key.find(']');
+    if (close != std::string::npos) key = "step." + key.substr(5, close - 5) + key.substr(close + 1);
+  }
   if (key.rfind("step.", 0) != 0) return key;
   const std::size_t last = key.rfind('.');
   const std::string entry = key.substr(5, last - 5);
