@@ -288,7 +288,11 @@ TEST_CASE("pipeline COMMAND --help lists the command's options and exits 0", "[c
     INFO(command << ": " << r.out);
     CHECK(r.code == 0);
     CHECK_THAT(r.out, Catch::Contains("--set") && Catch::Contains("--device"));
+    // Its usage line, with the file as the positional argument it is (it was listed as --file).
+    CHECK_THAT(r.out, Catch::StartsWith(std::string("usage: pipeline ") + command + " FILE.yaml") &&
+                          !Catch::Contains("--file"));
   }
+  CHECK_THAT(run("sweep --help").out, Catch::Contains("Exit codes") && Catch::Contains("extend"));
   CHECK_THAT(run("bench --help").out, Catch::Contains("--results"));
   CHECK_THAT(run("run --help").out, Catch::Contains("--resume"));
   CHECK(run("describe --help").code == 0);

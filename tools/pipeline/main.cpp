@@ -2,6 +2,7 @@
 // 2 bad input (file, flags, plugins, a refused --resume), 3 `run` (or `sweep`) stopped by
 // SIGINT/SIGTERM after writing a checkpoint; `sweep` exits 1 when any of its runs failed.
 #include <iostream>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -36,7 +37,22 @@ const char* kUsage =
     "\n"
     "Plugins are searched in $FLIPFLOW_PLUGIN_PATH, then in ../plugins and ../lib/flipflow/plugins next to\n"
     "this program (a build tree; an installed tree).\n";
-}
+
+const std::map<std::string, std::string> kCommandUsage = {
+    {"run", "usage: pipeline run FILE.yaml [options]\n  runs the pipeline; outputs in --out (default runs/<file stem>)."
+            "\n  Exit codes: 0 done, 1 the run failed, 2 bad input, 3 stopped by SIGINT/SIGTERM after a checkpoint"
+            " (continue with --resume).\n"},
+    {"validate", "usage: pipeline validate FILE.yaml [--set key.path=value]...\n  checks without running; prints the "
+                 "resolved step graph.\n"},
+    {"graph", "usage: pipeline graph FILE.yaml [--set key.path=value]...\n  the step graph in Graphviz DOT.\n"},
+    {"bench", "usage: pipeline bench FILE.yaml [options]\n  times the pipeline's step at each --sizes N; JSON lines to "
+              "--results.\n"},
+    {"sweep", "usage: pipeline sweep FILE.yaml --grid key.path=v1,v2,... [--grid ...] [options]\n  one run per "
+              "combination and seed, each in its own folder under --out, with index.csv (folder, parameters, status,"
+              " steps/s).\n  Run the same command again to continue an interrupted sweep; add values to a --grid "
+              "axis to extend it.\n  Exit codes: 0 every run done, 1 some run failed, 2 bad input, 3 interrupted.\n"},
+};
+}  // namespace
 
 int main(int argc, char** argv) {
   if (argc < 2 || std::string(argv[1]) == "--help" || std::string(argv[1]) == "-h" || std::string(argv[1]) == "help") {
@@ -50,6 +66,13 @@ int main(int argc, char** argv) {
       std::cout << (command == "stages" ? "usage: pipeline stages\n" : "usage: pipeline describe STAGE\n");
       return 0;
     }
+    // A command's --help: its usage line here, its options from parse_options.
+    for (auto& a : args)
+      if (a == "--help" || a == "-h") {
+        const auto line = kCommandUsage.find(command);
+        if (line != kCommandUsage.end()) std::cout << line->second << "\n";
+        break;
+      }
     if (command == "run") return ff::cli::cmd_run(args);
     if (command == "validate") return ff::cli::cmd_validate(args);
     if (command == "graph") return ff::cli::cmd_graph(args);

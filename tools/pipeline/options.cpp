@@ -43,16 +43,19 @@ std::string extra_argument(const std::vector<std::string>& args, const po::optio
 
 po::variables_map parse_options(const std::vector<std::string>& args, po::options_description extra,
                                 CommonOptions& common, bool needs_file) {
-  po::options_description opts("options");
-  opts.add_options()("file", po::value<std::string>(&common.file), "pipeline YAML")(
-      "set", po::value<std::vector<std::string>>(&common.overrides)->composing(), "override key.path=value")(
+  // The pipeline file is the positional FILE of the usage line (main.cpp), not listed as --file.
+  po::options_description shown("options"), file, opts;
+  shown.add_options()("set", po::value<std::vector<std::string>>(&common.overrides)->composing(),
+                      "override key.path=value")(
       "device", po::value<std::string>(&common.device)->default_value("auto"), "auto, cpu or cuda");
-  opts.add(extra);
+  shown.add(extra);
+  file.add_options()("file", po::value<std::string>(&common.file), "pipeline YAML");
+  opts.add(shown).add(file);
   po::positional_options_description pos;
   pos.add("file", 1);
   for (auto& a : args)
     if (a == "--help" || a == "-h") {
-      std::cout << opts << "(pipeline --help: every command)\n";
+      std::cout << shown << "(pipeline --help: every command)\n";
       throw HelpShown{};
     }
   po::variables_map vm;
