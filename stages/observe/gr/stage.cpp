@@ -117,6 +117,12 @@ void Gr::configure(State& s) {
   eta_ = occupied / volume_;
   r_max_ = p_.r_max * sigma_;
   if (n_ < 2) throw InputError("observe.gr: g(r) needs at least two particles");
+  // Not an error: a short trial run (--set run.steps=100) of a long run's pipeline is common.
+  if (info_.steps > 0 && std::uint64_t(p_.from_step) > info_.steps)
+    std::fprintf(info_.messages,
+                 "flipflow: warning: observe.gr: from_step = %lld is after the run's last step (%llu): g(r) stays "
+                 "empty in this run (lower from_step, or lengthen run.steps)\n",
+                 static_cast<long long>(p_.from_step), static_cast<unsigned long long>(info_.steps));
   if (2 * r_max_ > lmin)
     throw InputError("observe.gr: r_max = " + std::to_string(p_.r_max) + "σ = " + std::to_string(r_max_) +
                      " is more than half the smallest box edge (" + std::to_string(lmin) +

@@ -273,3 +273,31 @@ TEST_CASE("observe.gr: 3D cell-list counts equal brute force", "[gr]") {
     }
   CHECK(h == brute);
 }
+
+TEST_CASE("observe.gr: a from_step after the run's last step is warned of, naming both", "[gr]") {
+  // Before: the run went through silently and wrote an empty g(r).
+  const double L[3] = {30, 30, 0};
+  auto s = make_state(2, 400, L);
+  const auto dir = std::filesystem::temp_directory_path() / "flipflow-test-gr-late";
+  std::filesystem::create_directories(dir);
+  auto warning = [&](std::int64_t from_step) {
+    std::FILE* f = std::tmpfile();
+    REQUIRE(f);
+    RunInfo info;
+    info.out_dir = dir.string();
+    info.steps = 1000;
+    info.messages = f;
+    GrParams p = params();
+    p.from_step = from_step;
+    Gr gr(p, info);
+    gr.configure(*s);
+    std::rewind(f);
+    std::string text;
+    for (int c; (c = std::fgetc(f)) != EOF;) text += char(c);
+    std::fclose(f);
+    return text;
+  };
+  CHECK_THAT(warning(5000), Catch::Contains("from_step = 5000 is after the run's last step (1000)"));
+  CHECK(warning(1000).empty());
+  std::filesystem::remove_all(dir);
+}
