@@ -351,6 +351,15 @@ TEST_CASE("pipeline run: two steps writing one file are refused, naming both", "
   CHECK(r.code == 2);
   CHECK_THAT(r.out, Catch::Contains("writes 'trajectory.h5', which step 'observe.gr'") &&
                         Catch::Contains("give one of them another file name"));
+  // A file outside the output folder: allowed, with a warning (a sweep's runs would share it).
+  for (const char* file : {"../gr.csv", "/tmp/ff_gr.csv"}) {
+    auto outside = run("validate " + repo_file("pipelines/hard-disks.yaml").string() + " --set step.observe.gr.file=" + file);
+    INFO(outside.out);
+    CHECK(outside.code == 0);
+    CHECK_THAT(outside.out, Catch::Contains(std::string("warning: ")) &&
+                                Catch::Contains(std::string("step 'observe.gr' writes '") + file + "', outside the output folder"));
+  }
+  CHECK_THAT(run("validate " + repo_file("pipelines/hard-disks.yaml").string()).out, !Catch::Contains("outside the output folder"));
 }
 
 TEST_CASE("pipeline validate: good file exits 0, broken file exits 2 with file:line:column", "[cli]") {

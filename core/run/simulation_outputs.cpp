@@ -35,6 +35,14 @@ void Simulation::check_output_names() const {
                            "', which step '" + spec_.step[j].id + "' (" + spec_.step[j].where.str() +
                            ") writes too: give one of them another file name");
       seen.push_back({p, i});
+      // Allowed (a scratch disk), but --out does not move it, and every run of a sweep would
+      // write the one file.
+      const bool outside = p.is_absolute() || (!p.empty() && *p.begin() == "..");
+      if (outside)
+        std::fprintf(options_.messages,
+                     "flipflow: warning: %s: step '%s' writes '%s', outside the output folder: --out does not move "
+                     "it, and runs that share the pipeline (a sweep's) would write the same file\n",
+                     spec_.step[i].where.str().c_str(), spec_.step[i].id.c_str(), o.c_str());
     }
 }
 
