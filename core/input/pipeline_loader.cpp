@@ -17,6 +17,7 @@
 #include <sstream>
 
 #include "core/base/error.h"
+#include "core/base/text.h"
 #include "core/input/pipeline_yaml.h"
 
 namespace ff {
@@ -109,16 +110,6 @@ YAML::Node PipelineDocument::Impl::entry(const std::string& x, const std::string
   if (!e.IsMap()) locator().fail(e, index("step", i), "expected a map with at least 'stage: <name>', got " + found(e));
   return e;
 }
-
-namespace {
-
-std::string trimmed(const std::string& s) {
-  const auto first = s.find_first_not_of(" \t");
-  if (first == std::string::npos) return "";
-  return s.substr(first, s.find_last_not_of(" \t") - first + 1);
-}
-
-}  // namespace
 
 void PipelineDocument::Impl::apply(const std::string& given) {
   const std::string where = "--set " + given;

@@ -9,19 +9,12 @@
 #include <sstream>
 
 #include "core/base/error.h"
+#include "core/base/text.h"
 #include "tools/pipeline/sweep.h"
 
 namespace fs = std::filesystem;
 
 namespace ff::cli::sweep {
-
-namespace {
-std::string trimmed(const std::string& s) {
-  const auto first = s.find_first_not_of(" \t");
-  if (first == std::string::npos) return "";
-  return s.substr(first, s.find_last_not_of(" \t") - first + 1);
-}
-}  // namespace
 
 Axis parse_grid(const std::string& arg) {
   const std::string where = "--grid " + arg;
