@@ -113,6 +113,19 @@ TEST_CASE("tools/convert writes GSD that gsd.hoomd reads back (2-D with orientat
     REQUIRE(fs::exists(out));
     require_ok("gsd " + out.string() + " " + in.string(), dir);
   }
+  // A coordinate just below L (float64) is L/2 in GSD's float32 after centring: HOOMD's box is
+  // [-L/2, L/2), so convert wraps it (before: it wrote L/2, outside the box).
+  {
+    const fs::path edge = dir / "abp" / "edge.h5";
+    fs::copy_file(dir / "abp/abp.h5", edge, fs::copy_options::overwrite_existing);
+    require_success(sh("/usr/bin/python3 -c \"import h5py, numpy as np, sys; f = h5py.File(sys.argv[1], 'r+'); "
+                       "L = f['particles/all/box/edges'][0]; v = f['particles/all/position/value']; "
+                       "x = v[-1]; x[0, 0] = np.nextafter(L, 0); x[1, 1] = np.nextafter(L, 0); v[-1] = x\" " +
+                           edge.string(),
+                       dir));
+    require_success(sh(convert + " " + edge.string(), dir));
+    require_ok("gsd " + (dir / "abp" / "edge.gsd").string() + " " + edge.string(), dir);
+  }
   // Boids: σ = 0.5 (readers would take a missing diameter as 1) and headings in boids.heading.
   require_run(repo_file("pipelines/boids.yaml").string() +
                   " --device cpu --set system.N=300 --set run.steps=200 --out " + (dir / "boids").string(),
