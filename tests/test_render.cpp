@@ -172,6 +172,21 @@ TEST_CASE("tools/render plots a 3D run's aggregates on a log time axis and draws
   fs::remove_all(dir);
 }
 
+TEST_CASE("tools/render's titles fit the figure and its quantities are labelled in words", "[cli][render]") {
+  // They show only in the image: tests/support/check_render_labels.py calls fit_title,
+  // quantity_label and curve_labels directly (a long title wrapped inside the figure, a short
+  // one untouched, an unbreakable one shrunk; labels with units; files of one name told apart).
+  if (!have_plotting()) return;
+  const fs::path dir = fresh_dir("ff_render_labels");
+  auto r = sh("/usr/bin/python3 " + repo_file("tests/support/check_render_labels.py").string() + " " +
+                  repo_file("tools/render").string(),
+              dir);
+  INFO(r.out);
+  CHECK(r.code == 0);
+  CHECK_THAT(r.out, Catch::Contains("ok labels"));
+  fs::remove_all(dir);
+}
+
 TEST_CASE("tools/render: a 3D run with orientations is drawn by depth, or by the orientations' azimuth", "[cli][render]") {
   if (!have_plotting()) return;
   const fs::path dir = fresh_dir("ff_render3dabp");
