@@ -158,6 +158,66 @@ TEST_CASE("pipeline bench and run refuse counts and sizes that are not whole num
   fs::remove_all(fresh_dir("bench_results"));
 }
 
+TEST_CASE("pipeline bench: JSON lines tell runs apart; the terminal names the passes, the observers left out and "
+          "the results file",
+          "[cli]") {
+  // Before: a run with --set run.precision=float wrote the same keys as one without, the terminal
+  // spoke of one timed pass, and observers were dropped without a word.
+  const fs::path results = fresh_dir("bench_keys");
+  const std::string bench = "bench " + repo_file("pipelines/brownian.yaml").string() +
+                            " --device cpu --threads 1 --sizes 64 --steps 2 --warmup 1 --results " + results.string();
+  auto plain = run(bench);
+  INFO(plain.out);
+  REQUIRE(plain.code == 0);
+  auto floated = run(bench + " --set run.precision=float --set run.seed=7");
+  INFO(floated.out);
+  REQUIRE(floated.code == 0);
+  const fs::path jsonl = results / "brownian-cpu.jsonl";
+  CHECK_THAT(plain.out,
+             Catch::Contains("double precision: 1 warm-up steps, then three passes of 2 steps per size") &&
+                 Catch::Contains("steps/s: pass 1 (back-to-back); median ms, metrics: pass 2 (each step waited for); "
+                                 "per stage: pass 3 (profiled)") &&
+                 Catch::Contains("observers left out (the compute step is timed): observe.msd, observe.h5md, "
+                                 "observe.progress\n") &&
+                 Catch::Contains("JSON lines appended to " + jsonl.string() + "\n"));
+  CHECK_THAT(floated.out, Catch::Contains("float precision"));
+
+  std::ifstream in(jsonl);
+  std::vector<std::string> lines;
+  for (std::string line; std::getline(in, line);) lines.push_back(line);
+  REQUIRE(lines.size() == 2);
+  for (const std::string& line : lines) {
+    INFO(line);
+    // The keys scripts in bench/ and tools/bench/ read, unchanged.
+    for (const char* kept : {"\"N\":64,", "\"steps\":2,", "\"device\":\"1 CPU threads\"", "\"ranks\":1,",
+                             "\"median_ms\":", "\"steps_per_s\":", "\"stage_ms\":{", "\"metrics_per_step\":{"})
+      CHECK_THAT(line, Catch::Contains(kept));
+    CHECK_THAT(line, Catch::Contains("\"threads\":1,") && Catch::Contains("\"warmup\":1,") &&
+                         Catch::Contains("\"passes\":[\"back-to-back\",\"each step waited for\",\"profiled\"]") &&
+                         Catch::Contains("\"pass\":{\"steps_per_s\":1,\"particle_steps_per_s\":1,\"median_ms\":2,"
+                                         "\"mean_ms\":2,\"rollbacks_per_step\":2,\"dt_limits_per_step\":2,"
+                                         "\"metrics_per_step\":2,\"stage_ms\":3}"));
+    const std::size_t commit = line.find("\"commit\":\"");
+    REQUIRE(commit != std::string::npos);
+    CHECK(line[commit + 10] != '"');  // a commit (or "unknown"), never empty
+  }
+  CHECK_THAT(lines[0], Catch::Contains("\"precision\":\"double\"") && Catch::Contains("\"seed\":42,") &&
+                           Catch::Contains("\"overrides\":[],"));
+  CHECK_THAT(lines[1], Catch::Contains("\"precision\":\"float\"") && Catch::Contains("\"seed\":7,") &&
+                           Catch::Contains("\"overrides\":[\"run.precision=float\",\"run.seed=7\"],"));
+
+  // Nothing left out, nothing said.
+  const fs::path file = results / "compute-only.yaml";
+  std::ofstream(file) << "system: {dimensions: 2, N: 64, packing_fraction: 0.3}\n"
+                         "run: {steps: 10, dt: 0.001}\nplugins: [brownian]\n"
+                         "step:\n  - {stage: brownian.integrate, D: 1}\n";
+  auto bare = run("bench " + file.string() + " --device cpu --steps 1 --warmup 0 --results " + results.string());
+  INFO(bare.out);
+  CHECK(bare.code == 0);
+  CHECK_THAT(bare.out, !Catch::Contains("observers left out") && Catch::Contains("per stage: pass 3"));
+  fs::remove_all(results);
+}
+
 TEST_CASE("pipeline run: an output that is not a file name is refused at validate; a subfolder is made", "[cli]") {
   CHECK(run("validate " + repo_file("pipelines/brownian.yaml").string() + " --set step.observe.h5md.file=").code == 2);
   for (const char* bad : {".", "..", "sub/", "sub/.."}) {
@@ -293,7 +353,10 @@ TEST_CASE("pipeline COMMAND --help lists the command's options and exits 0", "[c
                           !Catch::Contains("--file"));
   }
   CHECK_THAT(run("sweep --help").out, Catch::Contains("Exit codes") && Catch::Contains("extend"));
-  CHECK_THAT(run("bench --help").out, Catch::Contains("--results"));
+  CHECK_THAT(run("bench --help").out,
+             Catch::Contains("--results") && Catch::Contains("steps/s come from pass 1 (back-to-back") &&
+                 Catch::Contains("median ms and metrics per step from pass 2") &&
+                 Catch::Contains("ms per stage from pass 3 (profiled"));
   CHECK_THAT(run("run --help").out, Catch::Contains("--resume"));
   CHECK(run("describe --help").code == 0);
 }

@@ -1,6 +1,6 @@
 // `pipeline bench`: time per step (and per stage) over sizes N, as a table and as JSON lines
-// appended to bench/results/<pipeline>-<backend>.jsonl. Observer stages are left out: this times the
-// compute step. Three passes of `steps` steps each: throughput (steps in a row, one wait at the
+// appended to bench/results/<pipeline>-<backend>.jsonl. Observer stages are left out (and named
+// on the terminal): this times the compute step. Three passes of `steps` steps each: throughput (steps in a row, one wait at the
 // end: how a run behaves), latency (each step waited for; the median is reported), and
 // per-stage times (each stage waited for, so device work is charged to the stage that did it).
 // With --gpus N each size runs on a team of N ranks (core/run/team.h): the table shows rank 0's
@@ -12,6 +12,7 @@
 #include <algorithm>
 #include <cerrno>
 #include <chrono>
+#include <cstdio>
 #include <cstring>
 #include <ctime>
 #include <filesystem>
@@ -31,6 +32,11 @@
 #include "tools/pipeline/commands.h"
 #include "tools/pipeline/common.h"
 #include "tools/pipeline/options.h"
+
+// The commit a JSON line was measured on, as `pipeline run` records it (tools/CMakeLists.txt).
+#ifndef FLIPFLOW_GIT_COMMIT
+#define FLIPFLOW_GIT_COMMIT "unknown"
+#endif
 
 namespace po = boost::program_options;
 namespace fs = std::filesystem;
@@ -57,6 +63,12 @@ std::vector<std::uint64_t> parse_sizes(const std::string& s) {
   }
   return out;
 }
+
+bool is_observer(const Loaded& loaded, const StepEntry& e) { return loaded.registry->get(e.stage).decl.observer; }
+
+// The passes' names, in the order they run; the terminal's legend and the JSON lines' "passes"
+// use them, so a number's pass can be looked up from either.
+const char* const kPassNames[] = {"back-to-back", "each step waited for", "profiled"};
 
 double median(std::vector<double> v) {
   std::sort(v.begin(), v.end());
@@ -91,7 +103,7 @@ Result bench_rank(const Loaded& loaded, std::uint64_t n, Backend backend, std::u
   // Drop observers: this measures the compute step.
   std::vector<StepEntry> compute;
   for (auto& e : spec.step)
-    if (!loaded.registry->get(e.stage).decl.observer) compute.push_back(e);
+    if (!is_observer(loaded, e)) compute.push_back(e);
   spec.step = compute;
   RunOptions o;
   o.backend = backend;
@@ -175,9 +187,21 @@ std::vector<Result> bench_one(const Loaded& loaded, std::uint64_t n, Backend bac
   return results;
 }
 
+// --set values are the user's text: control characters would break the line's JSON.
 std::string json_escape(const std::string& s) {
   std::string o;
-  for (char c : s) o += (c == '"' || c == '\\') ? std::string("\\") + c : std::string(1, c);
+  for (char c : s) {
+    if (c == '"' || c == '\\') {
+      o += '\\';
+      o += c;
+    } else if (static_cast<unsigned char>(c) < 0x20) {
+      char u[8];
+      std::snprintf(u, sizeof u, "\\u%04x", unsigned(static_cast<unsigned char>(c)));
+      o += u;
+    } else {
+      o += c;
+    }
+  }
   return o;
 }
 }  // namespace
@@ -189,13 +213,15 @@ int cmd_bench(const std::vector<std::string>& args) {
   int threads = 0, gpus = 1;
   po::options_description extra;
   extra.add_options()("sizes", po::value<std::string>(&sizes_arg), "comma-separated N (default: the file's N)")(
-      "steps", po::value<std::int64_t>(&steps_arg)->default_value(200), "timed steps per size")(
+      "steps", po::value<std::int64_t>(&steps_arg)->default_value(200), "steps in each of the three timed passes, per size")(
       "warmup", po::value<std::int64_t>(&warmup_arg)->default_value(20), "untimed steps first")(
       "threads", po::value<int>(&threads)->default_value(0), "CPU threads (0 = all cores)")(
       "gpus", po::value<int>(&gpus)->default_value(1),
       "ranks sharing each run (GPUs 0..N-1 through NCCL; N threads on the CPU): per-rank times and the "
       "communication share are reported")(
-      "results", po::value<std::string>(&results_dir)->default_value("bench/results"), "where JSON lines go");
+      "results", po::value<std::string>(&results_dir)->default_value("bench/results"),
+      "folder the JSON lines are appended to, as DIR/<file>-<backend>.jsonl (the default, relative to the "
+      "working directory, is where the repository keeps recorded results)");
   parse_options(args, extra, common);
   if (steps_arg < 1) throw InputError("--steps must be at least 1 (got " + std::to_string(steps_arg) + ")");
   if (warmup_arg < 0) throw InputError("--warmup must be 0 or more (got " + std::to_string(warmup_arg) + ")");
@@ -226,8 +252,35 @@ int cmd_bench(const std::vector<std::string>& args) {
   char date[32];
   std::strftime(date, sizeof date, "%Y-%m-%dT%H:%M:%SZ", std::gmtime(&now));
 
-  std::cout << "pipeline " << common.file << " on " << to_string(backend) << " (" << device << "), " << steps
-            << " timed steps after " << warmup << " warm-up\n";
+  const RunSpec& run = loaded.spec.run;
+  std::cout << "pipeline " << common.file << " on " << to_string(backend) << " (" << device << "), "
+            << to_string(run.precision) << " precision: " << warmup << " warm-up steps, then three passes of " << steps
+            << " steps per size\n";
+  // Each column comes from its own pass: steps/s and the median can disagree by more than noise.
+  std::cout << "steps/s: pass 1 (" << kPassNames[0] << "); median ms, metrics: pass 2 (" << kPassNames[1]
+            << "); per stage: pass 3 (" << kPassNames[2] << ")"
+            << (gpus > 1 ? "; per rank, communication and migrations: pass 1" : "") << "\n";
+  std::string left_out;
+  for (auto& e : loaded.spec.step)
+    if (is_observer(loaded, e)) left_out += (left_out.empty() ? "" : ", ") + e.id;
+  if (!left_out.empty()) std::cout << "observers left out (the compute step is timed): " << left_out << "\n";
+  std::cout << "JSON lines appended to " << jsonl_path.string() << "\n";
+  // What tells one bench's lines from another's, and which pass (1-based, into "passes") each
+  // number comes from.
+  std::string overrides_json = "[";
+  for (std::size_t i = 0; i < loaded.overrides.size(); ++i)
+    overrides_json += (i ? ",\"" : "\"") + json_escape(loaded.overrides[i]) + "\"";
+  overrides_json += "]";
+  std::string passes_json = "[";
+  for (std::size_t i = 0; i < std::size(kPassNames); ++i) passes_json += (i ? ",\"" : "\"") + std::string(kPassNames[i]) + "\"";
+  passes_json += "]";
+  std::string pass_json =
+      "{\"steps_per_s\":1,\"particle_steps_per_s\":1,\"median_ms\":2,\"mean_ms\":2,\"rollbacks_per_step\":2,"
+      "\"dt_limits_per_step\":2,\"metrics_per_step\":2,\"stage_ms\":3";
+  if (gpus > 1)
+    pass_json += ",\"per_rank.comm_ms\":1,\"per_rank.comm_share\":1,\"per_rank.migrations\":1,"
+                 "\"per_rank.migration_ms\":1,\"per_rank.step_start_ms\":1,\"per_rank.stage_ms\":3";
+  pass_json += "}";
   std::cout << std::left << std::setw(10) << "N" << std::setw(14) << "median ms" << std::setw(14) << "steps/s"
             << std::setw(18) << "particle-steps/s" << "  per stage (ms)\n";
   for (auto n : sizes) {
@@ -262,7 +315,10 @@ int cmd_bench(const std::vector<std::string>& args) {
           << ",\"steps\":" << steps << ",\"median_ms\":" << r.median_ms << ",\"mean_ms\":" << r.mean_ms
           << ",\"steps_per_s\":" << r.throughput << ",\"particle_steps_per_s\":" << double(n) * r.throughput
           << ",\"rollbacks_per_step\":" << r.rollbacks_per_step
-          << ",\"dt_limits_per_step\":" << r.dt_limits_per_step << ",\"ranks\":" << gpus;
+          << ",\"dt_limits_per_step\":" << r.dt_limits_per_step << ",\"ranks\":" << gpus
+          << ",\"threads\":" << cores << ",\"precision\":\"" << to_string(run.precision) << "\",\"seed\":" << run.seed
+          << ",\"warmup\":" << warmup << ",\"overrides\":" << overrides_json << ",\"commit\":\""
+          << json_escape(FLIPFLOW_GIT_COMMIT) << "\",\"passes\":" << passes_json << ",\"pass\":" << pass_json;
     if (gpus > 1) {
       // Per rank: communication per step and its share of the step, the profiled stage times.
       jsonl << ",\"per_rank\":[";

@@ -45,8 +45,10 @@ const std::map<std::string, std::string> kCommandUsage = {
     {"validate", "usage: pipeline validate FILE.yaml [--set key.path=value]...\n  checks without running; prints the "
                  "resolved step graph.\n"},
     {"graph", "usage: pipeline graph FILE.yaml [--set key.path=value]...\n  the step graph in Graphviz DOT.\n"},
-    {"bench", "usage: pipeline bench FILE.yaml [options]\n  times the pipeline's step at each --sizes N; JSON lines to "
-              "--results.\n"},
+    {"bench", "usage: pipeline bench FILE.yaml [options]\n  times the pipeline's step, observers left out, at each --sizes N;"
+              " JSON lines to --results.\n  After --warmup steps, three passes of --steps steps: steps/s come from "
+              "pass 1 (back-to-back,\n  one wait at the end), the median ms and metrics per step from pass 2 (each "
+              "step waited for),\n  ms per stage from pass 3 (profiled: each stage waited for).\n"},
     {"sweep", "usage: pipeline sweep FILE.yaml --grid key.path=v1,v2,... [--grid ...] [options]\n  one run per "
               "combination and seed, each in its own folder under --out, with index.csv (folder, parameters, status,"
               " steps/s).\n  Run the same command again to continue an interrupted sweep; add values to a --grid "
