@@ -2,7 +2,7 @@
 //
 // Exit codes: 0 done, 1 the run failed, 2 bad input (including a refused --resume),
 // 3 stopped by SIGINT or SIGTERM after finishing the step under way and writing a checkpoint
-// (continue with `pipeline run FILE --resume`).
+// (continue with `pipeline run FILE --resume`), 130 stopped at once by a second SIGINT.
 #include <oneapi/tbb/global_control.h>
 
 #include <atomic>
