@@ -115,6 +115,25 @@ std::vector<fs::path> checkpoints(const fs::path& dir) {
   return out;
 }
 
+// A text dataset GROUP/NAME of a checkpoint file ("" if it has none).
+std::string checkpoint_text(const fs::path& file, const std::string& group, const std::string& name) {
+  hid_t f = H5Fopen(file.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
+  REQUIRE(f >= 0);
+  std::string out;
+  const std::string path = group + "/" + name;
+  if (H5Lexists(f, group.c_str(), H5P_DEFAULT) > 0 && H5Lexists(f, path.c_str(), H5P_DEFAULT) > 0) {
+    hid_t d = H5Dopen2(f, path.c_str(), H5P_DEFAULT);
+    hid_t t = H5Dget_type(d);
+    out.assign(H5Tget_size(t), '\0');
+    H5Dread(d, t, H5S_ALL, H5S_ALL, H5P_DEFAULT, out.data());
+    while (!out.empty() && out.back() == '\0') out.pop_back();
+    H5Tclose(t);
+    H5Dclose(d);
+  }
+  H5Fclose(f);
+  return out;
+}
+
 // One pipeline, its --set arguments, the H5MD file and CSV files it writes.
 struct Case {
   std::string file;
@@ -204,6 +223,37 @@ Case abp_case() {
 TEST_CASE("checkpoint continuation: ABP, n + resume + n steps equal 2n steps in every H5MD dataset", "[checkpoint]") {
   if (!device_available()) return;
   check_continuation(abp_case(), 60, "abp");
+}
+
+TEST_CASE("checkpoint continuation: --resume takes the run's own --set arguments, so it gives only what changes",
+          "[checkpoint]") {
+  // Before: a run made with --set system.N=400 was refused on --resume without that --set again
+  // ("the pipeline's structure differs"), with advice to start a new run from a frame.
+  if (!device_available()) return;
+  const Case c = abp_case();
+  const std::uint64_t n = 60;
+  const fs::path one = fresh_dir("inherit_one"), two = fresh_dir("inherit_two");
+  require_success(pipeline(run_args(c, one, 2 * n)));
+  require_success(pipeline(run_args(c, two, n)));
+  auto resumed = require_success(pipeline("run " + c.file + " --set run.steps=" + std::to_string(2 * n) + " --out " +
+                                          two.string() + " --resume"));
+  CHECK_THAT(resumed.out, Catch::Contains("resuming") && Catch::Contains("N = 400"));
+  CHECK(require_same_h5md(one / c.h5, two / c.h5) >= 4);
+  // Its checkpoints record the sets it ran with (the earlier run's, then its own), once each.
+  const std::vector<fs::path> written = checkpoints(two);
+  REQUIRE(!written.empty());
+  const std::string sets = checkpoint_text(written.back(), "pipeline", "overrides");
+  INFO(written.back().string() << " pipeline/overrides: " << sets);
+  CHECK_THAT(sets, Catch::Contains("system.N=400") && Catch::Contains("run.steps=" + std::to_string(2 * n)));
+  std::size_t steps_sets = 0;
+  for (std::size_t at = sets.find("run.steps="); at != std::string::npos; at = sets.find("run.steps=", at + 1)) ++steps_sets;
+  CHECK(steps_sets == 1);
+  // A second continuation inherits from the first's checkpoint in turn.
+  auto again = require_success(pipeline("run " + c.file + " --set run.steps=" + std::to_string(3 * n) + " --out " +
+                                        two.string() + " --resume"));
+  CHECK_THAT(again.out, Catch::Contains("N = 400"));
+  fs::remove_all(one);
+  fs::remove_all(two);
 }
 
 TEST_CASE("checkpoint continuation: hard disks with rollbacks in the second half, and g(r)", "[checkpoint]") {

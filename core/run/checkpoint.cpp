@@ -240,6 +240,7 @@ std::string Checkpointer::write() {
 
   d.put_text("pipeline/text", record_.pipeline_text);
   d.put_text("pipeline/effective", record_.effective_pipeline);
+  d.put_text("pipeline/overrides", join_lines(record_.overrides));
   d.put_text("pipeline/file", sim_.spec().file);
   d.put_text("pipeline/resolved", join_lines(resolved_parameters(sim_.spec())));
   d.put_text("pipeline/structure", join_lines(pipeline_structure(sim_.spec())));
@@ -421,6 +422,10 @@ void restore_checkpoint(Simulation& sim, const CheckpointData& data) {
 
 std::string checkpoint_history(const CheckpointData& data) {
   return data.has("meta/history") ? data.text("meta/history") : "";
+}
+
+std::vector<std::string> checkpoint_overrides(const CheckpointData& data) {
+  return data.has("pipeline/overrides") ? split_lines(data.text("pipeline/overrides")) : std::vector<std::string>{};
 }
 
 }  // namespace ff

@@ -109,5 +109,8 @@ void restore_checkpoint(Simulation& sim, const CheckpointData& data);
 
 // The history of continuations recorded in a checkpoint ("" for a run never resumed).
 std::string checkpoint_history(const CheckpointData& data);
+// The --set arguments of the run that wrote the checkpoint, in order (empty for a checkpoint
+// written before they were recorded): a continuation applies them before its own.
+std::vector<std::string> checkpoint_overrides(const CheckpointData& data);
 
 }  // namespace ff

@@ -23,6 +23,7 @@
 
 #include "core/backend/device.h"
 #include "core/base/error.h"
+#include "core/base/text.h"
 #include "core/base/version.h"
 #include "core/run/checkpoint.h"
 #include "core/run/simulation.h"
@@ -136,6 +137,20 @@ std::string resume_command(const RunRequest& req, const std::string& out) {
   return c + " --resume " + shell_word(out);
 }
 
+// `earlier` then `later`, a key set in both only where `later` sets it (the list a continuation
+// applies and records: it does not grow with every continuation).
+std::vector<std::string> after(const std::vector<std::string>& earlier, const std::vector<std::string>& later) {
+  auto key = [](const std::string& set) { return trimmed(set.substr(0, set.find('='))); };
+  std::vector<std::string> out;
+  for (auto& e : earlier) {
+    bool replaced = false;
+    for (auto& l : later) replaced = replaced || key(l) == key(e);
+    if (!replaced) out.push_back(e);
+  }
+  out.insert(out.end(), later.begin(), later.end());
+  return out;
+}
+
 // A stream that writes nowhere: the messages of ranks other than 0.
 struct NullBuffer : std::streambuf {
   int overflow(int c) override { return c; }
@@ -145,7 +160,7 @@ struct NullBuffer : std::streambuf {
 // the same loaded pipeline (one after another, under `setup`, one lock for the process: the
 // plugins' set-up is not meant for several threads at once), rank 0 alone logs, writes checkpoints and outputs,
 // and the ranks agree every step on whether to stop (a signal seen by any rank).
-int run_rank(const RunRequest& req, const Loaded& loaded, Backend backend, std::ostream& log,
+int run_rank(const RunRequest& req, const Loaded& given, Backend backend, std::ostream& log,
              const std::atomic<int>& stop, const std::function<void()>& before_steps, Communicator* team,
              std::mutex& setup) {
   const bool lead = !team || team->rank() == 0;
@@ -157,6 +172,19 @@ int run_rank(const RunRequest& req, const Loaded& loaded, Backend backend, std::
     else
       out = "runs/" + fs::path(req.file).stem().string();
   }
+  // A continuation: its checkpoint, and the pipeline with the continued run's --set arguments
+  // before this command's, so that a continuation gives only what it changes (before, a run made
+  // with --set system.N=1024 could be continued only by repeating it, and was refused otherwise
+  // as a different structure).
+  std::optional<ResumePoint> resume_point;
+  std::optional<Loaded> with_earlier_sets;
+  if (req.resuming) {
+    std::lock_guard<std::mutex> one_at_a_time(setup);
+    resume_point = find_resume_point(resume_where.empty() ? out : resume_where);
+    const std::vector<std::string> earlier_sets = checkpoint_overrides(resume_point->data);
+    if (!earlier_sets.empty()) with_earlier_sets = load(req.file, after(earlier_sets, req.overrides));
+  }
+  const Loaded& loaded = with_earlier_sets ? *with_earlier_sets : given;
   const auto& spec = loaded.spec;
 
   // What produced this run, recorded in the H5MD file and in checkpoints.
@@ -193,14 +221,16 @@ int run_rank(const RunRequest& req, const Loaded& loaded, Backend backend, std::
   std::string history;
   std::unique_lock<std::mutex> setting_up(setup);
   if (req.resuming) {
-    ResumePoint rp = find_resume_point(resume_where.empty() ? out : resume_where);
+    ResumePoint& rp = *resume_point;
     for (auto& s : rp.skipped) log << "flipflow: warning: skipped a checkpoint: " << s << "\n";
     const PipelineChanges changes = compare_with_checkpoint(rp.data, spec);
     if (!changes.structure.empty())
       throw InputError("cannot resume from '" + rp.path + "': the pipeline's structure differs from the run's:" +
                        lines(changes.structure) +
-                       "\nA continuation must have the same N, dimensions, precision, species and stages; start a "
-                       "new run from a frame of this one instead (system: {init: {from: FILE.h5, frame: -1}})");
+                       "\nA continuation must have the same N, dimensions, precision, species and stages (it takes "
+                       "the run's own --set arguments from the checkpoint, where it recorded them, and this "
+                       "command's after them): undo the change, or start a new run from a frame of this one "
+                       "(system: {init: {from: FILE.h5, frame: -1}})");
     if (!changes.parameters.empty() && !req.allow_changes)
       throw InputError("cannot resume from '" + rp.path + "': parameters changed since the checkpoint:" +
                        lines(changes.parameters) +
