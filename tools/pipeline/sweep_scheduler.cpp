@@ -387,6 +387,7 @@ pid_t RunScheduler::start_process(const std::vector<std::string>& argv, int gpu,
   cenv.push_back(nullptr);
   const int fd = ::open(log.c_str(), O_WRONLY | O_CREAT | O_APPEND | O_CLOEXEC, 0644);
   if (fd < 0) throw RunError("cannot open '" + log.string() + "': " + std::strerror(errno));
+  const std::string cant_start = "error: cannot start " + exe_ + " (execve failed, errno ";
   const pid_t pid = ::fork();
   if (pid < 0) throw RunError(std::string("cannot start a run: fork: ") + std::strerror(errno));
   if (pid == 0) {
@@ -397,6 +398,15 @@ pid_t RunScheduler::start_process(const std::vector<std::string>& argv, int gpu,
     ::dup2(fd, 1);
     ::dup2(fd, 2);
     ::execve(exe_.c_str(), cargv.data(), cenv.data());
+    // Say why in run.log (the index's message is its last error line): errno's number, since
+    // only async-signal-safe calls are allowed here (write, not strerror).
+    const int err = errno;
+    char digits[12];
+    int n = 0;
+    for (int e = err; n == 0 || e > 0; e /= 10) digits[n++] = char('0' + e % 10);
+    [[maybe_unused]] ssize_t w = ::write(2, cant_start.data(), cant_start.size());
+    while (n > 0) w = ::write(2, &digits[--n], 1);
+    w = ::write(2, ")\n", 2);
     ::_exit(127);
   }
   ::close(fd);
@@ -436,6 +446,12 @@ void RunScheduler::finish(std::size_t active_index, int status) {
   r.wall_s = seconds_between(ended.started, Clock::now());
   const LogSummary summary = read_log(s_.root / r.folder / "run.log");
   std::string error = summary.error;
+  // The child's execve error carries only errno's number (start_process): say it in words here.
+  const std::size_t errno_at = error.find("(execve failed, errno ");
+  if (errno_at != std::string::npos) {
+    const int number = std::atoi(error.c_str() + errno_at + 22);
+    error = error.substr(0, errno_at) + "(execve: " + std::strerror(number) + ")";
+  }
   r.steps_per_s = summary.steps_per_s;
   if (WIFEXITED(status)) {
     r.exit_code = WEXITSTATUS(status);
