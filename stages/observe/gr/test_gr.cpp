@@ -370,58 +370,66 @@ double contact_error(double ds, double fit_width, const std::vector<double>& exp
 
 }  // namespace
 
-TEST_CASE("observe.gr: an ideal-gas mixture has every g_ij(σ_ij⁺) = 1 and Z = 1 + (πρ/2) Σ x_i x_j σ_ij²",
+TEST_CASE("observe.gr: an ideal-gas mixture has every g_ij(σ_ij⁺) = 1 and Z = 1 + (πρ/2) Σ x_i x_j σ_ij² (2D), "
+          "1 + (2πρ/3) Σ x_i x_j σ_ij³ (3D)",
           "[gr][physics][mixture]") {
-  // 2D, 30 % of σ = 1 and 70 % of σ = 1.4, uniform points (no exclusion), ρ = 2.
-  const double L[3] = {100, 100, 0};
-  const std::size_t n = 20000, nA = 6000;
-  const double dA = 1.0, dB = 1.4;
-  auto s = make_mixture(2, n, nA, L, dA, dB);
-  GrParams p = params(1.5, 75);  // bins of 0.02, as by default
-  Gr gr(p, RunInfo{});
-  gr.configure(*s);
-  REQUIRE(gr.mixture());
-  REQUIRE(gr.species() == std::vector<std::string>{"A", "B"});
-  Driver drv{*s, {}, {}, {}};
-  std::mt19937_64 gen(23);
-  const int frames = 200;
-  for (int f = 0; f < frames; ++f) {
-    set_positions(*s, canonical_points(2, n, L, gen));
-    drv.run(gr);
-  }
-  const double volume = L[0] * L[1], rho = n / volume, ds = 0.02;
-  const double sigma[2] = {dA, dB}, x[2] = {double(nA) / n, double(n - nA) / n};
-  const double count[2] = {double(nA), double(n - nA)};
-  double z_ideal = 1, z_var = 0, weights = 0;
-  for (int a = 0; a < 2; ++a)
-    for (int b = a; b < 2; ++b) {
-      const double pairs = a == b ? count[a] * (count[a] - 1) / 2 : count[a] * count[b];
-      const double sab = 0.5 * (sigma[a] + sigma[b]);
-      std::vector<double> expected(60);
-      for (std::size_t k = 0; k < expected.size(); ++k)
-        expected[k] = frames * pairs / volume * pi * ds * ds * double((k + 1) * (k + 1) - k * k) * sab * sab;
-      const double err = contact_error(ds, p.fit_width, expected);
-      const double w = (a == b ? 1 : 2) * x[a] * x[b] * sab * sab;
-      z_ideal += pi * rho / 2 * w;
-      z_var += std::pow(pi * rho / 2 * w * err, 2);
-      weights += w;
-      const double g = gr.pair_contact(a, b);
-      INFO("g_contact[" << a << "," << b << "] = " << g << " ± " << err);
-      CHECK(err < 0.02);  // a few-% test
-      CHECK(std::fabs(g - 1) < 4 * err);
-      CHECK(gr.pair_contact(b, a) == g);
+  // 30 % of σ = 1 and 70 % of σ = 1.4, uniform points (no exclusion): 2D at ρ = 2, 3D at ρ = 1.
+  for (int dim : {2, 3}) {
+    INFO(dim << "D");
+    const double L[3] = {dim == 2 ? 100.0 : 20.0, dim == 2 ? 100.0 : 20.0, 20.0};
+    const std::size_t n = dim == 2 ? 20000 : 8000, nA = n * 3 / 10;
+    const double dA = 1.0, dB = 1.4;
+    auto s = make_mixture(dim, n, nA, L, dA, dB);
+    GrParams p = params(1.5, 75);  // bins of 0.02, as by default
+    Gr gr(p, RunInfo{});
+    gr.configure(*s);
+    REQUIRE(gr.mixture());
+    REQUIRE(gr.species() == std::vector<std::string>{"A", "B"});
+    Driver drv{*s, {}, {}, {}};
+    std::mt19937_64 gen(23 + dim);
+    const int frames = dim == 2 ? 200 : 100;
+    for (int f = 0; f < frames; ++f) {
+      set_positions(*s, canonical_points(dim, n, L, gen));
+      drv.run(gr);
     }
-  const double z = drv.metric("Z"), z_err = std::sqrt(z_var);
-  INFO("Z = " << z << ", ideal " << z_ideal << " ± " << z_err);
-  CHECK(z_err / (z_ideal - 1) < 0.02);
-  CHECK(std::fabs(z - z_ideal) < 4 * z_err);
-  // g_contact is the weighted mean of the g_ij that enters Z.
-  CHECK(z == Approx(1 + pi * rho / 2 * weights * drv.metric("g_contact")).epsilon(1e-13));
-  // The total g(r) stays in units of the mean diameter, 1 everywhere for an ideal gas.
-  CHECK(gr.sigma() == Approx(0.3 * dA + 0.7 * dB).epsilon(1e-12));
-  double outer = 0;
-  for (std::size_t k = 25; k < 75; ++k) outer += gr.g()[k] / 50;
-  CHECK(std::fabs(outer - 1) < 0.003);
+    const double volume = dim == 2 ? L[0] * L[1] : L[0] * L[1] * L[2], rho = n / volume, ds = 0.02;
+    const double prefactor = dim == 2 ? pi / 2 : 2 * pi / 3;
+    const double sigma[2] = {dA, dB}, x[2] = {double(nA) / n, double(n - nA) / n};
+    const double count[2] = {double(nA), double(n - nA)};
+    double z_ideal = 1, z_var = 0, weights = 0;
+    for (int a = 0; a < 2; ++a)
+      for (int b = a; b < 2; ++b) {
+        const double pairs = a == b ? count[a] * (count[a] - 1) / 2 : count[a] * count[b];
+        const double sab = 0.5 * (sigma[a] + sigma[b]), sd = std::pow(sab, dim);
+        std::vector<double> expected(60);
+        for (std::size_t k = 0; k < expected.size(); ++k) {
+          const double lo = k * ds, hi = (k + 1) * ds;
+          const double shell = dim == 2 ? pi * (hi * hi - lo * lo) : 4.0 / 3.0 * pi * (hi * hi * hi - lo * lo * lo);
+          expected[k] = frames * pairs / volume * shell * sd;
+        }
+        const double err = contact_error(ds, p.fit_width, expected);
+        const double w = (a == b ? 1 : 2) * x[a] * x[b] * sd;
+        z_ideal += prefactor * rho * w;
+        z_var += std::pow(prefactor * rho * w * err, 2);
+        weights += w;
+        const double g = gr.pair_contact(a, b);
+        INFO("g_contact[" << a << "," << b << "] = " << g << " ± " << err);
+        CHECK(err < 0.02);  // a few-% test
+        CHECK(std::fabs(g - 1) < 4 * err);
+        CHECK(gr.pair_contact(b, a) == g);
+      }
+    const double z = drv.metric("Z"), z_err = std::sqrt(z_var);
+    INFO("Z = " << z << ", ideal " << z_ideal << " ± " << z_err);
+    CHECK(z_err / (z_ideal - 1) < 0.02);
+    CHECK(std::fabs(z - z_ideal) < 4 * z_err);
+    // g_contact is the weighted mean of the g_ij that enters Z.
+    CHECK(z == Approx(1 + prefactor * rho * weights * drv.metric("g_contact")).epsilon(1e-12));
+    // The total g(r) stays in units of the mean diameter, 1 everywhere for an ideal gas.
+    CHECK(gr.sigma() == Approx(0.3 * dA + 0.7 * dB).epsilon(1e-12));
+    double outer = 0;
+    for (std::size_t k = 25; k < 75; ++k) outer += gr.g()[k] / 50;
+    CHECK(std::fabs(outer - 1) < 0.003);
+  }
 }
 
 TEST_CASE("observe.gr: a mixture's contact histograms equal brute force, for any thread count", "[gr][mixture]") {
@@ -504,4 +512,40 @@ TEST_CASE("observe.gr: a mixture's CSV names each species pair's contact value; 
     Gr short_reach(params(1.2, 60), RunInfo{});
     CHECK_THROWS_WITH(short_reach.configure(*wide), Catch::Contains("raise r_max"));
   }
+}
+
+TEST_CASE("observe.gr: a mixture continued from its stage state gives the uninterrupted run's values", "[gr][mixture]") {
+  const double L[3] = {40, 40, 0};
+  std::vector<std::vector<double>> frames;
+  std::mt19937_64 gen(41);
+  for (int f = 0; f < 6; ++f) frames.push_back(canonical_points(2, 1500, L, gen));
+  auto s = make_mixture(2, 1500, 500, L, 1.0, 1.4);
+  Gr whole(params(), RunInfo{});
+  whole.configure(*s);
+  Driver a{*s, {}, {}, {}};
+  for (auto& x : frames) {
+    set_positions(*s, x);
+    a.run(whole);
+  }
+  Gr first(params(), RunInfo{});
+  first.configure(*s);
+  Driver b{*s, {}, {}, {}};
+  for (int f = 0; f < 3; ++f) {
+    set_positions(*s, frames[f]);
+    b.run(first);
+  }
+  StageState saved;
+  first.save_state(saved);
+  Gr rest(params(), RunInfo{});
+  rest.configure(*s);
+  rest.restore_state(saved, *s);
+  CHECK(rest.pair_contact(0, 1) == first.pair_contact(0, 1));
+  for (int f = 3; f < 6; ++f) {
+    set_positions(*s, frames[f]);
+    b.run(rest);
+  }
+  CHECK(b.metric("Z") == a.metric("Z"));
+  CHECK(b.metric("g_contact") == a.metric("g_contact"));
+  for (int i = 0; i < 2; ++i)
+    for (int j = i; j < 2; ++j) CHECK(rest.pair_contact(i, j) == whole.pair_contact(i, j));
 }
