@@ -178,7 +178,7 @@ void Gr::configure_mixture(State& s) {
   double sigma_max = 0;
   for (int a = 0; a < types_; ++a) {
     if (!species_n_[a]) continue;
-    species_sigma_[a] = sum[a] / double(species_n_[a]);
+    species_sigma_[a] = lo[a] == hi[a] ? lo[a] : sum[a] / double(species_n_[a]);  // exact for one diameter
     species_x_[a] = double(species_n_[a]) / double(n_);
     sigma_max = std::max(sigma_max, hi[a]);
     if (lo[a] != hi[a])
@@ -332,8 +332,8 @@ std::string Gr::write_partial() const {
     for (int a = 0; a < types_; ++a)
       for (int b = a; b < types_; ++b)
         out << "# g_contact[" << species_[a] << "," << species_[b] << "] = " << pair_contact(a, b)
-            << ", sigma = " << 0.5 * (species_sigma_[a] + species_sigma_[b]) << ", x = " << species_x_[a] << ","
-            << species_x_[b] << "\n";
+            << ", sigma_ij = " << 0.5 * (species_sigma_[a] + species_sigma_[b]) << ", x_i = " << species_x_[a]
+            << ", x_j = " << species_x_[b] << "\n";
   }
   out << "r_lo,r_hi,r,g,pairs\n";
   const auto gk = g();
