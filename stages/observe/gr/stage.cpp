@@ -295,6 +295,7 @@ void Gr::restore_state(const StageState& saved, State&) {
   frames_ = saved.get<std::uint64_t>("frames");
   g_contact_ = saved.get<double>("g_contact");
   z_ = saved.get<double>("z");
+  if (!frames_) g_contact_ = z_ = nan_;  // an older checkpoint's placeholders (0 and 1) before from_step
   if (!mixture_) return;
   // A checkpoint of a run before mixtures were handled: its contact values were of the mean σ;
   // the partial ones count from here.

@@ -1,6 +1,8 @@
 // observe.gr: g(r) of an ideal gas is 1 within its counting error (2D, 3D); a perfect triangular
 // lattice has its exact shells; the contact extrapolation; the CSV output; errors; thread-count
-// independence. The stage's source is compiled into this test to drive it directly.
+// independence; one diameter bit for bit as before mixtures; a mixture's partial contact values
+// and contact-theorem Z (ideal gas, brute force, CSV, continuation). The stage's source is
+// compiled into this test to drive it directly.
 #include <oneapi/tbb/global_control.h>
 
 #include <catch2/catch.hpp>
@@ -548,4 +550,23 @@ TEST_CASE("observe.gr: a mixture continued from its stage state gives the uninte
   CHECK(b.metric("g_contact") == a.metric("g_contact"));
   for (int i = 0; i < 2; ++i)
     for (int j = i; j < 2; ++j) CHECK(rest.pair_contact(i, j) == whole.pair_contact(i, j));
+}
+
+TEST_CASE("observe.gr: one type of several diameters is a mixture of one species, with a warning", "[gr][mixture]") {
+  const double L[3] = {30, 30, 0};
+  auto s = make_state(2, 400, L);
+  for (std::size_t i = 0; i < 400; ++i) s->field(fields::diameter).host<double>()[i] = i % 2 ? 1.2 : 1.0;
+  std::FILE* f = std::tmpfile();
+  REQUIRE(f);
+  RunInfo info;
+  info.messages = f;
+  Gr gr(params(), info);
+  gr.configure(*s);
+  std::rewind(f);
+  std::string text;
+  for (int c; (c = std::fgetc(f)) != EOF;) text += char(c);
+  std::fclose(f);
+  CHECK(gr.mixture());
+  CHECK_THAT(text, Catch::Contains("diameters from 1 to 1.2") && Catch::Contains("one diameter per species"));
+  CHECK(std::isnan(gr.pair_contact(0, 0)));  // no frame yet
 }
