@@ -5,17 +5,36 @@
 //
 //   g(r_k) = H_k / (frames · N(N−1)/(2V) · shell_k),  shell_k = π(r_hi² − r_lo²) or 4π/3 (r_hi³ − r_lo³)
 //
-// Metrics after each call (from the accumulated histogram):
-//   g_contact  g(σ⁺): a least-squares quadratic through the bins in [σ, σ + fit_width·σ]
-//              (at least three), evaluated at r = σ; σ is the mean diameter (the contact value
-//              is meant for equal disks/spheres)
-//   Z          the hard-core virial pressure βP/ρ = 1 + 2η g(σ⁺) (2D), 1 + 4η g(σ⁺) (3D), η the
-//              packing fraction
+// r is in units of σ, the mean diameter, for mixtures too (the total g(r) of all pairs).
+//
+// Metrics after each call, cumulative over the frames accumulated so far (not of the last frame
+// alone); NaN before the first accumulated frame (before from_step):
+//   g_contact  one diameter: g(σ⁺), a least-squares quadratic through the bins in
+//              [σ, σ + fit_width·σ] (at least three), evaluated at r = σ.
+//              Several diameters (a mixture): the weighted mean Σ_ij w_ij g_ij(σ_ij⁺) / Σ_ij w_ij,
+//              w_ij = x_i x_j σ_ij^d over ordered species pairs, of the partial contact values
+//   Z          the hard-core virial pressure βP/ρ. One diameter: 1 + 2η g(σ⁺) (2D), 1 + 4η g(σ⁺)
+//              (3D), η the packing fraction. A mixture (additive hard disks/spheres):
+//                2D: Z = 1 + (πρ/2) Σ_ij x_i x_j σ_ij² g_ij(σ_ij⁺)
+//                3D: Z = 1 + (2πρ/3) Σ_ij x_i x_j σ_ij³ g_ij(σ_ij⁺)
+//              ρ = N/V, x_i the number fraction of species i, σ_ij = (σ_i + σ_j)/2, i.e.
+//              Z = 1 + (πρ/2)·Σw·g_contact (2D). For one diameter these are the formulas above
+//              (πρσ²/2 = 2η, 2πρσ³/3 = 4η); equal diameters take that path unchanged, whatever
+//              the number of types.
+// A species is a `type`; its σ_i is the mean diameter of its particles (a warning when they
+// differ). The partial g_ij near contact is histogrammed in r/σ_ij (σ_ij of the pair's own
+// diameters), bins of the same reduced width as g(r)'s (r_max/bins), normalised by the ideal
+// count of the pair class (N_i N_j pairs for i ≠ j, N_i(N_i − 1)/2 for i = j) and fitted like
+// g(σ⁺); a class with no pair (one particle of its species) counts as g_ij = 0.
 // finish() writes the histogram as CSV (`file`, default gr.csv) in the output directory:
-// r_lo, r_hi, r, g, pairs, after '#' lines with N, σ, η, frames, g_contact and Z. Each
-// checkpoint writes it as `file`.partial, which a completed run renames.
+// r_lo, r_hi, r, g, pairs, after '#' lines with N, σ, η, frames, g_contact and Z, and for a
+// mixture one line per species pair, "# g_contact[A,B] = ...". Each checkpoint writes it as
+// `file`.partial, which a completed run renames.
 #pragma once
+#include <algorithm>
+#include <cmath>
 #include <cstdint>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -37,18 +56,31 @@ struct GrParams {
     p(r_max, "r_max", "largest distance histogrammed, in units of σ (the mean diameter)").above(0);
     p(bins, "bins", "histogram bins over [0, r_max)").at_least(1).at_most(1000000);
     p(fit_width, "fit_width",
-      "g(σ⁺) is a quadratic fit over the bins in [σ, σ + fit_width·σ] (at least three), in σ")
+      "g(σ⁺) is a quadratic fit over the bins in [σ, σ + fit_width·σ] (at least three), in σ; for a mixture "
+      "each g_ij(σ_ij⁺) over [σ_ij, σ_ij + fit_width·σ_ij]")
         .above(0);
     p(from_step, "from_step", "ignore calls before this step (equilibration)").at_least(0);
     p(file, "file", "CSV output, relative to the run's output directory");
   }
 };
 
+// The partial histograms near contact of a mixture: per particle its type (0 ≤ type < types) and
+// diameter; `bins` bins of width ds in r/σ_ij from 0.
+struct ContactWindow {
+  const std::int32_t* type = nullptr;
+  const double* diameter = nullptr;
+  int types = 1;
+  double ds = 0.02;
+  std::size_t bins = 0;
+};
+
 // One frame's pair counts: hist[k] += unordered pairs with r in [k·dr, (k+1)·dr), r < r_max.
 // `xyz` is N x dim (double), box edges L; cells[k] cells along axis k with L[k]/cells[k] ≥ r_max.
-// Deterministic (integer sums) for any thread count.
+// With `contact`, also contact_hist[(a·types + b)·bins + k] += pairs of types a ≤ b with r/σ_ij
+// in [k·ds, (k+1)·ds) (and r < r_max). Deterministic (integer sums) for any thread count.
 void count_pairs(const std::vector<double>& xyz, int dim, const double* L, const int* cells, double r_max,
-                 std::vector<std::uint64_t>& hist);
+                 std::vector<std::uint64_t>& hist, const ContactWindow* contact = nullptr,
+                 std::vector<std::uint64_t>* contact_hist = nullptr);
 
 // g(σ⁺) from g per bin (edges k·dr): quadratic least squares over bins with r_lo ≥ σ and
 // r_hi ≤ σ(1 + fit_width), at least three bins; 0 when there are not enough bins.
@@ -59,7 +91,8 @@ class Gr final : public Stage {
   static StageDecl declaration() {
     return {"observe.gr",
             "pair distribution g(r) accumulated over calls (cell list); metrics g_contact = g(σ⁺) and the "
-            "hard-core pressure Z; writes gr.csv",
+            "hard-core pressure Z (a mixture: the contact theorem over the species pairs' g_ij(σ_ij⁺)), "
+            "cumulative, NaN before from_step; writes gr.csv",
             schema_of<GrParams>(), {2, 3}, true};
   }
 
@@ -68,7 +101,9 @@ class Gr final : public Stage {
   Gr(GrParams p, RunInfo info) : p_(std::move(p)), info_(std::move(info)) {}
 
   std::vector<Access> accesses() const override {
-    return {{fields::position, Where::host, Mode::read}, {fields::diameter, Where::host, Mode::read}};
+    return {{fields::position, Where::host, Mode::read},
+            {fields::diameter, Where::host, Mode::read},
+            {fields::type, Where::host, Mode::read}};
   }
   void configure(State& s) override;
   Outcome run(StepContext& ctx) override;
@@ -83,6 +118,14 @@ class Gr final : public Stage {
   std::vector<double> g() const;
   double dr() const { return dr_; }
   double sigma() const { return sigma_; }
+  // Whether the particles have more than one diameter (the mixture contact theorem).
+  bool mixture() const { return mixture_; }
+  // A mixture's species names and its contact value g_ij(σ_ij⁺) of types i, j (NaN before the
+  // first frame); with one diameter, g_contact.
+  const std::vector<std::string>& species() const { return species_; }
+  double pair_contact(int i, int j) const {
+    return mixture_ ? pair_contact_[std::size_t(std::min(i, j) * types_ + std::max(i, j))] : g_contact_;
+  }
 
  private:
   GrParams p_;
@@ -99,7 +142,23 @@ class Gr final : public Stage {
   std::vector<std::uint64_t> hist_;
   std::uint64_t frames_ = 0;
   std::vector<double> xyz_;  // scratch: positions in double
-  double g_contact_ = 0, z_ = 1;
+  static constexpr double nan_ = std::numeric_limits<double>::quiet_NaN();
+  double g_contact_ = nan_, z_ = nan_;
+  // A mixture's species and their partial contact histograms (see ContactWindow).
+  bool mixture_ = false;
+  int types_ = 1;
+  std::vector<std::string> species_;
+  std::vector<double> species_sigma_, species_x_;
+  std::vector<std::uint64_t> species_n_;
+  std::vector<std::int32_t> type_;
+  std::vector<double> diameter_;
+  double ds_ = 0.02;
+  std::size_t contact_bins_ = 0;
+  std::vector<std::uint64_t> contact_hist_;
+  std::uint64_t contact_frames_ = 0;  // frames in contact_hist_ (a checkpoint from before mixtures has none)
+  std::vector<double> pair_contact_;
+  void configure_mixture(State& s);
+  void update_mixture_metrics();
   bool finished_ = false;
   std::string write_partial() const;  // the CSV as `file`.partial; returns its path
 };
