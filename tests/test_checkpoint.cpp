@@ -115,25 +115,6 @@ std::vector<fs::path> checkpoints(const fs::path& dir) {
   return out;
 }
 
-// A text dataset GROUP/NAME of a checkpoint file ("" if it has none).
-std::string checkpoint_text(const fs::path& file, const std::string& group, const std::string& name) {
-  hid_t f = H5Fopen(file.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
-  REQUIRE(f >= 0);
-  std::string out;
-  const std::string path = group + "/" + name;
-  if (H5Lexists(f, group.c_str(), H5P_DEFAULT) > 0 && H5Lexists(f, path.c_str(), H5P_DEFAULT) > 0) {
-    hid_t d = H5Dopen2(f, path.c_str(), H5P_DEFAULT);
-    hid_t t = H5Dget_type(d);
-    out.assign(H5Tget_size(t), '\0');
-    H5Dread(d, t, H5S_ALL, H5S_ALL, H5P_DEFAULT, out.data());
-    while (!out.empty() && out.back() == '\0') out.pop_back();
-    H5Tclose(t);
-    H5Dclose(d);
-  }
-  H5Fclose(f);
-  return out;
-}
-
 // One pipeline, its --set arguments, the H5MD file and CSV files it writes.
 struct Case {
   std::string file;
@@ -242,7 +223,7 @@ TEST_CASE("checkpoint continuation: --resume takes the run's own --set arguments
   // Its checkpoints record the sets it ran with (the earlier run's, then its own), once each.
   const std::vector<fs::path> written = checkpoints(two);
   REQUIRE(!written.empty());
-  const std::string sets = checkpoint_text(written.back(), "pipeline", "overrides");
+  const std::string sets = text_dataset(written.back(), "pipeline/overrides");
   INFO(written.back().string() << " pipeline/overrides: " << sets);
   CHECK_THAT(sets, Catch::Contains("system.N=400") && Catch::Contains("run.steps=" + std::to_string(2 * n)));
   std::size_t steps_sets = 0;

@@ -65,12 +65,18 @@ inline std::map<std::string, Dataset> datasets(const std::filesystem::path& file
   return out;
 }
 
-// A scalar string dataset under /parameters (/parameters/effective_pipeline, ...), or "" when missing.
-inline std::string parameter_text(const std::filesystem::path& file, const std::string& dataset) {
+// A scalar string dataset at `dataset` (an H5MD file's /parameters/effective_pipeline, a
+// checkpoint's pipeline/overrides, ...), or "" when it or a group above it is missing.
+inline std::string text_dataset(const std::filesystem::path& file, const std::string& dataset) {
   hid_t f = H5Fopen(file.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
   if (f < 0) return "";
   std::string out;
-  if (H5Lexists(f, "/parameters", H5P_DEFAULT) > 0 && H5Lexists(f, dataset.c_str(), H5P_DEFAULT) > 0) {
+  bool exists = true;  // (H5Lexists needs every group above the last link to exist)
+  for (std::size_t slash = dataset.find('/', 1); exists; slash = dataset.find('/', slash + 1)) {
+    exists = H5Lexists(f, dataset.substr(0, slash).c_str(), H5P_DEFAULT) > 0;
+    if (slash == std::string::npos) break;
+  }
+  if (exists) {
     hid_t d = H5Dopen2(f, dataset.c_str(), H5P_DEFAULT);
     hid_t t = H5Dget_type(d);
     out.assign(H5Tget_size(t), '\0');
@@ -81,6 +87,11 @@ inline std::string parameter_text(const std::filesystem::path& file, const std::
   }
   H5Fclose(f);
   return out;
+}
+
+// A scalar string dataset under /parameters (/parameters/effective_pipeline, ...), or "" when missing.
+inline std::string parameter_text(const std::filesystem::path& file, const std::string& dataset) {
+  return dataset.rfind("/parameters", 0) == 0 ? text_dataset(file, dataset) : "";
 }
 
 inline std::string file_text(const std::filesystem::path& p) {
