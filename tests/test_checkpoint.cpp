@@ -211,7 +211,8 @@ TEST_CASE("checkpoint continuation: --resume takes the run's own --set arguments
   // Before: a run made with --set system.N=400 was refused on --resume without that --set again
   // ("the pipeline's structure differs"), with advice to start a new run from a frame.
   if (!device_available()) return;
-  const Case c = abp_case();
+  Case c = abp_case();
+  c.sets.back() = "run.checkpoint={every: 25,\n keep: 2}";  // a value over two lines is recorded and taken whole
   const std::uint64_t n = 60;
   const fs::path one = fresh_dir("inherit_one"), two = fresh_dir("inherit_two");
   require_success(pipeline(run_args(c, one, 2 * n)));

@@ -358,6 +358,16 @@ TEST_CASE("sweep: its folder: not another's files, not two sweeps at once, exten
   // The same command again: nothing to run, and it says so.
   CHECK_THAT(require_success(pipeline(base + " --grid run.seed=1,2 --out " + out.string())).out,
              Catch::Contains("nothing to run: all 2 runs were done before"));
+  // A sweep.txt written before it recorded the device is the same sweep on today's device.
+  {
+    std::string recorded = file_text(out / "sweep.txt");
+    const std::size_t device = recorded.find("device: ");
+    REQUIRE(device != std::string::npos);
+    recorded.erase(device, recorded.find('\n', device) - device + 1);
+    std::ofstream(out / "sweep.txt") << recorded;
+    CHECK_THAT(require_success(pipeline(base + " --grid run.seed=1,2 --out " + out.string())).out,
+               Catch::Contains("nothing to run"));
+  }
   // Values added to the axis: the sweep goes on in its folder; only the new run runs.
   auto more = require_success(pipeline(base + " --grid run.seed=1,2,3 --out " + out.string()));
   CHECK_THAT(more.out, Catch::Contains("extends the sweep in " + out.string() + " with run.seed=3") &&
@@ -371,6 +381,15 @@ TEST_CASE("sweep: its folder: not another's files, not two sweeps at once, exten
   auto fewer = pipeline(base + " --grid run.seed=1,3 --out " + out.string());
   CHECK(fewer.code == 2);
   CHECK_THAT(fewer.out, Catch::Contains("was:  grid: run.seed=1,2,3") && Catch::Contains("now:  grid: run.seed=1,3"));
+  // The same --grid arguments in another order: another sweep (other folder names), and it says how
+  // (before: "holds another sweep" with nothing under it).
+  const fs::path two_axes = fresh_dir("two_axes");
+  require_success(pipeline(base + " --grid run.seed=1,2 --grid step.brownian.integrate.D=1,2 --out " + two_axes.string()));
+  auto reordered = pipeline(base + " --grid step.brownian.integrate.D=1,2 --grid run.seed=1,2 --out " + two_axes.string());
+  INFO(reordered.out);
+  CHECK(reordered.code == 2);
+  CHECK_THAT(reordered.out, Catch::Contains("(in this order)"));
+  fs::remove_all(two_axes);
   // A second sweep while one runs there (the lock file held by another process): refused.
   const fs::path lock = out / ".sweep.lock";
   const std::string hold = "exec 9<>" + lock.string() + "; flock -n 9 && echo 4242 >&9 && sleep 3";
@@ -393,6 +412,9 @@ TEST_CASE("sweep: its folder: not another's files, not two sweeps at once, exten
   auto twice = pipeline(base + " --grid step.brownian.integrate.D=1,1.0 --out " + fresh_dir("twice").string());
   CHECK(twice.code == 2);
   CHECK_THAT(twice.out, Catch::Contains("the value '1.0' is given twice ('1' is the same value)"));
+  auto zeros = pipeline(base + " --grid run.seed=0,-0 --out " + fresh_dir("zeros").string());
+  CHECK(zeros.code == 2);
+  CHECK_THAT(zeros.out, Catch::Contains("the value '-0' is given twice"));
   auto both = pipeline(base + " --set step.brownian.integrate.D=5 --grid step.brownian.integrate.D=1,2 --out " +
                        fresh_dir("both").string());
   CHECK(both.code == 2);

@@ -51,6 +51,26 @@ std::string join_lines(const std::vector<std::string>& lines) {
   return out;
 }
 
+// A text as one line: '\\' and newlines as "\\\\" and "\\n"; unescape_newlines undoes it.
+std::string escape_newlines(const std::string& s) {
+  std::string out;
+  for (char c : s) out += c == '\\' ? std::string("\\\\") : c == '\n' ? std::string("\\n") : std::string(1, c);
+  return out;
+}
+
+std::string unescape_newlines(const std::string& s) {
+  std::string out;
+  for (std::size_t i = 0; i < s.size(); ++i) {
+    if (s[i] == '\\' && i + 1 < s.size()) {
+      out += s[i + 1] == 'n' ? '\n' : s[i + 1];
+      ++i;
+    } else {
+      out += s[i];
+    }
+  }
+  return out;
+}
+
 std::vector<std::string> split_lines(const std::string& text) {
   std::vector<std::string> out;
   std::istringstream in(text);
@@ -240,7 +260,9 @@ std::string Checkpointer::write() {
 
   d.put_text("pipeline/text", record_.pipeline_text);
   d.put_text("pipeline/effective", record_.effective_pipeline);
-  d.put_text("pipeline/overrides", join_lines(record_.overrides));
+  std::vector<std::string> one_line_each;  // (a --set value may span lines: YAML's flow maps)
+  for (auto& o : record_.overrides) one_line_each.push_back(escape_newlines(o));
+  d.put_text("pipeline/overrides", join_lines(one_line_each));
   d.put_text("pipeline/file", sim_.spec().file);
   d.put_text("pipeline/resolved", join_lines(resolved_parameters(sim_.spec())));
   d.put_text("pipeline/structure", join_lines(pipeline_structure(sim_.spec())));
@@ -425,7 +447,10 @@ std::string checkpoint_history(const CheckpointData& data) {
 }
 
 std::vector<std::string> checkpoint_overrides(const CheckpointData& data) {
-  return data.has("pipeline/overrides") ? split_lines(data.text("pipeline/overrides")) : std::vector<std::string>{};
+  std::vector<std::string> out;
+  if (data.has("pipeline/overrides"))
+    for (auto& line : split_lines(data.text("pipeline/overrides"))) out.push_back(unescape_newlines(line));
+  return out;
 }
 
 }  // namespace ff

@@ -61,7 +61,8 @@ extern "C" void on_signal(int sig) {
     while (text[n]) ++n;
     [[maybe_unused]] const ssize_t w = ::write(2, text, n);
   };
-  if (g_signal.exchange(sig) != 0) {
+  int none = 0;
+  if (!g_signal.compare_exchange_strong(none, sig)) {  // (the first signal is the one the run reports)
     if (sig != SIGINT) return;
     say("\nflipflow: a second interrupt: stopped at once, without a checkpoint\n");
     std::_Exit(128 + sig);

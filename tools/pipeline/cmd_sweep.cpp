@@ -148,6 +148,13 @@ std::string differences(const std::string& before, const std::string& now) {
     if (std::find(nh.begin(), nh.end(), l) == nh.end()) note("was:  " + l);
   for (auto& l : nh)
     if (std::find(bh.begin(), bh.end(), l) == bh.end()) note("now:  " + l);
+  if (shown == 0 && bh != nh)  // the same lines in another order (two --grid arguments swapped)
+    for (std::size_t k = 0; k < std::min(bh.size(), nh.size()); ++k)
+      if (bh[k] != nh[k]) {
+        note("was:  " + bh[k] + "  (in this order)");
+        note("now:  " + nh[k]);
+        break;
+      }
   const std::size_t bl = b.size() - std::min(b.size(), bf + 1), nl = n.size() - std::min(n.size(), nf + 1);
   for (std::size_t k = 0; k < std::max(bl, nl); ++k) {
     const std::string x = k < bl ? b[bf + 1 + k] : "(no line)", y = k < nl ? n[nf + 1 + k] : "(no line)";
@@ -170,6 +177,13 @@ class FolderLock {
     fd_ = ::open(file.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
     if (fd_ < 0) throw InputError("cannot open '" + file.string() + "': " + std::strerror(errno));
     if (::flock(fd_, LOCK_EX | LOCK_NB) != 0) {
+      if (errno != EWOULDBLOCK) {
+        // A file system without locks (Lustre mounted noflock, some NFS and FUSE mounts): go on
+        // unguarded rather than never run there.
+        std::cerr << "sweep: warning: cannot lock '" << file.string() << "' (" << std::strerror(errno)
+                  << "): nothing keeps a second sweep out of this folder while this one runs\n";
+        return;
+      }
       char pid[32] = {};
       [[maybe_unused]] const ssize_t n = ::pread(fd_, pid, sizeof pid - 1, 0);
       ::close(fd_);
@@ -208,14 +222,19 @@ std::unique_ptr<FolderLock> claim_folder(const std::string& out, const SweepArgs
   if (ec) throw InputError("--out: cannot create the sweep's folder '" + out + "': " + ec.message());
   auto lock = std::make_unique<FolderLock>(root);
   if (fs::exists(def_file) && !a.force) {
-    const std::string before = file_text(def_file);
+    std::string before = file_text(def_file);
+    // (sweep.txt from before it recorded the device: the same sweep on the device it names now)
+    if (before.find("\ndevice: ") == std::string::npos) {
+      const std::size_t line_end = before.find('\n');
+      if (line_end != std::string::npos) before.insert(line_end + 1, std::string("device: ") + to_string(backend) + "\n");
+    }
     std::string added;
     if (before != def && !extends(before, def, added))
       throw InputError("'" + out + "' holds another sweep (" + def_file.string() + " records its file, device, --set, "
                        "--grid and --replicas):" + differences(before, def) +
                        "\nUse another --out; --force to run this one there from the start; or give the same "
                        "arguments with values added to a --grid axis to extend that sweep");
-    if (before != def) std::cerr << "sweep: extends the sweep in " << out << " with " << added << "\n";
+    if (!added.empty()) std::cerr << "sweep: extends the sweep in " << out << " with " << added << "\n";
   }
   std::ofstream d(def_file, std::ios::trunc);
   d << def;

@@ -1,6 +1,7 @@
 // `pipeline sweep`'s command line and plan (sweep.h): the flags, the --grid axes, and every run
 // checked through the loader and a dry run before the sweep writes anything, so that a bad key
 // or value is exit 2 naming its --grid argument instead of a folder of failed runs.
+#include <cstdio>
 #include <filesystem>
 #include <map>
 #include <memory>
@@ -98,6 +99,12 @@ void refuse_one_parameter_twice(const SweepArgs& a, const PipelineSpec& spec) {
 // Fills in every run's seed, sets, N and steps. The first replica of a combination goes through
 // the loader and a dry run; the others differ from it only in the seed, so they are derived from
 // it without loading again.
+// Where the dry runs after the first put their messages.
+std::FILE* quiet() {
+  static std::FILE* nowhere = std::fopen("/dev/null", "w");
+  return nowhere ? nowhere : stderr;
+}
+
 void resolve_runs(const SweepArgs& a, std::vector<Run>& runs) {
   // A registry per plugin list: loading plugins is the slow part of resolving, and most sweeps
   // use one list for every combination.
@@ -132,8 +139,11 @@ void resolve_runs(const SweepArgs& a, std::vector<Run>& runs) {
       // own) too, so that each records it among its --set arguments.
       if (a.replicas > 1) sets.push_back("run.seed=" + std::to_string(run.seed));
       // As `pipeline validate`: every stage configured on the real initial state, no files.
+      // Its warnings (an output outside the run's folder, a repeated stage) once, from the
+      // first combination: they are the same for every run, and each run's log has them too.
       RunOptions o;
       o.dry_run = true;
+      if (&run != &runs.front()) o.messages = quiet();
       Simulation dry(spec, *registry, o);
     } catch (const InputError& e) {
       throw InputError(blame(a, run, e.what()));

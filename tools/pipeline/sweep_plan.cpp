@@ -1,4 +1,5 @@
 // `pipeline sweep`: grid arguments, combinations, folder names, the index CSV (sweep.h).
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <map>
@@ -50,11 +51,14 @@ Axis parse_grid(const std::string& arg) {
   for (auto& v : a.values) {
     v = trimmed(v);
     if (v.empty()) throw InputError(where + ": an empty value (two commas in a row, or one at the end)");
+    // A decimal number (not inf, nan or hex, which the loader refuses anyway) is its value; -0 is 0.
     char* end = nullptr;
-    const double x = std::strtod(v.c_str(), &end);
+    double x = std::strtod(v.c_str(), &end);
+    const bool decimal = *end == 0 && v.find_first_not_of("0123456789+-.eE") == std::string::npos && std::isfinite(x);
+    if (x == 0) x = 0;
     std::ostringstream number;
     number << std::setprecision(17) << x;
-    const std::string identity = *end == 0 ? "number " + number.str() : v;
+    const std::string identity = decimal ? "number " + number.str() : v;
     auto [it, fresh] = seen.emplace(identity, v);
     if (!fresh)
       throw InputError(where + ": the value '" + v + "' is given twice" +

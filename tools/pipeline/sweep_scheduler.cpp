@@ -476,9 +476,10 @@ void RunScheduler::finish(std::size_t active_index, int status) {
     first_step_ = std::min(first_step_, end - summary.seconds);
     last_step_ = std::max(last_step_, end);
     verb = "done";
-  } else if (r.exit_code == 3 || (g_stop.load() && !WIFEXITED(status))) {
-    // Exit 3: the run stopped on SIGTERM after writing a checkpoint; killed by a signal while
-    // the sweep was stopping: interrupted too, not failed, so the next invocation continues it.
+  } else if (r.exit_code == 3 || g_stop.load()) {
+    // Exit 3: the run stopped on SIGTERM after writing a checkpoint; ended any other way while
+    // the sweep was stopping (killed, or stopped at once by a second Ctrl-C, exit 130):
+    // interrupted too, not failed, so the next invocation continues it.
     // (not the run's own "continue with: pipeline run ... --resume", which would leave the index behind)
     r.status = "interrupted";
     r.message = r.exit_code == 3 ? "stopped with a checkpoint; run the sweep's command again to continue it"
