@@ -158,9 +158,11 @@ struct NullBuffer : std::streambuf {
 };
 
 // The run of one rank (`team` null: alone). In a team every rank builds its Simulation from
-// the same loaded pipeline (one after another, under `setup`, one lock for the process: the
-// plugins' set-up is not meant for several threads at once), rank 0 alone logs, writes checkpoints and outputs,
-// and the ranks agree every step on whether to stop (a signal seen by any rank).
+// the same pipeline (`given`, or for a continuation the pipeline loaded again with the
+// checkpoint's --set arguments, by each rank alike), one after another under `setup`, one lock
+// for the process: the plugins' set-up is not meant for several threads at once. Rank 0 alone
+// logs, writes checkpoints and outputs, and the ranks agree every step on whether to stop (a
+// signal seen by any rank).
 int run_rank(const RunRequest& req, const Loaded& given, Backend backend, std::ostream& log,
              const std::atomic<int>& stop, const std::function<void()>& before_steps, Communicator* team,
              std::mutex& setup) {
