@@ -314,9 +314,21 @@ TEST_CASE("malformed overrides are input errors", "[pipeline_loader]") {
              StartsWith("--set sytem.N=3: unknown section 'sytem'; did you mean 'system'?"));
   CHECK_THAT(error_of_text(kMinimal, {"run=3"}), StartsWith("--set run=3: expected one of system.<key>, run.<key>"));
   CHECK_THAT(error_of_text(kMinimal, {"system.types.0.name=B"}), StartsWith("--set system.types.0.name=B: expected"));
-  // A key inside a map: the message shows how to set the map.
+  // A key inside a map or list: the message writes out the whole value, from the file's, with the
+  // change made (before: 'system.init={frame: ...}' for a file's {from: a.h5, frame: -1}, which
+  // then failed for want of 'from').
   CHECK_THAT(error_of_text(kMinimal, {"run.checkpoint.every=5"}),
-             Contains("a nested value is set with its whole map, e.g. --set 'run.checkpoint={every: ...}'"));
+             Contains("a value inside run.checkpoint is set by giving run.checkpoint whole: --set 'run.checkpoint={every: 5}'"));
+  const std::string nested = "system: {dimensions: 2, N: 100, packing_fraction: 0.3, init: {from: a.h5, frame: -1},\n"
+                             "  types: [{name: A, fraction: 0.5}, {name: B, fraction: 0.5, diameter: 1.2}]}\n"
+                             "run: {steps: 10, dt: 0.01}\nstep:\n  - {stage: fake.integrate}\n";
+  CHECK_THAT(error_of_text(nested, {"system.init.frame=3"}), Contains("--set 'system.init={from: a.h5, frame: 3}'"));
+  CHECK_THAT(error_of_text(nested, {"system.types[0].fraction=0.3"}),
+             Contains("--set 'system.types=[{name: A, fraction: 0.3}, {name: B, fraction: 0.5, diameter: 1.2}]'"));
+  CHECK_THAT(error_of_text("system: {N: 10, packing_fraction: 0.5, init: random}\nrun: {steps: 10, dt: 0.01}\n"
+                            "step:\n  - {stage: fake.integrate}\n",
+                            {"system.init.frame=3"}),
+             Contains("--set 'system.init={frame: 3}' (the file has system.init: random, not a map"));
   CHECK_THAT(error_of_text(kMinimal, {"step.D=3"}), StartsWith("--set step.D=3: expected one of"));
   CHECK(error_of_text(kMinimal, {"step.7.D=3"}) == "--set step.7.D=3: no step[7]: the step list has 2 entries");
   CHECK(error_of_text(kMinimal, {"step.lawson.b.max_rounds=3"}) ==

@@ -42,6 +42,11 @@ struct PipelineDocument::Impl {
 
  private:
   YAML::Node section(const std::string& name, const std::string& where);
+  // The value of head.name with its element or key `inner` (in element `outer` = name[i] of a
+  // list) set to `value`, in flow style: what --set head.name=... takes whole; then the closing
+  // quote of the suggested --set, and a note where the file's value is not a map or list.
+  std::string whole_value(const std::string& head, const std::string& name, const std::string& outer,
+                          const std::string& inner, const YAML::Node& value) const;
   YAML::Node entry(const std::string& x, const std::string& param, const std::string& value, const std::string& where);
 };
 
@@ -111,6 +116,40 @@ YAML::Node PipelineDocument::Impl::entry(const std::string& x, const std::string
   return e;
 }
 
+namespace {
+// `node` in YAML's flow style, on one line ({from: a.h5, frame: 3}, [10, 20]).
+std::string flow(const YAML::Node& node) {
+  YAML::Emitter out;
+  out << YAML::Flow << node;
+  return out.c_str();
+}
+}  // namespace
+
+std::string PipelineDocument::Impl::whole_value(const std::string& head, const std::string& name,
+                                                const std::string& outer, const std::string& inner,
+                                                const YAML::Node& value) const {
+  YAML::Node whole = root[head] && root[head][name] ? YAML::Clone(root[head][name]) : YAML::Node(YAML::NodeType::Map);
+  YAML::Node target = whole;
+  const std::size_t open = outer.find('[');
+  if (open != std::string::npos) {  // name[i]: an element of a list
+    const std::string digits = outer.substr(open + 1, outer.find(']') - open - 1);
+    if (!whole.IsSequence() || !is_number(digits) || std::stoul(digits) >= whole.size())
+      return "[{" + inner + ": ...}, ...]' (the file has no element " + digits + " there)";
+    target.reset(whole[std::stoul(digits)]);  // (reset: operator= would overwrite `whole` itself)
+  }
+  if (target.IsSequence() && is_number(inner) && std::stoul(inner) < target.size()) {
+    target[std::stoul(inner)] = value;
+  } else if (target.IsMap() || !target.IsDefined() || target.IsNull()) {
+    target[inner] = value;
+  } else {  // a scalar in the file (init: random): a map of the one key, and what the file has
+    YAML::Node map(YAML::NodeType::Map);
+    map[inner] = value;
+    return flow(map) + "' (the file has " + head + "." + name + ": " + flow(target) +
+           ", not a map; the map may need more keys)";
+  }
+  return flow(whole) + "'";
+}
+
 void PipelineDocument::Impl::apply(const std::string& given) {
   const std::string where = "--set " + given;
   const auto eq = given.find('=');
@@ -144,10 +183,17 @@ void PipelineDocument::Impl::apply(const std::string& given) {
     YAML::Node e = entry(rest.substr(0, last), rest.substr(last + 1), value_text, where);
     e[rest.substr(last + 1)] = value;
   } else if ((head == "system" || head == "run") && rest.find('.') != std::string::npos) {
-    // A key inside a map value (run.checkpoint.every): the map is set whole.
-    const std::string outer = rest.substr(0, rest.find('.'));
-    bad_override(where, "expected one of " + forms + "; a nested value is set with its whole map, e.g. --set '" +
-                            head + "." + outer + "={" + rest.substr(rest.find('.') + 1) + ": ...}'");
+    // A key inside a map or list value (run.checkpoint.every, system.init.frame,
+    // system.types[0].fraction, system.box.0): that value is set whole. The message writes it out
+    // from the file's own, with this change made, so that it can be pasted.
+    const std::string outer = rest.substr(0, rest.find('.')), inner = rest.substr(rest.find('.') + 1);
+    const std::string name = outer.substr(0, outer.find('['));
+    if (inner.find('.') != std::string::npos)  // deeper than one level: say how, without writing it out
+      bad_override(where, "expected one of " + forms + "; a value inside " + head + "." + name + " is set by giving " +
+                              head + "." + name + " whole (--set '" + head + "." + name + "=...')");
+    bad_override(where, "a value inside " + head + "." + name + " is set by giving " + head + "." + name +
+                            " whole: --set '" + head + "." + name + "=" +
+                            whole_value(head, name, outer, inner, value));
   } else if (one_of(head, kTopKeys)) {
     bad_override(where, "expected one of " + forms);
   } else {
