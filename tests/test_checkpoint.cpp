@@ -236,6 +236,19 @@ TEST_CASE("checkpoint continuation: --resume takes the run's own --set arguments
   CHECK_THAT(again.out, Catch::Contains("N = 400"));
   fs::remove_all(one);
   fs::remove_all(two);
+  // A file valid only with the run's --set (D: -1 refused): the continuation's own load waits for
+  // the checkpoint's sets (before: refused at the first load, naming D).
+  const fs::path dir = fresh_dir("inherit_fix");
+  fs::create_directories(dir);
+  std::ofstream(dir / "fix.yaml") << "system: {dimensions: 2, N: 100, packing_fraction: 0.2, init: random}\n"
+                                     "run: {steps: 20, dt: 0.001, checkpoint: {every: 10}}\nplugins: [brownian]\n"
+                                     "step:\n  - {stage: brownian.integrate, D: -1}\n"
+                                     "  - {stage: observe.h5md, every: 10, file: t.h5, fields: [position]}\n";
+  const std::string file = (dir / "fix.yaml").string(), out = (dir / "out").string();
+  require_success(pipeline("run " + file + " --set step.brownian.integrate.D=1 --out " + out));
+  CHECK(pipeline("run " + file + " --set run.steps=40 --out " + (dir / "fresh").string()).code == 2);
+  require_success(pipeline("run " + file + " --set run.steps=40 --resume --out " + out));
+  fs::remove_all(dir);
 }
 
 TEST_CASE("checkpoint continuation: hard disks with rollbacks in the second half, and g(r)", "[checkpoint]") {

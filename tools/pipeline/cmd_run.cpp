@@ -10,6 +10,7 @@
 #include <csignal>
 #include <cstdio>
 #include <ctime>
+#include <exception>
 #include <filesystem>
 #include <fstream>
 #include <iostream>
@@ -163,9 +164,9 @@ struct NullBuffer : std::streambuf {
 // for the process: the plugins' set-up is not meant for several threads at once. Rank 0 alone
 // logs, writes checkpoints and outputs, and the ranks agree every step on whether to stop (a
 // signal seen by any rank).
-int run_rank(const RunRequest& req, const Loaded& given, Backend backend, std::ostream& log,
-             const std::atomic<int>& stop, const std::function<void()>& before_steps, Communicator* team,
-             std::mutex& setup) {
+int run_rank(const RunRequest& req, const std::optional<Loaded>& given, const std::exception_ptr& given_error,
+             Backend backend, std::ostream& log, const std::atomic<int>& stop,
+             const std::function<void()>& before_steps, Communicator* team, std::mutex& setup) {
   const bool lead = !team || team->rank() == 0;
   std::string out = req.out;
   const std::string& resume_where = req.resume_where;
@@ -187,7 +188,8 @@ int run_rank(const RunRequest& req, const Loaded& given, Backend backend, std::o
     const std::vector<std::string> earlier_sets = checkpoint_overrides(resume_point->data);
     if (!earlier_sets.empty()) with_earlier_sets = load(req.file, after(earlier_sets, req.overrides));
   }
-  const Loaded& loaded = with_earlier_sets ? *with_earlier_sets : given;
+  if (!with_earlier_sets && !given) std::rethrow_exception(given_error);
+  const Loaded& loaded = with_earlier_sets ? *with_earlier_sets : *given;
   const auto& spec = loaded.spec;
 
   // What produced this run, recorded in the H5MD file and in checkpoints.
@@ -393,11 +395,20 @@ int run_pipeline(const RunRequest& req, std::ostream& log, const std::atomic<int
   if (req.resuming && req.force) throw InputError("--resume continues the outputs of a run; --force would overwrite them");
   const Backend backend = resolve_backend(req.device);
   if (req.gpus < 1) throw InputError("--gpus must be at least 1 (got " + std::to_string(req.gpus) + ")");
-  const Loaded loaded = load(req.file, req.overrides);
+  // A continuation may be valid only with the --set arguments its checkpoint recorded (run_rank
+  // loads it again with them): its own load's error waits until it is known there are none.
+  std::optional<Loaded> loaded;
+  std::exception_ptr load_error;
+  try {
+    loaded.emplace(load(req.file, req.overrides));
+  } catch (const InputError&) {
+    if (!req.resuming) throw;
+    load_error = std::current_exception();
+  }
   std::optional<tbb::global_control> limit;
   if (req.threads > 0) limit.emplace(tbb::global_control::max_allowed_parallelism, std::size_t(req.threads));
   static std::mutex setup;  // one for the process: an in-process sweep runs several run_pipeline at once
-  if (req.gpus == 1) return run_rank(req, loaded, backend, log, stop, before_steps, nullptr, setup);
+  if (req.gpus == 1) return run_rank(req, loaded, load_error, backend, log, stop, before_steps, nullptr, setup);
   // A team: one thread per rank (on the CPU backend, threads sharing the cores; --gpus N there
   // tests the split, it does not add cores).
   Team team = make_team(backend, req.gpus);
@@ -405,7 +416,8 @@ int run_pipeline(const RunRequest& req, std::ostream& log, const std::atomic<int
   std::ostream quiet(&nowhere);
   int rc = 0;
   run_team(team, [&](Communicator& comm) {
-    const int r = run_rank(req, loaded, backend, comm.rank() == 0 ? log : quiet, stop, before_steps, &comm, setup);
+    const int r = run_rank(req, loaded, load_error, backend, comm.rank() == 0 ? log : quiet, stop, before_steps, &comm,
+                           setup);
     if (comm.rank() == 0) rc = r;
   });
   return rc;
