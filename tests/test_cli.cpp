@@ -278,6 +278,15 @@ TEST_CASE("pipeline validate: a stage that moves the particles, listed twice ali
   fs::remove(file);
 }
 
+TEST_CASE("pipeline validate: a 2D pipeline made 3D is told what excludes volume in 3D", "[cli]") {
+  auto r = run("validate " + repo_file("pipelines/abp.yaml").string() + " --set system.dimensions=3");
+  INFO(r.out);
+  CHECK(r.code == 2);
+  CHECK_THAT(r.out, Catch::Contains("supports dimensions 2 only") &&
+                        Catch::Contains("neighbors.verlet + overlap_correct.verlet, as in pipelines/hard-spheres.yaml"));
+  // (other stages' messages are unchanged: test_pipeline_loader's bad_dimensions case)
+}
+
 TEST_CASE("pipeline validate: the initial state's errors name the file's line of `init`", "[cli]") {
   const fs::path file = fresh_dir("init.yaml");
   auto message = [&](const std::string& system) {

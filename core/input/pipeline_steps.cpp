@@ -94,9 +94,16 @@ Head read_head(const YAML::Node& e, std::size_t i, int dim, const Registry& reg,
   if (!std::count(decl.dimensions.begin(), decl.dimensions.end(), dim)) {
     std::vector<std::string> dims;
     for (int d : decl.dimensions) dims.push_back(std::to_string(d));
+    // The triangulation is 2D: a 2D pipeline made 3D (--set system.dimensions=3) needs the
+    // Verlet list's exclusion instead, which the message names rather than leave it to be found.
+    const bool planar = h.stage.rfind("delaunay.", 0) == 0 || h.stage == "overlap_correct" ||
+                        h.stage.rfind("voronoi.", 0) == 0 || h.stage == "neighbors.delaunay";
     loc.fail(stage->value, at + ".stage",
              "stage '" + h.stage + "' supports dimensions " + join(dims) + " only, but system.dimensions is " +
-                 std::to_string(dim));
+                 std::to_string(dim) +
+                 (planar && dim == 3 ? " (the Delaunay and Voronoi stages are 2D; hard-core exclusion in 3D is "
+                                       "neighbors.verlet + overlap_correct.verlet, as in pipelines/hard-spheres.yaml)"
+                                     : ""));
   }
   h.label = at + " (" + h.stage + ")";
   if (const Item* id = find(h.items, "id")) {
