@@ -48,47 +48,6 @@ Simulation::~Simulation() {
   }
 }
 
-namespace {
-
-// An id the loader made (entry_ids: the stage's name, then name#2, name#3 ...), not one the user gave.
-bool default_id(const StepEntry& e) {
-  if (e.id == e.stage) return true;
-  const std::string prefix = e.stage + "#";
-  return e.id.size() > prefix.size() && e.id.compare(0, prefix.size(), prefix) == 0 &&
-         e.id.find_first_not_of("0123456789", prefix.size()) == std::string::npos;
-}
-
-// A stage listed twice with the same parameters and schedule, each moving the particles: most
-// often a copied line, and for an integrator a step that moves twice (Δt, drift and noise
-// doubled) with no error to show it. Said once per pair; an `id` on the second marks it as meant.
-std::vector<std::string> repeated_movers(const PipelineSpec& spec, const StepGraph& graph) {
-  std::vector<std::string> out;
-  const auto& nodes = graph.nodes();
-  auto moves = [&](std::size_t i) {
-    for (auto& a : nodes[i].accesses)
-      if (a.field == "position" && writes(a.mode)) return true;
-    return false;
-  };
-  for (std::size_t b = 0; b < nodes.size(); ++b) {
-    const StepEntry& eb = spec.step[b];
-    if (nodes[b].observer || !default_id(eb) || !moves(b)) continue;
-    for (std::size_t a = 0; a < b; ++a) {
-      const StepEntry& ea = spec.step[a];
-      if (nodes[a].observer || ea.stage != eb.stage || ea.params.all() != eb.params.all() ||
-          ea.schedule.every != eb.schedule.every || ea.schedule.log != eb.schedule.log)
-        continue;
-      out.push_back(eb.where.str() + ": step '" + eb.id + "' repeats step '" + ea.id + "'" + (ea.where.line ? " (line " + std::to_string(ea.where.line) + ")" : std::string()) +
-                    " with the same parameters, and both move the particles: each step then moves them twice (for an "
-                    "integrator, as if Δt were doubled). Remove one, or give this one an "
-                    "`id` if it is meant");
-      break;
-    }
-  }
-  return out;
-}
-
-}  // namespace
-
 void Simulation::build(const Registry& registry) {
   // In a team, observers (and so every output) live on rank 0 only; the other ranks run the
   // compute stages on their copies of the state.
@@ -149,7 +108,7 @@ void Simulation::build(const Registry& registry) {
   }
   graph_ = std::make_unique<StepGraph>(spec_, std::move(accesses), observer);
   if (!in_team(options_.team) || options_.team->rank() == 0)
-    for (auto& w : repeated_movers(spec_, *graph_)) std::fprintf(options_.messages, "flipflow: warning: %s\n", w.c_str());
+    for (auto& w : graph_->repeated_movers(spec_)) std::fprintf(options_.messages, "flipflow: warning: %s\n", w.c_str());
   const bool decomposed = in_team(options_.team) && wants_decomposition(observer);
   if (in_team(options_.team) && !decomposed) check_team(observer);
   scheduler_ = std::make_unique<Scheduler>(*graph_, slots_, *state_, stats_, options_.backend);

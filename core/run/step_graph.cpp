@@ -8,6 +8,18 @@
 
 namespace ff {
 
+namespace {
+
+// An id the loader made (entry_ids: the stage's name, then name#2, name#3 ...), not one the user gave.
+bool default_id(const StepEntry& e) {
+  if (e.id == e.stage) return true;
+  const std::string prefix = e.stage + "#";
+  return e.id.size() > prefix.size() && e.id.compare(0, prefix.size(), prefix) == 0 &&
+         e.id.find_first_not_of("0123456789", prefix.size()) == std::string::npos;
+}
+
+}  // namespace
+
 StepGraph::StepGraph(const PipelineSpec& spec, std::vector<std::vector<Access>> accesses,
                      const std::vector<bool>& observer) {
   std::map<std::string, int> index;
@@ -80,6 +92,34 @@ void StepGraph::check_overwrites() const {
       }
     }
   }
+}
+
+// A stage listed twice with the same parameters and schedule, each moving the particles: most
+// often a copied line, and for an integrator a step that moves twice (Δt, drift and noise
+// doubled) with no error to show it. Said once per pair; an `id` on the second marks it as meant.
+std::vector<std::string> StepGraph::repeated_movers(const PipelineSpec& spec) const {
+  std::vector<std::string> out;
+  auto moves = [&](std::size_t i) {
+    for (auto& a : nodes_[i].accesses)
+      if (a.field == "position" && writes(a.mode)) return true;
+    return false;
+  };
+  for (std::size_t b = 0; b < nodes_.size(); ++b) {
+    const StepEntry& eb = spec.step[b];
+    if (nodes_[b].observer || !default_id(eb) || !moves(b)) continue;
+    for (std::size_t a = 0; a < b; ++a) {
+      const StepEntry& ea = spec.step[a];
+      if (nodes_[a].observer || ea.stage != eb.stage || ea.params.all() != eb.params.all() ||
+          ea.schedule.every != eb.schedule.every || ea.schedule.log != eb.schedule.log)
+        continue;
+      out.push_back(eb.where.str() + ": step '" + eb.id + "' repeats step '" + ea.id + "'" + (ea.where.line ? " (line " + std::to_string(ea.where.line) + ")" : std::string()) +
+                    " with the same parameters, and both move the particles: each step then moves them twice (for an "
+                    "integrator, as if Δt were doubled). Remove one, or give this one an "
+                    "`id` if it is meant");
+      break;
+    }
+  }
+  return out;
 }
 
 void StepGraph::check_conflicts() const {

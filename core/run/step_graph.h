@@ -51,6 +51,11 @@ class StepGraph {
   // after it. Only then can a retried step skip restoring it (Access::step_local).
   bool written_before_read(int w, const std::string& field) const;
 
+  // Warnings, one a pair: a compute stage listed again with the same parameters and schedule,
+  // both writing `position`, the later without an id of its own (a copied integrator line
+  // moves every particle twice a step). spec is the one the graph was built from.
+  std::vector<std::string> repeated_movers(const PipelineSpec& spec) const;
+
   std::string dot() const;      // Graphviz
   std::string summary() const;  // the resolved graph in words, for `pipeline validate`
 
