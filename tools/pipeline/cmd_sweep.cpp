@@ -107,11 +107,21 @@ std::vector<std::string> lines_of(const std::string& text) {
 // its new ones): then every run it made is a run of this one, in the same folder with the same
 // parameters, and the folder may be continued. `added` says what was added.
 bool extends(const std::string& before, const std::string& now, std::string& added) {
-  const auto b = lines_of(before), n = lines_of(now);
-  std::vector<std::string> b_rest, n_rest, b_grid, n_grid;
-  for (auto& l : b) (l.rfind("grid: ", 0) == 0 ? b_grid : b_rest).push_back(l.substr(l.rfind("grid: ", 0) == 0 ? 6 : 0));
-  for (auto& l : n) (l.rfind("grid: ", 0) == 0 ? n_grid : n_rest).push_back(l.substr(l.rfind("grid: ", 0) == 0 ? 6 : 0));
-  if (b_rest != n_rest || b_grid.size() != n_grid.size()) return false;
+  // A definition's --grid arguments, and its other lines.
+  struct Parts {
+    std::vector<std::string> grid, rest;
+  };
+  auto parts = [](const std::string& text) {
+    Parts p;
+    for (auto& l : lines_of(text))
+      if (l.rfind("grid: ", 0) == 0) p.grid.push_back(l.substr(6));
+      else p.rest.push_back(l);
+    return p;
+  };
+  const Parts b = parts(before), n = parts(now);
+  const auto& b_grid = b.grid;
+  const auto& n_grid = n.grid;
+  if (b.rest != n.rest || b_grid.size() != n_grid.size()) return false;
   for (std::size_t k = 0; k < b_grid.size(); ++k) {
     sweep::Axis old_axis, new_axis;
     try {
