@@ -141,7 +141,7 @@ std::string resume_command(const RunRequest& req, const std::string& out) {
 
 // `earlier` then `later`, a key set in both only where `later` sets it (the list a continuation
 // applies and records: it does not grow with every continuation).
-std::vector<std::string> after(const std::vector<std::string>& earlier, const std::vector<std::string>& later) {
+std::vector<std::string> earlier_then_later(const std::vector<std::string>& earlier, const std::vector<std::string>& later) {
   auto key = [](const std::string& set) { return trimmed(set.substr(0, set.find('='))); };
   std::vector<std::string> out;
   for (auto& e : earlier) {
@@ -186,7 +186,7 @@ int run_rank(const RunRequest& req, const std::optional<Loaded>& given, const st
     std::lock_guard<std::mutex> one_at_a_time(setup);
     resume_point = find_resume_point(resume_where.empty() ? out : resume_where);
     const std::vector<std::string> earlier_sets = checkpoint_overrides(resume_point->data);
-    if (!earlier_sets.empty()) with_earlier_sets = load(req.file, after(earlier_sets, req.overrides));
+    if (!earlier_sets.empty()) with_earlier_sets = load(req.file, earlier_then_later(earlier_sets, req.overrides));
   }
   if (!with_earlier_sets && !given) std::rethrow_exception(given_error);
   const Loaded& loaded = with_earlier_sets ? *with_earlier_sets : *given;
