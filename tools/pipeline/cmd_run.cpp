@@ -141,7 +141,8 @@ std::string resume_command(const RunRequest& req, const std::string& out) {
 
 // `earlier` then `later`, a key set in both only where `later` sets it (the list a continuation
 // applies and records: it does not grow with every continuation).
-std::vector<std::string> earlier_then_later(const std::vector<std::string>& earlier, const std::vector<std::string>& later) {
+std::vector<std::string> earlier_then_later(const std::vector<std::string>& earlier,
+                                            const std::vector<std::string>& later) {
   auto key = [](const std::string& set) { return trimmed(set.substr(0, set.find('='))); };
   std::vector<std::string> out;
   for (auto& e : earlier) {
