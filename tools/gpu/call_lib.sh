@@ -59,7 +59,7 @@ tests() {
 }
 suite() {
   local dir=$1 limit=${2:-280} g
-  local slow="test_hard_sphere_eos test_decomposition_delaunay test_checkpoint test_overlap_correct_cpu_cuda test_rollback_stress test_tran_aggregation"
+  local slow="test_hard_sphere_eos test_decomposition_delaunay test_checkpoint test_checkpoint_signals test_overlap_correct_cpu_cuda test_rollback_stress test_tran_aggregation"
   local rest all pids=()
   rest=$(cd "$dir/bin" && ls test_* | grep -v '^test_out_of_memory$' | grep -v -x -F "$(echo $slow | tr ' ' '\n')")
   all=$(echo $slow $rest | tr ' ' '\n' | awk 'NF {print NR % 6, $0}')
