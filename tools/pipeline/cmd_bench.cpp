@@ -29,14 +29,11 @@
 #include "core/run/domain.h"
 #include "core/run/simulation.h"
 #include "core/run/team.h"
+#include "tools/pipeline/build_commit.h"
 #include "tools/pipeline/commands.h"
 #include "tools/pipeline/common.h"
 #include "tools/pipeline/options.h"
 
-// The commit a JSON line was measured on, as `pipeline run` records it (tools/CMakeLists.txt).
-#ifndef FLIPFLOW_GIT_COMMIT
-#define FLIPFLOW_GIT_COMMIT "unknown"
-#endif
 
 namespace po = boost::program_options;
 namespace fs = std::filesystem;
@@ -318,7 +315,7 @@ int cmd_bench(const std::vector<std::string>& args) {
           << ",\"dt_limits_per_step\":" << r.dt_limits_per_step << ",\"ranks\":" << gpus
           << ",\"threads\":" << cores << ",\"precision\":\"" << to_string(run.precision) << "\",\"seed\":" << run.seed
           << ",\"warmup\":" << warmup << ",\"overrides\":" << overrides_json << ",\"commit\":\""
-          << json_escape(FLIPFLOW_GIT_COMMIT) << "\",\"passes\":" << passes_json << ",\"pass\":" << pass_json;
+          << json_escape(flipflow_build_commit()) << "\",\"passes\":" << passes_json << ",\"pass\":" << pass_json;
     if (gpus > 1) {
       // Per rank: communication per step and its share of the step, the profiled stage times.
       jsonl << ",\"per_rank\":[";

@@ -29,13 +29,11 @@
 #include "core/run/checkpoint.h"
 #include "core/run/simulation.h"
 #include "core/run/team.h"
+#include "tools/pipeline/build_commit.h"
 #include "tools/pipeline/commands.h"
 #include "tools/pipeline/common.h"
 #include "tools/pipeline/options.h"
 
-#ifndef FLIPFLOW_GIT_COMMIT
-#define FLIPFLOW_GIT_COMMIT "unknown"
-#endif
 
 namespace po = boost::program_options;
 namespace fs = std::filesystem;
@@ -201,7 +199,7 @@ int run_rank(const RunRequest& req, const std::optional<Loaded>& given, const st
   for (auto& line : resolved_parameters(spec)) record.resolved += line + "\n";
   const std::string device = backend == Backend::cuda ? cuda_device_description() : cpu_description();
   record.attributes = {{"flipflow_version", FF_VERSION_STRING},
-                       {"commit", FLIPFLOW_GIT_COMMIT},
+                       {"commit", flipflow_build_commit()},
                        {"device", device},
                        {"threads", std::to_string(req.threads > 0 ? req.threads : int(std::thread::hardware_concurrency()))},
                        {"started", utc_now()}};
