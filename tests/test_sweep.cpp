@@ -184,6 +184,9 @@ TEST_CASE("sweep: a 2 x 2 grid with 2 replicas makes 8 folders; the index matche
     CHECK(row.at("folder") == "D=" + D + "_N=" + N + "_seed=" + seed);
     CHECK((seed == "42" || seed == "43"));
     CHECK(row.at("replica") == (seed == "42" ? "0" : "1"));
+    // The --set values every run shares have columns of their own.
+    CHECK(row.at("run.steps") == "60");
+    CHECK(row.at("step.observe.h5md.every") == "20");
     ++combos[D + "/" + N];
     // The run's frames have the grid's N.
     CHECK(datasets(h5).at("particles/all/position/value").shape[1] == std::stoul(N));

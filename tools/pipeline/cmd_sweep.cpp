@@ -350,13 +350,14 @@ int cmd_sweep(const std::vector<std::string>& args) {
             << "; index " << index_file.string()
             << "\n";
   if (!mps_note.empty()) std::cerr << "sweep: " << mps_note << "\n";
-  sweep::write_index(index_file.string(), a.axes, runs);
+  sweep::write_index(index_file.string(), a.axes, a.sets, runs);
 
   sweep::LaunchSettings launch;
   launch.pipeline_file = a.file;
   launch.device = to_string(backend);
   launch.root = root;
   launch.index_file = index_file.string();
+  launch.shared_sets = a.sets;
   if (cuda) launch.gpus = gpus;
   launch.runs_at_once = slots;
   launch.threads_per_run = run_threads;

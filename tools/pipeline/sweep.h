@@ -72,9 +72,12 @@ SweepArgs parse_args(const std::vector<std::string>& args);
 std::vector<Run> plan(const SweepArgs& args);
 
 // The index: one row per run, written to a temporary file and renamed (readers never see half
-// a file). Columns: folder, one per axis (its key), replica, seed, status, exit_code,
+// a file). Columns: folder, one per axis (its key), one per key the sweep's --set arguments give
+// every run (its value, the last where a key is given twice: an index read alone, or beside
+// another sweep's, still says what its runs shared), replica, seed, status, exit_code,
 // steps_per_s, particle_steps_per_s, wall_s, gpu, message.
-void write_index(const std::string& path, const std::vector<Axis>& axes, const std::vector<Run>& runs);
+void write_index(const std::string& path, const std::vector<Axis>& axes, const std::vector<std::string>& shared_sets,
+                 const std::vector<Run>& runs);
 // Rows of an existing index by folder (column name -> value); empty when there is none.
 std::map<std::string, std::map<std::string, std::string>> read_index(const std::string& path);
 

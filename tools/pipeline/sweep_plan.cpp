@@ -1,4 +1,5 @@
 // `pipeline sweep`: grid arguments, combinations, folder names, the index CSV (sweep.h).
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -8,6 +9,7 @@
 #include <iomanip>
 #include <set>
 #include <sstream>
+#include <utility>
 
 #include "core/base/error.h"
 #include "core/base/text.h"
@@ -174,17 +176,30 @@ std::vector<std::string> csv_split(const std::string& line) {
   return out;
 }
 
-void write_index(const std::string& path, const std::vector<Axis>& axes, const std::vector<Run>& runs) {
+void write_index(const std::string& path, const std::vector<Axis>& axes, const std::vector<std::string>& shared_sets,
+                 const std::vector<Run>& runs) {
+  std::vector<std::pair<std::string, std::string>> shared;  // key -> value, in the order first given
+  for (auto& set : shared_sets) {
+    const auto eq = set.find('=');
+    const std::string key = set.substr(0, eq), value = eq == std::string::npos ? "" : set.substr(eq + 1);
+    auto same = std::find_if(shared.begin(), shared.end(), [&](auto& kv) { return kv.first == key; });
+    if (same != shared.end())
+      same->second = value;
+    else
+      shared.emplace_back(key, value);
+  }
   const std::string tmp = path + ".tmp";
   {
     std::ofstream out(tmp, std::ios::trunc);
     if (!out) throw RunError("cannot write the sweep index '" + tmp + "'");
     out << "folder";
     for (auto& a : axes) out << "," << csv_field(a.key);
+    for (auto& kv : shared) out << "," << csv_field(kv.first);
     out << ",replica,seed,status,exit_code,steps_per_s,particle_steps_per_s,wall_s,gpu,message\n";
     for (auto& r : runs) {
       out << csv_field(r.folder);
       for (auto& v : r.values) out << "," << csv_field(v);
+      for (auto& kv : shared) out << "," << csv_field(kv.second);
       out << "," << r.replica << "," << r.seed << "," << r.status << ","
           << (r.exit_code >= 0 ? std::to_string(r.exit_code) : "") << ",";
       if (r.steps_per_s > 0)

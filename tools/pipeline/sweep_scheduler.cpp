@@ -166,7 +166,7 @@ class RunScheduler {
   void report_finished(const Run& r, const std::string& verb) const;
   void draw_progress(bool final_line) const;
   int print_summary() const;
-  void save_index() const { write_index(s_.index_file, axes_, runs_); }
+  void save_index() const { write_index(s_.index_file, axes_, s_.shared_sets, runs_); }
 
   const LaunchSettings& s_;
   const std::vector<Axis>& axes_;

@@ -17,6 +17,7 @@ struct LaunchSettings {
   std::string device;                  // --device of every run: "cpu" or "cuda"
   std::filesystem::path root;          // the sweep's folder; a run's is root / Run::folder
   std::string index_file;              // rewritten whenever a run starts or ends
+  std::vector<std::string> shared_sets;  // the sweep's --set arguments: columns of the index
   std::vector<std::string> gpus;       // CUDA_VISIBLE_DEVICES value of each GPU; empty on the CPU
   int runs_at_once = 1;                // in all, over every GPU
   int threads_per_run = 1;             // --threads of each child process
