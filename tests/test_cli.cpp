@@ -448,6 +448,17 @@ TEST_CASE("pipeline validate: good file exits 0, broken file exits 2 with file:l
   INFO(r.out);
   CHECK(r.code == 2);
   CHECK_THAT(r.out, Catch::Contains(bad.string() + ":2:") && Catch::Contains("run.dt"));
+
+  // Three mistakes in three places: three error lines, each located, in one go.
+  std::ofstream(bad) << "system: {dimensions: 2, N: 100, packing_fraction: 0.3}\n"
+                        "run: {steps: 10, dt: -0.1}\n"
+                        "step:\n  - {stage: core.noop, evry: 2}\n  - {stage: core.nop}\n";
+  auto three = run("validate " + bad.string());
+  INFO(three.out);
+  CHECK(three.code == 2);
+  CHECK_THAT(three.out, Catch::Contains("error: " + bad.string() + ":2:22: run.dt: expected a real number > 0") &&
+                            Catch::Contains("error: " + bad.string() + ":5:13: step[1].stage: unknown stage 'core.nop'") &&
+                            Catch::Contains("error: " + bad.string() + ":4:24: step[0] (core.noop).evry: unknown parameter"));
   fs::remove(bad);
 }
 

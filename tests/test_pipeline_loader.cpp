@@ -296,15 +296,52 @@ TEST_CASE("errors in overridden values are located at the override", "[pipeline_
   CHECK(error_of(good, {"step.0.every=0"}) ==
         "--set step.0.every=0: step[0] (fake.integrate).every: expected an integer >= 1, got '0'");
   // An alias inside its own anchor makes a cyclic override; locating must still terminate.
-  // (resolve() reads run before plugins, so the run.dt error is found behind the cycle.)
+  // (resolve() reads run before plugins: the run.dt error is found behind the cycle, and the
+  // cycle's own error is reported after it, at its override.)
   const auto cyclic = ff::PipelineDocument::parse(good, {"run.dt=abc", "plugins=&a [x, *a]"});
-  CHECK_THROWS_WITH(cyclic.resolve(registry()), "--set run.dt=abc: run.dt: expected a real number > 0, got 'abc'");
+  CHECK_THROWS_WITH(cyclic.resolve(registry()), "--set run.dt=abc: run.dt: expected a real number > 0, got 'abc'\n"
+                                                "--set plugins=&a [x, *a]: plugins[1]: expected a string, got a list");
   // Errors elsewhere keep their file location.
   CHECK_THAT(error_of(path_of("bad_out_of_range"), {"run.steps=3"}),
              StartsWith(path_of("bad_out_of_range") + ":4:7: run.dt:"));
   // A section created by overrides reports what it still lacks at the override.
   const std::string no_run = "system: {N: 10, packing_fraction: 0.5}\nstep: [{stage: fake.integrate}]\n";
   CHECK(error_of_text(no_run, {"run.dt=0.1"}) == "--set run.dt=0.1: run: missing required key 'steps' (an integer >= 0)");
+}
+
+TEST_CASE("every mistake of a file is reported at once, each at its own place", "[pipeline_loader]") {
+  const std::string yaml =
+      "system: {N: 0, packing_fraction: 0.5, dimensions: 3}\n"              // 1
+      "run: {steps: 10, dt: -1, checkpoint: {every: x}}\n"                  // 2
+      "step:\n"                                                             // 3
+      "  - {stage: fake.integrate, D: -1, mode: rk4}\n"                     // 4
+      "  - {stage: fake.lawsen, id: flip}\n"                                // 5
+      "  - {stage: fake.force, after: flip, every: 0}\n"                    // 6
+      "  - {stage: fake.lawson, max_round: 2}\n";                           // 7
+  std::vector<std::string> messages;
+  try {
+    auto doc = ff::PipelineDocument::parse_string(yaml, "inline.yaml", {});
+    doc.resolve(registry());
+  } catch (const ff::InputError& e) {
+    messages = ff::messages_of(e);
+  }
+  // In order: system, run, the step entries' heads, then their parameters. Not reported:
+  // fake.lawson's dimensions (2 only, system.dimensions says 3, but system was refused, so the
+  // dimensions are not known), and nothing of step[1] past its unknown stage (`after: flip`
+  // names it, and is not refused for it).
+  const std::vector<std::string> expected = {
+      "inline.yaml:1:13: system.N: expected an integer >= 1, got '0'",
+      "inline.yaml:2:22: run.dt: expected a real number > 0, got '-1'",
+      "inline.yaml:2:46: run.checkpoint.every: expected an integer >= 0, got 'x'",
+      "inline.yaml:5:13: step[1].stage: unknown stage 'fake.lawsen'; did you mean 'fake.lawson'? (loaded stages: "
+      "fake.force, fake.integrate, fake.lawson, fake.observe)",
+      "inline.yaml:4:32: step[0] (fake.integrate).D: expected a real number >= 0, got '-1'",
+      "inline.yaml:4:42: step[0] (fake.integrate).mode: expected one of: euler, heun, got 'rk4'",
+      "inline.yaml:6:45: step[2] (fake.force).every: expected an integer >= 1, got '0'",
+      "inline.yaml:6:5: step[2] (fake.force): missing required parameter 'k' (a real number > 0)",
+      "inline.yaml:7:26: step[3] (fake.lawson).max_round: unknown parameter; did you mean 'max_rounds'? (parameters "
+      "of fake.lawson: max_rounds, verbose; entry keys: stage, id, after, every, at)"};
+  CHECK(messages == expected);
 }
 
 TEST_CASE("malformed overrides are input errors", "[pipeline_loader]") {

@@ -300,10 +300,14 @@ PipelineSpec PipelineDocument::resolve(const Registry& registry) const {
   const std::vector<Item> top = top_level(impl_->root, loc);
   PipelineSpec spec;
   spec.file = impl_->file;
-  spec.system = read_system(find(top, "system")->value, loc);
-  spec.run = read_run(find(top, "run")->value, loc);
-  spec.plugins = read_plugins(find(top, "plugins"), loc);
-  spec.step = read_steps(find(top, "step")->value, spec.system.dimensions, registry, loc);
+  // Each section is read even when one before it is wrong, and its errors reported with theirs.
+  InputErrorList errors;
+  const bool system_read = errors.attempt([&] { spec.system = read_system(find(top, "system")->value, loc); });
+  errors.attempt([&] { spec.run = read_run(find(top, "run")->value, loc); });
+  errors.attempt([&] { spec.plugins = read_plugins(find(top, "plugins"), loc); });
+  // (0: the dimensions are not known, and the stages' are not checked against them)
+  errors.attempt([&] { spec.step = read_steps(find(top, "step")->value, system_read ? spec.system.dimensions : 0, registry, loc); });
+  errors.raise();
   for (const std::string& text : impl_->applied) {  // (apply() checked their form)
     if (text.rfind("system.", 0) == 0 || text.rfind("system=", 0) == 0) spec.system.set_by.push_back(text);
     if (text.rfind("step.", 0) != 0) continue;

@@ -13,12 +13,17 @@ namespace ff::pipeline_detail {
 
 std::vector<Item> top_level(const YAML::Node& root, const Locator& loc) {
   auto items = items_of(root, "", "a map with keys " + join(kTopKeys), loc);
+  InputErrorList errors;
   for (auto& item : items)
     if (!one_of(item.key, kTopKeys))
-      fail(loc.at(item), item.key,
-           "unknown top-level key" + suggestion(item.key, kTopKeys) + " (known keys: " + join(kTopKeys) + ")");
+      errors.attempt([&] {
+        fail(loc.at(item), item.key,
+             "unknown top-level key" + suggestion(item.key, kTopKeys) + " (known keys: " + join(kTopKeys) + ")");
+      });
   for (const char* key : {"system", "run", "step"})
-    if (!find(items, key)) loc.fail(root, "", std::string("missing required top-level key '") + key + "'");
+    if (!find(items, key))
+      errors.attempt([&] { loc.fail(root, "", std::string("missing required top-level key '") + key + "'"); });
+  errors.raise();
   return items;
 }
 
@@ -85,13 +90,15 @@ std::vector<SpeciesSpec> read_types(const YAML::Node& n, const Locator& loc) {
   if (!n.IsSequence() || n.size() == 0) loc.fail(n, path, "expected " + expected + ", got " + found(n));
   const Schema schema{species_schema(), {}, {}, "key", known_keys(species_schema(), {})};
   std::vector<SpeciesSpec> types;
-  for (std::size_t i = 0; i < n.size(); ++i) {
+  InputErrorList errors;  // every wrong species, not only the first
+  for (std::size_t i = 0; i < n.size(); ++i) errors.attempt([&] {
     const std::string at = index(path, i);
     ParamValues v = read_params(n[i], items_of(n[i], at, "a map {name, fraction, diameter}", loc), at, schema, loc);
     for (auto& t : types)
       if (t.name == v.string("name")) loc.fail(n[i], at, "species '" + t.name + "' is listed twice");
     types.push_back(SpeciesSpec{v.string("name"), v.real("fraction"), v.real("diameter")});
-  }
+  });
+  errors.raise();
   return types;
 }
 
@@ -116,20 +123,8 @@ void check_box(SystemSpec& s, const YAML::Node& map, const std::vector<Item>& it
                  std::to_string(s.dimensions) + "), got " + std::to_string(s.box.size()));
 }
 
-}  // namespace
-
-SystemSpec read_system(const YAML::Node& n, const Locator& loc) {
-  auto items = items_of(n, "system", "a map of system settings", loc);
-  const Schema schema{system_schema(), {"types", "init"}, {"packing_fraction", "box"}, "key",
-                      known_keys(system_schema(), {"types", "init"})};
-  ParamValues v = read_params(n, items, "system", schema, loc);
-  SystemSpec s;
-  s.dimensions = int(v.integer("dimensions"));
-  s.N = std::uint64_t(v.integer("N"));
-  if (v.has("packing_fraction")) s.packing_fraction = v.real("packing_fraction");
-  if (v.has("box")) s.box = v.reals("box");
-  s.sigma = v.real("sigma");
-  s.where = loc.at(n);
+// system.init: a placement, or a map {from, frame}.
+void read_init(SystemSpec& s, const std::vector<Item>& items, const Locator& loc) {
   if (const Item* init = find(items, "init")) {
     s.where = loc.at(*init);
     if (init->value.IsMap()) {
@@ -151,8 +146,31 @@ SystemSpec read_system(const YAML::Node& n, const Locator& loc) {
       s.init = std::get<std::string>(read_value(init_placement(), init->value, "system.init", loc));
     }
   }
-  if (const Item* t = find(items, "types")) s.types = read_types(t->value, loc);
-  check_box(s, n, items, loc);
+}
+
+}  // namespace
+
+SystemSpec read_system(const YAML::Node& n, const Locator& loc) {
+  auto items = items_of(n, "system", "a map of system settings", loc);
+  const Schema schema{system_schema(), {"types", "init"}, {"packing_fraction", "box"}, "key",
+                      known_keys(system_schema(), {"types", "init"})};
+  SystemSpec s;
+  s.where = loc.at(n);
+  // The keys, init and types are read apart, so that a mistake in each is reported at once;
+  // the box rules need all three.
+  InputErrorList errors;
+  const bool keys_read = errors.attempt([&] {
+    ParamValues v = read_params(n, items, "system", schema, loc);
+    s.dimensions = int(v.integer("dimensions"));
+    s.N = std::uint64_t(v.integer("N"));
+    if (v.has("packing_fraction")) s.packing_fraction = v.real("packing_fraction");
+    if (v.has("box")) s.box = v.reals("box");
+    s.sigma = v.real("sigma");
+  });
+  const bool init_read = errors.attempt([&] { read_init(s, items, loc); });
+  if (const Item* t = find(items, "types")) errors.attempt([&] { s.types = read_types(t->value, loc); });
+  if (keys_read && init_read) errors.attempt([&] { check_box(s, n, items, loc); });
+  errors.raise();
   return s;
 }
 
@@ -168,27 +186,31 @@ const std::vector<ParamSpec>& checkpoint_schema() {
 RunSpec read_run(const YAML::Node& n, const Locator& loc) {
   auto items = items_of(n, "run", "a map of run settings", loc);
   const Schema schema{run_schema(), {"checkpoint"}, {"dt_min"}, "key", known_keys(run_schema(), {"checkpoint"})};
-  ParamValues v = read_params(n, items, "run", schema, loc);
   RunSpec r;
-  r.steps = std::uint64_t(v.integer("steps"));
-  r.dt = v.real("dt");
-  r.dt_min = v.has("dt_min") ? v.real("dt_min") : r.dt / 1024;
-  if (r.dt_min > r.dt) {
-    const YAML::Node& at = find(items, "dt_min")->value;
-    loc.fail(at, "run.dt_min",
-             "expected a real number > 0 and <= run.dt (" + format_value(r.dt) + "), got " + found(at));
-  }
-  r.dt_grow_after = std::uint64_t(v.integer("dt_grow_after"));
-  r.seed = std::uint64_t(v.integer("seed"));
-  r.precision = v.string("precision") == "float" ? Precision::f32 : Precision::f64;
-  if (const Item* c = find(items, "checkpoint")) {
+  InputErrorList errors;  // the keys and the checkpoint map are reported together
+  errors.attempt([&] {
+    ParamValues v = read_params(n, items, "run", schema, loc);
+    r.steps = std::uint64_t(v.integer("steps"));
+    r.dt = v.real("dt");
+    r.dt_min = v.has("dt_min") ? v.real("dt_min") : r.dt / 1024;
+    if (r.dt_min > r.dt) {
+      const YAML::Node& at = find(items, "dt_min")->value;
+      loc.fail(at, "run.dt_min",
+               "expected a real number > 0 and <= run.dt (" + format_value(r.dt) + "), got " + found(at));
+    }
+    r.dt_grow_after = std::uint64_t(v.integer("dt_grow_after"));
+    r.seed = std::uint64_t(v.integer("seed"));
+    r.precision = v.string("precision") == "float" ? Precision::f32 : Precision::f64;
+  });
+  if (const Item* c = find(items, "checkpoint")) errors.attempt([&] {
     const std::string path = "run.checkpoint";
     const Schema cs{checkpoint_schema(), {}, {}, "key", known_keys(checkpoint_schema(), {})};
     ParamValues cv = read_params(c->value, items_of(c->value, path, "a map {every, keep}", loc), path, cs, loc);
     r.checkpoint = true;
     r.checkpoint_every = std::uint64_t(cv.integer("every"));
     r.checkpoint_keep = std::uint64_t(cv.integer("keep"));
-  }
+  });
+  errors.raise();
   return r;
 }
 

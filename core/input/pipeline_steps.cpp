@@ -63,6 +63,7 @@ struct Head {
   YAML::Node node;
   std::vector<Item> items;
   std::string stage, label;  // label: "step[2] (delaunay.lawson)"
+  bool read = false;         // false: its head was refused (label "step[2]"), and nothing else is read
 };
 
 Head read_head(const YAML::Node& e, std::size_t i, int dim, const Registry& reg, const Locator& loc) {
@@ -91,7 +92,7 @@ Head read_head(const YAML::Node& e, std::size_t i, int dim, const Registry& reg,
                   : s.empty() ? "; is its plugin listed under 'plugins'?" : ""));
   }
   const StageDecl& decl = reg.get(h.stage).decl;
-  if (!std::count(decl.dimensions.begin(), decl.dimensions.end(), dim)) {
+  if (dim != 0 && !std::count(decl.dimensions.begin(), decl.dimensions.end(), dim)) {
     std::vector<std::string> dims;
     for (int d : decl.dimensions) dims.push_back(std::to_string(d));
     // The triangulation is 2D: a 2D pipeline made 3D (--set system.dimensions=3) needs the
@@ -106,6 +107,7 @@ Head read_head(const YAML::Node& e, std::size_t i, int dim, const Registry& reg,
                                      : ""));
   }
   h.label = at + " (" + h.stage + ")";
+  h.read = true;
   if (const Item* id = find(h.items, "id")) {
     const std::string v = std::get<std::string>(
         read_value(ParamSpec::string("id", std::nullopt, ""), id->value, h.label + ".id", loc));
@@ -119,7 +121,7 @@ Head read_head(const YAML::Node& e, std::size_t i, int dim, const Registry& reg,
 void check_unique(const std::vector<Head>& heads, const std::vector<std::string>& ids, const Locator& loc) {
   for (std::size_t i = 0; i < ids.size(); ++i)
     for (std::size_t j = 0; j < i; ++j)
-      if (ids[i] == ids[j]) {
+      if (heads[i].read && heads[j].read && ids[i] == ids[j]) {
         const Item* id = find(heads[i].items, "id");
         const Item* at = id ? id : find(heads[i].items, "stage");
         fail(loc.at(at->value), heads[i].label + "." + at->key,
@@ -209,17 +211,21 @@ StepEntry read_entry(std::size_t i, const std::vector<Head>& heads, const std::v
   e.id = ids[i];
   e.stage = h.stage;
   e.where = loc.at(h.node);
+  InputErrorList errors;  // `after`, the schedule and the parameters are reported together
   if (const Item* after = find(h.items, "after")) {
-    e.after = read_after(*after, i, heads, ids, loc);
+    errors.attempt([&] { e.after = read_after(*after, i, heads, ids, loc); });
     e.after_given = true;
   }
-  e.schedule = read_schedule(h, loc);
+  errors.attempt([&] { e.schedule = read_schedule(h, loc); });
   std::vector<std::string> names;
   for (auto& p : decl.params) names.push_back(p.name);
   const std::string known = (names.empty() ? "stage '" + h.stage + "' has no parameters"
                                            : "parameters of " + h.stage + ": " + join(names)) +
                             "; entry keys: " + join(kEntryKeys);
-  e.params = read_params(h.node, h.items, h.label, Schema{decl.params, kEntryKeys, {}, "parameter", known}, loc);
+  errors.attempt([&] {
+    e.params = read_params(h.node, h.items, h.label, Schema{decl.params, kEntryKeys, {}, "parameter", known}, loc);
+  });
+  errors.raise();
   return e;
 }
 
@@ -229,12 +235,20 @@ std::vector<StepEntry> read_steps(const YAML::Node& n, int dim, const Registry& 
   if (!n.IsSequence() || n.size() == 0)
     loc.fail(n, "step", "expected a non-empty list of stage entries ({stage: <name>, ...}), got " +
                             (n.IsSequence() ? std::string("an empty list") : found(n)));
+  // Every entry is read, and the errors of all are reported together; an entry whose head (stage,
+  // id) is refused is not read further.
+  InputErrorList errors;
   std::vector<Head> heads;
-  for (std::size_t i = 0; i < n.size(); ++i) heads.push_back(read_head(n[i], i, dim, reg, loc));
+  for (std::size_t i = 0; i < n.size(); ++i) {
+    heads.push_back(Head{n[i], {}, "", index("step", i)});
+    errors.attempt([&] { heads.back() = read_head(n[i], i, dim, reg, loc); });
+  }
   const std::vector<std::string> ids = entry_ids(n);
-  check_unique(heads, ids, loc);
+  errors.attempt([&] { check_unique(heads, ids, loc); });
   std::vector<StepEntry> entries;
-  for (std::size_t i = 0; i < heads.size(); ++i) entries.push_back(read_entry(i, heads, ids, reg, loc));
+  for (std::size_t i = 0; i < heads.size(); ++i)
+    if (heads[i].read) errors.attempt([&] { entries.push_back(read_entry(i, heads, ids, reg, loc)); });
+  errors.raise();
   return entries;
 }
 

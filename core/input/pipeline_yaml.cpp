@@ -149,8 +149,9 @@ const ParamSpec* spec_of(const Schema& s, const std::string& key) {
 ParamValues read_params(const YAML::Node& map, const std::vector<Item>& items, const std::string& path,
                         const Schema& schema, const Locator& loc) {
   ParamValues values;
-  for (auto& item : items) {
-    if (one_of(item.key, schema.reserved)) continue;
+  InputErrorList errors;  // every wrong key of the map, not only the first
+  for (auto& item : items) errors.attempt([&] {
+    if (one_of(item.key, schema.reserved)) return;
     const ParamSpec* spec = spec_of(schema, item.key);
     if (!spec) {
       std::vector<std::string> words = schema.reserved;
@@ -164,13 +165,19 @@ ParamValues read_params(const YAML::Node& map, const std::vector<Item>& items, c
                " (" + schema.known + ")");
     }
     values.set(item.key, read_value(*spec, item.value, child(path, item.key), loc));
-  }
+  });
   for (auto& spec : schema.params) {
     if (values.has(spec.name) || one_of(spec.name, schema.optional)) continue;
-    if (!spec.default_value)
-      loc.fail(map, path, "missing required " + schema.kind + " '" + spec.name + "' (" + spec.expectation() + ")");
+    if (find(items, spec.name)) continue;  // given, and refused above
+    if (!spec.default_value) {
+      errors.attempt([&] {
+        loc.fail(map, path, "missing required " + schema.kind + " '" + spec.name + "' (" + spec.expectation() + ")");
+      });
+      continue;
+    }
     values.set(spec.name, *spec.default_value);
   }
+  errors.raise();
   return values;
 }
 

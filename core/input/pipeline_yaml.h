@@ -12,6 +12,7 @@
 #include <string>
 #include <vector>
 
+#include "core/base/error.h"
 #include "core/stage/params.h"
 #include "core/input/pipeline_spec.h"
 #include "core/input/pipeline_words.h"

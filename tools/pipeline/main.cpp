@@ -87,8 +87,8 @@ int main(int argc, char** argv) {
     return 2;
   } catch (const ff::cli::HelpShown&) {
     return 0;
-  } catch (const ff::InputError& e) {
-    std::cerr << "error: " << e.what() << "\n";
+  } catch (const ff::InputError& e) {  // (several mistakes in one file: each on its own line)
+    for (auto& m : ff::messages_of(e)) std::cerr << "error: " << m << "\n";
     return 2;
   } catch (const ff::RunError& e) {
     std::cerr << "run failed: " << e.what() << "\n";

@@ -364,7 +364,7 @@ void RunScheduler::start_thread(ActiveRun& active, const Run& r, int gpu, const 
       if (device >= 0) use_cuda_device(device);  // everything the run makes lives on its GPU
       rc = run_pipeline(req, out, g_stop);
     } catch (const InputError& e) {
-      out << "error: " << e.what() << "\n";
+      for (auto& m : messages_of(e)) out << "error: " << m << "\n";
       rc = 2;
     } catch (const std::exception& e) {
       out << "run failed: " << e.what() << "\n";
