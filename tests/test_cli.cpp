@@ -278,6 +278,34 @@ TEST_CASE("pipeline validate: a stage that moves the particles, listed twice ali
   fs::remove(file);
 }
 
+TEST_CASE("pipeline validate: a force that no stage reads draws a warning that says why", "[cli]") {
+  // A pair force before abp.integrate, which takes no force: valid, but the force does nothing.
+  const fs::path file = fresh_dir("unread_force.yaml");
+  const std::string head = "system: {dimensions: 2, N: 256, packing_fraction: 0.3}\nrun: {steps: 10, dt: 0.001}\n"
+                           "plugins: [harmonic, abp]\nstep:\n  - {stage: neighbors.verlet, cutoff: 1.0, skin: 0.3}\n";
+  std::ofstream(file) << head << "  - {stage: harmonic.forces}\n  - {stage: abp.integrate}\n";
+  auto r = run("validate " + file.string());
+  INFO(r.out);
+  CHECK(r.code == 0);
+  CHECK_THAT(r.out, Catch::Contains("warning: " + file.string() + ":6:5: step 'harmonic.forces' writes field 'force', "
+                                    "which no stage reads") &&
+                        Catch::Contains("No integrator here takes it: overdamped.integrate does"));
+  // Listed after overdamped.integrate, whose drift: auto saw no force yet.
+  std::ofstream(file) << head << "  - {stage: overdamped.integrate}\n  - {stage: harmonic.forces}\n";
+  r = run("validate " + file.string());
+  INFO(r.out);
+  CHECK(r.code == 0);
+  CHECK_THAT(r.out, Catch::Contains(":7:5: step 'harmonic.forces' writes field 'force', which no stage reads") &&
+                        Catch::Contains("list 'harmonic.forces' first"));
+  // In the right order, nothing is said.
+  std::ofstream(file) << head << "  - {stage: harmonic.forces}\n  - {stage: overdamped.integrate}\n";
+  r = run("validate " + file.string());
+  INFO(r.out);
+  CHECK(r.code == 0);
+  CHECK_THAT(r.out, !Catch::Contains("warning"));
+  fs::remove(file);
+}
+
 TEST_CASE("pipeline validate: a 2D pipeline made 3D is told what excludes volume in 3D", "[cli]") {
   auto r = run("validate " + repo_file("pipelines/abp.yaml").string() + " --set system.dimensions=3");
   INFO(r.out);

@@ -122,6 +122,39 @@ std::vector<std::string> StepGraph::repeated_movers(const PipelineSpec& spec) co
   return out;
 }
 
+std::vector<std::string> StepGraph::unread_writes(const PipelineSpec& spec) const {
+  std::vector<std::string> out;
+  for (const char* field : {"force", "velocity"}) {
+    bool read = false;
+    for (auto& n : nodes_)
+      for (auto& b : n.accesses) read = read || (b.field == field && b.mode != Mode::write);
+    if (read) continue;
+    for (std::size_t w = 0; w < nodes_.size(); ++w) {
+      bool written = false;
+      for (auto& a : nodes_[w].accesses) written = written || (a.field == field && writes(a.mode));
+      if (nodes_[w].observer || !written) continue;
+      // An integrator's `drift: auto` takes a drift field that exists when it is configured,
+      // i.e. one a stage listed before it makes.
+      bool mover_before = false;
+      for (std::size_t i = 0; i < w; ++i)
+        for (auto& b : nodes_[i].accesses) mover_before = mover_before || (b.field == fields::position && writes(b.mode));
+      const StepEntry& e = spec.step[w];
+      out.push_back(e.where.str() + ": step '" + e.id + "' writes field '" + field +
+                    "', which no stage reads: it does not move the particles. " +
+                    (mover_before ? std::string("The stage that moves them is listed before it, and `drift: auto` "
+                                                "takes only a drift an earlier stage makes: list '") +
+                                        e.id + "' first"
+                                  : std::string("No integrator here takes it: ") +
+                                        (std::string(field) == "force"
+                                             ? "overdamped.integrate does (drift: auto or force)"
+                                             : "overdamped.integrate (drift: auto or velocity) and phoretic.integrate do") +
+                                        "; abp.integrate does not (`pipeline describe STAGE` lists what a stage reads)"));
+      break;  // one warning a field
+    }
+  }
+  return out;
+}
+
 void StepGraph::check_conflicts() const {
   for (std::size_t b = 0; b < nodes_.size(); ++b) {
     if (nodes_[b].observer) continue;

@@ -55,6 +55,11 @@ class StepGraph {
   // both writing `position`, the later without an id of its own (a copied integrator line
   // moves every particle twice a step). spec is the one the graph was built from.
   std::vector<std::string> repeated_movers(const PipelineSpec& spec) const;
+  // Warnings, one a field: a field a compute stage writes that no stage reads, other than the
+  // particles' own (position, image, type, diameter, particle.id), which outputs and the next
+  // step use. A force computed before an integrator that does not take it (abp.integrate), or
+  // after the one that would (drift: auto sees no `force` yet), is such a field.
+  std::vector<std::string> unread_writes(const PipelineSpec& spec) const;
 
   std::string dot() const;      // Graphviz
   std::string summary() const;  // the resolved graph in words, for `pipeline validate`
