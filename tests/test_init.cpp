@@ -352,6 +352,14 @@ TEST_CASE("too dense: InputError that says what to do", "[init]") {
     CHECK_THAT(m, Catch::Contains("0.38"));
     CHECK_THAT(m, Catch::Contains("init: lattice_sample"));
   }
+  SECTION("many equal particles past jamming: refused at once, before any drop") {
+    // 200 000 spheres at 0.625 took over two minutes of drops to fail; the message says none was made.
+    const auto m = message(spec(3, 200000, 0.625, "random"));
+    CHECK_THAT(m, Catch::Contains("refused before placing any particle") && Catch::Contains("0.38 in 3D"));
+    CHECK_THAT(message(spec(2, 5000, 0.58, "random")), Catch::Contains("refused before placing any particle"));
+    // Below the margin the drops are tried, as before.
+    CHECK_THAT(message(spec(2, 300, 0.62, "random")), !Catch::Contains("refused before"));
+  }
   SECTION("2D lattice past close packing") {
     const auto m = message(spec(2, 1000, 0.92, "triangular_lattice_sample"));
     CHECK_THAT(m, Catch::Contains("too dense for a triangular lattice"));

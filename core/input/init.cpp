@@ -197,6 +197,24 @@ void place_random(const SystemSpec& s, const double* L, const std::vector<double
   std::iota(order.begin(), order.end(), std::size_t(0));
   std::stable_sort(order.begin(), order.end(),
                    [&](std::size_t a, std::size_t b) { return diam[a] > diam[b]; });
+  const bool two_d = dim == 2;
+  auto too_dense = [&](const std::string& what) {
+    return InputError(
+        "system.init: random: " + what + ": packing fraction " + num(phi) +
+        " is too high for random placement (random sequential addition jams near " +
+        (two_d ? "0.547 in 2D" : "0.38 in 3D") + "). " +
+        (phi < (two_d ? 0.907 : 0.740)
+             ? std::string("Use `init: ") + (two_d ? "triangular_lattice_sample" : "lattice_sample") + "`, which reaches " +
+                   (two_d ? "0.907" : "0.740") + ", or lower the packing fraction"
+             : std::string("No packing of equal disks or spheres reaches it: lower the packing fraction")) +
+        " (system.packing_fraction, or fewer particles in a larger system.box)");
+  };
+  // Many equal particles cannot be added at random past the jamming density (0.547 / 0.384 for
+  // an infinite system), however many tries are made: say so at once rather than after minutes
+  // of drops. The margin covers a finite system's fluctuations; a few particles, or a mixture
+  // (larger first, which may pack denser), are left to try.
+  const bool equal = *std::min_element(diam.begin(), diam.end()) == dmax;
+  if (equal && n >= 1000 && phi > (two_d ? 0.56 : 0.40)) throw too_dense("refused before placing any particle");
   for (std::size_t placed = 0; placed < n; ++placed) {
     const std::size_t i = order[placed];
     double x[3] = {0, 0, 0};
@@ -210,20 +228,8 @@ void place_random(const SystemSpec& s, const double* L, const std::vector<double
         return overlaps(dim, L, x, diam[i], &pos[std::size_t(j) * dim], diam[std::size_t(j)]);
       });
     }
-    if (!ok) {
-      const bool two_d = dim == 2;
-      throw InputError(
-          "system.init: random: could not place particle " + std::to_string(placed + 1) + " of " +
-          std::to_string(n) + " without overlap after " + std::to_string(kMaxDropsPerParticle) +
-          " tries: packing fraction " + num(phi) +
-          " is too high for random placement (random sequential addition jams near " +
-          (two_d ? "0.547 in 2D" : "0.38 in 3D") + "). " +
-          (phi < (two_d ? 0.907 : 0.740)
-               ? std::string("Use `init: ") + (two_d ? "triangular_lattice_sample" : "lattice_sample") + "`, which reaches " +
-                     (two_d ? "0.907" : "0.740") + ", or lower the packing fraction"
-               : std::string("No packing of equal disks or spheres reaches it: lower the packing fraction")) +
-          " (system.packing_fraction, or fewer particles in a larger system.box)");
-    }
+    if (!ok) throw too_dense("could not place particle " + std::to_string(placed + 1) + " of " + std::to_string(n) +
+                             " without overlap after " + std::to_string(kMaxDropsPerParticle) + " tries");
     for (int k = 0; k < dim; ++k) pos[i * dim + std::size_t(k)] = x[k];
     grid.insert(std::int64_t(i), x);
   }
