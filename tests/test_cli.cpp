@@ -306,6 +306,29 @@ TEST_CASE("pipeline validate: a force that no stage reads draws a warning that s
   fs::remove(file);
 }
 
+TEST_CASE("pipeline run: a run that rolled back says which stages asked, and when Δt stayed short", "[cli]") {
+  // Hard disks at Δt 0.5: particles pass through each other and detect_inversion asks for
+  // rollbacks; with dt_grow_after 1000 Δt never grows back within the 40 steps.
+  const fs::path out = fresh_dir("rollback_sources");
+  auto r = run("run " + repo_file("pipelines/hard-disks.yaml").string() + " --device cpu --out " + out.string() +
+               " --set system.N=256 --set run.dt=0.5 --set run.steps=40 --set run.dt_grow_after=1000");
+  INFO(r.out);
+  REQUIRE(r.code == 0);
+  CHECK_THAT(r.out, Catch::Contains("rollbacks: step 'delaunay.detect_inversion' asked for ") &&
+                        Catch::Contains("(the last: delaunay.detect_inversion: "));
+  CHECK_THAT(r.out, Catch::Contains("warning: the simulated time ") &&
+                        Catch::Contains("of the 20 that 40 steps of run.dt = 0.5 make") &&
+                        Catch::Contains("run.dt_grow_after = 1000"));
+  // Without rollbacks, nothing of the kind.
+  auto calm = run("run " + repo_file("pipelines/hard-disks.yaml").string() + " --device cpu --force --out " +
+                  out.string() + " --set system.N=256 --set run.steps=20");
+  INFO(calm.out);
+  REQUIRE(calm.code == 0);
+  CHECK_THAT(calm.out, Catch::Contains("rollbacks 0") && !Catch::Contains("asked for") &&
+                           !Catch::Contains("warning: the simulated time"));
+  fs::remove_all(out);
+}
+
 TEST_CASE("pipeline validate: a 2D pipeline made 3D is told what excludes volume in 3D", "[cli]") {
   auto r = run("validate " + repo_file("pipelines/abp.yaml").string() + " --set system.dimensions=3");
   INFO(r.out);

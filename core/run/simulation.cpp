@@ -107,6 +107,8 @@ void Simulation::build(const Registry& registry) {
     }
   }
   graph_ = std::make_unique<StepGraph>(spec_, std::move(accesses), observer);
+  rollbacks_asked_.assign(graph_->nodes().size(), 0);
+  last_rollback_reason_.assign(graph_->nodes().size(), "");
   if (!in_team(options_.team) || options_.team->rank() == 0)
     for (auto& list : {graph_->repeated_movers(spec_), graph_->unread_writes(spec_)})
       for (auto& w : list) std::fprintf(options_.messages, "flipflow: warning: %s\n", w.c_str());
@@ -486,6 +488,10 @@ void Simulation::advance() {
     } else {
       ++stats_.rollbacks;
       ++stats_.step_rollbacks;
+      if (req->node >= 0) {
+        ++rollbacks_asked_[std::size_t(req->node)];
+        last_rollback_reason_[std::size_t(req->node)] = req->outcome.reason;
+      }
       if (!dt_->halve()) give_up(*req, dt);
       ++attempt;
     }
@@ -510,6 +516,15 @@ void Simulation::settle_pending() {
   scheduler_->settle_pending();
   for (int i : graph_->compute_nodes())
     if (slots_[i].ran) collect_metrics(i);
+}
+
+std::vector<std::string> Simulation::rollback_sources() const {
+  std::vector<std::string> out;
+  for (std::size_t i = 0; i < rollbacks_asked_.size(); ++i)
+    if (rollbacks_asked_[i])
+      out.push_back("step '" + graph_->nodes()[i].id + "' asked for " + std::to_string(rollbacks_asked_[i]) +
+                    (last_rollback_reason_[i].empty() ? "" : " (the last: " + last_rollback_reason_[i] + ")"));
+  return out;
 }
 
 const RunStats& Simulation::stats() const {

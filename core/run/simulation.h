@@ -69,6 +69,9 @@ class Simulation {
   // the device and throws the errors those stages report.
   const RunStats& stats() const;
   const StepGraph& graph() const { return *graph_; }
+  // The stages that asked for the run's rollbacks, in step order: "step 'ID' asked for K (the
+  // last: REASON)". A run whose Δt kept being halved says why at its end.
+  std::vector<std::string> rollback_sources() const;
   const std::vector<StageSlot>& slots() const { return slots_; }
   const PipelineSpec& spec() const { return spec_; }
   const DtController& dt() const { return *dt_; }
@@ -141,6 +144,9 @@ class Simulation {
   std::unique_ptr<Snapshot> snapshot_;
   std::unique_ptr<DtController> dt_;
   RunStats stats_;
+  // Per compute node: the rollbacks it asked for, and the reason it gave the last time.
+  std::vector<std::uint64_t> rollbacks_asked_;
+  std::vector<std::string> last_rollback_reason_;
   std::unique_ptr<Domain> domain_;
   std::unique_ptr<State> gathered_;
   std::vector<std::string> gathered_fields_;  // the particle fields rank 0's observers read

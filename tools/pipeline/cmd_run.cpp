@@ -310,6 +310,7 @@ int run_rank(const RunRequest& req, const std::optional<Loaded>& given, const st
   if (lead && !sim->domain()) checkpoints.emplace(*sim, out, spec.run.checkpoint_every, spec.run.checkpoint_keep, record, history);
   if (before_steps && lead) before_steps();
   const std::uint64_t first = sim->state().step;
+  const double first_time = sim->state().time;
   if (team) team->reset_communication_seconds();
   const auto t0 = std::chrono::steady_clock::now();
   bool warned_no_checkpoints = false;
@@ -385,6 +386,20 @@ int run_rank(const RunRequest& req, const std::optional<Loaded>& given, const st
     log << buf;
   }
   log << "\n";
+  // A run whose rollbacks kept Δt below run.dt covered less time than its steps promise: for a
+  // model whose Δt is part of it (boids' map step), a different run. Said with who asked.
+  const double nominal = steps * spec.run.dt;
+  if (sim->stats().rollbacks && lead) {
+    for (auto& s : sim->rollback_sources()) log << "rollbacks: " << s << "\n";
+    if (steps > 0 && sim->state().time - first_time < 0.9 * nominal) {
+      char buf[160];
+      std::snprintf(buf, sizeof buf, "%.4g is %.0f %% of the %.4g that %.0f steps of run.dt = %g make", sim->state().time - first_time,
+                    100 * (sim->state().time - first_time) / nominal, nominal, steps, spec.run.dt);
+      log << "flipflow: warning: the simulated time " << buf
+          << ": each rollback halved Δt, which doubles back only after run.dt_grow_after = " << spec.run.dt_grow_after
+          << " good steps (the stages above asked for them)\n";
+    }
+  }
   return 0;
 }
 }  // namespace
