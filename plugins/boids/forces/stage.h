@@ -30,7 +30,7 @@ struct ForcesParams {
 
   template <class P>
   void describe(P& p) {
-    p(view_radius, "view_radius", "r_v (σ): a boid sees others closer than this").above(0);
+    p(view_radius, "view_radius", "r_v (a length in the box's units, not scaled by σ): a boid sees others closer than this").above(0);
     p(view_angle, "view_angle",
       "θ_v (rad): a boid sees others within this angle of its heading (π: all around; the default leaves a blind "
       "sector of 2π − 2θ_v behind)")

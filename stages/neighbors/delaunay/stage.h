@@ -49,7 +49,7 @@ struct DelaunaySearchParams {
 
   template <class P>
   void describe(P& p) {
-    p(radius, "radius", "r (σ): every pair closer than r (and no other) is listed; neighbors.cutoff = r").above(0);
+    p(radius, "radius", "r (a length in the box's units, not scaled by σ): every pair closer than r (and no other) is listed; neighbors.cutoff = r").above(0);
     p(traversal, "traversal",
       "visited: breadth-first with a visited set in the row (fewer distance evaluations); parent: depth-first "
       "along parent links (the ring member closest to the centre), no visited set")
@@ -96,8 +96,9 @@ class DelaunaySearch final : public Stage {
     for (const char* f : {df::halfedge, df::vertex_edge, df::position_prev, df::status})
       if (!s.has_field(f))
         throw InputError(std::string("neighbors.delaunay needs the maintained Delaunay triangulation (field '") + f +
-                         "'), which no stage before it provides: put delaunay.detect_inversion, delaunay.flip and "
-                         "delaunay.lawson before it in `step:` (after the integrator)");
+                         "'), which no stage before it provides: list `delaunay.build` (every: a large k, for the first "
+                         "step's triangulation) before it, and delaunay.detect_inversion, delaunay.flip and "
+                         "delaunay.lawson after the integrator to keep it, as pipelines/bench-boids-delaunay.yaml does");
     if (s.has_field(kList))
       throw InputError("neighbors.delaunay: a stage before it already writes neighbors.list (neighbors.verlet or "
                        "another neighbors.delaunay); a pipeline has one neighbour list: keep one of them");

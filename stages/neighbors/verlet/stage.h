@@ -34,14 +34,14 @@ struct VerletParams {
 
   template <class P>
   void describe(P& p) {
-    p(cutoff, "cutoff", "interaction cutoff r_c (σ): every pair closer is listed").above(0);
+    p(cutoff, "cutoff", "interaction cutoff r_c (a length in the box's units, not scaled by σ): every pair closer is listed").above(0);
     p(skin, "skin",
-      "Verlet skin (σ): lists hold pairs within r_c + skin and are rebuilt when a particle has moved more than "
+      "Verlet skin (box units): lists hold pairs within r_c + skin and are rebuilt when a particle has moved more than "
       "skin/2")
         .above(0);
     p(ghost_margin, "ghost_margin",
       "decomposed teams (--gpus N, docs/multi-gpu.md): a rank holds ghosts within r_c + 2 skin + 2 margin of "
-      "its slab (σ), migrates particles only once one moved skin/2 + margin, and rebuilds the list in between "
+      "its slab (box units), migrates particles only once one moved skin/2 + margin, and rebuilds the list in between "
       "on its own; 0: ghosts within r_c + skin, a migration at every rebuild. No effect alone")
         .at_least(0);
   }
