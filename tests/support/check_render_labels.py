@@ -70,6 +70,22 @@ def main():
         got = r.quantity_label(name)
         if got != want:
             fail(f"quantity_label({name!r}) = {got!r}, expected {want!r}")
+    # An observable's time axis: t / τ, but steps of the map for a boids run (Δt = 1 is one step).
+    import os
+    import tempfile
+
+    import h5py
+    import numpy as np
+    with tempfile.TemporaryDirectory() as d:
+        for stage, want in [("boids.integrate", "t (steps of the boids' map, Δt = 1)"), ("abp.integrate", "t / τ")]:
+            path = os.path.join(d, stage + ".h5")
+            with h5py.File(path, "w") as f:
+                f["parameters/effective_pipeline"] = f"step:\n  - {{stage: {stage}}}\n"
+                f["observables/phi/value"] = np.array([0.1, 0.2])
+                f["observables/phi/time"] = np.array([0.0, 1.0])
+            _, _, xlabel = r.h5_series(np, h5py, path, "phi")
+            if r.quantity_label(xlabel) != want:
+                fail(f"the time axis of a run of {stage}: {r.quantity_label(xlabel)!r}, expected {want!r}")
     # Curves from files of one name are told apart by their folders.
     labels = r.curve_labels(["/a/run1/gr.csv", "/a/run2/gr.csv"])
     if labels != ["run1/gr.csv", "run2/gr.csv"]:
