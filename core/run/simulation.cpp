@@ -108,7 +108,8 @@ void Simulation::build(const Registry& registry) {
   }
   graph_ = std::make_unique<StepGraph>(spec_, std::move(accesses), observer);
   if (!in_team(options_.team) || options_.team->rank() == 0)
-    for (auto& list : {graph_->repeated_movers(spec_), graph_->unread_writes(spec_)})
+    for (auto& list : {graph_->repeated_movers(spec_), graph_->unread_writes(spec_),
+                       graph_->periodic_cells_in_slab(spec_), graph_->stale_observer_fields(spec_)})
       for (auto& w : list) std::fprintf(options_.messages, "flipflow: warning: %s\n", w.c_str());
   const bool decomposed = in_team(options_.team) && wants_decomposition(observer);
   if (in_team(options_.team) && !decomposed) check_team(observer);
