@@ -502,6 +502,20 @@ TEST_CASE("pipeline run: a large system says when its set-up and its triangulati
   fs::remove_all(out);
 }
 
+TEST_CASE("pipeline run: too few disks in a slab are told in the user's N and box, an input error", "[cli][walls]") {
+  // Before: N = 3 gave exit 1 with the doubled box's N = 6 in 64 x 84, and a particle "on a wall".
+  const fs::path out = fresh_dir("slab_sparse");
+  for (const char* n : {"3", "12"}) {
+    auto r = run("run " + repo_file("pipelines/hard-disks-slab-voronoi.yaml").string() + " --set system.N=" + n +
+                 " --set run.steps=10 --device cpu --force --out " + out.string());
+    INFO(r.out);
+    CHECK(r.code == 2);
+    CHECK_THAT(r.out, Catch::Contains(std::string("with N = ") + n + " in a 64 x 42 box") &&
+                          Catch::Contains("use N >= ") && !Catch::Contains("84") && !Catch::Contains("on a wall"));
+  }
+  fs::remove_all(out);
+}
+
 TEST_CASE("pipeline run: two steps writing one file are refused, naming both", "[cli]") {
   auto r = run("validate " + repo_file("pipelines/hard-disks.yaml").string() + " --set step.observe.gr.file=trajectory.h5");
   INFO(r.out);
