@@ -278,6 +278,63 @@ TEST_CASE("pipeline validate: a stage that moves the particles, listed twice ali
   fs::remove(file);
 }
 
+TEST_CASE("pipeline validate: stages whose walls differ are refused, naming both entries", "[cli][walls]") {
+  // Before: exit 0, voronoi.mirror_observer clipping at y while the disks crossed y periodically.
+  const std::string slab = repo_file("pipelines/hard-disks-slab-voronoi.yaml").string();
+  for (const char* w : {"x", "none"}) {
+    auto r = run(std::string("validate ") + slab + " --set step.overlap_correct.walls=" + w);
+    INFO(r.out);
+    CHECK(r.code == 2);
+    CHECK_THAT(r.out, Catch::Contains("hard-disks-slab-voronoi.yaml:32:5: step 'voronoi.mirror_observer' has walls: y") &&
+                          Catch::Contains("step 'overlap_correct' (" + slab + ":31:5") &&
+                          Catch::Contains(std::string("has walls: ") + w));
+  }
+  // voronoi.mirror's default (y) counts: walls: x on the correction alone is refused too.
+  const fs::path file = fresh_dir("walls_default.yaml");
+  std::ofstream(file) << "system: {dimensions: 2, N: 256, packing_fraction: 0.3}\nrun: {steps: 10, dt: 0.0003}\n"
+                         "plugins: [brownian]\nstep:\n  - {stage: brownian.integrate, D: 1}\n"
+                         "  - {stage: delaunay.detect_inversion}\n  - {stage: delaunay.flip}\n"
+                         "  - {stage: delaunay.lawson}\n  - {stage: overlap_correct, walls: x}\n"
+                         "  - {stage: voronoi.mirror}\n";
+  auto r = run("validate " + file.string());
+  INFO(r.out);
+  CHECK(r.code == 2);
+  CHECK_THAT(r.out, Catch::Contains(":10:5: step 'voronoi.mirror' has walls: y, but step 'overlap_correct'"));
+  fs::remove(file);
+  // The same walls everywhere: valid, nothing said about them.
+  r = run("validate " + slab);
+  CHECK(r.code == 0);
+  CHECK_THAT(r.out, !Catch::Contains("warning"));
+}
+
+TEST_CASE("pipeline validate: voronoi.geometry in a pipeline with walls draws a warning", "[cli][walls]") {
+  const std::string hd = repo_file("pipelines/voronoi-hard-disks.yaml").string();
+  auto r = run("validate " + hd + " --set step.overlap_correct.walls=y");
+  INFO(r.out);
+  CHECK(r.code == 0);
+  CHECK_THAT(r.out, Catch::Contains("warning: " + hd + ":32:5: step 'voronoi.geometry' (voronoi.geometry) makes the "
+                                    "cells of the periodic box") &&
+                        Catch::Contains("{stage: voronoi.mirror, walls: y}"));
+  r = run("validate " + hd);
+  CHECK(r.code == 0);
+  CHECK_THAT(r.out, !Catch::Contains("warning"));
+}
+
+TEST_CASE("pipeline validate: voronoi cells written on a schedule their maker skips draw a warning", "[cli][walls]") {
+  // Before: observe.h5md every 500 wrote the step-0 cells at step 500, silently.
+  const std::string slab = repo_file("pipelines/hard-disks-slab-voronoi.yaml").string();
+  auto r = run("validate " + slab + " --set step.observe.h5md.every=500");
+  INFO(r.out);
+  CHECK(r.code == 0);
+  CHECK_THAT(r.out, Catch::Contains("warning: " + slab + ":33:5 (with --set step.observe.h5md.every=500): step "
+                                    "'observe.h5md' (every 500) reads field 'voronoi.area', which step "
+                                    "'voronoi.mirror_observer' (" + slab + ":32:5) writes every 1000"));
+  // A multiple of the maker's schedule sees fresh cells in every frame: nothing said.
+  r = run("validate " + slab + " --set step.observe.h5md.every=2000");
+  CHECK(r.code == 0);
+  CHECK_THAT(r.out, !Catch::Contains("warning"));
+}
+
 TEST_CASE("pipeline validate: a force that no stage reads draws a warning that says why", "[cli]") {
   // A pair force before abp.integrate, which takes no force: valid, but the force does nothing.
   const fs::path file = fresh_dir("unread_force.yaml");
@@ -465,6 +522,20 @@ TEST_CASE("pipeline run: a large system says when its set-up and its triangulati
   auto small = run("run " + repo_file("pipelines/hard-disks.yaml").string() +
                    " --set system.N=400 --set run.steps=1 --device cpu --out " + out.string() + " --force");
   CHECK_THAT(small.out, !Catch::Contains("setting up") && !Catch::Contains("triangulating"));
+  fs::remove_all(out);
+}
+
+TEST_CASE("pipeline run: too few disks in a slab are told in the user's N and box, an input error", "[cli][walls]") {
+  // Before: N = 3 gave exit 1 with the doubled box's N = 6 in 64 x 84, and a particle "on a wall".
+  const fs::path out = fresh_dir("slab_sparse");
+  for (const char* n : {"3", "12"}) {
+    auto r = run("run " + repo_file("pipelines/hard-disks-slab-voronoi.yaml").string() + " --set system.N=" + n +
+                 " --set run.steps=10 --device cpu --force --out " + out.string());
+    INFO(r.out);
+    CHECK(r.code == 2);
+    CHECK_THAT(r.out, Catch::Contains(std::string("with N = ") + n + " in a 64 x 42 box") &&
+                          Catch::Contains("use N >= ") && !Catch::Contains("84") && !Catch::Contains("on a wall"));
+  }
   fs::remove_all(out);
 }
 

@@ -245,6 +245,15 @@ TEST_CASE("tools/render colours by a per-particle field (voronoi.area, voronoi.s
                         Catch::Contains("cells are not the Voronoi cells of the frame's positions") &&
                         Catch::Contains("before the voronoi stage first ran") && Catch::Contains("delaunay.lawson"));
   CHECK(is_png(dir / "z.png"));
+  // Drawn clipped by walls the run did not have (voronoi.geometry's cells are periodic): the hint names the walls.
+  auto w = sh(render + " " + h5.string() + " --walls y --voronoi --color-by voronoi.area --out " +
+                  (dir / "w.png").string() + " --dpi 40",
+              dir);
+  INFO(w.out);
+  CHECK(w.code == 0);
+  CHECK_THAT(w.out, Catch::Contains("cells are not the Voronoi cells of the frame's positions") &&
+                        Catch::Contains("the walls differ: the picture's cells are clipped by walls ⟂ y") &&
+                        Catch::Contains("voronoi.geometry's cells are periodic"));
   auto s = sh(render + " " + h5.string() + " --color-by voronoi.sides --out " + (dir / "s.png").string() + " --dpi 40",
               dir);
   INFO(s.out);

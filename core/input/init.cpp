@@ -188,7 +188,7 @@ bool overlaps(int dim, const double* L, const double* x, double di, const double
 
 // Random sequential addition, largest particles first.
 void place_random(const SystemSpec& s, const double* L, const std::vector<double>& diam,
-                  RngKey key, const Rounding& round, double phi, std::vector<double>& pos) {
+                  RngKey key, const Rounding& round, double phi, int wall_axis, std::vector<double>& pos) {
   const int dim = s.dimensions;
   const std::size_t n = diam.size();
   const double dmax = *std::max_element(diam.begin(), diam.end());
@@ -222,7 +222,10 @@ void place_random(const SystemSpec& s, const double* L, const std::vector<double
     for (std::uint64_t t = 0; t < kMaxDropsPerParticle && !ok; ++t) {
       for (int k = 0; k < dim; ++k) {
         const double u = uniform01(key, std::uint32_t(i), counter(Draw::drop, t), 0, std::uint32_t(k));
-        x[k] = round.coordinate((1.0 - u) * L[k], L[k]);  // 1 − u ∈ [0, 1)
+        // 1 − u ∈ [0, 1); between walls, [d_i/2, L − d_i/2) (a centre closer than d_i/2 to a wall
+        // would be pushed off it by the first correction, a jump of up to d_i/2).
+        x[k] = k == wall_axis ? round.coordinate(0.5 * diam[i] + (1.0 - u) * (L[k] - diam[i]), L[k])
+                              : round.coordinate((1.0 - u) * L[k], L[k]);
       }
       ok = !grid.any_near(x, [&](std::int64_t j) {
         return overlaps(dim, L, x, diam[i], &pos[std::size_t(j) * dim], diam[std::size_t(j)]);
@@ -549,7 +552,8 @@ std::unique_ptr<State> state_from_h5md(const SystemSpec& s, Precision precision)
 
 }  // namespace
 
-std::unique_ptr<State> make_initial_state(const SystemSpec& s, Precision precision, std::uint64_t seed) {
+std::unique_ptr<State> make_initial_state(const SystemSpec& s, Precision precision, std::uint64_t seed,
+                                          int wall_axis) {
   if (s.init == "from") return state_from_h5md(s, precision);
   const Box box = make_box(s);  // validates s
   const Placement how = placement(s);
@@ -581,7 +585,7 @@ std::unique_ptr<State> make_initial_state(const SystemSpec& s, Precision precisi
   const double phi = occupied / seen.volume();
 
   std::vector<double> pos(n * std::size_t(dim));
-  if (how == Placement::random) place_random(s, seen.L, diam, key, round, phi, pos);
+  if (how == Placement::random) place_random(s, seen.L, diam, key, round, phi, wall_axis < dim ? wall_axis : -1, pos);
   else place_on_lattice(s, seen, diam, key, round, phi, pos);
   check_no_overlap(dim, seen.L, pos, diam);
 

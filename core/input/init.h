@@ -39,9 +39,11 @@ std::vector<std::uint64_t> species_counts(const SystemSpec& system);
 
 // A fresh state: box, species names and diameters, and the `type`, `diameter`, `position` and
 // (zero) `image` fields, placed by `system.init`. Throws InputError when the input is wrong or
-// too dense for the chosen placement (the message says what to change).
+// too dense for the chosen placement (the message says what to change). wall_axis: the axis of the
+// pipeline's hard walls (overlap_correct's `walls`, at 0 and L along it; -1: none): `random` then
+// draws every centre at least d_i/2 from both walls (the lattices and `from` take no account of them).
 std::unique_ptr<State> make_initial_state(const SystemSpec& system, Precision precision,
-                                          std::uint64_t seed);
+                                          std::uint64_t seed, int wall_axis = -1);
 
 // The lattice that lattice placement samples from: at least `n_min` sites in `box` (2D:
 // triangular; 3D: simple cubic or fcc), chosen to make the smallest periodic (minimum-image)

@@ -8,6 +8,7 @@
 #include <map>
 #include <set>
 #include <sstream>
+#include <variant>
 
 #include "core/backend/comm.h"
 #include "core/base/error.h"
@@ -22,7 +23,16 @@ Simulation::Simulation(const PipelineSpec& spec, const Registry& registry, RunOp
 
 std::unique_ptr<State> Simulation::initial_state(const PipelineSpec& spec) {
   try {
-    return make_initial_state(spec.system, spec.run.precision, spec.run.seed);
+    // The walls of the pipeline's overlap correction (`walls: x|y|z`): a random start keeps the
+    // centres off them. (StepGraph refuses stages whose walls differ.)
+    int wall_axis = -1;
+    for (const StepEntry& e : spec.step) {
+      auto it = e.params.all().find("walls");
+      if (e.stage.rfind("overlap_correct", 0) != 0 || it == e.params.all().end()) continue;
+      if (const auto* w = std::get_if<std::string>(&it->second); w && w->size() == 1 && (*w)[0] >= 'x' && (*w)[0] <= 'z')
+        wall_axis = (*w)[0] - 'x';
+    }
+    return make_initial_state(spec.system, spec.run.precision, spec.run.seed, wall_axis);
   } catch (const InputError& e) {
     if (spec.system.where.str().empty()) throw;
     // (the file's place of `init`, and the --set arguments that changed the system)
@@ -110,7 +120,8 @@ void Simulation::build(const Registry& registry) {
   rollbacks_asked_.assign(graph_->nodes().size(), 0);
   last_rollback_reason_.assign(graph_->nodes().size(), "");
   if (!in_team(options_.team) || options_.team->rank() == 0)
-    for (auto& list : {graph_->repeated_movers(spec_), graph_->unread_writes(spec_)})
+    for (auto& list : {graph_->repeated_movers(spec_), graph_->unread_writes(spec_),
+                       graph_->periodic_cells_in_slab(spec_), graph_->stale_observer_fields(spec_)})
       for (auto& w : list) std::fprintf(options_.messages, "flipflow: warning: %s\n", w.c_str());
   const bool decomposed = in_team(options_.team) && wants_decomposition(observer);
   if (in_team(options_.team) && !decomposed) check_team(observer);

@@ -2,6 +2,7 @@
 
 #include <map>
 #include <stdexcept>
+#include <variant>
 #include <sstream>
 
 #include "core/base/error.h"
@@ -18,10 +19,97 @@ bool default_id(const StepEntry& e) {
          e.id.find_first_not_of("0123456789", prefix.size()) == std::string::npos;
 }
 
+// The `walls` parameter of an entry that has one (overlap_correct, overlap_correct.verlet,
+// voronoi.mirror, voronoi.mirror_observer; defaults filled), or nullptr.
+const std::string* walls_of(const StepEntry& e) {
+  auto it = e.params.all().find("walls");
+  return it == e.params.all().end() ? nullptr : std::get_if<std::string>(&it->second);
+}
+
+bool corrects_overlaps(const StepEntry& e) { return e.stage.rfind("overlap_correct", 0) == 0; }
+
+std::string line_of(const StepEntry& e) { return e.where.str() + set_by_note(e.set_by); }
+
+std::string when(const Schedule& s) { return s.every_step() ? "every step" : s.text(); }
+
 }  // namespace
+
+// Every stage with a `walls` parameter must name the same walls: voronoi.mirror's cells are clipped
+// at the planes the correction keeps the particles between; with other walls (or none) the particles
+// cross the planes it clips at, and nothing else would say so. Refused, not warned: no pipeline means
+// two different walls (a correction with `walls: none` lets pairs interact across the planes, and
+// there is no other stage that confines the particles).
+void StepGraph::check_walls(const PipelineSpec& spec) {
+  const StepEntry* first = nullptr;
+  for (const StepEntry& e : spec.step) {
+    const std::string* w = walls_of(e);
+    if (!w) continue;
+    if (!first) {
+      first = &e;
+      continue;
+    }
+    const std::string& w0 = *walls_of(*first);
+    if (*w == w0) continue;
+    throw InputError(line_of(e) + ": step '" + e.id + "' has walls: " + *w + ", but step '" + first->id + "' (" +
+                     line_of(*first) + ") has walls: " + w0 +
+                     ": every stage with walls (overlap_correct, voronoi.mirror, voronoi.mirror_observer) must name "
+                     "the same axis, or the cells are clipped at planes the particles cross (README \"Walls\")");
+  }
+}
+
+std::vector<std::string> StepGraph::periodic_cells_in_slab(const PipelineSpec& spec) const {
+  std::vector<std::string> out;
+  const StepEntry* slab = nullptr;
+  for (const StepEntry& e : spec.step)
+    if (corrects_overlaps(e) && walls_of(e) && *walls_of(e) != "none") slab = &e;
+  if (!slab) return out;
+  for (const StepEntry& e : spec.step)
+    if (e.stage == "voronoi.geometry")
+      out.push_back(line_of(e) + ": step '" + e.id + "' (voronoi.geometry) makes the cells of the periodic box, but step '" +
+                    slab->id + "' (" + line_of(*slab) + ") has walls: " + *walls_of(*slab) +
+                    ": the cells of the disks at the walls reach across them. List {stage: voronoi.mirror, walls: " +
+                    *walls_of(*slab) + "} (or voronoi.mirror_observer) instead: the cells clipped by the walls");
+  return out;
+}
+
+std::vector<std::string> StepGraph::stale_observer_fields(const PipelineSpec& spec) const {
+  std::vector<std::string> out;
+  // Whether r runs at a step w does not (observers: steps 0 ... run.steps).
+  auto misses = [&](const GraphNode& w, const GraphNode& r) {
+    if (!w.schedule.log && !r.schedule.log) return r.schedule.every % w.schedule.every != 0;
+    std::uint64_t checked = 0;
+    if (r.schedule.log) {
+      for (std::uint64_t s : r.steps)
+        if (!w.runs_at(s)) return true;
+      return false;
+    }
+    for (std::uint64_t s = 0; s <= spec.run.steps && checked < 1000000; s += r.schedule.every, ++checked)
+      if (!w.runs_at(s)) return true;
+    return false;
+  };
+  for (std::size_t r = 0; r < nodes_.size(); ++r) {
+    if (!nodes_[r].observer) continue;
+    for (std::size_t w = 0; w < r; ++w) {
+      if (!nodes_[w].observer || !misses(nodes_[w], nodes_[r])) continue;
+      std::string field;
+      for (auto& a : nodes_[w].accesses)
+        for (auto& b : nodes_[r].accesses)
+          if (field.empty() && a.field == b.field && writes(a.mode) && reads(b.mode)) field = a.field;
+      if (field.empty()) continue;
+      const StepEntry& ew = spec.step[w];
+      const StepEntry& er = spec.step[r];
+      out.push_back(line_of(er) + ": step '" + er.id + "' (" + when(nodes_[r].schedule) + ") reads field '" + field +
+                    "', which step '" + ew.id + "' (" + line_of(ew) + ") writes " + when(nodes_[w].schedule) +
+                    ": at the steps '" + ew.id + "' skips, '" + er.id + "' writes its older values. Give both the same "
+                    "schedule");
+    }
+  }
+  return out;
+}
 
 StepGraph::StepGraph(const PipelineSpec& spec, std::vector<std::vector<Access>> accesses,
                      const std::vector<bool>& observer) {
+  check_walls(spec);
   std::map<std::string, int> index;
   int previous_compute = -1;
   for (std::size_t i = 0; i < spec.step.size(); ++i) {

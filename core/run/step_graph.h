@@ -61,12 +61,21 @@ class StepGraph {
   // after the one that would (drift: auto sees no `force` yet), is such a field.
   std::vector<std::string> unread_writes(const PipelineSpec& spec) const;
 
+  // Warnings, one an entry: voronoi.geometry (the torus's cells) in a pipeline whose overlap
+  // correction has walls, where the cells cross the walls (voronoi.mirror clips them there).
+  std::vector<std::string> periodic_cells_in_slab(const PipelineSpec& spec) const;
+  // Warnings, one a pair: an observer that writes a field a later observer reads (voronoi.mirror_observer
+  // and observe.h5md) at a step the writer does not run at: that frame holds the writer's last,
+  // older, values.
+  std::vector<std::string> stale_observer_fields(const PipelineSpec& spec) const;
+
   std::string dot() const;      // Graphviz
   std::string summary() const;  // the resolved graph in words, for `pipeline validate`
 
  private:
   void check_conflicts() const;
   void check_overwrites() const;
+  static void check_walls(const PipelineSpec& spec);
   std::vector<GraphNode> nodes_;
   std::vector<std::vector<bool>> reach_;
 };

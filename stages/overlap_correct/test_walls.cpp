@@ -363,6 +363,42 @@ TEST_CASE("walls: 3D hard spheres between walls (overlap_correct.verlet)", "[ove
   }
 }
 
+TEST_CASE("walls: init: random keeps every centre at least d_i/2 from the walls of the pipeline's correction",
+          "[overlap][walls]") {
+  // Before: RSA drew over the whole box, and the slab's frame 0 had a disk 0.0016 from a wall,
+  // which the first step pushed off by ~σ/2. Both variants, walls along x and along y, two sizes.
+  const Registry& r = registry();
+  for (const char* variant : {"delaunay", "verlet"})
+    for (int wall : {0, 1}) {
+      auto step = correction(variant, wall ? "y" : "x", {}, {entry(r, "brownian.integrate", {{"D", 1.0}})});
+      if (step[1].stage == "neighbors.verlet") step[1] = entry(r, "neighbors.verlet", {{"cutoff", 2.0}, {"skin", 0.3}});
+      auto spec = test::spec(2, 600, 0.0, 1, 3e-4, std::move(step), 7);
+      spec.system.box = {wall ? 491.0 : 8.0, wall ? 8.0 : 491.0};  // η = 0.3 with half the disks of diameter 2
+      spec.system.types = {SpeciesSpec{"A", 0.5, 1.0}, SpeciesSpec{"B", 0.5, 2.0}};
+      INFO(variant << ", walls along " << "xy"[wall]);
+      Simulation sim(spec, r, dry());
+      State& s = sim.state();
+      const auto x = positions(s);
+      Field& d = s.field(fields::diameter);
+      d.acquire(Where::host, Mode::read);
+      double worst = HUGE_VAL;
+      for (std::size_t i = 0; i < s.n(); ++i) {
+        const double u = x[2 * i + wall], half = 0.5 * d.host<double>()[i];
+        worst = std::min({worst, u - half, s.box.L[wall] - u - half});
+      }
+      CHECK(worst >= -1e-12);
+      CHECK(worst < 0.05);  // still reaching the contact planes (the draw is uniform between them)
+    }
+  // Without walls the draw covers the whole box, as before: some centre lies within 0.05 of x = 0.
+  auto spec = test::spec(2, 600, 0.0, 1, 3e-4, {entry(r, "brownian.integrate", {{"D", 1.0}})}, 7);
+  spec.system.box = {200.0, 8.0};
+  Simulation sim(spec, r, dry());
+  const auto x = positions(sim.state());
+  double lowest = HUGE_VAL;
+  for (std::size_t i = 0; i < 600; ++i) lowest = std::min({lowest, x[2 * i + 1], 8.0 - x[2 * i + 1]});
+  CHECK(lowest < 0.05);
+}
+
 TEST_CASE("walls: ideal brownian particles fill the slab evenly between the contact planes (χ²)",
           "[overlap][walls][physics]") {
   // 6000 disks (σ = 1) in a 120000 x 4 box, walls along y, 20σ apart along x, so that no two ever

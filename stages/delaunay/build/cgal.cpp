@@ -61,12 +61,13 @@ std::string fmt(double v) {
   const double aspect = std::max(Lx, Ly) / std::min(Lx, Ly);
   // Keep the longest edge below 0.4 of the shorter side (CGAL's 1-sheet criterion is 0.407).
   const double need = std::ceil(density * aspect * (2.5 * longest) * (2.5 * longest));
-  throw InputError("delaunay.build: " + what + ": with N = " + std::to_string(n) + " in a " + fmt(Lx) + " x " +
-                   fmt(Ly) + " box (number density " + fmt(density) + ") the longest Delaunay edge is " +
-                   fmt(longest) + ", but the periodic triangulation is stored by minimum image and needs every "
-                   "edge shorter than half the box. At this density use N >= " +
-                   std::to_string(std::max<long long>(static_cast<long long>(need), static_cast<long long>(n) + 1)) +
-                   " (or a denser system)");
+  const long long use = std::max<long long>(static_cast<long long>(need), static_cast<long long>(n) + 1);
+  throw TooSparse("delaunay.build: " + what + ": with N = " + std::to_string(n) + " in a " + fmt(Lx) + " x " +
+                      fmt(Ly) + " box (number density " + fmt(density) + ") the longest Delaunay edge is " +
+                      fmt(longest) + ", but the periodic triangulation is stored by minimum image and needs every "
+                      "edge shorter than half the box. At this density use N >= " + std::to_string(use) +
+                      " (or a denser system)",
+                  longest, use);
 }
 
 // Square box: CGAL's periodic triangulation, if it reaches the 1-sheeted covering.

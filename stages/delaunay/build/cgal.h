@@ -4,7 +4,19 @@
 #include <string>
 #include <vector>
 
+#include "core/base/error.h"
+
 namespace ff::delaunay {
+
+// periodic_delaunay's InputError for too few points at their density (an edge longer than half the
+// box): what it found, for a caller that triangulates points other than the user's (voronoi.mirror's
+// doubled box) to say it in the user's terms.
+struct TooSparse : InputError {
+  TooSparse(const std::string& what, double longest_edge, long long need_n)
+      : InputError(what), longest(longest_edge), need(need_n) {}
+  double longest;  // the longest Delaunay edge
+  long long need;  // the N that would do at this density, in this box
+};
 
 struct PeriodicTriangles {
   std::vector<std::array<int, 3>> triangles;  // CCW, 2N of them

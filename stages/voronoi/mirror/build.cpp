@@ -1,6 +1,7 @@
 #include "stages/voronoi/mirror/build.h"
 
 #include <cstring>
+#include <sstream>
 #include <vector>
 
 #include "core/base/error.h"
@@ -24,6 +25,20 @@ void build_mirror_mesh(State& s, const double L2[2], CUstream_st* stream) {
   delaunay::PeriodicTriangles tri;
   try {
     tri = delaunay::periodic_delaunay(xy, L2[0], L2[1]);
+  } catch (const delaunay::TooSparse& e) {
+    // Too few particles: said in the user's terms (their N and box; the doubled box has the same
+    // density), an input error as delaunay.build's for the pipeline's own triangulation.
+    const int axis = L2[0] != s.box.L[0] ? 0 : 1;
+    std::ostringstream os;
+    os.precision(4);
+    os << "voronoi.mirror: with N = " << m / 2 << " in a " << s.box.L[0] << " x " << s.box.L[1]
+       << " box between walls at " << "xy"[axis] << " = 0 and " << s.box.L[axis] << " (number density "
+       << double(m / 2) / (s.box.L[0] * s.box.L[1])
+       << ") the cells clipped by the walls cannot be computed: the triangulation of the particles and their mirror "
+          "images (the doubled box) has an edge of length "
+       << e.longest << ", longer than half the doubled box. At this density use N >= " << (e.need + 1) / 2
+       << " (or a denser system)";
+    throw InputError(os.str());
   } catch (const std::exception& e) {
     throw RunError(std::string("voronoi.mirror: step ") + std::to_string(s.step) +
                    ": cannot triangulate the particles with their mirror images (images are numbered N + i; a particle "

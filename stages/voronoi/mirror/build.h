@@ -19,8 +19,9 @@ inline constexpr const char* status = "voronoi.mirror.status";            // i32
 
 // Triangulates the 2N points of mirror_fields::position (on the host: `stream` only brings them
 // there) in the periodic box L2 (the doubled box) and writes halfedge, opposite, vertex_edge and
-// status on the host. RunError naming the particle when a particle lies on a wall (it
-// coincides with its image) or when the box is too small for the periodic triangulation.
+// status on the host. RunError when a particle lies on a wall (it coincides with its image);
+// InputError, in the user's N and box, when there are too few particles for the periodic
+// triangulation of the doubled box.
 void build_mirror_mesh(State& s, const double L2[2], CUstream_st* stream);
 
 }  // namespace ff::voronoi
