@@ -332,7 +332,7 @@ TEST_CASE("tools/render plots gr.csv's g(r) against r/σ; a CSV file without --p
               dir);
   INFO(g.out);
   CHECK(g.code == 0);
-  CHECK_THAT(g.out, Catch::Contains("x: r/σ"));
+  CHECK_THAT(g.out, Catch::Contains("x: r / σ"));  // the axis as the figure labels it
   CHECK(is_png(dir / "g.png"));
   auto x = sh(render + " " + csv.string() + " --plot-observable g --x r_lo --out " + (dir / "lo.png").string() +
                   " --dpi 40",

@@ -416,8 +416,10 @@ TEST_CASE("neighbors.delaunay: errors name what to change", "[neighbors][delauna
   };
   SECTION("no triangulation before it") {
     auto s = test::spec(2, 400, 0.3, 1, 1e-3, {entry(r, "neighbors.delaunay")});
-    CHECK_THROWS_WITH(Simulation(s, r, dry()), Catch::Contains("put delaunay.detect_inversion, delaunay.flip and "
-                                                               "delaunay.lawson before it"));
+    CHECK_THROWS_WITH(Simulation(s, r, dry()),
+                      Catch::Contains("list `delaunay.build` (every: a large k, for the first step's triangulation) "
+                                      "before it, and delaunay.detect_inversion, delaunay.flip and delaunay.lawson after "
+                                      "the integrator"));
   }
   SECTION("between detect_inversion and lawson (the triangulation not yet Delaunay)") {
     std::vector<StepEntry> step{entry(r, "brownian.integrate", {{"D", 1.0}}), entry(r, "delaunay.detect_inversion"),
