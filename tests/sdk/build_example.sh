@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # test_sdk_example (tests/CMakeLists.txt): flipflow as an SDK, the way a user outside the
-# repository meets it. Installs this build into a temporary prefix, configures and builds
+# repository meets it. Installs this build into a temporary prefix (and checks that every
+# installed header's includes are installed too), configures and builds
 # examples/chiral_abp against that prefix alone (never the build or source tree), runs the
 # example's test, and runs its pipeline with the installed `pipeline` and the example's plugin.
 #
@@ -22,10 +23,22 @@ step() { printf '\n== %s (%ds)\n' "$*" "$SECONDS"; }
 step "install $build into $prefix"
 "$cmake" --install "$build" --prefix "$prefix" >"$work/install.log"
 for f in bin/pipeline lib/libflipflow.so lib/cmake/flipflow/flipflowConfig.cmake \
-         share/flipflow/sdk/plugin_entry.cpp include/core/stage/stage_registration.h; do
+         share/flipflow/sdk/plugin_entry.cpp include/core/stage/stage_registration.h \
+         include/stages/neighbors/pair_force.h; do
   [[ -e $prefix/$f ]] || { echo "FAIL: the install lacks $f"; exit 1; }
 done
 ls "$prefix/lib/flipflow/plugins"
+
+step "every quoted include of an installed header is installed"
+# Resolved as the compiler would for a plugin: beside the header, then P/include (flipflow::core).
+missing=0
+while IFS= read -r -d '' h; do
+  while IFS= read -r inc; do
+    [[ -e $(dirname "$h")/$inc || -e $prefix/include/$inc ]] ||
+      { echo "FAIL: ${h#"$prefix"/} includes \"$inc\", which is not installed"; missing=1; }
+  done < <(sed -n 's/^[[:space:]]*#[[:space:]]*include[[:space:]]*"\([^"]*\)".*/\1/p' "$h")
+done < <(find "$prefix/include" -type f \( -name '*.h' -o -name '*.cuh' \) -print0)
+((missing == 0)) || exit 1
 
 step "configure examples/chiral_abp against $prefix only"
 # Nothing from the environment may point find_package elsewhere, nor the package registry.
