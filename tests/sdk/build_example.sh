@@ -24,17 +24,18 @@ step "install $build into $prefix"
 "$cmake" --install "$build" --prefix "$prefix" >"$work/install.log"
 for f in bin/pipeline lib/libflipflow.so lib/cmake/flipflow/flipflowConfig.cmake \
          share/flipflow/sdk/plugin_entry.cpp include/core/stage/stage_registration.h \
-         include/stages/neighbors/pair_force.h; do
+         include/stages/neighbors/pair_force.h include/flipflow/tests/support/stage_driver.h; do
   [[ -e $prefix/$f ]] || { echo "FAIL: the install lacks $f"; exit 1; }
 done
 ls "$prefix/lib/flipflow/plugins"
 
 step "every quoted include of an installed header is installed"
-# Resolved as the compiler would for a plugin: beside the header, then P/include (flipflow::core).
+# Resolved as the compiler would for a plugin or its test: beside the header, then P/include
+# (flipflow::core), then P/include/flipflow/tests (the tests flipflow_add_plugin builds).
 missing=0
 while IFS= read -r -d '' h; do
   while IFS= read -r inc; do
-    [[ -e $(dirname "$h")/$inc || -e $prefix/include/$inc ]] ||
+    [[ -e $(dirname "$h")/$inc || -e $prefix/include/$inc || -e $prefix/include/flipflow/tests/$inc ]] ||
       { echo "FAIL: ${h#"$prefix"/} includes \"$inc\", which is not installed"; missing=1; }
   done < <(sed -n 's/^[[:space:]]*#[[:space:]]*include[[:space:]]*"\([^"]*\)".*/\1/p' "$h")
 done < <(find "$prefix/include" -type f \( -name '*.h' -o -name '*.cuh' \) -print0)
