@@ -1,5 +1,5 @@
 # flipflow_add_plugin(NAME <name> [SOURCES <cpp...>] [CUDA_SOURCES <cu...>] [LIBS <libs...>]
-#                     [EXCLUDE <files of the folder not to compile into it>])
+#                     [EXCLUDE <files of the folder not to compile into it, nor as a test>])
 #
 # One plugin library = one folder (stages/<lib>, plugins/<model>, or a model's own folder
 # outside this repository). Without SOURCES the folder is read by convention, so a new stage
@@ -10,11 +10,16 @@
 #   - every other .cpp below it (not test_*.cpp) and, with CUDA, every .cu is compiled too (the
 #     loops a stage writes by hand);
 #   - the library's entry point (core/sdk/plugin_entry.cpp) registers what they declare;
-#   - every test_<name>.cpp below it is a test beside its stage: tests/CMakeLists.txt builds it
-#     (in-tree builds only) as the CTest test and executable test_<folder>_<name>, or
-#     test_<folder> when <name> is the folder's own name (stages/overlap_correct/
-#     test_overlap_correct.cpp), linked with the core and Catch2 and built after every plugin.
-#     What one of them links besides: flipflow_stage_test_libs below.
+#   - every test_<name>.cpp below it is a test beside its stage, the CTest test and executable
+#     test_<folder>_<name>, or test_<folder> when <name> is the folder's own name
+#     (stages/overlap_correct/test_overlap_correct.cpp), linked with the core and Catch2 and built
+#     after every plugin. It includes the test-support headers as "support/stage_driver.h",
+#     "support/test_plugins.h", ... (tests/support). In this repository tests/CMakeLists.txt builds
+#     them; built against an installed flipflow (FLIPFLOW_SDK, flipflowConfig.cmake) this function
+#     has them built at the end of the project's top directory (flipflow_sdk_add_stage_tests),
+#     with the installed support headers and Catch2's own main; without Catch2 2.x it names the
+#     tests it leaves out in a CMake warning. What one of them links besides:
+#     flipflow_stage_test_libs below.
 # With SOURCES (libraries not yet in this shape) exactly those files are compiled and one of them
 # defines the entry point (FLIPFLOW_PLUGIN). The .cu files see the repository root and
 # Random123, nothing else.
@@ -47,11 +52,20 @@ function(flipflow_add_plugin)
     BUILD_RPATH "$ORIGIN/../lib"
     CUDA_SEPARABLE_COMPILATION OFF)
   set_property(GLOBAL APPEND PROPERTY FLIPFLOW_PLUGINS ${target})
-  # Tests beside the stages (test_*.cpp below the folder): tests/CMakeLists.txt builds each as
-  # test_<folder>_<name>, or test_<folder> for test_<folder>.cpp (in-tree builds only).
+  # Tests beside the stages (test_*.cpp below the folder), each test_<folder>_<name>, or
+  # test_<folder> for test_<folder>.cpp: collected here, built once every plugin is declared (by
+  # tests/CMakeLists.txt in this repository, by flipflow_sdk_add_stage_tests against an install).
   file(GLOB_RECURSE tests CONFIGURE_DEPENDS ${CMAKE_CURRENT_SOURCE_DIR}/test_*.cpp)
   get_filename_component(folder ${CMAKE_CURRENT_SOURCE_DIR} NAME)
+  foreach(x ${P_EXCLUDE})  # a test_*.cpp the project builds itself (a program of its own)
+    list(REMOVE_ITEM tests ${CMAKE_CURRENT_SOURCE_DIR}/${x})
+  endforeach()
   foreach(t ${tests})
+    string(FIND "${t}" "${CMAKE_BINARY_DIR}/" at)
+    if(at EQUAL 0)  # as in flipflow_plugin_sources: never a file of a build tree inside the folder
+      list(REMOVE_ITEM tests ${t})
+      continue()
+    endif()
     get_filename_component(stem ${t} NAME_WE)
     string(REGEX REPLACE "^test_" "" stem "${stem}")
     if(stem STREQUAL folder)
@@ -60,6 +74,66 @@ function(flipflow_add_plugin)
       set(name test_${folder}_${stem})
     endif()
     set_property(GLOBAL APPEND PROPERTY FLIPFLOW_STAGE_TESTS "${name}|${t}")
+  endforeach()
+  get_property(scheduled GLOBAL PROPERTY FLIPFLOW_SDK_STAGE_TESTS_SCHEDULED)
+  if(tests AND FLIPFLOW_SDK AND NOT scheduled)
+    set_property(GLOBAL PROPERTY FLIPFLOW_SDK_STAGE_TESTS_SCHEDULED ON)
+    # At the end of the top directory, once every plugin of the project is declared. A deferred
+    # call's arguments are read when it runs, where find_package(flipflow)'s variables may not be
+    # visible (a plugin in a subdirectory): EVAL puts their values in now. enable_testing() there,
+    # not in the function (where it would set its variable in the function's scope only), so that
+    # `ctest --test-dir <build>` finds the tests without the project asking.
+    cmake_language(EVAL CODE "cmake_language(DEFER DIRECTORY [[${CMAKE_SOURCE_DIR}]] CALL
+      flipflow_sdk_add_stage_tests [[${FLIPFLOW_TEST_INCLUDE_DIR}]] [[${FLIPFLOW_INSTALLED_PLUGIN_DIR}]])")
+    cmake_language(DEFER DIRECTORY ${CMAKE_SOURCE_DIR} CALL enable_testing)
+  endif()
+endfunction()
+
+# flipflow_sdk_add_stage_tests(<support include dir> <installed plugin dir>)
+#
+# The tests beside the stages of a project built against an installed flipflow, as
+# tests/CMakeLists.txt builds them in this repository: one executable and CTest test per
+# test_*.cpp, linked with flipflow::core, Catch2 (with Catch2's main) and its
+# flipflow_stage_test_libs, including the installed test-support headers as "support/...", built
+# after every plugin of the project. The test finds the project's plugins and the install's
+# standard stages through FLIPFLOW_STAGE_TEST_PLUGIN_PATH (support/test_plugins.h), compiled in,
+# so `ctest` and the executable run alone load the same libraries. Called once, deferred to the
+# end of the top directory by flipflow_add_plugin.
+function(flipflow_sdk_add_stage_tests support_dir installed_plugin_dir)
+  get_property(entries GLOBAL PROPERTY FLIPFLOW_STAGE_TESTS)
+  # The support headers include <catch2/catch.hpp>: Catch2 2.x (Debian 12: catch2), not 3.
+  find_package(Catch2 2 QUIET)
+  if(NOT TARGET Catch2::Catch2WithMain)
+    set(files)
+    foreach(entry ${entries})
+      string(REPLACE "|" ";" entry "${entry}")
+      list(GET entry 1 file)
+      list(APPEND files ${file})
+    endforeach()
+    list(JOIN files "\n  " files)
+    message(WARNING "flipflow: Catch2 2.x (with its Catch2::Catch2WithMain; Debian: apt install catch2) "
+                    "was not found, so these tests beside the stages are not built and ctest will not run "
+                    "them:\n  ${files}\nInstall it (or point Catch2_DIR at it) and configure again.")
+    return()
+  endif()
+  get_property(plugins GLOBAL PROPERTY FLIPFLOW_PLUGINS)
+  set(plugin_path)
+  foreach(p ${plugins})
+    list(APPEND plugin_path "$<TARGET_FILE_DIR:${p}>")
+  endforeach()
+  list(APPEND plugin_path "${installed_plugin_dir}")
+  list(JOIN plugin_path ":" plugin_path)
+  foreach(entry ${entries})
+    string(REPLACE "|" ";" entry "${entry}")
+    list(GET entry 0 name)
+    list(GET entry 1 file)
+    get_property(libs GLOBAL PROPERTY "FLIPFLOW_STAGE_TEST_LIBS:${file}")
+    add_executable(${name} ${file})
+    target_link_libraries(${name} PRIVATE ${FLIPFLOW_CORE_TARGET} Catch2::Catch2WithMain ${libs})
+    target_include_directories(${name} PRIVATE ${support_dir})
+    target_compile_definitions(${name} PRIVATE "FLIPFLOW_STAGE_TEST_PLUGIN_PATH=\"${plugin_path}\"")
+    add_dependencies(${name} ${plugins})
+    add_test(NAME ${name} COMMAND ${name})
   endforeach()
 endfunction()
 

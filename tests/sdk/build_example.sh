@@ -1,9 +1,11 @@
 #!/usr/bin/env bash
 # test_sdk_example (tests/CMakeLists.txt): flipflow as an SDK, the way a user outside the
 # repository meets it. Installs this build into a temporary prefix (and checks that every
-# installed header's includes are installed too), configures and builds
-# examples/chiral_abp against that prefix alone (never the build or source tree), runs the
-# example's test, and runs its pipeline with the installed `pipeline` and the example's plugin.
+# installed header's includes are installed too), configures and builds examples/chiral_abp
+# against that prefix alone (never the build or source tree), runs the example's test through
+# ctest (flipflow_add_plugin builds its test_chiral_abp.cpp with the installed stage driver),
+# checks that a configure without Catch2 names that test as not built, and runs its pipeline with
+# the installed `pipeline` and the example's plugin.
 #
 #   tests/sdk/build_example.sh <flipflow build dir> [<flipflow source dir>] [<cmake>]
 #
@@ -65,8 +67,12 @@ for bin in "$plugin" "$work/example/test_chiral_abp"; do
   [[ $core == "$prefix/lib/libflipflow.so" ]] || { echo "FAIL: $(basename "$bin") loads '$core'"; exit 1; }
 done
 
-step "the example's test"
-"$work/example/test_chiral_abp"
+step "the example's test, through ctest"
+ctest=$(dirname "$cmake")/ctest
+[[ -x $ctest ]] || ctest=ctest
+"$ctest" --test-dir "$work/example" --output-on-failure | tee "$work/ctest.log"
+grep -q "1/1 Test #1: test_chiral_abp .* Passed" "$work/ctest.log" ||
+  { echo "FAIL: ctest did not run and pass test_chiral_abp alone"; exit 1; }
 
 step "pipeline run chiral.yaml (installed pipeline, FLIPFLOW_PLUGIN_PATH=<example build>/plugins)"
 cd "$work"
@@ -74,4 +80,11 @@ FLIPFLOW_PLUGIN_PATH=$work/example/plugins "$prefix/bin/pipeline" stages | grep 
 FLIPFLOW_PLUGIN_PATH=$work/example/plugins "$prefix/bin/pipeline" run "$example/pipelines/chiral.yaml" \
   --out "$work/run" 2>&1 | tee "$work/run.log"
 [[ -s $work/run/chiral.h5 ]] || { echo "FAIL: the run wrote no chiral.h5"; exit 1; }
+
+step "configure again without Catch2: a warning names the test left out"
+"$cmake" "$work/example" -DCMAKE_DISABLE_FIND_PACKAGE_Catch2=ON >"$work/no-catch2.log" 2>&1 ||
+  { cat "$work/no-catch2.log"; exit 1; }
+grep -A6 "CMake Warning" "$work/no-catch2.log"
+grep -qF "$example/test_chiral_abp.cpp" "$work/no-catch2.log" ||
+  { echo "FAIL: the configure without Catch2 did not name test_chiral_abp.cpp"; exit 1; }
 step "passed"
