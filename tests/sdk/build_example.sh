@@ -4,8 +4,9 @@
 # installed header's includes are installed too), configures and builds examples/chiral_abp
 # against that prefix alone (never the build or source tree), runs the example's test through
 # ctest (flipflow_add_plugin builds its test_chiral_abp.cpp with the installed stage driver),
-# checks that a configure without Catch2 names that test as not built, and runs its pipeline with
-# the installed `pipeline` and the example's plugin.
+# runs its pipeline with the installed `pipeline` and the example's plugin, then checks that a
+# configure without Catch2 names that test as not built and that FLIPFLOW_PLUGIN_CUDA=OFF builds a
+# plugin of CPU stages alone.
 #
 #   tests/sdk/build_example.sh <flipflow build dir> [<flipflow source dir>] [<cmake>]
 #
@@ -81,10 +82,21 @@ FLIPFLOW_PLUGIN_PATH=$work/example/plugins "$prefix/bin/pipeline" run "$example/
   --out "$work/run" 2>&1 | tee "$work/run.log"
 [[ -s $work/run/chiral.h5 ]] || { echo "FAIL: the run wrote no chiral.h5"; exit 1; }
 
-step "configure again without Catch2: a warning names the test left out"
-"$cmake" "$work/example" -DCMAKE_DISABLE_FIND_PACKAGE_Catch2=ON >"$work/no-catch2.log" 2>&1 ||
-  { cat "$work/no-catch2.log"; exit 1; }
-grep -A6 "CMake Warning" "$work/no-catch2.log"
-grep -qF "$example/test_chiral_abp.cpp" "$work/no-catch2.log" ||
+step "configure again without Catch2 and with FLIPFLOW_PLUGIN_CUDA=OFF, build the plugin"
+# Two options of the package in one configure (each is a few seconds): a warning must name the
+# test left out, and the plugin, rebuilt without CUDA, must load with its CPU build alone.
+"$cmake" "$work/example" -DCMAKE_DISABLE_FIND_PACKAGE_Catch2=ON -DFLIPFLOW_PLUGIN_CUDA=OFF \
+  >"$work/reconfigure.log" 2>&1 || { cat "$work/reconfigure.log"; exit 1; }
+grep -A6 "CMake Warning" "$work/reconfigure.log"
+grep -qF "$example/test_chiral_abp.cpp" "$work/reconfigure.log" ||
   { echo "FAIL: the configure without Catch2 did not name test_chiral_abp.cpp"; exit 1; }
+"$cmake" --build "$work/example" -j "${FLIPFLOW_SDK_JOBS:-2}" >"$work/build-cpu.log" 2>&1 ||
+  { cat "$work/build-cpu.log"; exit 1; }
+if grep -q "Building CUDA" "$work/build-cpu.log"; then
+  echo "FAIL: with FLIPFLOW_PLUGIN_CUDA=OFF the plugin still compiles CUDA"; exit 1
+fi
+FLIPFLOW_PLUGIN_PATH=$work/example/plugins "$prefix/bin/pipeline" describe chiral_abp.integrate |
+  tee "$work/describe.log" | grep "backends:"
+grep -q "backends: cpu$" "$work/describe.log" ||
+  { echo "FAIL: the CPU-only plugin does not declare exactly the CPU backend"; exit 1; }
 step "passed"
