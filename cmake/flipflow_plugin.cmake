@@ -18,10 +18,10 @@
 #     after every plugin. It includes the test-support headers as "support/stage_driver.h",
 #     "support/test_plugins.h", ... (tests/support). In this repository tests/CMakeLists.txt builds
 #     them; built against an installed flipflow (FLIPFLOW_SDK, flipflowConfig.cmake) this function
-#     has them built at the end of the project's top directory (flipflow_sdk_add_stage_tests),
-#     with the installed support headers and Catch2's own main; without Catch2 2.x it names the
-#     tests it leaves out in a CMake warning. What one of them links besides:
-#     flipflow_stage_test_libs below.
+#     has them built at the end of the directory that found the package
+#     (flipflow_sdk_add_stage_tests), with the installed support headers and Catch2's own main;
+#     without Catch2 2.x it names the tests it leaves out in a CMake warning. What one of them
+#     links besides: flipflow_stage_test_libs below.
 # With SOURCES (libraries not yet in this shape) exactly those files are compiled and one of them
 # defines the entry point (FLIPFLOW_PLUGIN). The .cu files see the repository root and
 # Random123, nothing else.
@@ -80,28 +80,27 @@ function(flipflow_add_plugin)
   get_property(scheduled GLOBAL PROPERTY FLIPFLOW_SDK_STAGE_TESTS_SCHEDULED)
   if(tests AND FLIPFLOW_SDK AND NOT scheduled)
     set_property(GLOBAL PROPERTY FLIPFLOW_SDK_STAGE_TESTS_SCHEDULED ON)
-    # At the end of the top directory, once every plugin of the project is declared. A deferred
-    # call's arguments are read when it runs, where find_package(flipflow)'s variables may not be
-    # visible (a plugin in a subdirectory): EVAL puts their values in now. enable_testing() there,
-    # not in the function (where it would set its variable in the function's scope only), so that
-    # `ctest --test-dir <build>` finds the tests without the project asking.
-    cmake_language(EVAL CODE "cmake_language(DEFER DIRECTORY [[${CMAKE_SOURCE_DIR}]] CALL
-      flipflow_sdk_add_stage_tests [[${FLIPFLOW_TEST_INCLUDE_DIR}]] [[${FLIPFLOW_INSTALLED_PLUGIN_DIR}]])")
-    cmake_language(DEFER DIRECTORY ${CMAKE_SOURCE_DIR} CALL enable_testing)
+    # At the end of the directory that found the package (this one or one above it), once every
+    # plugin below it is declared: its variables and flipflow::core are visible there.
+    # enable_testing() there too, not in the function (where it would set its variable in the
+    # function's scope only), so that `ctest --test-dir <build>` finds the tests unasked.
+    cmake_language(DEFER DIRECTORY ${FLIPFLOW_FIND_PACKAGE_DIR} CALL flipflow_sdk_add_stage_tests)
+    cmake_language(DEFER DIRECTORY ${FLIPFLOW_FIND_PACKAGE_DIR} CALL enable_testing)
   endif()
 endfunction()
 
-# flipflow_sdk_add_stage_tests(<support include dir> <installed plugin dir>)
+# flipflow_sdk_add_stage_tests()
 #
 # The tests beside the stages of a project built against an installed flipflow, as
 # tests/CMakeLists.txt builds them in this repository: one executable and CTest test per
 # test_*.cpp, linked with flipflow::core, Catch2 (with Catch2's main) and its
-# flipflow_stage_test_libs, including the installed test-support headers as "support/...", built
-# after every plugin of the project. The test finds the project's plugins and the install's
-# standard stages through FLIPFLOW_STAGE_TEST_PLUGIN_PATH (support/test_plugins.h), compiled in,
-# so `ctest` and the executable run alone load the same libraries. Called once, deferred to the
-# end of the top directory by flipflow_add_plugin.
-function(flipflow_sdk_add_stage_tests support_dir installed_plugin_dir)
+# flipflow_stage_test_libs, including the installed test-support headers as "support/..."
+# (FLIPFLOW_TEST_INCLUDE_DIR), built after every plugin of the project. The test finds the
+# project's plugins and the install's standard stages through FLIPFLOW_STAGE_TEST_PLUGIN_PATH
+# (support/test_plugins.h), compiled in, so `ctest` and the executable run alone load the same
+# libraries. Called once, deferred by flipflow_add_plugin to the end of the directory that called
+# find_package(flipflow).
+function(flipflow_sdk_add_stage_tests)
   get_property(entries GLOBAL PROPERTY FLIPFLOW_STAGE_TESTS)
   # The support headers include <catch2/catch.hpp>: Catch2 2.x (Debian 12: catch2), not 3.
   find_package(Catch2 2 QUIET)
@@ -123,7 +122,7 @@ function(flipflow_sdk_add_stage_tests support_dir installed_plugin_dir)
   foreach(p ${plugins})
     list(APPEND plugin_path "$<TARGET_FILE_DIR:${p}>")
   endforeach()
-  list(APPEND plugin_path "${installed_plugin_dir}")
+  list(APPEND plugin_path "${FLIPFLOW_INSTALLED_PLUGIN_DIR}")
   list(JOIN plugin_path ":" plugin_path)
   foreach(entry ${entries})
     string(REPLACE "|" ";" entry "${entry}")
@@ -132,7 +131,7 @@ function(flipflow_sdk_add_stage_tests support_dir installed_plugin_dir)
     get_property(libs GLOBAL PROPERTY "FLIPFLOW_STAGE_TEST_LIBS:${file}")
     add_executable(${name} ${file})
     target_link_libraries(${name} PRIVATE ${FLIPFLOW_CORE_TARGET} Catch2::Catch2WithMain ${libs})
-    target_include_directories(${name} PRIVATE ${support_dir})
+    target_include_directories(${name} PRIVATE ${FLIPFLOW_TEST_INCLUDE_DIR})
     target_compile_definitions(${name} PRIVATE "FLIPFLOW_STAGE_TEST_PLUGIN_PATH=\"${plugin_path}\"")
     if(FLIPFLOW_HAVE_CUDA AND NOT FLIPFLOW_PLUGIN_CUDA)  # the plugins have no CUDA stages to test
       target_compile_definitions(${name} PRIVATE FLIPFLOW_STAGE_TEST_CPU_ONLY)
