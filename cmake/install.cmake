@@ -6,6 +6,15 @@
 #   P/lib/flipflow/plugins/*.so           the standard stages and the model plugins (the installed
 #                                         pipeline looks there: core/run/plugin_loader.cpp)
 #   P/include/core/**.h, *.cuh            every header a plugin may include (same include paths)
+#   P/include/stages/neighbors/           pair_force.h (neighbors::PairForceStage, a pair force
+#                                         over the Verlet list) and list.h (the list's fields):
+#                                         "stages/neighbors/pair_force.h" as in the repository
+#   P/include/flipflow/tests/support/     the test-support headers a test beside a stage includes
+#                                         as "support/stage_driver.h" in and out of the repository
+#                                         (stage_driver.h, test_plugins.h, backends.h, fields.h,
+#                                         spec.h); on the include path of the tests
+#                                         flipflow_add_plugin builds, not of flipflow::core, so
+#                                         that `support/` names nothing in P/include itself
 #   P/share/flipflow/sdk/plugin_entry.cpp compiled into every plugin (flipflow_add_plugin)
 #   P/lib/cmake/flipflow/                 find_package(flipflow): flipflowConfig.cmake (the
 #                                         imported target flipflow::core, the settings of this
@@ -24,6 +33,14 @@ set(FLIPFLOW_INSTALL_CMAKE_DIR lib/cmake/flipflow)
 install(DIRECTORY ${PROJECT_SOURCE_DIR}/core/ DESTINATION include/core
         FILES_MATCHING PATTERN "*.h" PATTERN "*.cuh")
 install(FILES ${PROJECT_SOURCE_DIR}/core/sdk/plugin_entry.cpp DESTINATION share/flipflow/sdk)
+# Only headers that include nothing but core/ and each other (test_sdk_example checks that every
+# quoted include of an installed header resolves inside the install).
+install(FILES ${PROJECT_SOURCE_DIR}/stages/neighbors/pair_force.h ${PROJECT_SOURCE_DIR}/stages/neighbors/list.h
+        DESTINATION include/stages/neighbors)
+install(FILES ${PROJECT_SOURCE_DIR}/tests/support/stage_driver.h ${PROJECT_SOURCE_DIR}/tests/support/test_plugins.h
+              ${PROJECT_SOURCE_DIR}/tests/support/backends.h ${PROJECT_SOURCE_DIR}/tests/support/fields.h
+              ${PROJECT_SOURCE_DIR}/tests/support/spec.h
+        DESTINATION include/flipflow/tests/support)
 
 configure_package_config_file(${PROJECT_SOURCE_DIR}/cmake/flipflowConfig.cmake.in
   ${PROJECT_BINARY_DIR}/package/flipflowConfig.cmake

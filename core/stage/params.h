@@ -3,9 +3,11 @@
 // hands the stage a ParamValues with every declared key present. nvcc-clean.
 #pragma once
 #include <cstdint>
+#include <initializer_list>
 #include <map>
 #include <optional>
 #include <string>
+#include <utility>
 #include <variant>
 #include <vector>
 
@@ -71,6 +73,14 @@ class ParamValues {
   const ParamValue& get(const std::string& key) const;
   std::map<std::string, ParamValue> values_;
 };
+
+// ParamValues written inline: param_values({{"k", 100.0}, {"field", std::vector<double>{1, 0}}}),
+// what a test hands a stage and an alias (core/stage/stage_registration.h) fixes.
+inline ParamValues param_values(std::initializer_list<std::pair<const char*, ParamValue>> kv) {
+  ParamValues v;
+  for (auto& p : kv) v.set(p.first, p.second);
+  return v;
+}
 
 // A per_type parameter's values: one for every type, or one per type.
 struct PerType {

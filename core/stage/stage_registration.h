@@ -13,7 +13,8 @@
 // (an observer reading host fields) is one class S whose constructor takes
 // (const ParamValues&, const RunInfo&) and ends its stage.h with FLIPFLOW_HOST_STAGE(S): the
 // same implementation serves every backend. An alias (an old name for a configuration of
-// another stage) is add_alias from any .cpp of the library. nvcc-clean.
+// another stage) is add_alias from any .cpp of the library; param_values, which builds the
+// ParamValues it takes, is in core/stage/params.h (included here through registry.h). nvcc-clean.
 #pragma once
 #include <memory>
 #include <string>
@@ -74,12 +75,6 @@ inline bool add_alias(std::string name, std::string target, std::string summary,
   plugin_stages().push_back(
       {std::move(d), Backend::cpu, nullptr, std::move(target), std::move(fixed), std::move(defaults)});
   return true;
-}
-
-inline ParamValues param_values(std::initializer_list<std::pair<const char*, ParamValue>> kv) {
-  ParamValues v;
-  for (auto& p : kv) v.set(p.first, p.second);
-  return v;
 }
 
 }  // namespace ff

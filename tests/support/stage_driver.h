@@ -2,7 +2,8 @@
 // Simulation, on either backend: per step acquire each stage's declared fields, call run() with a
 // filled StepContext, then after_step() unless the stage asked for a rollback. Every stage test
 // drives its stages through this header (the delaunay tests add their mesh helpers,
-// stages/delaunay/test_support.h).
+// stages/delaunay/test_support.h). Installed with flipflow (cmake/install.cmake), so the test of a
+// model built outside this repository includes it by the same name, "support/stage_driver.h".
 #pragma once
 #include <catch2/catch.hpp>
 #include <cstdint>

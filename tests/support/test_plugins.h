@@ -1,9 +1,13 @@
-// Where the core's test plugins are (<dir of the test binary>/../test-plugins), and registries
-// for tests.
+// Registries for tests: the standard stages and model plugins a test loads, found on
+// test_plugin_path(), and the core's test plugins (<dir of the test binary>/../test-plugins, this
+// repository only). Installed with the SDK (cmake/install.cmake): a test beside a stage of a model
+// built against an install includes it as here.
 #pragma once
+#include <algorithm>
 #include <boost/dll/runtime_symbol_info.hpp>
 #include <catch2/catch.hpp>
 #include <filesystem>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -12,6 +16,25 @@
 #include "core/stage/registry.h"
 
 namespace ff::test {
+
+// Where a test looks for plugins. In this repository plugin_search_path(): FLIPFLOW_PLUGIN_PATH,
+// then the build tree's plugins next to the test binary. A test of a project built against an
+// install (flipflow_add_plugin there defines FLIPFLOW_STAGE_TEST_PLUGIN_PATH: the folders of the
+// project's plugins, then the install's plugin folder) looks in those first: its binary is not
+// beside them, and it must load the plugin just built and the standard stages of the install it
+// was built against, whatever FLIPFLOW_PLUGIN_PATH says and wherever it is run from.
+inline std::vector<std::string> test_plugin_path() {
+  std::vector<std::string> path;
+#ifdef FLIPFLOW_STAGE_TEST_PLUGIN_PATH
+  const std::string dirs = FLIPFLOW_STAGE_TEST_PLUGIN_PATH;  // colon-separated, as FLIPFLOW_PLUGIN_PATH
+  for (std::size_t begin = 0, end; begin <= dirs.size(); begin = end + 1) {
+    end = std::min(dirs.find(':', begin), dirs.size());
+    if (end > begin) path.push_back(dirs.substr(begin, end - begin));
+  }
+#endif
+  for (auto& dir : plugin_search_path()) path.push_back(dir);
+  return path;
+}
 
 inline std::string test_plugin(const std::string& name) {
   const auto dir = boost::dll::program_location().parent_path().parent_path() / "test-plugins";
@@ -23,7 +46,7 @@ inline std::unique_ptr<Registry> registry_with(const std::vector<std::string>& p
                                                const std::vector<std::string>& test_plugins = {}) {
   auto r = std::make_unique<Registry>();
   register_builtin_stages(*r);
-  const auto path = plugin_search_path();
+  const auto path = test_plugin_path();
   auto files = find_stage_libraries(path);
   for (auto& p : plugins) files.push_back(find_plugin(p, path));
   for (auto& p : test_plugins) files.push_back(test_plugin(p));
@@ -35,7 +58,7 @@ inline std::unique_ptr<Registry> registry_with(const std::vector<std::string>& p
 // built-ins: what a test of one stage loads, so that it sees no other library's stages.
 inline std::unique_ptr<Registry> registry_of(const std::vector<std::string>& stage_libraries,
                                              const std::vector<std::string>& plugins = {}) {
-  const auto path = plugin_search_path();
+  const auto path = test_plugin_path();
   const auto found = find_stage_libraries(path);
   std::vector<std::string> files;
   for (auto& lib : stage_libraries) {
