@@ -8,7 +8,6 @@
 #include <map>
 #include <set>
 #include <sstream>
-#include <variant>
 
 #include "core/backend/comm.h"
 #include "core/base/error.h"
@@ -23,16 +22,8 @@ Simulation::Simulation(const PipelineSpec& spec, const Registry& registry, RunOp
 
 std::unique_ptr<State> Simulation::initial_state(const PipelineSpec& spec) {
   try {
-    // The walls of the pipeline's overlap correction (`walls: x|y|z`): a random start keeps the
-    // centres off them. (StepGraph refuses stages whose walls differ.)
-    int wall_axis = -1;
-    for (const StepEntry& e : spec.step) {
-      auto it = e.params.all().find("walls");
-      if (e.stage.rfind("overlap_correct", 0) != 0 || it == e.params.all().end()) continue;
-      if (const auto* w = std::get_if<std::string>(&it->second); w && w->size() == 1 && (*w)[0] >= 'x' && (*w)[0] <= 'z')
-        wall_axis = (*w)[0] - 'x';
-    }
-    return make_initial_state(spec.system, spec.run.precision, spec.run.seed, wall_axis);
+    // A random start keeps the centres off the walls of the pipeline's overlap correction.
+    return make_initial_state(spec.system, spec.run.precision, spec.run.seed, wall_axis(spec));
   } catch (const InputError& e) {
     if (spec.system.where.str().empty()) throw;
     // (the file's place of `init`, and the --set arguments that changed the system)

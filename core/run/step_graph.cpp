@@ -34,6 +34,14 @@ std::string when(const Schedule& s) { return s.every_step() ? "every step" : s.t
 
 }  // namespace
 
+int wall_axis(const PipelineSpec& spec) {
+  for (const StepEntry& e : spec.step) {
+    const std::string* w = walls_of(e);
+    if (corrects_overlaps(e) && w && w->size() == 1 && (*w)[0] >= 'x' && (*w)[0] <= 'z') return (*w)[0] - 'x';
+  }
+  return -1;
+}
+
 // Every stage with a `walls` parameter must name the same walls: voronoi.mirror's cells are clipped
 // at the planes the correction keeps the particles between; with other walls (or none) the particles
 // cross the planes it clips at, and nothing else would say so. Refused, not warned: no pipeline means

@@ -16,6 +16,10 @@
 
 namespace ff {
 
+// The axis (0 x, 1 y, 2 z) of the hard walls of the pipeline's overlap correction (`walls:`), or
+// -1 without walls. StepGraph refuses stages whose walls differ, so there is one answer.
+int wall_axis(const PipelineSpec& spec);
+
 struct GraphNode {
   std::string id;
   std::string stage;
