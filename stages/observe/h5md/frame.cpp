@@ -5,15 +5,17 @@ namespace ff::observe {
 void write_frame(H5mdWriter& w, Frame& f) {
   f.ready.wait();
   std::uint64_t bytes = 16 * f.observables.size();
-  for (const FieldFrame& field : f.fields) bytes += field.bytes.size();
+  if (f.with_fields)
+    for (const FieldFrame& field : f.fields) bytes += field.bytes.size();
   w.check_space(bytes);
-  for (const FieldFrame& field : f.fields) {
-    if (field.connectivity)
-      w.append_connectivity(field.name, f.step, f.time, reinterpret_cast<const std::int32_t*>(field.bytes.data()),
-                            field.count);
-    else
-      w.append_particle_element(field.name, f.step, f.time, field.bytes.data());
-  }
+  if (f.with_fields)
+    for (const FieldFrame& field : f.fields) {
+      if (field.connectivity)
+        w.append_connectivity(field.name, f.step, f.time, reinterpret_cast<const std::int32_t*>(field.bytes.data()),
+                              field.count);
+      else
+        w.append_particle_element(field.name, f.step, f.time, field.bytes.data());
+    }
   for (const auto& [name, value] : f.observables) w.append_observable(name, f.step, f.time, value);
   w.flush();
 }

@@ -22,12 +22,13 @@ struct Frame {
   std::int64_t step = 0;
   double time = 0;
   std::vector<FieldFrame> fields;
+  bool with_fields = true;  // false: an observables-only row (frames_every); `fields` keeps its buffers for later frames
   std::vector<std::pair<std::string, double>> observables;
   StreamMark ready;  // CUDA runs: the frame's device copies are done once this is reached
 };
 
-// Wait for the frame's device copies (if any), append every field and observable of `f` to
-// `w`, then flush (a killed run keeps this frame).
+// Wait for the frame's device copies (if any), append every field (when with_fields) and
+// observable of `f` to `w`, then flush (a killed run keeps this frame).
 void write_frame(H5mdWriter& w, Frame& f);
 
 }  // namespace ff::observe

@@ -80,6 +80,15 @@ void H5mdObserver::configure(State& state) {
                        ") nor a triangle list (3 x i32); fields available: " + writable_fields(state));
     connectivity_.push_back(f.count() != state.n());
   }
+  if (p_.frames_every > 0 && p_.fields.empty())
+    throw InputError("observe.h5md: frames_every: " + std::to_string(p_.frames_every) +
+                     " with fields: [] has no frames to space out; remove frames_every (the observables are written "
+                     "at every step this observer runs)");
+  if (p_.frames_every > 0 && p_.layout == "mdanalysis")
+    throw InputError("observe.h5md: frames_every: " + std::to_string(p_.frames_every) +
+                     " with layout: mdanalysis: that layout gives the observables one row per frame, as MDAnalysis "
+                     "reads them; write the finer time series to a second observe.h5md with fields: [] and its own "
+                     "file:");
 }
 
 std::string H5mdObserver::path() const { return (std::filesystem::path(info_.out_dir) / p_.file).string(); }
@@ -129,10 +138,42 @@ void H5mdObserver::open(const State& state) {
   writer_ = std::make_unique<AsyncFrameWriter>(std::move(w), queue_depth);
 }
 
-void H5mdObserver::copy_frame(StepContext& ctx, Frame& frame) const {
+bool H5mdObserver::writes_fields_at(std::uint64_t step) {
+  if (p_.frames_every <= 0) return true;
+  const auto every = std::uint64_t(p_.frames_every);
+  // The runs' spacing comes from the entry's schedule, which the stage does not see: a spacing
+  // that does not divide frames_every skips frames the user asked for, so it is said once.
+  if (last_run_step_ && step > *last_run_step_ && !warned_frames_every_) {
+    const std::uint64_t gap = step - *last_run_step_;
+    if (every % gap != 0) {
+      warned_frames_every_ = true;
+      std::fprintf(info_.messages,
+                   "flipflow: warning: step '%s' (observe.h5md): frames_every: %llu is not a multiple of the %llu "
+                   "steps between its runs at steps %llu and %llu, so frames are written only where both meet; give "
+                   "it an `every:` that divides %llu\n",
+                   info_.stage_id.c_str(), static_cast<unsigned long long>(every),
+                   static_cast<unsigned long long>(gap), static_cast<unsigned long long>(*last_run_step_),
+                   static_cast<unsigned long long>(step), static_cast<unsigned long long>(every));
+    }
+  }
+  last_run_step_ = step;
+  return step % every == 0;
+}
+
+void H5mdObserver::copy_frame(StepContext& ctx, Frame& frame, bool with_fields) const {
   // Observers run on an accepted state: host_params.step and .time are its clock (0 = the start).
   frame.step = std::int64_t(ctx.host_params.step);
   frame.time = ctx.host_params.time;
+  frame.with_fields = with_fields;
+  frame.observables.clear();
+  if (with_fields) copy_fields(ctx, frame);
+  if (!p_.observables) return;
+  frame.observables.emplace_back("dt", ctx.stats.dt);
+  frame.observables.emplace_back("rollbacks", double(ctx.stats.rollbacks));
+  for (auto& [name, value] : ctx.stats.metrics) frame.observables.emplace_back(name, value);
+}
+
+void H5mdObserver::copy_fields(StepContext& ctx, Frame& frame) const {
   frame.fields.resize(p_.fields.size());
   for (std::size_t i = 0; i < p_.fields.size(); ++i) {
     Field& f = ctx.state.field(p_.fields[i]);
@@ -150,17 +191,14 @@ void H5mdObserver::copy_frame(StepContext& ctx, Frame& frame) const {
     else if (f.bytes()) std::memcpy(out.bytes.data(), f.host_raw(), f.bytes());
   }
   if (info_.backend == Backend::cuda) frame.ready.record(ctx.stream);
-  frame.observables.clear();
-  if (!p_.observables) return;
-  frame.observables.emplace_back("dt", ctx.stats.dt);
-  frame.observables.emplace_back("rollbacks", double(ctx.stats.rollbacks));
-  for (auto& [name, value] : ctx.stats.metrics) frame.observables.emplace_back(name, value);
 }
 
 Outcome H5mdObserver::run(StepContext& ctx) {
   if (!writer_) open(ctx.state);
+  const bool with_fields = writes_fields_at(ctx.host_params.step);
+  if (!with_fields && !p_.observables) return Outcome::ok();  // nothing to write at this step
   Frame frame = writer_->take();
-  copy_frame(ctx, frame);
+  copy_frame(ctx, frame, with_fields);
   writer_->submit(std::move(frame));
   return Outcome::ok();
 }

@@ -7,6 +7,7 @@
 // field must be a triangle list (3 x i32 per element) and goes under /connectivity/<name>.
 #pragma once
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -21,6 +22,7 @@ struct H5mdParams {
   std::string file = "trajectory.h5";
   std::vector<std::string> fields{"position", "image"};
   bool observables = true;
+  std::int64_t frames_every = 0;
   std::string layout = "h5md";
 
   template <class P>
@@ -30,6 +32,11 @@ struct H5mdParams {
       "state fields to write each frame (per-particle fields, or triangle lists); [] for a file of the "
       "observables alone, on a schedule of its own (finer than the frames')");
     p(observables, "observables", "write Δt, rollbacks and every stage metric under /observables");
+    p(frames_every, "frames_every",
+      "write `fields` only at the steps that are multiples of this (0: at every step this observer runs); the "
+      "observables are written at every step it runs, so `every: 10, frames_every: 1000` gives a time series "
+      "every 10 steps and a frame every 1000 in one file")
+        .at_least(0);
     p(layout, "layout",
       "h5md: the plain H5MD layout; mdanalysis: what MDAnalysis (2.4) opens: a time-dependent box, flat "
       "observable names, and a 2-D run written as 3-D (zero z, nominal Lz = 1; core/io/h5md_writer.h)")
@@ -67,7 +74,10 @@ class H5mdObserver final : public Stage {
 
  private:
   void open(const State& state);
-  void copy_frame(StepContext& ctx, Frame& frame) const;
+  void copy_frame(StepContext& ctx, Frame& frame, bool with_fields) const;
+  void copy_fields(StepContext& ctx, Frame& frame) const;
+  // Whether this run writes `fields` (frames_every), warning once when the runs step past them.
+  bool writes_fields_at(std::uint64_t step);
 
   H5mdParams p_;
   RunInfo info_;
@@ -75,6 +85,8 @@ class H5mdObserver final : public Stage {
   std::vector<bool> connectivity_;  // per entry of p_.fields
   std::unique_ptr<AsyncFrameWriter> writer_;
   bool finished_ = false;
+  std::optional<std::uint64_t> last_run_step_;  // the step of this observer's previous run
+  bool warned_frames_every_ = false;
 };
 
 }  // namespace ff::observe

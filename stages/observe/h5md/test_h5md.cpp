@@ -15,6 +15,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 
 #include "core/backend/device.h"
 #include "core/base/error.h"
@@ -111,8 +112,11 @@ std::unique_ptr<State> make_state(Precision p) {
 }
 
 std::unique_ptr<observe::H5mdObserver> make_h5md(const std::string& out_dir, std::vector<std::string> fields,
-                                                 const std::string& pipeline_file = "") {
+                                                 const std::string& pipeline_file = "",
+                                                 std::function<void(observe::H5mdParams&)> change = {},
+                                                 std::FILE* messages = stderr) {
   RunInfo info;
+  info.messages = messages;
   info.out_dir = out_dir;
   info.pipeline_file = pipeline_file;
   info.stage_id = "observe.h5md";
@@ -120,6 +124,7 @@ std::unique_ptr<observe::H5mdObserver> make_h5md(const std::string& out_dir, std
   info.dt = 0.01;
   observe::H5mdParams p = params_from<observe::H5mdParams>(ParamValues::defaults(schema_of<observe::H5mdParams>()));
   p.fields = std::move(fields);
+  if (change) change(p);
   return std::make_unique<observe::H5mdObserver>(p, info);
 }
 
@@ -347,6 +352,75 @@ m = f["observables/integrate/flips"]
 assert list(m["step"][()]) == [0, 10, 20], m["step"][()]
 assert list(m["value"][()]) == [0.0, 2.5, 5.0], m["value"][()]
 )PY", dir / "trajectory.h5") == 0);
+}
+
+TEST_CASE("observe.h5md with frames_every writes frames at its multiples and observables at every run",
+          "[observe][h5md]") {
+  // Runs at steps 0, 10, 20; frames_every 20: positions at 0 and 20, the observables at all three.
+  TempDir dir("frames_every");
+  std::FILE* messages = std::tmpfile();
+  auto s = make_state(Precision::f64);
+  auto stage = make_h5md(
+      dir.path.string(), {"position", "image", "triangles"}, "", [](observe::H5mdParams& p) { p.frames_every = 20; },
+      messages);
+  stage->configure(*s);
+  Observe obs;
+  observe_three_frames<double>(*stage, *s, obs);
+  stage->finish(*s, true);
+  CHECK(python(dir, R"PY(
+f = h5py.File(sys.argv[1], "r")
+N = 5
+i = np.arange(N)[:, None]; k = np.arange(2)[None, :]
+pos = f["particles/all/position"]
+assert list(pos["step"][()]) == [0, 20], pos["step"][()]
+assert list(pos["time"][()]) == [0.0, 0.25], pos["time"][()]
+assert np.array_equal(pos["value"][1], 0.5 + 1.25 * i + 0.125 * 2 + 0.5 * k), pos["value"][1]
+assert list(f["particles/all/image/step"][()]) == [0, 20]
+assert list(f["connectivity/triangles/step"][()]) == [0, 20]
+obs = f["observables"]
+assert list(obs["rollbacks/step"][()]) == [0, 10, 20], obs["rollbacks/step"][()]
+assert list(obs["integrate/flips/value"][()]) == [0.0, 2.5, 5.0]
+)PY", dir / "trajectory.h5") == 0);
+  // Runs 10 steps apart divide 20: nothing to say.
+  std::fflush(messages);
+  CHECK(std::ftell(messages) == 0);
+  std::fclose(messages);
+}
+
+TEST_CASE("observe.h5md says once when its runs step past frames_every", "[observe][h5md]") {
+  TempDir dir("frames_every_warn");
+  std::FILE* messages = std::tmpfile();
+  auto s = make_state(Precision::f64);
+  auto stage = make_h5md(
+      dir.path.string(), {"position"}, "", [](observe::H5mdParams& p) { p.frames_every = 15; }, messages);
+  stage->configure(*s);
+  Observe obs;
+  observe_three_frames<double>(*stage, *s, obs);  // steps 0, 10, 20: only 0 is a multiple of 15
+  stage->finish(*s, true);
+  std::rewind(messages);
+  std::string text(4096, '\0');
+  text.resize(std::fread(text.data(), 1, text.size(), messages));
+  std::fclose(messages);
+  CHECK(text.find("frames_every: 15 is not a multiple of the 10 steps between its runs at steps 0 and 10") !=
+        std::string::npos);
+  CHECK(text.find("warning") == text.rfind("warning"));  // once
+  CHECK(python(dir, R"PY(
+f = h5py.File(sys.argv[1], "r")
+assert list(f["particles/all/position/step"][()]) == [0], f["particles/all/position/step"][()]
+assert list(f["observables/rollbacks/step"][()]) == [0, 10, 20]
+)PY", dir / "trajectory.h5") == 0);
+}
+
+TEST_CASE("observe.h5md refuses frames_every without fields or with the MDAnalysis layout", "[observe][h5md]") {
+  TempDir dir("frames_every_refused");
+  auto s = make_state(Precision::f64);
+  auto none = make_h5md(dir.path.string(), {}, "", [](observe::H5mdParams& p) { p.frames_every = 100; });
+  CHECK_THROWS_WITH(none->configure(*s), Catch::Contains("frames_every: 100 with fields: []"));
+  auto mda = make_h5md(dir.path.string(), {"position"}, "", [](observe::H5mdParams& p) {
+    p.frames_every = 100;
+    p.layout = "mdanalysis";
+  });
+  CHECK_THROWS_WITH(mda->configure(*s), Catch::Contains("layout: mdanalysis"));
 }
 
 TEST_CASE("observe.msd matches a hand-computed value and reaches the H5MD file", "[observe][msd]") {
