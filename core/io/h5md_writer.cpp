@@ -46,6 +46,7 @@ struct Series {
   std::vector<hsize_t> frame;  // shape of one frame; frame[0] grows for variable row counts
   bool variable_rows = false;
   hsize_t frames = 0;
+  std::int64_t last_step = 0;  // the step of row frames - 1 (when frames > 0)
   int padded_from = 0;  // components in the caller's data when the file pads them (0: none)
 };
 
@@ -187,6 +188,7 @@ struct H5mdWriter::Impl {
     }
     check(H5Dset_extent(s.value.get(), dims.data()) >= 0, "extending a value dataset");
     s.frames = f + 1;
+    s.last_step = step;
     for (hsize_t c : count)
       if (c == 0) return;  // an empty frame: the fill value stands
     std::vector<unsigned char> padded;
@@ -311,6 +313,7 @@ struct H5mdWriter::Impl {
                  "reading the steps of '" + name + "'");
     hsize_t keep = 0;
     while (keep < n && steps[keep] <= last_step) ++keep;  // frames are appended in step order
+    if (keep > 0) s.last_step = steps[keep - 1];
     if (keep < n) {
       check(H5Dset_extent(s.step.get(), &keep) >= 0 && H5Dset_extent(s.time.get(), &keep) >= 0,
             "dropping frames of '" + name + "'");
@@ -486,6 +489,9 @@ void H5mdWriter::append_observable(const std::string& given, std::int64_t step, 
   if (it == impl_->scalars.end())
     it = impl_->scalars.emplace(name, impl_->series(impl_->observables.get(), name, DType::f64, {}, false, nullptr))
              .first;
+  // A series' steps increase: a row at or before its last is a value already written (a metric
+  // not reported again, or one a continued file kept from before its checkpoint).
+  if (it->second.frames > 0 && step <= it->second.last_step) return;
   if (impl_->readers_layout) impl_->pad_observable(it->second);
   impl_->append(it->second, step, time, &value, 0);
 }

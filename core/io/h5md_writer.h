@@ -97,7 +97,8 @@ class H5mdWriter {
   void add_particle_element(const std::string& name, DType dtype, std::size_t n, int components);
   void append_particle_element(const std::string& name, std::int64_t step, double time, const void* data);
 
-  // /observables/<name>: created on first use.
+  // /observables/<name>: created on first use. A row at or before the series' last step is
+  // not written: it holds a value the file has (a metric not reported again since).
   void append_observable(const std::string& name, std::int64_t step, double time, double value);
 
   // /connectivity/<name>: m triangles (3 particle indices each); created on first use.

@@ -257,6 +257,18 @@ std::string Checkpointer::write() {
   }
   d.put_text("stats/metric_names", join_lines(names));
   d.put_array("stats/metric_values", DType::f64, {values.size()}, values.data(), values.size() * sizeof(double));
+  // When each was reported (RunStats::metric_stamps), so a continued run's writer knows them as old.
+  std::vector<std::uint64_t> stamp_steps;
+  std::vector<double> stamp_times;
+  for (auto& name : names) {
+    auto it = st.metric_stamps.find(name);
+    stamp_steps.push_back(it == st.metric_stamps.end() ? 0 : it->second.step);
+    stamp_times.push_back(it == st.metric_stamps.end() ? 0.0 : it->second.time);
+  }
+  d.put_array("stats/metric_steps", DType::u64, {stamp_steps.size()}, stamp_steps.data(),
+              stamp_steps.size() * sizeof(std::uint64_t));
+  d.put_array("stats/metric_times", DType::f64, {stamp_times.size()}, stamp_times.data(),
+              stamp_times.size() * sizeof(double));
 
   d.put_text("pipeline/text", record_.pipeline_text);
   d.put_text("pipeline/effective", record_.effective_pipeline);
@@ -425,6 +437,21 @@ void restore_checkpoint(Simulation& sim, const CheckpointData& data) {
     double v;
     std::memcpy(&v, values.bytes.data() + k * sizeof(double), sizeof(double));
     st.metrics[names[k]] = v;
+  }
+  // (checkpoints written before the stamps were saved have none: their metrics count as reported
+  // at the checkpoint's step, which a continued file already holds)
+  st.metric_stamps.clear();
+  const bool stamped = data.has("stats/metric_steps") && data.has("stats/metric_times") &&
+                       data.at("stats/metric_steps").bytes.size() == names.size() * sizeof(std::uint64_t) &&
+                       data.at("stats/metric_times").bytes.size() == names.size() * sizeof(double);
+  for (std::size_t k = 0; k < names.size(); ++k) {
+    RunStats::Stamp stamp{sim.state().step, sim.state().time};
+    if (stamped) {
+      std::memcpy(&stamp.step, data.at("stats/metric_steps").bytes.data() + k * sizeof(std::uint64_t),
+                  sizeof(std::uint64_t));
+      std::memcpy(&stamp.time, data.at("stats/metric_times").bytes.data() + k * sizeof(double), sizeof(double));
+    }
+    st.metric_stamps[names[k]] = stamp;
   }
 
   for (auto& slot : sim.slots()) {

@@ -382,7 +382,11 @@ std::vector<std::string> Simulation::scratch_fields() const {
 }
 
 void Simulation::collect_metrics(int node) {
-  for (auto& kv : slots_[node].metrics.values()) stats_.metrics[slots_[node].info.stage_id + "/" + kv.first] = kv.second;
+  for (auto& kv : slots_[node].metrics.values()) {
+    const std::string name = slots_[node].info.stage_id + "/" + kv.first;
+    stats_.metrics[name] = kv.second;
+    stats_.metric_stamps[name] = {state_->step, state_->time};
+  }
 }
 
 void Simulation::gather() {

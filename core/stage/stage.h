@@ -148,6 +148,15 @@ struct RunStats {
   double dt = 0;                      // Δt of the last accepted step
   // Last reported metrics, keyed "stage_id/metric".
   std::map<std::string, double> metrics;
+  // When each metric was last reported, on the accepted state's clock (what observers see: a
+  // compute stage's metric of step s carries step s + 1, an observer's its own step). A metric
+  // of a stage that skips steps stays in `metrics` between its runs; its stamp tells a writer
+  // that the value is not new (observe.h5md writes it once, at the step it was measured).
+  struct Stamp {
+    std::uint64_t step = 0;
+    double time = 0;
+  };
+  std::map<std::string, Stamp> metric_stamps;
 };
 
 class Snapshot;  // core/run/rollback.h

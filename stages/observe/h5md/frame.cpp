@@ -16,7 +16,7 @@ void write_frame(H5mdWriter& w, Frame& f) {
       else
         w.append_particle_element(field.name, f.step, f.time, field.bytes.data());
     }
-  for (const auto& [name, value] : f.observables) w.append_observable(name, f.step, f.time, value);
+  for (const ObservableRow& o : f.observables) w.append_observable(o.name, o.step, o.time, o.value);
   w.flush();
 }
 

@@ -18,12 +18,21 @@ struct FieldFrame {
   HostBuffer bytes;           // pinned in CUDA runs: filled by an asynchronous device copy
 };
 
+// One observable's row: its value and the step and time it was measured at, which for a metric
+// of a stage that skips steps is earlier than the frame's.
+struct ObservableRow {
+  std::string name;
+  std::int64_t step = 0;
+  double time = 0;
+  double value = 0;
+};
+
 struct Frame {
   std::int64_t step = 0;
   double time = 0;
   std::vector<FieldFrame> fields;
   bool with_fields = true;  // false: an observables-only row (frames_every); `fields` keeps its buffers for later frames
-  std::vector<std::pair<std::string, double>> observables;
+  std::vector<ObservableRow> observables;
   StreamMark ready;  // CUDA runs: the frame's device copies are done once this is reached
 };
 

@@ -160,7 +160,7 @@ bool H5mdObserver::writes_fields_at(std::uint64_t step) {
   return step % every == 0;
 }
 
-void H5mdObserver::copy_frame(StepContext& ctx, Frame& frame, bool with_fields) const {
+void H5mdObserver::copy_frame(StepContext& ctx, Frame& frame, bool with_fields) {
   // Observers run on an accepted state: host_params.step and .time are its clock (0 = the start).
   frame.step = std::int64_t(ctx.host_params.step);
   frame.time = ctx.host_params.time;
@@ -168,9 +168,23 @@ void H5mdObserver::copy_frame(StepContext& ctx, Frame& frame, bool with_fields) 
   frame.observables.clear();
   if (with_fields) copy_fields(ctx, frame);
   if (!p_.observables) return;
-  frame.observables.emplace_back("dt", ctx.stats.dt);
-  frame.observables.emplace_back("rollbacks", double(ctx.stats.rollbacks));
-  for (auto& [name, value] : ctx.stats.metrics) frame.observables.emplace_back(name, value);
+  frame.observables.push_back({"dt", frame.step, frame.time, ctx.stats.dt});
+  frame.observables.push_back({"rollbacks", frame.step, frame.time, double(ctx.stats.rollbacks)});
+  for (auto& [name, value] : ctx.stats.metrics) {
+    auto stamp = ctx.stats.metric_stamps.find(name);
+    if (stamp == ctx.stats.metric_stamps.end()) {  // (a metric without a stamp: a hand-made RunStats)
+      frame.observables.push_back({name, frame.step, frame.time, value});
+      continue;
+    }
+    // A value not reported again since its last row is not new: written once, at the step it was
+    // measured (MDAnalysis' layout: at the frame's, since its rows are the frames).
+    const std::uint64_t at = stamp->second.step;
+    auto written = metric_written_at_.find(name);
+    if (written != metric_written_at_.end() && at <= written->second) continue;
+    metric_written_at_[name] = at;
+    if (p_.layout == "mdanalysis") frame.observables.push_back({name, frame.step, frame.time, value});
+    else frame.observables.push_back({name, std::int64_t(at), stamp->second.time, value});
+  }
 }
 
 void H5mdObserver::copy_fields(StepContext& ctx, Frame& frame) const {

@@ -6,6 +6,7 @@
 // A field with one element per particle is written under /particles/all/<name>; any other
 // field must be a triangle list (3 x i32 per element) and goes under /connectivity/<name>.
 #pragma once
+#include <map>
 #include <memory>
 #include <optional>
 #include <string>
@@ -74,7 +75,7 @@ class H5mdObserver final : public Stage {
 
  private:
   void open(const State& state);
-  void copy_frame(StepContext& ctx, Frame& frame, bool with_fields) const;
+  void copy_frame(StepContext& ctx, Frame& frame, bool with_fields);
   void copy_fields(StepContext& ctx, Frame& frame) const;
   // Whether this run writes `fields` (frames_every), warning once when the runs step past them.
   bool writes_fields_at(std::uint64_t step);
@@ -86,6 +87,9 @@ class H5mdObserver final : public Stage {
   std::unique_ptr<AsyncFrameWriter> writer_;
   bool finished_ = false;
   std::optional<std::uint64_t> last_run_step_;  // the step of this observer's previous run
+  // When each metric written was reported (RunStats::metric_stamps): one not reported again
+  // since is not written again (the writer also drops rows a continued file already has).
+  std::map<std::string, std::uint64_t> metric_written_at_;
   bool warned_frames_every_ = false;
 };
 

@@ -423,6 +423,76 @@ TEST_CASE("observe.h5md refuses frames_every without fields or with the MDAnalys
   CHECK_THROWS_WITH(mda->configure(*s), Catch::Contains("layout: mdanalysis"));
 }
 
+TEST_CASE("observe.h5md writes a metric once, at the step it was reported, not again until it is new",
+          "[observe][h5md]") {
+  // Before: a metric of a stage that ran every 20 steps was repeated at every frame between,
+  // labelled with the frame's step (an MSD read as a staircase). The observer runs at 0, 10, 20,
+  // 30; `slow/Z` is reported at steps 0 and 20 only, `fast/flips` at every frame, `late/x` was
+  // reported at step 5 (between frames) and first seen at frame 10.
+  TempDir dir("stamps");
+  auto s = make_state(Precision::f64);
+  auto stage = make_h5md(dir.path.string(), {"position"});
+  stage->configure(*s);
+  Observe obs;
+  obs.stats.dt = 0.01;
+  for (int f = 0; f < 4; ++f) {
+    const std::uint64_t step = 10 * std::uint64_t(f);
+    const double time = 0.1 * f;
+    fill_frame<double>(*s, f % 3);
+    if (f % 2 == 0) {
+      obs.stats.metrics["slow/Z"] = 1.5 + f;
+      obs.stats.metric_stamps["slow/Z"] = {step, time};
+    }
+    obs.stats.metrics["fast/flips"] = 2.0 * f;
+    obs.stats.metric_stamps["fast/flips"] = {step, time};
+    if (f == 1) {
+      obs.stats.metrics["late/x"] = 9;
+      obs.stats.metric_stamps["late/x"] = {5, 0.05};
+    }
+    obs(*stage, *s, step, time);
+  }
+  stage->finish(*s, true);
+  CHECK(python(dir, R"PY(
+f = h5py.File(sys.argv[1], "r")
+o = f["observables"]
+assert list(o["slow/Z/step"][()]) == [0, 20], o["slow/Z/step"][()]
+assert list(o["slow/Z/value"][()]) == [1.5, 3.5], o["slow/Z/value"][()]
+assert list(o["slow/Z/time"][()]) == [0.0, 0.2], o["slow/Z/time"][()]
+assert list(o["fast/flips/step"][()]) == [0, 10, 20, 30], o["fast/flips/step"][()]
+assert list(o["late/x/step"][()]) == [5] and list(o["late/x/time"][()]) == [0.05], o["late/x/step"][()]
+assert list(o["dt/step"][()]) == [0, 10, 20, 30]
+assert list(f["particles/all/position/step"][()]) == [0, 10, 20, 30]
+)PY", dir / "trajectory.h5") == 0);
+}
+
+TEST_CASE("H5mdWriter: an observable row at or before its series' last step is not written", "[observe][h5md]") {
+  // What keeps a continued run's file whole: a metric it already holds is not appended again.
+  TempDir dir("monotonic");
+  const std::string file = dir / "m.h5";
+  {
+    H5mdHeader h;
+    H5mdWriter w(file, h);
+    w.append_observable("a/x", 0, 0.0, 1.0);
+    w.append_observable("a/x", 10, 0.1, 2.0);
+    w.append_observable("a/x", 10, 0.1, 3.0);  // dropped: at the last step
+    w.append_observable("a/x", 5, 0.05, 4.0);  // dropped: before it
+    w.close(true);
+  }
+  {
+    auto w = H5mdWriter::reopen(file, 10, {});
+    REQUIRE(w);
+    w->append_observable("a/x", 10, 0.1, 5.0);  // dropped: the kept file has step 10
+    w->append_observable("a/x", 20, 0.2, 6.0);
+    w->close(true);
+  }
+  CHECK(python(dir, R"PY(
+f = h5py.File(sys.argv[1], "r")
+x = f["observables/a/x"]
+assert list(x["step"][()]) == [0, 10, 20], x["step"][()]
+assert list(x["value"][()]) == [1.0, 2.0, 6.0], x["value"][()]
+)PY", file) == 0);
+}
+
 TEST_CASE("observe.msd matches a hand-computed value and reaches the H5MD file", "[observe][msd]") {
   const Precision p = GENERATE(Precision::f32, Precision::f64);
   TempDir dir(std::string("msd_") + to_string(p));
