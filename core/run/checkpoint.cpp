@@ -269,6 +269,17 @@ std::string Checkpointer::write() {
               stamp_steps.size() * sizeof(std::uint64_t));
   d.put_array("stats/metric_times", DType::f64, {stamp_times.size()}, stamp_times.data(),
               stamp_times.size() * sizeof(double));
+  std::vector<std::uint64_t> stamp_reports;
+  std::vector<std::uint8_t> stamp_observer;
+  for (auto& name : names) {
+    auto it = st.metric_stamps.find(name);
+    stamp_reports.push_back(it == st.metric_stamps.end() ? 0 : it->second.reports);
+    stamp_observer.push_back(it != st.metric_stamps.end() && it->second.only_in_observables ? 1 : 0);
+  }
+  d.put_array("stats/metric_reports", DType::u64, {stamp_reports.size()}, stamp_reports.data(),
+              stamp_reports.size() * sizeof(std::uint64_t));
+  d.put_array("stats/metric_only_in_observables", DType::u8, {stamp_observer.size()}, stamp_observer.data(),
+              stamp_observer.size());
 
   d.put_text("pipeline/text", record_.pipeline_text);
   d.put_text("pipeline/effective", record_.effective_pipeline);
@@ -450,6 +461,13 @@ void restore_checkpoint(Simulation& sim, const CheckpointData& data) {
       std::memcpy(&stamp.step, data.at("stats/metric_steps").bytes.data() + k * sizeof(std::uint64_t),
                   sizeof(std::uint64_t));
       std::memcpy(&stamp.time, data.at("stats/metric_times").bytes.data() + k * sizeof(double), sizeof(double));
+    }
+    if (stamped && data.has("stats/metric_reports") && data.has("stats/metric_only_in_observables") &&
+        data.at("stats/metric_reports").bytes.size() == names.size() * sizeof(std::uint64_t) &&
+        data.at("stats/metric_only_in_observables").bytes.size() == names.size()) {
+      std::memcpy(&stamp.reports, data.at("stats/metric_reports").bytes.data() + k * sizeof(std::uint64_t),
+                  sizeof(std::uint64_t));
+      stamp.only_in_observables = data.at("stats/metric_only_in_observables").bytes[k] != 0;
     }
     st.metric_stamps[names[k]] = stamp;
   }

@@ -385,7 +385,9 @@ void Simulation::collect_metrics(int node) {
   for (auto& kv : slots_[node].metrics.values()) {
     const std::string name = slots_[node].info.stage_id + "/" + kv.first;
     stats_.metrics[name] = kv.second;
-    stats_.metric_stamps[name] = {state_->step, state_->time};
+    RunStats::Stamp& stamp = stats_.metric_stamps[name];
+    stamp = {state_->step, state_->time, stamp.reports + 1,
+             graph_->nodes()[std::size_t(node)].observer && slots_[node].stage->outputs().empty()};
   }
 }
 

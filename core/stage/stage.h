@@ -155,6 +155,10 @@ struct RunStats {
   struct Stamp {
     std::uint64_t step = 0;
     double time = 0;
+    std::uint64_t reports = 0;  // how many times it was reported since the run started
+    // Reported by an observer without a file of its own (observe.msd): observe.h5md is its only
+    // record, so a value it does not write is lost.
+    bool only_in_observables = false;
   };
   std::map<std::string, Stamp> metric_stamps;
 };

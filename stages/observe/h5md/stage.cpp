@@ -170,9 +170,13 @@ void H5mdObserver::copy_frame(StepContext& ctx, Frame& frame, bool with_fields) 
   if (!p_.observables) return;
   frame.observables.push_back({"dt", frame.step, frame.time, ctx.stats.dt});
   frame.observables.push_back({"rollbacks", frame.step, frame.time, double(ctx.stats.rollbacks)});
-  for (auto& [name, value] : ctx.stats.metrics) {
-    auto stamp = ctx.stats.metric_stamps.find(name);
-    if (stamp == ctx.stats.metric_stamps.end()) {  // (a metric without a stamp: a hand-made RunStats)
+  append_metrics(ctx.stats, frame);
+}
+
+void H5mdObserver::append_metrics(const RunStats& stats, Frame& frame) {
+  for (auto& [name, value] : stats.metrics) {
+    auto stamp = stats.metric_stamps.find(name);
+    if (stamp == stats.metric_stamps.end()) {  // (a metric without a stamp: a hand-made RunStats)
       frame.observables.push_back({name, frame.step, frame.time, value});
       continue;
     }
@@ -181,10 +185,26 @@ void H5mdObserver::copy_frame(StepContext& ctx, Frame& frame, bool with_fields) 
     const std::uint64_t at = stamp->second.step;
     auto written = metric_written_at_.find(name);
     if (written != metric_written_at_.end() && at <= written->second) continue;
+    if (written != metric_written_at_.end() && stamp->second.only_in_observables) note_lost_reports(name, stamp->second, written->second);
     metric_written_at_[name] = at;
+    if (stamp->second.only_in_observables) metric_reports_written_[name] = stamp->second.reports;
     if (p_.layout == "mdanalysis") frame.observables.push_back({name, frame.step, frame.time, value});
     else frame.observables.push_back({name, std::int64_t(at), stamp->second.time, value});
   }
+}
+
+void H5mdObserver::note_lost_reports(const std::string& name, const RunStats::Stamp& stamp, std::uint64_t previous_row) {
+  auto before = metric_reports_written_.find(name);
+  if (warned_lost_reports_ || before == metric_reports_written_.end() || stamp.reports <= before->second + 1) return;
+  warned_lost_reports_ = true;
+  const std::uint64_t lost = stamp.reports - before->second - 1;
+  std::fprintf(info_.messages,
+               "flipflow: warning: step '%s' (observe.h5md) writes '%s' only when it runs itself: %llu value%s "
+               "reported between its rows at steps %llu and %llu %s not in '%s'. Run it as often as the observers "
+               "whose metrics it writes, and space its frames with frames_every\n",
+               info_.stage_id.c_str(), name.c_str(), static_cast<unsigned long long>(lost), lost == 1 ? "" : "s",
+               static_cast<unsigned long long>(previous_row), static_cast<unsigned long long>(stamp.step),
+               lost == 1 ? "is" : "are", p_.file.c_str());
 }
 
 void H5mdObserver::copy_fields(StepContext& ctx, Frame& frame) const {

@@ -77,6 +77,9 @@ class H5mdObserver final : public Stage {
   void open(const State& state);
   void copy_frame(StepContext& ctx, Frame& frame, bool with_fields);
   void copy_fields(StepContext& ctx, Frame& frame) const;
+  // The metrics reported since their last rows (RunStats::metric_stamps), each at its own step.
+  void append_metrics(const RunStats& stats, Frame& frame);
+  void note_lost_reports(const std::string& name, const RunStats::Stamp& stamp, std::uint64_t previous_row);
   // Whether this run writes `fields` (frames_every), warning once when the runs step past them.
   bool writes_fields_at(std::uint64_t step);
 
@@ -90,6 +93,10 @@ class H5mdObserver final : public Stage {
   // When each metric written was reported (RunStats::metric_stamps): one not reported again
   // since is not written again (the writer also drops rows a continued file already has).
   std::map<std::string, std::uint64_t> metric_written_at_;
+  // RunStats::Stamp::reports of each observer metric at its last row: reports between two rows
+  // were never written (this observer ran less often than the one reporting), said once.
+  std::map<std::string, std::uint64_t> metric_reports_written_;
+  bool warned_lost_reports_ = false;
   bool warned_frames_every_ = false;
 };
 

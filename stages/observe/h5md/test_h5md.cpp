@@ -465,6 +465,37 @@ assert list(f["particles/all/position/step"][()]) == [0, 10, 20, 30]
 )PY", dir / "trajectory.h5") == 0);
 }
 
+TEST_CASE("observe.h5md says once when an observer's metric was reported more often than it writes",
+          "[observe][h5md]") {
+  // observe.msd every 5 steps beside observe.h5md every 10: the values at steps 5, 15, 25 are in
+  // no file. The observer runs at 0, 10, 20, 30; msd/msd's reports count 1, 3, 5, 7.
+  TempDir dir("lost_reports");
+  std::FILE* messages = std::tmpfile();
+  auto s = make_state(Precision::f64);
+  auto stage = make_h5md(dir.path.string(), {"position"}, "", {}, messages);
+  stage->configure(*s);
+  Observe obs;
+  obs.stats.dt = 0.01;
+  for (int f = 0; f < 4; ++f) {
+    const std::uint64_t step = 10 * std::uint64_t(f);
+    fill_frame<double>(*s, f % 3);
+    obs.stats.metrics["msd/msd"] = 4.0 * f;
+    obs.stats.metric_stamps["msd/msd"] = {step, 0.1 * f, std::uint64_t(2 * f + 1), true};
+    obs.stats.metrics["overlap/iterations"] = 3;  // a compute stage's, every step: sampled, not said
+    obs.stats.metric_stamps["overlap/iterations"] = {step, 0.1 * f, 10 * std::uint64_t(f) + 1, false};
+    obs(*stage, *s, step, 0.1 * f);
+  }
+  stage->finish(*s, true);
+  std::rewind(messages);
+  std::string text(4096, '\0');
+  text.resize(std::fread(text.data(), 1, text.size(), messages));
+  std::fclose(messages);
+  CHECK(text.find("writes 'msd/msd' only when it runs itself: 1 value reported between its rows at steps 0 and 10 is not in 'trajectory.h5'") !=
+        std::string::npos);
+  CHECK(text.find("warning") == text.rfind("warning"));  // once
+  CHECK(text.find("overlap/iterations") == std::string::npos);
+}
+
 TEST_CASE("H5mdWriter: an observable row at or before its series' last step is not written", "[observe][h5md]") {
   // What keeps a continued run's file whole: a metric it already holds is not appended again.
   TempDir dir("monotonic");
