@@ -300,6 +300,13 @@ void Clusters::configure(State& s) {
     }
     selected[std::size_t(it - species_.begin())] = 1;
   }
+  // Not an error: a trial run with fewer particles (--set system.N=...) of a pipeline is common.
+  // Quiet at the default, which is more than N in small systems (tests, describe's probe).
+  if (p_.size_columns > ClustersParams{}.size_columns && std::uint64_t(p_.size_columns) > n)
+    std::fprintf(info_.messages,
+                 "flipflow: warning: observe.clusters: size_columns = %lld is more than N = %zu: the columns past n%zu "
+                 "stay 0 (size_columns: %zu gives every size its own column)\n",
+                 static_cast<long long>(p_.size_columns), n, n, n);
   for (const char* f : {fields::position, fields::diameter, fields::type}) s.field(f).acquire(Where::host, Mode::read);
   read_frame(s);
   for (std::size_t i = 0; i < n; ++i) {
@@ -485,10 +492,11 @@ Outcome Clusters::run(StepContext& ctx) {
   for (std::size_t k = 2; k + 1 < columns_.size(); ++k) ctx.metrics.set(columns_[k], row[k]);
   rows_.push_back(std::move(row));
 
-  std::vector<double> sizes(2 + kSizeBins, 0.0);
+  const std::size_t columns = std::size_t(p_.size_columns);
+  std::vector<double> sizes(2 + columns, 0.0);
   sizes[0] = double(ctx.host_params.step);
   sizes[1] = ctx.host_params.time;
-  for (std::uint32_t sz : r.sizes) sizes[2 + std::min<std::size_t>(sz, kSizeBins) - 1] += 1;
+  for (std::uint32_t sz : r.sizes) sizes[2 + std::min<std::size_t>(sz, columns) - 1] += 1;
   size_rows_.push_back(std::move(sizes));
   return Outcome::ok();
 }
@@ -520,8 +528,8 @@ std::vector<std::string> Clusters::write_partials() const {
   std::string header;
   for (auto& c : columns_) header += (header.empty() ? "" : ",") + c;
   std::string sizes = "step,time";
-  for (int k = 1; k < kSizeBins; ++k) sizes += ",n" + std::to_string(k);
-  sizes += ",n" + std::to_string(kSizeBins) + "plus";
+  for (std::int64_t k = 1; k < p_.size_columns; ++k) sizes += ",n" + std::to_string(k);
+  sizes += ",n" + std::to_string(p_.size_columns) + "plus";
   return {write_partial(p_.file, header, rows_), write_partial(p_.sizes_file, sizes, size_rows_)};
 }
 
@@ -566,6 +574,20 @@ void Clusters::restore_state(const StageState& saved, State&) {
   if (!saved.has("rows")) return;
   rows_ = get_rows(saved, "rows");
   size_rows_ = get_rows(saved, "size_rows");
+  // Rows of another size_columns (a continuation with --allow-changes): a smaller K folds the
+  // sizes from K on into the new last column; a larger K cannot split the old last column.
+  const std::size_t width = 2 + std::size_t(p_.size_columns);
+  for (auto& row : size_rows_) {
+    if (row.size() == width) continue;
+    if (row.size() < width)
+      throw InputError("observe.clusters: the checkpoint's " + p_.sizes_file + " rows have size_columns = " +
+                       std::to_string(row.size() < 2 ? 0 : row.size() - 2) + ", fewer than size_columns = " +
+                       std::to_string(p_.size_columns) +
+                       ": their clusters of that size or more are counted together, so they cannot be continued "
+                       "with more columns; resume with the checkpoint's size_columns, or start a new run");
+    for (std::size_t k = width; k < row.size(); ++k) row[width - 1] += row[k];
+    row.resize(width);
+  }
   fallbacks_ = saved.get<std::uint64_t>("fallbacks");
   warned_ = saved.get<std::uint8_t>("warned") != 0;
 }

@@ -49,8 +49,12 @@
 //     largest_fraction, mean_aggregate_size, coordination, bonds, unlike_fraction, percolating,
 //     percolating_x, percolating_y[, percolating_z], bonds_<a>_<b>... (type pairs in order),
 //     fallback; after '#' lines with N, the parameters and the pair source.
-//   cluster_sizes.csv (`sizes_file`): one row per call: step, time, n1 ... n63, n64plus (the
-//     number of clusters of each size; the last column counts those of 64 particles or more).
+//   cluster_sizes.csv (`sizes_file`): one row per call: step, time, n1 ... n(K-1), nKplus with
+//     K = `size_columns` (default 64: n1 ... n63, n64plus): the number of clusters of each size;
+//     the last column counts those of K particles or more. A MIPS study that needs the tail of
+//     large clusters raises K (K = N gives every size its own column). A continued run with a
+//     smaller K folds the checkpoint's rows into the new last column; a larger K is refused (the
+//     rows before the checkpoint have no counts past their own K).
 // With `label_field: true` the stage writes the per-particle field `cluster.label` (i32, the
 // cluster's label; -1 for particles that take no part), which observe.h5md can write (list
 // observe.clusters before observe.h5md, with the same schedule).
@@ -80,6 +84,7 @@ struct ClustersParams {
   bool label_field = false;
   std::string file = "clusters.csv";
   std::string sizes_file = "cluster_sizes.csv";
+  std::int64_t size_columns = 64;
 
   template <class P>
   void describe(P& p) {
@@ -97,12 +102,18 @@ struct ClustersParams {
       "write the per-particle field cluster.label (i32: the smallest index of the particle's cluster, -1 if it "
       "takes no part)");
     p(file, "file", "CSV of the metrics, one row per call, relative to the run's output directory");
-    p(sizes_file, "sizes_file", "CSV of the cluster-size histogram (1 ... 63, ≥ 64), one row per call");
+    p(sizes_file, "sizes_file",
+      "CSV of the cluster-size histogram, one row per call: n1 ... n(K-1), nKplus (K = size_columns)");
+    // The upper bound keeps the rows in memory sane: every call keeps 2 + K numbers until the end.
+    p(size_columns, "size_columns",
+      "K, the size columns of sizes_file: n1 ... n(K-1) count the clusters of each size, nKplus those of K "
+      "particles or more (K = N: every size its own column)")
+        .at_least(2)
+        .at_most(1000000);
   }
 };
 
 inline constexpr const char* cluster_label_field = "cluster.label";
-inline constexpr int kSizeBins = 64;  // sizes 1 ... 63, then ≥ 64
 
 // One frame on the host, in double.
 struct ClusterFrame {
@@ -157,7 +168,8 @@ class Clusters final : public Stage {
   static StageDecl declaration() {
     return {"observe.clusters",
             "bonds (r < bond·σ_ij), clusters, aggregates, coordination, like/unlike bonds and percolation; metrics "
-            "per call, clusters.csv and cluster_sizes.csv; optional field cluster.label",
+            "per call, clusters.csv and cluster_sizes.csv (n1 ... nKplus, K = size_columns); optional field "
+            "cluster.label",
             schema_of<ClustersParams>(), {2, 3}, true};
   }
 
