@@ -29,7 +29,7 @@ struct Params {
       "− r; the paper's choice); contact: each moves by δ/2 (r' = σ_ij)")
         .one_of({"reflect", "contact"});
     p(cap, "cap",
-      "largest displacement of a particle per iteration, as a fraction of its diameter (the paper's σ/4)")
+      "largest displacement of a particle per iteration, as a fraction of its own diameter (the paper's σ/4)")
         .above(0);
     p(tolerance, "tolerance",
       "converged when no pair overlaps by more than tolerance·σ_ij; in float runs it is raised to the position "
