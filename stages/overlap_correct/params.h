@@ -26,10 +26,13 @@ struct Params {
   void describe(P& p) {
     p(mode, "mode",
       "reflect: each particle of an overlapping pair moves by δ = σ_ij − r (the pair bounces off contact, r' = 2σ_ij "
-      "− r; the paper's choice); contact: each moves by δ/2 (r' = σ_ij)")
+      "− r; the paper's choice); contact: each moves by δ/2 (r' = σ_ij), for passive or dilute systems: in dense "
+      "active clusters it needs many iterations and can stop at max_iterations (abp.yaml: 117 a step against "
+      "reflect's 7.7; φ = 0.6, Dr = 0.01: stopped at t = 23), and a lower run.dt adds more steps than it saves "
+      "iterations. Use reflect for active dense systems (docs/model-notes.md#g4)")
         .one_of({"reflect", "contact"});
     p(cap, "cap",
-      "largest displacement of a particle per iteration, as a fraction of its diameter (the paper's σ/4)")
+      "largest displacement of a particle per iteration, as a fraction of its own diameter (the paper's σ/4)")
         .above(0);
     p(tolerance, "tolerance",
       "converged when no pair overlaps by more than tolerance·σ_ij; in float runs it is raised to the position "

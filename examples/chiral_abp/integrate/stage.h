@@ -27,10 +27,10 @@ struct IntegrateParams {
 
   template <class P>
   void describe(P& p) {
-    p(v0, "v0", "self-propulsion speed (σ/τ)").at_least(0);
+    p(v0, "v0", "self-propulsion speed (box lengths per τ; σ/τ when system.sigma = 1)").at_least(0);
     p(omega, "omega", "angular velocity ω (rad/τ; > 0: counter-clockwise circles of radius v0/|ω|)");
     p(Dr, "Dr", "rotational diffusion coefficient (1/τ)").at_least(0);
-    p(D, "D", "translational diffusion coefficient (σ²/τ)").at_least(0);
+    p(D, "D", "translational diffusion coefficient (box length²/τ; σ²/τ when system.sigma = 1)").at_least(0);
   }
 };
 

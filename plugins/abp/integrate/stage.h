@@ -29,9 +29,14 @@ struct IntegrateParams {
 
   template <class P>
   void describe(P& p) {
-    p(v0, "v0", "self-propulsion speed (σ/τ)").at_least(0);
-    p(Dr, "Dr", "rotational diffusion coefficient (1/τ)").at_least(0);
-    p(D, "D", "translational diffusion coefficient (σ²/τ)").at_least(0);
+    p(v0, "v0", "self-propulsion speed (box lengths per τ; σ/τ when system.sigma = 1)").at_least(0);
+    p(Dr, "Dr",
+      "rotational diffusion coefficient D_r (1/τ): θ += sqrt(2 D_r Δt)·η in 2D (a random rotation in 3D)")
+        .at_least(0);
+    p(D, "D",
+      "translational diffusion coefficient (box length²/τ; σ²/τ when system.sigma = 1), independent of Dr "
+      "(not σ²D_r/3 unless given so)")
+        .at_least(0);
   }
 };
 

@@ -22,7 +22,7 @@ struct IntegrateParams {
 
   template <class P>
   void describe(P& p) {
-    p(v0, "v0", "speed (σ/τ) of every boid along its heading").at_least(0);
+    p(v0, "v0", "speed (box lengths per τ) of every boid along its heading").at_least(0);
     p(tau, "tau",
       "τ_b: the heading turns at the rate (u × F)/τ_b (continuous update; with Δt = τ_b one step is close to the "
       "authors' map)")

@@ -4,7 +4,7 @@
 //
 // r_ij = |d|, d = minimum image of x_i − x_j, r̂_ij = d / r_ij. It is F_i = −∇_i U of the pair
 // energy U(r) = k/2 (σ_ij − r)² for r < σ_ij, 0 beyond: a Hookean spring between overlapping
-// surfaces (Durian's bubble model; soft spheres near jamming). Units: k in k_BT/σ², F in k_BT/σ.
+// surfaces (Durian's bubble model; soft spheres near jamming). Units: k in k_BT/length², F in k_BT/length.
 // Overdamped, an overlap decays at the rate 2μk, so an explicit step is stable for μ k Δt < 1.
 // Particle i sums its own row of the Verlet list in list order: the same terms in the same order
 // on every backend; math::mul_rn keeps the products out of fused multiply-adds.
@@ -17,7 +17,7 @@ namespace ff::harmonic {
 
 template <class R, int D>
 struct HarmonicForce {
-  R k;                                // stiffness (k_BT/σ²)
+  R k;                                // stiffness (k_BT/length²)
   neighbors::PairSystem<R, D> sys;    // positions, diameters, Verlet list, box, `force`
 
   FF_HD void operator()(std::size_t i) const {

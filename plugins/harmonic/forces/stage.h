@@ -13,7 +13,7 @@ struct Harmonic {
 
   template <class P>
   void describe(P& p) {
-    p(k, "k", "stiffness k (k_BT/σ²) of the contact force k (σ_ij − r) r̂ between overlapping particles").above(0);
+    p(k, "k", "stiffness k (k_BT/length², box units) of the contact force k (σ_ij − r) r̂ between overlapping particles").above(0);
   }
   // Particles feel each other only while they overlap.
   double range(double sigma_i, double sigma_j) const { return 0.5 * (sigma_i + sigma_j); }

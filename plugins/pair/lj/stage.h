@@ -21,7 +21,7 @@
 
 namespace ff::pair {
 
-inline constexpr const char* kForce = "force";          // real x dim (k_BT/σ)
+inline constexpr const char* kForce = "force";          // real x dim (k_BT per box length)
 inline constexpr const char* kEnergy = "pair.energy";   // real: ½ Σ_j U_ij (k_BT)
 inline constexpr const char* kVirial = "pair.virial";   // real: ½ Σ_j r_ij·F_ij (k_BT)
 
@@ -41,7 +41,7 @@ struct LJParams {
       "ε_ab row by row (symmetric; T = the number of system.types)")
         .at_least(0);
     p(sigma, "sigma",
-      "length σ (σ; Tran: the diameter d_A): [] (the default) takes σ_ij from the particle diameters, "
+      "length σ (box units; Tran: the diameter d_A): [] (the default) takes σ_ij from the particle diameters, "
       "(d_i + d_j)/2 or √(d_i d_j) by `mixing`; else one for every pair, one per type (mixed), or the T×T matrix")
         .above(0);
     p(mixing, "mixing",

@@ -39,7 +39,9 @@ struct ForcesParams {
         .one_of({"long", "short"});
     p(alpha, "alpha", "charge α per particle type (creates the field), indexed like system.types").required();
     p(mu, "mu", "charge μ per particle type (responds to the field), indexed like system.types").required();
-    p(cutoff, "cutoff", "short range cutoff (σ); must not exceed neighbors.verlet's cutoff").above(0);
+    p(cutoff, "cutoff",
+      "short range cutoff (a length in the box's units, not scaled by σ); must not exceed neighbors.verlet's cutoff")
+        .above(0);
   }
   bool long_range() const { return range == "long"; }
 };

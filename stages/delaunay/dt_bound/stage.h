@@ -40,13 +40,14 @@ struct DtBoundParams {
   template <class P>
   void describe(P& p) {
     p(D, "D",
-      "translational diffusion coefficient D_t (σ²/τ) of the integrator, one for every type or one per type: "
-      "bounds the noise's displacement")
+      "translational diffusion coefficient D_t (box length²/τ) of the integrator, one for every type or one per "
+      "type: bounds the noise's displacement")
         .at_least(0);
     p(mobility, "mobility", "the integrator's mobility μ_t (multiplies the `force` field): one, or one per type")
         .at_least(0);
     p(speed, "speed",
-      "bound on a drift speed no field holds (σ/τ), one or one per type: v0 of self-propelled particles or boids")
+      "bound on a drift speed no field holds (box lengths per τ), one or one per type: v0 of self-propelled "
+      "particles or boids")
         .at_least(0);
     p(drift, "drift",
       "the drift fields the integrator reads: auto (`velocity` and/or `force`, whichever a stage before creates), "

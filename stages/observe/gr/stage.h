@@ -5,7 +5,8 @@
 //
 //   g(r_k) = H_k / (frames · N(N−1)/(2V) · shell_k),  shell_k = π(r_hi² − r_lo²) or 4π/3 (r_hi³ − r_lo³)
 //
-// r is in units of σ, the mean diameter, for mixtures too (the total g(r) of all pairs).
+// r_max and fit_width are in units of σ, the mean diameter, for mixtures too (the total g(r) of all
+// pairs); r in gr.csv (r_lo, r_hi, r) and the `sigma` of its first line are in box units.
 //
 // Metrics after each call, cumulative over the frames accumulated so far (not of the last frame
 // alone); NaN before the first accumulated frame (before from_step):
@@ -53,7 +54,9 @@ struct GrParams {
 
   template <class P>
   void describe(P& p) {
-    p(r_max, "r_max", "largest distance histogrammed, in units of σ (the mean diameter)").above(0);
+    p(r_max, "r_max",
+      "largest distance histogrammed, in units of σ (the mean diameter); gr.csv's r columns are in box units")
+        .above(0);
     p(bins, "bins", "histogram bins over [0, r_max)").at_least(1).at_most(1000000);
     p(fit_width, "fit_width",
       "g(σ⁺) is a quadratic fit over the bins in [σ, σ + fit_width·σ] (at least three), in σ; for a mixture "

@@ -22,8 +22,8 @@
 
 namespace ff::overdamped {
 
-inline constexpr const char* kVelocity = "velocity";  // real x dim: drift velocity (σ/τ)
-inline constexpr const char* kForce = "force";        // real x dim: force (k_BT/σ)
+inline constexpr const char* kVelocity = "velocity";  // real x dim: drift velocity (box lengths per τ)
+inline constexpr const char* kForce = "force";        // real x dim: force (k_BT per box length)
 
 struct IntegrateParams {
   PerType D{{1.0}};
@@ -34,17 +34,22 @@ struct IntegrateParams {
 
   template <class P>
   void describe(P& p) {
-    p(D, "D", "translational diffusion coefficient D_t (σ²/τ): one for every type, or one per type").at_least(0);
-    p(mobility, "mobility", "mobility μ_t (σ/τ per k_BT/σ) multiplying the `force` field: one, or one per type")
+    p(D, "D",
+      "translational diffusion coefficient D_t (box length²/τ; σ²/τ when system.sigma = 1): one for every "
+      "type, or one per type")
+        .at_least(0);
+    p(mobility, "mobility",
+      "mobility μ_t (box length²/(k_BT τ): velocity per unit force) multiplying the `force` field: one, or one "
+      "per type")
         .at_least(0);
     p(drift, "drift",
       "fields that move particles besides noise: auto (`velocity` and/or `force`, whichever a stage before "
       "creates), none, velocity, force, or velocity+force (those must exist)")
         .one_of({"auto", "none", "velocity", "force", "velocity+force"});
     p(max_step, "max_step",
-      "longest step a particle may take (σ); a longer one rolls the step back with a smaller Δt instead of going "
-      "on from a blown-up state (0: no check; with a check the step cannot be replayed from a CUDA graph). A "
-      "non-finite position stops the run naming the particle with or without it")
+      "longest step a particle may take (box units, not scaled by σ); a longer one rolls the step back with a "
+      "smaller Δt instead of going on from a blown-up state (0: no check; with a check the step cannot be "
+      "replayed from a CUDA graph). A non-finite position stops the run naming the particle with or without it")
         .at_least(0);
     p(noise, "noise",
       "how the Gaussians ξ are kept within ±3: rescaled (a pair outside is redrawn, then scaled to unit "
