@@ -318,7 +318,7 @@ TEST_CASE("pipeline run: too few disks in a slab are told in the user's N and bo
     INFO(r.out);
     CHECK(r.code == 2);
     CHECK_THAT(r.out, Catch::Contains(std::string("with N = ") + n + " in a 64 x 42 box") &&
-                          Catch::Contains("use N >= ") && !Catch::Contains("84") && !Catch::Contains("on a wall"));
+                          Catch::Contains("use N >= ") && !Catch::Contains("x 84") && !Catch::Contains("on a wall"));
   }
   fs::remove_all(out);
 }

@@ -445,7 +445,11 @@ class OverlapCorrect final : public Stage {
        << " and " << wb << " at r = " << wr << " with σ_ij = " << ws << " (overlap " << worst
        << "·σ_ij)" << (wall_axis_ >= 0 ? " or a particle and a wall" : "")
        << ". Lower run.dt (smaller moves make fewer, shallower overlaps), raise max_iterations, or lower "
-          "the packing fraction";
+          "the packing fraction"
+       << (p_.mode == "contact"
+               ? "; mode: contact needs ~15 times the iterations of mode: reflect in dense or active systems "
+                 "(docs/model-notes.md#g4): reflect is the one for them"
+               : "");
     throw RunError(os.str());
   }
 

@@ -342,7 +342,11 @@ class OverlapCorrectVerlet final : public Stage {
        << " iterations; the worst is particles " << wa << " and " << wb << " at r = " << wr << " with σ_ij = " << ws
        << " (overlap " << worst
        << "·σ_ij). Lower run.dt (smaller moves make fewer, shallower overlaps), raise max_iterations, or lower "
-          "the packing fraction";
+          "the packing fraction"
+       << (p_.mode == "contact"
+               ? "; mode: contact needs ~15 times the iterations of mode: reflect in dense or active systems "
+                 "(docs/model-notes.md#g4): reflect is the one for them"
+               : "");
     throw RunError(os.str());
   }
 
