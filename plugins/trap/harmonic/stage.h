@@ -40,7 +40,9 @@ struct TrapParams {
     p(add, "add",
       "add the trap's force to the `force` field a stage before it wrote this step (harmonic.forces, pair.lj), "
       "instead of writing it");
-    p(energy, "energy", "also write the per-particle field trap.energy, U_i = k/2 |x_i − c|² (k_BT)");
+    p(energy, "energy",
+      "also write the per-particle field trap.energy, U_i = k/2 |x_i − c|² (k_BT) at the positions the step "
+      "starts from");
   }
 };
 
