@@ -1,0 +1,239 @@
+// trap.harmonic against its formula and its statistical mechanics: a hand-made state gets exactly
+// F = −k (x − c) with the minimum image (a particle across the periodic boundary from the centre
+// too), on the trapped axes only, added to an earlier force with add: true, and U = k/2 |x − c|²;
+// with overdamped.integrate (D, μ: k_BT = D/μ) the mean displacement from an offset start decays
+// as exp(−μkt) and the stationary ⟨(x − c)_a²⟩ is k_BT/k per axis (equipartition), within three
+// standard errors; CPU and CUDA give the same bits.
+#include <catch2/catch.hpp>
+#include <cmath>
+#include <cstring>
+#include <random>
+
+#include "core/stage/stage_registration.h"
+#include "support/backends.h"
+#include "support/fields.h"
+#include "support/stage_driver.h"
+#include "support/test_plugins.h"
+
+using namespace ff;
+using test::values;
+
+namespace {
+
+const Registry& registry() {
+  static const auto r = test::registry_with({"trap"});
+  return *r;
+}
+
+// n particles at positions x (n x dim) in a periodic box of side L.
+std::unique_ptr<State> state(int dim, Precision p, double L, const std::vector<double>& x) {
+  auto s = std::make_unique<State>(dim, p, x.size() / dim);
+  for (int c = 0; c < dim; ++c) s->box.L[c] = L;
+  Field& f = s->field(fields::position);
+  f.acquire(Where::host, Mode::write);
+  for (std::size_t i = 0; i < x.size(); ++i)
+    if (p == Precision::f64) f.host<double>()[i] = x[i];
+    else f.host<float>()[i] = float(x[i]);
+  return s;
+}
+
+// A field `name` of real x components, every element `value` (the force a stage before wrote).
+void fill(State& s, const char* name, int components, double value) {
+  Field& f = s.add_particle_field(name, s.real(), components);
+  f.acquire(Where::host, Mode::write);
+  for (std::size_t i = 0; i < f.size(); ++i)
+    if (s.precision() == Precision::f64) f.host<double>()[i] = value;
+    else f.host<float>()[i] = float(value);
+}
+
+test::StageDriver trap(State& s, Backend b, test::ParamSettings set) {
+  ParamValues v = ParamValues::defaults(registry().get("trap.harmonic").decl.params);
+  for (auto& kv : set) v.set(kv.first, kv.second);
+  test::StageDriver d(registry(), "trap.harmonic", b, s.precision(), s.dim(), v, 1);
+  d.stage->configure(s);
+  return d;
+}
+
+// A random state of n particles in a box of side 6 and a trap off the box centre.
+std::unique_ptr<State> scattered(int dim, Precision p) {
+  std::mt19937_64 gen(3);
+  std::uniform_real_distribution<double> u(0, 6);
+  std::vector<double> x(3000 * dim);
+  for (auto& v : x) v = u(gen);
+  return state(dim, p, 6, x);
+}
+
+}  // namespace
+
+TEST_CASE("trap.harmonic: F = −k (x − c) and U = k/2 |x − c|², minimum image, exactly", "[trap]") {
+  const Backend b = GENERATE(from_range(test::backends()));
+  const int dim = GENERATE(2, 3);
+  const Precision p = GENERATE(Precision::f64, Precision::f32);
+  INFO(to_string(b) << ", " << dim << "D, " << to_string(p));
+  const double k = 2.5, L = 8;
+  // Centre (0.25, 4[, 4]) near the boundary. Particle 0 at (7.75, 4.5[, 3]) is 0.5 from it across
+  // the boundary along x: d = (−0.5, 0.5[, −1]); particle 1 at (1.25, 6.25[, 4.125]):
+  // d = (1, 2.25[, 0.125]); particle 2 on the centre. Dyadic numbers: exact in float too.
+  std::vector<double> c{0.25, 4, 4}, x, d;
+  if (dim == 2) x = {7.75, 4.5, 1.25, 6.25, 0.25, 4}, d = {-0.5, 0.5, 1, 2.25, 0, 0};
+  else x = {7.75, 4.5, 3, 1.25, 6.25, 4.125, 0.25, 4, 4}, d = {-0.5, 0.5, -1, 1, 2.25, 0.125, 0, 0, 0};
+  c.resize(dim);
+  auto s = state(dim, p, L, x);
+  auto drive = trap(*s, b, {{"k", k}, {"centre", c}, {"energy", true}});
+  drive.step(*s, 0, 0.01);
+  const auto f = values(*s, "force"), u = values(*s, "trap.energy");
+  for (std::size_t i = 0; i < 3; ++i) {
+    double d2 = 0;
+    for (int a = 0; a < dim; ++a) {
+      CHECK(f[i * dim + a] == -k * d[i * dim + a]);
+      d2 += d[i * dim + a] * d[i * dim + a];
+    }
+    CHECK(u[i] == 0.5 * k * d2);
+  }
+
+  SECTION("the default centre is the box centre") {
+    auto s2 = state(dim, p, L, x);
+    auto centred = trap(*s2, b, {{"k", k}});
+    centred.step(*s2, 0, 0.01);
+    const auto g = values(*s2, "force");
+    for (std::size_t i = 0; i < x.size(); ++i) CHECK(g[i] == -k * (x[i] - 4));
+  }
+  SECTION("axes: only the named axes are pulled") {
+    auto s2 = state(dim, p, L, x);
+    auto along_y = trap(*s2, b, {{"k", k}, {"centre", c}, {"axes", std::vector<std::string>{"y"}}, {"energy", true}});
+    along_y.step(*s2, 0, 0.01);
+    const auto g = values(*s2, "force"), u2 = values(*s2, "trap.energy");
+    for (std::size_t i = 0; i < 3; ++i) {
+      for (int a = 0; a < dim; ++a) CHECK(g[i * dim + a] == (a == 1 ? -k * d[i * dim + 1] : 0.0));
+      CHECK(u2[i] == 0.5 * k * d[i * dim + 1] * d[i * dim + 1]);
+    }
+  }
+  SECTION("add: true adds to the force a stage before wrote") {
+    auto s2 = state(dim, p, L, x);
+    fill(*s2, "force", dim, 0.75);
+    auto adding = trap(*s2, b, {{"k", k}, {"centre", c}, {"add", true}});
+    adding.step(*s2, 0, 0.01);
+    const auto g = values(*s2, "force");
+    for (std::size_t i = 0; i < x.size(); ++i) CHECK(g[i] == 0.75 - k * d[i]);
+  }
+}
+
+TEST_CASE("trap.harmonic: input errors name what to change", "[trap]") {
+  auto s = state(2, Precision::f64, 8, {1, 1});
+  CHECK_THROWS_WITH(trap(*s, Backend::cpu, {{"centre", std::vector<double>{1, 2, 3}}}), Catch::Contains("one per dimension"));
+  CHECK_THROWS_WITH(trap(*s, Backend::cpu, {{"axes", std::vector<std::string>{"z"}}}), Catch::Contains("2 dimensions"));
+  CHECK_THROWS_WITH(trap(*s, Backend::cpu, {{"add", true}}), Catch::Contains("no stage before it writes"));
+  fill(*s, "force", 2, 0.0);
+  CHECK_THROWS_WITH(trap(*s, Backend::cpu, {}), Catch::Contains("add: true"));
+}
+
+// With overdamped.integrate (D = 1, μ = 0.5: k_BT = D/μ = 2) and k = 4: relaxation rate μk = 2,
+// ⟨d_a²⟩ = k_BT/k = 0.5. N = 4096 particles start at c + d0 (all the same), the trap's centre near
+// a corner of a box of side 10, so the particles cross the periodic boundary all along; Δt = 0.0025
+// (μkΔt = 0.005).
+TEST_CASE("trap.harmonic: ⟨x − c⟩ decays as exp(−μkt) and ⟨(x − c)_a²⟩ = k_BT/k (equipartition)",
+          "[trap][physics]") {
+  const Backend b = GENERATE(from_range(test::backends()));
+  const int dim = GENERATE(2, 3);
+  const Precision p = GENERATE(Precision::f64, Precision::f32);
+  INFO(to_string(b) << ", " << dim << "D, " << to_string(p));
+  const std::size_t n = 4096;
+  const double L = 10, k = 4, D = 1, mu = 0.5, kT = D / mu, rate = mu * k, dt = 0.0025;
+  const double c[3] = {0.5, 9.75, 5}, d0[3] = {1.5, -1.0, 0.75};
+  std::vector<double> x(n * dim);
+  for (std::size_t i = 0; i < n; ++i)
+    for (int a = 0; a < dim; ++a) x[i * dim + a] = std::fmod(c[a] + d0[a] + L, L);
+  auto s = state(dim, p, L, x);
+  auto force = trap(*s, b, {{"k", k}, {"centre", std::vector<double>(c, c + dim)}, {"energy", true}});
+  ParamValues v = ParamValues::defaults(registry().get("overdamped.integrate").decl.params);
+  v.set("D", std::vector<double>{D});
+  v.set("mobility", std::vector<double>{mu});
+  test::StageDriver integrate(registry(), "overdamped.integrate", b, p, dim, v, 11);
+  integrate.stage->configure(*s);
+  // d = minimum image of x − c, per particle and axis.
+  auto displacements = [&] {
+    auto y = values(*s, fields::position);
+    for (std::size_t i = 0; i < y.size(); ++i) {
+      const int a = int(i % dim);
+      y[i] -= c[a];
+      y[i] -= L * std::rint(y[i] / L);
+    }
+    return y;
+  };
+  std::uint64_t step = 0;
+  auto advance_to = [&](double t) {
+    for (; double(step) * dt < t - 1e-9; ++step) {
+      force.step(*s, step, dt);
+      integrate.step(*s, step, dt);
+    }
+  };
+  // Relaxation: ⟨d_a(t)⟩ = d0_a exp(−μkt), sampled at μkt = 0.5, 1, 2; standard error from the
+  // sample. Euler–Maruyama's mean is d0 (1 − μkΔt)^(t/Δt), 0.25 % below it at μkt = 1: about a
+  // tenth of a standard error here.
+  for (double t : {0.25, 0.5, 1.0}) {
+    advance_to(t);
+    const auto d = displacements();
+    for (int a = 0; a < dim; ++a) {
+      double m = 0, m2 = 0;
+      for (std::size_t i = 0; i < n; ++i) {
+        m += d[i * dim + a];
+        m2 += d[i * dim + a] * d[i * dim + a];
+      }
+      m /= n;
+      const double se = std::sqrt((m2 / n - m * m) / n), want = d0[a] * std::exp(-rate * t);
+      const double measured_rate = -std::log(m / d0[a]) / t, rate_se = se / (std::fabs(m) * t);
+      INFO("t = " << t << ", axis " << a << ": ⟨d⟩ = " << m << " ± " << se << ", d0 exp(−μkt) = " << want
+                  << "; rate " << measured_rate << " ± " << rate_se << " (μk = " << rate << ")");
+      CHECK(std::fabs(m - want) < 3 * se);
+      CHECK(std::fabs(measured_rate - rate) < 3 * rate_se);
+    }
+  }
+  // Equipartition: after 5 relaxation times (the offset left is d0 e^(−5) ≤ 0.01), frames two
+  // relaxation times apart (the correlation of d² between them, e^(−4), is negligible):
+  // ⟨d_a²⟩ per axis and frame; the standard error from the spread of d_a² over all samples.
+  // Euler–Maruyama's stationary variance is k_BT/k / (1 − μkΔt/2), 0.25 % above: about a third
+  // of a standard error here.
+  double sum = 0, sum2 = 0, energy = 0;
+  std::size_t samples = 0, frames = 0;
+  for (double t = 2.5; t < 6.5; t += 1.0, ++frames) {
+    advance_to(t);
+    const auto d = displacements();
+    for (double y : d) {
+      sum += y * y;
+      sum2 += y * y * y * y;
+    }
+    samples += d.size();
+    force.step(*s, step, dt);  // U at these positions (the step's trap.energy is that of its start)
+    for (double u : values(*s, "trap.energy")) energy += u;
+  }
+  const double m = sum / samples, se = std::sqrt((sum2 / samples - m * m) / samples);
+  const double u = energy / (frames * n);
+  INFO("⟨d_a²⟩ = " << m << " ± " << se << " (" << samples << " samples), k_BT/k = " << kT / k << "; ⟨U⟩ = " << u
+                   << ", d k_BT/2 = " << 0.5 * dim * kT);
+  CHECK(std::fabs(m - kT / k) < 3 * se);
+  // U_i = k/2 Σ_a d_a² of the same samples (energy: true), in float to float's rounding.
+  CHECK(u == Approx(0.5 * k * dim * m).epsilon(p == Precision::f64 ? 1e-12 : 1e-5));
+}
+
+TEST_CASE("trap.harmonic: CPU and CUDA give the same bits", "[trap][cuda]") {
+  if (!test::have_cuda("trap.harmonic CPU vs CUDA")) return;
+  const int dim = GENERATE(2, 3);
+  const Precision p = GENERATE(Precision::f64, Precision::f32);
+  const bool add = GENERATE(false, true);
+  INFO(dim << "D, " << to_string(p) << (add ? ", add" : ""));
+  auto cpu = scattered(dim, p), cuda = scattered(dim, p);
+  std::vector<double> centre{0.3, 5.9, 2.2};
+  centre.resize(dim);
+  const test::ParamSettings set{{"k", 3.7}, {"centre", centre}, {"energy", true}, {"add", add}};
+  for (auto [s, b] : {std::pair{cpu.get(), Backend::cpu}, std::pair{cuda.get(), Backend::cuda}}) {
+    if (add) fill(*s, "force", dim, 0.1);
+    auto drive = trap(*s, b, set);
+    drive.step(*s, 0, 0.01);
+  }
+  for (const char* f : {"force", "trap.energy"}) {
+    INFO(f);
+    const auto a = test::bytes_of(*cpu, f), c = test::bytes_of(*cuda, f);
+    REQUIRE(a.size() == c.size());
+    CHECK(std::memcmp(a.data(), c.data(), a.size()) == 0);
+  }
+}
