@@ -98,7 +98,10 @@ void throw_if_too_long(State& s, Where w, const MemoryOps& mem, unsigned count, 
                  " no longer closes under minimum image (" + std::to_string(count) +
                  " edge(s)): an edge has grown longer than half the box, which the periodic triangulation cannot "
                  "store. Use a larger system (more particles at this density), a smaller run.dt (particles that move "
-                 "far in a step stretch edges), or rebuild the triangulation more often (delaunay.build with every: k)");
+                 "far in a step stretch edges), or rebuild the triangulation more often (delaunay.build with every: k); "
+                 "if the particles leave an empty region as wide as half the box (a trap, a droplet), find the "
+                 "overlaps on a neighbour list instead: neighbors.verlet and overlap_correct.verlet "
+                 "(pipelines/trap-hard-disks.yaml)");
 }
 
 std::string list_ids(const std::vector<std::uint64_t>& ids) {

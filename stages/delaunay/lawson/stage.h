@@ -373,7 +373,9 @@ class Lawson final : public Stage {
                    "the edge between particles " +
                    list_ids(ids) + "; " + std::to_string(count) +
                    " such flip(s)); the periodic triangulation is stored by minimum image and cannot hold it. Use a "
-                   "larger system (more particles at this density)");
+                   "larger system (more particles at this density); if the particles leave an empty region as wide as "
+                   "half the box (a trap, a droplet, walls far apart), find the overlaps on a neighbour list "
+                   "instead: neighbors.verlet and overlap_correct.verlet (pipelines/trap-hard-disks.yaml)");
   }
 
   LawsonParams p_;
