@@ -340,7 +340,7 @@ TEST_CASE("sweep: a run that fails does not stop the others; its row says why; t
   CHECK_FALSE(fs::exists(cpu));
 }
 
-TEST_CASE("sweep: its folder: not another's files, not two sweeps at once, extended by grid values, told what differs",
+TEST_CASE("sweep: its folder: not another's files, not two sweeps at once, extended by grid values or replicas, told what differs",
           "[sweep]") {
   const std::string file = repo_file("pipelines/brownian.yaml").string();
   const std::string base = "sweep " + file + " --device cpu --set run.steps=20 --set system.N=50 --set step.observe.progress.every=1000";
@@ -384,6 +384,26 @@ TEST_CASE("sweep: its folder: not another's files, not two sweeps at once, exten
   auto fewer = pipeline(base + " --grid run.seed=1,3 --out " + out.string());
   CHECK(fewer.code == 2);
   CHECK_THAT(fewer.out, Catch::Contains("was:  grid: run.seed=1,2,3") && Catch::Contains("now:  grid: run.seed=1,3"));
+  // More replicas (from two): the sweep goes on with the new seeds; fewer, or more from one
+  // (folders named without a seed), are other sweeps.
+  const fs::path seeds = fresh_dir("replicas");
+  const std::string d_axis = base + " --grid step.brownian.integrate.D=1 --out " + seeds.string();
+  require_success(pipeline(d_axis + " --replicas 2"));
+  auto three = require_success(pipeline(d_axis + " --replicas 3"));
+  CHECK_THAT(three.out, Catch::Contains("extends the sweep in " + seeds.string() + " with replicas 2 -> 3 (seeds + 2 .. 2)") &&
+                            Catch::Contains("1 to run, 2 done before"));
+  CHECK(read_index(seeds / "index.csv").size() == 3);
+  CHECK(fs::is_directory(seeds / "D=1_seed=44"));  // brownian.yaml: seed 42
+  auto two = pipeline(d_axis + " --replicas 2");
+  CHECK(two.code == 2);
+  CHECK_THAT(two.out, Catch::Contains("was:  replicas: 3") && Catch::Contains("now:  replicas: 2"));
+  fs::remove_all(seeds);
+  require_success(pipeline(d_axis + " --replicas 1"));
+  auto from_one = pipeline(d_axis + " --replicas 2");
+  INFO(from_one.out);
+  CHECK(from_one.code == 2);
+  CHECK_THAT(from_one.out, Catch::Contains("one replica each, in folders named without a seed"));
+  fs::remove_all(seeds);
   // The same --grid arguments in another order: another sweep (other folder names), and it says how
   // (before: "holds another sweep" with nothing under it).
   const fs::path two_axes = fresh_dir("two_axes");

@@ -102,19 +102,23 @@ std::vector<std::string> lines_of(const std::string& text) {
   return v;
 }
 
-// Whether the sweep recorded as `before` is this one with values added to its grid axes (the
-// same file, device, --set, replicas and axes in the same order, each axis's old values among
-// its new ones): then every run it made is a run of this one, in the same folder with the same
-// parameters, and the folder may be continued. `added` says what was added.
+// Whether the sweep recorded as `before` is this one with values added to its grid axes or
+// more replicas (the same file, device, --set and axes in the same order, each axis's old values
+// among its new ones; replicas the same, or more where there were already several, whose folders
+// are named by seed: with one replica the folders have no seed in their names, so a second
+// replica is another sweep): then every run it made is a run of this one, in the same folder with
+// the same parameters and seed, and the folder may be continued. `added` says what was added.
 bool extends(const std::string& before, const std::string& now, std::string& added) {
-  // A definition's --grid arguments, and its other lines.
+  // A definition's --grid arguments, its replicas, and its other lines.
   struct Parts {
     std::vector<std::string> grid, rest;
+    long replicas = 1;
   };
   auto parts = [](const std::string& text) {
     Parts p;
     for (auto& l : lines_of(text))
       if (l.rfind("grid: ", 0) == 0) p.grid.push_back(l.substr(6));
+      else if (l.rfind("replicas: ", 0) == 0) p.replicas = std::strtol(l.c_str() + 10, nullptr, 10);
       else p.rest.push_back(l);
     return p;
   };
@@ -122,6 +126,10 @@ bool extends(const std::string& before, const std::string& now, std::string& add
   const auto& b_grid = b.grid;
   const auto& n_grid = n.grid;
   if (b.rest != n.rest || b_grid.size() != n_grid.size()) return false;
+  if (n.replicas != b.replicas && !(b.replicas > 1 && n.replicas > b.replicas)) return false;
+  if (n.replicas > b.replicas)
+    added = "replicas " + std::to_string(b.replicas) + " -> " + std::to_string(n.replicas) + " (seeds + " +
+            std::to_string(b.replicas) + " .. " + std::to_string(n.replicas - 1) + ")";
   for (std::size_t k = 0; k < b_grid.size(); ++k) {
     sweep::Axis old_axis, new_axis;
     try {
@@ -215,7 +223,8 @@ class FolderLock {
 
 // Makes `out` this sweep's folder, recording what the sweep is in its sweep.txt: the runs'
 // folders there are overwritten or continued, so another sweep's, or a folder that is not a
-// sweep's, are refused unless --force. A sweep whose grid gained values continues its folder.
+// sweep's, are refused unless --force. A sweep whose grid gained values, or that has more
+// replicas, continues its folder.
 std::unique_ptr<FolderLock> claim_folder(const std::string& out, const SweepArgs& a, Backend backend) {
   const fs::path root(out);
   const std::string def = definition(a, backend);
@@ -242,8 +251,13 @@ std::unique_ptr<FolderLock> claim_folder(const std::string& out, const SweepArgs
     if (before != def && !extends(before, def, added))
       throw InputError("'" + out + "' holds another sweep (" + def_file.string() + " records its file, device, --set, "
                        "--grid and --replicas):" + differences(before, def) +
+                       (before.find("\nreplicas: 1\n") != std::string::npos && a.replicas > 1
+                            ? "\nIts runs had one replica each, in folders named without a seed: more replicas "
+                              "are another sweep (another --out), or give this one a run.seed axis"
+                            : "") +
                        "\nUse another --out; --force to run this one there from the start; or give the same "
-                       "arguments with values added to a --grid axis to extend that sweep");
+                       "arguments with values added to a --grid axis, or more --replicas where it had two or "
+                       "more, to extend that sweep");
     if (!added.empty()) std::cerr << "sweep: extends the sweep in " << out << " with " << added << "\n";
   }
   std::ofstream d(def_file, std::ios::trunc);
