@@ -1,10 +1,13 @@
 // trap.harmonic: an external harmonic potential (an optical trap) on every particle, U = k/2 |x − c|²
-// with the minimum-image displacement (kernel.h), into the `force` field that overdamped.integrate
+// with the minimum-image displacement (kernel.h), fixed or moving at a constant velocity, on every
+// particle or on those of the listed types, into the `force` field that overdamped.integrate
 // reads (x += μ F Δt + sqrt(2DΔt) ξ). Alone it writes `force`; with add: true it adds onto the force
 // a stage before it wrote this step (harmonic.forces, pair.lj: those replace the field, so they
 // come first). With energy: true it also writes U_i per particle (`trap.energy`) for observers.
 // 2D and 3D, CPU and CUDA (the same bits), float and double.
 #pragma once
+#include <algorithm>
+#include <cstdint>
 #include <string>
 #include <vector>
 
@@ -24,6 +27,8 @@ struct TrapParams {
   double k = 1;
   std::vector<double> centre{};
   std::vector<std::string> axes{};
+  std::vector<double> velocity{};
+  std::vector<std::string> types{};
   bool add = false;
   bool energy = false;
 
@@ -37,6 +42,13 @@ struct TrapParams {
       "particle is pulled towards the nearest periodic image of c");
     p(axes, "axes", "the trapped axes (x, y, z); [] (the default): all of them. The others are free")
         .one_of({"x", "y", "z"});
+    p(velocity, "velocity",
+      "the trap's velocity v: one number per dimension (box units per unit time); the centre is c + v t at the "
+      "start of each step, wrapped into the box. [] (the default): a fixed trap. A particle dragged at v lags "
+      "behind the centre by v/(μk) (Stokes drag)");
+    p(types, "types",
+      "the names of the system.types whose particles feel the trap (a probe among a bath); [] (the default): every "
+      "particle. The others get no force from it (and trap.energy 0)");
     p(add, "add",
       "add the trap's force to the `force` field a stage before it wrote this step (harmonic.forces, pair.lj), "
       "instead of writing it");
@@ -58,13 +70,19 @@ class HarmonicTrap final : public Stage {
   template <class Exec>
   HarmonicTrap(const ParamValues& v, const RunInfo&, Exec)
       : p_(params_from<TrapParams>(v)), where_(Exec::where),
-        loop2_(&Exec::template for_each<TrapForce<R, 2>>), loop3_(&Exec::template for_each<TrapForce<R, 3>>) {}
+        loop2_(&Exec::template for_each<TrapForce<R, 2>>), loop3_(&Exec::template for_each<TrapForce<R, 3>>) {
+    for (int a = 0; a < 3; ++a) {
+      velocity_[a] = a < int(p_.velocity.size()) ? p_.velocity[a] : 0.0;
+      moving_ = moving_ || velocity_[a] != 0.0;
+    }
+  }
 
   std::vector<Access> accesses() const override {
     // Remade (or, with add, finished) before it is read: no snapshot copy.
     std::vector<Access> a{{fields::position, where_, Mode::read},
                           Access::step_local_write(kForce, where_, p_.add ? Mode::readwrite : Mode::write)};
     if (p_.energy) a.push_back(Access::step_local_write(kEnergy, where_));
+    if (!p_.types.empty()) a.push_back({fields::type, where_, Mode::read});
     return a;
   }
 
@@ -76,6 +94,24 @@ class HarmonicTrap final : public Stage {
     for (int a = 0; a < 3; ++a) {
       centre_[a] = p_.centre.empty() ? 0.5 * s.box.L[a] : (a < dim ? p_.centre[a] : 0.0);
       mask_[a] = p_.axes.empty() ? 1.0 : 0.0;
+    }
+    if (!p_.velocity.empty() && int(p_.velocity.size()) != dim)
+      throw InputError("trap.harmonic: velocity has " + std::to_string(p_.velocity.size()) +
+                       " numbers; give one per dimension (" + std::to_string(dim) + "), or none for a fixed trap");
+    trapped_types_ = 0;
+    for (const std::string& name : p_.types) {
+      const auto it = std::find(s.species.begin(), s.species.end(), name);
+      if (it == s.species.end()) {
+        std::string known;
+        for (const std::string& t : s.species) known += (known.empty() ? "" : ", ") + t;
+        throw InputError("trap.harmonic: types names `" + name + "`, which is not one of system.types (" +
+                         (known.empty() ? std::string("the system has one unnamed type; drop types") : known) + ")");
+      }
+      const auto t = std::size_t(it - s.species.begin());
+      if (t >= 32)
+        throw InputError("trap.harmonic: types: `" + name + "` is type " + std::to_string(t) +
+                         "; the trap can select among the first 32 types only");
+      trapped_types_ |= 1u << t;
     }
     for (const std::string& axis : p_.axes) {
       const int a = axis[0] - 'x';
@@ -106,6 +142,7 @@ class HarmonicTrap final : public Stage {
   Scheduling scheduling() const override {
     Scheduling s;
     s.graph_capturable = true;
+    s.reads_step_params = moving_;  // the moving centre's time, on the device in a replayed graph
     s.team = TeamWork::decomposed;
     return s;
   }
@@ -121,10 +158,17 @@ class HarmonicTrap final : public Stage {
     f.box = PeriodicBox<R>::make(s.box.L);
     f.k = R(p_.k);
     for (int a = 0; a < D; ++a) {
-      f.centre[a] = R(centre_[a]);
+      f.centre[a] = centre_[a];
       f.mask[a] = R(mask_[a]);
     }
     f.add = p_.add;
+    f.type = p_.types.empty() ? nullptr : s.field(fields::type).data<std::int32_t>(where_);
+    f.trapped_types = trapped_types_;
+    for (int a = 0; a < D; ++a) {
+      f.velocity[a] = velocity_[a];
+      f.length[a] = s.box.L[a];
+    }
+    f.params = moving_ ? ctx.params : nullptr;
     loop(s.n_owned(), f, ctx.stream);
   }
 
@@ -132,6 +176,9 @@ class HarmonicTrap final : public Stage {
   Where where_;
   double centre_[3] = {};
   double mask_[3] = {};
+  double velocity_[3] = {};
+  bool moving_ = false;
+  std::uint32_t trapped_types_ = 0;  // bit t: type t feels the trap (with types)
   ElementLoop<TrapForce<R, 2>> loop2_;
   ElementLoop<TrapForce<R, 3>> loop3_;
 };

@@ -112,6 +112,50 @@ TEST_CASE("trap.harmonic: F = −k (x − c) and U = k/2 |x − c|², minimum im
       CHECK(u2[i] == 0.5 * k * d[i * dim + 1] * d[i * dim + 1]);
     }
   }
+  SECTION("velocity: the centre is c + v t at the step's start, wrapped into the box") {
+    // Step 100 of Δt 0.25, t = 25: c(t) = (0.25 + 12.5, 4 − 6.25[, 4]) = (4.75, 5.75[, 4]) after the
+    // wrap (both ways); d = (3, −1.25[, −1]), (−3.5, 0.5[, 0.125]), (3.5, −1.75[, 0]) (particle 2's x
+    // across the boundary).
+    std::vector<double> v{0.5, -0.25, 0}, dv;
+    if (dim == 2) dv = {3, -1.25, -3.5, 0.5, 3.5, -1.75};
+    else dv = {3, -1.25, -1, -3.5, 0.5, 0.125, 3.5, -1.75, 0};
+    v.resize(dim);
+    auto s2 = state(dim, p, L, x);
+    auto moving = trap(*s2, b, {{"k", k}, {"centre", c}, {"velocity", v}, {"energy", true}});
+    moving.step(*s2, 100, 0.25);
+    const auto g = values(*s2, "force"), u2 = values(*s2, "trap.energy");
+    for (std::size_t i = 0; i < 3; ++i) {
+      double d2 = 0;
+      for (int a = 0; a < dim; ++a) {
+        CHECK(g[i * dim + a] == -k * dv[i * dim + a]);
+        d2 += dv[i * dim + a] * dv[i * dim + a];
+      }
+      CHECK(u2[i] == 0.5 * k * d2);
+    }
+  }
+  SECTION("types: only the particles of the named types feel the trap") {
+    auto s2 = state(dim, p, L, x);
+    s2->species = {"bath", "probe"};
+    Field& t = s2->field(fields::type);
+    t.acquire(Where::host, Mode::write);
+    const std::int32_t types[3] = {1, 0, 1};
+    std::copy(types, types + 3, t.host<std::int32_t>());
+    auto probes = trap(*s2, b, {{"k", k}, {"centre", c}, {"types", std::vector<std::string>{"probe"}}, {"energy", true}});
+    probes.step(*s2, 0, 0.01);
+    const auto g = values(*s2, "force"), u2 = values(*s2, "trap.energy");
+    for (std::size_t i = 0; i < 3; ++i) {
+      double d2 = 0;
+      for (int a = 0; a < dim; ++a) {
+        const double want = types[i] == 1 ? -k * d[i * dim + a] : 0.0;
+        CHECK(g[i * dim + a] == want);
+        d2 += types[i] == 1 ? d[i * dim + a] * d[i * dim + a] : 0.0;
+      }
+      CHECK(u2[i] == 0.5 * k * d2);
+    }
+    CHECK(std::signbit(g[dim]) == false);  // the bath's zero force is +0
+    CHECK_THROWS_WITH(trap(*s2, b, {{"types", std::vector<std::string>{"probes"}}}),
+                      Catch::Contains("`probes`, which is not one of system.types (bath, probe)"));
+  }
   SECTION("add: true adds to the force a stage before wrote") {
     auto s2 = state(dim, p, L, x);
     fill(*s2, "force", dim, 0.75);
@@ -126,6 +170,7 @@ TEST_CASE("trap.harmonic: input errors name what to change", "[trap]") {
   auto s = state(2, Precision::f64, 8, {1, 1});
   CHECK_THROWS_WITH(trap(*s, Backend::cpu, {{"centre", std::vector<double>{1, 2, 3}}}), Catch::Contains("one per dimension"));
   CHECK_THROWS_WITH(trap(*s, Backend::cpu, {{"axes", std::vector<std::string>{"z"}}}), Catch::Contains("2 dimensions"));
+  CHECK_THROWS_WITH(trap(*s, Backend::cpu, {{"velocity", std::vector<double>{1}}}), Catch::Contains("velocity has 1 numbers; give one per dimension"));
   CHECK_THROWS_WITH(trap(*s, Backend::cpu, {{"add", true}}), Catch::Contains("no stage before it writes"));
   fill(*s, "force", 2, 0.0);
   CHECK_THROWS_WITH(trap(*s, Backend::cpu, {}), Catch::Contains("add: true"));
@@ -219,20 +264,88 @@ TEST_CASE("trap.harmonic: ⟨x − c⟩ decays as exp(−μkt) and ⟨(x − c)_
   CHECK(u == Approx(0.5 * k * dim * m).epsilon(p == Precision::f64 ? 1e-12 : 1e-5));
 }
 
+// A trap moving at v (velocity) drags its particles: in the steady state they lag behind the
+// centre by ⟨d⟩ = −v/(μk), the trap pulling each with k|⟨d⟩| = |v|/μ, Stokes' drag (exact in
+// Euler–Maruyama too: d_{n+1} = (1 − μkΔt) d_n − vΔt + noise). D = 1, μ = 0.5, k = 4 (μk = 2), the
+// 4096 particles start on the centre; v·t carries the centre across the periodic boundary.
+TEST_CASE("trap.harmonic: a moving trap drags its particles behind it by v/(μk)", "[trap][physics]") {
+  const Backend b = GENERATE(from_range(test::backends()));
+  const int dim = GENERATE(2, 3);
+  const Precision p = GENERATE(Precision::f64, Precision::f32);
+  INFO(to_string(b) << ", " << dim << "D, " << to_string(p));
+  const std::size_t n = 4096;
+  const double L = 10, k = 4, D = 1, mu = 0.5, dt = 0.0025;
+  std::vector<double> c0{2, 7, 5}, v{1.5, -0.75, 0.5};
+  c0.resize(dim);
+  v.resize(dim);
+  std::vector<double> x(n * dim);
+  for (std::size_t i = 0; i < n; ++i)
+    for (int a = 0; a < dim; ++a) x[i * dim + a] = c0[a];
+  auto s = state(dim, p, L, x);
+  auto force = trap(*s, b, {{"k", k}, {"centre", c0}, {"velocity", v}});
+  ParamValues pv = ParamValues::defaults(registry().get("overdamped.integrate").decl.params);
+  pv.set("D", std::vector<double>{D});
+  pv.set("mobility", std::vector<double>{mu});
+  test::StageDriver integrate(registry(), "overdamped.integrate", b, p, dim, pv, 17);
+  integrate.stage->configure(*s);
+  std::uint64_t step = 0;
+  std::vector<double> sum(dim, 0.0), sum2(dim, 0.0);
+  std::size_t samples = 0;
+  // Frames from 7 relaxation times on (the start's offset left: e^(−7) of the lag), 2 apart.
+  for (double t = 3.5; t < 7.6; t += 1.0) {
+    for (; double(step) * dt < t - 1e-9; ++step) {
+      force.step(*s, step, dt);
+      integrate.step(*s, step, dt);
+    }
+    const auto y = values(*s, fields::position);
+    for (std::size_t i = 0; i < n; ++i)
+      for (int a = 0; a < dim; ++a) {
+        double c = c0[a] + v[a] * (double(step) * dt);
+        c -= L * std::floor(c / L);
+        double d = y[i * dim + a] - c;
+        d -= L * std::rint(d / L);
+        sum[a] += d;
+        sum2[a] += d * d;
+      }
+    samples += n;
+  }
+  for (int a = 0; a < dim; ++a) {
+    const double m = sum[a] / samples, se = std::sqrt((sum2[a] / samples - m * m) / samples);
+    const double want = -v[a] / (mu * k);
+    INFO("axis " << a << ": ⟨d⟩ = " << m << " ± " << se << ", −v/(μk) = " << want);
+    CHECK(std::fabs(m - want) < 3 * se);
+  }
+}
+
 TEST_CASE("trap.harmonic: CPU and CUDA give the same bits", "[trap][cuda]") {
   if (!test::have_cuda("trap.harmonic CPU vs CUDA")) return;
   const int dim = GENERATE(2, 3);
   const Precision p = GENERATE(Precision::f64, Precision::f32);
   const bool add = GENERATE(false, true);
-  INFO(dim << "D, " << to_string(p) << (add ? ", add" : ""));
+  // moving: velocity (at step 37 of Δt 0.3: the centre wrapped around the box of 6) and a trap on
+  // one of two types (random types, the same on both).
+  const bool moving = GENERATE(false, true);
+  INFO(dim << "D, " << to_string(p) << (add ? ", add" : "") << (moving ? ", moving, one type" : ""));
   auto cpu = scattered(dim, p), cuda = scattered(dim, p);
-  std::vector<double> centre{0.3, 5.9, 2.2};
+  std::vector<double> centre{0.3, 5.9, 2.2}, velocity{0.71, -1.3, 0.37};
   centre.resize(dim);
-  const test::ParamSettings set{{"k", 3.7}, {"centre", centre}, {"energy", true}, {"add", add}};
+  velocity.resize(dim);
+  test::ParamSettings set{{"k", 3.7}, {"centre", centre}, {"energy", true}, {"add", add}};
+  if (moving) {
+    set.push_back({"velocity", velocity});
+    set.push_back({"types", std::vector<std::string>{"probe"}});
+  }
   for (auto [s, b] : {std::pair{cpu.get(), Backend::cpu}, std::pair{cuda.get(), Backend::cuda}}) {
     if (add) fill(*s, "force", dim, 0.1);
+    if (moving) {
+      s->species = {"bath", "probe"};
+      Field& t = s->field(fields::type);
+      t.acquire(Where::host, Mode::write);
+      std::mt19937_64 gen(5);
+      for (std::size_t i = 0; i < s->n(); ++i) t.host<std::int32_t>()[i] = std::int32_t(gen() % 2);
+    }
     auto drive = trap(*s, b, set);
-    drive.step(*s, 0, 0.01);
+    drive.step(*s, moving ? 37 : 0, moving ? 0.3 : 0.01);
   }
   for (const char* f : {"force", "trap.energy"}) {
     INFO(f);
