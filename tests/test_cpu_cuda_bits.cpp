@@ -261,6 +261,20 @@ TEST_CASE("CPU and CUDA give the same bits: shipped pipelines, double, 1000 step
   }
 }
 
+// A moving trap reads the step's time on the device (ctx.params), advanced there when a captured
+// step is replayed: its trajectory must still be the CPU's. trap-hard-disks.yaml (a Verlet-list
+// correction) with the trap moving across the box.
+TEST_CASE("CPU and CUDA give the same bits: hard disks behind a moving trap, 1000 steps", "[cuda][bits]") {
+  if (!test::have_cuda("CPU vs CUDA bit identity of a moving trap")) return;
+  const Loaded l = load("trap-hard-disks.yaml", kSteps, Precision::f64, {"step.trap.harmonic.velocity=[3, -2]"});
+  const Run c = run(l, Backend::cpu, false);
+  const Run g = run(l, Backend::cuda, false);
+  const std::string diff = differences(c, g);
+  INFO("CPU vs CUDA:\n" << diff);
+  CHECK(diff.empty());
+  CHECK(c.time == g.time);
+}
+
 // On CUDA, overlap_correct leaves reading its results back past the step (the next step's kernels
 // queue behind its own: StepContext::may_defer_past_step) unless FLIPFLOW_DEFERRED_READS=0. Run
 // without reading the stats in between, so that every step but the last is read back late; the
