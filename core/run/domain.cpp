@@ -4,6 +4,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstring>
+#include <limits>
 #include <numeric>
 
 #include "core/base/error.h"
@@ -81,6 +82,10 @@ Domain::Domain(Communicator& comm, State& s, double band, double slack, std::vec
 #ifdef FLIPFLOW_HAVE_CUDA
   if (backend_ == Backend::cuda) staging_->traffic = std::make_unique<GhostTraffic>();
 #endif
+  for (const std::string& name : s.particle_field_names()) {
+    const Field& f = s.field(name);
+    if (f.version() == 0 && (f.dtype() == DType::f64 || f.dtype() == DType::f32)) not_computed_.push_back(name);
+  }
   // Global ids, then this rank's share of the whole state (the same on every rank: no message).
   Field& id = s.add_particle_field(fields::particle_id, DType::u32, 1);
   id.acquire(Where::host, Mode::write);
@@ -375,6 +380,16 @@ void Domain::gather(State& s, State* into, const std::vector<std::string>& names
         std::memcpy(&id, &rec[k * lay.bytes + lay.id_offset], sizeof id);
         std::memcpy(dst + std::size_t(id) * sz, &rec[k * lay.bytes + lay.offset[f]], sz);
       }
+  }
+  if (s.step != 0) return;
+  for (const std::string& name : not_computed_) {
+    if (!into->has_field(name)) continue;
+    Field& field = into->field(name);
+    field.acquire(Where::host, Mode::write);
+    if (field.dtype() == DType::f64)
+      std::fill_n(field.host<double>(), field.size(), std::numeric_limits<double>::quiet_NaN());
+    else
+      std::fill_n(field.host<float>(), field.size(), std::numeric_limits<float>::quiet_NaN());
   }
 }
 

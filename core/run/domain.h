@@ -150,6 +150,10 @@ class Domain final : public GhostExchange {
   std::size_t n_held_ = 0;
   double requested_band_ = 0;
   std::vector<std::string> refreshed_;
+  // The real particle fields no stage had written when the team formed (a force, voronoi.area:
+  // the steps compute them): the initial gather gives them NaN, not computed, as observe.h5md
+  // writes such a field of a run alone (the distribution here writes every field).
+  std::vector<std::string> not_computed_;
   std::vector<std::vector<std::uint32_t>> send_, recv_;  // per peer: local indices (refresh)
   std::vector<double> x0_;                                // owned positions at the last migration
   std::uint64_t migrations_ = 0, changed_owner_ = 0;

@@ -5,6 +5,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <set>
 #include <sstream>
 
@@ -221,6 +222,19 @@ void H5mdObserver::copy_fields(StepContext& ctx, Frame& frame) const {
     const bool on_device = info_.backend == Backend::cuda;
     if (out.bytes.size() == 0) out.bytes = HostBuffer(on_device);
     out.bytes.resize(f.bytes());
+    // The initial frame of a real field that nothing has written yet (a force, voronoi.area: the
+    // steps compute them) holds NaN, "not computed", rather than the zeros it was allocated with,
+    // which read as values. (Integer fields keep their zeros; version 0: never acquired for writing.)
+    if (ctx.host_params.step == 0 && f.version() == 0 && (f.dtype() == DType::f64 || f.dtype() == DType::f32)) {
+      if (f.dtype() == DType::f64) {
+        double* v = reinterpret_cast<double*>(out.bytes.data());
+        std::fill(v, v + f.bytes() / sizeof(double), std::numeric_limits<double>::quiet_NaN());
+      } else {
+        float* v = reinterpret_cast<float*>(out.bytes.data());
+        std::fill(v, v + f.bytes() / sizeof(float), std::numeric_limits<float>::quiet_NaN());
+      }
+      continue;
+    }
     if (on_device) copy_device_to_host_async(out.bytes.data(), f.device_raw(), f.bytes(), ctx.stream);
     else if (f.bytes()) std::memcpy(out.bytes.data(), f.host_raw(), f.bytes());
   }

@@ -81,6 +81,9 @@ constexpr std::size_t kN = 5;
 
 template <class R>
 void fill_frame(State& s, int f) {
+  // Acquired for writing, as a stage's declared write is: observe.h5md writes a real field that
+  // nothing wrote yet (version 0) as NaN in the initial frame.
+  for (const char* name : {fields::position, fields::image, "charge"}) s.field(name).acquire(Where::host, Mode::write);
   R* x = s.field(fields::position).host<R>();
   std::int32_t* im = s.field(fields::image).host<std::int32_t>();
   for (std::size_t i = 0; i < kN; ++i)
@@ -228,6 +231,41 @@ TEST_CASE("observe.h5md writes the H5MD layout in double precision", "[observe][
 
 TEST_CASE("observe.h5md writes positions in float for a float run", "[observe][h5md]") {
   h5md_layout<float>(Precision::f32, "float32");
+}
+
+// A real field that nothing has written when the initial frame is taken (a force, voronoi.area:
+// the steps compute them) is NaN in it, "not computed", not the zeros it was allocated with; from
+// its first write on it holds its values. An integer field keeps its zeros.
+TEST_CASE("observe.h5md writes NaN for a real field not computed yet in the initial frame", "[observe][h5md]") {
+  TempDir dir("not_yet");
+  auto s = make_state(Precision::f64);
+  s->add_particle_field("late", DType::f64, 2);
+  s->add_particle_field("late_count", DType::i32, 1);
+  auto stage = make_h5md(dir.path.string(), {"position", "late", "late_count"});
+  stage->configure(*s);
+  Observe obs;
+  fill_frame<double>(*s, 0);
+  obs(*stage, *s, 0, 0.0);
+  fill_frame<double>(*s, 1);
+  Field& late = s->field("late");
+  late.acquire(Where::host, Mode::write);
+  for (std::size_t i = 0; i < late.size(); ++i) late.host<double>()[i] = 0.25 * double(i);
+  obs(*stage, *s, 10, 0.125);
+  stage->finish(*s, true);
+  const char* check = R"PY(
+import sys, h5py, numpy as np
+f = h5py.File(sys.argv[1], "r")
+late = f["particles/all/late/value"][()]
+count = f["particles/all/late_count/value"][()]
+pos = f["particles/all/position/value"][()]
+assert late.shape == (2, 5, 2), late.shape
+assert np.isnan(late[0]).all(), late[0]
+assert np.array_equal(late[1].ravel(), 0.25 * np.arange(10)), late[1]
+assert (count[0] == 0).all(), count[0]
+assert not np.isnan(pos).any()
+print("ok")
+)PY";
+  CHECK(python(dir, check, "'" + (dir / "trajectory.h5") + "'") == 0);
 }
 
 TEST_CASE("observe.h5md declares host reads of what it writes", "[observe][h5md]") {
@@ -530,6 +568,7 @@ TEST_CASE("observe.msd matches a hand-computed value and reaches the H5MD file",
   State s(2, p, 3);
   s.box.L[0] = s.box.L[1] = 10.0;
   auto set = [&](std::vector<double> x, std::vector<std::int32_t> im) {
+    s.field(fields::position).acquire(Where::host, Mode::write);
     for (std::size_t i = 0; i < x.size(); ++i) {
       if (p == Precision::f32) s.field(fields::position).host<float>()[i] = float(x[i]);
       else s.field(fields::position).host<double>()[i] = x[i];
