@@ -136,15 +136,24 @@ TEST_CASE("pipeline validate: a force that no stage reads draws a warning that s
   INFO(r.out);
   CHECK(r.code == 0);
   CHECK_THAT(r.out, Catch::Contains("warning: " + file.string() + ":6:5: step 'harmonic.forces' writes field 'force', "
-                                    "which no stage reads") &&
+                                    "which no compute stage reads") &&
                         Catch::Contains("No integrator here takes it: overdamped.integrate does"));
   // Listed after overdamped.integrate, whose drift: auto saw no force yet.
   std::ofstream(file) << head << "  - {stage: overdamped.integrate}\n  - {stage: harmonic.forces}\n";
   r = run("validate " + file.string());
   INFO(r.out);
   CHECK(r.code == 0);
-  CHECK_THAT(r.out, Catch::Contains(":7:5: step 'harmonic.forces' writes field 'force', which no stage reads") &&
+  CHECK_THAT(r.out, Catch::Contains(":7:5: step 'harmonic.forces' writes field 'force', which no compute stage reads") &&
                         Catch::Contains("list 'harmonic.forces' first"));
+  // An observer that records the force (observe.h5md's fields) does not use it: still said (before,
+  // its read silenced the warning, and a trap before brownian.integrate moved nothing unnoticed).
+  std::ofstream(file) << head << "  - {stage: harmonic.forces}\n  - {stage: abp.integrate}\n"
+                      << "  - {stage: observe.h5md, every: 5, fields: [position, force]}\n";
+  r = run("validate " + file.string());
+  INFO(r.out);
+  CHECK(r.code == 0);
+  CHECK_THAT(r.out, Catch::Contains(":6:5: step 'harmonic.forces' writes field 'force', which no compute stage reads "
+                                    "(observers only record it)"));
   // In the right order, nothing is said.
   std::ofstream(file) << head << "  - {stage: harmonic.forces}\n  - {stage: overdamped.integrate}\n";
   r = run("validate " + file.string());

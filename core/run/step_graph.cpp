@@ -221,9 +221,11 @@ std::vector<std::string> StepGraph::repeated_movers(const PipelineSpec& spec) co
 std::vector<std::string> StepGraph::unread_writes(const PipelineSpec& spec) const {
   std::vector<std::string> out;
   for (const char* field : {"force", "velocity"}) {
+    // Read by a compute stage: an observer that records it (observe.h5md's fields) moves nothing.
     bool read = false;
     for (auto& n : nodes_)
-      for (auto& b : n.accesses) read = read || (b.field == field && b.mode != Mode::write);
+      if (!n.observer)
+        for (auto& b : n.accesses) read = read || (b.field == field && b.mode != Mode::write);
     if (read) continue;
     for (std::size_t w = 0; w < nodes_.size(); ++w) {
       bool written = false;
@@ -236,7 +238,7 @@ std::vector<std::string> StepGraph::unread_writes(const PipelineSpec& spec) cons
         for (auto& b : nodes_[i].accesses) mover_before = mover_before || (b.field == fields::position && writes(b.mode));
       const StepEntry& e = spec.step[w];
       out.push_back(e.where.str() + ": step '" + e.id + "' writes field '" + field +
-                    "', which no stage reads: it does not move the particles. " +
+                    "', which no compute stage reads (observers only record it): it does not move the particles. " +
                     (mover_before ? std::string("The stage that moves them is listed before it, and `drift: auto` "
                                                 "takes only a drift an earlier stage makes: list '") +
                                         e.id + "' first"
