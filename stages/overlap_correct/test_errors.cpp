@@ -73,37 +73,34 @@ TEST_CASE("overlap_correct: errors name what to change", "[overlap][errors]") {
     auto s = test::spec(3, 200, 0.3, 1, 0.01, {entry(r, "overlap_correct")});
     CHECK_THROWS_AS(Simulation(s, r, dry()), InputError);
   }
-  SECTION("max_iterations reached: the step and the worst pair are named") {
-    const auto spec = correct_spec(2000, 0.8, {{"max_iterations", std::int64_t(2)}});
+  // The RunError of the first step of 2000 disks at φ = 0.8, jiggled, with max_iterations 2 and `more`.
+  auto max_iterations_error = [&](std::map<std::string, ParamValue> more) {
+    more["max_iterations"] = std::int64_t(2);
+    const auto spec = correct_spec(2000, 0.8, more);
     auto state = make_initial_state(spec.system, spec.run.precision, spec.run.seed);
     jiggle(*state, 0.1, 11);
     Simulation sim(spec, r, dry(), std::move(state));
     try {
       sim.advance();
-      FAIL("expected a RunError");
     } catch (const RunError& e) {
-      const std::string m = e.what();
-      INFO(m);
-      CHECK(m.find("step 0") != std::string::npos);
-      CHECK(m.find("max_iterations = 2") != std::string::npos);
-      CHECK(m.find("worst is particles") != std::string::npos);
-      CHECK(m.find("mode: contact") == std::string::npos);  // reflect's error: nothing about contact
+      return std::string(e.what());
     }
+    FAIL("expected a RunError");
+    return std::string();
+  };
+  SECTION("max_iterations reached: the step and the worst pair are named") {
+    const std::string m = max_iterations_error({});
+    INFO(m);
+    CHECK(m.find("step 0") != std::string::npos);
+    CHECK(m.find("max_iterations = 2") != std::string::npos);
+    CHECK(m.find("worst is particles") != std::string::npos);
+    CHECK(m.find("mode: contact") == std::string::npos);  // reflect's error: nothing about contact
   }
   SECTION("max_iterations reached in mode: contact: the error says that reflect is the mode for dense systems") {
-    const auto spec = correct_spec(2000, 0.8, {{"max_iterations", std::int64_t(2)}, {"mode", std::string("contact")}});
-    auto state = make_initial_state(spec.system, spec.run.precision, spec.run.seed);
-    jiggle(*state, 0.1, 11);
-    Simulation sim(spec, r, dry(), std::move(state));
-    try {
-      sim.advance();
-      FAIL("expected a RunError");
-    } catch (const RunError& e) {
-      const std::string m = e.what();
-      INFO(m);
-      CHECK(m.find("max_iterations = 2") != std::string::npos);
-      CHECK(m.find("mode: contact needs ~15 times the iterations of mode: reflect") != std::string::npos);
-    }
+    const std::string m = max_iterations_error({{"mode", std::string("contact")}});
+    INFO(m);
+    CHECK(m.find("max_iterations = 2") != std::string::npos);
+    CHECK(m.find("mode: contact needs ~15 times the iterations of mode: reflect") != std::string::npos);
   }
 }
 
