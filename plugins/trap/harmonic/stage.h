@@ -6,7 +6,6 @@
 // come first). With energy: true it also writes U_i per particle (`trap.energy`) for observers.
 // 2D and 3D, CPU and CUDA (the same bits), float and double.
 #pragma once
-#include <algorithm>
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -16,6 +15,7 @@
 #include "core/stage/params.h"
 #include "core/stage/stage.h"
 #include "core/stage/stage_registration.h"
+#include "core/stage/type_names.h"
 #include "plugins/trap/harmonic/kernel.h"
 
 namespace ff::trap {
@@ -98,21 +98,7 @@ class HarmonicTrap final : public Stage {
     if (!p_.velocity.empty() && int(p_.velocity.size()) != dim)
       throw InputError("trap.harmonic: velocity has " + std::to_string(p_.velocity.size()) +
                        " numbers; give one per dimension (" + std::to_string(dim) + "), or none for a fixed trap");
-    trapped_types_ = 0;
-    for (const std::string& name : p_.types) {
-      const auto it = std::find(s.species.begin(), s.species.end(), name);
-      if (it == s.species.end()) {
-        std::string known;
-        for (const std::string& t : s.species) known += (known.empty() ? "" : ", ") + t;
-        throw InputError("trap.harmonic: types names `" + name + "`, which is not one of system.types (" +
-                         (known.empty() ? std::string("the system has one unnamed type; drop types") : known) + ")");
-      }
-      const auto t = std::size_t(it - s.species.begin());
-      if (t >= 32)
-        throw InputError("trap.harmonic: types: `" + name + "` is type " + std::to_string(t) +
-                         "; the trap can select among the first 32 types only");
-      trapped_types_ |= 1u << t;
-    }
+    trapped_types_ = std::uint32_t(type_mask(s, p_.types, "trap.harmonic", 32));
     for (const std::string& axis : p_.axes) {
       const int a = axis[0] - 'x';
       if (a >= dim)

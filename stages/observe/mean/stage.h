@@ -21,6 +21,7 @@
 #include "core/stage/stage.h"
 #include "core/stage/stage_registration.h"
 #include "core/stage/state.h"
+#include "core/stage/type_names.h"
 
 namespace ff::observe {
 
@@ -87,19 +88,7 @@ class Mean final : public Stage {
     const DType t = s.field(p_.field).dtype();
     if (t != DType::f64 && t != DType::f32)
       throw InputError(who + ": field: '" + p_.field + "' holds integers; observe.mean averages real fields");
-    mask_ = 0;
-    for (const std::string& name : p_.types) {
-      const auto it = std::find(s.species.begin(), s.species.end(), name);
-      if (it == s.species.end()) {
-        std::string known;
-        for (const std::string& k : s.species) known += (known.empty() ? "" : ", ") + k;
-        throw InputError(who + ": types names `" + name + "`, which is not one of system.types (" +
-                         (known.empty() ? std::string("the system has one unnamed type; drop types") : known) + ")");
-      }
-      const auto k = std::size_t(it - s.species.begin());
-      if (k >= 64) throw InputError(who + ": types: `" + name + "` is type " + std::to_string(k) + "; only the first 64 can be chosen");
-      mask_ |= std::uint64_t(1) << k;
-    }
+    mask_ = type_mask(s, p_.types, who);
   }
 
   Outcome run(StepContext& ctx) override {
