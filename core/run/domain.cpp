@@ -4,9 +4,9 @@
 #include <chrono>
 #include <cmath>
 #include <cstring>
-#include <limits>
 #include <numeric>
 
+#include "core/backend/not_computed.h"
 #include "core/base/error.h"
 #include "core/physics/box.h"
 #include "core/run/domain_staging.h"
@@ -82,10 +82,8 @@ Domain::Domain(Communicator& comm, State& s, double band, double slack, std::vec
 #ifdef FLIPFLOW_HAVE_CUDA
   if (backend_ == Backend::cuda) staging_->traffic = std::make_unique<GhostTraffic>();
 #endif
-  for (const std::string& name : s.particle_field_names()) {
-    const Field& f = s.field(name);
-    if (f.version() == 0 && (f.dtype() == DType::f64 || f.dtype() == DType::f32)) not_computed_.push_back(name);
-  }
+  for (const std::string& name : s.particle_field_names())
+    if (not_computed(s.field(name))) not_computed_.push_back(name);
   // Global ids, then this rank's share of the whole state (the same on every rank: no message).
   Field& id = s.add_particle_field(fields::particle_id, DType::u32, 1);
   id.acquire(Where::host, Mode::write);
@@ -386,10 +384,7 @@ void Domain::gather(State& s, State* into, const std::vector<std::string>& names
     if (!into->has_field(name)) continue;
     Field& field = into->field(name);
     field.acquire(Where::host, Mode::write);
-    if (field.dtype() == DType::f64)
-      std::fill_n(field.host<double>(), field.size(), std::numeric_limits<double>::quiet_NaN());
-    else
-      std::fill_n(field.host<float>(), field.size(), std::numeric_limits<float>::quiet_NaN());
+    fill_not_computed(field.host_raw(), field.dtype(), field.size());
   }
 }
 

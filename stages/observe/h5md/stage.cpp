@@ -5,10 +5,10 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
-#include <limits>
 #include <set>
 #include <sstream>
 
+#include "core/backend/not_computed.h"
 #include "core/base/error.h"
 #include "core/base/suggestion.h"
 
@@ -222,17 +222,10 @@ void H5mdObserver::copy_fields(StepContext& ctx, Frame& frame) const {
     const bool on_device = info_.backend == Backend::cuda;
     if (out.bytes.size() == 0) out.bytes = HostBuffer(on_device);
     out.bytes.resize(f.bytes());
-    // The initial frame of a real field that nothing has written yet (a force, voronoi.area: the
-    // steps compute them) holds NaN, "not computed", rather than the zeros it was allocated with,
-    // which read as values. (Integer fields keep their zeros; version 0: never acquired for writing.)
-    if (ctx.host_params.step == 0 && f.version() == 0 && (f.dtype() == DType::f64 || f.dtype() == DType::f32)) {
-      if (f.dtype() == DType::f64) {
-        double* v = reinterpret_cast<double*>(out.bytes.data());
-        std::fill(v, v + f.bytes() / sizeof(double), std::numeric_limits<double>::quiet_NaN());
-      } else {
-        float* v = reinterpret_cast<float*>(out.bytes.data());
-        std::fill(v, v + f.bytes() / sizeof(float), std::numeric_limits<float>::quiet_NaN());
-      }
+    // The initial frame of a field the steps compute: NaN, not its allocation's zeros (not_computed.h;
+    // integer fields keep their zeros).
+    if (ctx.host_params.step == 0 && not_computed(f)) {
+      fill_not_computed(out.bytes.data(), f.dtype(), f.size());
       continue;
     }
     if (on_device) copy_device_to_host_async(out.bytes.data(), f.device_raw(), f.bytes(), ctx.stream);

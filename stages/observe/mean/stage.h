@@ -9,12 +9,12 @@
 // backend and thread count. A field nothing has computed yet (the initial frame's force: the steps
 // compute it) gives NaN, as observe.h5md writes it.
 #pragma once
-#include <algorithm>
 #include <cstdint>
 #include <limits>
 #include <string>
 #include <vector>
 
+#include "core/backend/not_computed.h"
 #include "core/base/error.h"
 #include "core/base/suggestion.h"
 #include "core/stage/params.h"
@@ -75,18 +75,15 @@ class Mean final : public Stage {
     const std::string who = "step '" + id_ + "' (observe.mean)";
     if (!s.has_field(p_.field) || !s.is_particle_field(p_.field)) {
       std::vector<std::string> known;
-      for (const std::string& name : s.particle_field_names()) {
-        const DType t = s.field(name).dtype();
-        if (t == DType::f64 || t == DType::f32) known.push_back(name);
-      }
+      for (const std::string& name : s.particle_field_names())
+        if (is_real(s.field(name).dtype())) known.push_back(name);
       std::string list;
       for (const std::string& k : known) list += (list.empty() ? "" : ", ") + k;
       throw InputError(who + ": field: there is no per-particle field '" + p_.field + "'" +
                        suggestion(p_.field, known) + " (real per-particle fields here: " + list +
                        "; a field a stage writes exists only when that stage comes before this one in `step:`)");
     }
-    const DType t = s.field(p_.field).dtype();
-    if (t != DType::f64 && t != DType::f32)
+    if (!is_real(s.field(p_.field).dtype()))
       throw InputError(who + ": field: '" + p_.field + "' holds integers; observe.mean averages real fields");
     mask_ = type_mask(s, p_.types, who);
   }
@@ -101,7 +98,7 @@ class Mean final : public Stage {
                                 ? field_means(f.host<double>(), components, f.count(), type, mask_, count)
                                 : field_means(f.host<float>(), components, f.count(), type, mask_, count);
     // Nothing wrote it yet (the initial frame of a field the steps compute): not computed.
-    if (f.version() == 0) std::fill(m.begin(), m.end(), std::numeric_limits<double>::quiet_NaN());
+    if (not_computed(f)) fill_not_computed(m.data(), DType::f64, m.size());
     static const char* axis[3] = {"x", "y", "z"};
     if (components == 1) ctx.metrics.set("mean", m[0]);
     else
