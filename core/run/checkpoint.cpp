@@ -258,24 +258,21 @@ std::string Checkpointer::write() {
   d.put_text("stats/metric_names", join_lines(names));
   d.put_array("stats/metric_values", DType::f64, {values.size()}, values.data(), values.size() * sizeof(double));
   // When each was reported (RunStats::metric_stamps), so a continued run's writer knows them as old.
-  std::vector<std::uint64_t> stamp_steps;
+  std::vector<std::uint64_t> stamp_steps, stamp_reports;
   std::vector<double> stamp_times;
+  std::vector<std::uint8_t> stamp_observer;
   for (auto& name : names) {
     auto it = st.metric_stamps.find(name);
-    stamp_steps.push_back(it == st.metric_stamps.end() ? 0 : it->second.step);
-    stamp_times.push_back(it == st.metric_stamps.end() ? 0.0 : it->second.time);
+    const RunStats::Stamp stamp = it == st.metric_stamps.end() ? RunStats::Stamp{} : it->second;
+    stamp_steps.push_back(stamp.step);
+    stamp_times.push_back(stamp.time);
+    stamp_reports.push_back(stamp.reports);
+    stamp_observer.push_back(stamp.only_in_observables ? 1 : 0);
   }
   d.put_array("stats/metric_steps", DType::u64, {stamp_steps.size()}, stamp_steps.data(),
               stamp_steps.size() * sizeof(std::uint64_t));
   d.put_array("stats/metric_times", DType::f64, {stamp_times.size()}, stamp_times.data(),
               stamp_times.size() * sizeof(double));
-  std::vector<std::uint64_t> stamp_reports;
-  std::vector<std::uint8_t> stamp_observer;
-  for (auto& name : names) {
-    auto it = st.metric_stamps.find(name);
-    stamp_reports.push_back(it == st.metric_stamps.end() ? 0 : it->second.reports);
-    stamp_observer.push_back(it != st.metric_stamps.end() && it->second.only_in_observables ? 1 : 0);
-  }
   d.put_array("stats/metric_reports", DType::u64, {stamp_reports.size()}, stamp_reports.data(),
               stamp_reports.size() * sizeof(std::uint64_t));
   d.put_array("stats/metric_only_in_observables", DType::u8, {stamp_observer.size()}, stamp_observer.data(),

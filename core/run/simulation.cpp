@@ -382,12 +382,14 @@ std::vector<std::string> Simulation::scratch_fields() const {
 }
 
 void Simulation::collect_metrics(int node) {
-  for (auto& kv : slots_[node].metrics.values()) {
+  const auto& values = slots_[node].metrics.values();
+  if (values.empty()) return;
+  const bool only_in_observables = graph_->nodes()[std::size_t(node)].observer && slots_[node].stage->outputs().empty();
+  for (auto& kv : values) {
     const std::string name = slots_[node].info.stage_id + "/" + kv.first;
     stats_.metrics[name] = kv.second;
     RunStats::Stamp& stamp = stats_.metric_stamps[name];
-    stamp = {state_->step, state_->time, stamp.reports + 1,
-             graph_->nodes()[std::size_t(node)].observer && slots_[node].stage->outputs().empty()};
+    stamp = {state_->step, state_->time, stamp.reports + 1, only_in_observables};
   }
 }
 

@@ -12,6 +12,14 @@ void Msd::take_reference(const State& s) {
   taken_ = true;
 }
 
+void Msd::take_reference_outside_a_step(State& s) {
+  // On CUDA the fields may already live on the device (a stage configured before this one may
+  // have used them there); acquiring with no stream waits for the device and copies them back.
+  s.field(fields::position).acquire(Where::host, Mode::read);
+  s.field(fields::image).acquire(Where::host, Mode::read);
+  take_reference(s);
+}
+
 void Msd::configure(State& s) {
   // Not an error: a short trial run (--set run.steps=100) of a long run's pipeline is common.
   if (info_.steps > 0 && std::uint64_t(p_.from_step) > info_.steps)
@@ -20,12 +28,8 @@ void Msd::configure(State& s) {
                  "NaN in this run (lower from_step, or lengthen run.steps)\n",
                  static_cast<long long>(p_.from_step), static_cast<unsigned long long>(info_.steps));
   if (p_.from_step > 0) return;
-  // The initial state, before any step: a log schedule's first call may be many steps later. On
-  // CUDA the fields may already live on the device (a stage configured before this one may have
-  // used them there); acquiring with no stream waits for the device and copies them back.
-  s.field(fields::position).acquire(Where::host, Mode::read);
-  s.field(fields::image).acquire(Where::host, Mode::read);
-  take_reference(s);
+  // The initial state, before any step: a log schedule's first call may be many steps later.
+  take_reference_outside_a_step(s);
 }
 
 Outcome Msd::run(StepContext& ctx) {
@@ -56,9 +60,7 @@ void Msd::restore_state(const StageState& saved, State& s) {
     taken_ = !reference_.empty();
     if (!taken_ && p_.from_step == 0) {
       if (s.step == 0) {
-        s.field(fields::position).acquire(Where::host, Mode::read);
-        s.field(fields::image).acquire(Where::host, Mode::read);
-        take_reference(s);  // the checkpoint's state is the initial one
+        take_reference_outside_a_step(s);  // the checkpoint's state is the initial one
       } else {
         std::fprintf(info_.messages,
                      "flipflow: warning: observe.msd: the checkpoint (written before from_step existed, at step "

@@ -70,6 +70,8 @@ class Msd final : public Stage {
 
  private:
   void take_reference(const State& s);
+  // The same from configure or restore_state, where no step brought the fields to the host.
+  void take_reference_outside_a_step(State& s);
 
   MsdParams p_;
   RunInfo info_;
