@@ -66,7 +66,7 @@ inline std::unique_ptr<State> make_state(const std::vector<double>& xy, double L
   return s;
 }
 
-inline std::vector<double> positions(State& s) { return values(s, fields::position); }
+using ff::test::positions;
 
 inline void set_positions(State& s, const std::vector<double>& xy) {
   Field& f = s.field(fields::position);

@@ -18,6 +18,7 @@
 #include "core/input/init.h"
 #include "core/run/simulation.h"
 #include "stages/overlap_correct/kernel.h"
+#include "support/fields.h"
 #include "support/spec.h"
 #include "support/stage_driver.h"
 #include "support/test_plugins.h"
@@ -40,16 +41,7 @@ inline PipelineSpec correct_spec(std::uint64_t n, double eta, const std::map<std
   return s;
 }
 
-template <class R>
-std::vector<double> positions(State& s) {
-  Field& f = s.field(fields::position);
-  f.acquire(Where::host, Mode::read);
-  return std::vector<double>(f.host<R>(), f.host<R>() + f.size());
-}
-
-inline std::vector<double> positions(State& s) {
-  return s.precision() == Precision::f64 ? positions<double>(s) : positions<float>(s);
-}
+using ff::test::positions;  // any precision, as doubles
 
 template <class R>
 void set_positions(State& s, const std::vector<double>& xy) {

@@ -19,11 +19,13 @@
 #include "stages/overlap_correct/params.h"
 #include "stages/overlap_correct/test_support.h"
 #include "support/backends.h"
+#include "support/fields.h"
 #include "support/spec.h"
 #include "support/stage_driver.h"
 #include "support/test_plugins.h"
 
 using namespace ff;
+using ff::test::positions;
 using ff::test::dry;
 using ff::test::entry;
 
@@ -32,12 +34,6 @@ namespace {
 const Registry& registry() {
   static const auto r = test::registry_with({"brownian"});
   return *r;
-}
-
-std::vector<double> positions(State& s) {
-  Field& f = s.field(fields::position);
-  f.acquire(Where::host, Mode::read);
-  return std::vector<double>(f.host<double>(), f.host<double>() + f.size());
 }
 
 std::vector<std::int32_t> images(State& s) {

@@ -1,5 +1,5 @@
 // Field contents on the host for checks: unwrapped positions x + image·L (displacements, MSD),
-// any real field as doubles, and any field's bytes (bit-for-bit comparisons).
+// any real field (the positions among them) as doubles, and any field's bytes (bit-for-bit comparisons).
 #pragma once
 #include <cstdint>
 #include <string>
@@ -30,6 +30,9 @@ inline std::vector<double> values(State& s, const char* name) {
     v[i] = s.precision() == Precision::f64 ? f.host<double>()[i] : double(f.host<float>()[i]);
   return v;
 }
+
+// The positions (wrapped into the box), as doubles, fetched to the host.
+inline std::vector<double> positions(State& s) { return values(s, fields::position); }
 
 // A field's bytes, fetched to the host.
 inline std::vector<unsigned char> bytes_of(State& s, const std::string& name) {

@@ -64,7 +64,6 @@
 // rows; the union-find, the labels and every metric are integer work in a fixed order, so the
 // results are the same for any thread count.
 #pragma once
-#include <array>
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -72,6 +71,7 @@
 #include "core/stage/params.h"
 #include "core/stage/stage.h"
 #include "core/stage/stage_registration.h"
+#include "stages/observe/clusters/analysis.h"
 
 namespace ff::observe {
 
@@ -114,54 +114,6 @@ struct ClustersParams {
 };
 
 inline constexpr const char* cluster_label_field = "cluster.label";
-
-// One frame on the host, in double.
-struct ClusterFrame {
-  int dim = 2;
-  double L[3] = {0, 0, 0};
-  std::vector<double> x;          // n x dim, wrapped into the box
-  std::vector<double> diameter;   // n
-  std::vector<std::int32_t> type; // n
-  std::vector<std::uint8_t> takes_part;  // n: 1 when the particle's type is selected
-  std::size_t n() const { return diameter.size(); }
-};
-
-// Candidate pairs of every particle as rows (CSR): row i is index[start[i] .. start[i+1]); each
-// pair appears in both rows, at most once per row. What a source hands the bond test.
-struct PairRows {
-  std::vector<std::uint32_t> start;  // n + 1
-  std::vector<std::uint32_t> index;
-};
-
-// What one call measures (also what the tests read).
-struct ClusterResult {
-  std::vector<std::int32_t> label;   // n: smallest index of the cluster; -1: takes no part
-  std::vector<std::uint32_t> sizes;  // sizes of the clusters, in order of their labels
-  std::uint64_t bonds = 0, unlike_bonds = 0;
-  std::vector<std::uint64_t> bonds_by_pair;  // types t x t, [a * t + b] with a ≤ b
-  std::uint64_t coordination_sum = 0;        // Σ over particles in aggregates of their neighbours
-  std::uint64_t in_aggregates = 0;           // particles in aggregates
-  std::uint64_t aggregates = 0, monomers = 0, largest = 0, taking_part = 0;
-  std::array<int, 3> percolates{0, 0, 0};    // per axis
-};
-
-// Candidate rows from the cells of a grid of edge ≥ r (every pair closer than r is a candidate).
-PairRows cell_pairs(const ClusterFrame& f, double r);
-// Candidate rows from a Verlet list (N x capacity rows, count per row).
-PairRows list_pairs(std::size_t n, const std::uint32_t* list, const std::uint32_t* count, std::uint32_t capacity);
-// Candidate rows from the edges of a half-edge triangulation (he: 2 x 6n, {origin, next}).
-PairRows edge_pairs(std::size_t n, const std::int32_t* he);
-
-// Bonds (r < bond·σ_ij), clusters, labels, coordination (r < neighbor·σ_ij), percolation and
-// type-pair counts from the candidate rows; `types` = number of species.
-ClusterResult analyse_clusters(const ClusterFrame& f, const PairRows& rows, double bond, double neighbor,
-                               std::int64_t min_size, int types);
-
-// s² of the Gabriel bound for reach b (in σ_ij) over the diameters in `pair_diameters` (the
-// species taking part: i, j) and `all_diameters` (any k): max b²σ_ij²/(σ_ik² + σ_jk²). The
-// triangulation holds every pair within b·σ_ij when it is ≤ 1 and no two disks are closer than
-// √(s²)·σ_kl.
-double gabriel_ratio2(double b, const std::vector<double>& pair_diameters, const std::vector<double>& all_diameters);
 
 class Clusters final : public Stage {
  public:

@@ -16,10 +16,12 @@
 #include "core/input/init.h"
 #include "core/run/simulation.h"
 #include "support/backends.h"
+#include "support/fields.h"
 #include "support/spec.h"
 #include "support/test_plugins.h"
 
 using namespace ff;
+using ff::test::positions;
 using ff::test::dry;
 using ff::test::entry;
 
@@ -28,13 +30,6 @@ namespace {
 const Registry& registry() {
   static const auto r = test::registry_with({"brownian"});
   return *r;
-}
-
-std::vector<double> positions(State& s) {
-  Field& f = s.field(fields::position);
-  f.acquire(Where::host, Mode::read);
-  if (s.precision() == Precision::f64) return std::vector<double>(f.host<double>(), f.host<double>() + f.size());
-  return std::vector<double>(f.host<float>(), f.host<float>() + f.size());
 }
 
 std::vector<double> diameters(State& s) {

@@ -30,6 +30,7 @@
 namespace {
 
 using namespace ff;
+using ff::test::positions;
 using ff::test::values;
 namespace vf = ff::voronoi::fields;
 namespace dl = ff::test::dl;
@@ -50,12 +51,6 @@ test::LoadedPipeline slab(std::size_t n, double& Lx, double& Ly, const std::stri
   o.every = every;
   l.spec.step.push_back(test::entry(*l.registry, stage, {{"walls", std::string("y")}}, o));
   return l;
-}
-
-std::vector<double> positions(State& s) {
-  Field& f = s.field(fields::position);
-  f.acquire(Where::host, Mode::read);
-  return std::vector<double>(f.host<double>(), f.host<double>() + f.size());
 }
 
 std::vector<std::int32_t> ints(State& s, const char* name) {
