@@ -73,10 +73,10 @@ void Clusters::configure(State& s) {
   }
   // Not an error: a trial run with fewer particles (--set system.N=...) of a pipeline is common.
   // Quiet at the default, which is more than N in small systems (tests, describe's probe).
-  if (p_.size_columns > ClustersParams{}.size_columns && std::uint64_t(p_.size_columns) > n)
+  if (p_.sizes_layout == "wide" && p_.size_columns > ClustersParams{}.size_columns && std::uint64_t(p_.size_columns) > n)
     std::fprintf(info_.messages,
                  "flipflow: warning: observe.clusters: size_columns = %lld is more than N = %zu: the columns past n%zu "
-                 "stay 0 (size_columns: %zu gives every size its own column)\n",
+                 "stay 0 (size_columns: %zu gives every size its own column; sizes_layout: long lists the sizes present)\n",
                  static_cast<long long>(p_.size_columns), n, n, n);
   for (const char* f : {fields::position, fields::diameter, fields::type}) s.field(f).acquire(Where::host, Mode::read);
   read_frame(s);
@@ -263,17 +263,21 @@ Outcome Clusters::run(StepContext& ctx) {
   for (std::size_t k = 2; k + 1 < columns_.size(); ++k) ctx.metrics.set(columns_[k], row[k]);
   rows_.push_back(std::move(row));
 
-  const std::size_t columns = std::size_t(p_.size_columns);
-  std::vector<double> sizes(2 + columns, 0.0);
-  sizes[0] = double(ctx.host_params.step);
-  sizes[1] = ctx.host_params.time;
-  for (std::uint32_t sz : r.sizes) sizes[2 + std::min<std::size_t>(sz, columns) - 1] += 1;
+  // The sizes exactly, as (size, count) pairs: a few dozen a call, where K columns could be N.
+  SizeRow sizes;
+  sizes.step = double(ctx.host_params.step);
+  sizes.time = ctx.host_params.time;
+  std::vector<std::uint32_t> sorted = r.sizes;
+  std::sort(sorted.begin(), sorted.end());
+  for (std::uint32_t sz : sorted) {
+    if (sizes.counts.empty() || sizes.counts.back().first != sz) sizes.counts.emplace_back(sz, 0);
+    ++sizes.counts.back().second;
+  }
   size_rows_.push_back(std::move(sizes));
   return Outcome::ok();
 }
 
-std::string Clusters::write_partial(const std::string& name, const std::string& header,
-                                    const std::vector<std::vector<double>>& rows) const {
+std::string Clusters::write_partial(const std::string& name, const std::string& table) const {
   const std::string partial = (std::filesystem::path(info_.out_dir) / name).string() + ".partial";
   std::ostringstream out;
   out << "# observe.clusters: " << frame_.dim << "D, N = " << frame_.n() << ", bond = " << p_.bond
@@ -282,26 +286,49 @@ std::string Clusters::write_partial(const std::string& name, const std::string& 
     out << ", types =";
     for (auto& t : p_.types) out << " " << t;
   }
-  out << ", frames = " << rows.size() << ", fallbacks = " << fallbacks_ << "\n" << header << "\n";
-  out.precision(17);
-  for (const auto& row : rows) {
-    for (std::size_t k = 0; k < row.size(); ++k) out << (k ? "," : "") << row[k];
-    out << "\n";
-  }
+  out << ", frames = " << rows_.size() << ", fallbacks = " << fallbacks_ << "\n" << table;
   // Replaced whole: a kill during a checkpoint leaves the previous checkpoint's file.
   io::write_text_durably(partial, out.str(), "observe.clusters");
   return partial;
 }
 
+std::string Clusters::sizes_text() const {
+  std::ostringstream out;
+  out.precision(17);
+  if (p_.sizes_layout == "long") {  // restore_state refuses rows with a tail here
+    out << "step,time,size,clusters\n";
+    for (const SizeRow& row : size_rows_)
+      for (const auto& [size, count] : row.counts) out << row.step << "," << row.time << "," << size << "," << count << "\n";
+    return out.str();
+  }
+  const std::size_t columns = std::size_t(p_.size_columns);
+  out << "step,time";
+  for (std::size_t k = 1; k < columns; ++k) out << ",n" << k;
+  out << ",n" << columns << "plus\n";
+  std::vector<std::uint64_t> dense(columns);
+  for (const SizeRow& row : size_rows_) {
+    std::fill(dense.begin(), dense.end(), 0);
+    for (const auto& [size, count] : row.counts) dense[std::size_t(std::min<std::uint64_t>(size, columns)) - 1] += count;
+    dense[columns - 1] += row.tail;  // sizes from tail_from ≥ K on (restore_state)
+    out << row.step << "," << row.time;
+    for (std::uint64_t c : dense) out << "," << c;
+    out << "\n";
+  }
+  return out.str();
+}
+
 // At each checkpoint too (save_state): a run killed outright (kill -9, the node lost) then
 // leaves the rows of its newest checkpoint beside it, not only bytes inside the checkpoint.
 std::vector<std::string> Clusters::write_partials() const {
-  std::string header;
-  for (auto& c : columns_) header += (header.empty() ? "" : ",") + c;
-  std::string sizes = "step,time";
-  for (std::int64_t k = 1; k < p_.size_columns; ++k) sizes += ",n" + std::to_string(k);
-  sizes += ",n" + std::to_string(p_.size_columns) + "plus";
-  return {write_partial(p_.file, header, rows_), write_partial(p_.sizes_file, sizes, size_rows_)};
+  std::ostringstream metrics;
+  for (std::size_t k = 0; k < columns_.size(); ++k) metrics << (k ? "," : "") << columns_[k];
+  metrics << "\n";
+  metrics.precision(17);
+  for (const auto& row : rows_) {
+    for (std::size_t k = 0; k < row.size(); ++k) metrics << (k ? "," : "") << row[k];
+    metrics << "\n";
+  }
+  return {write_partial(p_.file, metrics.str()), write_partial(p_.sizes_file, sizes_text())};
 }
 
 namespace {
@@ -335,7 +362,18 @@ std::vector<std::vector<double>> get_rows(const StageState& saved, const std::st
 
 void Clusters::save_state(StageState& out) {
   put_rows(out, "rows", rows_);
-  put_rows(out, "size_rows", size_rows_);
+  std::vector<double> clock;
+  std::vector<std::uint64_t> length, counts, tail;
+  for (const SizeRow& row : size_rows_) {
+    clock.insert(clock.end(), {row.step, row.time});
+    length.push_back(row.counts.size());
+    for (const auto& [size, count] : row.counts) counts.insert(counts.end(), {size, count});
+    tail.insert(tail.end(), {row.tail_from, row.tail});
+  }
+  out.put("size_counts.clock", clock);
+  out.put("size_counts.length", length);
+  out.put("size_counts", counts);
+  out.put("size_counts.tail", tail);
   out.put("fallbacks", fallbacks_);
   out.put("warned", std::uint8_t(warned_ ? 1 : 0));
   if (!info_.out_dir.empty()) write_partials();
@@ -344,20 +382,44 @@ void Clusters::save_state(StageState& out) {
 void Clusters::restore_state(const StageState& saved, State&) {
   if (!saved.has("rows")) return;
   rows_ = get_rows(saved, "rows");
-  size_rows_ = get_rows(saved, "size_rows");
-  // Rows of another size_columns (a continuation with --allow-changes): a smaller K folds the
-  // sizes from K on into the new last column; a larger K cannot split the old last column.
-  const std::size_t width = 2 + std::size_t(p_.size_columns);
-  for (auto& row : size_rows_) {
-    if (row.size() == width) continue;
-    if (row.size() < width)
-      throw InputError("observe.clusters: the checkpoint's " + p_.sizes_file + " rows have size_columns = " +
-                       std::to_string(row.size() < 2 ? 0 : row.size() - 2) + ", fewer than size_columns = " +
-                       std::to_string(p_.size_columns) +
+  size_rows_.clear();
+  if (saved.has("size_counts.length")) {
+    const auto clock = saved.get_vector<double>("size_counts.clock");
+    const auto length = saved.get_vector<std::uint64_t>("size_counts.length");
+    const auto counts = saved.get_vector<std::uint64_t>("size_counts");
+    const auto tail = saved.get_vector<std::uint64_t>("size_counts.tail");
+    std::size_t at = 0;
+    for (std::size_t r = 0; r < length.size(); ++r) {
+      if (clock.size() != 2 * length.size() || tail.size() != 2 * length.size() || at + 2 * length[r] > counts.size())
+        throw InputError("observe.clusters: the checkpoint's cluster sizes are inconsistent");
+      SizeRow row{clock[2 * r], clock[2 * r + 1], {}, tail[2 * r], tail[2 * r + 1]};
+      for (std::uint64_t k = 0; k < length[r]; ++k, at += 2) row.counts.emplace_back(counts[at], counts[at + 1]);
+      size_rows_.push_back(std::move(row));
+    }
+  } else {
+    // Before session 40 the checkpoint kept the wide rows (step, time, n1 ... nKplus): sizes
+    // below K exactly, those of K or more together as the row's tail.
+    for (const auto& dense : get_rows(saved, "size_rows")) {
+      if (dense.size() < 4) throw InputError("observe.clusters: the checkpoint's cluster sizes are inconsistent");
+      SizeRow row{dense[0], dense[1], {}, dense.size() - 2, std::uint64_t(dense.back())};
+      for (std::size_t k = 2; k + 1 < dense.size(); ++k)
+        if (dense[k] > 0) row.counts.emplace_back(k - 1, std::uint64_t(dense[k]));
+      size_rows_.push_back(std::move(row));
+    }
+  }
+  // A tail cannot be split: it fits only a wide file whose last column starts at or below it.
+  for (const SizeRow& row : size_rows_) {
+    if (row.tail == 0) continue;
+    const std::string old = "the checkpoint's " + p_.sizes_file + " rows have size_columns = " +
+                            std::to_string(row.tail_from) + " (a checkpoint of flipflow before session 40)";
+    if (p_.sizes_layout == "long")
+      throw InputError("observe.clusters: " + old +
+                       " and count their clusters of that size or more together, so they cannot be written with "
+                       "sizes_layout: long; resume with sizes_layout: wide, or start a new run");
+    if (std::uint64_t(p_.size_columns) > row.tail_from)
+      throw InputError("observe.clusters: " + old + ", fewer than size_columns = " + std::to_string(p_.size_columns) +
                        ": their clusters of that size or more are counted together, so they cannot be continued "
                        "with more columns; resume with the checkpoint's size_columns, or start a new run");
-    for (std::size_t k = width; k < row.size(); ++k) row[width - 1] += row[k];
-    row.resize(width);
   }
   fallbacks_ = saved.get<std::uint64_t>("fallbacks");
   warned_ = saved.get<std::uint8_t>("warned") != 0;

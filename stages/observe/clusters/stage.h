@@ -49,12 +49,17 @@
 //     largest_fraction, mean_aggregate_size, coordination, bonds, unlike_fraction, percolating,
 //     percolating_x, percolating_y[, percolating_z], bonds_<a>_<b>... (type pairs in order),
 //     fallback; after '#' lines with N, the parameters and the pair source.
-//   cluster_sizes.csv (`sizes_file`): one row per call: step, time, n1 ... n(K-1), nKplus with
-//     K = `size_columns` (default 64: n1 ... n63, n64plus): the number of clusters of each size;
-//     the last column counts those of K particles or more. A MIPS study that needs the tail of
-//     large clusters raises K (K = N gives every size its own column). A continued run with a
-//     smaller K folds the checkpoint's rows into the new last column; a larger K is refused (the
-//     rows before the checkpoint have no counts past their own K).
+//   cluster_sizes.csv (`sizes_file`), `sizes_layout: wide` (the default): one row per call: step,
+//     time, n1 ... n(K-1), nKplus with K = `size_columns` (default 64: n1 ... n63, n64plus): the
+//     number of clusters of each size; the last column counts those of K particles or more. A MIPS
+//     study that needs the tail of large clusters raises K (K = N gives every size its own
+//     column), or takes `sizes_layout: long`: one row per call and cluster size present (step,
+//     time, size, clusters), every size exact, K unused; a file of about (distinct sizes) rows a
+//     call instead of K columns. The stage keeps each call's sizes exactly (the sizes present and
+//     their counts, at most ~√(2N) of them), so a continued run may change K or the layout either
+//     way. A checkpoint of flipflow before session 40 kept the wide columns: its rows continue
+//     with the same or a smaller K, or with any K or layout where no cluster reached its last
+//     column.
 // With `label_field: true` the stage writes the per-particle field `cluster.label` (i32, the
 // cluster's label; -1 for particles that take no part), which observe.h5md can write (list
 // observe.clusters before observe.h5md, with the same schedule).
@@ -66,6 +71,7 @@
 #pragma once
 #include <cstdint>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "core/stage/params.h"
@@ -85,6 +91,7 @@ struct ClustersParams {
   std::string file = "clusters.csv";
   std::string sizes_file = "cluster_sizes.csv";
   std::int64_t size_columns = 64;
+  std::string sizes_layout = "wide";
 
   template <class P>
   void describe(P& p) {
@@ -104,12 +111,16 @@ struct ClustersParams {
     p(file, "file", "CSV of the metrics, one row per call, relative to the run's output directory");
     p(sizes_file, "sizes_file",
       "CSV of the cluster-size histogram, one row per call: n1 ... n(K-1), nKplus (K = size_columns)");
-    // The upper bound keeps the rows in memory sane: every call keeps 2 + K numbers until the end.
+    // The upper bound keeps a wide file's rows sane: each is 2 + K numbers.
     p(size_columns, "size_columns",
-      "K, the size columns of sizes_file: n1 ... n(K-1) count the clusters of each size, nKplus those of K "
-      "particles or more (K = N: every size its own column)")
+      "K, the size columns of sizes_file in the wide layout: n1 ... n(K-1) count the clusters of each size, "
+      "nKplus those of K particles or more (K = N: every size its own column)")
         .at_least(2)
         .at_most(1000000);
+    p(sizes_layout, "sizes_layout",
+      "sizes_file's layout: wide (a row per call: step, time, n1 ... nKplus) or long (a row per call and size "
+      "present: step, time, size, clusters; every size exact, size_columns unused)")
+        .one_of({"wide", "long"});
   }
 };
 
@@ -145,9 +156,9 @@ class Clusters final : public Stage {
   void read_frame(const State& s);
   bool verlet_usable(const State& s) const;
   std::string delaunay_unusable(const State& s) const;  // why not, or empty
-  // One CSV as NAME.partial (returns its path); both files' partials (returns their paths).
-  std::string write_partial(const std::string& name, const std::string& header,
-                            const std::vector<std::vector<double>>& rows) const;
+  // One CSV as NAME.partial, its '#' line then `table` (header and rows; returns its path); both
+  // files' partials (returns their paths).
+  std::string write_partial(const std::string& name, const std::string& table) const;
   std::vector<std::string> write_partials() const;
 
   ClustersParams p_;
@@ -164,7 +175,17 @@ class Clusters final : public Stage {
   ClusterFrame frame_;
   ClusterResult last_;
   std::vector<std::string> columns_;
-  std::vector<std::vector<double>> rows_, size_rows_;
+  // One call's cluster sizes: (size, clusters of that size) for each size present, by size. A
+  // row restored from a checkpoint of wide columns (before session 40) counts its sizes from
+  // tail_from on together in `tail` (tail_from 0: none).
+  struct SizeRow {
+    double step = 0, time = 0;
+    std::vector<std::pair<std::uint64_t, std::uint64_t>> counts;
+    std::uint64_t tail_from = 0, tail = 0;
+  };
+  std::string sizes_text() const;  // sizes_file's header line and rows
+  std::vector<std::vector<double>> rows_;
+  std::vector<SizeRow> size_rows_;
   std::uint64_t fallbacks_ = 0;
   bool warned_ = false, finished_ = false;
 };

@@ -267,8 +267,27 @@ TEST_CASE("observe.clusters: size_columns sets the size histogram's columns, the
   CHECK(check_param(*spec, ParamValue(std::int64_t(1000000))) == "");
   CHECK(check_param(*spec, ParamValue(std::int64_t(1000001))) != "");
 
-  // A continuation: the rows come back whole; a smaller K folds them into its last column, a
-  // larger one is refused (it cannot split the old last column).
+  // The long layout: a row per size present, every size exact (the block of 9 too), K unused.
+  auto long_rows = [&](Stage& st) {
+    st.finish(*s, true);
+    const auto cells = csv_cells(dir / "cluster_sizes.csv");
+    REQUIRE(!cells.empty());
+    CHECK(cells[0] == std::vector<std::string>{"step", "time", "size", "clusters"});
+    std::vector<std::vector<std::string>> out;
+    for (std::size_t r = 1; r < cells.size(); ++r) out.push_back({cells[r][0], cells[r][2], cells[r][3]});
+    return out;
+  };
+  using Rows = std::vector<std::vector<std::string>>;
+  const Rows lattice_long = {{"3", "1", "3"}, {"3", "2", "1"}, {"3", "4", "1"}, {"3", "9", "1"}};
+  {
+    auto st = clusters(2, {{"sizes_layout", std::string("long")}, {"size_columns", std::int64_t(2)}}, dir.string());
+    st->configure(*s);
+    drv.run(*st, *s, 3);
+    CHECK(long_rows(*st) == lattice_long);
+  }
+
+  // A continuation: the rows come back with their exact sizes, so the same, a smaller or a larger
+  // K, or the other layout, continue them.
   auto st = clusters(2, {{"size_columns", std::int64_t(4)}});
   st->configure(*s);
   drv.run(*st, *s, 3);
@@ -285,16 +304,51 @@ TEST_CASE("observe.clusters: size_columns sets the size histogram's columns, the
   CHECK(rows[2][0] == "5");
   for (int r = 1; r <= 2; ++r) CHECK(std::vector<std::string>(rows[r].begin() + 2, rows[r].end()) ==
                                      std::vector<std::string>{"3", "1", "0", "2"});
-  auto fewer = clusters(2, {{"size_columns", std::int64_t(2)}}, dir.string());
-  fewer->configure(*s);
-  fewer->restore_state(saved, *s);
-  fewer->finish(*s, true);
-  rows = csv_cells(dir / "cluster_sizes.csv");
-  REQUIRE(rows.size() == 2);
-  CHECK(std::vector<std::string>(rows[1].begin() + 2, rows[1].end()) == std::vector<std::string>{"3", "3"});
+  // The restored row with K columns, and the checkpoint restored into the stage's `k`.
+  auto continued = [&](const StageState& from, const ParamSettings& set) {
+    auto c = clusters(2, set, dir.string());
+    c->configure(*s);
+    c->restore_state(from, *s);
+    c->finish(*s, true);
+    const auto cells = csv_cells(dir / "cluster_sizes.csv");
+    REQUIRE(cells.size() == 2);
+    return std::vector<std::string>(cells[1].begin() + 2, cells[1].end());
+  };
+  CHECK(continued(saved, {{"size_columns", std::int64_t(2)}}) == std::vector<std::string>{"3", "3"});
+  CHECK(continued(saved, {{"size_columns", std::int64_t(10)}}) ==
+        std::vector<std::string>{"3", "1", "0", "1", "0", "0", "0", "0", "1", "0"});
+  {
+    auto c = clusters(2, {{"sizes_layout", std::string("long")}}, dir.string());
+    c->configure(*s);
+    c->restore_state(saved, *s);
+    CHECK(long_rows(*c) == lattice_long);
+  }
+
+  // A checkpoint of flipflow before session 40 kept the wide rows (here K = 4: n1 n2 n3 n4plus):
+  // the same or a smaller K continue them; a larger K or the long layout would have to split the
+  // last column, and are refused, unless that column is empty.
+  auto old_checkpoint = [](std::vector<double> size_row) {
+    StageState old;
+    old.put("rows.length", std::vector<std::uint64_t>{});
+    old.put("rows", std::vector<double>{});
+    old.put("size_rows.length", std::vector<std::uint64_t>{size_row.size()});
+    old.put("size_rows", size_row);
+    old.put("fallbacks", std::uint64_t(0));
+    old.put("warned", std::uint8_t(0));
+    return old;
+  };
+  const StageState old = old_checkpoint({3, 0.03, 3, 1, 0, 2});
+  CHECK(continued(old, {{"size_columns", std::int64_t(4)}}) == std::vector<std::string>{"3", "1", "0", "2"});
+  CHECK(continued(old, {{"size_columns", std::int64_t(2)}}) == std::vector<std::string>{"3", "3"});
   auto more = clusters(2, {{"size_columns", std::int64_t(8)}});
   more->configure(*s);
-  CHECK_THROWS_WITH(more->restore_state(saved, *s), Catch::Contains("size_columns = 4, fewer than size_columns = 8"));
+  CHECK_THROWS_WITH(more->restore_state(old, *s), Catch::Contains("size_columns = 4 (a checkpoint of flipflow before "
+                                                                  "session 40), fewer than size_columns = 8"));
+  auto longer = clusters(2, {{"sizes_layout", std::string("long")}});
+  longer->configure(*s);
+  CHECK_THROWS_WITH(longer->restore_state(old, *s), Catch::Contains("cannot be written with sizes_layout: long"));
+  CHECK(continued(old_checkpoint({3, 0.03, 3, 1, 0, 0}), {{"size_columns", std::int64_t(6)}}) ==
+        std::vector<std::string>{"3", "1", "0", "0", "0", "0"});
   std::filesystem::remove_all(dir);
 }
 
