@@ -371,3 +371,41 @@ TEST_CASE("tools/render colours cluster.label by cluster, monomers grey, without
   CHECK(is_png(dir / "c.png"));
   fs::remove_all(dir);
 }
+
+TEST_CASE("tools/render draws cluster_sizes.csv as the cluster-size distribution, either layout", "[cli][render]") {
+  if (!have_plotting()) return;
+  const fs::path dir = fresh_dir("ff_render_sizes");
+  const std::string render = render_command();
+  // The cell-list observer in the long layout, the Delaunay one in the wide layout with K = 300 = N.
+  require_success(sh(pipeline_exe() + " run " + repo_file("pipelines/clusters-demo.yaml").string() +
+                         " --device cpu --set run.steps=500 --set system.N=300 --set step.clusters.sizes_layout=long"
+                         " --set step.clusters_delaunay.sizes_layout=wide --set step.clusters_delaunay.size_columns=300"
+                         " --set step.clusters_delaunay.every=100 --out " +
+                         (dir / "run").string(),
+                     dir));
+  const fs::path long_csv = dir / "run" / "cluster_sizes.csv", wide_csv = dir / "run" / "cluster-sizes-delaunay.csv";
+  auto r = sh(render + " " + long_csv.string() + " " + wide_csv.string() + " --from-step 100 --out " +
+                  (dir / "d.png").string() + " --dpi 40",
+              dir);
+  INFO(r.out);
+  CHECK(r.code == 0);
+  CHECK_THAT(r.out, Catch::Contains("cluster-size distribution from 2 file(s)"));
+  // Every particle takes part, so the sizes times their mean counts add up to N in both layouts
+  // (no cluster of all 300 particles, which would fall in the wide file's n300plus column).
+  CHECK_THAT(r.out, Catch::Contains("cluster_sizes.csv: ") && Catch::Contains("cluster-sizes-delaunay.csv: 5 calls (steps 100 to 500)"));
+  std::size_t sums = 0;
+  for (std::size_t at = r.out.find("Σ n⟨N_n⟩ = 300\n"); at != std::string::npos; at = r.out.find("Σ n⟨N_n⟩ = 300\n", at + 1))
+    ++sums;
+  CHECK(sums == 2);
+  CHECK(is_png(dir / "d.png"));
+  auto late = sh(render + " " + long_csv.string() + " --from-step 600 --out " + (dir / "x.png").string(), dir);
+  CHECK(late.code == 2);
+  CHECK_THAT(late.out, Catch::Contains("no call at step 600 or later (its calls: steps"));
+  auto mixed = sh(render + " " + long_csv.string() + " " + (dir / "run" / "clusters.csv").string() + " --out " +
+                      (dir / "x.png").string(),
+                  dir);
+  CHECK(mixed.code == 2);
+  CHECK_THAT(mixed.out, Catch::Contains("draw cluster_sizes.csv files"));
+  CHECK_FALSE(fs::exists(dir / "x.png"));
+  fs::remove_all(dir);
+}
