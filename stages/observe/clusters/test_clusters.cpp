@@ -79,22 +79,11 @@ std::vector<Particle> rsa(int dim, std::size_t n, const double* L, std::uint64_t
 }
 
 }  // namespace
+
 TEST_CASE("observe.clusters: pieces of a square lattice", "[clusters]") {
-  // Unit spacing, σ = 1, bond 1.1: nearest sites bond, diagonals (√2) do not. A 3x3 block (12
-  // bonds; coordination 4 inside, 3 on edges, 2 at corners: Σ 24), a line of 4 (3 bonds, Σ 6), a
-  // dimer (1 bond, Σ 2), three monomers; listed in a scrambled order.
-  std::vector<Particle> ps;
-  for (int j = 0; j < 3; ++j)
-    for (int i = 0; i < 3; ++i) ps.push_back({2.0 + i, 2.0 + j, 0, 0});
-  for (int i = 0; i < 4; ++i) ps.push_back({8.0 + i, 2.0, 0, 0});
-  ps.push_back({2.0, 8.0, 0, 0});
-  ps.push_back({3.0, 8.0, 0, 0});
-  for (int i = 0; i < 3; ++i) ps.push_back({14.0, 6.0 + 3 * i, 0, 0});
-  std::vector<std::size_t> perm(ps.size());
-  std::iota(perm.begin(), perm.end(), 0);
-  std::shuffle(perm.begin(), perm.end(), std::mt19937_64(5));
-  std::vector<Particle> scrambled;
-  for (auto k : perm) scrambled.push_back(ps[k]);
+  // test_support.h's lattice_pieces: a 3x3 block, a line of 4, a dimer, three monomers.
+  std::vector<std::size_t> perm;
+  const std::vector<Particle> scrambled = lattice_pieces(&perm);
   const double L[3] = {20, 20, 0};
   auto s = make_state(2, scrambled, L);
   const Measured r = measure(*s);

@@ -17,19 +17,6 @@ using ff::test::ParamSettings;
 
 namespace {
 
-// Pieces of a square lattice, sizes 9, 4, 2, 1, 1, 1, scrambled (as test_clusters.cpp's first test).
-std::vector<Particle> lattice_pieces() {
-  std::vector<Particle> ps;
-  for (int j = 0; j < 3; ++j)
-    for (int i = 0; i < 3; ++i) ps.push_back({2.0 + i, 2.0 + j, 0, 0});
-  for (int i = 0; i < 4; ++i) ps.push_back({8.0 + i, 2.0, 0, 0});
-  ps.push_back({2.0, 8.0, 0, 0});
-  ps.push_back({3.0, 8.0, 0, 0});
-  for (int i = 0; i < 3; ++i) ps.push_back({14.0, 6.0 + 3 * i, 0, 0});
-  std::shuffle(ps.begin(), ps.end(), std::mt19937_64(5));
-  return ps;
-}
-
 // The header and the rows of a CSV after its '#' lines, split at the commas.
 std::vector<std::vector<std::string>> csv_cells(const std::filesystem::path& file) {
   std::ifstream in(file);

@@ -4,7 +4,10 @@
 #pragma once
 #include <catch2/catch.hpp>
 
+#include <algorithm>
 #include <cmath>
+#include <numeric>
+#include <random>
 #include <map>
 #include <memory>
 #include <string>
@@ -70,6 +73,27 @@ inline Measured measure(State& s, ParamSettings set = {}, std::uint64_t step = 1
   const std::int32_t* l = s.field(observe::cluster_label_field).host<std::int32_t>();
   r.label.assign(l, l + s.n());
   return r;
+}
+
+// Unit-spaced pieces of a square lattice (σ = 1, bond 1.1: nearest sites bond, diagonals do not):
+// a 3x3 block (12 bonds; coordination 4 inside, 3 on edges, 2 at corners: Σ 24), a line of 4 (3
+// bonds, Σ 6), a dimer (1 bond, Σ 2) and three monomers, sizes 9, 4, 2, 1, 1, 1, listed in a
+// scrambled order: particle i is site perm[i] of that list (block, line, dimer, monomers).
+inline std::vector<Particle> lattice_pieces(std::vector<std::size_t>* perm_out = nullptr) {
+  std::vector<Particle> ps;
+  for (int j = 0; j < 3; ++j)
+    for (int i = 0; i < 3; ++i) ps.push_back({2.0 + i, 2.0 + j, 0, 0});
+  for (int i = 0; i < 4; ++i) ps.push_back({8.0 + i, 2.0, 0, 0});
+  ps.push_back({2.0, 8.0, 0, 0});
+  ps.push_back({3.0, 8.0, 0, 0});
+  for (int i = 0; i < 3; ++i) ps.push_back({14.0, 6.0 + 3 * i, 0, 0});
+  std::vector<std::size_t> perm(ps.size());
+  std::iota(perm.begin(), perm.end(), 0);
+  std::shuffle(perm.begin(), perm.end(), std::mt19937_64(5));
+  std::vector<Particle> scrambled;
+  for (auto k : perm) scrambled.push_back(ps[k]);
+  if (perm_out) *perm_out = perm;
+  return scrambled;
 }
 
 }  // namespace ff::test::clusters_test

@@ -58,9 +58,7 @@ assert list(obs["rollbacks/step"][()]) == [0, 10, 20], obs["rollbacks/step"][()]
 assert list(obs["integrate/flips/value"][()]) == [0.0, 2.5, 5.0]
 )PY", dir / "trajectory.h5") == 0);
   // Runs 10 steps apart divide 20: nothing to say.
-  std::fflush(messages);
-  CHECK(std::ftell(messages) == 0);
-  std::fclose(messages);
+  CHECK(text_of(messages).empty());
 }
 
 TEST_CASE("observe.h5md says once when its runs step past frames_every", "[observe][h5md]") {
@@ -73,10 +71,7 @@ TEST_CASE("observe.h5md says once when its runs step past frames_every", "[obser
   Observe obs;
   observe_three_frames<double>(*stage, *s, obs);  // steps 0, 10, 20: only 0 is a multiple of 15
   stage->finish(*s, true);
-  std::rewind(messages);
-  std::string text(4096, '\0');
-  text.resize(std::fread(text.data(), 1, text.size(), messages));
-  std::fclose(messages);
+  const std::string text = text_of(messages);
   CHECK(text.find("frames_every: 15 is not a multiple of the 10 steps between its runs at steps 0 and 10") !=
         std::string::npos);
   CHECK(text.find("warning") == text.rfind("warning"));  // once
@@ -162,10 +157,7 @@ TEST_CASE("observe.h5md says once when an observer's metric was reported more of
     obs(*stage, *s, step, 0.1 * f);
   }
   stage->finish(*s, true);
-  std::rewind(messages);
-  std::string text(4096, '\0');
-  text.resize(std::fread(text.data(), 1, text.size(), messages));
-  std::fclose(messages);
+  const std::string text = text_of(messages);
   CHECK(text.find("writes 'msd/msd' only when it runs itself: 1 value reported between its rows at steps 0 and 10 is not in 'trajectory.h5'") !=
         std::string::npos);
   CHECK(text.find("warning") == text.rfind("warning"));  // once

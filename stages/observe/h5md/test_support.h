@@ -49,6 +49,17 @@ inline int python(const TempDir& dir, const std::string& script, const std::stri
   return WIFEXITED(rc) ? WEXITSTATUS(rc) : -1;
 }
 
+// Everything written to `messages` (a std::tmpfile() handed to the observer), which is closed.
+inline std::string text_of(std::FILE* messages) {
+  std::fflush(messages);
+  std::rewind(messages);
+  std::string text;
+  char buf[4096];
+  for (std::size_t got; (got = std::fread(buf, 1, sizeof buf, messages)) > 0;) text.append(buf, got);
+  std::fclose(messages);
+  return text;
+}
+
 // What the core hands an observer: the accepted state's clock, its stats, a metrics slot.
 struct Observe {
   RunInfo info;
