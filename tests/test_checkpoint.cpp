@@ -151,10 +151,13 @@ step:
   - {stage: observe.msd, every: 3}
   - {stage: observe.gr, every: 5, r_max: 3.0, bins: 60}
   - {stage: observe.clusters, every: 7, bond: 1.2}
+  - {stage: observe.clusters, id: sizes_long, every: 6, bond: 1.2, file: clusters_long.csv,
+     sizes_file: cluster_sizes_long.csv, sizes_layout: long}
   - {stage: observe.h5md, every: 4, file: every.h5, fields: [position, image]}
 )";
-  check_continuation(Case{file.string(), {}, "every.h5", {"gr.csv", "clusters.csv", "cluster_sizes.csv"}}, 50,
-                     "every");
+  check_continuation(Case{file.string(), {}, "every.h5",
+                          {"gr.csv", "clusters.csv", "cluster_sizes.csv", "cluster_sizes_long.csv"}},
+                     50, "every");
   fs::remove_all(dir);
 }
 
