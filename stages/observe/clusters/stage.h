@@ -110,7 +110,8 @@ struct ClustersParams {
       "takes no part)");
     p(file, "file", "CSV of the metrics, one row per call, relative to the run's output directory");
     p(sizes_file, "sizes_file",
-      "CSV of the cluster-size histogram, one row per call: n1 ... n(K-1), nKplus (K = size_columns)");
+      "CSV of the cluster-size histogram, in the layout sizes_layout gives (tools/render draws it as the size "
+      "distribution)");
     // The upper bound keeps a wide file's rows sane: each is 2 + K numbers.
     p(size_columns, "size_columns",
       "K, the size columns of sizes_file in the wide layout: n1 ... n(K-1) count the clusters of each size, "
@@ -131,8 +132,8 @@ class Clusters final : public Stage {
   static StageDecl declaration() {
     return {"observe.clusters",
             "bonds (r < bond·σ_ij), clusters, aggregates, coordination, like/unlike bonds and percolation; metrics "
-            "per call, clusters.csv and cluster_sizes.csv (n1 ... nKplus, K = size_columns); optional field "
-            "cluster.label",
+            "per call, clusters.csv and cluster_sizes.csv (n1 ... nKplus, K = size_columns; or a row per size "
+            "present); optional field cluster.label",
             schema_of<ClustersParams>(), {2, 3}, true};
   }
 
