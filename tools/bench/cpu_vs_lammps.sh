@@ -21,6 +21,13 @@
 # Under load the two degrade differently (LAMMPS's MPI ranks run in lockstep, so a core taken by
 # another job stalls both; oneTBB threads steal work), so the per-round ratio moves with the load;
 # the ratio of the best rounds estimates the ratio on an idle machine.
+# The VM's two vCPUs share one L3 cache at times and sit on two L3 domains of the host CPU at
+# others (bench/README.md, session 40): across L3 domains flipflow's threads, which share the
+# particles' arrays, run ~1.6x slower, LAMMPS's MPI ranks do not. So each flipflow run is
+# bracketed by tools/bench/core_to_core.cpp, a cache line's round trip between CPUs 0 and 1 (~50 ns
+# on one L3, ~300+ across), and each round is tagged: "one L3" when both probes are under
+# C2C_SPLIT ns (default 150), "two L3s" when both are over, else "moved" (it changed during the
+# run); the ratios are also summarised over the one-L3 rounds.
 # Simulated time per wall second = steps/s × Δt (bench's throughput pass: consecutive steps).
 # A rolled-back step halves Δt for a while; bench reports rollbacks per step and the line is
 # marked when there are any, since steps/s × Δt then overstates the simulated time.
@@ -58,6 +65,10 @@ command -v mpirun >/dev/null || die "no mpirun (apt-get install openmpi-bin)"
 
 work=$(mktemp -d /tmp/cpu_vs_lammps.XXXXXX)
 trap 'rm -rf "$work"' EXIT
+C2C_SPLIT=${C2C_SPLIT:-150}
+g++ -O2 -pthread "$ROOT/tools/bench/core_to_core.cpp" -o "$work/core_to_core" ||
+  die "cannot build tools/bench/core_to_core.cpp with g++"
+c2c() { "$work/core_to_core" || echo nan; }
 report="$work/report.txt"
 say() { echo "$*" | tee -a "$report"; }
 load() { uptime | sed 's/.*load average: *//'; }
@@ -94,19 +105,27 @@ for round in $(seq 1 "$ROUNDS"); do
   for dt in "${DTS[@]}"; do
     warm=${FF_WARMUP:-$($PY -c "print(max(50, round(0.2/$dt)))")}
     rdir="$work/ff_${round}_$dt"
+    c_before=$(c2c)
     "$PIPELINE" bench "$PIPELINE_FILE" --device cpu --threads 2 --sizes "$N" --steps "$FF_STEPS" --warmup "$warm" \
       --set run.dt="$dt" --results "$rdir" > "$work/ff.log" 2>&1 ||
       { cat "$work/ff.log" >&2; die "pipeline bench failed at Δt = $dt (log above)"; }
-    for f in "$rdir"/*.jsonl; do sed "s/^{/{\"round\":$round,\"dt\":$dt,\"warmup\":$warm,\"load\":\"$l0\",\"lammps\":\"$lmp_line\",/" "$f"; done \
+    c_after=$(c2c)
+    for f in "$rdir"/*.jsonl; do sed "s/^{/{\"round\":$round,\"dt\":$dt,\"warmup\":$warm,\"load\":\"$l0\",\"lammps\":\"$lmp_line\",\"c2c\":[$c_before,$c_after],/" "$f"; done \
       >> "$work/ff.jsonl"
   done
   say "   round $round: load average before $l0, after $(load)"
 done
 
-$PY - "$work/ff.jsonl" "$LMP_DT" <<'EOF' | tee -a "$report"
-import json, statistics, sys
-rows = [json.loads(l) for l in open(sys.argv[1])]
+$PY - "$work/ff.jsonl" "$LMP_DT" "$C2C_SPLIT" <<'EOF' | tee -a "$report"
+import json, math, statistics, sys
+rows = [json.loads(l.replace("nan", "NaN")) for l in open(sys.argv[1])]
 lmp_dt = float(sys.argv[2])
+split = float(sys.argv[3])
+def placement(r):
+    a, b = r["c2c"]
+    if math.isnan(a) or math.isnan(b):
+        return "unknown"
+    return "one L3" if max(a, b) < split else "two L3s" if min(a, b) >= split else "moved"
 def lmp(r):
     kv = dict(t.split("=", 1) for t in r["lammps"].split())
     return float(kv["steps_per_s"]), kv.get("dangerous", "?")
@@ -123,9 +142,12 @@ for dt in sorted({r["dt"] for r in rows}, reverse=True):
     flag = "" if rb == 0 else f"  [up to {rb:.3g} rollbacks per step: steps/s x dt overstates the simulated time]"
     print(f"flipflow dt = {dt:g}: steps/s per round " + ", ".join(f"{s:.3g}" for s in sps)
           + f"; median {statistics.median(sps):.3g} steps/s = {statistics.median(sps) * dt:.4g} tau_B per wall second; "
-          f"ratio flipflow/LAMMPS per round " + ", ".join(f"{x:.3g}" for x in ratios)
+          f"ratio flipflow/LAMMPS per round " + ", ".join(f"{x:.3g} ({placement(r)}, {r['c2c'][0]:.0f}/{r['c2c'][1]:.0f} ns)" for x, r in zip(ratios, rs))
           + f", median {statistics.median(ratios):.3g}; best flipflow round / best LAMMPS round "
           f"{max(sps) * dt / (max(s for s, _ in lsps.values()) * lmp_dt):.3g}{flag}")
+    one = [x for x, r in zip(ratios, rs) if placement(r) == "one L3"]
+    if one:
+        print(f"      over the {len(one)} round(s) on one L3: ratio median {statistics.median(one):.3g}, best {max(one):.3g}")
     last = rs[-1]
     st = ", ".join(f"{k} {v:.3g}" for k, v in sorted(last["stage_ms"].items(), key=lambda kv: -kv[1]))
     m = last["metrics_per_step"]
