@@ -39,7 +39,7 @@ install(FILES ${PROJECT_SOURCE_DIR}/stages/neighbors/pair_force.h ${PROJECT_SOUR
         DESTINATION include/stages/neighbors)
 install(FILES ${PROJECT_SOURCE_DIR}/tests/support/stage_driver.h ${PROJECT_SOURCE_DIR}/tests/support/test_plugins.h
               ${PROJECT_SOURCE_DIR}/tests/support/backends.h ${PROJECT_SOURCE_DIR}/tests/support/fields.h
-              ${PROJECT_SOURCE_DIR}/tests/support/spec.h
+              ${PROJECT_SOURCE_DIR}/tests/support/spec.h ${PROJECT_SOURCE_DIR}/tests/support/temp_dir.h
         DESTINATION include/flipflow/tests/support)
 
 configure_package_config_file(${PROJECT_SOURCE_DIR}/cmake/flipflowConfig.cmake.in

@@ -15,6 +15,7 @@
 #include "stages/delaunay/common/mesh.h"
 #include "support/h5py.h"
 #include "support/spec.h"
+#include "support/temp_dir.h"
 #include "support/test_plugins.h"
 #include "stages/delaunay/test_support.h"
 
@@ -61,16 +62,7 @@ void require_consistent(State& s, const std::vector<std::int32_t>& tri) {
   CHECK(undirected == ff::delaunay::edge_set(t.he.data(), n));
 }
 
-struct TempDir {
-  fs::path path;
-  explicit TempDir(const std::string& name)
-      : path(fs::temp_directory_path() / ("ff_triangles_" + std::to_string(getpid()) + "_" + name)) {
-    fs::remove_all(path);
-    fs::create_directories(path);
-  }
-  ~TempDir() { fs::remove_all(path); }
-  std::string operator/(const std::string& f) const { return (path / f).string(); }
-};
+using ff::test::TempDir;
 
 }  // namespace
 

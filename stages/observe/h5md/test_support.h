@@ -21,23 +21,14 @@
 #include "core/stage/state.h"
 #include "stages/observe/h5md/stage.h"
 #include "support/h5py.h"
+#include "support/temp_dir.h"
 
 namespace ff::test::h5md {
 
 namespace fs = std::filesystem;
 
 
-// A scratch directory, removed afterwards.
-struct TempDir {
-  fs::path path;
-  explicit TempDir(const std::string& name)
-      : path(fs::temp_directory_path() / ("ff_observe_" + std::to_string(getpid()) + "_" + name)) {
-    fs::remove_all(path);
-    fs::create_directories(path);
-  }
-  ~TempDir() { fs::remove_all(path); }
-  std::string operator/(const std::string& f) const { return (path / f).string(); }
-};
+using ff::test::TempDir;
 
 // Runs `script` with /usr/bin/python3 (numpy, h5py) and the given arguments; its exit status.
 inline int python(const TempDir& dir, const std::string& script, const std::string& args) {
