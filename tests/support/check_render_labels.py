@@ -4,8 +4,6 @@
 
 Prints "ok labels" or exits 1 naming what is wrong.
 """
-import importlib.machinery
-import importlib.util
 import sys
 
 import matplotlib
@@ -20,11 +18,14 @@ def fail(msg):
 
 
 def load(path):
-    loader = importlib.machinery.SourceFileLoader("render", path)
-    spec = importlib.util.spec_from_loader("render", loader)
-    module = importlib.util.module_from_spec(spec)
-    loader.exec_module(module)
-    return module
+    """tools/render's parts (tools/render_lib beside the script) as one namespace."""
+    import os
+    import types
+    sys.path.insert(0, os.path.dirname(os.path.realpath(path)))
+    from render_lib import common, plots
+    names = dict(vars(common))
+    names.update(vars(plots))
+    return types.SimpleNamespace(**names)
 
 
 def title_fits(r, title, width_in):
