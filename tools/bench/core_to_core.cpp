@@ -28,16 +28,16 @@ bool pin(int cpu) {
 
 int main() {
   constexpr int kTrips = 200000;
-  bool pinned = true;
+  bool other_pinned = false;  // written by `other` only, read after the join
   std::thread other([&] {
-    pinned = pin(1) && pinned;
+    other_pinned = pin(1);
     for (int i = 0; i < kTrips; ++i) {
       while (turn.load(std::memory_order_acquire) != 1) {
       }
       turn.store(0, std::memory_order_release);
     }
   });
-  pinned = pin(0) && pinned;
+  const bool pinned = pin(0);
   const auto start = std::chrono::steady_clock::now();
   for (int i = 0; i < kTrips; ++i) {
     turn.store(1, std::memory_order_release);
@@ -46,7 +46,7 @@ int main() {
   }
   const auto end = std::chrono::steady_clock::now();
   other.join();
-  if (!pinned) {
+  if (!pinned || !other_pinned) {
     std::fprintf(stderr, "core_to_core: cannot pin threads to CPUs 0 and 1\n");
     return 1;
   }

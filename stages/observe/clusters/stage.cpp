@@ -388,10 +388,12 @@ void Clusters::restore_state(const StageState& saved, State&) {
     const auto length = saved.get_vector<std::uint64_t>("size_counts.length");
     const auto counts = saved.get_vector<std::uint64_t>("size_counts");
     const auto tail = saved.get_vector<std::uint64_t>("size_counts.tail");
+    std::uint64_t pairs = 0;
+    for (std::uint64_t l : length) pairs += l;
+    if (clock.size() != 2 * length.size() || tail.size() != 2 * length.size() || counts.size() != 2 * pairs)
+      throw InputError("observe.clusters: the checkpoint's cluster sizes are inconsistent");
     std::size_t at = 0;
     for (std::size_t r = 0; r < length.size(); ++r) {
-      if (clock.size() != 2 * length.size() || tail.size() != 2 * length.size() || at + 2 * length[r] > counts.size())
-        throw InputError("observe.clusters: the checkpoint's cluster sizes are inconsistent");
       SizeRow row{clock[2 * r], clock[2 * r + 1], {}, tail[2 * r], tail[2 * r + 1]};
       for (std::uint64_t k = 0; k < length[r]; ++k, at += 2) row.counts.emplace_back(counts[at], counts[at + 1]);
       size_rows_.push_back(std::move(row));
