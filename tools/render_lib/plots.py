@@ -55,6 +55,14 @@ def csv_table(path):
     return [c.strip() for c in lines[0].split(",")], lines[1:], comments
 
 
+def csv_numbers(np, path, header, lines):
+    """The data lines of a CSV file as numbers [rows, columns], or an InputProblem naming the file."""
+    try:
+        return np.asarray([[float(v) for v in l.split(",")] for l in lines], dtype=float).reshape(-1, len(header))
+    except ValueError as e:
+        raise InputProblem(f"{path}: a row is not numbers with {len(header)} columns ({e})")
+
+
 def csv_series(np, path, name, x=None):
     """(x values, values [samples, 1], x label) of the column named by NAME's last part of a CSV
     file (observe.clusters' clusters.csv, observe.gr's gr.csv). x: the column --x names, else r
@@ -66,10 +74,7 @@ def csv_series(np, path, name, x=None):
                            f"columns: {', '.join(header)}")
     if x is not None and x not in header:
         raise InputProblem(f"{path}: --x {x}: no such column; columns: {', '.join(header)}")
-    try:
-        rows = np.asarray([[float(v) for v in l.split(",")] for l in lines], dtype=float).reshape(-1, len(header))
-    except ValueError as e:
-        raise InputProblem(f"{path}: a row is not numbers with {len(header)} columns ({e})")
+    rows = csv_numbers(np, path, header, lines)
     xcol = x or next((c for c in ("r", "time", "step") if c in header), None)
     if xcol is None:
         return np.arange(rows.shape[0], dtype=float), rows[:, [header.index(column)]], "sample"
@@ -93,10 +98,7 @@ def size_table(np, path):
     plus = re.fullmatch(r"n(\d+)plus", header[-1])
     if not long and not (plus and header[2:-1] == [f"n{k}" for k in range(1, int(plus.group(1)))]):
         return None
-    try:
-        rows = np.asarray([[float(v) for v in l.split(",")] for l in lines], dtype=float).reshape(-1, len(header))
-    except ValueError as e:
-        raise InputProblem(f"{path}: a row is not numbers with {len(header)} columns ({e})")
+    rows = csv_numbers(np, path, header, lines)
     if not long:
         K = int(plus.group(1))
         return rows[:, 0], np.arange(1, K + 1), rows[:, 2:], K
@@ -143,7 +145,8 @@ def plot_size_distribution(np, args, tables):
             ax.plot([K], [mean[-1]], marker=">", markersize=8, linestyle="none", color=curve.get_color(),
                     label=(f"{label}: " if len(args.files) > 1 else "") + f"n ≥ {K}")
             note = f" and {mean[-1]:.4g} clusters of {K} or more"
-        largest = int(sizes[exact & (counts[keep].max(axis=0) > 0)].max()) if (exact & (mean > 0)).any() else 0
+        present = exact & (mean > 0)
+        largest = int(sizes[present].max()) if present.any() else 0
         lines.append(f"{path}: {int(keep.sum())} calls (steps {steps[keep][0]:g} to {steps[keep][-1]:g}), "
                      f"sizes 1 to {largest}" + (f" below {K}" if K else "") +
                      f"; particles a call in clusters of those sizes Σ n⟨N_n⟩ = {particles:.6g}{note}")
