@@ -6,6 +6,7 @@
 
 #include "core/backend/cuda/cluster.cuh"
 #include "stages/overlap_correct/correct_kernel.cuh"
+#include "stages/overlap_correct/dense_block.cuh"
 
 namespace ff::overlap {
 
@@ -160,6 +161,33 @@ std::size_t shared_tail_bytes(std::size_t n) {
     }
   }
   return cluster_fits(f, kClusterBlocks, threads_of<kClusterBlocks>, bytes, "overlap_correct: the shared-memory tail") ? bytes : 0;
+}
+
+// The dynamic shared memory of the dense block (dense_block.cuh) for n particles, set as its
+// kernel's limit; 0 where it does not take the run (n > kDenseMaxN, or the state does not fit
+// one block's shared memory beside the kernel's static arrays).
+template <class R>
+std::size_t dense_block_bytes(std::size_t n) {
+  if (n == 0 || n > kDenseMaxN) return 0;
+  int dev = 0, optin = 0;
+  FF_CUDA_CHECK(cudaGetDevice(&dev), "overlap_correct: current device");
+  FF_CUDA_CHECK(cudaDeviceGetAttribute(&optin, cudaDevAttrMaxSharedMemoryPerBlockOptin, dev),
+                "overlap_correct: shared memory per block");
+  void* f = reinterpret_cast<void*>(dense_kernel<R>);
+  cudaFuncAttributes attr = {};
+  FF_CUDA_CHECK(cudaFuncGetAttributes(&attr, f), "overlap_correct: the dense kernel's attributes");
+  const std::size_t bytes = DenseLayout<R>(n).bytes;
+  if (attr.sharedSizeBytes + bytes > std::size_t(optin) || attr.maxThreadsPerBlock < kDenseThreads) return 0;
+  // The limit belongs to the device's kernel and only grows (as shared_tail_bytes').
+  static std::mutex mutex;
+  static int limit[64] = {};
+  std::lock_guard<std::mutex> lock(mutex);
+  if (dev < 0 || dev >= 64 || int(bytes) > limit[dev]) {
+    FF_CUDA_CHECK(cudaFuncSetAttribute(f, cudaFuncAttributeMaxDynamicSharedMemorySize, int(bytes)),
+                  "overlap_correct: the dense block's shared memory");
+    if (dev >= 0 && dev < 64) limit[dev] = int(bytes);
+  }
+  return bytes;
 }
 
 template <class R, bool Walls, bool Mark>

@@ -1,0 +1,202 @@
+// overlap_correct for a small run alone on the GPU: one block keeps the whole correction in its
+// shared memory (positions, the 3n edges as pairs of 16-bit ids, the fixed-point sums) and runs
+// every iteration as a dense edge pass, Carter's Algorithm 2 as the CPU's edge pass runs it
+// (cpu.cpp): each edge tested on the current positions, each overlapping one adding its push to
+// both ends by shared atomics; then each touched particle finishes its sum and moves. No work
+// lists, fans, candidates or claims: at a few thousand particles an iteration of the team kernel
+// is a chain of dependent loads and barriers (bench/experiments/README.md, "What the small rows
+// need"), where here it is two block barriers and a pass of arithmetic over shared memory.
+//
+// The same bits as the other loops: the pushes are kernel.h's (Overlaps::edge's operations on
+// the device, pair_term, fixed_push), summed in fixed point (any order), finished by from_sum and
+// moved by moved_from; the counters are the CPU edge pass's (pairs and pairs beyond the
+// tolerance each once, |d_v| of every touched particle, corrupt records and the permutation
+// check of the next pointers in iteration 0), decided by keeps_going. Device code; included by
+// cuda.cu after correct_parts.cuh, compiled with -fmad=false as the other kernels.
+#pragma once
+#include "stages/overlap_correct/correct_parts.cuh"
+
+namespace ff::overlap {
+
+namespace {
+
+constexpr int kDenseThreads = 1024;
+// The largest run it takes: ids in 16 bits, and its state (~45 bytes a particle in double) in one
+// block's shared memory; the threshold where it stops beating the cluster team is measured
+// (bench/README.md, "Session 41").
+constexpr std::size_t kDenseMaxN = 4096;
+constexpr std::uint16_t kCorruptEdge = 0xFFFF;
+
+// The dynamic shared memory of n particles: positions (R x 2), sums (2 x u64), the edges' ends
+// (2 x 3 x u16) and the touched flags (u8), each part 16-byte aligned.
+template <class R>
+struct DenseLayout {
+  std::size_t pos = 0, qx, qy, ea, eb, touched, bytes;
+  __host__ __device__ static std::size_t up(std::size_t b) { return (b + 15) / 16 * 16; }
+  __host__ __device__ explicit DenseLayout(std::size_t n) {
+    qx = pos + up(2 * n * sizeof(R));
+    qy = qx + up(8 * n);
+    ea = qy + up(8 * n);
+    eb = ea + up(2 * 3 * n);
+    touched = eb + up(2 * 3 * n);
+    bytes = touched + up(n);
+  }
+};
+
+template <class R>
+__device__ __forceinline__ void load_shared_xy(const R* s_pos, int v, double& x, double& y) {
+  if constexpr (sizeof(R) == 8) {
+    const double2 p = reinterpret_cast<const double2*>(s_pos)[v];
+    x = p.x;
+    y = p.y;
+  } else {
+    const float2 p = reinterpret_cast<const float2*>(s_pos)[v];
+    x = double(p.x);
+    y = double(p.y);
+  }
+}
+
+// The block's sum of every thread's x into *acc (shared; zero before), by warps.
+__device__ __forceinline__ void add_to_block(u64* acc, u64 x) {
+  const u64 s = warp_sum(x);
+  if ((threadIdx.x & 31) == 0 && s) atomicAdd(acc, s);
+}
+
+template <class R>
+__global__ void __launch_bounds__(kDenseThreads, 1) dense_kernel(Args<R, false> a) {
+  extern __shared__ __align__(16) unsigned char s_mem[];
+  // By iteration parity (j & 1): iteration j zeroes those of j + 1 between its two barriers,
+  // after every thread read j − 1's.
+  __shared__ u64 s_pairs[2][2];  // kBad, kPairs of the edge pass
+  __shared__ u64 s_corr[2];      // kCorrection of the apply
+  __shared__ u64 s_load[3];      // corrupt records, the next pointers' mixes, their expected sum
+
+  const int n = int(a.p.n), edges = 3 * n;
+  const DenseLayout<R> at(std::size_t(a.p.n));
+  R* s_pos = reinterpret_cast<R*>(s_mem + at.pos);
+  u64* s_qx = reinterpret_cast<u64*>(s_mem + at.qx);
+  u64* s_qy = reinterpret_cast<u64*>(s_mem + at.qy);
+  std::uint16_t* s_ea = reinterpret_cast<std::uint16_t*>(s_mem + at.ea);
+  std::uint16_t* s_eb = reinterpret_cast<std::uint16_t*>(s_mem + at.eb);
+  std::uint8_t* s_touched = s_mem + at.touched;
+  const Overlaps<R, false>& ov = a.ov;
+  const int tid = int(threadIdx.x);
+
+  wait_for_previous_kernel();  // launched programmatically, as the teams (cuda.cu)
+  if (gate_closed(a.p)) {  // one gather that found nothing, and no move (Problem::gate)
+    if (tid < kCounters) a.result[tid] = 0;
+    if (tid == 0) a.result[std::size_t(kDeviceBatch) * kCounters] = 1;
+    return;
+  }
+  if (tid < 4) s_pairs[tid / 2][tid % 2] = 0;
+  if (tid < 2) s_corr[tid] = 0;
+  if (tid < 3) s_load[tid] = 0;
+  for (int v = tid; v < n; v += kDenseThreads) {
+    double x, y;
+    load_xy(a.p.pos, v, x, y);
+    s_pos[2 * v] = R(x);  // exact: widened from R
+    s_pos[2 * v + 1] = R(y);
+    s_qx[v] = s_qy[v] = 0;
+    s_touched[v] = 0;
+  }
+  // The edges' ends, checked as the CPU's edge pass checks them (Overlaps::edge): a corrupt
+  // record is counted and never read again; in a step's first launch the next pointers too.
+  const bool check = a.k0 == 0;
+  u64 corrupt = 0, mixes = 0, expected = 0;
+  for (int e = tid; e < edges; e += kDenseThreads) {
+    int ia, na, ib, nb;
+    load_edge(ov.he, std::size_t(e), ia, na, ib, nb);
+    const bool ends = unsigned(ia) < unsigned(n) && unsigned(ib) < unsigned(n) && ia != ib;
+    const bool nexts = !check || (unsigned(na) < 6u * unsigned(n) && unsigned(nb) < 6u * unsigned(n));
+    if (!ends || !nexts) {
+      s_ea[e] = kCorruptEdge;
+      ++corrupt;
+      continue;
+    }
+    s_ea[e] = std::uint16_t(ia);
+    s_eb[e] = std::uint16_t(ib);
+    if (check) mixes += mix(std::uint64_t(unsigned(na))) + mix(std::uint64_t(unsigned(nb)));
+  }
+  if (check)
+    for (int h = tid; h < 2 * edges; h += kDenseThreads) expected += mix(std::uint64_t(h));
+  __syncthreads();  // (the counters zeroed)
+  add_to_block(&s_load[0], corrupt);
+  add_to_block(&s_load[1], mixes);
+  add_to_block(&s_load[2], expected);
+  __syncthreads();
+  const u64 broken_first = s_load[0] + (check && s_load[1] != s_load[2] ? 1 : 0);
+  const u64 broken_later = s_load[0];
+
+  for (int j = 0; j < kDeviceBatch; ++j) {
+    const long long k = a.k0 + j;
+    const int p = j & 1;
+    // The edge pass.
+    u64 bad = 0, pairs = 0;
+    for (int e = tid; e < edges; e += kDenseThreads) {
+      const int ia = s_ea[e];
+      if (ia == kCorruptEdge) continue;
+      const int ib = s_eb[e];
+      double xa, ya, xb, yb;
+      load_shared_xy(s_pos, ia, xa, ya);
+      load_shared_xy(s_pos, ib, xb, yb);
+      const double rx = ov.min_image(xb - xa, 0), ry = ov.min_image(yb - ya, 1);
+      if (!(rx * rx + ry * ry < ov.reach2)) continue;  // σ_ab ≤ largest diameter
+      double tx, ty;
+      const PairOverlap o = pair_term(rx, ry, ov.diameter_of(ia), ov.diameter_of(ib), ov.factor, ov.tol, ia, ib, tx, ty);
+      if (o == kApart) continue;
+      const std::int64_t qx = -ov.fixed_push(tx), qy = -ov.fixed_push(ty);  // on a; on b −q
+      atomicAdd(&s_qx[ia], u64(qx));
+      atomicAdd(&s_qy[ia], u64(qy));
+      atomicAdd(&s_qx[ib], u64(-qx));
+      atomicAdd(&s_qy[ib], u64(-qy));
+      s_touched[ia] = 1;
+      s_touched[ib] = 1;
+      if (counted(o)) {
+        ++pairs;
+        if (o == kBeyond) ++bad;
+      }
+    }
+    add_to_block(&s_pairs[p][0], bad);
+    add_to_block(&s_pairs[p][1], pairs);
+    __syncthreads();  // every push summed, the pass's counters in
+    std::uint64_t row[kCounters] = {};
+    row[kBad] = s_pairs[p][0];
+    row[kPairs] = s_pairs[p][1];
+    row[kBroken] = j == 0 ? broken_first : broken_later;
+    if (!keeps_going(row, k, a.max_iterations)) {  // the same answer in every thread
+      if (tid < kCounters) a.result[std::size_t(j) * kCounters + tid] = row[tid];
+      if (tid == 0) a.result[std::size_t(kDeviceBatch) * kCounters] = u64(j + 1);
+      return;
+    }
+    if (tid < 2) s_pairs[p ^ 1][tid] = 0;
+    if (tid == 0) s_corr[p ^ 1] = 0;
+    // The apply: each touched particle's sum finished (capped) and moved, written through.
+    u64 corr = 0;
+    for (int v = tid; v < n; v += kDenseThreads) {
+      if (!s_touched[v]) continue;
+      s_touched[v] = 0;
+      const VertexPush q = ov.from_sum(v, std::int64_t(s_qx[v]), std::int64_t(s_qy[v]));
+      s_qx[v] = s_qy[v] = 0;
+      corr += ov.fixed_len(q.len);
+      if (q.dx == 0 && q.dy == 0) continue;
+      const double d[2] = {q.dx, q.dy};
+      R x[2];
+      int crossed[2];
+      moved_from<2>(s_pos + 2 * v, a.p.box, d, x, crossed);
+      s_pos[2 * v] = x[0];
+      s_pos[2 * v + 1] = x[1];
+      store_xy(a.p.pos, v, double(x[0]), double(x[1]));
+      if (crossed[0]) a.p.image[2 * v] += crossed[0];
+      if (crossed[1]) a.p.image[2 * v + 1] += crossed[1];
+    }
+    add_to_block(&s_corr[p], corr);
+    __syncthreads();  // every move in place, the correction summed
+    row[kCorrection] = s_corr[p];
+    if (tid < kCounters) a.result[std::size_t(j) * kCounters + tid] = row[tid];
+  }
+  if (tid == 0) a.result[std::size_t(kDeviceBatch) * kCounters] = u64(kDeviceBatch);
+}
+
+}  // namespace
+
+}  // namespace ff::overlap
