@@ -1,8 +1,8 @@
 // overlap_correct for a small run alone on the GPU: one block keeps the whole correction in its
 // shared memory (positions, the 3n edges as pairs of 16-bit ids, the fixed-point sums) and runs
 // every iteration as a dense edge pass, Carter's Algorithm 2 as the CPU's edge pass runs it
-// (cpu.cpp): each edge tested on the current positions, each overlapping one adding its push to
-// both ends by shared atomics; then each touched particle finishes its sum and moves. No work
+// (cpu.cpp): each edge tested on the current positions, each overlapping one pushing both ends;
+// then each touched particle finishes its sum and moves (the kernel's comment). No work
 // lists, fans, candidates or claims: at a few thousand particles an iteration of the team kernel
 // is a chain of dependent loads and barriers (bench/experiments/README.md, "What the small rows
 // need"), where here it is two block barriers and a pass of arithmetic over shared memory.
@@ -21,25 +21,29 @@ namespace ff::overlap {
 namespace {
 
 constexpr int kDenseThreads = 1024;
-// The largest run it takes: ids in 16 bits, and its state (~45 bytes a particle in double) in one
-// block's shared memory; the threshold where it stops beating the cluster team is measured
-// (bench/README.md, "Session 41").
-constexpr std::size_t kDenseMaxN = 4096;
+// The largest run it takes: ids and list entries in 16 bits, and its state (~100 bytes a particle
+// in double) in one block's shared memory.
+constexpr std::size_t kDenseMaxN = 2048;
 constexpr std::uint16_t kCorruptEdge = 0xFFFF;
+constexpr std::uint32_t kNoToken = 0xFFFFFFFFu;
+constexpr std::uint16_t kNoLink = 0xFFFF;
 
-// The dynamic shared memory of n particles: positions (R x 2), sums (2 x u64), the edges' ends
-// (2 x 3 x u16) and the touched flags (u8), each part 16-byte aligned.
+// The dynamic shared memory of n particles, each part 16-byte aligned: positions (R x 2), the
+// edges' ends (2 x 3n u16), an iteration's listed edges (3n u16), their pushes (3n x 2 int64),
+// the links of each listed pair's two ends (2 x 3n u16) and each particle's first link (n u32).
 template <class R>
 struct DenseLayout {
-  std::size_t pos = 0, qx, qy, ea, eb, touched, bytes;
+  std::size_t pos = 0, ea, eb, list, push, link, head, bytes;
   __host__ __device__ static std::size_t up(std::size_t b) { return (b + 15) / 16 * 16; }
   __host__ __device__ explicit DenseLayout(std::size_t n) {
-    qx = pos + up(2 * n * sizeof(R));
-    qy = qx + up(8 * n);
-    ea = qy + up(8 * n);
-    eb = ea + up(2 * 3 * n);
-    touched = eb + up(2 * 3 * n);
-    bytes = touched + up(n);
+    const std::size_t e = 3 * n;
+    ea = pos + up(2 * n * sizeof(R));
+    eb = ea + up(2 * e);
+    list = eb + up(2 * e);
+    push = list + up(2 * e);
+    link = push + up(16 * e);
+    head = link + up(2 * 2 * e);
+    bytes = head + up(4 * n);
   }
 };
 
@@ -62,25 +66,33 @@ __device__ __forceinline__ void add_to_block(u64* acc, u64 x) {
   if ((threadIdx.x & 31) == 0 && s) atomicAdd(acc, s);
 }
 
+// An iteration: (1) every thread tests its edges by the reach test (r² < the largest diameter²)
+// and lists those within reach, a warp's at once; (2) each listed edge gets its push (pair_term,
+// as Overlaps::edge on the device) and is linked into both ends' lists of pushes (one exchange
+// of a 32-bit head each: no 64-bit atomics, which sm_90's shared memory runs as spin loops);
+// (3) each touched particle sums its pushes in fixed point (any order: the same integer), is
+// finished (from_sum) and moved, written through to global memory. A block barrier after each.
 template <class R>
 __global__ void __launch_bounds__(kDenseThreads, 1) dense_kernel(Args<R, false> a) {
   extern __shared__ __align__(16) unsigned char s_mem[];
-  // By iteration parity (j & 1): iteration j zeroes those of j + 1 between its two barriers,
-  // after every thread read j − 1's.
-  __shared__ u64 s_pairs[2][2];  // kBad, kPairs of the edge pass
-  __shared__ u64 s_corr[2];      // kCorrection of the apply
+  // By iteration parity (j & 1): iteration j zeroes those of j + 1 between its second and third
+  // barriers, after every thread read j − 1's.
+  __shared__ u64 s_pairs[2][2];  // kBad, kPairs of the pushes
+  __shared__ u64 s_corr[2];      // kCorrection of the moves
+  __shared__ int s_listed[2];    // edges listed by the reach test
   __shared__ u64 s_load[3];      // corrupt records, the next pointers' mixes, their expected sum
 
   const int n = int(a.p.n), edges = 3 * n;
   const DenseLayout<R> at(std::size_t(a.p.n));
   R* s_pos = reinterpret_cast<R*>(s_mem + at.pos);
-  u64* s_qx = reinterpret_cast<u64*>(s_mem + at.qx);
-  u64* s_qy = reinterpret_cast<u64*>(s_mem + at.qy);
   std::uint16_t* s_ea = reinterpret_cast<std::uint16_t*>(s_mem + at.ea);
   std::uint16_t* s_eb = reinterpret_cast<std::uint16_t*>(s_mem + at.eb);
-  std::uint8_t* s_touched = s_mem + at.touched;
+  std::uint16_t* s_list = reinterpret_cast<std::uint16_t*>(s_mem + at.list);
+  longlong2* s_push = reinterpret_cast<longlong2*>(s_mem + at.push);
+  std::uint16_t* s_link = reinterpret_cast<std::uint16_t*>(s_mem + at.link);
+  std::uint32_t* s_head = reinterpret_cast<std::uint32_t*>(s_mem + at.head);
   const Overlaps<R, false>& ov = a.ov;
-  const int tid = int(threadIdx.x);
+  const int tid = int(threadIdx.x), lane = tid & 31;
 
   wait_for_previous_kernel();  // launched programmatically, as the teams (cuda.cu)
   if (gate_closed(a.p)) {  // one gather that found nothing, and no move (Problem::gate)
@@ -90,14 +102,14 @@ __global__ void __launch_bounds__(kDenseThreads, 1) dense_kernel(Args<R, false> 
   }
   if (tid < 4) s_pairs[tid / 2][tid % 2] = 0;
   if (tid < 2) s_corr[tid] = 0;
+  if (tid < 2) s_listed[tid] = 0;
   if (tid < 3) s_load[tid] = 0;
   for (int v = tid; v < n; v += kDenseThreads) {
     double x, y;
     load_xy(a.p.pos, v, x, y);
     s_pos[2 * v] = R(x);  // exact: widened from R
     s_pos[2 * v + 1] = R(y);
-    s_qx[v] = s_qy[v] = 0;
-    s_touched[v] = 0;
+    s_head[v] = kNoToken;
   }
   // The edges' ends, checked as the CPU's edge pass checks them (Overlaps::edge): a corrupt
   // record is counted and never read again; in a step's first launch the next pointers too.
@@ -126,31 +138,50 @@ __global__ void __launch_bounds__(kDenseThreads, 1) dense_kernel(Args<R, false> 
   __syncthreads();
   const u64 broken_first = s_load[0] + (check && s_load[1] != s_load[2] ? 1 : 0);
   const u64 broken_later = s_load[0];
+  const int rounds = (edges + kDenseThreads - 1) / kDenseThreads;  // the same in every thread
 
   for (int j = 0; j < kDeviceBatch; ++j) {
     const long long k = a.k0 + j;
     const int p = j & 1;
-    // The edge pass.
+    // (1) The reach test, every edge.
+    for (int r = 0; r < rounds; ++r) {
+      const int e = r * kDenseThreads + tid;
+      bool near = false;
+      if (e < edges) {
+        const int ia = s_ea[e];
+        if (ia != kCorruptEdge) {
+          double xa, ya, xb, yb;
+          load_shared_xy(s_pos, ia, xa, ya);
+          load_shared_xy(s_pos, s_eb[e], xb, yb);
+          const double rx = ov.min_image(xb - xa, 0), ry = ov.min_image(yb - ya, 1);
+          near = rx * rx + ry * ry < ov.reach2;
+        }
+      }
+      const unsigned m = __ballot_sync(0xffffffffu, near);
+      if (m) {
+        int base = 0;
+        if (lane == 0) base = atomicAdd(&s_listed[p], __popc(m));
+        base = __shfl_sync(0xffffffffu, base, 0);
+        if (near) s_list[base + __popc(m & ((1u << lane) - 1u))] = std::uint16_t(e);
+      }
+    }
+    __syncthreads();
+    // (2) The listed edges' pushes.
+    const int listed = s_listed[p];
     u64 bad = 0, pairs = 0;
-    for (int e = tid; e < edges; e += kDenseThreads) {
-      const int ia = s_ea[e];
-      if (ia == kCorruptEdge) continue;
-      const int ib = s_eb[e];
+    for (int i = tid; i < listed; i += kDenseThreads) {
+      const int e = s_list[i];
+      const int ia = s_ea[e], ib = s_eb[e];
       double xa, ya, xb, yb;
       load_shared_xy(s_pos, ia, xa, ya);
       load_shared_xy(s_pos, ib, xb, yb);
       const double rx = ov.min_image(xb - xa, 0), ry = ov.min_image(yb - ya, 1);
-      if (!(rx * rx + ry * ry < ov.reach2)) continue;  // σ_ab ≤ largest diameter
       double tx, ty;
       const PairOverlap o = pair_term(rx, ry, ov.diameter_of(ia), ov.diameter_of(ib), ov.factor, ov.tol, ia, ib, tx, ty);
       if (o == kApart) continue;
-      const std::int64_t qx = -ov.fixed_push(tx), qy = -ov.fixed_push(ty);  // on a; on b −q
-      atomicAdd(&s_qx[ia], u64(qx));
-      atomicAdd(&s_qy[ia], u64(qy));
-      atomicAdd(&s_qx[ib], u64(-qx));
-      atomicAdd(&s_qy[ib], u64(-qy));
-      s_touched[ia] = 1;
-      s_touched[ib] = 1;
+      s_push[i] = make_longlong2(-ov.fixed_push(tx), -ov.fixed_push(ty));  // on a; on b −q
+      s_link[2 * i] = std::uint16_t(atomicExch(&s_head[ia], std::uint32_t(2 * i)));
+      s_link[2 * i + 1] = std::uint16_t(atomicExch(&s_head[ib], std::uint32_t(2 * i + 1)));
       if (counted(o)) {
         ++pairs;
         if (o == kBeyond) ++bad;
@@ -158,7 +189,7 @@ __global__ void __launch_bounds__(kDenseThreads, 1) dense_kernel(Args<R, false> 
     }
     add_to_block(&s_pairs[p][0], bad);
     add_to_block(&s_pairs[p][1], pairs);
-    __syncthreads();  // every push summed, the pass's counters in
+    __syncthreads();  // every push linked, the counters in
     std::uint64_t row[kCounters] = {};
     row[kBad] = s_pairs[p][0];
     row[kPairs] = s_pairs[p][1];
@@ -170,13 +201,28 @@ __global__ void __launch_bounds__(kDenseThreads, 1) dense_kernel(Args<R, false> 
     }
     if (tid < 2) s_pairs[p ^ 1][tid] = 0;
     if (tid == 0) s_corr[p ^ 1] = 0;
-    // The apply: each touched particle's sum finished (capped) and moved, written through.
+    if (tid == 0) s_listed[p ^ 1] = 0;
+    // (3) The moves: each touched particle's pushes summed, finished (capped) and applied.
     u64 corr = 0;
     for (int v = tid; v < n; v += kDenseThreads) {
-      if (!s_touched[v]) continue;
-      s_touched[v] = 0;
-      const VertexPush q = ov.from_sum(v, std::int64_t(s_qx[v]), std::int64_t(s_qy[v]));
-      s_qx[v] = s_qy[v] = 0;
+      std::uint32_t t = s_head[v];
+      if (t == kNoToken) continue;
+      s_head[v] = kNoToken;
+      std::int64_t qx = 0, qy = 0;
+      while (true) {
+        const longlong2 q = s_push[t >> 1];
+        if (t & 1) {
+          qx -= q.x;
+          qy -= q.y;
+        } else {
+          qx += q.x;
+          qy += q.y;
+        }
+        const std::uint16_t next = s_link[t];
+        if (next == kNoLink) break;
+        t = next;
+      }
+      const VertexPush q = ov.from_sum(v, qx, qy);
       corr += ov.fixed_len(q.len);
       if (q.dx == 0 && q.dy == 0) continue;
       const double d[2] = {q.dx, q.dy};
