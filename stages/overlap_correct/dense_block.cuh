@@ -27,6 +27,7 @@ constexpr std::size_t kDenseMaxN = 2048;
 constexpr std::uint16_t kCorruptEdge = 0xFFFF;
 constexpr std::uint32_t kNoToken = 0xFFFFFFFFu;
 constexpr std::uint16_t kNoLink = 0xFFFF;
+constexpr int kDenseRounds = int((3 * kDenseMaxN + kDenseThreads - 1) / kDenseThreads);  // edges a thread tests
 
 // The dynamic shared memory of n particles, each part 16-byte aligned: positions (R x 2), the
 // edges' ends (2 x 3n u16), an iteration's listed edges (3n u16), their pushes (3n x 2 int64),
@@ -60,10 +61,19 @@ __device__ __forceinline__ void load_shared_xy(const R* s_pos, int v, double& x,
   }
 }
 
-// The block's sum of every thread's x into *acc (shared; zero before), by warps.
-__device__ __forceinline__ void add_to_block(u64* acc, u64 x) {
+// The block's sums by warps: warp w's sum of each thread's x goes to slot[w] (a plain store: a
+// 64-bit atomic add on shared memory is a compare-and-swap spin loop on sm_90, and 32 warps on
+// one word serialise on it); after a barrier, block_total adds the 32 slots in any thread.
+constexpr int kDenseWarps = kDenseThreads / 32;
+__device__ __forceinline__ void warp_slot(u64* slot, u64 x) {
   const u64 s = warp_sum(x);
-  if ((threadIdx.x & 31) == 0 && s) atomicAdd(acc, s);
+  if ((threadIdx.x & 31) == 0) slot[threadIdx.x >> 5] = s;
+}
+__device__ __forceinline__ u64 block_total(const u64* slot) {
+  u64 s = 0;
+#pragma unroll
+  for (int w = 0; w < kDenseWarps; ++w) s += slot[w];
+  return s;
 }
 
 // An iteration: (1) every thread tests its edges by the reach test (r² < the largest diameter²)
@@ -75,12 +85,12 @@ __device__ __forceinline__ void add_to_block(u64* acc, u64 x) {
 template <class R>
 __global__ void __launch_bounds__(kDenseThreads, 1) dense_kernel(Args<R, false> a) {
   extern __shared__ __align__(16) unsigned char s_mem[];
-  // By iteration parity (j & 1): iteration j zeroes those of j + 1 between its second and third
-  // barriers, after every thread read j − 1's.
-  __shared__ u64 s_pairs[2][2];  // kBad, kPairs of the pushes
-  __shared__ u64 s_corr[2];      // kCorrection of the moves
-  __shared__ int s_listed[2];    // edges listed by the reach test
-  __shared__ u64 s_load[3];      // corrupt records, the next pointers' mixes, their expected sum
+  // By iteration parity (j & 1): an iteration's slots are read after the barrier that follows
+  // their stores, and stored again two iterations later. s_listed[p ^ 1] is zeroed by iteration j
+  // between its second and third barriers, after every thread read j − 1's.
+  __shared__ u64 s_red[2][3][kDenseWarps];  // by warp: kBad, kPairs of the pushes, kCorrection of the moves
+  __shared__ int s_listed[2];               // edges listed by the reach test
+  __shared__ u64 s_load[3][kDenseWarps];    // by warp: corrupt records, the next pointers' mixes, their expected sum
 
   const int n = int(a.p.n), edges = 3 * n;
   const DenseLayout<R> at(std::size_t(a.p.n));
@@ -100,10 +110,7 @@ __global__ void __launch_bounds__(kDenseThreads, 1) dense_kernel(Args<R, false> 
     if (tid == 0) a.result[std::size_t(kDeviceBatch) * kCounters] = 1;
     return;
   }
-  if (tid < 4) s_pairs[tid / 2][tid % 2] = 0;
-  if (tid < 2) s_corr[tid] = 0;
   if (tid < 2) s_listed[tid] = 0;
-  if (tid < 3) s_load[tid] = 0;
   for (int v = tid; v < n; v += kDenseThreads) {
     double x, y;
     load_xy(a.p.pos, v, x, y);
@@ -131,38 +138,44 @@ __global__ void __launch_bounds__(kDenseThreads, 1) dense_kernel(Args<R, false> 
   }
   if (check)
     for (int h = tid; h < 2 * edges; h += kDenseThreads) expected += mix(std::uint64_t(h));
-  __syncthreads();  // (the counters zeroed)
-  add_to_block(&s_load[0], corrupt);
-  add_to_block(&s_load[1], mixes);
-  add_to_block(&s_load[2], expected);
+  warp_slot(s_load[0], corrupt);
+  warp_slot(s_load[1], mixes);
+  warp_slot(s_load[2], expected);
   __syncthreads();
-  const u64 broken_first = s_load[0] + (check && s_load[1] != s_load[2] ? 1 : 0);
-  const u64 broken_later = s_load[0];
+  const u64 broken_later = block_total(s_load[0]);
+  const u64 broken_first = broken_later + (check && block_total(s_load[1]) != block_total(s_load[2]) ? 1 : 0);
   const int rounds = (edges + kDenseThreads - 1) / kDenseThreads;  // the same in every thread
 
   for (int j = 0; j < kDeviceBatch; ++j) {
     const long long k = a.k0 + j;
     const int p = j & 1;
-    // (1) The reach test, every edge.
-    for (int r = 0; r < rounds; ++r) {
+    // (1) The reach test, every edge: all of a thread's edges first (independent chains), then
+    // their listing, a warp's at once.
+    bool near[kDenseRounds];
+#pragma unroll
+    for (int r = 0; r < kDenseRounds; ++r) {
       const int e = r * kDenseThreads + tid;
-      bool near = false;
-      if (e < edges) {
+      near[r] = false;
+      if (r < rounds && e < edges) {
         const int ia = s_ea[e];
         if (ia != kCorruptEdge) {
           double xa, ya, xb, yb;
           load_shared_xy(s_pos, ia, xa, ya);
           load_shared_xy(s_pos, s_eb[e], xb, yb);
           const double rx = ov.min_image(xb - xa, 0), ry = ov.min_image(yb - ya, 1);
-          near = rx * rx + ry * ry < ov.reach2;
+          near[r] = rx * rx + ry * ry < ov.reach2;
         }
       }
-      const unsigned m = __ballot_sync(0xffffffffu, near);
+    }
+#pragma unroll
+    for (int r = 0; r < kDenseRounds; ++r) {
+      if (r >= rounds) break;
+      const unsigned m = __ballot_sync(0xffffffffu, near[r]);
       if (m) {
         int base = 0;
         if (lane == 0) base = atomicAdd(&s_listed[p], __popc(m));
         base = __shfl_sync(0xffffffffu, base, 0);
-        if (near) s_list[base + __popc(m & ((1u << lane) - 1u))] = std::uint16_t(e);
+        if (near[r]) s_list[base + __popc(m & ((1u << lane) - 1u))] = std::uint16_t(r * kDenseThreads + tid);
       }
     }
     __syncthreads();
@@ -187,20 +200,18 @@ __global__ void __launch_bounds__(kDenseThreads, 1) dense_kernel(Args<R, false> 
         if (o == kBeyond) ++bad;
       }
     }
-    add_to_block(&s_pairs[p][0], bad);
-    add_to_block(&s_pairs[p][1], pairs);
+    warp_slot(s_red[p][0], bad);
+    warp_slot(s_red[p][1], pairs);
     __syncthreads();  // every push linked, the counters in
     std::uint64_t row[kCounters] = {};
-    row[kBad] = s_pairs[p][0];
-    row[kPairs] = s_pairs[p][1];
+    row[kBad] = block_total(s_red[p][0]);
+    row[kPairs] = block_total(s_red[p][1]);
     row[kBroken] = j == 0 ? broken_first : broken_later;
     if (!keeps_going(row, k, a.max_iterations)) {  // the same answer in every thread
       if (tid < kCounters) a.result[std::size_t(j) * kCounters + tid] = row[tid];
       if (tid == 0) a.result[std::size_t(kDeviceBatch) * kCounters] = u64(j + 1);
       return;
     }
-    if (tid < 2) s_pairs[p ^ 1][tid] = 0;
-    if (tid == 0) s_corr[p ^ 1] = 0;
     if (tid == 0) s_listed[p ^ 1] = 0;
     // (3) The moves: each touched particle's pushes summed, finished (capped) and applied.
     u64 corr = 0;
@@ -235,9 +246,9 @@ __global__ void __launch_bounds__(kDenseThreads, 1) dense_kernel(Args<R, false> 
       if (crossed[0]) a.p.image[2 * v] += crossed[0];
       if (crossed[1]) a.p.image[2 * v + 1] += crossed[1];
     }
-    add_to_block(&s_corr[p], corr);
+    warp_slot(s_red[p][2], corr);
     __syncthreads();  // every move in place, the correction summed
-    row[kCorrection] = s_corr[p];
+    row[kCorrection] = block_total(s_red[p][2]);
     if (tid < kCounters) a.result[std::size_t(j) * kCounters + tid] = row[tid];
   }
   if (tid == 0) a.result[std::size_t(kDeviceBatch) * kCounters] = u64(kDeviceBatch);
