@@ -63,18 +63,15 @@ __device__ __forceinline__ void load_shared_xy(const R* s_pos, int v, double& x,
 
 // The block's sums by warps: warp w's sum of each thread's x goes to slot[w] (a plain store: a
 // 64-bit atomic add on shared memory is a compare-and-swap spin loop on sm_90, and 32 warps on
-// one word serialise on it); after a barrier, block_total adds the 32 slots in any thread.
+// one word serialise on it); after a barrier, warp 0 adds the 32 slots (block_total, in every
+// lane of warp 0). The decisions need only whether a count is zero: __syncthreads_or.
 constexpr int kDenseWarps = kDenseThreads / 32;
+static_assert(kDenseWarps == 32, "block_total: a lane a warp");
 __device__ __forceinline__ void warp_slot(u64* slot, u64 x) {
   const u64 s = warp_sum(x);
   if ((threadIdx.x & 31) == 0) slot[threadIdx.x >> 5] = s;
 }
-__device__ __forceinline__ u64 block_total(const u64* slot) {
-  u64 s = 0;
-#pragma unroll
-  for (int w = 0; w < kDenseWarps; ++w) s += slot[w];
-  return s;
-}
+__device__ __forceinline__ u64 block_total(const u64* slot) { return warp_sum(slot[threadIdx.x & 31]); }
 
 // An iteration: (1) every thread tests its edges by the reach test (r² < the largest diameter²)
 // and lists those within reach, a warp's at once; (2) each listed edge gets its push (pair_term,
@@ -91,6 +88,7 @@ __global__ void __launch_bounds__(kDenseThreads, 1) dense_kernel(Args<R, false> 
   __shared__ u64 s_red[2][3][kDenseWarps];  // by warp: kBad, kPairs of the pushes, kCorrection of the moves
   __shared__ int s_listed[2];               // edges listed by the reach test
   __shared__ u64 s_load[3][kDenseWarps];    // by warp: corrupt records, the next pointers' mixes, their expected sum
+  __shared__ u64 s_broken[2];               // kBroken of the first iteration, and of the others
 
   const int n = int(a.p.n), edges = 3 * n;
   const DenseLayout<R> at(std::size_t(a.p.n));
@@ -142,8 +140,14 @@ __global__ void __launch_bounds__(kDenseThreads, 1) dense_kernel(Args<R, false> 
   warp_slot(s_load[1], mixes);
   warp_slot(s_load[2], expected);
   __syncthreads();
-  const u64 broken_later = block_total(s_load[0]);
-  const u64 broken_first = broken_later + (check && block_total(s_load[1]) != block_total(s_load[2]) ? 1 : 0);
+  if (tid < 32) {  // warp 0: the broken count, for every thread
+    const u64 c = block_total(s_load[0]);
+    const u64 h = block_total(s_load[1]), x = block_total(s_load[2]);
+    if (tid == 0) s_broken[0] = c + (check && h != x ? 1 : 0);
+    if (tid == 0) s_broken[1] = c;
+  }
+  __syncthreads();
+  const u64 broken_first = s_broken[0], broken_later = s_broken[1];
   const int rounds = (edges + kDenseThreads - 1) / kDenseThreads;  // the same in every thread
 
   for (int j = 0; j < kDeviceBatch; ++j) {
@@ -202,13 +206,24 @@ __global__ void __launch_bounds__(kDenseThreads, 1) dense_kernel(Args<R, false> 
     }
     warp_slot(s_red[p][0], bad);
     warp_slot(s_red[p][1], pairs);
-    __syncthreads();  // every push linked, the counters in
-    std::uint64_t row[kCounters] = {};
-    row[kBad] = block_total(s_red[p][0]);
-    row[kPairs] = block_total(s_red[p][1]);
-    row[kBroken] = j == 0 ? broken_first : broken_later;
-    if (!keeps_going(row, k, a.max_iterations)) {  // the same answer in every thread
-      if (tid < kCounters) a.result[std::size_t(j) * kCounters + tid] = row[tid];
+    // Every push linked, the counters in; keeps_going's answer, the same in every thread.
+    const bool any_bad = __syncthreads_or(bad != 0);
+    const u64 broken = j == 0 ? broken_first : broken_later;
+    const bool go = broken == 0 && any_bad && k < a.max_iterations;
+    // The iteration's row of counters (warp 0), stored to result after the moves (or now).
+    u64 row_bad = 0, row_pairs = 0;
+    if (tid < 32) {
+      row_bad = block_total(s_red[p][0]);
+      row_pairs = block_total(s_red[p][1]);
+    }
+    auto store_row = [&](u64 correction) {
+      if (tid >= kCounters) return;
+      const u64 c = tid == kBad ? row_bad : tid == kPairs ? row_pairs : tid == kBroken ? broken
+                  : tid == kCorrection ? correction : 0;
+      a.result[std::size_t(j) * kCounters + tid] = c;
+    };
+    if (!go) {
+      store_row(0);
       if (tid == 0) a.result[std::size_t(kDeviceBatch) * kCounters] = u64(j + 1);
       return;
     }
@@ -248,8 +263,7 @@ __global__ void __launch_bounds__(kDenseThreads, 1) dense_kernel(Args<R, false> 
     }
     warp_slot(s_red[p][2], corr);
     __syncthreads();  // every move in place, the correction summed
-    row[kCorrection] = block_total(s_red[p][2]);
-    if (tid < kCounters) a.result[std::size_t(j) * kCounters + tid] = row[tid];
+    if (tid < 32) store_row(block_total(s_red[p][2]));
   }
   if (tid == 0) a.result[std::size_t(kDeviceBatch) * kCounters] = u64(kDeviceBatch);
 }
