@@ -1,8 +1,7 @@
 #!/bin/bash
 # Session 41, call 6 (nvidia-h200): ncu of the dense kernel after call 5 (warp-slot sums), with
-# the densest stall sampling, three launches, at 1 024 and 4 096 particles (4 096: the cluster).
-# launch 120 steps in: stall reasons, instruction mix, per-instruction samples) and its SASS
-# (are the shared 64-bit atomics native or CAS loops?).
+# the densest stall sampling, three launches 120 steps in, at 1 024 and 2 048 particles: stall
+# reasons, instruction mix, per-instruction samples; and its SASS.
 #   bash bench/experiments/session41/s41c6.sh gpu-carry/BUNDLE.tar.gz   carry: gpu-carry
 source tools/gpu/call_lib.sh "${2:-s41c6}" "$1"
 ncu=$(command -v ncu || ls /usr/local/cuda*/bin/ncu /opt/nvidia/nsight-compute/*/ncu 2>/dev/null | head -n 1)
