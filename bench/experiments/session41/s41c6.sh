@@ -11,9 +11,12 @@ echo "ncu: $ncu cuobjdump: $objdump" >> $I
   awk '/Function : .*dense_kernelId/ {p=1} p && /Function : / && !/dense_kernelId/ {p=0} p' > "$O/dense-sass.txt"
 grep -c ATOMS "$O/dense-sass.txt" >> $I; grep -o "ATOMS[.A-Z0-9]*" "$O/dense-sass.txt" | sort | uniq -c >> $I
 step sass 0
+"$ncu" --help 2>&1 | grep -i -A2 "sampling" > "$O/ncu-help.txt"
+samp=$(grep -o -- "--warp-sampling-interval" "$O/ncu-help.txt" | head -1)
+echo "sampling option: ${samp:-none}" >> $I
 for n in 1024 2048; do
   timeout 200 "$ncu" --target-processes all --clock-control none -k regex:dense_kernel \
-    --launch-skip 120 --launch-count 3 --sampling-interval 0 \
+    --launch-skip 120 --launch-count 3 ${samp:+$samp 0} \
     --section LaunchStats --section Occupancy --section SchedulerStats --section WarpStateStats \
     --section InstructionStats --section SpeedOfLight --section SourceCounters \
     -f -o "$O/dense-$n" "$B/bin/pipeline" bench "$B/pipelines/bench-abp.yaml" --device cuda --sizes "$n" \
