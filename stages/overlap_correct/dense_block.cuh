@@ -31,10 +31,11 @@ constexpr int kDenseRounds = int((3 * kDenseMaxN + kDenseThreads - 1) / kDenseTh
 
 // The dynamic shared memory of n particles, each part 16-byte aligned: positions (R x 2), the
 // edges' ends (2 x 3n u16), an iteration's listed edges (3n u16), their pushes (3n x 2 int64),
-// the links of each listed pair's two ends (2 x 3n u16) and each particle's first link (n u32).
+// the links of each listed pair's two ends (2 x 3n u16), each particle's first link (n u32), the
+// iteration after its last move (n u8) and each edge's last reach test (3n u8).
 template <class R>
 struct DenseLayout {
-  std::size_t pos = 0, ea, eb, list, push, link, head, bytes;
+  std::size_t pos = 0, ea, eb, list, push, link, head, stamp, near, bytes;
   __host__ __device__ static std::size_t up(std::size_t b) { return (b + 15) / 16 * 16; }
   __host__ __device__ explicit DenseLayout(std::size_t n) {
     const std::size_t e = 3 * n;
@@ -44,7 +45,9 @@ struct DenseLayout {
     push = list + up(2 * e);
     link = push + up(16 * e);
     head = link + up(2 * 2 * e);
-    bytes = head + up(4 * n);
+    stamp = head + up(4 * n);
+    near = stamp + up(n);
+    bytes = near + up(e);
   }
 };
 
@@ -89,6 +92,7 @@ __global__ void __launch_bounds__(kDenseThreads, 1) dense_kernel(Args<R, false> 
   __shared__ int s_listed[2];               // edges listed by the reach test
   __shared__ u64 s_load[3][kDenseWarps];    // by warp: corrupt records, the next pointers' mixes, their expected sum
   __shared__ u64 s_broken[2];               // kBroken of the first iteration, and of the others
+  __shared__ u64 s_rows[kRowsHeld][kTouched];  // warp 0: the rows of the iterations not yet in result
 
   const int n = int(a.p.n), edges = 3 * n;
   const DenseLayout<R> at(std::size_t(a.p.n));
@@ -99,6 +103,8 @@ __global__ void __launch_bounds__(kDenseThreads, 1) dense_kernel(Args<R, false> 
   longlong2* s_push = reinterpret_cast<longlong2*>(s_mem + at.push);
   std::uint16_t* s_link = reinterpret_cast<std::uint16_t*>(s_mem + at.link);
   std::uint32_t* s_head = reinterpret_cast<std::uint32_t*>(s_mem + at.head);
+  std::uint8_t* s_stamp = s_mem + at.stamp;
+  std::uint8_t* s_near = s_mem + at.near;
   const Overlaps<R, false>& ov = a.ov;
   const int tid = int(threadIdx.x), lane = tid & 31;
 
@@ -115,6 +121,7 @@ __global__ void __launch_bounds__(kDenseThreads, 1) dense_kernel(Args<R, false> 
     s_pos[2 * v] = R(x);  // exact: widened from R
     s_pos[2 * v + 1] = R(y);
     s_head[v] = kNoToken;
+    s_stamp[v] = 0;
   }
   // The edges' ends, checked as the CPU's edge pass checks them (Overlaps::edge): a corrupt
   // record is counted and never read again; in a step's first launch the next pointers too.
@@ -154,7 +161,9 @@ __global__ void __launch_bounds__(kDenseThreads, 1) dense_kernel(Args<R, false> 
     const long long k = a.k0 + j;
     const int p = j & 1;
     // (1) The reach test, every edge: all of a thread's edges first (independent chains), then
-    // their listing, a warp's at once.
+    // their listing, a warp's at once. An edge neither of whose ends moved in the last iteration
+    // keeps that iteration's answer (the same positions, the same test).
+    const std::uint8_t moved_last = std::uint8_t(j);  // the stamp of a move in iteration j − 1
     bool near[kDenseRounds];
 #pragma unroll
     for (int r = 0; r < kDenseRounds; ++r) {
@@ -163,11 +172,17 @@ __global__ void __launch_bounds__(kDenseThreads, 1) dense_kernel(Args<R, false> 
       if (r < rounds && e < edges) {
         const int ia = s_ea[e];
         if (ia != kCorruptEdge) {
-          double xa, ya, xb, yb;
-          load_shared_xy(s_pos, ia, xa, ya);
-          load_shared_xy(s_pos, s_eb[e], xb, yb);
-          const double rx = ov.min_image(xb - xa, 0), ry = ov.min_image(yb - ya, 1);
-          near[r] = rx * rx + ry * ry < ov.reach2;
+          const int ib = s_eb[e];
+          if (j == 0 || s_stamp[ia] == moved_last || s_stamp[ib] == moved_last) {
+            double xa, ya, xb, yb;
+            load_shared_xy(s_pos, ia, xa, ya);
+            load_shared_xy(s_pos, ib, xb, yb);
+            const double rx = ov.min_image(xb - xa, 0), ry = ov.min_image(yb - ya, 1);
+            near[r] = rx * rx + ry * ry < ov.reach2;
+            s_near[e] = std::uint8_t(near[r]);
+          } else {
+            near[r] = s_near[e] != 0;
+          }
         }
       }
     }
@@ -216,14 +231,17 @@ __global__ void __launch_bounds__(kDenseThreads, 1) dense_kernel(Args<R, false> 
       row_bad = block_total(s_red[p][0]);
       row_pairs = block_total(s_red[p][1]);
     }
-    auto store_row = [&](u64 correction) {
-      if (tid >= kCounters) return;
-      const u64 c = tid == kBad ? row_bad : tid == kPairs ? row_pairs : tid == kBroken ? broken
-                  : tid == kCorrection ? correction : 0;
-      a.result[std::size_t(j) * kCounters + tid] = c;
+    // Warp 0 holds the row in shared memory and stores a run of kRowsHeld rows to result
+    // (pinned host memory) at once: a store over the bus each iteration held warp 0, and the
+    // next barrier with it.
+    auto keep_row = [&](u64 correction) {
+      if (tid >= kTouched) return;
+      s_rows[j % kRowsHeld][tid] = tid == kBad ? row_bad : tid == kPairs ? row_pairs : tid == kBroken ? broken : correction;
+      if ((j + 1) % kRowsHeld == 0) store_held_rows<kTouched>(a.result, s_rows, j + 1);
     };
     if (!go) {
-      store_row(0);
+      keep_row(0);
+      if (tid < kTouched && (j + 1) % kRowsHeld != 0) store_held_rows<kTouched>(a.result, s_rows, j + 1);
       if (tid == 0) a.result[std::size_t(kDeviceBatch) * kCounters] = u64(j + 1);
       return;
     }
@@ -255,6 +273,7 @@ __global__ void __launch_bounds__(kDenseThreads, 1) dense_kernel(Args<R, false> 
       R x[2];
       int crossed[2];
       moved_from<2>(s_pos + 2 * v, a.p.box, d, x, crossed);
+      s_stamp[v] = std::uint8_t(j + 1);
       s_pos[2 * v] = x[0];
       s_pos[2 * v + 1] = x[1];
       store_xy(a.p.pos, v, double(x[0]), double(x[1]));
@@ -263,9 +282,13 @@ __global__ void __launch_bounds__(kDenseThreads, 1) dense_kernel(Args<R, false> 
     }
     warp_slot(s_red[p][2], corr);
     __syncthreads();  // every move in place, the correction summed
-    if (tid < 32) store_row(block_total(s_red[p][2]));
+    if (tid < 32) {
+      const u64 correction = block_total(s_red[p][2]);
+      keep_row(correction);
+    }
   }
   if (tid == 0) a.result[std::size_t(kDeviceBatch) * kCounters] = u64(kDeviceBatch);
+  static_assert(kDeviceBatch % kRowsHeld == 0, "the last run of held rows is full");
 }
 
 }  // namespace
