@@ -9,7 +9,7 @@ mkdir -p /tmp/oldp && tar -xzf "$2" -C /tmp/oldp
 OLD=$(shadow old /tmp/oldp)
 declare -A D=([main]=$B [old]=$OLD)
 for r in 1 2 3; do
-  for v in main old; do bench_abp $v r$r --sizes 1024,2048,4096 --steps 200 --warmup 20; done
+  for v in main old; do bench_abp $v r$r --sizes ${SIZES:-1024,2048,4096} --steps 200 --warmup 20; done
 done
 [[ ${SKIP_TESTS:-0} == 1 ]] || { TEST_TIMEOUT=240 correction_tests main; tests "$B" "$O/errors.txt" test_overlap_correct_errors; step errors 0; }
 echo done t=$SECONDS >> $I; pack
