@@ -28,30 +28,23 @@ constexpr std::uint16_t kCorruptEdge = 0xFFFF;
 constexpr std::uint32_t kNoToken = 0xFFFFFFFFu;
 constexpr std::uint16_t kNoLink = 0xFFFF;
 constexpr int kDenseRounds = int((3 * kDenseMaxN + kDenseThreads - 1) / kDenseThreads);  // edges a thread tests
-constexpr int kDenseGroup = 8;  // lanes that test one moved particle's edges
 
 // The dynamic shared memory of n particles, each part 16-byte aligned: positions (R x 2), the
-// edges' ends (2 x 3n u16), each particle's edges (off: n u32, the end of each particle's range;
-// adj: 2 x 3n u16), the listed edges of two iterations (2 x 3n u16), their pushes (3n x 2 int64),
-// the links of each listed pair's two ends (2 x 3n u16), each particle's first link (n u32), the
-// particles moved by an iteration (n u16) and the iteration after each one's last move (n u8).
+// edges' ends (2 x 3n u16), an iteration's listed edges (3n u16), their pushes (3n x 2 int64),
+// the links of each listed pair's two ends (2 x 3n u16) and each particle's first link (n u32).
 template <class R>
 struct DenseLayout {
-  std::size_t pos = 0, ea, eb, off, adj, list, push, link, head, moved, stamp, bytes;
+  std::size_t pos = 0, ea, eb, list, push, link, head, bytes;
   __host__ __device__ static std::size_t up(std::size_t b) { return (b + 15) / 16 * 16; }
   __host__ __device__ explicit DenseLayout(std::size_t n) {
     const std::size_t e = 3 * n;
     ea = pos + up(2 * n * sizeof(R));
     eb = ea + up(2 * e);
-    off = eb + up(2 * e);
-    adj = off + up(4 * n);
-    list = adj + up(2 * 2 * e);
-    push = list + up(2 * 2 * e);
+    list = eb + up(2 * e);
+    push = list + up(2 * e);
     link = push + up(16 * e);
     head = link + up(2 * 2 * e);
-    moved = head + up(4 * n);
-    stamp = moved + up(2 * n);
-    bytes = stamp + up(n);
+    bytes = head + up(4 * n);
   }
 };
 
@@ -80,45 +73,35 @@ __device__ __forceinline__ void warp_slot(u64* slot, u64 x) {
 }
 __device__ __forceinline__ u64 block_total(const u64* slot) { return warp_sum(slot[threadIdx.x & 31]); }
 
-// An iteration: (1) the edges within reach (r² < the largest diameter²) are listed: in a
-// launch's first iteration by testing every edge; after it, an edge keeps its last answer unless
-// an end moved in the last iteration, so only the moved particles' edges are tested again (from
-// one end: the lower-index one where both moved) and the last list's others are carried over;
-// (2) each listed edge gets its push (pair_term, as Overlaps::edge on the device) and is linked
-// into both ends' lists of pushes (one exchange of a 32-bit head each: no 64-bit atomics, which
-// sm_90's shared memory runs as spin loops); (3) each touched particle sums its pushes in fixed
-// point (any order: the same integer), is finished (from_sum) and moved, written through to
-// global memory. A block barrier after each.
+// An iteration: (1) every thread tests its edges by the reach test (r² < the largest diameter²)
+// and lists those within reach, a warp's at once; (2) each listed edge gets its push (pair_term,
+// as Overlaps::edge on the device) and is linked into both ends' lists of pushes (one exchange
+// of a 32-bit head each: no 64-bit atomics, which sm_90's shared memory runs as spin loops);
+// (3) each touched particle sums its pushes in fixed point (any order: the same integer), is
+// finished (from_sum) and moved, written through to global memory. A block barrier after each.
 template <class R>
 __global__ void __launch_bounds__(kDenseThreads, 1) dense_kernel(Args<R, false> a) {
   extern __shared__ __align__(16) unsigned char s_mem[];
   // By iteration parity (j & 1): an iteration's slots are read after the barrier that follows
-  // their stores, and stored again two iterations later. The counts s_listed[p ^ 1] and
-  // s_moved[p ^ 1] are zeroed by iteration j after its first barrier (iteration j − 1's were
-  // read before it).
+  // their stores, and stored again two iterations later. s_listed[p ^ 1] is zeroed by iteration j
+  // between its second and third barriers, after every thread read j − 1's.
   __shared__ u64 s_red[2][3][kDenseWarps];  // by warp: kBad, kPairs of the pushes, kCorrection of the moves
-  __shared__ int s_listed[2];               // edges listed in (1)
-  __shared__ int s_nmoved[2];               // particles moved in (3)
+  __shared__ int s_listed[2];               // edges listed by the reach test
   __shared__ u64 s_load[3][kDenseWarps];    // by warp: corrupt records, the next pointers' mixes, their expected sum
   __shared__ u64 s_broken[2];               // kBroken of the first iteration, and of the others
   __shared__ u64 s_rows[kRowsHeld][kTouched];  // warp 0: the rows of the iterations not yet in result
-  __shared__ int s_warp[kDenseWarps];       // the scan of the particles' edge counts
 
   const int n = int(a.p.n), edges = 3 * n;
   const DenseLayout<R> at(std::size_t(a.p.n));
   R* s_pos = reinterpret_cast<R*>(s_mem + at.pos);
   std::uint16_t* s_ea = reinterpret_cast<std::uint16_t*>(s_mem + at.ea);
   std::uint16_t* s_eb = reinterpret_cast<std::uint16_t*>(s_mem + at.eb);
-  std::uint32_t* s_off = reinterpret_cast<std::uint32_t*>(s_mem + at.off);
-  std::uint16_t* s_adj = reinterpret_cast<std::uint16_t*>(s_mem + at.adj);
-  std::uint16_t* s_lists = reinterpret_cast<std::uint16_t*>(s_mem + at.list);  // two of `edges`
+  std::uint16_t* s_list = reinterpret_cast<std::uint16_t*>(s_mem + at.list);
   longlong2* s_push = reinterpret_cast<longlong2*>(s_mem + at.push);
   std::uint16_t* s_link = reinterpret_cast<std::uint16_t*>(s_mem + at.link);
   std::uint32_t* s_head = reinterpret_cast<std::uint32_t*>(s_mem + at.head);
-  std::uint16_t* s_moved = reinterpret_cast<std::uint16_t*>(s_mem + at.moved);
-  std::uint8_t* s_stamp = s_mem + at.stamp;
   const Overlaps<R, false>& ov = a.ov;
-  const int tid = int(threadIdx.x), lane = tid & 31, warp = tid >> 5;
+  const int tid = int(threadIdx.x), lane = tid & 31;
 
   wait_for_previous_kernel();  // launched programmatically, as the teams (cuda.cu)
   if (gate_closed(a.p)) {  // one gather that found nothing, and no move (Problem::gate)
@@ -126,17 +109,14 @@ __global__ void __launch_bounds__(kDenseThreads, 1) dense_kernel(Args<R, false> 
     if (tid == 0) a.result[std::size_t(kDeviceBatch) * kCounters] = 1;
     return;
   }
-  if (tid < 2) s_listed[tid] = s_nmoved[tid] = 0;
+  if (tid < 2) s_listed[tid] = 0;
   for (int v = tid; v < n; v += kDenseThreads) {
     double x, y;
     load_xy(a.p.pos, v, x, y);
     s_pos[2 * v] = R(x);  // exact: widened from R
     s_pos[2 * v + 1] = R(y);
     s_head[v] = kNoToken;
-    s_stamp[v] = 0;
-    s_off[v] = 0;
   }
-  __syncthreads();  // (s_off zeroed)
   // The edges' ends, checked as the CPU's edge pass checks them (Overlaps::edge): a corrupt
   // record is counted and never read again; in a step's first launch the next pointers too.
   const bool check = a.k0 == 0;
@@ -153,8 +133,6 @@ __global__ void __launch_bounds__(kDenseThreads, 1) dense_kernel(Args<R, false> 
     }
     s_ea[e] = std::uint16_t(ia);
     s_eb[e] = std::uint16_t(ib);
-    atomicAdd(&s_off[ia], 1u);
-    atomicAdd(&s_off[ib], 1u);
     if (check) mixes += mix(std::uint64_t(unsigned(na))) + mix(std::uint64_t(unsigned(nb)));
   }
   if (check)
@@ -169,118 +147,48 @@ __global__ void __launch_bounds__(kDenseThreads, 1) dense_kernel(Args<R, false> 
     if (tid == 0) s_broken[0] = c + (check && h != x ? 1 : 0);
     if (tid == 0) s_broken[1] = c;
   }
-  // Each particle's range of adj: an exclusive scan of the counts (a thread's consecutive
-  // particles, then the warps'), then the edges placed, each by an atomic on its end's start,
-  // which leaves s_off[v] at the end of v's range (= the start of v + 1's). Any order in a range:
-  // the sums are in fixed point.
-  {
-    constexpr int kPer = int((kDenseMaxN + kDenseThreads - 1) / kDenseThreads);
-    std::uint32_t c[kPer], sum = 0;
-#pragma unroll
-    for (int q = 0; q < kPer; ++q) {
-      const int v = tid * kPer + q;
-      c[q] = v < n ? s_off[v] : 0u;
-      sum += c[q];
-    }
-    std::uint32_t incl = sum;
-#pragma unroll
-    for (int d = 1; d < 32; d *= 2) {
-      const std::uint32_t y = __shfl_up_sync(0xffffffffu, incl, d);
-      if (lane >= d) incl += y;
-    }
-    if (lane == 31) s_warp[warp] = int(incl);
-    __syncthreads();
-    std::uint32_t before = incl - sum;
-    for (int w = 0; w < warp; ++w) before += std::uint32_t(s_warp[w]);
-#pragma unroll
-    for (int q = 0; q < kPer; ++q) {
-      const int v = tid * kPer + q;
-      if (v < n) s_off[v] = before;
-      before += c[q];
-    }
-    __syncthreads();
-    for (int e = tid; e < edges; e += kDenseThreads) {
-      const int ia = s_ea[e];
-      if (ia == kCorruptEdge) continue;
-      s_adj[atomicAdd(&s_off[ia], 1u)] = std::uint16_t(e);
-      s_adj[atomicAdd(&s_off[s_eb[e]], 1u)] = std::uint16_t(e);
-    }
-    __syncthreads();
-  }
+  __syncthreads();
   const u64 broken_first = s_broken[0], broken_later = s_broken[1];
   const int rounds = (edges + kDenseThreads - 1) / kDenseThreads;  // the same in every thread
-
-  // Lists edge e when it is within reach at the current positions.
-  auto test_and_list = [&](int e, int ia, int ib, std::uint16_t* list, int* count) {
-    double xa, ya, xb, yb;
-    load_shared_xy(s_pos, ia, xa, ya);
-    load_shared_xy(s_pos, ib, xb, yb);
-    const double rx = ov.min_image(xb - xa, 0), ry = ov.min_image(yb - ya, 1);
-    if (rx * rx + ry * ry < ov.reach2) list[atomicAdd(count, 1)] = std::uint16_t(e);
-  };
 
   for (int j = 0; j < kDeviceBatch; ++j) {
     const long long k = a.k0 + j;
     const int p = j & 1;
-    std::uint16_t* list = s_lists + std::size_t(p) * edges;
-    // (1) The edges within reach.
-    if (j == 0) {  // every edge: a thread's edges first (independent chains), then their listing
-      bool near[kDenseRounds];
+    // (1) The reach test, every edge: all of a thread's edges first (independent chains), then
+    // their listing, a warp's at once.
+    bool near[kDenseRounds];
 #pragma unroll
-      for (int r = 0; r < kDenseRounds; ++r) {
-        const int e = r * kDenseThreads + tid;
-        near[r] = false;
-        if (r < rounds && e < edges) {
-          const int ia = s_ea[e];
-          if (ia != kCorruptEdge) {
-            double xa, ya, xb, yb;
-            load_shared_xy(s_pos, ia, xa, ya);
-            load_shared_xy(s_pos, s_eb[e], xb, yb);
-            const double rx = ov.min_image(xb - xa, 0), ry = ov.min_image(yb - ya, 1);
-            near[r] = rx * rx + ry * ry < ov.reach2;
-          }
+    for (int r = 0; r < kDenseRounds; ++r) {
+      const int e = r * kDenseThreads + tid;
+      near[r] = false;
+      if (r < rounds && e < edges) {
+        const int ia = s_ea[e];
+        if (ia != kCorruptEdge) {
+          double xa, ya, xb, yb;
+          load_shared_xy(s_pos, ia, xa, ya);
+          load_shared_xy(s_pos, s_eb[e], xb, yb);
+          const double rx = ov.min_image(xb - xa, 0), ry = ov.min_image(yb - ya, 1);
+          near[r] = rx * rx + ry * ry < ov.reach2;
         }
       }
+    }
 #pragma unroll
-      for (int r = 0; r < kDenseRounds; ++r) {
-        if (r >= rounds) break;
-        const unsigned m = __ballot_sync(0xffffffffu, near[r]);
-        if (m) {
-          int base = 0;
-          if (lane == 0) base = atomicAdd(&s_listed[p], __popc(m));
-          base = __shfl_sync(0xffffffffu, base, 0);
-          if (near[r]) list[base + __popc(m & ((1u << lane) - 1u))] = std::uint16_t(r * kDenseThreads + tid);
-        }
-      }
-    } else {
-      const std::uint8_t moved_last = std::uint8_t(j);  // the stamp of a move in iteration j − 1
-      const std::uint16_t* last = s_lists + std::size_t(p ^ 1) * edges;
-      const int nlast = s_listed[p ^ 1], nmoved = s_nmoved[p ^ 1];
-      // The last list's edges whose ends stayed where they were: within reach still.
-      for (int i = tid; i < nlast; i += kDenseThreads) {
-        const int e = last[i];
-        if (s_stamp[s_ea[e]] != moved_last && s_stamp[s_eb[e]] != moved_last) list[atomicAdd(&s_listed[p], 1)] = std::uint16_t(e);
-      }
-      // The moved particles' edges, by groups of kDenseGroup lanes (an edge a lane).
-      for (int g = tid / kDenseGroup; g < nmoved; g += kDenseThreads / kDenseGroup) {
-        const int v = s_moved[g];
-        const int begin = v == 0 ? 0 : int(s_off[v - 1]), end = int(s_off[v]);
-        for (int q = begin + tid % kDenseGroup; q < end; q += kDenseGroup) {
-          const int e = s_adj[q];
-          const int ia = s_ea[e], ib = s_eb[e];
-          const int u = ia == v ? ib : ia;
-          if (s_stamp[u] == moved_last && u < v) continue;  // tested from u
-          test_and_list(e, ia, ib, list, &s_listed[p]);
-        }
+    for (int r = 0; r < kDenseRounds; ++r) {
+      if (r >= rounds) break;
+      const unsigned m = __ballot_sync(0xffffffffu, near[r]);
+      if (m) {
+        int base = 0;
+        if (lane == 0) base = atomicAdd(&s_listed[p], __popc(m));
+        base = __shfl_sync(0xffffffffu, base, 0);
+        if (near[r]) s_list[base + __popc(m & ((1u << lane) - 1u))] = std::uint16_t(r * kDenseThreads + tid);
       }
     }
     __syncthreads();
     // (2) The listed edges' pushes.
-    if (tid == 0) s_nmoved[p] = 0;  // (read by this iteration's (1) as p ^ 1 of the last: not this one)
     const int listed = s_listed[p];
     u64 bad = 0, pairs = 0;
     for (int i = tid; i < listed; i += kDenseThreads) {
-      const int e = list[i];
+      const int e = s_list[i];
       const int ia = s_ea[e], ib = s_eb[e];
       double xa, ya, xb, yb;
       load_shared_xy(s_pos, ia, xa, ya);
@@ -303,15 +211,15 @@ __global__ void __launch_bounds__(kDenseThreads, 1) dense_kernel(Args<R, false> 
     const bool any_bad = __syncthreads_or(bad != 0);
     const u64 broken = j == 0 ? broken_first : broken_later;
     const bool go = broken == 0 && any_bad && k < a.max_iterations;
-    // The iteration's row of counters (warp 0).
+    // The iteration's row of counters (warp 0), stored to result after the moves (or now).
     u64 row_bad = 0, row_pairs = 0;
     if (tid < 32) {
       row_bad = block_total(s_red[p][0]);
       row_pairs = block_total(s_red[p][1]);
     }
     // Warp 0 holds the row in shared memory and stores a run of kRowsHeld rows to result
-    // (pinned host memory) at once: a store over the bus each iteration held warp 0, and the
-    // next barrier with it.
+    // (pinned host memory) at once, as the team kernel does: not a store over the bus each
+    // iteration in the warp the next barrier waits for.
     auto keep_row = [&](u64 correction) {
       if (tid >= kTouched) return;
       s_rows[j % kRowsHeld][tid] = tid == kBad ? row_bad : tid == kPairs ? row_pairs : tid == kBroken ? broken : correction;
@@ -323,7 +231,7 @@ __global__ void __launch_bounds__(kDenseThreads, 1) dense_kernel(Args<R, false> 
       if (tid == 0) a.result[std::size_t(kDeviceBatch) * kCounters] = u64(j + 1);
       return;
     }
-    if (tid == 0) s_listed[p ^ 1] = 0;  // (the last list's length, read in (1) before the first barrier)
+    if (tid == 0) s_listed[p ^ 1] = 0;
     // (3) The moves: each touched particle's pushes summed, finished (capped) and applied.
     u64 corr = 0;
     for (int v = tid; v < n; v += kDenseThreads) {
@@ -351,8 +259,6 @@ __global__ void __launch_bounds__(kDenseThreads, 1) dense_kernel(Args<R, false> 
       R x[2];
       int crossed[2];
       moved_from<2>(s_pos + 2 * v, a.p.box, d, x, crossed);
-      s_stamp[v] = std::uint8_t(j + 1);
-      s_moved[atomicAdd(&s_nmoved[p], 1)] = std::uint16_t(v);
       s_pos[2 * v] = x[0];
       s_pos[2 * v + 1] = x[1];
       store_xy(a.p.pos, v, double(x[0]), double(x[1]));
