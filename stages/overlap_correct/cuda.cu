@@ -1,6 +1,7 @@
 // CUDA loop of overlap_correct, host side: DeviceLoops sizes the scratch, launches
 // correct_kernel.cuh's kernels (on the grid the wide kernels' first iterations, then a cooperative
-// grid launch; or a cluster) and reads their counters.
+// grid launch; or a cluster) or, for a small run alone, dense_block.cuh's one block, and reads
+// their counters.
 // Compiled with -fmad=false (CMakeLists.txt), as the kernels it includes must be.
 #include <cuda_runtime.h>
 

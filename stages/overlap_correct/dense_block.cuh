@@ -1,11 +1,14 @@
-// overlap_correct for a small run alone on the GPU: one block keeps the whole correction in its
-// shared memory (positions, the 3n edges as pairs of 16-bit ids, the fixed-point sums) and runs
-// every iteration as a dense edge pass, Carter's Algorithm 2 as the CPU's edge pass runs it
-// (cpu.cpp): each edge tested on the current positions, each overlapping one pushing both ends;
-// then each touched particle finishes its sum and moves (the kernel's comment). No work
-// lists, fans, candidates or claims: at a few thousand particles an iteration of the team kernel
-// is a chain of dependent loads and barriers (bench/experiments/README.md, "What the small rows
-// need"), where here it is two block barriers and a pass of arithmetic over shared memory.
+// overlap_correct for a small run alone on the GPU (n ≤ kDenseMaxN, no walls, no touched field):
+// one block keeps the whole correction in its shared memory (positions, the 3n edges as pairs of
+// 16-bit ids, the listed edges' pushes) and runs every iteration as a dense edge pass, Carter's
+// Algorithm 2 as the CPU's edge pass runs it (cpu.cpp): each edge tested on the current
+// positions, each overlapping one pushing both ends; then each touched particle finishes its sum
+// and moves (the kernel's comment). No fans, candidates or claims: there an iteration of the
+// cluster team is a chain of dependent L2 loads and team barriers (bench/experiments/README.md,
+// "What the small rows need"), here three block barriers around passes over shared memory.
+// Against the team (bench/README.md, "Session 41"): bench-abp +21 % at 1 024 particles, +2-5 % at
+// 1 280-1 792, the same at 2 048; what did not pay (64-bit shared atomics, a block sum in every
+// thread, testing only the moved particles' edges) is in bench/experiments/README.md.
 //
 // The same bits as the other loops: the pushes are kernel.h's (Overlaps::edge's operations on
 // the device, pair_term, fixed_push), summed in fixed point (any order), finished by from_sum and
@@ -21,8 +24,9 @@ namespace ff::overlap {
 namespace {
 
 constexpr int kDenseThreads = 1024;
-// The largest run it takes: ids and list entries in 16 bits, and its state (~100 bytes a particle
-// in double) in one block's shared memory.
+// The largest run it takes: where it stops beating the cluster team (the same at 2 048), within
+// 16-bit ids and list entries and one block's shared memory (~100 bytes a particle in double:
+// 200 KB at 2 048, DenseLayout).
 constexpr std::size_t kDenseMaxN = 2048;
 constexpr std::uint16_t kCorruptEdge = 0xFFFF;
 constexpr std::uint32_t kNoToken = 0xFFFFFFFFu;

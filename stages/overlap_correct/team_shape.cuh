@@ -30,7 +30,9 @@ constexpr int kMinBlocks = 1;
 // A/B in bench/overlap_correct-PERF.md (session 13; one block alone, a variant there, lost at
 // every size), the threshold from session 25's (bench/README.md, "Session 25"): the cluster wins
 // at 8192 particles and ties the grid at 16384, above which the grid's SMs do more than the
-// cluster's barrier saves. On a GPU that many runs share, team_for gives a run fewer SMs.
+// cluster's barrier saves. On a GPU that many runs share, team_for gives a run fewer SMs. Below
+// that, a run alone without walls or the touched field takes the dense one block instead
+// (dense_block.cuh: every iteration an edge pass in shared memory; dense_block_bytes).
 constexpr int kClusterBlocks = 16;
 static_assert(kClusterBlocks == kClusterTailTeam, "correct_kernel.cuh's tail threshold names this cluster");
 constexpr int kClusterThreads = 512;
