@@ -1,6 +1,7 @@
 // CUDA loop of overlap_correct, host side: DeviceLoops sizes the scratch, launches
 // correct_kernel.cuh's kernels (on the grid the wide kernels' first iterations, then a cooperative
-// grid launch; or a cluster) and reads their counters.
+// grid launch; or a cluster) or, for a small run alone, dense_block.cuh's one block, and reads
+// their counters.
 // Compiled with -fmad=false (CMakeLists.txt), as the kernels it includes must be.
 #include <cuda_runtime.h>
 
@@ -8,6 +9,7 @@
 
 #include "core/backend/cuda/check.h"
 #include "stages/overlap_correct/correct_kernel.cuh"
+#include "stages/overlap_correct/dense_block.cuh"
 #include "stages/overlap_correct/team_shape.cuh"
 #include "stages/overlap_correct/wide_kernels.cuh"
 
@@ -101,7 +103,20 @@ class DeviceLoops final : public OverlapCorrectLoops<R> {
     // each does nothing after an iteration that did not go on.
     if (wide_ && k0 == 0) a.j0 = run_wide<Walls, Mark>(a, s);
     void* args[] = {&a};
-    if (team_ == kGrid) {
+    if (dense_bytes_ > 0) {  // (prepare: only without walls and mark)
+      if constexpr (!Walls && !Mark) {
+        cudaLaunchAttribute attr[1];
+        cudaLaunchConfig_t cfg = {};
+        cfg.gridDim = dim3(1);
+        cfg.blockDim = dim3(kDenseThreads);
+        cfg.dynamicSmemBytes = dense_bytes_;
+        cfg.stream = s;
+        cfg.attrs = attr;
+        cfg.numAttrs = programmatic_attr(attr, 0);
+        FF_CUDA_CHECK(cudaLaunchKernelExC(&cfg, reinterpret_cast<void*>(dense_kernel<R>), args),
+                      "launching overlap_correct (one block, dense)");
+      }
+    } else if (team_ == kGrid) {
       cudaLaunchAttribute attr[2];
       const cudaLaunchConfig_t cfg = grid_config_after_previous(grid_, attr, s);
       FF_CUDA_CHECK(cudaLaunchKernelExC(&cfg, kernel_ptr<R, kGrid, Walls, Mark>(), args), "launching overlap_correct");
@@ -155,6 +170,8 @@ class DeviceLoops final : public OverlapCorrectLoops<R> {
     // A run alone in the cluster of 16, without walls, whose particles fit one block's shared
     // memory: the tail there (shared_tail.cuh).
     tail_bytes_ = team_ == kClusterBlocks && !Walls && runs_sharing_gpu() <= 1 ? shared_tail_bytes<R, Mark>(n) : 0;
+    // A small run alone, without walls or the touched field: one block, dense (dense_block.cuh).
+    dense_bytes_ = !Walls && !Mark && runs_sharing_gpu() <= 1 ? dense_block_bytes<R>(n) : 0;
     for (Scratch<u64>& sl : slots_) sl.reset();
     marks_.reset();  // fresh zeroed arrays even where the size did not change
     parity_ = 0;
@@ -182,6 +199,7 @@ class DeviceLoops final : public OverlapCorrectLoops<R> {
   int team_ = kGrid;  // who runs the iterations (team_for): kGrid, kClusterBlocks or kSharedClusterBlocks
   bool wide_ = false;  // the grid's first iterations in the wide kernels (prepare)
   std::size_t tail_bytes_ = 0;  // the shared-memory tail's dynamic shared memory, 0 without it (prepare)
+  std::size_t dense_bytes_ = 0;  // the dense block's dynamic shared memory, 0 when it does not run (prepare)
   int parity_ = 0;  // which slots the next launch uses (zero); it zeroes the other
   int last_gathers_ = 0;   // how many gathers the last launch ran (the slots it used)
   bool unread_ = false;    // the last launch was never read back (finish)

@@ -6,6 +6,7 @@
 
 #include "core/backend/cuda/cluster.cuh"
 #include "stages/overlap_correct/correct_kernel.cuh"
+#include "stages/overlap_correct/dense_block.cuh"
 
 namespace ff::overlap {
 
@@ -29,7 +30,9 @@ constexpr int kMinBlocks = 1;
 // A/B in bench/overlap_correct-PERF.md (session 13; one block alone, a variant there, lost at
 // every size), the threshold from session 25's (bench/README.md, "Session 25"): the cluster wins
 // at 8192 particles and ties the grid at 16384, above which the grid's SMs do more than the
-// cluster's barrier saves. On a GPU that many runs share, team_for gives a run fewer SMs.
+// cluster's barrier saves. On a GPU that many runs share, team_for gives a run fewer SMs. Below
+// that, a run alone without walls or the touched field takes the dense one block instead
+// (dense_block.cuh: every iteration an edge pass in shared memory; dense_block_bytes).
 constexpr int kClusterBlocks = 16;
 static_assert(kClusterBlocks == kClusterTailTeam, "correct_kernel.cuh's tail threshold names this cluster");
 constexpr int kClusterThreads = 512;
@@ -160,6 +163,33 @@ std::size_t shared_tail_bytes(std::size_t n) {
     }
   }
   return cluster_fits(f, kClusterBlocks, threads_of<kClusterBlocks>, bytes, "overlap_correct: the shared-memory tail") ? bytes : 0;
+}
+
+// The dynamic shared memory of the dense block (dense_block.cuh) for n particles, set as its
+// kernel's limit; 0 where it does not take the run (n > kDenseMaxN, or the state does not fit
+// one block's shared memory beside the kernel's static arrays).
+template <class R>
+std::size_t dense_block_bytes(std::size_t n) {
+  if (n == 0 || n > kDenseMaxN) return 0;
+  int dev = 0, optin = 0;
+  FF_CUDA_CHECK(cudaGetDevice(&dev), "overlap_correct: current device");
+  FF_CUDA_CHECK(cudaDeviceGetAttribute(&optin, cudaDevAttrMaxSharedMemoryPerBlockOptin, dev),
+                "overlap_correct: shared memory per block");
+  void* f = reinterpret_cast<void*>(dense_kernel<R>);
+  cudaFuncAttributes attr = {};
+  FF_CUDA_CHECK(cudaFuncGetAttributes(&attr, f), "overlap_correct: the dense kernel's attributes");
+  const std::size_t bytes = DenseLayout<R>(n).bytes;
+  if (attr.sharedSizeBytes + bytes > std::size_t(optin) || attr.maxThreadsPerBlock < kDenseThreads) return 0;
+  // The limit belongs to the device's kernel and only grows (as shared_tail_bytes').
+  static std::mutex mutex;
+  static int limit[64] = {};
+  std::lock_guard<std::mutex> lock(mutex);
+  if (dev < 0 || dev >= 64 || int(bytes) > limit[dev]) {
+    FF_CUDA_CHECK(cudaFuncSetAttribute(f, cudaFuncAttributeMaxDynamicSharedMemorySize, int(bytes)),
+                  "overlap_correct: the dense block's shared memory");
+    if (dev >= 0 && dev < 64) limit[dev] = int(bytes);
+  }
+  return bytes;
 }
 
 template <class R, bool Walls, bool Mark>

@@ -16,10 +16,11 @@ using namespace ff;
 using namespace ff::overlap_test;
 
 TEST_CASE("overlap_correct: a corrupt triangulation is an error, also away from any overlap", "[overlap][errors]") {
-  // A lattice at η = 0.3 has no overlaps; each corruption below is one half-edge record. The
-  // CUDA loop (a walk around every particle in iteration 0, no edge pass) finds a corrupt mesh
-  // by fans that do not close or indices out of range; a next pointer duplicated where every
-  // walk still closes is found only by the CPU's edge pass (its permutation check).
+  // A lattice at η = 0.3 has no overlaps; each corruption below is one half-edge record. At 2000
+  // particles the CUDA loop is the dense block (dense_block.cuh), which checks the records as
+  // the CPU's edge pass does; larger runs walk around every particle in iteration 0 and find a
+  // corrupt mesh by fans that do not close or indices out of range, so a next pointer duplicated
+  // where every walk still closes is asked of the CPU only (its permutation check).
   const Backend backend = GENERATE(from_range(test::backends()));
   struct Case {
     const char* what;
