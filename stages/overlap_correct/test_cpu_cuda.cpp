@@ -1,6 +1,7 @@
 // overlap_correct on CPU and CUDA: the same bits in double and agreement in float; the same bits on
-// every device path (a thread-block cluster for n ≤ kClusterMaxN, its last iterations in block 0's
-// shared memory for a run alone of up to ~4 100 particles, the whole grid above), when
+// every device path (one block in shared memory for a run alone of up to 2048 particles, a
+// thread-block cluster for n ≤ kClusterMaxN, its last iterations in block 0's shared memory for a
+// run alone of up to ~4 100 particles, the whole grid above), when
 // runs share the GPU (smaller teams), over many steps of ABP (lists kept across steps), where
 // max_iterations stops a step on the grid path (the wide kernels decide on the device), and over
 // a correction longer than one run of the device's held sums. Each skips without a CUDA device.
@@ -42,23 +43,26 @@ OneStep one_step(const PipelineSpec& spec, Backend b, double amplitude = 0.1) {
 }  // namespace
 
 TEST_CASE("overlap_correct: CPU and CUDA give the same bits (double) and agree in float", "[overlap][cuda]") {
+  // 1500: the dense block (dense_block.cuh); 20000: the grid.
   if (!test::have_cuda("overlap_correct CPU-vs-CUDA")) return;
-  for (Precision p : {Precision::f64, Precision::f32})
-    for (const char* mode : {"reflect", "contact"}) {
-      INFO(to_string(p) << " " << mode);
-      const auto spec = correct_spec(20000, 0.75, {{"mode", std::string(mode)}}, p);
-      const OneStep cpu = one_step(spec, Backend::cpu), cuda = one_step(spec, Backend::cuda);
-      const std::vector<std::vector<double>> xy{cpu.xy, cuda.xy};
-      CHECK(cpu.iterations == cuda.iterations);
-      if (p == Precision::f64) {
-        CHECK(std::memcmp(xy[0].data(), xy[1].data(), xy[0].size() * sizeof(double)) == 0);
-      } else {
-        double worst = 0;
-        for (std::size_t i = 0; i < xy[0].size(); ++i) worst = std::max(worst, std::fabs(xy[0][i] - xy[1][i]));
-        INFO("largest float difference " << worst);
-        CHECK(worst <= 1e-4);
+  for (std::uint64_t n : {1500u, 20000u}) {
+    for (Precision p : {Precision::f64, Precision::f32})
+      for (const char* mode : {"reflect", "contact"}) {
+        INFO(n << " " << to_string(p) << " " << mode);
+        const auto spec = correct_spec(n, 0.75, {{"mode", std::string(mode)}}, p);
+        const OneStep cpu = one_step(spec, Backend::cpu), cuda = one_step(spec, Backend::cuda);
+        const std::vector<std::vector<double>> xy{cpu.xy, cuda.xy};
+        CHECK(cpu.iterations == cuda.iterations);
+        if (p == Precision::f64) {
+          CHECK(std::memcmp(xy[0].data(), xy[1].data(), xy[0].size() * sizeof(double)) == 0);
+        } else {
+          double worst = 0;
+          for (std::size_t i = 0; i < xy[0].size(); ++i) worst = std::max(worst, std::fabs(xy[0][i] - xy[1][i]));
+          INFO("largest float difference " << worst);
+          CHECK(worst <= 1e-4);
+        }
       }
-    }
+  }
 }
 
 // One correction of n disks at area fraction 0.75 on each backend: the same iterations, pairs and
@@ -75,15 +79,15 @@ static void check_cpu_equals_cuda(std::uint64_t n) {
 
 TEST_CASE("overlap_correct: CPU and CUDA give the same bits on either device path (team and grid)",
           "[overlap][cuda]") {
-  // cuda.cu runs small systems (n ≤ kClusterMaxN = 8192) in a thread-block cluster, the last
-  // iterations of a run alone of up to ~4 100 particles (double, sm_90) in block 0's shared memory
-  // (shared_tail.cuh), and larger ones on the whole grid: sizes on each side of both thresholds,
-  // and the cluster's itself. (20000, the size of the tests above, is the grid's.) 150000 fills the
-  // grid (more particles than its threads on a GPU of up to ~290 SMs), so its first iteration runs
-  // in the wide kernels (DeviceLoops::prepare). 1000 and 2048: a cluster's blocks of at most 64 and
-  // 128 particles (one and two passes of lane groups).
+  // cuda.cu runs a run alone of up to 2048 particles in one block (dense_block.cuh: 1000, 2048),
+  // small systems (n ≤ kClusterMaxN = 8192) in a thread-block cluster, the last iterations of a run
+  // alone of up to ~4 100 particles (double, sm_90) in block 0's shared memory (shared_tail.cuh),
+  // and larger ones on the whole grid: sizes on each side of the thresholds, and the cluster's
+  // itself. (20000 is the grid's.) 150000 fills the grid (more particles than its threads on a GPU
+  // of up to ~290 SMs), so its first iteration runs in the wide kernels (DeviceLoops::prepare).
+  // 2100: the cluster's blocks of at most 144 particles (two passes of lane groups).
   if (!test::have_cuda("overlap_correct CPU-vs-CUDA by size")) return;
-  for (std::uint64_t n : {1000u, 2048u, 4096u, 5000u, 8192u, 65536u, 150000u}) {
+  for (std::uint64_t n : {1000u, 2048u, 2100u, 4096u, 5000u, 8192u, 65536u, 150000u}) {
     INFO("n " << n);
     check_cpu_equals_cuda(n);
   }
@@ -185,12 +189,13 @@ TEST_CASE("overlap_correct: CPU and CUDA stop alike at max_iterations on the gri
 TEST_CASE("overlap_correct: CPU and CUDA stop alike at max_iterations in a step's last iterations",
           "[overlap][cuda]") {
   // A step's last iterations move few particles: the device runs them in block 0 alone, from
-  // shared memory for a run alone of up to ~4 100 particles (shared_tail.cuh: 1000, 4096), from
-  // global memory after the cluster (5000) and after the grid (20000). A lattice at η = 0.8 jiggled by 0.3σ
+  // shared memory for a run alone of up to ~4 100 particles (shared_tail.cuh: 3000, 4096), from
+  // global memory after the cluster (5000) and after the grid (20000); up to 2048 particles the
+  // dense block runs every iteration (1000). A lattice at η = 0.8 jiggled by 0.3σ
   // (~38 iterations) stopped two iterations before its step would end: the same error on both
   // backends (pairs still overlapping, the worst pair).
   if (!test::have_cuda("overlap_correct CPU-vs-CUDA at max_iterations in the tail")) return;
-  for (std::uint64_t n : {1000u, 4096u, 5000u, 20000u}) {
+  for (std::uint64_t n : {1000u, 3000u, 4096u, 5000u, 20000u}) {
     const std::int64_t needs = std::int64_t(one_step(correct_spec(n, 0.8, {}), Backend::cpu, 0.3).iterations);
     INFO("n " << n << ", iterations " << needs);
     REQUIRE(needs >= 8);
@@ -212,12 +217,12 @@ TEST_CASE("overlap_correct: CPU and CUDA stop alike at max_iterations in a step'
 
 TEST_CASE("overlap_correct: CPU and CUDA agree on a correction longer than one run of held sums",
           "[overlap][cuda]") {
-  // The device kernel keeps each iteration's sums in shared memory and stores them to the host's
-  // pinned memory 32 iterations at a time (correct_kernel.cuh, kRowsHeld); the host replays the
-  // step from them (its iterations, pairs and summed correction). A lattice at η = 0.8 jiggled by
-  // 0.3σ takes ~38 iterations on the CPU: more than one run, on the cluster with its tail in shared
-  // memory (1000, 3000) and in global memory (5000), the grid and the wide path (150000: its first
-  // iterations in the wide kernels).
+  // The device kernels keep each iteration's sums in shared memory and store them to the host's
+  // pinned memory 32 iterations at a time (correct_kernel.cuh and dense_block.cuh, kRowsHeld); the
+  // host replays the step from them (its iterations, pairs and summed correction). A lattice at
+  // η = 0.8 jiggled by 0.3σ takes ~38 iterations on the CPU: more than one run, in the dense block
+  // (1000), on the cluster with its tail in shared memory (3000) and in global memory (5000), the
+  // grid and the wide path (150000: its first iterations in the wide kernels).
   if (!test::have_cuda("overlap_correct CPU-vs-CUDA over more than 32 iterations")) return;
   for (std::uint64_t n : {1000u, 3000u, 5000u, 20000u, 150000u}) {
     INFO("n " << n);
