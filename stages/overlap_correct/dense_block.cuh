@@ -52,19 +52,6 @@ struct DenseLayout {
   }
 };
 
-template <class R>
-__device__ __forceinline__ void load_shared_xy(const R* s_pos, int v, double& x, double& y) {
-  if constexpr (sizeof(R) == 8) {
-    const double2 p = reinterpret_cast<const double2*>(s_pos)[v];
-    x = p.x;
-    y = p.y;
-  } else {
-    const float2 p = reinterpret_cast<const float2*>(s_pos)[v];
-    x = double(p.x);
-    y = double(p.y);
-  }
-}
-
 // The block's sums by warps: warp w's sum of each thread's x goes to slot[w] (a plain store: a
 // 64-bit atomic add on shared memory is a compare-and-swap spin loop on sm_90, and 32 warps on
 // one word serialise on it); after a barrier, warp 0 adds the 32 slots (block_total, in every
@@ -169,8 +156,8 @@ __global__ void __launch_bounds__(kDenseThreads, 1) dense_kernel(Args<R, false> 
         const int ia = s_ea[e];
         if (ia != kCorruptEdge) {
           double xa, ya, xb, yb;
-          load_shared_xy(s_pos, ia, xa, ya);
-          load_shared_xy(s_pos, s_eb[e], xb, yb);
+          load_xy(s_pos, ia, xa, ya);
+          load_xy(s_pos, s_eb[e], xb, yb);
           const double rx = ov.min_image(xb - xa, 0), ry = ov.min_image(yb - ya, 1);
           near[r] = rx * rx + ry * ry < ov.reach2;
         }
@@ -195,8 +182,8 @@ __global__ void __launch_bounds__(kDenseThreads, 1) dense_kernel(Args<R, false> 
       const int e = s_list[i];
       const int ia = s_ea[e], ib = s_eb[e];
       double xa, ya, xb, yb;
-      load_shared_xy(s_pos, ia, xa, ya);
-      load_shared_xy(s_pos, ib, xb, yb);
+      load_xy(s_pos, ia, xa, ya);
+      load_xy(s_pos, ib, xb, yb);
       const double rx = ov.min_image(xb - xa, 0), ry = ov.min_image(yb - ya, 1);
       double tx, ty;
       const PairOverlap o = pair_term(rx, ry, ov.diameter_of(ia), ov.diameter_of(ib), ov.factor, ov.tol, ia, ib, tx, ty);

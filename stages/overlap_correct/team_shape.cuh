@@ -2,7 +2,9 @@
 // a cluster of 16 blocks, or of 8 when runs share the GPU) and each block's tile; included by
 // cuda.cu after correct_kernel.cuh, whose kernel they launch. Host code and constants only.
 #pragma once
+#include <map>
 #include <mutex>
+#include <utility>
 
 #include "core/backend/cuda/cluster.cuh"
 #include "stages/overlap_correct/correct_kernel.cuh"
@@ -135,34 +137,41 @@ int team_for(std::size_t n) {
   return team_fits<R, kSharedClusterBlocks, Walls, Mark>() ? kSharedClusterBlocks : kClusterBlocks;
 }
 
+// Whether kernel f, in blocks of `threads`, can have `bytes` of dynamic shared memory beside its
+// static arrays on the current device; if so, raises f's limit to at least that. The limit
+// belongs to the device's kernel, not to this run, and only grows: runs of other sizes on this
+// GPU (ranks of a team, a sweep's runs) set it too, and a lower limit set last would make a larger
+// run's launch fail.
+inline bool fits_dynamic_shared(void* f, int threads, std::size_t bytes, const char* what) {
+  int dev = 0, optin = 0;
+  FF_CUDA_CHECK(cudaGetDevice(&dev), "overlap_correct: current device");
+  FF_CUDA_CHECK(cudaDeviceGetAttribute(&optin, cudaDevAttrMaxSharedMemoryPerBlockOptin, dev),
+                "overlap_correct: shared memory per block");
+  cudaFuncAttributes attr = {};
+  FF_CUDA_CHECK(cudaFuncGetAttributes(&attr, f), what);
+  if (attr.sharedSizeBytes + bytes > std::size_t(optin) || attr.maxThreadsPerBlock < threads) return false;
+  static std::mutex mutex;
+  static std::map<std::pair<void*, int>, std::size_t> limits;  // by kernel and device
+  std::lock_guard<std::mutex> lock(mutex);
+  std::size_t& limit = limits[{f, dev}];
+  if (bytes > limit) {
+    FF_CUDA_CHECK(cudaFuncSetAttribute(f, cudaFuncAttributeMaxDynamicSharedMemorySize, int(bytes)), what);
+    limit = bytes;
+  }
+  return true;
+}
+
 // The dynamic shared memory of a tail in shared memory (shared_tail.cuh) of n particles, set as the
 // limit of the cluster kernel that runs one; 0 where it does not fit beside the kernel's static
 // arrays or the cluster would not be resident with it.
 template <class R, bool Mark>
 std::size_t shared_tail_bytes(std::size_t n) {
-  int dev = 0, optin = 0;
-  FF_CUDA_CHECK(cudaGetDevice(&dev), "overlap_correct: current device");
-  FF_CUDA_CHECK(cudaDeviceGetAttribute(&optin, cudaDevAttrMaxSharedMemoryPerBlockOptin, dev),
-                "overlap_correct: shared memory per block");
+  if (n >= 65536) return 0;  // (16-bit ids)
   void* f = kernel_ptr<R, kClusterBlocks, false, Mark, true>();
-  cudaFuncAttributes attr = {};
-  FF_CUDA_CHECK(cudaFuncGetAttributes(&attr, f), "overlap_correct: the cluster kernel's attributes");
   const std::size_t bytes = TailState<R>::bytes(n);
-  if (n >= 65536 || attr.sharedSizeBytes + bytes > std::size_t(optin)) return 0;  // (16-bit ids)
-  {
-    // The kernel's limit belongs to the device, not to this run, and only grows: runs of other
-    // sizes on this GPU (ranks of a team, a sweep's runs) set it too, and a lower limit set last
-    // would make a larger run's launch fail.
-    static std::mutex mutex;
-    static int limit[64] = {};
-    std::lock_guard<std::mutex> lock(mutex);
-    if (dev < 0 || dev >= 64 || int(bytes) > limit[dev]) {
-      FF_CUDA_CHECK(cudaFuncSetAttribute(f, cudaFuncAttributeMaxDynamicSharedMemorySize, int(bytes)),
-                    "overlap_correct: the shared-memory tail");
-      if (dev >= 0 && dev < 64) limit[dev] = int(bytes);
-    }
-  }
-  return cluster_fits(f, kClusterBlocks, threads_of<kClusterBlocks>, bytes, "overlap_correct: the shared-memory tail") ? bytes : 0;
+  const char* what = "overlap_correct: the shared-memory tail";
+  if (!fits_dynamic_shared(f, threads_of<kClusterBlocks>, bytes, what)) return 0;
+  return cluster_fits(f, kClusterBlocks, threads_of<kClusterBlocks>, bytes, what) ? bytes : 0;
 }
 
 // The dynamic shared memory of the dense block (dense_block.cuh) for n particles, set as its
@@ -171,25 +180,11 @@ std::size_t shared_tail_bytes(std::size_t n) {
 template <class R>
 std::size_t dense_block_bytes(std::size_t n) {
   if (n == 0 || n > kDenseMaxN) return 0;
-  int dev = 0, optin = 0;
-  FF_CUDA_CHECK(cudaGetDevice(&dev), "overlap_correct: current device");
-  FF_CUDA_CHECK(cudaDeviceGetAttribute(&optin, cudaDevAttrMaxSharedMemoryPerBlockOptin, dev),
-                "overlap_correct: shared memory per block");
-  void* f = reinterpret_cast<void*>(dense_kernel<R>);
-  cudaFuncAttributes attr = {};
-  FF_CUDA_CHECK(cudaFuncGetAttributes(&attr, f), "overlap_correct: the dense kernel's attributes");
   const std::size_t bytes = DenseLayout<R>(n).bytes;
-  if (attr.sharedSizeBytes + bytes > std::size_t(optin) || attr.maxThreadsPerBlock < kDenseThreads) return 0;
-  // The limit belongs to the device's kernel and only grows (as shared_tail_bytes').
-  static std::mutex mutex;
-  static int limit[64] = {};
-  std::lock_guard<std::mutex> lock(mutex);
-  if (dev < 0 || dev >= 64 || int(bytes) > limit[dev]) {
-    FF_CUDA_CHECK(cudaFuncSetAttribute(f, cudaFuncAttributeMaxDynamicSharedMemorySize, int(bytes)),
-                  "overlap_correct: the dense block's shared memory");
-    if (dev >= 0 && dev < 64) limit[dev] = int(bytes);
-  }
-  return bytes;
+  return fits_dynamic_shared(reinterpret_cast<void*>(dense_kernel<R>), kDenseThreads, bytes,
+                             "overlap_correct: the dense block's shared memory")
+             ? bytes
+             : 0;
 }
 
 template <class R, bool Walls, bool Mark>

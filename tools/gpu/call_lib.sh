@@ -25,7 +25,9 @@
 #                        on each bundle ${D[V]} at once (logs V-tests.txt, TEST_TIMEOUT s, default
 #                        200); a "V: P PASS, F FAIL" line each in info.txt, then step variant-tests
 #   ncu_correction N...  ncu of overlap_correct's kernel at N particles (one launch 120 steps in, L1/L2
-#                        hit rates, per-instruction stall sampling): ncu-details-N.txt, ncu-sass-N.csv.xz
+#                        hit rates, per-instruction stall sampling): ncu-details-N.txt, ncu-sass-N.csv.xz;
+#                        NCU_KERNEL (a regex, default correct_kernel), NCU_LAUNCHES (default 1) and
+#                        NCU_EXTRA (more ncu options) change what it profiles
 #   sweep_abp TAG        issue 20's sweep row: 64 runs of bench-abp 2^14 at once on the bundle B
 #                        (`pipeline sweep --in-process --concurrent 64`, 5 000 steps each); its two
 #                        last lines in sweep.txt as "sweep TAG: ...", then step sweepTAG
@@ -95,8 +97,8 @@ ncu_correction() {
   ncu=$(command -v ncu || ls /usr/local/cuda*/bin/ncu /opt/nvidia/nsight-compute/*/ncu 2>/dev/null | head -n 1)
   echo "ncu: ${ncu:-none}" >> "$I"
   for n in "$@"; do
-    timeout 180 "$ncu" --target-processes all --clock-control none -k regex:correct_kernel \
-      --launch-skip 120 --launch-count 1 \
+    timeout 180 "$ncu" --target-processes all --clock-control none -k regex:"${NCU_KERNEL:-correct_kernel}" \
+      --launch-skip 120 --launch-count "${NCU_LAUNCHES:-1}" ${NCU_EXTRA:-} \
       --section LaunchStats --section Occupancy --section SchedulerStats --section WarpStateStats \
       --section InstructionStats --section SpeedOfLight --section SourceCounters --section MemoryWorkloadAnalysis \
       -f -o "$O/oc-$n" "$B/bin/pipeline" bench "$B/pipelines/bench-abp.yaml" --device cuda --sizes "$n" \

@@ -13,6 +13,6 @@ TEST_TIMEOUT=240 correction_tests main
 tests "$B" "$O/errors.txt" test_overlap_correct_errors
 step errors 0
 for r in 1 2 3; do
-  for v in main old; do bench_abp $v r$r --sizes 1024,2048,4096,8192 --steps 200 --warmup 20; done
+  for v in main old; do bench_abp $v r$r --sizes ${SIZES:-1024,2048,4096,8192} --steps 200 --warmup 20; done
 done
 echo done t=$SECONDS >> $I; pack
