@@ -115,6 +115,8 @@ class DeviceLoops final : public OverlapCorrectLoops<R> {
         cfg.numAttrs = programmatic_attr(attr, 0);
         FF_CUDA_CHECK(cudaLaunchKernelExC(&cfg, reinterpret_cast<void*>(dense_kernel<R>), args),
                       "launching overlap_correct (one block, dense)");
+      } else {
+        throw RunError("overlap_correct: the dense block prepared for a run with walls or the touched field (internal error)");
       }
     } else if (team_ == kGrid) {
       cudaLaunchAttribute attr[2];
