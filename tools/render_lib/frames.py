@@ -350,19 +350,26 @@ def render_frame(np, h5py, args):
     area_check = []  # |drawn cell area − voronoi.area| per particle (--voronoi --color-by voronoi.area)
     if field_values is not None and categories is None:
         scale = value_scale(np, plt, field_values, args.cmap)
+
+    def paint_by_field(c, pick):
+        # c's colours from --color-by FIELD for the particles `pick` (its values on the scale, or
+        # its categories); False when no field colours the frame.
+        if scale is not None:
+            c.set_array(field_values[pick])
+            c.set_cmap(scale[0])
+            c.set_norm(scale[1])
+        elif categories is not None:
+            c.set_facecolor(categories[0][pick])
+        else:
+            return False
+        return True
     if args.voronoi:
         # The cells of the frame's positions (scipy), filled with the field's colour when
         # colouring by one (the disks then drawn as outlines), their edges drawn.
         from matplotlib.collections import PolyCollection
         polys, who = periodic_voronoi(np, x2, L, wall_axis)
         cells = PolyCollection(polys, closed=True, edgecolors="0.15", linewidths=0.4, zorder=0.5)
-        if scale is not None:
-            cells.set_array(field_values[who])
-            cells.set_cmap(scale[0])
-            cells.set_norm(scale[1])
-        elif categories is not None:
-            cells.set_facecolor(categories[0][who])
-        else:
+        if not paint_by_field(cells, who):
             cells.set_facecolor("none")
         ax.add_collection(cells)
         cells.set_clip_path(clip)
@@ -399,13 +406,7 @@ def render_frame(np, h5py, args):
         coll.set_facecolor("none")
         coll.set_edgecolor("0.15")
         coll.set_linewidth(0.4)
-    elif scale is not None:
-        coll.set_array(field_values[idx])
-        coll.set_cmap(scale[0])
-        coll.set_norm(scale[1])
-    elif categories is not None:
-        coll.set_facecolor(categories[0][idx])
-    else:
+    elif not paint_by_field(coll, idx):
         coll.set_facecolor("0.35")
     if dim == 3:
         # Thin dark outlines: the spheres of a projection or a slice that touch or lie over each
