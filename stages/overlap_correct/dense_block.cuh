@@ -10,7 +10,7 @@
 //     Against the team (bench/README.md, "Session 41"): bench-abp +21 % at 1 024 particles, +2-5 %
 //     at 1 280-1 792, the same at 2 048.
 //   - a cluster of up to kDenseMaxBlocks blocks (n ≤ kDenseClusterMaxN; sm_90's distributed shared
-//     memory): block r holds particles [r·P, (r+1)·P) (P = kDenseHeld) and the edges
+//     memory): block r holds particles [r·P, (r+1)·P) (P = 2^shift, dense_shift) and the edges
 //     [3r·P, 3(r+1)·P), whose ends are mostly its own particles (Hilbert order; edges are numbered
 //     near their particles). An end held by another block is read from that block's shared
 //     memory; a push is linked into its end's list in the end's block, and walked from there. One
@@ -36,22 +36,32 @@ constexpr int kDenseThreads = 1024;
 // within 16-bit ids and list entries and one block's shared memory (~100 bytes a particle in
 // double: 200 KB at 2 048, DenseLayout).
 constexpr std::size_t kDenseMaxN = 2048;
-// A cluster's blocks hold kDenseHeld = 1 024 particles each (one to a thread), up to 16 blocks
-// (sm_90's largest cluster, non-portable): list tokens are a block's rank and a 16-bit index. 2 048
-// a block (8 192 more particles) would not fit beside the static arrays in double.
+// A cluster's blocks hold 2^shift particles each, kDenseMinShift ≤ shift ≤ kDenseMaxShift, the
+// least that covers the run with up to 16 blocks (sm_90's largest cluster, non-portable): list
+// tokens are a block's rank and a 16-bit index. 2 048 a block would not fit beside the static
+// arrays in double.
 constexpr int kDenseMaxBlocks = 16;
-constexpr int kDenseShift = 10;
-constexpr int kDenseHeld = 1 << kDenseShift;
-constexpr std::size_t kDenseClusterMaxN = std::size_t(kDenseMaxBlocks) * kDenseHeld;
+constexpr int kDenseMinShift = 10, kDenseMaxShift = 10;
+constexpr std::size_t kDenseClusterMaxN = std::size_t(kDenseMaxBlocks) << kDenseMaxShift;
 constexpr std::uint16_t kCorruptEdge = 0xFFFF;
 constexpr std::uint32_t kNoToken = 0xFFFFFFFFu;
 constexpr std::uint16_t kNoLink = 0xFFFF;
-// Edges a thread tests: 3 of each particle a block holds (at most 2 048).
-constexpr int kDenseRounds = int((3 * kDenseMaxN + kDenseThreads - 1) / kDenseThreads);
+// Edges a thread tests: 3 of each particle a block holds.
+constexpr int kDenseRounds =
+    int((3 * std::max(kDenseMaxN, std::size_t(1) << kDenseMaxShift) + kDenseThreads - 1) / kDenseThreads);
 
-// The blocks that take n particles: 1 up to kDenseMaxN, else a cluster of kDenseHeld each.
+// The blocks that take n particles (n ≤ kDenseClusterMaxN): 1 up to kDenseMaxN, else a cluster
+// (dense_shift: how many each holds; the kernel finds it again from n and its blocks).
+__host__ __device__ inline int dense_shift(std::size_t n, int blocks) {
+  int s = kDenseMinShift;
+  while ((std::size_t(blocks) << s) < n) ++s;
+  return s;
+}
 inline int dense_blocks(std::size_t n) {
-  return n <= kDenseMaxN ? 1 : int((n + kDenseHeld - 1) / kDenseHeld);
+  if (n <= kDenseMaxN) return 1;
+  int s = kDenseMinShift;
+  while ((std::size_t(kDenseMaxBlocks) << s) < n) ++s;
+  return int((n + (std::size_t(1) << s) - 1) >> s);
 }
 
 // The dynamic shared memory of a block holding m particles, each part 16-byte aligned: positions
@@ -170,11 +180,11 @@ __global__ void __launch_bounds__(kDenseThreads, 1) dense_kernel(Args<R, false> 
   // This block's share: particles [v0, v1), edges [e0, e1) (one block: all of them).
   const unsigned rank = Cluster ? block_rank_in_cluster() : 0u;
   const int blocks = Cluster ? int(gridDim.x) : 1;
-  constexpr int shift = kDenseShift;
+  const int shift = Cluster ? dense_shift(std::size_t(n), blocks) : 0;
   const int v0 = Cluster ? int(rank) << shift : 0;
   const int v1 = Cluster ? min(n, v0 + (1 << shift)) : n;
   const int e0 = 3 * v0, e1 = 3 * v1;
-  const DenseLayout<R, Cluster> at(Cluster ? std::size_t(kDenseHeld) : std::size_t(a.p.n));
+  const DenseLayout<R, Cluster> at(Cluster ? std::size_t(1) << shift : std::size_t(a.p.n));
   R* s_pos = reinterpret_cast<R*>(s_mem + at.pos);
   std::uint16_t* s_ea = reinterpret_cast<std::uint16_t*>(s_mem + at.ea);
   std::uint16_t* s_eb = reinterpret_cast<std::uint16_t*>(s_mem + at.eb);

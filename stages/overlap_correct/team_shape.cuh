@@ -194,7 +194,7 @@ DenseShape dense_shape(std::size_t n) {
                : DenseShape{};
   }
   void* f = reinterpret_cast<void*>(dense_kernel<R, true>);
-  const std::size_t bytes = DenseLayout<R, true>(kDenseHeld).bytes;
+  const std::size_t bytes = DenseLayout<R, true>(std::size_t(1) << dense_shift(n, blocks)).bytes;
   if (!fits_dynamic_shared(f, kDenseThreads, bytes, what)) return {};
   return cluster_fits(f, blocks, kDenseThreads, bytes, "overlap_correct: the dense cluster") ? DenseShape{blocks, bytes}
                                                                                                : DenseShape{};
