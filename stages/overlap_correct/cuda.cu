@@ -107,10 +107,8 @@ class DeviceLoops final : public OverlapCorrectLoops<R> {
       if constexpr (!Walls && !Mark) {
         cudaLaunchAttribute attr[2];
         cudaLaunchConfig_t cfg = {};
-        void* kernel = reinterpret_cast<void*>(dense_kernel<R, false>);
         if (dense_.blocks > 1) {
           cfg = cluster_config(dense_.blocks, kDenseThreads, s, attr);
-          kernel = reinterpret_cast<void*>(dense_kernel<R, true>);
         } else {
           cfg.gridDim = dim3(1);
           cfg.blockDim = dim3(kDenseThreads);
@@ -119,7 +117,8 @@ class DeviceLoops final : public OverlapCorrectLoops<R> {
         }
         cfg.dynamicSmemBytes = dense_.bytes;
         cfg.numAttrs = programmatic_attr(attr, cfg.numAttrs);
-        FF_CUDA_CHECK(cudaLaunchKernelExC(&cfg, kernel, args), "launching overlap_correct (dense)");
+        FF_CUDA_CHECK(cudaLaunchKernelExC(&cfg, dense_kernel_ptr<R>(dense_.shift), args),
+                      "launching overlap_correct (dense)");
       } else {
         throw RunError("overlap_correct: the dense block prepared for a run with walls or the touched field (internal error)");
       }

@@ -35,13 +35,13 @@ constexpr int kDenseThreads = 1024;
 // The largest run one block takes: where it stops beating the cluster team (the same at 2 048),
 // within 16-bit ids and list entries and one block's shared memory (~100 bytes a particle in
 // double: 200 KB at 2 048, DenseLayout).
-constexpr std::size_t kDenseMaxN = 2048;
+constexpr std::size_t kDenseMaxN = 1024;
 // A cluster's blocks hold 2^shift particles each, kDenseMinShift ≤ shift ≤ kDenseMaxShift, the
 // least that covers the run with up to 16 blocks (sm_90's largest cluster, non-portable): list
 // tokens are a block's rank and a 16-bit index. 2 048 a block would not fit beside the static
 // arrays in double.
 constexpr int kDenseMaxBlocks = 16;
-constexpr int kDenseMinShift = 10, kDenseMaxShift = 10;
+constexpr int kDenseMinShift = 9, kDenseMaxShift = 10;
 constexpr std::size_t kDenseClusterMaxN = std::size_t(kDenseMaxBlocks) << kDenseMaxShift;
 constexpr std::uint16_t kCorruptEdge = 0xFFFF;
 constexpr std::uint32_t kNoToken = 0xFFFFFFFFu;
@@ -51,8 +51,8 @@ constexpr int kDenseRounds =
     int((3 * std::max(kDenseMaxN, std::size_t(1) << kDenseMaxShift) + kDenseThreads - 1) / kDenseThreads);
 
 // The blocks that take n particles (n ≤ kDenseClusterMaxN): 1 up to kDenseMaxN, else a cluster
-// (dense_shift: how many each holds; the kernel finds it again from n and its blocks).
-__host__ __device__ inline int dense_shift(std::size_t n, int blocks) {
+// (dense_shift: log2 of how many each holds, the kernel's Shift).
+inline int dense_shift(std::size_t n, int blocks) {
   int s = kDenseMinShift;
   while ((std::size_t(blocks) << s) < n) ++s;
   return s;
@@ -156,8 +156,11 @@ __device__ __forceinline__ unsigned block_rank_in_cluster() {
 // after each. A cluster: a block barrier after (1), a cluster barrier after (2) and (3); each
 // warp's counts go to block 0 (s_part), and a warp with a pair beyond the tolerance stamps every
 // block's s_bad_at with k + 1, so every thread reads keeps_going's answer in its own block.
-template <class R, bool Cluster>
+// Shift: 0 for one block, else log2 of the particles a cluster's block holds (a constant: the
+// owner of a particle is a shift of its id).
+template <class R, int Shift>
 __global__ void __launch_bounds__(kDenseThreads, 1) dense_kernel(Args<R, false> a) {
+  constexpr bool Cluster = Shift > 0;
   extern __shared__ __align__(16) unsigned char s_mem[];
   // By iteration parity (j & 1): an iteration's slots are read after the barrier that follows
   // their stores, and stored again two iterations later. s_listed[p ^ 1] is zeroed by iteration j
@@ -180,7 +183,7 @@ __global__ void __launch_bounds__(kDenseThreads, 1) dense_kernel(Args<R, false> 
   // This block's share: particles [v0, v1), edges [e0, e1) (one block: all of them).
   const unsigned rank = Cluster ? block_rank_in_cluster() : 0u;
   const int blocks = Cluster ? int(gridDim.x) : 1;
-  const int shift = Cluster ? dense_shift(std::size_t(n), blocks) : 0;
+  constexpr int shift = Shift;
   const int v0 = Cluster ? int(rank) << shift : 0;
   const int v1 = Cluster ? min(n, v0 + (1 << shift)) : n;
   const int e0 = 3 * v0, e1 = 3 * v1;

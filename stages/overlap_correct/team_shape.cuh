@@ -179,25 +179,31 @@ std::size_t shared_tail_bytes(std::size_t n) {
 // kDenseClusterMaxN, the state does not fit one block's shared memory beside the kernel's static
 // arrays, or the device does not run the cluster at once).
 struct DenseShape {
-  int blocks = 0;
+  int blocks = 0, shift = 0;  // shift: dense_kernel's (0: one block)
   std::size_t bytes = 0;
 };
+// dense_kernel<R, shift> for shift 0 or in [kDenseMinShift, kDenseMaxShift].
+template <class R, int S = kDenseMinShift>
+void* dense_kernel_ptr(int shift) {
+  if (shift == 0) return reinterpret_cast<void*>(dense_kernel<R, 0>);
+  if constexpr (S <= kDenseMaxShift) {
+    if (shift == S) return reinterpret_cast<void*>(dense_kernel<R, S>);
+    return dense_kernel_ptr<R, S + 1>(shift);
+  } else {
+    throw RunError("overlap_correct: no dense cluster kernel for that share (internal error)");
+  }
+}
 template <class R>
 DenseShape dense_shape(std::size_t n) {
   if (n == 0 || n > kDenseClusterMaxN) return {};
-  const int blocks = dense_blocks(n);
-  const char* what = "overlap_correct: the dense block's shared memory";
-  if (blocks == 1) {
-    const std::size_t bytes = DenseLayout<R>(n).bytes;
-    return fits_dynamic_shared(reinterpret_cast<void*>(dense_kernel<R, false>), kDenseThreads, bytes, what)
-               ? DenseShape{1, bytes}
-               : DenseShape{};
-  }
-  void* f = reinterpret_cast<void*>(dense_kernel<R, true>);
-  const std::size_t bytes = DenseLayout<R, true>(std::size_t(1) << dense_shift(n, blocks)).bytes;
-  if (!fits_dynamic_shared(f, kDenseThreads, bytes, what)) return {};
-  return cluster_fits(f, blocks, kDenseThreads, bytes, "overlap_correct: the dense cluster") ? DenseShape{blocks, bytes}
-                                                                                               : DenseShape{};
+  DenseShape d;
+  d.blocks = dense_blocks(n);
+  d.shift = d.blocks == 1 ? 0 : dense_shift(n, d.blocks);
+  d.bytes = d.blocks == 1 ? DenseLayout<R>(n).bytes : DenseLayout<R, true>(std::size_t(1) << d.shift).bytes;
+  void* f = dense_kernel_ptr<R>(d.shift);
+  if (!fits_dynamic_shared(f, kDenseThreads, d.bytes, "overlap_correct: the dense block's shared memory")) return {};
+  if (d.blocks > 1 && !cluster_fits(f, d.blocks, kDenseThreads, d.bytes, "overlap_correct: the dense cluster")) return {};
+  return d;
 }
 
 template <class R, bool Walls, bool Mark>
