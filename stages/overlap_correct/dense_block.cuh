@@ -7,14 +7,15 @@
 // dependent L2 loads and team barriers (bench/experiments/README.md, "What the small rows need"),
 // here barriers around passes over shared memory.
 //   - one block (n ≤ kDenseMaxN): the block holds everything; three block barriers an iteration.
-//     Against the team (bench/README.md, "Session 41"): bench-abp +21 % at 1 024 particles, +2-5 %
-//     at 1 280-1 792, the same at 2 048.
 //   - a cluster of up to kDenseMaxBlocks blocks (n ≤ kDenseClusterMaxN; sm_90's distributed shared
 //     memory): block r holds particles [r·P, (r+1)·P) (P = 2^shift, dense_shift) and the edges
 //     [3r·P, 3(r+1)·P), whose ends are mostly its own particles (Hilbert order; edges are numbered
 //     near their particles). An end held by another block is read from that block's shared
 //     memory; a push is linked into its end's list in the end's block, and walked from there. One
 //     block barrier and two cluster barriers an iteration; every block's counters go to block 0.
+// Against the team and the grid (bench/README.md, "Session 41" and "Session 42"): bench-abp +21 %
+// at 1 024 particles (one block), +7 % at 1 280, +25 % at 2 048, +36 % at 4 096, +37 % at 8 192
+// and 16 384 (clusters).
 // What did not pay (64-bit shared atomics, a block sum in every thread, testing only the moved
 // particles' edges) is in bench/experiments/README.md.
 //
@@ -32,16 +33,17 @@ namespace ff::overlap {
 namespace {
 
 constexpr int kDenseThreads = 1024;
-// The largest run one block takes: where it stops beating the cluster team (the same at 2 048),
-// within 16-bit ids and list entries and one block's shared memory (~100 bytes a particle in
-// double: 200 KB at 2 048, DenseLayout).
+// The largest run one block takes (~100 bytes a particle in double, DenseLayout): above it a
+// cluster of small shares is faster (bench-abp at 1 280: 17 800 steps/s on 5 blocks of 256, 16 700
+// on one block), and up to 1 024 a thread tests 3 edges, not 6 (+1.7 % at 1 024).
 constexpr std::size_t kDenseMaxN = 1024;
 // A cluster's blocks hold 2^shift particles each, kDenseMinShift ≤ shift ≤ kDenseMaxShift, the
-// least that covers the run with up to 16 blocks (sm_90's largest cluster, non-portable): list
-// tokens are a block's rank and a 16-bit index. 2 048 a block would not fit beside the static
-// arrays in double.
+// least that covers the run with up to 16 blocks (sm_90's largest cluster, non-portable): shares
+// of 256 beat 512 by 3-6 % at 1 280-4 096 particles, 512 beat 1 024 by 7-15 % at 1 536-8 192 (more
+// threads on the same edges; "Session 42", calls 2-3). 2 048 a block would not fit beside the
+// static arrays in double. List tokens are a block's rank and a 16-bit index; particle ids 16-bit.
 constexpr int kDenseMaxBlocks = 16;
-constexpr int kDenseMinShift = 9, kDenseMaxShift = 10;
+constexpr int kDenseMinShift = 8, kDenseMaxShift = 10;
 constexpr std::size_t kDenseClusterMaxN = std::size_t(kDenseMaxBlocks) << kDenseMaxShift;
 constexpr std::uint16_t kCorruptEdge = 0xFFFF;
 constexpr std::uint32_t kNoToken = 0xFFFFFFFFu;
