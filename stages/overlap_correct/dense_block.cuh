@@ -19,11 +19,11 @@
 // What did not pay (64-bit shared atomics, a block sum in every thread, testing only the moved
 // particles' edges) is in bench/experiments/README.md.
 //
-// The same bits as the other loops: the pushes are kernel.h's (Overlaps::edge's operations on
-// the device, pair_term, fixed_push), summed in fixed point (any order), finished by from_sum and
-// moved by moved_from; the counters are the CPU edge pass's (pairs and pairs beyond the
-// tolerance each once, |d_v| of every touched particle, corrupt records and the permutation
-// check of the next pointers in iteration 0), decided by keeps_going. Device code; included by
+// The same bits as the other loops: the records are checked and the pushes made by kernel.h's
+// Overlaps::edge_ends and edge_push (the CPU edge pass's own), summed in fixed point (any order),
+// finished by from_sum and moved by moved_from; the counters are the CPU edge pass's (pairs and
+// pairs beyond the tolerance each once, |d_v| of every touched particle, corrupt records and the
+// permutation check of the next pointers in iteration 0), decided by keeps_going. Device code; included by
 // cuda.cu after correct_parts.cuh, compiled with -fmad=false as the other kernels.
 #pragma once
 #include "stages/overlap_correct/correct_parts.cuh"
@@ -150,9 +150,9 @@ __device__ __forceinline__ unsigned block_rank_in_cluster() {
 #undef FF_DSMEM
 
 // An iteration: (1) every thread tests its edges by the reach test (r² < the largest diameter²)
-// and lists those within reach, a warp's at once; (2) each listed edge gets its push (pair_term,
-// as Overlaps::edge on the device) and is linked into both ends' lists of pushes (one exchange
-// of a 32-bit head each: no 64-bit atomics, which sm_90's shared memory runs as spin loops);
+// and lists those within reach, a warp's at once; (2) each listed edge gets its push
+// (Overlaps::edge_push) and is linked into both ends' lists of pushes (one exchange of a 32-bit
+// head each: no 64-bit atomics, which sm_90's shared memory runs as spin loops);
 // (3) each touched particle sums its pushes in fixed point (any order: the same integer), is
 // finished (from_sum) and moved, written through to global memory. One block: a block barrier
 // after each. A cluster: a block barrier after (1), a cluster barrier after (2) and (3); each
@@ -228,23 +228,20 @@ __global__ void __launch_bounds__(kDenseThreads, 1) dense_kernel(Args<R, false> 
     s_pos[2 * (v - v0) + 1] = R(y);
     s_head[v - v0] = kNoToken;
   }
-  // The edges' ends, checked as the CPU's edge pass checks them (Overlaps::edge): a corrupt
+  // The edges' ends, checked as the CPU's edge pass checks them (Overlaps::edge_ends): a corrupt
   // record is counted and never read again; in a step's first launch the next pointers too.
   const bool check = a.k0 == 0;
-  u64 corrupt = 0, mixes = 0, expected = 0;
+  u64 corrupt = 0, expected = 0;
+  std::uint64_t mixes = 0;
   for (int e = e0 + tid; e < e1; e += kDenseThreads) {
-    int ia, na, ib, nb;
-    load_edge(ov.he, std::size_t(e), ia, na, ib, nb);
-    const bool ends = unsigned(ia) < unsigned(n) && unsigned(ib) < unsigned(n) && ia != ib;
-    const bool nexts = !check || (unsigned(na) < 6u * unsigned(n) && unsigned(nb) < 6u * unsigned(n));
-    if (!ends || !nexts) {
+    int ia, ib;
+    if (!ov.edge_ends(std::size_t(e), ia, ib, check, mixes)) {
       s_ea[e - e0] = kCorruptEdge;
       ++corrupt;
       continue;
     }
     s_ea[e - e0] = std::uint16_t(ia);
     s_eb[e - e0] = std::uint16_t(ib);
-    if (check) mixes += mix(std::uint64_t(unsigned(na))) + mix(std::uint64_t(unsigned(nb)));
   }
   if (check)
     for (int h = 2 * e0 + tid; h < 2 * e1; h += kDenseThreads) expected += mix(std::uint64_t(h));
@@ -321,10 +318,10 @@ __global__ void __launch_bounds__(kDenseThreads, 1) dense_kernel(Args<R, false> 
       position(ia, xa, ya);
       position(ib, xb, yb);
       const double rx = ov.min_image(xb - xa, 0), ry = ov.min_image(yb - ya, 1);
-      double tx, ty;
-      const PairOverlap o = pair_term(rx, ry, ov.diameter_of(ia), ov.diameter_of(ib), ov.factor, ov.tol, ia, ib, tx, ty);
-      if (o == kApart) continue;
-      s_push[i] = make_longlong2(-ov.fixed_push(tx), -ov.fixed_push(ty));  // on a; on b −q
+      std::int64_t qx, qy;
+      PairOverlap o;
+      if (ov.edge_push(ia, ib, rx, ry, qx, qy, o) == kEdgeApart) continue;
+      s_push[i] = make_longlong2(qx, qy);  // on a; on b −q
       if constexpr (Cluster) {  // tokens: the rank of this block, 2i + the end
         const std::uint32_t token = (rank << 16) | std::uint32_t(2 * i);
         const unsigned oa = unsigned(ia) >> shift, ob = unsigned(ib) >> shift;
