@@ -1,6 +1,6 @@
 // CUDA loop of overlap_correct, host side: DeviceLoops sizes the scratch, launches
 // correct_kernel.cuh's kernels (on the grid the wide kernels' first iterations, then a cooperative
-// grid launch; or a cluster) or, for a small run alone, dense_block.cuh's one block, and reads
+// grid launch; or a cluster) or, for a small run alone, dense_block.cuh's block or cluster, and reads
 // their counters.
 // Compiled with -fmad=false (CMakeLists.txt), as the kernels it includes must be.
 #include <cuda_runtime.h>
@@ -103,18 +103,22 @@ class DeviceLoops final : public OverlapCorrectLoops<R> {
     // each does nothing after an iteration that did not go on.
     if (wide_ && k0 == 0) a.j0 = run_wide<Walls, Mark>(a, s);
     void* args[] = {&a};
-    if (dense_bytes_ > 0) {  // (prepare: only without walls and mark)
+    if (dense_.blocks > 0) {  // (prepare: only without walls and mark)
       if constexpr (!Walls && !Mark) {
-        cudaLaunchAttribute attr[1];
+        cudaLaunchAttribute attr[2];
         cudaLaunchConfig_t cfg = {};
-        cfg.gridDim = dim3(1);
-        cfg.blockDim = dim3(kDenseThreads);
-        cfg.dynamicSmemBytes = dense_bytes_;
-        cfg.stream = s;
-        cfg.attrs = attr;
-        cfg.numAttrs = programmatic_attr(attr, 0);
-        FF_CUDA_CHECK(cudaLaunchKernelExC(&cfg, reinterpret_cast<void*>(dense_kernel<R>), args),
-                      "launching overlap_correct (one block, dense)");
+        if (dense_.blocks > 1) {
+          cfg = cluster_config(dense_.blocks, kDenseThreads, s, attr);
+        } else {
+          cfg.gridDim = dim3(1);
+          cfg.blockDim = dim3(kDenseThreads);
+          cfg.stream = s;
+          cfg.attrs = attr;
+        }
+        cfg.dynamicSmemBytes = dense_.bytes;
+        cfg.numAttrs = programmatic_attr(attr, cfg.numAttrs);
+        FF_CUDA_CHECK(cudaLaunchKernelExC(&cfg, dense_kernel_ptr<R>(dense_.shift), args),
+                      "launching overlap_correct (dense)");
       } else {
         throw RunError("overlap_correct: the dense block prepared for a run with walls or the touched field (internal error)");
       }
@@ -172,8 +176,9 @@ class DeviceLoops final : public OverlapCorrectLoops<R> {
     // A run alone in the cluster of 16, without walls, whose particles fit one block's shared
     // memory: the tail there (shared_tail.cuh).
     tail_bytes_ = team_ == kClusterBlocks && !Walls && runs_sharing_gpu() <= 1 ? shared_tail_bytes<R, Mark>(n) : 0;
-    // A small run alone, without walls or the touched field: one block, dense (dense_block.cuh).
-    dense_bytes_ = !Walls && !Mark && runs_sharing_gpu() <= 1 ? dense_block_bytes<R>(n) : 0;
+    // A small run alone, without walls or the touched field: one block or a cluster, dense
+    // (dense_block.cuh).
+    dense_ = !Walls && !Mark && runs_sharing_gpu() <= 1 ? dense_shape<R>(n) : DenseShape{};
     for (Scratch<u64>& sl : slots_) sl.reset();
     marks_.reset();  // fresh zeroed arrays even where the size did not change
     parity_ = 0;
@@ -201,7 +206,7 @@ class DeviceLoops final : public OverlapCorrectLoops<R> {
   int team_ = kGrid;  // who runs the iterations (team_for): kGrid, kClusterBlocks or kSharedClusterBlocks
   bool wide_ = false;  // the grid's first iterations in the wide kernels (prepare)
   std::size_t tail_bytes_ = 0;  // the shared-memory tail's dynamic shared memory, 0 without it (prepare)
-  std::size_t dense_bytes_ = 0;  // the dense block's dynamic shared memory, 0 when it does not run (prepare)
+  DenseShape dense_;  // the dense block's or cluster's shape, no blocks when it does not run (prepare)
   int parity_ = 0;  // which slots the next launch uses (zero); it zeroes the other
   int last_gathers_ = 0;   // how many gathers the last launch ran (the slots it used)
   bool unread_ = false;    // the last launch was never read back (finish)

@@ -1,20 +1,29 @@
-// overlap_correct for a small run alone on the GPU (n ≤ kDenseMaxN, no walls, no touched field):
-// one block keeps the whole correction in its shared memory (positions, the 3n edges as pairs of
-// 16-bit ids, the listed edges' pushes) and runs every iteration as a dense edge pass, Carter's
-// Algorithm 2 as the CPU's edge pass runs it (cpu.cpp): each edge tested on the current
-// positions, each overlapping one pushing both ends; then each touched particle finishes its sum
-// and moves (the kernel's comment). No fans, candidates or claims: there an iteration of the
-// cluster team is a chain of dependent L2 loads and team barriers (bench/experiments/README.md,
-// "What the small rows need"), here three block barriers around passes over shared memory.
-// Against the team (bench/README.md, "Session 41"): bench-abp +21 % at 1 024 particles, +2-5 % at
-// 1 280-1 792, the same at 2 048; what did not pay (64-bit shared atomics, a block sum in every
-// thread, testing only the moved particles' edges) is in bench/experiments/README.md.
+// overlap_correct for a small run alone on the GPU (n ≤ kDenseClusterMaxN, no walls, no touched
+// field): the whole correction in shared memory (positions, the 3n edges as pairs of 16-bit ids,
+// the listed edges' pushes), every iteration a dense edge pass, Carter's Algorithm 2 as the CPU's
+// edge pass runs it (cpu.cpp): each edge tested on the current positions, each overlapping one
+// pushing both ends; then each touched particle finishes its sum and moves (the kernel's
+// comment). No fans, candidates or claims: there an iteration of the cluster team is a chain of
+// dependent L2 loads and team barriers (bench/experiments/README.md, "What the small rows need"),
+// here barriers around passes over shared memory.
+//   - one block (n ≤ kDenseMaxN): the block holds everything; three block barriers an iteration.
+//   - a cluster of up to kDenseMaxBlocks blocks (n ≤ kDenseClusterMaxN; sm_90's distributed shared
+//     memory): block r holds particles [r·P, (r+1)·P) (P = 2^shift, dense_shift) and the edges
+//     [3r·P, 3(r+1)·P), whose ends are mostly its own particles (Hilbert order; edges are numbered
+//     near their particles). An end held by another block is read from that block's shared
+//     memory; a push is linked into its end's list in the end's block, and walked from there. One
+//     block barrier and two cluster barriers an iteration; every block's counters go to block 0.
+// Against the team and the grid (bench/README.md, "Session 41" and "Session 42"): bench-abp +21 %
+// at 1 024 particles (one block), +7 % at 1 280, +25 % at 2 048, +36 % at 4 096, +37 % at 8 192
+// and 16 384 (clusters).
+// What did not pay (64-bit shared atomics, a block sum in every thread, testing only the moved
+// particles' edges) is in bench/experiments/README.md.
 //
-// The same bits as the other loops: the pushes are kernel.h's (Overlaps::edge's operations on
-// the device, pair_term, fixed_push), summed in fixed point (any order), finished by from_sum and
-// moved by moved_from; the counters are the CPU edge pass's (pairs and pairs beyond the
-// tolerance each once, |d_v| of every touched particle, corrupt records and the permutation
-// check of the next pointers in iteration 0), decided by keeps_going. Device code; included by
+// The same bits as the other loops: the records are checked and the pushes made by kernel.h's
+// Overlaps::edge_ends and edge_push (the CPU edge pass's own), summed in fixed point (any order),
+// finished by from_sum and moved by moved_from; the counters are the CPU edge pass's (pairs and
+// pairs beyond the tolerance each once, |d_v| of every touched particle, corrupt records and the
+// permutation check of the next pointers in iteration 0), decided by keeps_going. Device code; included by
 // cuda.cu after correct_parts.cuh, compiled with -fmad=false as the other kernels.
 #pragma once
 #include "stages/overlap_correct/correct_parts.cuh"
@@ -24,31 +33,56 @@ namespace ff::overlap {
 namespace {
 
 constexpr int kDenseThreads = 1024;
-// The largest run it takes: where it stops beating the cluster team (the same at 2 048), within
-// 16-bit ids and list entries and one block's shared memory (~100 bytes a particle in double:
-// 200 KB at 2 048, DenseLayout).
-constexpr std::size_t kDenseMaxN = 2048;
+// The largest run one block takes (~100 bytes a particle in double, DenseLayout): above it a
+// cluster of small shares is faster (bench-abp at 1 280: 17 800 steps/s on 5 blocks of 256, 16 700
+// on one block), and up to 1 024 a thread tests 3 edges, not 6 (+1.7 % at 1 024).
+constexpr std::size_t kDenseMaxN = 1024;
+// A cluster's blocks hold 2^shift particles each, kDenseMinShift ≤ shift ≤ kDenseMaxShift, the
+// least that covers the run with up to 16 blocks (sm_90's largest cluster, non-portable): shares
+// of 256 beat 512 by 3-6 % at 1 280-4 096 particles, 512 beat 1 024 by 7-15 % at 1 536-8 192 (more
+// threads on the same edges; "Session 42", calls 2-3). 2 048 a block would not fit beside the
+// static arrays in double. List tokens are a block's rank and a 16-bit index; particle ids 16-bit.
+constexpr int kDenseMaxBlocks = 16;
+constexpr int kDenseMinShift = 8, kDenseMaxShift = 10;
+constexpr std::size_t kDenseClusterMaxN = std::size_t(kDenseMaxBlocks) << kDenseMaxShift;
 constexpr std::uint16_t kCorruptEdge = 0xFFFF;
 constexpr std::uint32_t kNoToken = 0xFFFFFFFFu;
 constexpr std::uint16_t kNoLink = 0xFFFF;
-constexpr int kDenseRounds = int((3 * kDenseMaxN + kDenseThreads - 1) / kDenseThreads);  // edges a thread tests
+// Edges a thread tests: 3 of each particle a block holds.
+constexpr int kDenseRounds =
+    int((3 * std::max(kDenseMaxN, std::size_t(1) << kDenseMaxShift) + kDenseThreads - 1) / kDenseThreads);
 
-// The dynamic shared memory of n particles, each part 16-byte aligned: positions (R x 2), the
-// edges' ends (2 x 3n u16), an iteration's listed edges (3n u16), their pushes (3n x 2 int64),
-// the links of each listed pair's two ends (2 x 3n u16) and each particle's first link (n u32).
-template <class R>
+// The blocks that take n particles (n ≤ kDenseClusterMaxN): 1 up to kDenseMaxN, else a cluster
+// (dense_shift: log2 of how many each holds, the kernel's Shift).
+inline int dense_shift(std::size_t n, int blocks) {
+  int s = kDenseMinShift;
+  while ((std::size_t(blocks) << s) < n) ++s;
+  return s;
+}
+inline int dense_blocks(std::size_t n) {
+  if (n <= kDenseMaxN) return 1;
+  int s = kDenseMinShift;
+  while ((std::size_t(kDenseMaxBlocks) << s) < n) ++s;
+  return int((n + (std::size_t(1) << s) - 1) >> s);
+}
+
+// The dynamic shared memory of a block holding m particles, each part 16-byte aligned: positions
+// (R x 2), the edges' ends (2 x 3m u16), an iteration's listed edges (3m u16), their pushes (3m x 2
+// int64), the links of each listed pair's two ends (2 x 3m: u16, in a cluster u32 tokens) and each
+// particle's first link (m u32).
+template <class R, bool Cluster = false>
 struct DenseLayout {
   std::size_t pos = 0, ea, eb, list, push, link, head, bytes;
   __host__ __device__ static std::size_t up(std::size_t b) { return (b + 15) / 16 * 16; }
-  __host__ __device__ explicit DenseLayout(std::size_t n) {
-    const std::size_t e = 3 * n;
-    ea = pos + up(2 * n * sizeof(R));
+  __host__ __device__ explicit DenseLayout(std::size_t m) {
+    const std::size_t e = 3 * m;
+    ea = pos + up(2 * m * sizeof(R));
     eb = ea + up(2 * e);
     list = eb + up(2 * e);
     push = list + up(2 * e);
     link = push + up(16 * e);
-    head = link + up(2 * 2 * e);
-    bytes = head + up(4 * n);
+    head = link + up((Cluster ? 4 : 2) * 2 * e);
+    bytes = head + up(4 * m);
   }
 };
 
@@ -64,14 +98,71 @@ __device__ __forceinline__ void warp_slot(u64* slot, u64 x) {
 }
 __device__ __forceinline__ u64 block_total(const u64* slot) { return warp_sum(slot[threadIdx.x & 31]); }
 
-// An iteration: (1) every thread tests its edges by the reach test (r² < the largest diameter²)
-// and lists those within reach, a warp's at once; (2) each listed edge gets its push (pair_term,
-// as Overlaps::edge on the device) and is linked into both ends' lists of pushes (one exchange
-// of a 32-bit head each: no 64-bit atomics, which sm_90's shared memory runs as spin loops);
-// (3) each touched particle sums its pushes in fixed point (any order: the same integer), is
-// finished (from_sum) and moved, written through to global memory. A block barrier after each.
+// sm_90's distributed shared memory, as the dense cluster uses it: the address of p (a variable in
+// this block's shared memory) in block `rank`'s (mapa), and loads, stores and an exchange there.
+// Each is volatile with a memory clobber: none may move across the cluster barriers.
+#if defined(__CUDA_ARCH__) && __CUDA_ARCH__ >= 900
+#define FF_DSMEM(...) __VA_ARGS__
+#else
+#define FF_DSMEM(...) __trap()  // never launched: the host launches clusters only on devices that have them
+#endif
+__device__ __forceinline__ unsigned in_block(const void* p, unsigned rank) {
+  unsigned remote = 0;
+  FF_DSMEM(asm("mapa.shared::cluster.u32 %0, %1, %2;"
+               : "=r"(remote)
+               : "r"(unsigned(__cvta_generic_to_shared(p))), "r"(rank)));
+  return remote;
+}
 template <class R>
+__device__ __forceinline__ void load_xy_at(unsigned at, double& x, double& y) {
+  if constexpr (sizeof(R) == 8) {
+    FF_DSMEM(asm volatile("ld.shared::cluster.v2.f64 {%0, %1}, [%2];" : "=d"(x), "=d"(y) : "r"(at) : "memory"));
+  } else {
+    float fx = 0, fy = 0;
+    FF_DSMEM(asm volatile("ld.shared::cluster.v2.f32 {%0, %1}, [%2];" : "=f"(fx), "=f"(fy) : "r"(at) : "memory"));
+    x = double(fx);
+    y = double(fy);
+  }
+}
+__device__ __forceinline__ longlong2 load_push_at(unsigned at) {
+  long long px = 0, py = 0;
+  FF_DSMEM(asm volatile("ld.shared::cluster.v2.s64 {%0, %1}, [%2];" : "=l"(px), "=l"(py) : "r"(at) : "memory"));
+  return make_longlong2(px, py);
+}
+__device__ __forceinline__ unsigned load_u32_at(unsigned at) {
+  unsigned v = 0;
+  FF_DSMEM(asm volatile("ld.shared::cluster.u32 %0, [%1];" : "=r"(v) : "r"(at) : "memory"));
+  return v;
+}
+__device__ __forceinline__ unsigned exchange_at(unsigned at, unsigned v) {
+  unsigned old = 0;
+  FF_DSMEM(asm volatile("atom.shared::cluster.exch.b32 %0, [%1], %2;" : "=r"(old) : "r"(at), "r"(v) : "memory"));
+  return old;
+}
+__device__ __forceinline__ void store_u64_at(unsigned at, u64 v) {
+  FF_DSMEM(asm volatile("st.shared::cluster.u64 [%0], %1;" ::"r"(at), "l"(v) : "memory"));
+}
+__device__ __forceinline__ unsigned block_rank_in_cluster() {
+  unsigned r = 0;
+  FF_DSMEM(asm("mov.u32 %0, %%cluster_ctarank;" : "=r"(r)));
+  return r;
+}
+#undef FF_DSMEM
+
+// An iteration: (1) every thread tests its edges by the reach test (r² < the largest diameter²)
+// and lists those within reach, a warp's at once; (2) each listed edge gets its push
+// (Overlaps::edge_push) and is linked into both ends' lists of pushes (one exchange of a 32-bit
+// head each: no 64-bit atomics, which sm_90's shared memory runs as spin loops);
+// (3) each touched particle sums its pushes in fixed point (any order: the same integer), is
+// finished (from_sum) and moved, written through to global memory. One block: a block barrier
+// after each. A cluster: a block barrier after (1), a cluster barrier after (2) and (3); each
+// warp's counts go to block 0 (s_part), and a warp with a pair beyond the tolerance stamps every
+// block's s_bad_at with k + 1, so every thread reads keeps_going's answer in its own block.
+// Shift: 0 for one block, else log2 of the particles a cluster's block holds (a constant: the
+// owner of a particle is a shift of its id).
+template <class R, int Shift>
 __global__ void __launch_bounds__(kDenseThreads, 1) dense_kernel(Args<R, false> a) {
+  constexpr bool Cluster = Shift > 0;
   extern __shared__ __align__(16) unsigned char s_mem[];
   // By iteration parity (j & 1): an iteration's slots are read after the barrier that follows
   // their stores, and stored again two iterations later. s_listed[p ^ 1] is zeroed by iteration j
@@ -81,58 +172,100 @@ __global__ void __launch_bounds__(kDenseThreads, 1) dense_kernel(Args<R, false> 
   __shared__ u64 s_load[3][kDenseWarps];    // by warp: corrupt records, the next pointers' mixes, their expected sum
   __shared__ u64 s_broken[2];               // kBroken of the first iteration, and of the others
   __shared__ u64 s_rows[kRowsHeld][kTouched];  // warp 0: the rows of the iterations not yet in result
+  // A cluster's: every block's three setup sums (s_load's, in every block); in block 0, each
+  // block's warps' kBad, kPairs and kCorrection of the iteration (stored in (2) and (3), read
+  // after the cluster barrier that follows, stored again after the next one); the last k + 1
+  // with a pair beyond the tolerance anywhere (a stamp: never reset).
+  __shared__ u64 s_setup[Cluster ? kDenseMaxBlocks : 1][3];
+  __shared__ u64 s_part[Cluster ? 3 : 1][Cluster ? kDenseMaxBlocks : 1][Cluster ? kDenseWarps : 1];
+  __shared__ long long s_bad_at;
 
-  const int n = int(a.p.n), edges = 3 * n;
-  const DenseLayout<R> at(std::size_t(a.p.n));
+  const int n = int(a.p.n);
+  const int tid = int(threadIdx.x), lane = tid & 31, warp = tid >> 5;
+  // This block's share: particles [v0, v1), edges [e0, e1) (one block: all of them).
+  const unsigned rank = Cluster ? block_rank_in_cluster() : 0u;
+  const int blocks = Cluster ? int(gridDim.x) : 1;
+  constexpr int shift = Shift;
+  const int v0 = Cluster ? int(rank) << shift : 0;
+  const int v1 = Cluster ? min(n, v0 + (1 << shift)) : n;
+  const int e0 = 3 * v0, e1 = 3 * v1;
+  const DenseLayout<R, Cluster> at(Cluster ? std::size_t(1) << shift : std::size_t(a.p.n));
   R* s_pos = reinterpret_cast<R*>(s_mem + at.pos);
   std::uint16_t* s_ea = reinterpret_cast<std::uint16_t*>(s_mem + at.ea);
   std::uint16_t* s_eb = reinterpret_cast<std::uint16_t*>(s_mem + at.eb);
   std::uint16_t* s_list = reinterpret_cast<std::uint16_t*>(s_mem + at.list);
   longlong2* s_push = reinterpret_cast<longlong2*>(s_mem + at.push);
-  std::uint16_t* s_link = reinterpret_cast<std::uint16_t*>(s_mem + at.link);
+  std::uint16_t* s_link = reinterpret_cast<std::uint16_t*>(s_mem + at.link);  // one block
+  std::uint32_t* s_token = reinterpret_cast<std::uint32_t*>(s_mem + at.link);  // a cluster
   std::uint32_t* s_head = reinterpret_cast<std::uint32_t*>(s_mem + at.head);
   const Overlaps<R, false>& ov = a.ov;
-  const int tid = int(threadIdx.x), lane = tid & 31;
+  // Particle v's position, from the block that holds it.
+  auto position = [&](int v, double& x, double& y) {
+    if constexpr (Cluster) {
+      const unsigned owner = unsigned(v) >> shift;
+      const int i = v - (int(owner) << shift);
+      if (owner == rank)
+        load_xy(s_pos, i, x, y);
+      else
+        load_xy_at<R>(in_block(s_pos + 2 * i, owner), x, y);
+    } else {
+      load_xy(s_pos, v, x, y);
+    }
+  };
 
   wait_for_previous_kernel();  // launched programmatically, as the teams (cuda.cu)
   if (gate_closed(a.p)) {  // one gather that found nothing, and no move (Problem::gate)
-    if (tid < kCounters) a.result[tid] = 0;
-    if (tid == 0) a.result[std::size_t(kDeviceBatch) * kCounters] = 1;
+    if (rank == 0 && tid < kCounters) a.result[tid] = 0;
+    if (rank == 0 && tid == 0) a.result[std::size_t(kDeviceBatch) * kCounters] = 1;
     return;
   }
   if (tid < 2) s_listed[tid] = 0;
-  for (int v = tid; v < n; v += kDenseThreads) {
+  if (Cluster && tid == 0) s_bad_at = 0;
+  for (int v = v0 + tid; v < v1; v += kDenseThreads) {
     double x, y;
     load_xy(a.p.pos, v, x, y);
-    s_pos[2 * v] = R(x);  // exact: widened from R
-    s_pos[2 * v + 1] = R(y);
-    s_head[v] = kNoToken;
+    s_pos[2 * (v - v0)] = R(x);  // exact: widened from R
+    s_pos[2 * (v - v0) + 1] = R(y);
+    s_head[v - v0] = kNoToken;
   }
-  // The edges' ends, checked as the CPU's edge pass checks them (Overlaps::edge): a corrupt
+  // The edges' ends, checked as the CPU's edge pass checks them (Overlaps::edge_ends): a corrupt
   // record is counted and never read again; in a step's first launch the next pointers too.
   const bool check = a.k0 == 0;
-  u64 corrupt = 0, mixes = 0, expected = 0;
-  for (int e = tid; e < edges; e += kDenseThreads) {
-    int ia, na, ib, nb;
-    load_edge(ov.he, std::size_t(e), ia, na, ib, nb);
-    const bool ends = unsigned(ia) < unsigned(n) && unsigned(ib) < unsigned(n) && ia != ib;
-    const bool nexts = !check || (unsigned(na) < 6u * unsigned(n) && unsigned(nb) < 6u * unsigned(n));
-    if (!ends || !nexts) {
-      s_ea[e] = kCorruptEdge;
+  u64 corrupt = 0, expected = 0;
+  std::uint64_t mixes = 0;
+  for (int e = e0 + tid; e < e1; e += kDenseThreads) {
+    int ia, ib;
+    if (!ov.edge_ends(std::size_t(e), ia, ib, check, mixes)) {
+      s_ea[e - e0] = kCorruptEdge;
       ++corrupt;
       continue;
     }
-    s_ea[e] = std::uint16_t(ia);
-    s_eb[e] = std::uint16_t(ib);
-    if (check) mixes += mix(std::uint64_t(unsigned(na))) + mix(std::uint64_t(unsigned(nb)));
+    s_ea[e - e0] = std::uint16_t(ia);
+    s_eb[e - e0] = std::uint16_t(ib);
   }
   if (check)
-    for (int h = tid; h < 2 * edges; h += kDenseThreads) expected += mix(std::uint64_t(h));
+    for (int h = 2 * e0 + tid; h < 2 * e1; h += kDenseThreads) expected += mix(std::uint64_t(h));
   warp_slot(s_load[0], corrupt);
   warp_slot(s_load[1], mixes);
   warp_slot(s_load[2], expected);
   __syncthreads();
-  if (tid < 32) {  // warp 0: the broken count, for every thread
+  if constexpr (Cluster) {  // this block's sums into every block's s_setup, then the cluster's
+    if (tid < 32) {
+      const u64 c = block_total(s_load[0]), h = block_total(s_load[1]), x = block_total(s_load[2]);
+      if (lane < blocks) {
+        store_u64_at(in_block(&s_setup[rank][0], unsigned(lane)), c);
+        store_u64_at(in_block(&s_setup[rank][1], unsigned(lane)), h);
+        store_u64_at(in_block(&s_setup[rank][2], unsigned(lane)), x);
+      }
+    }
+    cg::this_cluster().sync();  // also: every block's positions and heads in place
+    if (tid < 32) {
+      const u64 c = warp_sum(lane < blocks ? s_setup[lane][0] : 0);
+      const u64 h = warp_sum(lane < blocks ? s_setup[lane][1] : 0), x = warp_sum(lane < blocks ? s_setup[lane][2] : 0);
+      if (tid == 0) s_broken[0] = c + (check && h != x ? 1 : 0);
+      if (tid == 0) s_broken[1] = c;
+    }
+  } else if (tid < 32) {  // warp 0: the broken count, for every thread
     const u64 c = block_total(s_load[0]);
     const u64 h = block_total(s_load[1]), x = block_total(s_load[2]);
     if (tid == 0) s_broken[0] = c + (check && h != x ? 1 : 0);
@@ -140,7 +273,7 @@ __global__ void __launch_bounds__(kDenseThreads, 1) dense_kernel(Args<R, false> 
   }
   __syncthreads();
   const u64 broken_first = s_broken[0], broken_later = s_broken[1];
-  const int rounds = (edges + kDenseThreads - 1) / kDenseThreads;  // the same in every thread
+  const int rounds = (e1 - e0 + kDenseThreads - 1) / kDenseThreads;  // the same in every thread
 
   for (int j = 0; j < kDeviceBatch; ++j) {
     const long long k = a.k0 + j;
@@ -150,14 +283,14 @@ __global__ void __launch_bounds__(kDenseThreads, 1) dense_kernel(Args<R, false> 
     bool near[kDenseRounds];
 #pragma unroll
     for (int r = 0; r < kDenseRounds; ++r) {
-      const int e = r * kDenseThreads + tid;
+      const int e = e0 + r * kDenseThreads + tid;
       near[r] = false;
-      if (r < rounds && e < edges) {
-        const int ia = s_ea[e];
+      if (r < rounds && e < e1) {
+        const int ia = s_ea[e - e0];
         if (ia != kCorruptEdge) {
           double xa, ya, xb, yb;
-          load_xy(s_pos, ia, xa, ya);
-          load_xy(s_pos, s_eb[e], xb, yb);
+          position(ia, xa, ya);
+          position(s_eb[e - e0], xb, yb);
           const double rx = ov.min_image(xb - xa, 0), ry = ov.min_image(yb - ya, 1);
           near[r] = rx * rx + ry * ry < ov.reach2;
         }
@@ -182,56 +315,96 @@ __global__ void __launch_bounds__(kDenseThreads, 1) dense_kernel(Args<R, false> 
       const int e = s_list[i];
       const int ia = s_ea[e], ib = s_eb[e];
       double xa, ya, xb, yb;
-      load_xy(s_pos, ia, xa, ya);
-      load_xy(s_pos, ib, xb, yb);
+      position(ia, xa, ya);
+      position(ib, xb, yb);
       const double rx = ov.min_image(xb - xa, 0), ry = ov.min_image(yb - ya, 1);
-      double tx, ty;
-      const PairOverlap o = pair_term(rx, ry, ov.diameter_of(ia), ov.diameter_of(ib), ov.factor, ov.tol, ia, ib, tx, ty);
-      if (o == kApart) continue;
-      s_push[i] = make_longlong2(-ov.fixed_push(tx), -ov.fixed_push(ty));  // on a; on b −q
-      s_link[2 * i] = std::uint16_t(atomicExch(&s_head[ia], std::uint32_t(2 * i)));
-      s_link[2 * i + 1] = std::uint16_t(atomicExch(&s_head[ib], std::uint32_t(2 * i + 1)));
+      std::int64_t qx, qy;
+      PairOverlap o;
+      if (ov.edge_push(ia, ib, rx, ry, qx, qy, o) == kEdgeApart) continue;
+      s_push[i] = make_longlong2(qx, qy);  // on a; on b −q
+      if constexpr (Cluster) {  // tokens: the rank of this block, 2i + the end
+        const std::uint32_t token = (rank << 16) | std::uint32_t(2 * i);
+        const unsigned oa = unsigned(ia) >> shift, ob = unsigned(ib) >> shift;
+        s_token[2 * i] = exchange_at(in_block(&s_head[ia - (int(oa) << shift)], oa), token);
+        s_token[2 * i + 1] = exchange_at(in_block(&s_head[ib - (int(ob) << shift)], ob), token | 1u);
+      } else {
+        s_link[2 * i] = std::uint16_t(atomicExch(&s_head[ia], std::uint32_t(2 * i)));
+        s_link[2 * i + 1] = std::uint16_t(atomicExch(&s_head[ib], std::uint32_t(2 * i + 1)));
+      }
       if (counted(o)) {
         ++pairs;
         if (o == kBeyond) ++bad;
       }
     }
-    warp_slot(s_red[p][0], bad);
-    warp_slot(s_red[p][1], pairs);
     // Every push linked, the counters in; keeps_going's answer, the same in every thread.
-    const bool any_bad = __syncthreads_or(bad != 0);
+    bool any_bad;
+    u64 row_bad = 0, row_pairs = 0;  // the iteration's row of counters (warp 0 of block 0)
+    if constexpr (Cluster) {
+      const u64 wb = warp_sum(bad), wp = warp_sum(pairs);
+      if (wb != 0 && lane < blocks) store_u64_at(in_block(&s_bad_at, unsigned(lane)), u64(k + 1));
+      if (lane == 0) {
+        store_u64_at(in_block(&s_part[0][rank][warp], 0u), wb);
+        store_u64_at(in_block(&s_part[1][rank][warp], 0u), wp);
+      }
+      cg::this_cluster().sync();
+      any_bad = s_bad_at == k + 1;
+      if (rank == 0 && tid < 32) {
+        for (int b = 0; b < blocks; ++b) {
+          row_bad += s_part[0][b][lane];
+          row_pairs += s_part[1][b][lane];
+        }
+        row_bad = warp_sum(row_bad);
+        row_pairs = warp_sum(row_pairs);
+      }
+    } else {
+      warp_slot(s_red[p][0], bad);
+      warp_slot(s_red[p][1], pairs);
+      any_bad = __syncthreads_or(bad != 0);
+      if (tid < 32) {
+        row_bad = block_total(s_red[p][0]);
+        row_pairs = block_total(s_red[p][1]);
+      }
+    }
     const u64 broken = j == 0 ? broken_first : broken_later;
     const bool go = broken == 0 && any_bad && k < a.max_iterations;
-    // The iteration's row of counters (warp 0), stored to result after the moves (or now).
-    u64 row_bad = 0, row_pairs = 0;
-    if (tid < 32) {
-      row_bad = block_total(s_red[p][0]);
-      row_pairs = block_total(s_red[p][1]);
-    }
-    // Warp 0 holds the row in shared memory and stores a run of kRowsHeld rows to result
-    // (pinned host memory) at once, as the team kernel does: not a store over the bus each
+    // Warp 0 (of block 0) holds the row in shared memory and stores a run of kRowsHeld rows to
+    // result (pinned host memory) at once, as the team kernel does: not a store over the bus each
     // iteration in the warp the next barrier waits for.
     auto keep_row = [&](u64 correction) {
-      if (tid >= kTouched) return;
+      if (rank != 0 || tid >= kTouched) return;
       s_rows[j % kRowsHeld][tid] = tid == kBad ? row_bad : tid == kPairs ? row_pairs : tid == kBroken ? broken : correction;
       if ((j + 1) % kRowsHeld == 0) store_held_rows<kTouched>(a.result, s_rows, j + 1);
     };
-    if (!go) {
+    if (!go) {  // (a cluster: no block reads another's shared memory after its last barrier)
       keep_row(0);
-      if (tid < kTouched && (j + 1) % kRowsHeld != 0) store_held_rows<kTouched>(a.result, s_rows, j + 1);
-      if (tid == 0) a.result[std::size_t(kDeviceBatch) * kCounters] = u64(j + 1);
+      if (rank == 0 && tid < kTouched && (j + 1) % kRowsHeld != 0) store_held_rows<kTouched>(a.result, s_rows, j + 1);
+      if (rank == 0 && tid == 0) a.result[std::size_t(kDeviceBatch) * kCounters] = u64(j + 1);
       return;
     }
     if (tid == 0) s_listed[p ^ 1] = 0;
     // (3) The moves: each touched particle's pushes summed, finished (capped) and applied.
     u64 corr = 0;
-    for (int v = tid; v < n; v += kDenseThreads) {
-      std::uint32_t t = s_head[v];
+    for (int v = v0 + tid; v < v1; v += kDenseThreads) {
+      std::uint32_t t = s_head[v - v0];
       if (t == kNoToken) continue;
-      s_head[v] = kNoToken;
+      s_head[v - v0] = kNoToken;
       std::int64_t qx = 0, qy = 0;
       while (true) {
-        const longlong2 q = s_push[t >> 1];
+        longlong2 q;
+        std::uint32_t next;
+        if constexpr (Cluster) {  // the push and the next token, in the block that listed the edge
+          const unsigned owner = t >> 16, i = t & 0xFFFFu;
+          if (owner == rank) {
+            q = s_push[i >> 1];
+            next = s_token[i];
+          } else {
+            q = load_push_at(in_block(&s_push[i >> 1], owner));
+            next = load_u32_at(in_block(&s_token[i], owner));
+          }
+        } else {
+          q = s_push[t >> 1];
+          next = s_link[t];
+        }
         if (t & 1) {
           qx -= q.x;
           qy -= q.y;
@@ -239,8 +412,7 @@ __global__ void __launch_bounds__(kDenseThreads, 1) dense_kernel(Args<R, false> 
           qx += q.x;
           qy += q.y;
         }
-        const std::uint16_t next = s_link[t];
-        if (next == kNoLink) break;
+        if (next == (Cluster ? kNoToken : kNoLink)) break;
         t = next;
       }
       const VertexPush q = ov.from_sum(v, qx, qy);
@@ -249,21 +421,32 @@ __global__ void __launch_bounds__(kDenseThreads, 1) dense_kernel(Args<R, false> 
       const double d[2] = {q.dx, q.dy};
       R x[2];
       int crossed[2];
-      moved_from<2>(s_pos + 2 * v, a.p.box, d, x, crossed);
-      s_pos[2 * v] = x[0];
-      s_pos[2 * v + 1] = x[1];
+      moved_from<2>(s_pos + 2 * (v - v0), a.p.box, d, x, crossed);
+      s_pos[2 * (v - v0)] = x[0];
+      s_pos[2 * (v - v0) + 1] = x[1];
       store_xy(a.p.pos, v, double(x[0]), double(x[1]));
       if (crossed[0]) a.p.image[2 * v] += crossed[0];
       if (crossed[1]) a.p.image[2 * v + 1] += crossed[1];
     }
-    warp_slot(s_red[p][2], corr);
-    __syncthreads();  // every move in place, the correction summed
-    if (tid < 32) {
-      const u64 correction = block_total(s_red[p][2]);
-      keep_row(correction);
+    if constexpr (Cluster) {
+      const u64 wc = warp_sum(corr);
+      if (lane == 0) store_u64_at(in_block(&s_part[2][rank][warp], 0u), wc);
+      cg::this_cluster().sync();  // every move in place, every correction in block 0
+      if (rank == 0 && tid < 32) {
+        u64 c = 0;
+        for (int b = 0; b < blocks; ++b) c += s_part[2][b][lane];
+        keep_row(warp_sum(c));
+      }
+    } else {
+      warp_slot(s_red[p][2], corr);
+      __syncthreads();  // every move in place, the correction summed
+      if (tid < 32) {
+        const u64 correction = block_total(s_red[p][2]);
+        keep_row(correction);
+      }
     }
   }
-  if (tid == 0) a.result[std::size_t(kDeviceBatch) * kCounters] = u64(kDeviceBatch);
+  if (rank == 0 && tid == 0) a.result[std::size_t(kDeviceBatch) * kCounters] = u64(kDeviceBatch);
   static_assert(kDeviceBatch % kRowsHeld == 0, "the last run of held rows is full");
 }
 

@@ -376,13 +376,7 @@ struct Overlaps : PushRule {
   template <bool Check>
   FF_HD int edge(std::size_t e, int& a, int& b, std::int64_t& qx, std::int64_t& qy, PairOverlap& o,
                  std::uint64_t& next_hash) const {
-    int na, nb;
-    load_edge(he, e, a, na, b, nb);
-    if (unsigned(a) >= unsigned(n) || unsigned(b) >= unsigned(n) || a == b) return kEdgeCorrupt;
-    if (Check) {
-      if (unsigned(na) >= 6u * unsigned(n) || unsigned(nb) >= 6u * unsigned(n)) return kEdgeCorrupt;
-      next_hash += mix(std::uint64_t(unsigned(na))) + mix(std::uint64_t(unsigned(nb)));
-    }
+    if (!edge_ends(e, a, b, Check, next_hash)) return kEdgeCorrupt;
     double xa, ya, xb, yb;
     load_xy(pos, a, xa, ya);
     load_xy(pos, b, xb, yb);
@@ -399,6 +393,28 @@ struct Overlaps : PushRule {
       ry = Walls && wall_axis == 1 ? ry + 0.0 : box.min_image(ry, 1);
     }
     if (!(rx * rx + ry * ry < reach2)) return kEdgeApart;  // σ_ab ≤ largest diameter
+    return edge_push(a, b, rx, ry, qx, qy, o);
+  }
+
+  // Edge record e's ends a, b, checked as an edge pass checks them: in range and distinct; with
+  // `check` (a step's first pass) its next pointers in range too, their mixes added to the
+  // permutation check. False for a corrupt record (nothing else is read then). The CPU's edge
+  // pass (edge) and the device's dense block (dense_block.cuh) both check records by it.
+  FF_HD bool edge_ends(std::size_t e, int& a, int& b, bool check, std::uint64_t& next_hash) const {
+    int na, nb;
+    load_edge(he, e, a, na, b, nb);
+    if (unsigned(a) >= unsigned(n) || unsigned(b) >= unsigned(n) || a == b) return false;
+    if (check) {
+      if (unsigned(na) >= 6u * unsigned(n) || unsigned(nb) >= 6u * unsigned(n)) return false;
+      next_hash += mix(std::uint64_t(unsigned(na))) + mix(std::uint64_t(unsigned(nb)));
+    }
+    return true;
+  }
+
+  // The push along edge (a, b) at the minimum-image offset (rx, ry) = x_b − x_a: pair_term's answer
+  // o and, when they overlap (kEdgeOverlap), the push on a in fixed point (qx, qy; the push on b
+  // is −q); else kEdgeApart. An edge pass's pair math (edge; the dense block's pushes).
+  FF_HD int edge_push(int a, int b, double rx, double ry, std::int64_t& qx, std::int64_t& qy, PairOverlap& o) const {
     double tx, ty;
     o = pair_term(rx, ry, diameter_of(a), diameter_of(b), factor, tol, a, b, tx, ty);
     if (o == kApart) return kEdgeApart;

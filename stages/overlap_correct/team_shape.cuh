@@ -33,8 +33,8 @@ constexpr int kMinBlocks = 1;
 // every size), the threshold from session 25's (bench/README.md, "Session 25"): the cluster wins
 // at 8192 particles and ties the grid at 16384, above which the grid's SMs do more than the
 // cluster's barrier saves. On a GPU that many runs share, team_for gives a run fewer SMs. Below
-// that, a run alone without walls or the touched field takes the dense one block instead
-// (dense_block.cuh: every iteration an edge pass in shared memory; dense_block_bytes).
+// that, a run alone without walls or the touched field takes the dense block or cluster instead
+// (dense_block.cuh: every iteration an edge pass in shared memory; dense_shape).
 constexpr int kClusterBlocks = 16;
 static_assert(kClusterBlocks == kClusterTailTeam, "correct_kernel.cuh's tail threshold names this cluster");
 constexpr int kClusterThreads = 512;
@@ -174,17 +174,36 @@ std::size_t shared_tail_bytes(std::size_t n) {
   return cluster_fits(f, kClusterBlocks, threads_of<kClusterBlocks>, bytes, what) ? bytes : 0;
 }
 
-// The dynamic shared memory of the dense block (dense_block.cuh) for n particles, set as its
-// kernel's limit; 0 where it does not take the run (n > kDenseMaxN, or the state does not fit
-// one block's shared memory beside the kernel's static arrays).
+// The dense block or cluster (dense_block.cuh) for n particles: its blocks and each one's dynamic
+// shared memory, set as its kernel's limit; no blocks where it does not take the run (n >
+// kDenseClusterMaxN, the state does not fit one block's shared memory beside the kernel's static
+// arrays, or the device does not run the cluster at once).
+struct DenseShape {
+  int blocks = 0, shift = 0;  // shift: dense_kernel's (0: one block)
+  std::size_t bytes = 0;
+};
+// dense_kernel<R, shift> for shift 0 or in [kDenseMinShift, kDenseMaxShift].
+template <class R, int S = kDenseMinShift>
+void* dense_kernel_ptr(int shift) {
+  if (shift == 0) return reinterpret_cast<void*>(dense_kernel<R, 0>);
+  if constexpr (S <= kDenseMaxShift) {
+    if (shift == S) return reinterpret_cast<void*>(dense_kernel<R, S>);
+    return dense_kernel_ptr<R, S + 1>(shift);
+  } else {
+    throw RunError("overlap_correct: no dense cluster kernel for that share (internal error)");
+  }
+}
 template <class R>
-std::size_t dense_block_bytes(std::size_t n) {
-  if (n == 0 || n > kDenseMaxN) return 0;
-  const std::size_t bytes = DenseLayout<R>(n).bytes;
-  return fits_dynamic_shared(reinterpret_cast<void*>(dense_kernel<R>), kDenseThreads, bytes,
-                             "overlap_correct: the dense block's shared memory")
-             ? bytes
-             : 0;
+DenseShape dense_shape(std::size_t n) {
+  if (n == 0 || n > kDenseClusterMaxN) return {};
+  DenseShape d;
+  d.blocks = dense_blocks(n);
+  d.shift = d.blocks == 1 ? 0 : dense_shift(n, d.blocks);
+  d.bytes = d.blocks == 1 ? DenseLayout<R>(n).bytes : DenseLayout<R, true>(std::size_t(1) << d.shift).bytes;
+  void* f = dense_kernel_ptr<R>(d.shift);
+  if (!fits_dynamic_shared(f, kDenseThreads, d.bytes, "overlap_correct: the dense block's shared memory")) return {};
+  if (d.blocks > 1 && !cluster_fits(f, d.blocks, kDenseThreads, d.bytes, "overlap_correct: the dense cluster")) return {};
+  return d;
 }
 
 template <class R, bool Walls, bool Mark>

@@ -1,7 +1,8 @@
 // overlap_correct on CPU and CUDA: the same bits in double and agreement in float; the same bits on
-// every device path (one block in shared memory for a run alone of up to 2048 particles, a
+// every device path (for a run alone without walls or the touched field, dense_block.cuh: one
+// block up to 1 024 particles, a cluster of up to 16 blocks up to 16 384; otherwise the team's
 // thread-block cluster for n ≤ kClusterMaxN, its last iterations in block 0's shared memory for a
-// run alone of up to ~4 100 particles, the whole grid above), when
+// run of up to ~4 100 particles, the whole grid above), when
 // runs share the GPU (smaller teams), over many steps of ABP (lists kept across steps), where
 // max_iterations stops a step on the grid path (the wide kernels decide on the device), and over
 // a correction longer than one run of the device's held sums. Each skips without a CUDA device.
@@ -11,6 +12,7 @@
 #include <cstdint>
 #include <cstring>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "core/backend/device.h"
@@ -43,9 +45,10 @@ OneStep one_step(const PipelineSpec& spec, Backend b, double amplitude = 0.1) {
 }  // namespace
 
 TEST_CASE("overlap_correct: CPU and CUDA give the same bits (double) and agree in float", "[overlap][cuda]") {
-  // 1500: the dense block (dense_block.cuh); 20000: the grid.
+  // 1000: the dense block (dense_block.cuh); 3000: the dense cluster of 12 blocks of 256 particles,
+  // 12000 of 12 blocks of 1 024; 20000: the grid.
   if (!test::have_cuda("overlap_correct CPU-vs-CUDA")) return;
-  for (std::uint64_t n : {1500u, 20000u}) {
+  for (std::uint64_t n : {1000u, 3000u, 12000u, 20000u}) {
     for (Precision p : {Precision::f64, Precision::f32})
       for (const char* mode : {"reflect", "contact"}) {
         INFO(n << " " << to_string(p) << " " << mode);
@@ -65,10 +68,11 @@ TEST_CASE("overlap_correct: CPU and CUDA give the same bits (double) and agree i
   }
 }
 
-// One correction of n disks at area fraction 0.75 on each backend: the same iterations, pairs and
-// position bits (a correction of at least 3 iterations, so the device loop really iterates).
-static void check_cpu_equals_cuda(std::uint64_t n) {
-  const auto spec = correct_spec(n, 0.75, {});
+// One correction of n disks at area fraction 0.75 on each backend (`mark: true` with the touched
+// field): the same iterations, pairs and position bits (a correction of at least 3 iterations, so
+// the device loop really iterates).
+static void check_cpu_equals_cuda(std::uint64_t n, bool mark = false) {
+  const auto spec = mark ? correct_spec(n, 0.75, {{"mark", true}}) : correct_spec(n, 0.75, {});
   const OneStep cpu = one_step(spec, Backend::cpu), cuda = one_step(spec, Backend::cuda);
   const std::vector<std::vector<double>> xy{cpu.xy, cuda.xy};
   CHECK(cpu.iterations >= 3);
@@ -79,17 +83,23 @@ static void check_cpu_equals_cuda(std::uint64_t n) {
 
 TEST_CASE("overlap_correct: CPU and CUDA give the same bits on either device path (team and grid)",
           "[overlap][cuda]") {
-  // cuda.cu runs a run alone of up to 2048 particles in one block (dense_block.cuh: 1000, 2048),
-  // small systems (n ≤ kClusterMaxN = 8192) in a thread-block cluster, the last iterations of a run
-  // alone of up to ~4 100 particles (double, sm_90) in block 0's shared memory (shared_tail.cuh),
-  // and larger ones on the whole grid: sizes on each side of the thresholds, and the cluster's
-  // itself. (20000 is the grid's.) 150000 fills the grid (more particles than its threads on a GPU
-  // of up to ~290 SMs), so its first iteration runs in the wide kernels (DeviceLoops::prepare).
-  // 2100: the cluster's blocks of at most 144 particles (two passes of lane groups).
+  // cuda.cu runs a run alone without the touched field (mark: false) of up to 1 024 particles in
+  // one block (dense_block.cuh: 1000), of up to 16 384 in a dense cluster of up to 16 blocks holding
+  // 256 particles each (2048, 2100: 9 blocks, the last holding 52; 4096), 512 (5000, 8192) or 1 024
+  // (8193: 9 blocks, the last holding one; 16384). With the touched field, small systems (n ≤
+  // kClusterMaxN = 8192) run in the team's thread-block cluster, the last iterations of a run of up
+  // to ~4 100 particles (double, sm_90) in block 0's shared memory (shared_tail.cuh; 2100: the
+  // cluster's blocks of at most 144 particles, two passes of lane groups). Larger ones run on the
+  // whole grid (20000 is the grid's); 150000 fills it (more particles than its threads on a GPU of up
+  // to ~290 SMs), so its first iteration runs in the wide kernels (DeviceLoops::prepare).
   if (!test::have_cuda("overlap_correct CPU-vs-CUDA by size")) return;
-  for (std::uint64_t n : {1000u, 2048u, 2100u, 4096u, 5000u, 8192u, 65536u, 150000u}) {
+  for (std::uint64_t n : {1000u, 2048u, 2100u, 4096u, 5000u, 8192u, 8193u, 16384u, 65536u, 150000u}) {
     INFO("n " << n);
     check_cpu_equals_cuda(n);
+  }
+  for (std::uint64_t n : {2100u, 4096u, 5000u, 8192u}) {
+    INFO("n " << n << ", mark: true");
+    check_cpu_equals_cuda(n, true);
   }
 }
 
@@ -161,9 +171,10 @@ TEST_CASE("overlap_correct: CPU and CUDA stop alike at max_iterations on the gri
   // both backends, whose count of pairs still overlapping (the last gather's) and worst pair depend
   // on exactly which iterations were applied. 20000 disks: the cooperative kernel alone; 150000:
   // more than the grid's threads on a GPU of up to ~290 SMs at one block of 512 an SM, so the wide
-  // kernels first (DeviceLoops::prepare).
+  // kernels first (DeviceLoops::prepare). 1000 and 3000: the dense block and cluster, which decide
+  // each iteration on the device too.
   if (!test::have_cuda("overlap_correct CPU-vs-CUDA at max_iterations")) return;
-  for (std::uint64_t n : {1000u, 20000u, 150000u})
+  for (std::uint64_t n : {1000u, 3000u, 20000u, 150000u})
   for (std::int64_t most : {1, 2, 3}) {
     INFO("n " << n << ", max_iterations " << most);
     const auto spec = correct_spec(n, 0.8, {{"max_iterations", most}});
@@ -189,17 +200,20 @@ TEST_CASE("overlap_correct: CPU and CUDA stop alike at max_iterations on the gri
 TEST_CASE("overlap_correct: CPU and CUDA stop alike at max_iterations in a step's last iterations",
           "[overlap][cuda]") {
   // A step's last iterations move few particles: the device runs them in block 0 alone, from
-  // shared memory for a run alone of up to ~4 100 particles (shared_tail.cuh: 3000, 4096), from
-  // global memory after the cluster (5000) and after the grid (20000); up to 2048 particles the
-  // dense block runs every iteration (1000). A lattice at η = 0.8 jiggled by 0.3σ
-  // (~38 iterations) stopped two iterations before its step would end: the same error on both
-  // backends (pairs still overlapping, the worst pair).
+  // shared memory for a run of up to ~4 100 particles (shared_tail.cuh: 3000, 4096), from global
+  // memory after the cluster (5000) and after the grid (20000); a run alone without the touched
+  // field of up to 16 384 particles runs every iteration in the dense block (1000) or cluster
+  // (3000, 12000), so the team's tails are reached here with `mark: true`. A lattice at η = 0.8
+  // jiggled by 0.3σ (~38 iterations) stopped two iterations before its step would end: the same
+  // error on both backends (pairs still overlapping, the worst pair).
   if (!test::have_cuda("overlap_correct CPU-vs-CUDA at max_iterations in the tail")) return;
-  for (std::uint64_t n : {1000u, 3000u, 4096u, 5000u, 20000u}) {
+  const std::pair<std::uint64_t, bool> cases[] = {{1000u, false}, {3000u, false}, {12000u, false}, {20000u, false},
+                                                  {3000u, true},  {4096u, true},  {5000u, true}};
+  for (const auto& [n, mark] : cases) {
     const std::int64_t needs = std::int64_t(one_step(correct_spec(n, 0.8, {}), Backend::cpu, 0.3).iterations);
-    INFO("n " << n << ", iterations " << needs);
+    INFO("n " << n << ", mark " << mark << ", iterations " << needs);
     REQUIRE(needs >= 8);
-    const auto spec = correct_spec(n, 0.8, {{"max_iterations", needs - 2}});
+    const auto spec = correct_spec(n, 0.8, {{"max_iterations", needs - 2}, {"mark", mark}});
     std::string message[2];
     for (int b = 0; b < 2; ++b) {
       try {
@@ -221,12 +235,15 @@ TEST_CASE("overlap_correct: CPU and CUDA agree on a correction longer than one r
   // pinned memory 32 iterations at a time (correct_kernel.cuh and dense_block.cuh, kRowsHeld); the
   // host replays the step from them (its iterations, pairs and summed correction). A lattice at
   // η = 0.8 jiggled by 0.3σ takes ~38 iterations on the CPU: more than one run, in the dense block
-  // (1000), on the cluster with its tail in shared memory (3000) and in global memory (5000), the
-  // grid and the wide path (150000: its first iterations in the wide kernels).
+  // (1000) and cluster (3000, 5000), on the team's cluster with its tail in shared memory (3000,
+  // mark: true) and in global memory (5000, mark: true), the grid and the wide path (150000: its
+  // first iterations in the wide kernels).
   if (!test::have_cuda("overlap_correct CPU-vs-CUDA over more than 32 iterations")) return;
-  for (std::uint64_t n : {1000u, 3000u, 5000u, 20000u, 150000u}) {
-    INFO("n " << n);
-    const auto spec = correct_spec(n, 0.8, {});
+  const std::pair<std::uint64_t, bool> cases[] = {{1000u, false}, {3000u, false}, {5000u, false}, {20000u, false},
+                                                  {150000u, false}, {3000u, true}, {5000u, true}};
+  for (const auto& [n, mark] : cases) {
+    INFO("n " << n << ", mark " << mark);
+    const auto spec = correct_spec(n, 0.8, {{"mark", mark}});
     const OneStep cpu = one_step(spec, Backend::cpu, 0.3), cuda = one_step(spec, Backend::cuda, 0.3);
     INFO("iterations " << cpu.iterations);
     CHECK(cpu.iterations > 32);

@@ -1,7 +1,7 @@
 # Sourced by a GPU call script (bench/experiments/session*/s*.sh) run on the device machine from
 # the repository root: the lines every such script began with, written once.
 #
-#   source tools/gpu/call_lib.sh NAME BUNDLE.tar.gz
+#   source tools/gpu/call_lib.sh NAME BUNDLE.tar.gz (or .tar.xz: a third the size, more room in the carry)
 #     unpacks the bundle to ./bundle (B), makes /tmp/NAME (O) with info.txt (I: the GPU, its
 #     clocks and the bundle's commit), and defines:
 #   pack                 $OUT/NAME.tgz from /tmp/NAME (written to a .part first, so a call cut
@@ -34,7 +34,7 @@
 set -u
 SECONDS=0
 call_name=$1
-tar -xzf "$2"
+tar -xf "$2"  # gzip or xz (tar finds which)
 B=$PWD/bundle
 O=/tmp/$call_name
 rm -rf "$O"
