@@ -17,7 +17,8 @@
 // at 1 024 particles (one block), +7 % at 1 280, +25 % at 2 048, +36 % at 4 096, +37 % at 8 192
 // and 16 384 (clusters).
 // What did not pay (64-bit shared atomics, a block sum in every thread, testing only the moved
-// particles' edges) is in bench/experiments/README.md.
+// particles' edges; in a cluster, positions written to global memory once a launch, the barrier
+// after the moves split around the next reach tests) is in bench/experiments/README.md.
 //
 // The same bits as the other loops: the records are checked and the pushes made by kernel.h's
 // Overlaps::edge_ends and edge_push (the CPU edge pass's own), summed in fixed point (any order),
