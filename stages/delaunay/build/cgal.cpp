@@ -5,10 +5,14 @@
 #include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
 #include <CGAL/Periodic_2_Delaunay_triangulation_2.h>
 #include <CGAL/Periodic_2_Delaunay_triangulation_traits_2.h>
+#include <CGAL/Spatial_sort_traits_adapter_2.h>
 #include <CGAL/Triangulation_vertex_base_with_info_2.h>
+#include <CGAL/property_map.h>
+#include <CGAL/spatial_sort.h>
 
 #include <algorithm>
 #include <cmath>
+#include <set>
 #include <sstream>
 #include <utility>
 
@@ -70,14 +74,55 @@ std::string fmt(double v) {
                   longest, use);
 }
 
+// The periodic triangulation with the dummy points CGAL's own insert of a large point set starts
+// from (protected there).
+struct PeriodicDelaunay : PDT {
+  using PDT::PDT;
+  using PDT::insert_dummy_points;
+};
+
+// The points xy (info: their index) into an empty periodic triangulation, as CGAL's
+// insert(first, last, is_large_point_set = true) of (point, index) pairs does it
+// (Periodic_2_Delaunay_triangulation_2::insert_with_info), step for step: dummy points, a spatial
+// sort, each point located from the last one's face and inserted, the dummies left removed. One
+// difference: the sort compares points through K's Less_x_2 / Less_y_2, not through the periodic
+// traits. Those compare the same doubles the same way (the same order, so the same
+// triangulation), but they hold the domain as GMP rationals, and the sort copies its comparator,
+// traits and all, at every step of its median selections: those copies were half of the
+// instructions of a first step at 2^14 (callgrind; bench/README.md, "Session 42").
+void insert_all(PeriodicDelaunay& t, const std::vector<double>& xy) {
+  const std::size_t n = xy.size() / 2;
+  std::vector<PDT::Point> points;
+  std::vector<std::size_t> indices(n);
+  points.reserve(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    points.emplace_back(xy[2 * i], xy[2 * i + 1]);
+    indices[i] = i;
+  }
+  const std::vector<PDT::Vertex_handle> dummies = t.insert_dummy_points();
+  std::set<PDT::Vertex_handle> dummy(dummies.begin(), dummies.end());
+  using Pmap = CGAL::Pointer_property_map<PDT::Point>::type;
+  CGAL::spatial_sort(indices.begin(), indices.end(), CGAL::Spatial_sort_traits_adapter_2<K, Pmap>(CGAL::make_property_map(points)));
+  PDT::Face_handle f;
+  PDT::Locate_type lt;
+  int li = 0;
+  for (const std::size_t i : indices) {
+    f = t.locate(points[i], lt, li, f);
+    if (lt == PDT::VERTEX) {  // a dummy's place (or a coincident point: caught by the caller's count)
+      f->vertex(li)->info() = unsigned(i);
+      dummy.erase(f->vertex(li));
+    } else {
+      t.insert(points[i], lt, f, li)->info() = unsigned(i);
+    }
+  }
+  for (const PDT::Vertex_handle v : dummy) t.remove(v);
+}
+
 // Square box: CGAL's periodic triangulation, if it reaches the 1-sheeted covering.
 bool try_periodic(const std::vector<double>& xy, double L, PeriodicTriangles& out) {
   const std::size_t n = xy.size() / 2;
-  std::vector<std::pair<PDT::Point, unsigned>> pts;
-  pts.reserve(n);
-  for (std::size_t i = 0; i < n; ++i) pts.emplace_back(PDT::Point(xy[2 * i], xy[2 * i + 1]), unsigned(i));
-  PDT t(PDT::Iso_rectangle(0, 0, L, L));
-  t.insert(pts.begin(), pts.end(), true);
+  PeriodicDelaunay t(PDT::Iso_rectangle(0, 0, L, L));
+  insert_all(t, xy);
   if (t.number_of_vertices() != n) coincident(xy);
   if (!t.is_1_cover()) return false;
   out.triangles.clear();
