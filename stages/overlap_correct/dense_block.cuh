@@ -56,18 +56,13 @@ constexpr std::uint16_t kNoLink = 0xFFFF;
 constexpr int kDenseRounds =
     int((3 * std::max(kDenseMaxN, std::size_t(1) << kDenseMaxShift) + kDenseThreads - 1) / kDenseThreads);
 
-// The blocks that take n particles (n ≤ kDenseClusterMaxN): 1 up to kDenseMaxN, else a cluster
-// (dense_shift: log2 of how many each holds, the kernel's Shift).
-inline int dense_shift(std::size_t n, int blocks) {
-  int s = kDenseMinShift;
-  while ((std::size_t(blocks) << s) < n) ++s;
-  return s;
-}
-inline int dense_blocks(std::size_t n) {
-  if (n <= kDenseMaxN) return 1;
+// log2 of the particles each block of a cluster holds for a run of n (kDenseMaxN < n ≤
+// kDenseClusterMaxN): the least share that covers it with kDenseMaxBlocks blocks (dense_kernel's
+// Shift); the cluster's blocks are ceil(n / 2^shift).
+inline int dense_shift(std::size_t n) {
   int s = kDenseMinShift;
   while ((std::size_t(kDenseMaxBlocks) << s) < n) ++s;
-  return int((n + (std::size_t(1) << s) - 1) >> s);
+  return s;
 }
 
 // The dynamic shared memory of a block holding m particles, each part 16-byte aligned: positions

@@ -197,9 +197,14 @@ template <class R>
 DenseShape dense_shape(std::size_t n) {
   if (n == 0 || n > kDenseClusterMaxN) return {};
   DenseShape d;
-  d.blocks = dense_blocks(n);
-  d.shift = d.blocks == 1 ? 0 : dense_shift(n, d.blocks);
-  d.bytes = d.blocks == 1 ? DenseLayout<R>(n).bytes : DenseLayout<R, true>(std::size_t(1) << d.shift).bytes;
+  if (n <= kDenseMaxN) {
+    d.blocks = 1;
+    d.bytes = DenseLayout<R>(n).bytes;
+  } else {
+    d.shift = dense_shift(n);
+    d.blocks = int((n + (std::size_t(1) << d.shift) - 1) >> d.shift);
+    d.bytes = DenseLayout<R, true>(std::size_t(1) << d.shift).bytes;
+  }
   void* f = dense_kernel_ptr<R>(d.shift);
   if (!fits_dynamic_shared(f, kDenseThreads, d.bytes, "overlap_correct: the dense block's shared memory")) return {};
   if (d.blocks > 1 && !cluster_fits(f, d.blocks, kDenseThreads, d.bytes, "overlap_correct: the dense cluster")) return {};
