@@ -200,6 +200,13 @@ __device__ bool gate_closed(const Problem<R>& p) {
   return p.gate && *static_cast<const volatile unsigned*>(p.gate) != 0;
 }
 
+// What a launch whose gate is closed reports (one gather that found nothing, no move: the host
+// replays it as such); one block of the launch calls it.
+__device__ __forceinline__ void report_closed_gate(u64* result) {
+  if (threadIdx.x < kCounters) result[threadIdx.x] = 0;
+  if (threadIdx.x == 0) result[std::size_t(kDeviceBatch) * kCounters] = 1;
+}
+
 // The warp's sum of x, in every lane (all 32 call it). redux.sync adds 32-bit values in one
 // instruction, so x goes in three slices of 21, 21 and 22 bits, whose 32-lane sums fit 32 bits,
 // recombined modulo 2^64: the same u64 as any order of additions, from three independent

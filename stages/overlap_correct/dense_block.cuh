@@ -213,9 +213,8 @@ __global__ void __launch_bounds__(kDenseThreads, 1) dense_kernel(Args<R, false> 
   };
 
   wait_for_previous_kernel();  // launched programmatically, as the teams (cuda.cu)
-  if (gate_closed(a.p)) {  // one gather that found nothing, and no move (Problem::gate)
-    if (rank == 0 && tid < kCounters) a.result[tid] = 0;
-    if (rank == 0 && tid == 0) a.result[std::size_t(kDeviceBatch) * kCounters] = 1;
+  if (gate_closed(a.p)) {  // (Problem::gate)
+    if (rank == 0) report_closed_gate(a.result);
     return;
   }
   if (tid < 2) s_listed[tid] = 0;
