@@ -154,8 +154,7 @@ __global__ void __launch_bounds__(Threads, MinBlocks) correct_kernel(Args<R, Wal
   if (blockIdx.x == 0 && threadIdx.x == 0) a.next_slots[kSlotWords] = 0;  // the claims count
   // A closed gate (Problem::gate): one gather that found nothing, and no move.
   if (gate_closed(a.p)) {
-    if (blockIdx.x == 0 && threadIdx.x < kCounters) a.result[threadIdx.x] = 0;
-    if (blockIdx.x == 0 && threadIdx.x == 0) a.result[std::size_t(kDeviceBatch) * kCounters] = 1;
+    if (blockIdx.x == 0) report_closed_gate(a.result);
     return;
   }
 

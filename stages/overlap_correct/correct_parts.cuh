@@ -170,13 +170,22 @@ __device__ void team_sync() {
 // `rank` (sm_90's distributed shared memory): mapa and ld.shared::cluster. (cg's
 // cluster.map_shared_rank goes through a generic address, and cost this kernel up to 128
 // registers with 8-32 B of spills, against ~100-112 and none.)
+// The address of p (a variable in this block's shared memory) in block `rank`'s shared memory
+// (mapa), for ld/st/atom.shared::cluster.
+__device__ __forceinline__ unsigned in_block(const void* p, unsigned rank) {
+  unsigned remote = 0;
+#if defined(__CUDA_ARCH__) && __CUDA_ARCH__ >= 900
+  asm("mapa.shared::cluster.u32 %0, %1, %2;" : "=r"(remote) : "r"(unsigned(__cvta_generic_to_shared(p))), "r"(rank));
+#else
+  __trap();
+#endif
+  return remote;
+}
+
 __device__ u64 load_in_block(const u64* p, int rank) {
 #if defined(__CUDA_ARCH__) && __CUDA_ARCH__ >= 900
-  const unsigned local = unsigned(__cvta_generic_to_shared(p));
-  unsigned remote;
   u64 v;
-  asm volatile("mapa.shared::cluster.u32 %0, %1, %2;" : "=r"(remote) : "r"(local), "r"(rank));
-  asm volatile("ld.shared::cluster.u64 %0, [%1];" : "=l"(v) : "r"(remote) : "memory");
+  asm volatile("ld.shared::cluster.u64 %0, [%1];" : "=l"(v) : "r"(in_block(p, unsigned(rank))) : "memory");
   return v;
 #else
   __trap();
@@ -198,6 +207,13 @@ __device__ u64 slot_total(const u64* slots, int j, int q) {
 template <class R>
 __device__ bool gate_closed(const Problem<R>& p) {
   return p.gate && *static_cast<const volatile unsigned*>(p.gate) != 0;
+}
+
+// What a launch whose gate is closed reports (one gather that found nothing, no move: the host
+// replays it as such); one block of the launch calls it.
+__device__ __forceinline__ void report_closed_gate(u64* result) {
+  if (threadIdx.x < kCounters) result[threadIdx.x] = 0;
+  if (threadIdx.x == 0) result[std::size_t(kDeviceBatch) * kCounters] = 1;
 }
 
 // The warp's sum of x, in every lane (all 32 call it). redux.sync adds 32-bit values in one

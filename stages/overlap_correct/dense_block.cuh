@@ -97,21 +97,14 @@ __device__ __forceinline__ void warp_slot(u64* slot, u64 x) {
 }
 __device__ __forceinline__ u64 block_total(const u64* slot) { return warp_sum(slot[threadIdx.x & 31]); }
 
-// sm_90's distributed shared memory, as the dense cluster uses it: the address of p (a variable in
-// this block's shared memory) in block `rank`'s (mapa), and loads, stores and an exchange there.
+// sm_90's distributed shared memory, as the dense cluster uses it: loads, stores and an exchange
+// at an address in another block's shared memory (correct_parts.cuh's in_block).
 // Each is volatile with a memory clobber: none may move across the cluster barriers.
 #if defined(__CUDA_ARCH__) && __CUDA_ARCH__ >= 900
 #define FF_DSMEM(...) __VA_ARGS__
 #else
 #define FF_DSMEM(...) __trap()  // never launched: the host launches clusters only on devices that have them
 #endif
-__device__ __forceinline__ unsigned in_block(const void* p, unsigned rank) {
-  unsigned remote = 0;
-  FF_DSMEM(asm("mapa.shared::cluster.u32 %0, %1, %2;"
-               : "=r"(remote)
-               : "r"(unsigned(__cvta_generic_to_shared(p))), "r"(rank)));
-  return remote;
-}
 template <class R>
 __device__ __forceinline__ void load_xy_at(unsigned at, double& x, double& y) {
   if constexpr (sizeof(R) == 8) {
@@ -213,9 +206,8 @@ __global__ void __launch_bounds__(kDenseThreads, 1) dense_kernel(Args<R, false> 
   };
 
   wait_for_previous_kernel();  // launched programmatically, as the teams (cuda.cu)
-  if (gate_closed(a.p)) {  // one gather that found nothing, and no move (Problem::gate)
-    if (rank == 0 && tid < kCounters) a.result[tid] = 0;
-    if (rank == 0 && tid == 0) a.result[std::size_t(kDeviceBatch) * kCounters] = 1;
+  if (gate_closed(a.p)) {  // (Problem::gate)
+    if (rank == 0) report_closed_gate(a.result);
     return;
   }
   if (tid < 2) s_listed[tid] = 0;
