@@ -58,12 +58,25 @@ FF_HD Quad quad(const Mesh& m, int e) {
   Quad q;
   q.h0 = 2 * e;
   q.h1 = 2 * e + 1;
-  q.h0n = m.next(q.h0);
+#if defined(__CUDA_ARCH__)
+  // Edge e's two records in one 16-byte load (a plain load: flips write the mesh meanwhile, so
+  // not through the read-only cache), as quad_vertices.
+  if ((reinterpret_cast<std::uintptr_t>(m.he) & 15u) == 0) {
+    const int4 r = *reinterpret_cast<const int4*>(m.he + 4 * e);
+    q.a = r.x;
+    q.h0n = r.y;
+    q.b = r.z;
+    q.h1n = r.w;
+  } else
+#endif
+  {
+    q.a = m.origin(q.h0);
+    q.h0n = m.next(q.h0);
+    q.b = m.origin(q.h1);
+    q.h1n = m.next(q.h1);
+  }
   q.h0p = m.next(q.h0n);
-  q.h1n = m.next(q.h1);
   q.h1p = m.next(q.h1n);
-  q.a = m.origin(q.h0);
-  q.b = m.origin(q.h1);
   q.c = m.origin(q.h0p);
   q.d = m.origin(q.h1p);
   return q;
@@ -142,18 +155,29 @@ FF_HD void store_relaxed(std::int32_t* p, int v) {
 // h1 = c -> d in triangle (c, d, b), both CCW when the quad a, d, b, c is convex.
 FF_HD void flip_edge(const Mesh& m, int e) {
   const Quad q = quad(m, e);
-  m.he[2 * q.h0] = q.d;
-  m.he[2 * q.h1] = q.c;
-  m.he[2 * q.h0 + 1] = q.h0p;   // d -> c -> a
+#if defined(__CUDA_ARCH__)
+  // Edge e's two records (he[4e .. 4e+3]) in one 16-byte store and opp[2e .. 2e+1] in one 8-byte
+  // store, as quad_vertices loads them: a round of flips from one SM is bound by its scattered
+  // stores (lawson/cuda.cu). The same words as the scalar stores below.
+  if (((reinterpret_cast<std::uintptr_t>(m.he) | reinterpret_cast<std::uintptr_t>(m.opp)) & 15u) == 0) {
+    *reinterpret_cast<int4*>(m.he + 4 * e) = make_int4(q.d, q.h0p, q.c, q.h1p);  // d -> c -> a, c -> d -> b
+    *reinterpret_cast<int2*>(m.opp + 2 * e) = make_int2(q.a, q.b);
+  } else
+#endif
+  {
+    m.he[2 * q.h0] = q.d;
+    m.he[2 * q.h1] = q.c;
+    m.he[2 * q.h0 + 1] = q.h0p;  // d -> c -> a
+    m.he[2 * q.h1 + 1] = q.h1p;  // c -> d -> b
+    m.opp[q.h0] = q.a;  // (d, c, a): d -> c faces a, c -> a faces d, a -> d faces c
+    m.opp[q.h1] = q.b;  // (c, d, b): c -> d faces b, d -> b faces c, b -> c faces d
+  }
   m.he[2 * q.h0p + 1] = q.h1n;  // c -> a -> d
   m.he[2 * q.h1n + 1] = q.h0;   // a -> d -> c
-  m.he[2 * q.h1 + 1] = q.h1p;   // c -> d -> b
   m.he[2 * q.h1p + 1] = q.h0n;  // d -> b -> c
   m.he[2 * q.h0n + 1] = q.h1;   // b -> c -> d
-  m.opp[q.h0] = q.a;  // (d, c, a): d -> c faces a, c -> a faces d, a -> d faces c
   m.opp[q.h0p] = q.d;
   m.opp[q.h1n] = q.c;
-  m.opp[q.h1] = q.b;  // (c, d, b): c -> d faces b, d -> b faces c, b -> c faces d
   m.opp[q.h1p] = q.c;
   m.opp[q.h0n] = q.d;
   if (load_relaxed(m.vedge + q.a) == q.h0) store_relaxed(m.vedge + q.a, q.h1n);
