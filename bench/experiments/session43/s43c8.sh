@@ -1,11 +1,9 @@
 #!/bin/bash
 # Session 43, call 8: issue 20's rows on main 38e13f2 (flipstore43 merged), as session 42's call 4:
-# 1 025-16 384 particles; the dense kernels check records and make pushes through kernel.h's
-# Overlaps::edge_ends and edge_push, branch review41-edge-helpers ported). HOOMD-blue is built on
-# the host's cores while the whole CUDA suite runs; then HOOMD-blue's ABP + WCA row, flipflow's at
-# 2^10, 2^14 and 2^20 right after, 2^20 after 3 000 steps, Carter side by side and the sweep row
-# (session 33's call 3, with the 2^10 row added).
-#   bash bench/experiments/session42/s43c8.sh gpu-carry/b43b.tar.xz   carry: gpu-carry (the bundle,
+# HOOMD-blue is built on the host's cores while the whole CUDA suite runs; then HOOMD-blue's ABP +
+# WCA row, flipflow's at 2^10, 2^14 and 2^20 right after, 2^20 after 3 000 steps, Carter side by
+# side and the sweep row.
+#   bash bench/experiments/session43/s43c8.sh gpu-carry/b43b.tar.xz   carry: gpu-carry (the bundle,
 #   hoomd-kit.tgz = ../shared/peers-gpu/hoomd as hoomd-kit/, peers-bundle.tar.gz = ../shared/peers-gpu/bundle)
 source tools/gpu/call_lib.sh "${2:-s43c8}" "$1"
 declare -A D=([main]=$B)
