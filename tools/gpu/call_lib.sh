@@ -31,6 +31,16 @@
 #   sweep_abp TAG        issue 20's sweep row: 64 runs of bench-abp 2^14 at once on the bundle B
 #                        (`pipeline sweep --in-process --concurrent 64`, 5 000 steps each); its two
 #                        last lines in sweep.txt as "sweep TAG: ...", then step sweepTAG
+#   timelines N...       CUPTI timelines of bench-abp at each N (tools/gpu_trace; 200 steps after
+#                        20, 60 at 2^20): trace-N.csv.xz and summarize.py's typical step and
+#                        groups (trace-N-summary.txt, trace-N-group2.txt), then step trace-N
+#   issue20_rows SIZES   issue 20's rows in one call (~420 s; carry gpu-carry/hoomd-kit.tgz =
+#                        ../shared/peers-gpu/hoomd as hoomd-kit/, gpu-carry/peers-bundle.tar.gz =
+#                        ../shared/peers-gpu/bundle): HOOMD-blue built on the host's cores while
+#                        the whole CUDA suite runs; HOOMD-blue's ABP + WCA row at 2^14 and 2^20,
+#                        bench-abp at SIZES (comma-separated) right after and at 2^20 after
+#                        3 000 steps (bench_abp main: D[main] must be declared), Carter side by
+#                        side (bench/carter_side_by_side.sh small) and the sweep row
 set -u
 SECONDS=0
 call_name=$1
@@ -117,4 +127,44 @@ sweep_abp() {
     --set run.steps=5000 --replicas 64 --out /tmp/sw --concurrent 64 --in-process 2>&1 | tail -2 |
     sed "s/^/sweep $1: /" >> "$O/sweep.txt"
   step "sweep$1" "${PIPESTATUS[0]}"
+}
+timelines() {
+  local n st
+  for n in "$@"; do
+    st=200
+    [[ $n == 1048576 ]] && st=60
+    CUDA_INJECTION64_PATH=$B/lib/libflipflow_gpu_trace.so FLIPFLOW_GPU_TRACE=/tmp/trace-$n.csv timeout 100 \
+      "$B/bin/pipeline" bench "$B/pipelines/bench-abp.yaml" --device cuda --sizes "$n" --steps $st --warmup 20 \
+      > "$O/trace-run-$n.txt" 2>&1
+    python3 tools/gpu_trace/summarize.py /tmp/trace-$n.csv --skip 25 --count $((st - 10)) > "$O/trace-$n-summary.txt" 2>&1
+    python3 tools/gpu_trace/summarize.py /tmp/trace-$n.csv --skip 25 --count $((st - 10)) --group 2 \
+      > "$O/trace-$n-group2.txt" 2>&1
+    xz -c /tmp/trace-$n.csv > "$O/trace-$n.csv.xz"
+    step "trace-$n" $?
+  done
+}
+issue20_rows() {
+  local build
+  tar -xzf gpu-carry/hoomd-kit.tgz
+  (OUT=$O HOOMD_JOBS=16 nice -n 19 bash hoomd-kit/build.sh 420 > "$O/hoomd-build.txt" 2>&1
+   echo "build rc=$? t=$SECONDS" >> "$O/hoomd-build.txt") &
+  build=$!
+  suite "$B" 280
+  step suite 0
+  wait $build
+  step hoomd-build 0
+  ((SECONDS < 440)) && {
+    OUT=$O timeout $((470 - SECONDS)) bash hoomd-kit/run.sh --sizes 16384 1048576 --dts 2e-3 --max-seconds 8 \
+      > "$O/hoomd-run.txt" 2>&1
+    step hoomd $?
+  }
+  bench_abp main hoomd-row --sizes "$1" --steps 200 --warmup 20
+  bench_abp main late --sizes 1048576 --steps 100 --warmup 3000
+  mkdir -p /tmp/pb && tar -xzf gpu-carry/peers-bundle.tar.gz -C /tmp/pb
+  ((SECONDS < 500)) && {
+    timeout $((560 - SECONDS)) bash bench/carter_side_by_side.sh "$B" /tmp/pb/bundle "$O/carter" small > "$O/carter-run.txt" 2>&1
+    step carter $?
+  }
+  ((SECONDS < 540)) && sweep_abp 1
+  return 0
 }

@@ -5,18 +5,8 @@
 # right after, 2^20 after 3 000 steps, Carter side by side and the sweep row.
 #   bash bench/experiments/session33/s33c3.sh gpu-carry/b33b.tar.gz [NAME]
 #   carry: b33b, hoomd-kit.tgz, peers-bundle.tar.gz
+# (The rows' steps are call_lib.sh's `issue20_rows` now, which took over these lines.)
 source tools/gpu/call_lib.sh "${2:-c3}" "$1"
 declare -A D=([main]=$B)
-tar -xzf gpu-carry/hoomd-kit.tgz
-(OUT=$O HOOMD_JOBS=16 nice -n 19 bash hoomd-kit/build.sh 420 > $O/hoomd-build.txt 2>&1; echo "build rc=$? t=$SECONDS" >> $O/hoomd-build.txt) &
-build=$!
-suite "$B" 280
-step suite 0
-wait $build; step hoomd-build 0
-((SECONDS < 440)) && { OUT=$O timeout $((470 - SECONDS)) bash hoomd-kit/run.sh --sizes 16384 1048576 --dts 2e-3 --max-seconds 8 > $O/hoomd-run.txt 2>&1; step hoomd $?; }
-bench_abp main hoomd-row --sizes 16384,1048576 --steps 200 --warmup 20
-bench_abp main late --sizes 1048576 --steps 100 --warmup 3000
-mkdir -p /tmp/pb && tar -xzf gpu-carry/peers-bundle.tar.gz -C /tmp/pb
-((SECONDS < 500)) && { timeout $((560 - SECONDS)) bash bench/carter_side_by_side.sh $B /tmp/pb/bundle $O/carter small > $O/carter-run.txt 2>&1; step carter $?; }
-((SECONDS < 540)) && sweep_abp 1
+issue20_rows 16384,1048576
 echo done t=$SECONDS >> $I; pack
