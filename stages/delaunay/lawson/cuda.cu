@@ -21,12 +21,12 @@ constexpr int kTailThreads = 1024;
 // portable size of 8) where the mesh has at least kTailClusterEdges edges; one block below. A
 // flip writes 14 scattered words (in 10 stores: mesh.h's flip_edge), and one SM queues them: at
 // N = 2^14 (~290 flips a round) one flip's 14 stores took 2.8-4.8 k cycles and the vertex-edge
-// loads behind them (now before them) 2.5-5 k, against 0.1 k and 0.4 k with 18 flips at 2^10 (clock64, session 31,
-// bench/experiments/README.md, "Lawson's tail and detect's end"). A cluster spreads a pass's
-// elements over 16 SMs, for barriers that cost more than a block's: it tied one block at 2^14,
-// lost 3.7 % at 2^13 and gained 4.7 / 9.2 / 6.1 % at 2^15 / 2^16 / 2^17 (bench-abp,
-// device-decided steps included); clusters of 4 or 8 from 8 192 particles lost 0.7-3 % at
-// 2^13-2^15 (bench/experiments/README.md, "Lawson's tail at its edges").
+// loads behind them (now before them) 2.5-5 k, against 0.1 k and 0.4 k with 18 flips at 2^10
+// (clock64, session 31, bench/experiments/README.md, "Lawson's tail and detect's end"). A
+// cluster spreads a pass's elements over 16 SMs, for barriers that cost more than a block's: it
+// tied one block at 2^14, lost 3.7 % at 2^13 and gained 4.7 / 9.2 / 6.1 % at 2^15 / 2^16 / 2^17
+// (bench-abp, device-decided steps included); clusters of 4 or 8 from 8 192 particles lost
+// 0.7-3 % at 2^13-2^15 (bench/experiments/README.md, "Lawson's tail at its edges").
 constexpr int kTailCluster = 16;
 constexpr std::size_t kTailClusterEdges = 3 * 32768;
 
