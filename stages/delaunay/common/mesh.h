@@ -155,10 +155,10 @@ FF_HD void store_relaxed(std::int32_t* p, int v) {
 // h1 = c -> d in triangle (c, d, b), both CCW when the quad a, d, b, c is convex.
 FF_HD void flip_edge(const Mesh& m, int e) {
   const Quad q = quad(m, e);
-  // a's and b's vertex edges read before the stores, not after them: on the device loads behind a
-  // flip's scattered stores waited for them (2.5-5 k cycles at 2^14, session 31's clocks). No other
-  // flip of the round changes either word while it is h0 or h1 (only this flip removes those
-  // half-edges), so the tests below decide as they would after the stores.
+  // a's and b's vertex edges read before the stores, not after them: on the device loads issued
+  // behind a flip's scattered stores wait for them (bench/experiments/README.md, "Lawson's tail
+  // and detect's end"). No other flip of the round changes either word while it is h0 or h1 (only
+  // this flip removes those half-edges), so the tests below decide as they would after the stores.
   const int va = load_relaxed(m.vedge + q.a), vb = load_relaxed(m.vedge + q.b);
 #if defined(__CUDA_ARCH__)
   // Edge e's two records (he[4e .. 4e+3]) in one 16-byte store and opp[2e .. 2e+1] in one 8-byte
