@@ -31,6 +31,10 @@
 #   sweep_abp TAG        issue 20's sweep row: 64 runs of bench-abp 2^14 at once on the bundle B
 #                        (`pipeline sweep --in-process --concurrent 64`, 5 000 steps each); its two
 #                        last lines in sweep.txt as "sweep TAG: ...", then step sweepTAG
+#   delaunay_tests V     the Delaunay stages' CUDA test executables and those that check their bits
+#                        (CPU == CUDA, rollback, graph capture, device decisions) on the bundle
+#                        ${D[V]} (log V-tests.txt, TEST_TIMEOUT s, default 240); a "V: P PASS, F FAIL"
+#                        line in info.txt, then step tests
 #   timelines N...       CUPTI timelines of bench-abp at each N (tools/gpu_trace; 200 steps after
 #                        20, 60 at 2^20): trace-N.csv.xz and summarize.py's typical step and
 #                        groups (trace-N-summary.txt, trace-N-group2.txt), then step trace-N
@@ -167,4 +171,11 @@ issue20_rows() {
   }
   ((SECONDS < 540)) && sweep_abp 1
   return 0
+}
+delaunay_tests() {
+  TEST_TIMEOUT=${TEST_TIMEOUT:-240} tests "${D[$1]}" "$O/$1-tests.txt" test_delaunay_lawson test_delaunay_flip \
+    test_delaunay_detect_inversion test_delaunay_tries test_cpu_cuda_bits test_boids_delaunay test_rollback \
+    test_rollback_restores test_device_decisions test_graph_capture test_neighbors_delaunay test_delaunay_check
+  echo "$1: $(grep -c "^PASS" "$O/$1-tests.txt") PASS, $(grep -c "^FAIL" "$O/$1-tests.txt") FAIL" >> "$I"
+  step tests 0
 }
