@@ -11,6 +11,11 @@
 #                        libraries in place of its own (the tests load plugins from their
 #                        bundle; a variant library's rpath is $ORIGIN/../../lib, which the link
 #                        /tmp/sh-V/lib provides); prints the copy's path
+#   variant V TAR        a stage plugin variant (TAR: its libraries, tar.xz) unpacked to /tmp/p-V, and
+#                        its shadow bundle (shadow above); prints the bundle's path, for D[V]
+#   rounds "V..." A...   three interleaved rounds (ROUNDS to change) of bench_abp V rK A... over the
+#                        bundles V... (tags r1, r2, ...)
+#   errors_test V        test_overlap_correct_errors on the bundle ${D[V]} (errors.txt), then step errors
 #   tests DIR LOG T...   the CUDA tests T... of the bundle at DIR ([long] left to the CPU suite),
 #                        the output in LOG, its exit code at the end
 #   suite DIR [LIMIT]    every CUDA test of the bundle at DIR in six groups at once (the slow
@@ -66,6 +71,11 @@ shadow() {
   cp "$2"/*.so "$S/x/plugins/"
   ln -s "$S/x/lib" "$S/lib"
   echo "$S/x"
+}
+variant() {
+  local d=/tmp/p-$1
+  rm -rf "$d"
+  mkdir -p "$d" && tar -xJf "$2" -C "$d" && shadow "$1" "$d"
 }
 tests() {
   local dir=$1 log=$2
@@ -178,4 +188,13 @@ delaunay_tests() {
     test_rollback_restores test_device_decisions test_graph_capture test_neighbors_delaunay test_delaunay_check
   echo "$1: $(grep -c "^PASS" "$O/$1-tests.txt") PASS, $(grep -c "^FAIL" "$O/$1-tests.txt") FAIL" >> "$I"
   step tests 0
+}
+rounds() {
+  local vs=$1 r v
+  shift
+  for r in $(seq 1 "${ROUNDS:-3}"); do for v in $vs; do bench_abp "$v" "r$r" "$@"; done; done
+}
+errors_test() {
+  tests "${D[$1]}" "$O/errors.txt" test_overlap_correct_errors
+  step errors 0
 }

@@ -3,11 +3,11 @@
 # once, when the launch ends, not in every iteration's moves) against main 75de0de's plugin,
 # interleaved; then the correction's CUDA tests and its error cases.
 #   bash bench/experiments/session42/s42c6.sh gpu-carry/b42e.tar.xz gpu-carry/main.tar.xz   carry: gpu-carry
+# (Its plugin unpacking, rounds and error cases are call_lib.sh's `variant`, `rounds` and
+# `errors_test` now, which took over those lines.)
 source tools/gpu/call_lib.sh "${3:-s42c6}" "$1"
-mkdir -p /tmp/pM && tar -xJf "$2" -C /tmp/pM
-declare -A D=([branch]=$B [main]=$(shadow main /tmp/pM))
-for r in 1 2 3; do for v in branch main; do bench_abp $v r$r --sizes 1024,2048,4096,8192,16384 --steps 200 --warmup 20; done; done
+declare -A D=([branch]=$B [main]=$(variant main "$2"))
+rounds "branch main" --sizes 1024,2048,4096,8192,16384 --steps 200 --warmup 20
 TEST_TIMEOUT=240 correction_tests branch
-tests "$B" "$O/errors.txt" test_overlap_correct_errors
-step errors 0
+errors_test branch
 echo done t=$SECONDS >> $I; pack

@@ -6,9 +6,10 @@
 # CPU == CUDA test, to see which form runs where; pn = the plugin itself: the correction's CUDA
 # tests and error cases, then bench-abp against main's bundle, three interleaved rounds.
 #   bash bench/experiments/session43/s43c3.sh gpu-carry/b43a.tar.xz    carry: gpu-carry
+# (Its plugin unpacking, rounds and error cases are call_lib.sh's `variant`, `rounds` and
+# `errors_test` now, which took over those lines.)
 source tools/gpu/call_lib.sh "${2:-s43c3}" "$1"
-mkdir -p /tmp/pn /tmp/pt && tar -xJf gpu-carry/pn.tar.xz -C /tmp/pn && tar -xJf gpu-carry/pt.tar.xz -C /tmp/pt
-declare -A D=([main]=$B [pn]=$(shadow pn /tmp/pn) [pt]=$(shadow pt /tmp/pt))
+declare -A D=([main]=$B [pn]=$(variant pn gpu-carry/pn.tar.xz) [pt]=$(variant pt gpu-carry/pt.tar.xz))
 for n in 2048 4096 8192 12288 16384; do
   timeout 60 ${D[pt]}/bin/pipeline bench ${D[pt]}/pipelines/bench-abp.yaml --device cuda --sizes $n --steps 30 --warmup 5 2>&1 |
     grep dense-trace | awk -v n=$n '{f[$8]++; if ($8 > m) m = $8; o += $10} END {print "bench n", n, "lines", NR, "max foreign", m, "overflow lines", o}' >> $O/trace.txt
@@ -20,7 +21,6 @@ grep -v dense-trace $O/pt-cpu-cuda.txt | tail -5 >> $O/trace.txt
 xz -f $O/pt-cpu-cuda.txt
 step trace-test 0
 TEST_TIMEOUT=240 correction_tests pn
-tests "${D[pn]}" "$O/errors.txt" test_overlap_correct_errors
-step errors 0
-for r in 1 2 3; do for v in main pn; do bench_abp $v r$r --sizes 1024,2048,4096,8192,16384 --steps 200 --warmup 20; done; done
+errors_test pn
+rounds "main pn" --sizes 1024,2048,4096,8192,16384 --steps 200 --warmup 20
 echo done t=$SECONDS >> $I; pack

@@ -5,14 +5,16 @@
 # alone; pn = call 3's. Each block's foreign edges in bench-abp (pt's trace), pw's correction
 # tests, then bench-abp main / pn / pw / ps, three interleaved rounds.
 #   bash bench/experiments/session43/s43c4.sh gpu-carry/b43a.tar.xz    carry: gpu-carry
+# (Its plugin unpacking, rounds and error cases are call_lib.sh's `variant`, `rounds` and
+# `errors_test` now, which took over those lines.)
 source tools/gpu/call_lib.sh "${2:-s43c4}" "$1"
-for v in pn pw ps pt; do mkdir -p /tmp/$v && tar -xJf gpu-carry/$v.tar.xz -C /tmp/$v; done
-declare -A D=([main]=$B [pn]=$(shadow pn /tmp/pn) [pw]=$(shadow pw /tmp/pw) [ps]=$(shadow ps /tmp/ps) [pt]=$(shadow pt /tmp/pt))
+declare -A D=([main]=$B)
+for v in pn pw ps pt; do D[$v]=$(variant $v gpu-carry/$v.tar.xz); done
 for n in 2048 4096 8192 16384; do
   timeout 60 ${D[pt]}/bin/pipeline bench ${D[pt]}/pipelines/bench-abp.yaml --device cuda --sizes $n --steps 30 --warmup 5 2>&1 |
     grep dense-trace | awk -v n=$n '{s += $9; if ($9 > m) m = $9; o += $11} END {print "bench n", n, "blocks", $5, "launches x blocks", NR, "mean foreign", s / NR, "max", m, "overflow", o}' >> $O/trace.txt
 done
 step trace-bench 0
 TEST_TIMEOUT=240 correction_tests pw
-for r in 1 2 3; do for v in main pn pw ps; do bench_abp $v r$r --sizes 2048,4096,16384 --steps 200 --warmup 20; done; done
+rounds "main pn pw ps" --sizes 2048,4096,16384 --steps 200 --warmup 20
 echo done t=$SECONDS >> $I; pack

@@ -3,9 +3,11 @@
 # their own (pv, branch onebar43's third commit) against main, pw (call 4) and ps (the set-up
 # alone); pv's correction tests first.
 #   bash bench/experiments/session43/s43c5.sh gpu-carry/b43a.tar.xz    carry: gpu-carry
+# (Its plugin unpacking, rounds and error cases are call_lib.sh's `variant`, `rounds` and
+# `errors_test` now, which took over those lines.)
 source tools/gpu/call_lib.sh "${2:-s43c5}" "$1"
-for v in pv pw ps; do mkdir -p /tmp/$v && tar -xJf gpu-carry/$v.tar.xz -C /tmp/$v; done
-declare -A D=([main]=$B [pv]=$(shadow pv /tmp/pv) [pw]=$(shadow pw /tmp/pw) [ps]=$(shadow ps /tmp/ps))
+declare -A D=([main]=$B)
+for v in pv pw ps; do D[$v]=$(variant $v gpu-carry/$v.tar.xz); done
 TEST_TIMEOUT=240 correction_tests pv
-for r in 1 2 3; do for v in main pv pw ps; do bench_abp $v r$r --sizes 2048,4096,16384 --steps 200 --warmup 20; done; done
+rounds "main pv pw ps" --sizes 2048,4096,16384 --steps 200 --warmup 20
 echo done t=$SECONDS >> $I; pack

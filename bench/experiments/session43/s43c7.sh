@@ -7,9 +7,10 @@
 #   bash bench/experiments/session43/s43c7.sh gpu-carry/b43a.tar.xz [gpu-carry/fs.tar.xz [NAME]]    carry: gpu-carry
 variant=${2:-gpu-carry/fs.tar.xz}
 v=$(basename "$variant" .tar.xz)
+# (Its plugin unpacking, rounds and error cases are call_lib.sh's `variant`, `rounds` and
+# `errors_test` now, which took over those lines.)
 source tools/gpu/call_lib.sh "${3:-s43c7}" "$1"
-mkdir -p /tmp/$v && tar -xJf "$variant" -C /tmp/$v
-declare -A D=([main]=$B [$v]=$(shadow $v /tmp/$v))
+declare -A D=([main]=$B [$v]=$(variant $v "$variant"))
 delaunay_tests $v
-for r in 1 2 3; do for w in main $v; do bench_abp $w r$r --sizes 1024,16384,65536,1048576 --steps 200 --warmup 20; done; done
+rounds "main $v" --sizes 1024,16384,65536,1048576 --steps 200 --warmup 20
 echo done t=$SECONDS >> $I; pack
