@@ -166,12 +166,10 @@ __device__ void team_sync() {
   }
 }
 
-// The u64 at p (in this block's shared memory) in the shared memory of the cluster's block
-// `rank` (sm_90's distributed shared memory): mapa and ld.shared::cluster. (cg's
-// cluster.map_shared_rank goes through a generic address, and cost this kernel up to 128
-// registers with 8-32 B of spills, against ~100-112 and none.)
 // The address of p (a variable in this block's shared memory) in block `rank`'s shared memory
-// (mapa), for ld/st/atom.shared::cluster.
+// (mapa), for ld/st/atom.shared::cluster. (cg's cluster.map_shared_rank goes through a generic
+// address, and cost the team kernel up to 128 registers with 8-32 B of spills, against ~100-112
+// and none.)
 __device__ __forceinline__ unsigned in_block(const void* p, unsigned rank) {
   unsigned remote = 0;
 #if defined(__CUDA_ARCH__) && __CUDA_ARCH__ >= 900
@@ -182,6 +180,8 @@ __device__ __forceinline__ unsigned in_block(const void* p, unsigned rank) {
   return remote;
 }
 
+// The u64 at p (in this block's shared memory) in the shared memory of the cluster's block
+// `rank` (sm_90's distributed shared memory).
 __device__ u64 load_in_block(const u64* p, int rank) {
 #if defined(__CUDA_ARCH__) && __CUDA_ARCH__ >= 900
   u64 v;
