@@ -269,33 +269,40 @@ __global__ void __launch_bounds__(kDenseThreads, 1) dense_kernel(Args<R, false> 
   for (int j = 0; j < kDeviceBatch; ++j) {
     const long long k = a.k0 + j;
     const int p = j & 1;
-    // (1) The reach test, every edge: all of a thread's edges first (independent chains), then
-    // their listing, a warp's at once.
+    // (1) The reach test, every edge, then the listing of those within reach. A thread's edges
+    // are tested without branches (an edge it does not hold, or a corrupt one, reads the block's
+    // last edge and its first particle and is masked out), so their chains of shared loads and
+    // double operations overlap; a warp lists its edges of all rounds with one atomic add.
     bool near[kDenseRounds];
 #pragma unroll
     for (int r = 0; r < kDenseRounds; ++r) {
       const int e = e0 + r * kDenseThreads + tid;
-      near[r] = false;
-      if (r < rounds && e < e1) {
-        const int ia = s_ea[e - e0];
-        if (ia != kCorruptEdge) {
-          double xa, ya, xb, yb;
-          position(ia, xa, ya);
-          position(s_eb[e - e0], xb, yb);
-          const double rx = ov.min_image(xb - xa, 0), ry = ov.min_image(yb - ya, 1);
-          near[r] = rx * rx + ry * ry < ov.reach2;
-        }
-      }
+      const int i = min(e, e1 - 1) - e0;
+      const int ia = s_ea[i], ib = s_eb[i];
+      const bool held = r < rounds && e < e1 && ia != kCorruptEdge;
+      double xa, ya, xb, yb;
+      position(held ? ia : v0, xa, ya);
+      position(held ? ib : v0, xb, yb);
+      const double rx = ov.min_image(xb - xa, 0), ry = ov.min_image(yb - ya, 1);
+      near[r] = held && rx * rx + ry * ry < ov.reach2;
     }
+    unsigned listed_by_round[kDenseRounds];
+    int warp_listed = 0;
 #pragma unroll
     for (int r = 0; r < kDenseRounds; ++r) {
-      if (r >= rounds) break;
-      const unsigned m = __ballot_sync(0xffffffffu, near[r]);
-      if (m) {
-        int base = 0;
-        if (lane == 0) base = atomicAdd(&s_listed[p], __popc(m));
-        base = __shfl_sync(0xffffffffu, base, 0);
-        if (near[r]) s_list[base + __popc(m & ((1u << lane) - 1u))] = std::uint16_t(r * kDenseThreads + tid);
+      listed_by_round[r] = __ballot_sync(0xffffffffu, near[r]);
+      warp_listed += __popc(listed_by_round[r]);
+    }
+    if (warp_listed != 0) {
+      int base = 0;
+      if (lane == 0) base = atomicAdd(&s_listed[p], warp_listed);
+      base = __shfl_sync(0xffffffffu, base, 0);
+      const unsigned below = (1u << lane) - 1u;
+#pragma unroll
+      for (int r = 0; r < kDenseRounds; ++r) {
+        const unsigned m = listed_by_round[r];
+        if (near[r]) s_list[base + __popc(m & below)] = std::uint16_t(r * kDenseThreads + tid);
+        base += __popc(m);
       }
     }
     __syncthreads();
