@@ -55,6 +55,13 @@ constexpr std::uint16_t kNoLink = 0xFFFF;
 // Edges a thread tests: 3 of each particle a block holds.
 constexpr int kDenseRounds =
     int((3 * std::max(kDenseMaxN, std::size_t(1) << kDenseMaxShift) + kDenseThreads - 1) / kDenseThreads);
+// The rounds of edges a thread of dense_kernel<R, Shift> tests: every block of a cluster holds
+// 2^Shift particles; one block (Shift 0) up to kDenseMaxN, and masks the rounds a smaller run
+// does not fill.
+template <int Shift>
+constexpr int dense_rounds() {
+  return Shift == 0 ? kDenseRounds : int((3 * (std::size_t(1) << Shift) + kDenseThreads - 1) / kDenseThreads);
+}
 
 // log2 of the particles each block of a cluster holds for a run of n (kDenseMaxN < n ≤
 // kDenseClusterMaxN): the least share that covers it with kDenseMaxBlocks blocks (dense_kernel's
@@ -178,6 +185,7 @@ __global__ void __launch_bounds__(kDenseThreads, 1) dense_kernel(Args<R, false> 
   const unsigned rank = Cluster ? block_rank_in_cluster() : 0u;
   const int blocks = Cluster ? int(gridDim.x) : 1;
   constexpr int shift = Shift;
+  constexpr int kRounds = dense_rounds<Shift>();
   const int v0 = Cluster ? int(rank) << shift : 0;
   const int v1 = Cluster ? min(n, v0 + (1 << shift)) : n;
   const int e0 = 3 * v0, e1 = 3 * v1;
@@ -273,9 +281,9 @@ __global__ void __launch_bounds__(kDenseThreads, 1) dense_kernel(Args<R, false> 
     // are tested without branches (an edge it does not hold, or a corrupt one, reads the block's
     // last edge and its first particle and is masked out), so their chains of shared loads and
     // double operations overlap; a warp lists its edges of all rounds with one atomic add.
-    bool near[kDenseRounds];
+    bool near[kRounds];
 #pragma unroll
-    for (int r = 0; r < kDenseRounds; ++r) {
+    for (int r = 0; r < kRounds; ++r) {
       const int e = e0 + r * kDenseThreads + tid;
       const int i = min(e, e1 - 1) - e0;
       const int ia = s_ea[i], ib = s_eb[i];
@@ -286,10 +294,10 @@ __global__ void __launch_bounds__(kDenseThreads, 1) dense_kernel(Args<R, false> 
       const double rx = ov.min_image(xb - xa, 0), ry = ov.min_image(yb - ya, 1);
       near[r] = held && rx * rx + ry * ry < ov.reach2;
     }
-    unsigned listed_by_round[kDenseRounds];
+    unsigned listed_by_round[kRounds];
     int warp_listed = 0;
 #pragma unroll
-    for (int r = 0; r < kDenseRounds; ++r) {
+    for (int r = 0; r < kRounds; ++r) {
       listed_by_round[r] = __ballot_sync(0xffffffffu, near[r]);
       warp_listed += __popc(listed_by_round[r]);
     }
@@ -299,7 +307,7 @@ __global__ void __launch_bounds__(kDenseThreads, 1) dense_kernel(Args<R, false> 
       base = __shfl_sync(0xffffffffu, base, 0);
       const unsigned below = (1u << lane) - 1u;
 #pragma unroll
-      for (int r = 0; r < kDenseRounds; ++r) {
+      for (int r = 0; r < kRounds; ++r) {
         const unsigned m = listed_by_round[r];
         if (near[r]) s_list[base + __popc(m & below)] = std::uint16_t(r * kDenseThreads + tid);
         base += __popc(m);
