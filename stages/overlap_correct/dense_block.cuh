@@ -59,9 +59,8 @@ constexpr int kDenseRounds =
 // 2^Shift particles; one block (Shift 0) up to kDenseMaxN, and masks the rounds a smaller run
 // does not fill.
 template <int Shift>
-constexpr int dense_rounds() {
-  return Shift == 0 ? kDenseRounds : int((3 * (std::size_t(1) << Shift) + kDenseThreads - 1) / kDenseThreads);
-}
+constexpr int kDenseRoundsOf =
+    Shift == 0 ? kDenseRounds : int((3 * (std::size_t(1) << Shift) + kDenseThreads - 1) / kDenseThreads);
 
 // log2 of the particles each block of a cluster holds for a run of n (kDenseMaxN < n ≤
 // kDenseClusterMaxN): the least share that covers it with kDenseMaxBlocks blocks (dense_kernel's
@@ -185,7 +184,7 @@ __global__ void __launch_bounds__(kDenseThreads, 1) dense_kernel(Args<R, false> 
   const unsigned rank = Cluster ? block_rank_in_cluster() : 0u;
   const int blocks = Cluster ? int(gridDim.x) : 1;
   constexpr int shift = Shift;
-  constexpr int kRounds = dense_rounds<Shift>();
+  constexpr int kRounds = kDenseRoundsOf<Shift>;
   const int v0 = Cluster ? int(rank) << shift : 0;
   const int v1 = Cluster ? min(n, v0 + (1 << shift)) : n;
   const int e0 = 3 * v0, e1 = 3 * v1;
