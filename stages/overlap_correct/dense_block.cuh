@@ -213,6 +213,17 @@ __global__ void __launch_bounds__(kDenseThreads, 1) dense_kernel(Args<R, false> 
       load_xy(s_pos, v, x, y);
     }
   };
+  // The reach tests' positions: with more than one round a thread's tests overlap, and a load
+  // without a branch on the owner (through distributed shared memory also for this block) keeps
+  // them straight-line; with one round a local load is the cheaper.
+  auto position_in_test = [&](int v, double& x, double& y) {
+    if constexpr (Cluster && kRounds > 1) {
+      const unsigned owner = unsigned(v) >> shift;
+      load_xy_at<R>(in_block(s_pos + 2 * (v - (int(owner) << shift)), owner), x, y);
+    } else {
+      position(v, x, y);
+    }
+  };
 
   wait_for_previous_kernel();  // launched programmatically, as the teams (cuda.cu)
   if (gate_closed(a.p)) {  // (Problem::gate)
@@ -292,8 +303,8 @@ __global__ void __launch_bounds__(kDenseThreads, 1) dense_kernel(Args<R, false> 
       const int ia = s_ea[i], ib = s_eb[i];
       const bool held = r < rounds && e < e1 && ia != kCorruptEdge;
       double xa, ya, xb, yb;
-      position(held ? ia : v0, xa, ya);
-      position(held ? ib : v0, xb, yb);
+      position_in_test(held ? ia : v0, xa, ya);
+      position_in_test(held ? ib : v0, xb, yb);
       rx[r] = ov.min_image(xb - xa, 0);
       ry[r] = ov.min_image(yb - ya, 1);
       ends[r] = unsigned(ia) | unsigned(ib) << 16;
