@@ -77,14 +77,15 @@ inline int dense_shift(std::size_t n) {
 // particle's first link (m u32).
 template <class R, bool Cluster = false>
 struct DenseLayout {
-  std::size_t pos = 0, ea, eb, list, push, link, head, bytes;
+  std::size_t pos = 0, ea, eb, list, offset, push, link, head, bytes;
   __host__ __device__ static std::size_t up(std::size_t b) { return (b + 15) / 16 * 16; }
   __host__ __device__ explicit DenseLayout(std::size_t m) {
     const std::size_t e = 3 * m;
     ea = pos + up(2 * m * sizeof(R));
     eb = ea + up(2 * e);
     list = eb + up(2 * e);
-    push = list + up(2 * e);
+    offset = list + up(4 * e);
+    push = offset + up(16 * e);
     link = push + up(16 * e);
     head = link + up((Cluster ? 4 : 2) * 2 * e);
     bytes = head + up(4 * m);
@@ -192,7 +193,8 @@ __global__ void __launch_bounds__(kDenseThreads, 1) dense_kernel(Args<R, false> 
   R* s_pos = reinterpret_cast<R*>(s_mem + at.pos);
   std::uint16_t* s_ea = reinterpret_cast<std::uint16_t*>(s_mem + at.ea);
   std::uint16_t* s_eb = reinterpret_cast<std::uint16_t*>(s_mem + at.eb);
-  std::uint16_t* s_list = reinterpret_cast<std::uint16_t*>(s_mem + at.list);
+  std::uint32_t* s_list = reinterpret_cast<std::uint32_t*>(s_mem + at.list);
+  double2* s_offset = reinterpret_cast<double2*>(s_mem + at.offset);
   longlong2* s_push = reinterpret_cast<longlong2*>(s_mem + at.push);
   std::uint16_t* s_link = reinterpret_cast<std::uint16_t*>(s_mem + at.link);  // one block
   std::uint32_t* s_token = reinterpret_cast<std::uint32_t*>(s_mem + at.link);  // a cluster
@@ -209,6 +211,17 @@ __global__ void __launch_bounds__(kDenseThreads, 1) dense_kernel(Args<R, false> 
         load_xy_at<R>(in_block(s_pos + 2 * i, owner), x, y);
     } else {
       load_xy(s_pos, v, x, y);
+    }
+  };
+  // The reach tests' positions: with more than one round a thread's tests overlap, and a load
+  // without a branch on the owner (through distributed shared memory also for this block) keeps
+  // them straight-line; with one round a local load is the cheaper.
+  auto position_in_test = [&](int v, double& x, double& y) {
+    if constexpr (Cluster && kRounds > 1) {
+      const unsigned owner = unsigned(v) >> shift;
+      load_xy_at<R>(in_block(s_pos + 2 * (v - (int(owner) << shift)), owner), x, y);
+    } else {
+      position(v, x, y);
     }
   };
 
@@ -281,6 +294,8 @@ __global__ void __launch_bounds__(kDenseThreads, 1) dense_kernel(Args<R, false> 
     // last edge and its first particle and is masked out), so their chains of shared loads and
     // double operations overlap; a warp lists its edges of all rounds with one atomic add.
     bool near[kRounds];
+    double rx[kRounds], ry[kRounds];
+    unsigned ends[kRounds];
 #pragma unroll
     for (int r = 0; r < kRounds; ++r) {
       const int e = e0 + r * kDenseThreads + tid;
@@ -288,10 +303,12 @@ __global__ void __launch_bounds__(kDenseThreads, 1) dense_kernel(Args<R, false> 
       const int ia = s_ea[i], ib = s_eb[i];
       const bool held = r < rounds && e < e1 && ia != kCorruptEdge;
       double xa, ya, xb, yb;
-      position(held ? ia : v0, xa, ya);
-      position(held ? ib : v0, xb, yb);
-      const double rx = ov.min_image(xb - xa, 0), ry = ov.min_image(yb - ya, 1);
-      near[r] = held && rx * rx + ry * ry < ov.reach2;
+      position_in_test(held ? ia : v0, xa, ya);
+      position_in_test(held ? ib : v0, xb, yb);
+      rx[r] = ov.min_image(xb - xa, 0);
+      ry[r] = ov.min_image(yb - ya, 1);
+      ends[r] = unsigned(ia) | unsigned(ib) << 16;
+      near[r] = held && rx[r] * rx[r] + ry[r] * ry[r] < ov.reach2;
     }
     unsigned listed_by_round[kRounds];
     int warp_listed = 0;
@@ -308,7 +325,11 @@ __global__ void __launch_bounds__(kDenseThreads, 1) dense_kernel(Args<R, false> 
 #pragma unroll
       for (int r = 0; r < kRounds; ++r) {
         const unsigned m = listed_by_round[r];
-        if (near[r]) s_list[base + __popc(m & below)] = std::uint16_t(r * kDenseThreads + tid);
+        if (near[r]) {
+          const int at_list = base + __popc(m & below);
+          s_list[at_list] = ends[r];
+          s_offset[at_list] = make_double2(rx[r], ry[r]);
+        }
         base += __popc(m);
       }
     }
@@ -317,12 +338,10 @@ __global__ void __launch_bounds__(kDenseThreads, 1) dense_kernel(Args<R, false> 
     const int listed = s_listed[p];
     u64 bad = 0, pairs = 0;
     for (int i = tid; i < listed; i += kDenseThreads) {
-      const int e = s_list[i];
-      const int ia = s_ea[e], ib = s_eb[e];
-      double xa, ya, xb, yb;
-      position(ia, xa, ya);
-      position(ib, xb, yb);
-      const double rx = ov.min_image(xb - xa, 0), ry = ov.min_image(yb - ya, 1);
+      const unsigned ab = s_list[i];
+      const double2 off = s_offset[i];
+      const int ia = int(ab & 0xFFFFu), ib = int(ab >> 16);
+      const double rx = off.x, ry = off.y;
       std::int64_t qx, qy;
       PairOverlap o;
       if (ov.edge_push(ia, ib, rx, ry, qx, qy, o) == kEdgeApart) continue;
