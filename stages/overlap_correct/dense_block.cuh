@@ -15,10 +15,12 @@
 //     block barrier and two cluster barriers an iteration; every block's counters go to block 0.
 // Against the team and the grid (bench/README.md, "Session 41" and "Session 42"): bench-abp +21 %
 // at 1 024 particles (one block), +7 % at 1 280, +25 % at 2 048, +36 % at 4 096, +37 % at 8 192
-// and 16 384 (clusters).
+// and 16 384 (clusters). Session 44's branch-free reach tests with their offsets listed: +9 % at
+// 1 024, +4.6 % at 2 048, +2.2 % at 4 096, +4 % at 16 384.
 // What did not pay (64-bit shared atomics, a block sum in every thread, testing only the moved
 // particles' edges; in a cluster, positions written to global memory once a launch, the barrier
-// after the moves split around the next reach tests) is in bench/experiments/README.md.
+// after the moves split around the next reach tests; each thread pushing its own edges without a
+// listing) is in bench/experiments/README.md.
 //
 // The same bits as the other loops: the records are checked and the pushes made by kernel.h's
 // Overlaps::edge_ends and edge_push (the CPU edge pass's own), summed in fixed point (any order),
@@ -72,9 +74,9 @@ inline int dense_shift(std::size_t n) {
 }
 
 // The dynamic shared memory of a block holding m particles, each part 16-byte aligned: positions
-// (R x 2), the edges' ends (2 x 3m u16), an iteration's listed edges (3m u16), their pushes (3m x 2
-// int64), the links of each listed pair's two ends (2 x 3m: u16, in a cluster u32 tokens) and each
-// particle's first link (m u32).
+// (R x 2), the edges' ends (2 x 3m u16), an iteration's listed edges (3m u32: both ends' ids) and
+// their minimum-image offsets (3m x 2 double), their pushes (3m x 2 int64), the links of each listed
+// pair's two ends (2 x 3m: u16, in a cluster u32 tokens) and each particle's first link (m u32).
 template <class R, bool Cluster = false>
 struct DenseLayout {
   std::size_t pos = 0, ea, eb, list, offset, push, link, head, bytes;
@@ -149,8 +151,9 @@ __device__ __forceinline__ unsigned block_rank_in_cluster() {
 #undef FF_DSMEM
 
 // An iteration: (1) every thread tests its edges by the reach test (r² < the largest diameter²)
-// and lists those within reach, a warp's at once; (2) each listed edge gets its push
-// (Overlaps::edge_push) and is linked into both ends' lists of pushes (one exchange of a 32-bit
+// and lists those within reach with the offsets it computed, a warp's at once; (2) each listed
+// edge gets its push (Overlaps::edge_push, from the listed offset: the push does not read the
+// positions again, which was the head of its chain of dependent loads) and is linked into both ends' lists of pushes (one exchange of a 32-bit
 // head each: no 64-bit atomics, which sm_90's shared memory runs as spin loops);
 // (3) each touched particle sums its pushes in fixed point (any order: the same integer), is
 // finished (from_sum) and moved, written through to global memory. One block: a block barrier
@@ -213,11 +216,12 @@ __global__ void __launch_bounds__(kDenseThreads, 1) dense_kernel(Args<R, false> 
       load_xy(s_pos, v, x, y);
     }
   };
-  // The reach tests' positions: with more than one round a thread's tests overlap, and a load
-  // without a branch on the owner (through distributed shared memory also for this block) keeps
-  // them straight-line; with one round a local load is the cheaper.
+  // The reach tests' positions. In a cluster whose threads test three rounds, a load without a
+  // branch on the owner (through distributed shared memory also for this block) keeps the three
+  // tests straight-line, so they overlap (bench-abp +1.5 % at 16 384); with fewer rounds the local
+  // load is the cheaper (−0.7 % at 8 192: bench/README.md, "Session 44").
   auto position_in_test = [&](int v, double& x, double& y) {
-    if constexpr (Cluster && kRounds > 1) {
+    if constexpr (Cluster && kRounds >= 3) {
       const unsigned owner = unsigned(v) >> shift;
       load_xy_at<R>(in_block(s_pos + 2 * (v - (int(owner) << shift)), owner), x, y);
     } else {
@@ -334,7 +338,7 @@ __global__ void __launch_bounds__(kDenseThreads, 1) dense_kernel(Args<R, false> 
       }
     }
     __syncthreads();
-    // (2) The listed edges' pushes.
+    // (2) The listed edges' pushes, from the ends and offsets (1) listed.
     const int listed = s_listed[p];
     u64 bad = 0, pairs = 0;
     for (int i = tid; i < listed; i += kDenseThreads) {
