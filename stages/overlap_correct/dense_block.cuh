@@ -15,10 +15,12 @@
 //     block barrier and two cluster barriers an iteration; every block's counters go to block 0.
 // Against the team and the grid (bench/README.md, "Session 41" and "Session 42"): bench-abp +21 %
 // at 1 024 particles (one block), +7 % at 1 280, +25 % at 2 048, +36 % at 4 096, +37 % at 8 192
-// and 16 384 (clusters).
+// and 16 384 (clusters). Session 44's branch-free reach tests with their offsets listed: +9 % at
+// 1 024, +4.6 % at 2 048, +2.2 % at 4 096, +4 % at 16 384.
 // What did not pay (64-bit shared atomics, a block sum in every thread, testing only the moved
 // particles' edges; in a cluster, positions written to global memory once a launch, the barrier
-// after the moves split around the next reach tests) is in bench/experiments/README.md.
+// after the moves split around the next reach tests; each thread pushing its own edges without a
+// listing) is in bench/experiments/README.md.
 //
 // The same bits as the other loops: the records are checked and the pushes made by kernel.h's
 // Overlaps::edge_ends and edge_push (the CPU edge pass's own), summed in fixed point (any order),
@@ -55,6 +57,12 @@ constexpr std::uint16_t kNoLink = 0xFFFF;
 // Edges a thread tests: 3 of each particle a block holds.
 constexpr int kDenseRounds =
     int((3 * std::max(kDenseMaxN, std::size_t(1) << kDenseMaxShift) + kDenseThreads - 1) / kDenseThreads);
+// The rounds of edges a thread of dense_kernel<R, Shift> tests: every block of a cluster holds
+// 2^Shift particles; one block (Shift 0) up to kDenseMaxN, and masks the rounds a smaller run
+// does not fill.
+template <int Shift>
+constexpr int kDenseRoundsOf =
+    Shift == 0 ? kDenseRounds : int((3 * (std::size_t(1) << Shift) + kDenseThreads - 1) / kDenseThreads);
 
 // log2 of the particles each block of a cluster holds for a run of n (kDenseMaxN < n ≤
 // kDenseClusterMaxN): the least share that covers it with kDenseMaxBlocks blocks (dense_kernel's
@@ -66,19 +74,20 @@ inline int dense_shift(std::size_t n) {
 }
 
 // The dynamic shared memory of a block holding m particles, each part 16-byte aligned: positions
-// (R x 2), the edges' ends (2 x 3m u16), an iteration's listed edges (3m u16), their pushes (3m x 2
-// int64), the links of each listed pair's two ends (2 x 3m: u16, in a cluster u32 tokens) and each
-// particle's first link (m u32).
+// (R x 2), the edges' ends (2 x 3m u16), an iteration's listed edges (3m u32: both ends' ids) and
+// their minimum-image offsets (3m x 2 double), their pushes (3m x 2 int64), the links of each listed
+// pair's two ends (2 x 3m: u16, in a cluster u32 tokens) and each particle's first link (m u32).
 template <class R, bool Cluster = false>
 struct DenseLayout {
-  std::size_t pos = 0, ea, eb, list, push, link, head, bytes;
+  std::size_t pos = 0, ea, eb, list, offset, push, link, head, bytes;
   __host__ __device__ static std::size_t up(std::size_t b) { return (b + 15) / 16 * 16; }
   __host__ __device__ explicit DenseLayout(std::size_t m) {
     const std::size_t e = 3 * m;
     ea = pos + up(2 * m * sizeof(R));
     eb = ea + up(2 * e);
     list = eb + up(2 * e);
-    push = list + up(2 * e);
+    offset = list + up(4 * e);
+    push = offset + up(16 * e);
     link = push + up(16 * e);
     head = link + up((Cluster ? 4 : 2) * 2 * e);
     bytes = head + up(4 * m);
@@ -142,8 +151,9 @@ __device__ __forceinline__ unsigned block_rank_in_cluster() {
 #undef FF_DSMEM
 
 // An iteration: (1) every thread tests its edges by the reach test (r² < the largest diameter²)
-// and lists those within reach, a warp's at once; (2) each listed edge gets its push
-// (Overlaps::edge_push) and is linked into both ends' lists of pushes (one exchange of a 32-bit
+// and lists those within reach with the offsets it computed, a warp's at once; (2) each listed
+// edge gets its push (Overlaps::edge_push, from the listed offset: the push does not read the
+// positions again, which was the head of its chain of dependent loads) and is linked into both ends' lists of pushes (one exchange of a 32-bit
 // head each: no 64-bit atomics, which sm_90's shared memory runs as spin loops);
 // (3) each touched particle sums its pushes in fixed point (any order: the same integer), is
 // finished (from_sum) and moved, written through to global memory. One block: a block barrier
@@ -178,6 +188,7 @@ __global__ void __launch_bounds__(kDenseThreads, 1) dense_kernel(Args<R, false> 
   const unsigned rank = Cluster ? block_rank_in_cluster() : 0u;
   const int blocks = Cluster ? int(gridDim.x) : 1;
   constexpr int shift = Shift;
+  constexpr int kRounds = kDenseRoundsOf<Shift>;
   const int v0 = Cluster ? int(rank) << shift : 0;
   const int v1 = Cluster ? min(n, v0 + (1 << shift)) : n;
   const int e0 = 3 * v0, e1 = 3 * v1;
@@ -185,7 +196,8 @@ __global__ void __launch_bounds__(kDenseThreads, 1) dense_kernel(Args<R, false> 
   R* s_pos = reinterpret_cast<R*>(s_mem + at.pos);
   std::uint16_t* s_ea = reinterpret_cast<std::uint16_t*>(s_mem + at.ea);
   std::uint16_t* s_eb = reinterpret_cast<std::uint16_t*>(s_mem + at.eb);
-  std::uint16_t* s_list = reinterpret_cast<std::uint16_t*>(s_mem + at.list);
+  std::uint32_t* s_list = reinterpret_cast<std::uint32_t*>(s_mem + at.list);
+  double2* s_offset = reinterpret_cast<double2*>(s_mem + at.offset);
   longlong2* s_push = reinterpret_cast<longlong2*>(s_mem + at.push);
   std::uint16_t* s_link = reinterpret_cast<std::uint16_t*>(s_mem + at.link);  // one block
   std::uint32_t* s_token = reinterpret_cast<std::uint32_t*>(s_mem + at.link);  // a cluster
@@ -202,6 +214,18 @@ __global__ void __launch_bounds__(kDenseThreads, 1) dense_kernel(Args<R, false> 
         load_xy_at<R>(in_block(s_pos + 2 * i, owner), x, y);
     } else {
       load_xy(s_pos, v, x, y);
+    }
+  };
+  // The reach tests' positions. In a cluster whose threads test three rounds, a load without a
+  // branch on the owner (through distributed shared memory also for this block) keeps the three
+  // tests straight-line, so they overlap (bench-abp +1.5 % at 16 384); with fewer rounds the local
+  // load is the cheaper (−0.7 % at 8 192: bench/README.md, "Session 44").
+  auto position_in_test = [&](int v, double& x, double& y) {
+    if constexpr (Cluster && kRounds >= 3) {
+      const unsigned owner = unsigned(v) >> shift;
+      load_xy_at<R>(in_block(s_pos + 2 * (v - (int(owner) << shift)), owner), x, y);
+    } else {
+      position(v, x, y);
     }
   };
 
@@ -269,46 +293,59 @@ __global__ void __launch_bounds__(kDenseThreads, 1) dense_kernel(Args<R, false> 
   for (int j = 0; j < kDeviceBatch; ++j) {
     const long long k = a.k0 + j;
     const int p = j & 1;
-    // (1) The reach test, every edge: all of a thread's edges first (independent chains), then
-    // their listing, a warp's at once.
-    bool near[kDenseRounds];
+    // (1) The reach test, every edge, then the listing of those within reach. A thread's edges
+    // are tested without branches (an edge it does not hold, or a corrupt one, reads the block's
+    // last edge and its first particle and is masked out), so their chains of shared loads and
+    // double operations overlap; a warp lists its edges of all rounds with one atomic add.
+    bool near[kRounds];
+    double rx[kRounds], ry[kRounds];
+    unsigned ends[kRounds];
 #pragma unroll
-    for (int r = 0; r < kDenseRounds; ++r) {
+    for (int r = 0; r < kRounds; ++r) {
       const int e = e0 + r * kDenseThreads + tid;
-      near[r] = false;
-      if (r < rounds && e < e1) {
-        const int ia = s_ea[e - e0];
-        if (ia != kCorruptEdge) {
-          double xa, ya, xb, yb;
-          position(ia, xa, ya);
-          position(s_eb[e - e0], xb, yb);
-          const double rx = ov.min_image(xb - xa, 0), ry = ov.min_image(yb - ya, 1);
-          near[r] = rx * rx + ry * ry < ov.reach2;
-        }
-      }
+      const int i = min(e, e1 - 1) - e0;
+      const int ia = s_ea[i], ib = s_eb[i];
+      const bool held = r < rounds && e < e1 && ia != kCorruptEdge;
+      double xa, ya, xb, yb;
+      position_in_test(held ? ia : v0, xa, ya);
+      position_in_test(held ? ib : v0, xb, yb);
+      rx[r] = ov.min_image(xb - xa, 0);
+      ry[r] = ov.min_image(yb - ya, 1);
+      ends[r] = unsigned(ia) | unsigned(ib) << 16;
+      near[r] = held && rx[r] * rx[r] + ry[r] * ry[r] < ov.reach2;
     }
+    unsigned listed_by_round[kRounds];
+    int warp_listed = 0;
 #pragma unroll
-    for (int r = 0; r < kDenseRounds; ++r) {
-      if (r >= rounds) break;
-      const unsigned m = __ballot_sync(0xffffffffu, near[r]);
-      if (m) {
-        int base = 0;
-        if (lane == 0) base = atomicAdd(&s_listed[p], __popc(m));
-        base = __shfl_sync(0xffffffffu, base, 0);
-        if (near[r]) s_list[base + __popc(m & ((1u << lane) - 1u))] = std::uint16_t(r * kDenseThreads + tid);
+    for (int r = 0; r < kRounds; ++r) {
+      listed_by_round[r] = __ballot_sync(0xffffffffu, near[r]);
+      warp_listed += __popc(listed_by_round[r]);
+    }
+    if (warp_listed != 0) {
+      int base = 0;
+      if (lane == 0) base = atomicAdd(&s_listed[p], warp_listed);
+      base = __shfl_sync(0xffffffffu, base, 0);
+      const unsigned below = (1u << lane) - 1u;
+#pragma unroll
+      for (int r = 0; r < kRounds; ++r) {
+        const unsigned m = listed_by_round[r];
+        if (near[r]) {
+          const int at_list = base + __popc(m & below);
+          s_list[at_list] = ends[r];
+          s_offset[at_list] = make_double2(rx[r], ry[r]);
+        }
+        base += __popc(m);
       }
     }
     __syncthreads();
-    // (2) The listed edges' pushes.
+    // (2) The listed edges' pushes, from the ends and offsets (1) listed.
     const int listed = s_listed[p];
     u64 bad = 0, pairs = 0;
     for (int i = tid; i < listed; i += kDenseThreads) {
-      const int e = s_list[i];
-      const int ia = s_ea[e], ib = s_eb[e];
-      double xa, ya, xb, yb;
-      position(ia, xa, ya);
-      position(ib, xb, yb);
-      const double rx = ov.min_image(xb - xa, 0), ry = ov.min_image(yb - ya, 1);
+      const unsigned ab = s_list[i];
+      const double2 off = s_offset[i];
+      const int ia = int(ab & 0xFFFFu), ib = int(ab >> 16);
+      const double rx = off.x, ry = off.y;
       std::int64_t qx, qy;
       PairOverlap o;
       if (ov.edge_push(ia, ib, rx, ry, qx, qy, o) == kEdgeApart) continue;
