@@ -153,31 +153,33 @@ __device__ __forceinline__ unsigned block_rank_in_cluster() {
 // An iteration: (1) every thread tests its edges by the reach test (r² < the largest diameter²)
 // and lists those within reach with the offsets it computed, a warp's at once; (2) each listed
 // edge gets its push (Overlaps::edge_push, from the listed offset: the push does not read the
-// positions again, which was the head of its chain of dependent loads) and is linked into both ends' lists of pushes (one exchange of a 32-bit
-// head each: no 64-bit atomics, which sm_90's shared memory runs as spin loops);
-// (3) each touched particle sums its pushes in fixed point (any order: the same integer), is
-// finished (from_sum) and moved, written through to global memory. One block: a block barrier
-// after each. A cluster: a block barrier after (1), a cluster barrier after (2) and (3); each
-// warp's counts go to block 0 (s_part), and a warp with a pair beyond the tolerance stamps every
-// block's s_bad_at with k + 1, so every thread reads keeps_going's answer in its own block.
+// positions again, which was the head of its chain of dependent loads) and is linked into both
+// ends' lists of pushes (one exchange of a 32-bit head each: no 64-bit atomics, which sm_90's
+// shared memory runs as spin loops); (3) each touched particle sums its pushes in fixed point
+// (any order: the same integer), is finished (from_sum) and moved, written through to global
+// memory. One block: a block barrier after each. A cluster: a block barrier after (1), a
+// cluster barrier after (2) and (3); a warp with a pair beyond the tolerance stamps every block's
+// s_bad_at with k + 1, so every thread reads keeps_going's answer in its own block. The pairs and
+// the correction are summed by each thread and reduced once a launch (end_launch), not each
+// iteration: that reduction was a warp's tenth of an iteration's instructions, and warp 0's row
+// sums stood between every iteration's barriers.
 // Shift: 0 for one block, else log2 of the particles a cluster's block holds (a constant: the
 // owner of a particle is a shift of its id).
 template <class R, int Shift>
 __global__ void __launch_bounds__(kDenseThreads, 1) dense_kernel(Args<R, false> a) {
   constexpr bool Cluster = Shift > 0;
   extern __shared__ __align__(16) unsigned char s_mem[];
-  // By iteration parity (j & 1): an iteration's slots are read after the barrier that follows
-  // their stores, and stored again two iterations later. s_listed[p ^ 1] is zeroed by iteration j
-  // between its second and third barriers, after every thread read j − 1's.
-  __shared__ u64 s_red[2][3][kDenseWarps];  // by warp: kBad, kPairs of the pushes, kCorrection of the moves
+  // By iteration parity (j & 1): s_listed[p ^ 1] is zeroed by iteration j between its second and
+  // third barriers, after every thread read j − 1's.
   __shared__ int s_listed[2];               // edges listed by the reach test
+  __shared__ u64 s_red[2][2][kDenseWarps];  // by warp: [0] the launch's pairs and correction, [1][0] bad_count's
   __shared__ u64 s_load[3][kDenseWarps];    // by warp: corrupt records, the next pointers' mixes, their expected sum
   __shared__ u64 s_broken[2];               // kBroken of the first iteration, and of the others
   __shared__ u64 s_rows[kRowsHeld][kTouched];  // warp 0: the rows of the iterations not yet in result
   // A cluster's: every block's three setup sums (s_load's, in every block); in block 0, each
-  // block's warps' kBad, kPairs and kCorrection of the iteration (stored in (2) and (3), read
-  // after the cluster barrier that follows, stored again after the next one); the last k + 1
-  // with a pair beyond the tolerance anywhere (a stamp: never reset).
+  // block's warps' pairs and correction of the launch ([0], [1]: end_launch) and count of pairs
+  // beyond the tolerance where the loop gives up ([2]: bad_count); the last k + 1 with a pair
+  // beyond the tolerance anywhere (a stamp: never reset).
   __shared__ u64 s_setup[Cluster ? kDenseMaxBlocks : 1][3];
   __shared__ u64 s_part[Cluster ? 3 : 1][Cluster ? kDenseMaxBlocks : 1][Cluster ? kDenseWarps : 1];
   __shared__ long long s_bad_at;
@@ -290,6 +292,65 @@ __global__ void __launch_bounds__(kDenseThreads, 1) dense_kernel(Args<R, false> 
   const u64 broken_first = s_broken[0], broken_later = s_broken[1];
   const int rounds = (e1 - e0 + kDenseThreads - 1) / kDenseThreads;  // the same in every thread
 
+  // The launch's pairs (of the iterations that went on) and correction, this thread's share.
+  u64 pairs_total = 0, correction_total = 0;
+  // The count of pairs beyond the tolerance in an iteration, where the loop gives up (the block's
+  // or the cluster's threads all call it; in warp 0 of block 0).
+  auto bad_count = [&](u64 bad) {
+    u64 c = 0;
+    if constexpr (Cluster) {
+      const u64 wb = warp_sum(bad);
+      if (lane == 0) store_u64_at(in_block(&s_part[2][rank][warp], 0u), wb);
+      cg::this_cluster().sync();
+      if (rank == 0 && tid < 32) {
+        for (int b = 0; b < blocks; ++b) c += s_part[2][b][lane];
+        c = warp_sum(c);
+      }
+    } else {
+      warp_slot(s_red[1][0], bad);
+      __syncthreads();
+      if (tid < 32) c = block_total(s_red[1][0]);
+    }
+    return c;
+  };
+  // The launch's end after `rows` iterations: the pairs and the correction summed over the
+  // threads into row 0 (read_back adds the rows' counts), the last held rows and the count of
+  // rows to result.
+  auto end_launch = [&](int rows) {
+    u64 tp = 0, tc = 0;
+    if constexpr (Cluster) {
+      const u64 wp = warp_sum(pairs_total), wc = warp_sum(correction_total);
+      if (lane == 0) {
+        store_u64_at(in_block(&s_part[0][rank][warp], 0u), wp);
+        store_u64_at(in_block(&s_part[1][rank][warp], 0u), wc);
+      }
+      cg::this_cluster().sync();
+      if (rank == 0 && tid < 32) {
+        for (int b = 0; b < blocks; ++b) {
+          tp += s_part[0][b][lane];
+          tc += s_part[1][b][lane];
+        }
+        tp = warp_sum(tp);
+        tc = warp_sum(tc);
+      }
+    } else {
+      warp_slot(s_red[0][0], pairs_total);
+      warp_slot(s_red[0][1], correction_total);
+      __syncthreads();
+      if (tid < 32) {
+        tp = block_total(s_red[0][0]);
+        tc = block_total(s_red[0][1]);
+      }
+    }
+    if (rank != 0 || tid >= 32) return;
+    if (tid < kTouched && rows % kRowsHeld != 0) store_held_rows<kTouched>(a.result, s_rows, rows);
+    __syncwarp();
+    if (tid == 0) {
+      a.result[kPairs] = tp;
+      a.result[kCorrection] = tc;
+      a.result[std::size_t(kDeviceBatch) * kCounters] = u64(rows);
+    }
+  };
   for (int j = 0; j < kDeviceBatch; ++j) {
     const long long k = a.k0 + j;
     const int p = j & 1;
@@ -364,51 +425,35 @@ __global__ void __launch_bounds__(kDenseThreads, 1) dense_kernel(Args<R, false> 
         if (o == kBeyond) ++bad;
       }
     }
-    // Every push linked, the counters in; keeps_going's answer, the same in every thread.
+    // Every push linked; keeps_going's answer, the same in every thread. The pairs and the
+    // correction are not reduced here but summed by each thread over the iterations that go on
+    // and reduced once, when the launch ends (end_launch); an iteration's row has kBad 1 when it
+    // found a pair beyond the tolerance (the count itself only where the loop gives up, for its
+    // message) and kPairs and kCorrection 0.
     bool any_bad;
-    u64 row_bad = 0, row_pairs = 0;  // the iteration's row of counters (warp 0 of block 0)
     if constexpr (Cluster) {
-      const u64 wb = warp_sum(bad), wp = warp_sum(pairs);
-      if (wb != 0 && lane < blocks) store_u64_at(in_block(&s_bad_at, unsigned(lane)), u64(k + 1));
-      if (lane == 0) {
-        store_u64_at(in_block(&s_part[0][rank][warp], 0u), wb);
-        store_u64_at(in_block(&s_part[1][rank][warp], 0u), wp);
-      }
+      if (__any_sync(0xffffffffu, bad != 0) && lane < blocks) store_u64_at(in_block(&s_bad_at, unsigned(lane)), u64(k + 1));
       cg::this_cluster().sync();
       any_bad = s_bad_at == k + 1;
-      if (rank == 0 && tid < 32) {
-        for (int b = 0; b < blocks; ++b) {
-          row_bad += s_part[0][b][lane];
-          row_pairs += s_part[1][b][lane];
-        }
-        row_bad = warp_sum(row_bad);
-        row_pairs = warp_sum(row_pairs);
-      }
     } else {
-      warp_slot(s_red[p][0], bad);
-      warp_slot(s_red[p][1], pairs);
       any_bad = __syncthreads_or(bad != 0);
-      if (tid < 32) {
-        row_bad = block_total(s_red[p][0]);
-        row_pairs = block_total(s_red[p][1]);
-      }
     }
     const u64 broken = j == 0 ? broken_first : broken_later;
     const bool go = broken == 0 && any_bad && k < a.max_iterations;
+    u64 row_bad = any_bad ? 1 : 0;
+    if (any_bad && broken == 0 && !go) row_bad = bad_count(bad);  // max_iterations: read_back gives up
     // Warp 0 (of block 0) holds the row in shared memory and stores a run of kRowsHeld rows to
     // result (pinned host memory) at once, as the team kernel does: not a store over the bus each
     // iteration in the warp the next barrier waits for.
-    auto keep_row = [&](u64 correction) {
-      if (rank != 0 || tid >= kTouched) return;
-      s_rows[j % kRowsHeld][tid] = tid == kBad ? row_bad : tid == kPairs ? row_pairs : tid == kBroken ? broken : correction;
+    if (rank == 0 && tid < kTouched) {
+      s_rows[j % kRowsHeld][tid] = tid == kBad ? row_bad : tid == kBroken ? broken : 0;
       if ((j + 1) % kRowsHeld == 0) store_held_rows<kTouched>(a.result, s_rows, j + 1);
-    };
-    if (!go) {  // (a cluster: no block reads another's shared memory after its last barrier)
-      keep_row(0);
-      if (rank == 0 && tid < kTouched && (j + 1) % kRowsHeld != 0) store_held_rows<kTouched>(a.result, s_rows, j + 1);
-      if (rank == 0 && tid == 0) a.result[std::size_t(kDeviceBatch) * kCounters] = u64(j + 1);
+    }
+    if (!go) {  // (a cluster: no block reads another's shared memory after end_launch's barrier)
+      end_launch(j + 1);
       return;
     }
+    pairs_total += pairs;
     if (tid == 0) s_listed[p ^ 1] = 0;
     // (3) The moves: each touched particle's pushes summed, finished (capped) and applied.
     u64 corr = 0;
@@ -456,25 +501,13 @@ __global__ void __launch_bounds__(kDenseThreads, 1) dense_kernel(Args<R, false> 
       if (crossed[0]) a.p.image[2 * v] += crossed[0];
       if (crossed[1]) a.p.image[2 * v + 1] += crossed[1];
     }
-    if constexpr (Cluster) {
-      const u64 wc = warp_sum(corr);
-      if (lane == 0) store_u64_at(in_block(&s_part[2][rank][warp], 0u), wc);
-      cg::this_cluster().sync();  // every move in place, every correction in block 0
-      if (rank == 0 && tid < 32) {
-        u64 c = 0;
-        for (int b = 0; b < blocks; ++b) c += s_part[2][b][lane];
-        keep_row(warp_sum(c));
-      }
-    } else {
-      warp_slot(s_red[p][2], corr);
-      __syncthreads();  // every move in place, the correction summed
-      if (tid < 32) {
-        const u64 correction = block_total(s_red[p][2]);
-        keep_row(correction);
-      }
-    }
+    correction_total += corr;
+    if constexpr (Cluster)
+      cg::this_cluster().sync();  // every move in place
+    else
+      __syncthreads();  // every move in place
   }
-  if (rank == 0 && tid == 0) a.result[std::size_t(kDeviceBatch) * kCounters] = u64(kDeviceBatch);
+  end_launch(kDeviceBatch);
   static_assert(kDeviceBatch % kRowsHeld == 0, "the last run of held rows is full");
 }
 

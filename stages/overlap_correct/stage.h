@@ -45,7 +45,9 @@
 
 namespace ff::overlap {
 
-// One call of a backend's iteration loop: the counters of each gather it ran, in order. The CPU
+// One call of a backend's iteration loop: the counters of each gather it ran, in order (a loop
+// may put the call's pairs and correction, summed over the gathers that went on, in the first
+// row and 0 in the others: read_back needs only their sums; the dense kernels do). The CPU
 // loop returns to the host's loop every kBatch gathers; the device's runs up to kDeviceBatch in
 // one launch, more than the default max_iterations, so that one launch ends the correction (its
 // read may then wait past the step: StepContext::may_defer_past_step).
@@ -302,7 +304,7 @@ class OverlapCorrect final : public Stage {
     std::vector<VertexPush> push(owned);
     std::int64_t iterations = 0;
     std::uint64_t pairs = 0;
-    double correction = 0;
+    std::uint64_t correction_fixed = 0;  // as read_back: converted once
     for (;;) {
       // bad, pairs, broken: each pair once over the team (the owned end of lower id counts it)
       std::int64_t c[3] = {0, 0, 0};
@@ -351,12 +353,12 @@ class OverlapCorrect final : public Stage {
       ctx.ghosts->refresh(s, {fields::position, fields::image});
       x = s.field(fields::position).host<R>();  // refresh wrote the ghosts' entries on the host
       pairs += std::uint64_t(c[1]);
-      correction += double(moved) / kFixedOne * unit_;
+      correction_fixed += std::uint64_t(moved);
       ++iterations;
     }
     ctx.metrics.set("iterations", double(iterations));
     ctx.metrics.set("pairs", double(pairs));
-    ctx.metrics.set("correction", correction);
+    ctx.metrics.set("correction", double(correction_fixed) / kFixedOne * unit_);
     return Outcome::ok();
   }
  private:
@@ -375,8 +377,9 @@ class OverlapCorrect final : public Stage {
   // the correction could need, so it ended the correction. Sets the step's metrics.
   void read_back(StepContext& ctx, std::uint64_t step, const Problem<R>* prob, bool moved = false) {
     std::int64_t iterations = 0;
-    std::uint64_t pairs = 0, first_touches = 0;
-    double correction = 0;
+    // The correction is summed in its fixed point and converted once: the same value however a
+    // loop spreads it over its rows (the dense kernels put a launch's total in its first row).
+    std::uint64_t pairs = 0, first_touches = 0, correction_fixed = 0;
     for (bool done = false, first = true; !done; first = false) {
       if (!first) {
         if (!prob)
@@ -401,13 +404,13 @@ class OverlapCorrect final : public Stage {
         }
         if (iterations == p_.max_iterations) give_up(ctx, step, h[kBad], moved);
         pairs += h[kPairs];
-        correction += double(h[kCorrection]) / kFixedOne * unit_;
+        correction_fixed += h[kCorrection];
         ++iterations;
       }
     }
     ctx.metrics.set("iterations", double(iterations));
     ctx.metrics.set("pairs", double(pairs));
-    ctx.metrics.set("correction", correction);
+    ctx.metrics.set("correction", double(correction_fixed) / kFixedOne * unit_);
     if (p_.mark) {
       ctx.metrics.set("touched", double(first_touches));
       ctx.metrics.set("touched_fraction", double(first_touches) / double(ctx.state.n()));
