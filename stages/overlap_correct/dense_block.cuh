@@ -16,7 +16,8 @@
 // Against the team and the grid (bench/README.md, "Session 41" and "Session 42"): bench-abp +21 %
 // at 1 024 particles (one block), +7 % at 1 280, +25 % at 2 048, +36 % at 4 096, +37 % at 8 192
 // and 16 384 (clusters). Session 44's branch-free reach tests with their offsets listed: +9 % at
-// 1 024, +4.6 % at 2 048, +2.2 % at 4 096, +4 % at 16 384.
+// 1 024, +4.6 % at 2 048, +2.2 % at 4 096, +4 % at 16 384; then the counters reduced once a
+// launch: +4 / +12 / +16 / +11 %.
 // What did not pay (64-bit shared atomics, a block sum in every thread, testing only the moved
 // particles' edges; in a cluster, positions written to global memory once a launch, the barrier
 // after the moves split around the next reach tests; each thread pushing its own edges without a
