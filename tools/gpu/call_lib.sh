@@ -39,7 +39,10 @@
 #   delaunay_tests V     the Delaunay stages' CUDA test executables and those that check their bits
 #                        (CPU == CUDA, rollback, graph capture, device decisions) on the bundle
 #                        ${D[V]} (log V-tests.txt, TEST_TIMEOUT s, default 240); a "V: P PASS, F FAIL"
-#                        line in info.txt, then step tests
+#                        line in info.txt, then step V-tests
+#   variant_tests V T... the CUDA test executables T... on the bundle ${D[V]} (log V-tests.txt,
+#                        TEST_TIMEOUT s, default 200); a "V: P PASS, F FAIL" line in info.txt, then
+#                        step V-tests (session 44's calls 11 and 13 wrote these lines out)
 #   timelines N...       CUPTI timelines of bench-abp at each N (tools/gpu_trace; 200 steps after
 #                        20, 60 at 2^20): trace-N.csv.xz and summarize.py's typical step and
 #                        groups (trace-N-summary.txt, trace-N-group2.txt), then step trace-N
@@ -183,11 +186,16 @@ issue20_rows() {
   return 0
 }
 delaunay_tests() {
-  TEST_TIMEOUT=${TEST_TIMEOUT:-240} tests "${D[$1]}" "$O/$1-tests.txt" test_delaunay_lawson test_delaunay_flip \
+  TEST_TIMEOUT=${TEST_TIMEOUT:-240} variant_tests "$1" test_delaunay_lawson test_delaunay_flip \
     test_delaunay_detect_inversion test_delaunay_tries test_cpu_cuda_bits test_boids_delaunay test_rollback \
     test_rollback_restores test_device_decisions test_graph_capture test_neighbors_delaunay test_delaunay_check
-  echo "$1: $(grep -c "^PASS" "$O/$1-tests.txt") PASS, $(grep -c "^FAIL" "$O/$1-tests.txt") FAIL" >> "$I"
-  step tests 0
+}
+variant_tests() {
+  local v=$1
+  shift
+  TEST_TIMEOUT=${TEST_TIMEOUT:-200} tests "${D[$v]}" "$O/$v-tests.txt" "$@"
+  echo "$v: $(grep -c "^PASS" "$O/$v-tests.txt") PASS, $(grep -c "^FAIL" "$O/$v-tests.txt") FAIL" >> "$I"
+  step "$v-tests" 0
 }
 rounds() {
   local vs=$1 r v
