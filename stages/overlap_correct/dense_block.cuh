@@ -12,7 +12,8 @@
 //     [3r·P, 3(r+1)·P), whose ends are mostly its own particles (Hilbert order; edges are numbered
 //     near their particles). An end held by another block is read from that block's shared
 //     memory; a push is linked into its end's list in the end's block, and walked from there. One
-//     block barrier and two cluster barriers an iteration; every block's counters go to block 0.
+//     block barrier and two cluster barriers an iteration; every block's counters go to block 0
+//     once a launch.
 // Against the team and the grid (bench/README.md, "Session 41" and "Session 42"): bench-abp +21 %
 // at 1 024 particles (one block), +7 % at 1 280, +25 % at 2 048, +36 % at 4 096, +37 % at 8 192
 // and 16 384 (clusters). Session 44's branch-free reach tests with their offsets listed: +9 % at

@@ -47,7 +47,9 @@ namespace ff::overlap {
 
 // One call of a backend's iteration loop: the counters of each gather it ran, in order (a loop
 // may put the call's pairs and correction, summed over the gathers that went on, in the first
-// row and 0 in the others: read_back needs only their sums; the dense kernels do). The CPU
+// row and 0 in the others: read_back needs only their sums; and a row's kBad may be 1 for any
+// nonzero count but in the row where the loop gives up, whose count read_back reports; the dense
+// kernels do both). The CPU
 // loop returns to the host's loop every kBatch gathers; the device's runs up to kDeviceBatch in
 // one launch, more than the default max_iterations, so that one launch ends the correction (its
 // read may then wait past the step: StepContext::may_defer_past_step).
