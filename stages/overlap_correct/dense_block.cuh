@@ -145,11 +145,6 @@ __device__ __forceinline__ unsigned exchange_at(unsigned at, unsigned v) {
 __device__ __forceinline__ void store_u64_at(unsigned at, u64 v) {
   FF_DSMEM(asm volatile("st.shared::cluster.u64 [%0], %1;" ::"r"(at), "l"(v) : "memory"));
 }
-__device__ __forceinline__ unsigned block_rank_in_cluster() {
-  unsigned r = 0;
-  FF_DSMEM(asm("mov.u32 %0, %%cluster_ctarank;" : "=r"(r)));
-  return r;
-}
 #undef FF_DSMEM
 
 // An iteration: (1) every thread tests its edges by the reach test (r² < the largest diameter²)
@@ -174,7 +169,8 @@ __global__ void __launch_bounds__(kDenseThreads, 1) dense_kernel(Args<R, false> 
   // By iteration parity (j & 1): s_listed[p ^ 1] is zeroed by iteration j between its second and
   // third barriers, after every thread read j − 1's.
   __shared__ int s_listed[2];               // edges listed by the reach test
-  __shared__ u64 s_red[2][2][kDenseWarps];  // by warp: [0] the launch's pairs and correction, [1][0] bad_count's
+  __shared__ u64 s_launch[2][kDenseWarps];  // by warp: the launch's pairs and correction (end_launch)
+  __shared__ u64 s_bad[kDenseWarps];        // by warp: the pairs beyond the tolerance (bad_count)
   __shared__ u64 s_load[3][kDenseWarps];    // by warp: corrupt records, the next pointers' mixes, their expected sum
   __shared__ u64 s_broken[2];               // kBroken of the first iteration, and of the others
   __shared__ u64 s_rows[kRowsHeld][kTouched];  // warp 0: the rows of the iterations not yet in result
@@ -189,7 +185,7 @@ __global__ void __launch_bounds__(kDenseThreads, 1) dense_kernel(Args<R, false> 
   const int n = int(a.p.n);
   const int tid = int(threadIdx.x), lane = tid & 31, warp = tid >> 5;
   // This block's share: particles [v0, v1), edges [e0, e1) (one block: all of them).
-  const unsigned rank = Cluster ? block_rank_in_cluster() : 0u;
+  const unsigned rank = Cluster ? cg::this_cluster().block_rank() : 0u;
   const int blocks = Cluster ? int(gridDim.x) : 1;
   constexpr int shift = Shift;
   constexpr int kRounds = kDenseRoundsOf<Shift>;
@@ -309,9 +305,9 @@ __global__ void __launch_bounds__(kDenseThreads, 1) dense_kernel(Args<R, false> 
         c = warp_sum(c);
       }
     } else {
-      warp_slot(s_red[1][0], bad);
+      warp_slot(s_bad, bad);
       __syncthreads();
-      if (tid < 32) c = block_total(s_red[1][0]);
+      if (tid < 32) c = block_total(s_bad);
     }
     return c;
   };
@@ -336,12 +332,12 @@ __global__ void __launch_bounds__(kDenseThreads, 1) dense_kernel(Args<R, false> 
         tc = warp_sum(tc);
       }
     } else {
-      warp_slot(s_red[0][0], pairs_total);
-      warp_slot(s_red[0][1], correction_total);
+      warp_slot(s_launch[0], pairs_total);
+      warp_slot(s_launch[1], correction_total);
       __syncthreads();
       if (tid < 32) {
-        tp = block_total(s_red[0][0]);
-        tc = block_total(s_red[0][1]);
+        tp = block_total(s_launch[0]);
+        tc = block_total(s_launch[1]);
       }
     }
     if (rank != 0 || tid >= 32) return;

@@ -40,6 +40,15 @@ struct Mesh {
   FF_HD int origin(int h) const { return he[2 * h]; }
   FF_HD int next(int h) const { return he[2 * h + 1]; }
   FF_HD int opposite(int h) const { return opp[h]; }
+  // Whether the device may read and write an edge's records as vectors: he[4e .. 4e+3] as one
+  // 16-byte access (he_vectors: quad) and, with them, opp[2e .. 2e+1] as one 8-byte access
+  // (vector_records: quad_vertices, flip_edge). The edge loops and a round of flips are bound by
+  // their memory instructions, not by bytes. Field storage is cudaMalloc'ed (256-byte aligned); a
+  // view at another offset takes the scalar accesses, which read and write the same words.
+  FF_HD bool he_vectors() const { return (reinterpret_cast<std::uintptr_t>(he) & 15u) == 0; }
+  FF_HD bool vector_records() const {
+    return ((reinterpret_cast<std::uintptr_t>(he) | reinterpret_cast<std::uintptr_t>(opp)) & 15u) == 0;
+  }
   // True for exactly one half-edge of each triangle (its lowest id): count triangles once.
   FF_HD bool canonical(int h) const {
     const int n = next(h);
@@ -61,7 +70,7 @@ FF_HD Quad quad(const Mesh& m, int e) {
 #if defined(__CUDA_ARCH__)
   // Edge e's two records in one 16-byte load (a plain load: flips write the mesh meanwhile, so
   // not through the read-only cache), as quad_vertices.
-  if ((reinterpret_cast<std::uintptr_t>(m.he) & 15u) == 0) {
+  if (m.he_vectors()) {
     const int4 r = *reinterpret_cast<const int4*>(m.he + 4 * e);
     q.a = r.x;
     q.h0n = r.y;
@@ -89,11 +98,9 @@ struct QuadVertices {
 };
 FF_HD QuadVertices quad_vertices(const Mesh& m, int e) {
 #if defined(__CUDA_ARCH__)
-  // The two records of edge e (he[4e .. 4e+3]) in one 16-byte load and opp[2e .. 2e+1] in one
-  // 8-byte load instead of four 4-byte ones: the edge loops are bound by their load
-  // instructions, not by bytes. Field storage is cudaMalloc'ed (256-byte aligned); checked, so a
-  // view at another offset still reads correctly. The same words either way.
-  if (((reinterpret_cast<std::uintptr_t>(m.he) | reinterpret_cast<std::uintptr_t>(m.opp)) & 15u) == 0) {
+  // The two records of edge e in one 16-byte load and its opposite vertices in one 8-byte load
+  // instead of four 4-byte ones (Mesh::vector_records).
+  if (m.vector_records()) {
     const int4 r = *reinterpret_cast<const int4*>(m.he + 4 * e);
     const int2 o = *reinterpret_cast<const int2*>(m.opp + 2 * e);
     return {r.x, r.z, o.x, o.y};
@@ -161,10 +168,10 @@ FF_HD void flip_edge(const Mesh& m, int e) {
   // this flip removes those half-edges), so the tests below decide as they would after the stores.
   const int va = load_relaxed(m.vedge + q.a), vb = load_relaxed(m.vedge + q.b);
 #if defined(__CUDA_ARCH__)
-  // Edge e's two records (he[4e .. 4e+3]) in one 16-byte store and opp[2e .. 2e+1] in one 8-byte
-  // store, as quad_vertices loads them: a round of flips from one SM is bound by its scattered
-  // stores (lawson/cuda.cu). The same words as the scalar stores below.
-  if (((reinterpret_cast<std::uintptr_t>(m.he) | reinterpret_cast<std::uintptr_t>(m.opp)) & 15u) == 0) {
+  // Edge e's two records in one 16-byte store and its opposite vertices in one 8-byte store, as
+  // quad_vertices loads them (Mesh::vector_records): a round of flips from one SM is bound by its
+  // scattered stores (lawson/cuda.cu). The same words as the scalar stores below.
+  if (m.vector_records()) {
     *reinterpret_cast<int4*>(m.he + 4 * e) = make_int4(q.d, q.h0p, q.c, q.h1p);  // d -> c -> a, c -> d -> b
     *reinterpret_cast<int2*>(m.opp + 2 * e) = make_int2(q.a, q.b);
   } else
