@@ -1,0 +1,69 @@
+// LD_PRELOAD shim (session 45): how long the host spends in a step outside its waits for the GPU.
+// Wraps cudaLaunchKernelExC (a timestamp per launch) and cudaEventSynchronize /
+// cudaStreamSynchronize / cudaDeviceSynchronize (start and end), and writes every record to
+// $HOST_WAITS_OUT at exit: "KIND t0 t1 kernel" (L: a launch, E / S / D: the three waits; ns, CLOCK_MONOTONIC).
+// host_waits.py reads it. Experiment only: libflipflow links libcudart.so dynamically.
+//   gcc -O2 -shared -fPIC host_waits.c -o host_waits.so -ldl
+#define _GNU_SOURCE
+#include <dlfcn.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <time.h>
+
+enum { kMax = 1 << 22 };
+static struct { char kind; long long t0, t1; const void* f; } rec[kMax];
+static int nrec;
+
+static long long now(void) {
+  struct timespec ts;
+  clock_gettime(CLOCK_MONOTONIC, &ts);
+  return ts.tv_sec * 1000000000LL + ts.tv_nsec;
+}
+static void add(char k, long long t0, long long t1, const void* f) {
+  if (nrec < kMax) {
+    rec[nrec].kind = k;
+    rec[nrec].t0 = t0;
+    rec[nrec].t1 = t1;
+    rec[nrec].f = f;
+    ++nrec;
+  }
+}
+int cudaLaunchKernelExC(const void* cfg, const void* f, void** args) {
+  static int (*real)(const void*, const void*, void**);
+  if (!real) real = (int (*)(const void*, const void*, void**))dlsym(RTLD_NEXT, "cudaLaunchKernelExC");
+  const long long t0 = now();
+  const int r = real(cfg, f, args);
+  add('L', t0, now(), f);
+  return r;
+}
+int cudaEventSynchronize(void* e) {
+  static int (*real)(void*);
+  if (!real) real = (int (*)(void*))dlsym(RTLD_NEXT, "cudaEventSynchronize");
+  const long long t0 = now();
+  const int r = real(e);
+  add('E', t0, now(), 0);
+  return r;
+}
+int cudaStreamSynchronize(void* s) {
+  static int (*real)(void*);
+  if (!real) real = (int (*)(void*))dlsym(RTLD_NEXT, "cudaStreamSynchronize");
+  const long long t0 = now();
+  const int r = real(s);
+  add('S', t0, now(), 0);
+  return r;
+}
+int cudaDeviceSynchronize(void) {
+  static int (*real)(void);
+  if (!real) real = (int (*)(void))dlsym(RTLD_NEXT, "cudaDeviceSynchronize");
+  const long long t0 = now();
+  const int r = real();
+  add('D', t0, now(), 0);
+  return r;
+}
+__attribute__((destructor)) static void dump(void) {
+  const char* path = getenv("HOST_WAITS_OUT");
+  FILE* f = path ? fopen(path, "w") : NULL;
+  if (!f) return;
+  for (int i = 0; i < nrec; ++i) fprintf(f, "%c %lld %lld %p\n", rec[i].kind, rec[i].t0, rec[i].t1, rec[i].f);
+  fclose(f);
+}
