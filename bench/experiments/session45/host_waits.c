@@ -9,6 +9,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <time.h>
+#include <unistd.h>
 
 enum { kMax = 1 << 22 };
 static struct { char kind; long long t0, t1; const void* f; } rec[kMax];
@@ -62,6 +63,8 @@ int cudaDeviceSynchronize(void) {
 }
 __attribute__((destructor)) static void dump(void) {
   const char* path = getenv("HOST_WAITS_OUT");
+  fprintf(stderr, "host_waits: pid %d, %d records to %s\n", (int)getpid(), nrec, path ? path : "(none)");
+  if (!nrec) return;  // (a child process: nothing to add, and the file is its parent's)
   FILE* f = path ? fopen(path, "w") : NULL;
   if (!f) return;
   for (int i = 0; i < nrec; ++i) fprintf(f, "%c %lld %lld %p\n", rec[i].kind, rec[i].t0, rec[i].t1, rec[i].f);
