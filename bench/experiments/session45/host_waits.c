@@ -61,12 +61,35 @@ int cudaDeviceSynchronize(void) {
   add('D', t0, now(), 0);
   return r;
 }
+// Other calls a step makes (their time is the host's own): recorded as 'R' (cudaEventRecord),
+// 'W' (cudaStreamWaitEvent), 'M' (cudaMemcpyAsync), 'Z' (cudaMemsetAsync), 'G' (cudaGraphLaunch),
+// 'Q' (cudaEventQuery).
+#define WRAP(K, NAME, PARAMS, ARGS)                                                  \
+  int NAME PARAMS {                                                                 \
+    static int(*real) PARAMS;                                                       \
+    if (!real) real = (int(*) PARAMS)dlsym(RTLD_NEXT, #NAME);                       \
+    const long long t0 = now();                                                     \
+    const int r = real ARGS;                                                        \
+    add(K, t0, now(), 0);                                                           \
+    return r;                                                                       \
+  }
+WRAP('R', cudaEventRecord, (void* e, void* s), (e, s))
+WRAP('W', cudaStreamWaitEvent, (void* s, void* e, unsigned f), (s, e, f))
+WRAP('M', cudaMemcpyAsync, (void* d, const void* src, size_t n, int k, void* s), (d, src, n, k, s))
+WRAP('Z', cudaMemsetAsync, (void* d, int v, size_t n, void* s), (d, v, n, s))
+WRAP('G', cudaGraphLaunch, (void* g, void* s), (g, s))
+WRAP('Q', cudaEventQuery, (void* e), (e))
+
 __attribute__((destructor)) static void dump(void) {
   const char* path = getenv("HOST_WAITS_OUT");
   fprintf(stderr, "host_waits: pid %d, %d records to %s\n", (int)getpid(), nrec, path ? path : "(none)");
   if (!nrec) return;  // (a child process: nothing to add, and the file is its parent's)
   FILE* f = path ? fopen(path, "w") : NULL;
   if (!f) return;
-  for (int i = 0; i < nrec; ++i) fprintf(f, "%c %lld %lld %p\n", rec[i].kind, rec[i].t0, rec[i].t1, rec[i].f);
+  for (int i = 0; i < nrec; ++i) {
+    Dl_info info;
+    const char* name = rec[i].f && dladdr(rec[i].f, &info) && info.dli_sname ? info.dli_sname : "-";
+    fprintf(f, "%c %lld %lld %p %s\n", rec[i].kind, rec[i].t0, rec[i].t1, rec[i].f, name);
+  }
   fclose(f);
 }
