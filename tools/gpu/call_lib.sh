@@ -46,6 +46,10 @@
 #   timelines N...       CUPTI timelines of bench-abp at each N (tools/gpu_trace; 200 steps after
 #                        20, 60 at 2^20): trace-N.csv.xz and summarize.py's typical step and
 #                        groups (trace-N-summary.txt, trace-N-group2.txt), then step trace-N
+#   host_waits N...      the host's side of bench-abp's step at each N (tools/gpu/host_waits.c, preloaded;
+#                        400 steps after 20): host_waits.py's summary in host-waits.txt (the host's
+#                        own time a step, its waits, the typical step's calls), the records in
+#                        hw-N.txt.xz, then step hw-N
 #   issue20_rows SIZES   issue 20's rows in one call (~420 s; carry gpu-carry/hoomd-kit.tgz =
 #                        ../shared/peers-gpu/hoomd as hoomd-kit/, gpu-carry/peers-bundle.tar.gz =
 #                        ../shared/peers-gpu/bundle): HOOMD-blue built on the host's cores while
@@ -184,6 +188,17 @@ issue20_rows() {
   }
   ((SECONDS < 540)) && sweep_abp 1
   return 0
+}
+host_waits() {
+  local n
+  [[ -f /tmp/host_waits.so ]] || gcc -O2 -shared -fPIC tools/gpu/host_waits.c -o /tmp/host_waits.so -ldl
+  for n in "$@"; do
+    LD_PRELOAD=/tmp/host_waits.so HOST_WAITS_OUT=/tmp/hw-$n.txt timeout 60 "$B/bin/pipeline" bench \
+      "$B/pipelines/bench-abp.yaml" --device cuda --sizes "$n" --steps 400 --warmup 20 > "$O/hw-run-$n.txt" 2>&1
+    python3 tools/gpu/host_waits.py /tmp/hw-$n.txt 20 400 >> "$O/host-waits.txt" 2>&1
+    xz -c /tmp/hw-$n.txt > "$O/hw-$n.txt.xz"
+    step "hw-$n" 0
+  done
 }
 delaunay_tests() {
   TEST_TIMEOUT=${TEST_TIMEOUT:-240} variant_tests "$1" test_delaunay_lawson test_delaunay_flip \

@@ -7,7 +7,7 @@
 #   bash bench/experiments/session45/s45c3.sh gpu-carry/b45n.tar.xz    carry: gpu-carry (b45n)
 source tools/gpu/call_lib.sh s45c3 "$1"
 declare -A D=([main]=$B)
-E=bench/experiments/session45
+E=tools/gpu  # (host_waits.c and .py were in bench/experiments/session45 when this call ran)
 gcc -O2 -shared -fPIC $E/host_waits.c -o /tmp/hw.so -ldl > $O/hw-build.txt 2>&1
 step hw-build $?
 for n in 256 1024 16384; do

@@ -3,7 +3,7 @@
 # records it has, and one without leaves the file alone), with the shim's bindings logged.
 #   bash bench/experiments/session45/s45c4.sh gpu-carry/b45n.tar.xz    carry: gpu-carry (b45n)
 source tools/gpu/call_lib.sh s45c4 "$1"
-E=bench/experiments/session45
+E=tools/gpu  # (host_waits.c and .py were in bench/experiments/session45 when this call ran)
 gcc -O2 -shared -fPIC $E/host_waits.c -o /tmp/hw.so -ldl > $O/hw-build.txt 2>&1
 step hw-build $?
 LD_DEBUG=bindings LD_PRELOAD=/tmp/hw.so "$B/bin/pipeline" --help 2>&1 | grep -E "cudaEventSynchronize|cudaLaunchKernelExC" > $O/bindings.txt

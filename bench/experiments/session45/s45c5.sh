@@ -5,7 +5,7 @@
 # the machine has perf, a profile of the host at 2^10.
 #   bash bench/experiments/session45/s45c5.sh gpu-carry/b45n.tar.xz    carry: gpu-carry (b45n)
 source tools/gpu/call_lib.sh s45c5 "$1"
-E=bench/experiments/session45
+E=tools/gpu  # (host_waits.c and .py were in bench/experiments/session45 when this call ran)
 gcc -O2 -shared -fPIC $E/host_waits.c -o /tmp/hw.so -ldl > $O/hw-build.txt 2>&1
 step hw-build $?
 for n in 1024 16384; do

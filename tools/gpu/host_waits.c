@@ -1,9 +1,17 @@
-// LD_PRELOAD shim (session 45): how long the host spends in a step outside its waits for the GPU.
-// Wraps cudaLaunchKernelExC (a timestamp per launch) and cudaEventSynchronize /
-// cudaStreamSynchronize / cudaDeviceSynchronize (start and end), and writes every record to
-// $HOST_WAITS_OUT at exit: "KIND t0 t1 kernel" (L: a launch, E / S / D: the three waits; ns, CLOCK_MONOTONIC).
-// host_waits.py reads it. Experiment only: libflipflow links libcudart.so dynamically.
+// The host's side of a step on CUDA: an LD_PRELOAD library that times the CUDA runtime calls a
+// run makes (libflipflow and the plugins link libcudart.so dynamically, so preloading intercepts
+// them) and writes every call to $HOST_WAITS_OUT when the process exits, one line each:
+//   KIND t0 t1 KERNEL    t0, t1: ns (CLOCK_MONOTONIC); KERNEL: a launch's host stub (its address,
+//                        and its symbol where dladdr finds one), else (nil) -
+// KIND: L cudaLaunchKernelExC; the waits E cudaEventSynchronize, S cudaStreamSynchronize,
+// D cudaDeviceSynchronize; the other calls R cudaEventRecord, W cudaStreamWaitEvent,
+// M cudaMemcpyAsync, Z cudaMemsetAsync, G cudaGraphLaunch, Q cudaEventQuery.
+// host_waits.py turns a `pipeline bench` run's file into the host's own time a step (the step's
+// period minus its waits) and the typical step's calls in order (call_lib.sh's host_waits runs
+// both on the GPU machine). A timing costs two clock reads (~50 ns) a call.
 //   gcc -O2 -shared -fPIC host_waits.c -o host_waits.so -ldl
+//   LD_PRELOAD=./host_waits.so HOST_WAITS_OUT=calls.txt pipeline bench ... --sizes N --steps S --warmup W
+//   host_waits.py calls.txt W S
 #define _GNU_SOURCE
 #include <dlfcn.h>
 #include <stdio.h>
@@ -61,9 +69,7 @@ int cudaDeviceSynchronize(void) {
   add('D', t0, now(), 0);
   return r;
 }
-// Other calls a step makes (their time is the host's own): recorded as 'R' (cudaEventRecord),
-// 'W' (cudaStreamWaitEvent), 'M' (cudaMemcpyAsync), 'Z' (cudaMemsetAsync), 'G' (cudaGraphLaunch),
-// 'Q' (cudaEventQuery).
+// The other calls (their time is the host's own), each as KIND above.
 #define WRAP(K, NAME, PARAMS, ARGS)                                                  \
   int NAME PARAMS {                                                                 \
     static int(*real) PARAMS;                                                       \
@@ -83,7 +89,7 @@ WRAP('Q', cudaEventQuery, (void* e), (e))
 __attribute__((destructor)) static void dump(void) {
   const char* path = getenv("HOST_WAITS_OUT");
   fprintf(stderr, "host_waits: pid %d, %d records to %s\n", (int)getpid(), nrec, path ? path : "(none)");
-  if (!nrec) return;  // (a child process: nothing to add, and the file is its parent's)
+  if (!nrec) return;  // a child process (pipeline runs probes): the file is its parent's
   FILE* f = path ? fopen(path, "w") : NULL;
   if (!f) return;
   for (int i = 0; i < nrec; ++i) {

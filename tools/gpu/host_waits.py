@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-# Reads host_waits.c's records of one `pipeline bench` size (warm-up W, S steps a pass) and prints,
+# Reads tools/gpu/host_waits.c's records of one `pipeline bench` size (warm-up W, S steps a pass) and prints,
 # over the back-to-back pass (the steps between W + 5 and W + S - 5), the medians per step of: the
 # step's period on the host (from one launch of the step's first kernel to the next), the time the
 # host spent waiting (event, stream and device synchronizations) and what is left (the host's own
