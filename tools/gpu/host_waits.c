@@ -3,7 +3,7 @@
 // them) and writes every call to $HOST_WAITS_OUT when the process exits, one line each:
 //   KIND t0 t1 KERNEL    t0, t1: ns (CLOCK_MONOTONIC); KERNEL: a launch's host stub (its address,
 //                        and its symbol where dladdr finds one), else (nil) -
-// KIND: L cudaLaunchKernelExC; the waits E cudaEventSynchronize, S cudaStreamSynchronize,
+// KIND: L cudaLaunchKernelExC, K __cudaLaunchKernel (a <<<>>> launch); the waits E cudaEventSynchronize, S cudaStreamSynchronize,
 // D cudaDeviceSynchronize; the other calls R cudaEventRecord, W cudaStreamWaitEvent,
 // M cudaMemcpyAsync, Z cudaMemsetAsync, G cudaGraphLaunch, Q cudaEventQuery.
 // host_waits.py turns a `pipeline bench` run's file into the host's own time a step (the step's
@@ -85,6 +85,19 @@ WRAP('M', cudaMemcpyAsync, (void* d, const void* src, size_t n, int k, void* s),
 WRAP('Z', cudaMemsetAsync, (void* d, int v, size_t n, void* s), (d, v, n, s))
 WRAP('G', cudaGraphLaunch, (void* g, void* s), (g, s))
 WRAP('Q', cudaEventQuery, (void* e), (e))
+
+// A <<<>>> launch: nvcc's stub calls the runtime's __cudaLaunchKernel (cudaLaunchKernel's arguments).
+typedef struct {
+  unsigned x, y, z;
+} Dim3;
+int __cudaLaunchKernel(const void* f, Dim3 grid, Dim3 block, void** args, size_t shared, void* stream) {
+  static int (*real)(const void*, Dim3, Dim3, void**, size_t, void*);
+  if (!real) real = (int (*)(const void*, Dim3, Dim3, void**, size_t, void*))dlsym(RTLD_NEXT, "__cudaLaunchKernel");
+  const long long t0 = now();
+  const int r = real(f, grid, block, args, shared, stream);
+  add('K', t0, now(), f);
+  return r;
+}
 
 __attribute__((destructor)) static void dump(void) {
   const char* path = getenv("HOST_WAITS_OUT");

@@ -1,7 +1,8 @@
 #!/usr/bin/env python3
 # Reads tools/gpu/host_waits.c's records of one `pipeline bench` size (warm-up W, S steps a pass) and prints,
 # over the back-to-back pass (the steps between W + 5 and W + S - 5), the medians per step of: the
-# step's period on the host (from one launch of the step's first kernel to the next), the time the
+# step's period on the host (from one cudaLaunchKernelExC of the step's first kernel to the next: the
+# integrator's in bench-abp), the time the
 # host spent waiting (event, stream and device synchronizations) and what is left (the host's own
 # work: the stages' host code, the launches and the records), and the launch calls' time; then the
 # typical step's calls in order (the commonest sequence of kinds), each with its median start
@@ -16,7 +17,7 @@ kernel_name = {}
 for line in open(path):
     k, t0, t1, f = line.split()[:4]
     recs.append((k, int(t0), int(t1), f))
-    if k == 'L' and len(line.split()) > 4:
+    if k in 'LK' and len(line.split()) > 4:
         kernel_name[f] = line.split()[4]
 launches = [r for r in recs if r[0] == 'L']
 counts = {}
@@ -31,13 +32,13 @@ for i in range(warmup + 5, min(warmup + steps - 5, len(starts) - 1)):
     a, b = starts[i], starts[i + 1]
     period.append((b - a) / 1e3)
     waited.append(sum(min(r[2], b) - max(r[1], a) for r in recs if r[0] in 'ESD' and r[2] > a and r[1] < b) / 1e3)
-    launch_time.append(sum(r[2] - r[1] for r in launches if a <= r[1] < b) / 1e3)
+    launch_time.append(sum(r[2] - r[1] for r in recs if r[0] in 'LK' and a <= r[1] < b) / 1e3)
 own = [p - w for p, w in zip(period, waited)]
 m = statistics.median
 print(f"{path}: {len(period)} steps, {kernels} kernels of {top} launches each; medians per step, us: "
       f"period {m(period):.1f}, waiting {m(waited):.1f}, host's own {m(own):.1f} (launch calls {m(launch_time):.1f})")
 
-names = {'L': 'cudaLaunchKernelExC', 'E': 'cudaEventSynchronize', 'S': 'cudaStreamSynchronize',
+names = {'L': 'cudaLaunchKernelExC', 'K': '__cudaLaunchKernel', 'E': 'cudaEventSynchronize', 'S': 'cudaStreamSynchronize',
          'D': 'cudaDeviceSynchronize', 'R': 'cudaEventRecord', 'W': 'cudaStreamWaitEvent',
          'M': 'cudaMemcpyAsync', 'Z': 'cudaMemsetAsync', 'G': 'cudaGraphLaunch', 'Q': 'cudaEventQuery'}
 seqs = {}
@@ -52,5 +53,5 @@ kernel_names = {}
 for j, k in enumerate(key):
     at = m([run[j][0] for run in runs]) / 1e3
     d = m([run[j][1] for run in runs]) / 1e3
-    what = kernel_name.get(runs[0][j][2], '') if k == 'L' else ''
+    what = kernel_name.get(runs[0][j][2], '') if k in 'LK' else ''
     print(f"    {at:7.1f} us  {names.get(k, k):22s} {d:6.1f} us  {what[:90]}")
