@@ -1,7 +1,7 @@
 // The backend object (core/backend: CpuExec, CudaExec, memory.h): reductions equal a serial
 // loop (and so each other, bit for bit: they are integer), a reused Reduction starts from its
 // identity, fresh scratch memory reads zero and keeps its contents, counters read the same
-// synchronously and deferred.
+// synchronously and deferred; a thread's time blocked on the device is counted for it alone.
 #include <oneapi/tbb/global_control.h>
 
 #include <catch2/catch.hpp>
@@ -9,13 +9,15 @@
 #include "backend/results.h"
 #include "core/backend/exec_cpu.h"
 #include "core/backend/field.h"
+#include "core/backend/host_wait.h"
 #include "support/backends.h"
+
+#include <chrono>
+#include <thread>
 
 #ifdef FLIPFLOW_HAVE_CUDA
 #include <cuda_runtime.h>
 
-#include <chrono>
-#include <thread>
 #include <vector>
 #endif
 
@@ -99,5 +101,54 @@ TEST_CASE("a field uploaded for one stream's reader is on the device for another
   std::size_t wrong = 0;
   for (std::size_t i = 0; i < n; ++i) wrong += seen[i] != 1.5 + double(i);
   CHECK(wrong == 0);
+}
+#endif
+
+// `pipeline bench`'s host's own time a step is a pass's wall time less the thread's waits
+// (core/backend/host_wait.h): a wait counts its whole duration, for the thread that waited only.
+TEST_CASE("a thread's waits are counted for that thread", "[backend]") {
+  using std::chrono::milliseconds;
+  const double before = host_wait_seconds();
+  {
+    const HostWait waiting;
+    std::this_thread::sleep_for(milliseconds(30));
+  }
+  const double mine = host_wait_seconds() - before;
+  CHECK(mine >= 0.030);
+  CHECK(mine < 1.0);
+  double other = -1;
+  std::thread([&] {
+    const double t0 = host_wait_seconds();
+    {
+      const HostWait waiting;
+      std::this_thread::sleep_for(milliseconds(50));
+    }
+    other = host_wait_seconds() - t0;
+  }).join();
+  CHECK(other >= 0.050);
+  CHECK(host_wait_seconds() - before == mine);  // the other thread's wait is not this one's
+  std::this_thread::sleep_for(milliseconds(20));  // outside a HostWait: not a wait
+  CHECK(host_wait_seconds() - before == mine);
+}
+
+#ifdef FLIPFLOW_HAVE_CUDA
+// The CUDA backend's waits for stage counters (a fence: an event) are HostWaits: here the fence
+// waits behind a host function that holds its stream for 100 ms.
+TEST_CASE("the CUDA backend's waits for the device are counted", "[backend][cuda]") {
+  if (!have_cuda("the host's waits for the device")) return;
+  const MemoryOps& ops = cuda_memory();
+  cudaStream_t s = nullptr;
+  REQUIRE(cudaStreamCreateWithFlags(&s, cudaStreamNonBlocking) == cudaSuccess);
+  void* fence = ops.fence_create();
+  auto hold = [](void*) { std::this_thread::sleep_for(std::chrono::milliseconds(100)); };
+  REQUIRE(cudaLaunchHostFunc(s, hold, nullptr) == cudaSuccess);
+  ops.fence_record(fence, reinterpret_cast<CUstream_st*>(s));
+  const double before = host_wait_seconds();
+  ops.fence_wait(fence);
+  const double waited = host_wait_seconds() - before;
+  CHECK(waited >= 0.080);  // (the host function started before the record, so a little less than 100 ms)
+  CHECK(waited < 5.0);
+  ops.fence_destroy(fence);
+  cudaStreamDestroy(s);
 }
 #endif

@@ -1,6 +1,7 @@
 // The `pipeline` command end to end: run writes a valid H5MD file, bad input exits 2 with a
 // located message, outputs are not overwritten without --force, graph prints DOT.
 #include <catch2/catch.hpp>
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -194,9 +195,19 @@ TEST_CASE("pipeline bench: JSON lines tell runs apart; the terminal names the pa
       CHECK_THAT(line, Catch::Contains(kept));
     CHECK_THAT(line, Catch::Contains("\"threads\":1,") && Catch::Contains("\"warmup\":1,") &&
                          Catch::Contains("\"passes\":[\"back-to-back\",\"each step waited for\",\"profiled\"]") &&
-                         Catch::Contains("\"pass\":{\"steps_per_s\":1,\"particle_steps_per_s\":1,\"median_ms\":2,"
+                         Catch::Contains("\"pass\":{\"steps_per_s\":1,\"particle_steps_per_s\":1,\"host_own_ms\":1,\"median_ms\":2,"
                                          "\"mean_ms\":2,\"rollbacks_per_step\":2,\"dt_limits_per_step\":2,"
                                          "\"metrics_per_step\":2,\"stage_ms\":3}"));
+    // The host's own time a step (pass 1's wall time less its waits for a device): on the CPU
+    // nothing waits, so it is the whole step, 1000 / steps_per_s ms.
+    auto number = [&](const std::string& key) {
+      const std::size_t at = line.find("\"" + key + "\":");
+      REQUIRE(at != std::string::npos);
+      return std::stod(line.substr(at + key.size() + 3));
+    };
+    const double own = number("host_own_ms"), period = 1e3 / number("steps_per_s");
+    CHECK(own > 0);
+    CHECK(std::abs(own - period) <= 1e-4 * period);
     const std::size_t commit = line.find("\"commit\":\"");
     REQUIRE(commit != std::string::npos);
     CHECK(line[commit + 10] != '"');  // a commit (or "unknown"), never empty

@@ -4,6 +4,7 @@
 #include <utility>
 
 #include "core/base/error.h"
+#include "core/backend/host_wait.h"
 #ifdef FLIPFLOW_HAVE_CUDA
 #include "core/backend/cuda/check.h"
 #endif
@@ -92,6 +93,7 @@ void StreamMark::record(CUstream_st* stream) {
 void StreamMark::wait() {
 #ifdef FLIPFLOW_HAVE_CUDA
   if (event_ && recorded_) {
+    const HostWait waiting;
     FF_CUDA_CHECK(cudaEventSynchronize(static_cast<cudaEvent_t>(event_)), "waiting for an output copy");
     recorded_ = false;
   }

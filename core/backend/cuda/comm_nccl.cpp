@@ -26,6 +26,7 @@
 
 #include "core/backend/comm.h"
 #include "core/backend/cuda/check.h"
+#include "core/backend/host_wait.h"
 #include "core/base/error.h"
 
 #ifdef FLIPFLOW_HAVE_NCCL_HEADER
@@ -305,8 +306,10 @@ class NcclCommunicator final : public Communicator {
   void drain(bool wait) {
     while (!pending_.empty()) {
       EventPair p = pending_.front();
-      if (wait) FF_CUDA_CHECK(cudaEventSynchronize(p.second), "NCCL team: waiting for an operation");
-      else if (cudaEventQuery(p.second) != cudaSuccess) {
+      if (wait) {
+        const HostWait waiting;
+        FF_CUDA_CHECK(cudaEventSynchronize(p.second), "NCCL team: waiting for an operation");
+      } else if (cudaEventQuery(p.second) != cudaSuccess) {
         cudaGetLastError();  // cudaErrorNotReady is not an error
         break;
       }

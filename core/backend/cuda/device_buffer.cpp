@@ -1,6 +1,7 @@
 #include "core/backend/cuda/device_buffer.h"
 
 #include "core/backend/cuda/check.h"
+#include "core/backend/host_wait.h"
 #include "core/base/error.h"
 
 namespace ff {
@@ -41,6 +42,7 @@ DeviceBuffer::~DeviceBuffer() {
 // an access must wait for all device work first.
 void DeviceBuffer::upload(const void* host, std::size_t bytes, CUstream_st* stream) {
   if (!bytes) return;
+  const HostWait waiting;  // (a blocking copy: the host does nothing else meanwhile)
   if (!stream) {
     FF_CUDA_CHECK(cudaDeviceSynchronize(), "waiting for the device before a field copy");
     FF_CUDA_CHECK(cudaMemcpy(ptr_, host, bytes, cudaMemcpyHostToDevice), "copying a field to the device");
@@ -59,6 +61,7 @@ void DeviceBuffer::upload(const void* host, std::size_t bytes, CUstream_st* stre
 
 void DeviceBuffer::download(void* host, std::size_t bytes, CUstream_st* stream) {
   if (!bytes) return;
+  const HostWait waiting;
   if (!stream) {
     FF_CUDA_CHECK(cudaDeviceSynchronize(), "waiting for the device before a field copy");
     FF_CUDA_CHECK(cudaMemcpy(host, ptr_, bytes, cudaMemcpyDeviceToHost), "copying a field to the host");

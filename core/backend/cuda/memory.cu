@@ -7,6 +7,7 @@
 #include <cstring>
 
 #include "core/backend/cuda/check.h"
+#include "core/backend/host_wait.h"
 #include "core/backend/memory.h"
 
 namespace ff {
@@ -37,6 +38,7 @@ void* dev_alloc(std::size_t bytes) {
   // every other run's queued steps when runs share the process (`pipeline sweep --in-process`),
   // once per scratch array of every run's set-up.
   FF_CUDA_CHECK(cudaMemsetAsync(p, 0, bytes, cudaStreamPerThread), "clearing stage scratch memory");
+  const HostWait waiting;
   FF_CUDA_CHECK(cudaStreamSynchronize(cudaStreamPerThread), "clearing stage scratch memory");
   return p;
 }
@@ -56,6 +58,7 @@ void pinned_release(void* p) {
 void dev_download(void* dst, const void* src, std::size_t bytes, CUstream_st* s) {
   if (!bytes) return;
   FF_CUDA_CHECK(cudaMemcpyAsync(dst, src, bytes, cudaMemcpyDeviceToHost, s), "reading stage counters");
+  const HostWait waiting;
   FF_CUDA_CHECK(cudaStreamSynchronize(s), "waiting for stage counters");
 }
 void dev_copy(void* dst, const void* src, std::size_t bytes, CUstream_st* s) {
@@ -108,6 +111,7 @@ void event_record(void* e, CUstream_st* s) {
   FF_CUDA_CHECK(cudaEventRecord(static_cast<cudaEvent_t>(e), s), "recording a stage counter fence");
 }
 void event_wait(void* e) {
+  const HostWait waiting;
   FF_CUDA_CHECK(cudaEventSynchronize(static_cast<cudaEvent_t>(e)), "waiting for stage counters");
 }
 }  // namespace

@@ -8,6 +8,7 @@
 
 #include "core/backend/cuda/check.h"
 #include "core/backend/cuda/device_buffer.h"
+#include "core/backend/host_wait.h"
 #include "core/physics/box.h"
 
 namespace ff {
@@ -160,10 +161,14 @@ GhostTraffic::~GhostTraffic() {
 }
 
 void GhostTraffic::wait_for_device() const {
+  const HostWait waiting;
   FF_CUDA_CHECK(cudaDeviceSynchronize(), "waiting for the stages before a ghost exchange");
 }
 
-void GhostTraffic::wait() const { FF_CUDA_CHECK(cudaStreamSynchronize(stream_), "a ghost exchange"); }
+void GhostTraffic::wait() const {
+  const HostWait waiting;
+  FF_CUDA_CHECK(cudaStreamSynchronize(stream_), "a ghost exchange");
+}
 
 void GhostTraffic::set_lists(const std::vector<std::vector<std::uint32_t>>& send,
                              const std::vector<std::vector<std::uint32_t>>& recv) {

@@ -3,6 +3,7 @@
 #include <string>
 
 #include "core/backend/cuda/check.h"
+#include "core/backend/host_wait.h"
 
 namespace ff {
 
@@ -82,7 +83,10 @@ std::optional<RollbackRequest> StreamSet::read_rollback_flags(const StepGraph& g
   if (!device_flags_) return std::nullopt;
   const std::size_t bytes = sizeof(DeviceRollbackFlag) * graph.nodes().size();
   FF_CUDA_CHECK(cudaMemcpyAsync(host_flags_, flags_, bytes, cudaMemcpyDeviceToHost, main()), "reading rollback flags");
-  FF_CUDA_CHECK(cudaStreamSynchronize(main()), "waiting for the step's rollback decision");
+  {
+    const HostWait waiting;
+    FF_CUDA_CHECK(cudaStreamSynchronize(main()), "waiting for the step's rollback decision");
+  }
   for (int i : graph.compute_nodes()) {
     if (!slots[i].ran || host_flags_[i].requested == 0) continue;
     Outcome o = Outcome::request_rollback(
@@ -94,6 +98,7 @@ std::optional<RollbackRequest> StreamSet::read_rollback_flags(const StepGraph& g
 }
 
 void StreamSet::synchronize() {
+  const HostWait waiting;
   for (auto s : streams_) FF_CUDA_CHECK(cudaStreamSynchronize(s), "waiting for the step");
 }
 
