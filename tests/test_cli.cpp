@@ -197,7 +197,7 @@ TEST_CASE("pipeline bench: JSON lines tell runs apart; the terminal names the pa
                          Catch::Contains("\"passes\":[\"back-to-back\",\"each step waited for\",\"profiled\"]") &&
                          Catch::Contains("\"pass\":{\"steps_per_s\":1,\"particle_steps_per_s\":1,\"host_own_ms\":1,\"median_ms\":2,"
                                          "\"mean_ms\":2,\"rollbacks_per_step\":2,\"dt_limits_per_step\":2,"
-                                         "\"metrics_per_step\":2,\"stage_ms\":3}"));
+                                         "\"metrics_per_step\":2,\"stage_ms\":3,\"stage_host_ms\":1}"));
     // The host's own time a step (pass 1's wall time less its waits for a device): on the CPU
     // nothing waits, so it is the whole step, 1000 / steps_per_s ms.
     auto number = [&](const std::string& key) {
@@ -208,6 +208,19 @@ TEST_CASE("pipeline bench: JSON lines tell runs apart; the terminal names the pa
     const double own = number("host_own_ms"), period = 1e3 / number("steps_per_s");
     CHECK(own > 0);
     CHECK(std::abs(own - period) <= 1e-4 * period);
+    // Each stage's share of it (its acquires, run() and decide()): a part of the step's.
+    const std::size_t map = line.find("\"stage_host_ms\":{");
+    REQUIRE(map != std::string::npos);
+    const std::string stages = line.substr(map, line.find('}', map) - map);
+    double in_stages = 0;
+    int count = 0;
+    for (std::size_t at = stages.find("\":", 17); at != std::string::npos; at = stages.find("\":", at + 2)) {
+      in_stages += std::stod(stages.substr(at + 2));
+      ++count;
+    }
+    CHECK(count == 1);  // brownian.integrate, the one compute stage
+    CHECK(in_stages > 0);
+    CHECK(in_stages <= own * (1 + 1e-6));
     const std::size_t commit = line.find("\"commit\":\"");
     REQUIRE(commit != std::string::npos);
     CHECK(line[commit + 10] != '"');  // a commit (or "unknown"), never empty

@@ -1,6 +1,7 @@
 #include "core/run/scheduler.h"
 
 #include "core/backend/comm.h"
+#include "core/backend/host_wait.h"
 #include "core/base/error.h"
 
 #include <oneapi/tbb/flow_graph.h>
@@ -153,6 +154,8 @@ void Scheduler::run_node(int i, std::uint64_t step, std::uint32_t attempt, doubl
     }
 #endif
     if (!node.runs_at(step)) return;
+    const auto host0 = std::chrono::steady_clock::now();
+    const double waited0 = host_wait_seconds();
     for (auto& a : node.accesses) state_of(i).field(a.field).acquire(a.where, a.mode, stream);
     slot.metrics.clear();
     StepContext ctx = context(i, stream, step, attempt, dt, time);
@@ -170,6 +173,7 @@ void Scheduler::run_node(int i, std::uint64_t step, std::uint32_t attempt, doubl
 #endif
     const auto t1 = std::chrono::steady_clock::now();
     slot.seconds += std::chrono::duration<double>(t1 - t0).count();
+    slot.host_seconds += std::chrono::duration<double>(t1 - host0).count() - (host_wait_seconds() - waited0);
     ++slot.calls;
     slot.ran = true;
 #ifdef FLIPFLOW_HAVE_CUDA
@@ -349,8 +353,11 @@ void Scheduler::resolve_gate() {
 #endif
     StepContext ctx = context(d, stream, im.step, im.attempt, im.dt, im.time);
     const auto t0 = std::chrono::steady_clock::now();
+    const double waited0 = host_wait_seconds();
     decision = slot.stage->decide(ctx);
-    slot.seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    const double took = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    slot.seconds += took;
+    slot.host_seconds += took - (host_wait_seconds() - waited0);
   } catch (...) {
     error_ = std::current_exception();
     has_error_.store(true);
@@ -469,6 +476,7 @@ void Scheduler::run_observers(std::uint64_t step, double dt, double time,
 void Scheduler::reset_timers() {
   for (auto& s : slots_) {
     s.seconds = 0;
+    s.host_seconds = 0;
     s.calls = 0;
   }
 }

@@ -31,6 +31,9 @@ struct StageSlot {
   Outcome outcome;
   bool ran = false;          // ran in the current attempt
   double seconds = 0;        // wall time spent in run(), whole run
+  // The host's own time in the stage: its field acquires, run() and decide(), less their waits for
+  // the device (core/backend/host_wait.h), whole run; `pipeline bench` reports it per step.
+  double host_seconds = 0;
   std::uint64_t calls = 0;
 };
 

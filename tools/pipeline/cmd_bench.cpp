@@ -82,6 +82,7 @@ struct Result {
   // records. On CUDA a size whose host_own_ms is near 1000 / throughput is bound by the host; on
   // the CPU it is the step itself.
   double host_own_ms = 0;
+  std::map<std::string, double> stage_host_ms;  // per stage, the same pass (StageSlot::host_seconds)
   std::map<std::string, double> stage_ms;       // per stage, profiled pass
   std::map<std::string, double> metrics_mean;   // per step
   double rollbacks_per_step = 0;
@@ -132,12 +133,18 @@ Result bench_rank(const Loaded& loaded, std::uint64_t n, Backend backend, std::u
     const std::uint64_t m0 = d ? d->migrations() : 0;
     const double mig0 = d ? d->migration_seconds() : 0, start0 = d ? d->step_start_seconds() : 0;
     const double waited0 = host_wait_seconds();
+    std::vector<double> host0;
+    for (auto& slot : sim.slots()) host0.push_back(slot.host_seconds);
     const auto t0 = std::chrono::steady_clock::now();
     for (std::uint64_t i = 0; i < steps; ++i) sim.advance();
     sim.synchronize();
     const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     r.throughput = double(steps) / wall;
     r.host_own_ms = 1e3 * (wall - (host_wait_seconds() - waited0)) / double(steps);
+    for (std::size_t k = 0; k < sim.slots().size(); ++k) {
+      const StageSlot& slot = sim.slots()[k];
+      if (slot.host_seconds > host0[k]) r.stage_host_ms[slot.info.stage_id] = 1e3 * (slot.host_seconds - host0[k]) / double(steps);
+    }
     if (team) r.comm_ms = 1e3 * team->communication_seconds() / double(steps);
     if (d) {
       r.migrations = d->migrations() - m0;
@@ -282,7 +289,7 @@ int cmd_bench(const std::vector<std::string>& args) {
   passes_json += "]";
   std::string pass_json =
       "{\"steps_per_s\":1,\"particle_steps_per_s\":1,\"host_own_ms\":1,\"median_ms\":2,\"mean_ms\":2,\"rollbacks_per_step\":2,"
-      "\"dt_limits_per_step\":2,\"metrics_per_step\":2,\"stage_ms\":3";
+      "\"dt_limits_per_step\":2,\"metrics_per_step\":2,\"stage_ms\":3,\"stage_host_ms\":1";
   if (gpus > 1)
     pass_json += ",\"per_rank.comm_ms\":1,\"per_rank.comm_share\":1,\"per_rank.migrations\":1,"
                  "\"per_rank.migration_ms\":1,\"per_rank.step_start_ms\":1,\"per_rank.stage_ms\":3";
@@ -298,10 +305,13 @@ int cmd_bench(const std::vector<std::string>& args) {
               << std::setw(14) << std::setprecision(5) << r.throughput << std::setw(18) << std::setprecision(4)
               << double(n) * r.throughput << " " << stages.str() << "\n";
     for (auto& kv : r.metrics_mean) std::cout << "            " << kv.first << " per step: " << kv.second << "\n";
-    if (backend == Backend::cuda)
+    if (backend == Backend::cuda) {
       std::cout << "            host's own time per step (pass 1): " << std::setprecision(3) << r.host_own_ms << " ms of "
                 << 1e3 / r.throughput << (r.host_own_ms > 0.9e3 / r.throughput ? " (the host bounds the step)" : "")
-                << "\n";
+                << "; in the stages (ms):";
+      for (auto& kv : r.stage_host_ms) std::cout << " " << kv.first << "=" << std::setprecision(3) << kv.second;
+      std::cout << "\n";
+    }
     if (gpus > 1)
       for (std::size_t k = 0; k < all.size(); ++k) {
         std::cout << "            rank " << k << ": communication " << std::setprecision(4) << all[k].comm_ms
@@ -349,6 +359,12 @@ int cmd_bench(const std::vector<std::string>& args) {
     jsonl << ",\"stage_ms\":{";
     bool first = true;
     for (auto& kv : r.stage_ms) {
+      jsonl << (first ? "" : ",") << "\"" << json_escape(kv.first) << "\":" << kv.second;
+      first = false;
+    }
+    jsonl << "},\"stage_host_ms\":{";
+    first = true;
+    for (auto& kv : r.stage_host_ms) {
       jsonl << (first ? "" : ",") << "\"" << json_escape(kv.first) << "\":" << kv.second;
       first = false;
     }
