@@ -37,67 +37,33 @@ static void add(char k, long long t0, long long t1, const void* f) {
     ++nrec;
   }
 }
-int cudaLaunchKernelExC(const void* cfg, const void* f, void** args) {
-  static int (*real)(const void*, const void*, void**);
-  if (!real) real = (int (*)(const void*, const void*, void**))dlsym(RTLD_NEXT, "cudaLaunchKernelExC");
-  const long long t0 = now();
-  const int r = real(cfg, f, args);
-  add('L', t0, now(), f);
-  return r;
-}
-int cudaEventSynchronize(void* e) {
-  static int (*real)(void*);
-  if (!real) real = (int (*)(void*))dlsym(RTLD_NEXT, "cudaEventSynchronize");
-  const long long t0 = now();
-  const int r = real(e);
-  add('E', t0, now(), 0);
-  return r;
-}
-int cudaStreamSynchronize(void* s) {
-  static int (*real)(void*);
-  if (!real) real = (int (*)(void*))dlsym(RTLD_NEXT, "cudaStreamSynchronize");
-  const long long t0 = now();
-  const int r = real(s);
-  add('S', t0, now(), 0);
-  return r;
-}
-int cudaDeviceSynchronize(void) {
-  static int (*real)(void);
-  if (!real) real = (int (*)(void))dlsym(RTLD_NEXT, "cudaDeviceSynchronize");
-  const long long t0 = now();
-  const int r = real();
-  add('D', t0, now(), 0);
-  return r;
-}
-// The other calls (their time is the host's own), each as KIND above.
-#define WRAP(K, NAME, PARAMS, ARGS)                                                  \
-  int NAME PARAMS {                                                                 \
-    static int(*real) PARAMS;                                                       \
-    if (!real) real = (int(*) PARAMS)dlsym(RTLD_NEXT, #NAME);                       \
-    const long long t0 = now();                                                     \
-    const int r = real ARGS;                                                        \
-    add(K, t0, now(), 0);                                                           \
-    return r;                                                                       \
+// One wrapper per call: the real function found once, the call timed, a record of kind K (KERNEL:
+// the launched kernel's host stub, else 0).
+#define WRAP(K, KERNEL, NAME, PARAMS, ARGS)                      \
+  int NAME PARAMS {                                             \
+    static int(*real) PARAMS;                                   \
+    if (!real) real = (int(*) PARAMS)dlsym(RTLD_NEXT, #NAME);   \
+    const long long t0 = now();                                 \
+    const int r = real ARGS;                                    \
+    add(K, t0, now(), KERNEL);                                  \
+    return r;                                                   \
   }
-WRAP('R', cudaEventRecord, (void* e, void* s), (e, s))
-WRAP('W', cudaStreamWaitEvent, (void* s, void* e, unsigned f), (s, e, f))
-WRAP('M', cudaMemcpyAsync, (void* d, const void* src, size_t n, int k, void* s), (d, src, n, k, s))
-WRAP('Z', cudaMemsetAsync, (void* d, int v, size_t n, void* s), (d, v, n, s))
-WRAP('G', cudaGraphLaunch, (void* g, void* s), (g, s))
-WRAP('Q', cudaEventQuery, (void* e), (e))
-
 // A <<<>>> launch: nvcc's stub calls the runtime's __cudaLaunchKernel (cudaLaunchKernel's arguments).
 typedef struct {
   unsigned x, y, z;
 } Dim3;
-int __cudaLaunchKernel(const void* f, Dim3 grid, Dim3 block, void** args, size_t shared, void* stream) {
-  static int (*real)(const void*, Dim3, Dim3, void**, size_t, void*);
-  if (!real) real = (int (*)(const void*, Dim3, Dim3, void**, size_t, void*))dlsym(RTLD_NEXT, "__cudaLaunchKernel");
-  const long long t0 = now();
-  const int r = real(f, grid, block, args, shared, stream);
-  add('K', t0, now(), f);
-  return r;
-}
+WRAP('L', f, cudaLaunchKernelExC, (const void* cfg, const void* f, void** args), (cfg, f, args))
+WRAP('K', f, __cudaLaunchKernel, (const void* f, Dim3 grid, Dim3 block, void** args, size_t shared, void* stream),
+     (f, grid, block, args, shared, stream))
+WRAP('E', 0, cudaEventSynchronize, (void* e), (e))
+WRAP('S', 0, cudaStreamSynchronize, (void* s), (s))
+WRAP('D', 0, cudaDeviceSynchronize, (void), ())
+WRAP('R', 0, cudaEventRecord, (void* e, void* s), (e, s))
+WRAP('W', 0, cudaStreamWaitEvent, (void* s, void* e, unsigned f), (s, e, f))
+WRAP('M', 0, cudaMemcpyAsync, (void* d, const void* src, size_t n, int k, void* s), (d, src, n, k, s))
+WRAP('Z', 0, cudaMemsetAsync, (void* d, int v, size_t n, void* s), (d, v, n, s))
+WRAP('G', 0, cudaGraphLaunch, (void* g, void* s), (g, s))
+WRAP('Q', 0, cudaEventQuery, (void* e), (e))
 
 __attribute__((destructor)) static void dump(void) {
   const char* path = getenv("HOST_WAITS_OUT");
