@@ -143,7 +143,8 @@ Result bench_rank(const Loaded& loaded, std::uint64_t n, Backend backend, std::u
     r.host_own_ms = 1e3 * (wall - (host_wait_seconds() - waited0)) / double(steps);
     for (std::size_t k = 0; k < sim.slots().size(); ++k) {
       const StageSlot& slot = sim.slots()[k];
-      if (slot.host_seconds > host0[k]) r.stage_host_ms[slot.info.stage_id] = 1e3 * (slot.host_seconds - host0[k]) / double(steps);
+      if (slot.host_seconds > host0[k])
+        r.stage_host_ms[slot.info.stage_id] = 1e3 * (slot.host_seconds - host0[k]) / double(steps);
     }
     if (team) r.comm_ms = 1e3 * team->communication_seconds() / double(steps);
     if (d) {
@@ -288,8 +289,8 @@ int cmd_bench(const std::vector<std::string>& args) {
   for (std::size_t i = 0; i < std::size(kPassNames); ++i) passes_json += (i ? ",\"" : "\"") + std::string(kPassNames[i]) + "\"";
   passes_json += "]";
   std::string pass_json =
-      "{\"steps_per_s\":1,\"particle_steps_per_s\":1,\"host_own_ms\":1,\"median_ms\":2,\"mean_ms\":2,\"rollbacks_per_step\":2,"
-      "\"dt_limits_per_step\":2,\"metrics_per_step\":2,\"stage_ms\":3,\"stage_host_ms\":1";
+      "{\"steps_per_s\":1,\"particle_steps_per_s\":1,\"host_own_ms\":1,\"median_ms\":2,\"mean_ms\":2,"
+      "\"rollbacks_per_step\":2,\"dt_limits_per_step\":2,\"metrics_per_step\":2,\"stage_ms\":3,\"stage_host_ms\":1";
   if (gpus > 1)
     pass_json += ",\"per_rank.comm_ms\":1,\"per_rank.comm_share\":1,\"per_rank.migrations\":1,"
                  "\"per_rank.migration_ms\":1,\"per_rank.step_start_ms\":1,\"per_rank.stage_ms\":3";
@@ -306,8 +307,8 @@ int cmd_bench(const std::vector<std::string>& args) {
               << double(n) * r.throughput << " " << stages.str() << "\n";
     for (auto& kv : r.metrics_mean) std::cout << "            " << kv.first << " per step: " << kv.second << "\n";
     if (backend == Backend::cuda) {
-      std::cout << "            host's own time per step (pass 1): " << std::setprecision(3) << r.host_own_ms << " ms of "
-                << 1e3 / r.throughput << (r.host_own_ms > 0.9e3 / r.throughput ? " (the host bounds the step)" : "")
+      std::cout << "            host's own time per step (pass 1): " << std::setprecision(3) << r.host_own_ms
+                << " ms of " << 1e3 / r.throughput << (r.host_own_ms > 0.9e3 / r.throughput ? " (the host bounds the step)" : "")
                 << "; in the stages (ms):";
       for (auto& kv : r.stage_host_ms) std::cout << " " << kv.first << "=" << std::setprecision(3) << kv.second;
       std::cout << "\n";
