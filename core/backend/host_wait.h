@@ -1,5 +1,6 @@
-// The time a thread spends blocked on a device: every wait of the CUDA backend (an event, a
-// stream, the device) is timed by a HostWait, into the waiting thread's own total. `pipeline
+// The time a thread spends blocked on a device: the CUDA backend's waits on a run's path (events,
+// streams, the device; not those of set-up and teardown) are timed by a HostWait, into the
+// waiting thread's own total. `pipeline
 // bench` subtracts it from a pass's wall time to report the host's own time a step: its stages'
 // host code, launches and records (bench/README.md, "Session 45": at 2^10 the host's own time is
 // a step's bound once the device's is under it). Per thread: a team's ranks and an in-process

@@ -218,6 +218,16 @@ std::string json_escape(const std::string& s) {
   }
   return o;
 }
+
+// A map of names to numbers as a JSON object, in the map's order.
+std::string json_object(const std::map<std::string, double>& m) {
+  std::ostringstream o;
+  o << "{";
+  for (auto it = m.begin(); it != m.end(); ++it)
+    o << (it == m.begin() ? "" : ",") << "\"" << json_escape(it->first) << "\":" << it->second;
+  o << "}";
+  return o.str();
+}
 }  // namespace
 
 int cmd_bench(const std::vector<std::string>& args) {
@@ -308,8 +318,8 @@ int cmd_bench(const std::vector<std::string>& args) {
     for (auto& kv : r.metrics_mean) std::cout << "            " << kv.first << " per step: " << kv.second << "\n";
     if (backend == Backend::cuda) {
       std::cout << "            host's own time per step (pass 1): " << std::setprecision(3) << r.host_own_ms
-                << " ms of " << 1e3 / r.throughput << (r.host_own_ms > 0.9e3 / r.throughput ? " (the host bounds the step)" : "")
-                << "; in the stages (ms):";
+                << " ms of " << 1e3 / r.throughput
+                << (r.host_own_ms > 0.9e3 / r.throughput ? " (the host bounds the step)" : "") << "; in the stages (ms):";
       for (auto& kv : r.stage_host_ms) std::cout << " " << kv.first << "=" << std::setprecision(3) << kv.second;
       std::cout << "\n";
     }
@@ -347,35 +357,13 @@ int cmd_bench(const std::vector<std::string>& args) {
       for (std::size_t k = 0; k < all.size(); ++k) {
         jsonl << (k ? "," : "") << "{\"comm_ms\":" << all[k].comm_ms << ",\"migrations\":" << all[k].migrations
               << ",\"migration_ms\":" << all[k].migration_ms << ",\"step_start_ms\":" << all[k].step_start_ms
-              << ",\"comm_share\":" << all[k].comm_ms * all[k].throughput / 1e3 << ",\"stage_ms\":{";
-        bool f = true;
-        for (auto& kv : all[k].stage_ms) {
-          jsonl << (f ? "" : ",") << "\"" << json_escape(kv.first) << "\":" << kv.second;
-          f = false;
-        }
-        jsonl << "}}";
+              << ",\"comm_share\":" << all[k].comm_ms * all[k].throughput / 1e3 << ",\"stage_ms\":";
+        jsonl << json_object(all[k].stage_ms) << "}";
       }
       jsonl << "]";
     }
-    jsonl << ",\"stage_ms\":{";
-    bool first = true;
-    for (auto& kv : r.stage_ms) {
-      jsonl << (first ? "" : ",") << "\"" << json_escape(kv.first) << "\":" << kv.second;
-      first = false;
-    }
-    jsonl << "},\"stage_host_ms\":{";
-    first = true;
-    for (auto& kv : r.stage_host_ms) {
-      jsonl << (first ? "" : ",") << "\"" << json_escape(kv.first) << "\":" << kv.second;
-      first = false;
-    }
-    jsonl << "},\"metrics_per_step\":{";
-    first = true;
-    for (auto& kv : r.metrics_mean) {
-      jsonl << (first ? "" : ",") << "\"" << json_escape(kv.first) << "\":" << kv.second;
-      first = false;
-    }
-    jsonl << "}}\n";
+    jsonl << ",\"stage_ms\":" << json_object(r.stage_ms) << ",\"stage_host_ms\":" << json_object(r.stage_host_ms)
+          << ",\"metrics_per_step\":" << json_object(r.metrics_mean) << "}\n";
     // Each size's line and row as soon as it is measured: an interrupted bench keeps the sizes done.
     jsonl.flush();
     std::cout.flush();
