@@ -50,6 +50,12 @@
 #                        400 steps after 20): host_waits.py's summary in host-waits.txt (the host's
 #                        own time a step, its waits, the typical step's calls), the records in
 #                        hw-N.txt.xz, then step hw-N
+#   host_profile N...    where the host's own time goes in bench-abp's step at each N (tools/gpu/
+#                        host_profile.c, preloaded: stacks sampled on the CPU-time clock during
+#                        `pipeline run` of HP_STEPS steps, default 100 000): the samples in
+#                        hp-N.txt.xz (symbolise them here against the same bundle:
+#                        host_profile.py hp-N.txt --root bundle), a first reading in
+#                        host-profile-N.txt, then step hp-N
 #   issue20_rows SIZES   issue 20's rows in one call (~420 s; carry gpu-carry/hoomd-kit.tgz =
 #                        ../shared/peers-gpu/hoomd as hoomd-kit/, gpu-carry/peers-bundle.tar.gz =
 #                        ../shared/peers-gpu/bundle): HOOMD-blue built on the host's cores while
@@ -198,6 +204,19 @@ host_waits() {
     python3 tools/gpu/host_waits.py /tmp/hw-$n.txt 20 400 >> "$O/host-waits.txt" 2>&1
     xz -c /tmp/hw-$n.txt > "$O/hw-$n.txt.xz"
     step "hw-$n" 0
+  done
+}
+host_profile() {
+  local n
+  [[ -f /tmp/host_profile.so ]] || gcc -O2 -shared -fPIC tools/gpu/host_profile.c -o /tmp/host_profile.so -ldl
+  for n in "$@"; do
+    LD_PRELOAD=/tmp/host_profile.so HOST_PROFILE_OUT=/tmp/hp-$n.txt timeout 120 "$B/bin/pipeline" run \
+      "$B/pipelines/bench-abp.yaml" --device cuda --set system.N=$n --set run.steps=${HP_STEPS:-100000} \
+      --out /tmp/hp-run-$n --force > "$O/hp-run-$n.txt" 2>&1
+    local rc=$?
+    python3 tools/gpu/host_profile.py /tmp/hp-$n.txt --root "$B" >> "$O/host-profile-$n.txt" 2>&1
+    xz -c /tmp/hp-$n.txt > "$O/hp-$n.txt.xz"
+    step "hp-$n" $rc
   done
 }
 delaunay_tests() {
