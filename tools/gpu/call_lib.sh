@@ -210,7 +210,7 @@ host_profile() {
   local n
   [[ -f /tmp/host_profile.so ]] || gcc -O2 -shared -fPIC tools/gpu/host_profile.c -o /tmp/host_profile.so -ldl
   for n in "$@"; do
-    LD_PRELOAD=/tmp/host_profile.so HOST_PROFILE_OUT=/tmp/hp-$n.txt timeout 120 "$B/bin/pipeline" run \
+    timeout 120 env LD_PRELOAD=/tmp/host_profile.so HOST_PROFILE_OUT=/tmp/hp-$n.txt "$B/bin/pipeline" run \
       "$B/pipelines/bench-abp.yaml" --device cuda --set system.N=$n --set run.steps=${HP_STEPS:-100000} \
       --out /tmp/hp-run-$n --force > "$O/hp-run-$n.txt" 2>&1
     local rc=$?

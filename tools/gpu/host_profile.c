@@ -96,9 +96,12 @@ __attribute__((destructor)) static void stop(void) {
   if (!out_path) return;
   struct itimerval off = {{0, 0}, {0, 0}};
   setitimer(ITIMER_PROF, &off, NULL);
+  // A process that took no samples (a wrapper such as timeout, which inherits the preload) leaves
+  // the file to the one that did.
+  const int n = nsamples < kMaxSamples ? nsamples : kMaxSamples;
+  if (n == 0) return;
   FILE* f = fopen(out_path, "w");
   if (!f) return;
-  const int n = nsamples < kMaxSamples ? nsamples : kMaxSamples;
   for (int i = 0; i < n; ++i) {
     fprintf(f, "S %d", samples[i].tid);
     for (int k = 0; k < samples[i].depth; ++k) fprintf(f, " %p", samples[i].pc[k]);
