@@ -5,8 +5,9 @@
 
 PROF.txt: the preloaded library's output (sample lines "S TID PC...", then the process's maps
 "M ..."). Each PC is mapped to its file and offset through the maps; a file is looked up as
-mapped, else under --root by the part of its path from bin/, lib/ or plugins/ on (the bundle the
-run used, unpacked elsewhere); addr2line -f -C names the function. Prints, per function, the
+mapped, or, with --root (the bundle the run used, unpacked here), only under it by the part of
+its path from bin/, lib/ or plugins/ on (another machine's system libraries stay FILE+offset);
+addr2line -f -C names the function. Prints, per function, the
 samples it was running in (own) and the samples it was on the stack of (inclusive, once a
 sample), with their share of the samples taken; --thread main (the default) keeps the thread
 with the most samples only (the step loop's, in a chain).
@@ -52,9 +53,11 @@ def locate(maps, starts, pc):
 
 
 def local_file(path, root):
-    if os.path.exists(path):
-        return path
-    if root:
+    # With --root the run was on another machine: only the bundle's own files are the same
+    # binaries here (a system library of the same name is another build, whose names would lie).
+    if not root:
+        return path if os.path.exists(path) else None
+    if True:
         parts = path.split("/")
         for k, p in enumerate(parts):
             if p in ("bin", "lib", "plugins"):
