@@ -56,12 +56,20 @@ struct Scheduler::Impl {
   std::uint32_t attempt = 0;
   double dt = 0, time = 0;
   StepParams params{};
+  // Per node: the fields of its declared accesses, looked up by name once for the state it runs
+  // on (node_fields): a std::map lookup by name for every access of every stage was ~8 % of the
+  // host's own time a step on CUDA at 2^10 (bench/experiments/README.md, "The host's own time,
+  // sampled"). Each node's entry is touched only by the thread running that node.
+  std::vector<std::vector<Field*>> fields;
+  std::vector<const State*> fields_of;
 };
 
 Scheduler::Scheduler(const StepGraph& graph, std::vector<StageSlot>& slots, State& state, const RunStats& stats,
                      Backend backend)
     : impl_(std::make_unique<Impl>()), graph_(graph), slots_(slots), state_(state), stats_(stats), backend_(backend) {
   impl_->compute = graph.compute_nodes();
+  impl_->fields.resize(graph.nodes().size());
+  impl_->fields_of.assign(graph.nodes().size(), nullptr);
   impl_->chain = graph.is_chain();
   impl_->team_order = graph.compute_order();
 #ifdef FLIPFLOW_HAVE_CUDA
@@ -156,7 +164,9 @@ void Scheduler::run_node(int i, std::uint64_t step, std::uint32_t attempt, doubl
     if (!node.runs_at(step)) return;
     const auto host0 = std::chrono::steady_clock::now();
     const double waited0 = host_wait_seconds();
-    for (auto& a : node.accesses) state_of(i).field(a.field).acquire(a.where, a.mode, stream);
+    const std::vector<Field*>& fields = node_fields(i, state_of(i));
+    for (std::size_t k = 0; k < fields.size(); ++k)
+      fields[k]->acquire(node.accesses[k].where, node.accesses[k].mode, stream);
     slot.metrics.clear();
     StepContext ctx = context(i, stream, step, attempt, dt, time);
     const auto t0 = std::chrono::steady_clock::now();
@@ -437,8 +447,11 @@ bool Scheduler::run_captured() {
   // The graph reads and writes what the stages declared: bring what the host wrote since the last
   // step over first (as run_node does before a stage runs; after the launch the copy would
   // overwrite the step's results), and keep host/device coherence flags true.
-  for (int i : im.compute)
-    for (auto& a : graph_.nodes()[i].accesses) state_.field(a.field).acquire(a.where, a.mode, main_stream());
+  for (int i : im.compute) {
+    const auto& accesses = graph_.nodes()[i].accesses;
+    const std::vector<Field*>& fields = node_fields(i, state_);
+    for (std::size_t k = 0; k < fields.size(); ++k) fields[k]->acquire(accesses[k].where, accesses[k].mode, main_stream());
+  }
   im.captured.launch(main_stream());
   im.device_params->advanced_by_graph();
   for (int i : im.compute) {
@@ -458,6 +471,16 @@ bool Scheduler::step_is_captured() const {
 #else
   return false;
 #endif
+}
+
+const std::vector<Field*>& Scheduler::node_fields(int node, State& s) {
+  std::vector<Field*>& f = impl_->fields[std::size_t(node)];
+  if (impl_->fields_of[std::size_t(node)] != &s) {  // a State never removes a field or moves one
+    f.clear();
+    for (auto& a : graph_.nodes()[std::size_t(node)].accesses) f.push_back(&s.field(a.field));
+    impl_->fields_of[std::size_t(node)] = &s;
+  }
+  return f;
 }
 
 State& Scheduler::state_of(int node) {

@@ -135,6 +135,8 @@ class Scheduler {
   State* observer_state_ = nullptr;
   GhostExchange* ghosts_ = nullptr;
   State& state_of(int node);
+  // The fields of node's declared accesses in state s, in their order (looked up once).
+  const std::vector<Field*>& node_fields(int node, State& s);
   const RunStats& stats_;
   Backend backend_;
   bool profiling_ = false;

@@ -217,7 +217,8 @@ void Simulation::collect_metrics(int node) {
   if (values.empty()) return;
   const bool only_in_observables = graph_->nodes()[std::size_t(node)].observer && slots_[node].stage->outputs().empty();
   for (auto& kv : values) {
-    const std::string name = slots_[node].info.stage_id + "/" + kv.first;
+    std::string& name = metric_name_;
+    name.assign(slots_[node].info.stage_id).append(1, '/').append(kv.first);
     stats_.metrics[name] = kv.second;
     RunStats::Stamp& stamp = stats_.metric_stamps[name];
     stamp = {state_->step, state_->time, stamp.reports + 1, only_in_observables};

@@ -125,6 +125,7 @@ class Simulation {
   static std::unique_ptr<State> initial_state(const PipelineSpec& spec);
   void prepare_outputs();
   void collect_metrics(int node);
+  std::string metric_name_;  // collect_metrics' "stage/metric", its storage reused step to step
   void observe(double dt);
   [[noreturn]] void give_up(const RollbackRequest& req, double dt);
   // Before running a step again (a rollback or a Δt limit): restore the snapshot, and with

@@ -116,7 +116,7 @@ bench_abp() {
   local v=$1 tag=$2
   shift 2
   timeout "${BENCH_TIMEOUT:-120}" "${D[$v]}/bin/pipeline" bench "${D[$v]}/pipelines/bench-abp.yaml" --device cuda "$@" 2>&1 |
-    grep -E "^[0-9]|overlap_correct/iter|rror" | sed "s/^/$v $tag: /" >> "$O/ab.txt"
+    grep -E "^[0-9]|overlap_correct/iter|host's own|rror" | sed "s/^/$v $tag: /" >> "$O/ab.txt"
   step "$v-$tag" "${PIPESTATUS[0]}"
 }
 correction_tests() {

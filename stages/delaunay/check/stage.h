@@ -63,7 +63,7 @@ class Check final : public Stage {
 
   Outcome run(StepContext& ctx) override {
     State& s = ctx.state;
-    ensure_topology(ctx, accesses());
+    ensure_topology(ctx, *this);
     const std::size_t n = s.n();
     Field& pos = s.field(p_.positions);
     std::vector<double> xy(2 * n);

@@ -45,7 +45,7 @@ void will_build(const StepContext& ctx) {
   ctx.will_write(fields::position_prev);
 }
 
-bool ensure_topology(const StepContext& ctx, const std::vector<Access>& acc) {
+bool ensure_topology(const StepContext& ctx, const Stage& stage) {
   State& s = ctx.state;
   CUstream_st* stream = ctx.stream;
   if (status(s)[kBuilt]) return false;
@@ -61,7 +61,7 @@ bool ensure_topology(const StepContext& ctx, const std::vector<Access>& acc) {
   if (large)
     std::fprintf(ctx.run.messages, "flipflow: delaunay: triangulated in %.1f s\n",
                  std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
-  for (const Access& a : acc) s.field(a.field).acquire(a.where, a.mode, stream);
+  for (const Access& a : stage.accesses()) s.field(a.field).acquire(a.where, a.mode, stream);
   return true;
 }
 

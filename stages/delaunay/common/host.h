@@ -21,9 +21,10 @@ void add_topology_fields(State& s, const char* stage_name);
 std::int32_t* status(State& s);
 
 // If no triangulation exists yet (status kBuilt == 0), build one from the current positions
-// (delaunay.build's CGAL path) and re-acquire `acc` so the stage's declared side is current.
-// Announces the writes first (will_build). Returns true when it built.
-bool ensure_topology(const StepContext& ctx, const std::vector<Access>& acc);
+// (delaunay.build's CGAL path) and re-acquire the stage's accesses so its declared side is
+// current. Announces the writes first (will_build). Returns true when it built. (The stage, not
+// its accesses: they are a vector of names built on each call, wanted only when it builds.)
+bool ensure_topology(const StepContext& ctx, const Stage& stage);
 
 // The topology fields a flip rewrites (declared Access::on_demand by the stages that flip only
 // on some steps): announce them before the first flip of a step.

@@ -164,7 +164,7 @@ class DetectInversion final : public Stage {
     // triangulation counts as inherited: a broken one is rolled back to dt_min, never rebuilt.)
     Field* prev_at_start = ctx.at_step_start(fields::position_prev);
     const bool inherited = prev_at_start == &s.field(fields::position_prev);
-    const bool fresh = ensure_topology(ctx, accesses());
+    const bool fresh = ensure_topology(ctx, *this);
     // delaunay.flip's `on_unrepairable: substep` needs the positions at which the triangulation
     // was valid when something is inverted: position_prev is then written after the counters
     // are read (by this stage when nothing is inverted, else by delaunay.flip).
@@ -428,7 +428,7 @@ class DetectInversion final : public Stage {
     const bool inherited = prev_at_start == &s.field(fields::position_prev);
     bool fresh = false;
     if (!status(s)[kBuilt]) {
-      fresh = ensure_topology(ctx, accesses());  // the first step: at the moved positions, as alone
+      fresh = ensure_topology(ctx, *this);  // the first step: at the moved positions, as alone
     } else if (built_for_ != s.particles_version()) {
       // A migration changed the particles held: triangulate them at position_prev, where the
       // triangulation one rank alone inherits is Delaunay (the fields moved with the particles).

@@ -147,7 +147,7 @@ class DtBound final : public Stage {
   Outcome run(StepContext& ctx) override {
     State& s = ctx.state;
     CUstream_st* st = ctx.stream;
-    ensure_topology(ctx, accesses());
+    ensure_topology(ctx, *this);
     const std::size_t n = s.n();
     // Squared distances start at 0x7f7f...: 1.4e306, above any squared edge length.
     std::uint64_t* nearest2 = nearest2_.get(n);

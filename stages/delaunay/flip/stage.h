@@ -133,7 +133,7 @@ class Flip final : public Stage {
     if (team_ && ctx.ghosts) return run_team(ctx);
     State& s = ctx.state;
     CUstream_st* st = ctx.stream;
-    ensure_topology(ctx, accesses());
+    ensure_topology(ctx, *this);
     ctx.metrics.set("flips", 0);
     ctx.metrics.set("flip_rounds", 0);
     if (substep_) ctx.metrics.set("substeps", 0);
@@ -184,7 +184,7 @@ class Flip final : public Stage {
   Outcome run_team(StepContext& ctx) {
     State& s = ctx.state;
     CUstream_st* st = ctx.stream;
-    ensure_topology(ctx, accesses());
+    ensure_topology(ctx, *this);
     flips_ = 0;
     rounds_ = 0;
     bool left = false;

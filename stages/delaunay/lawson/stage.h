@@ -116,7 +116,7 @@ class Lawson final : public Stage {
     State& s = ctx.state;
     CUstream_st* st = ctx.stream;
     settle(s, st, nullptr);  // a step rolled back after this stage ran: after_step was not called
-    ensure_topology(ctx, accesses());
+    ensure_topology(ctx, *this);
     if (status(s)[kPending] || status(s)[kPrevKept])
       throw RunError("delaunay.lawson: " + std::to_string(status(s)[kPending]) +
                      " inverted triangle(s) found by delaunay.detect_inversion were not repaired; put delaunay.flip "

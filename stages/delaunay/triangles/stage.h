@@ -72,7 +72,7 @@ class Triangles final : public Stage {
   Outcome run(StepContext& ctx) override {
     State& s = ctx.state;
     // At step 0, before any topology stage ran, build the triangulation the first one would.
-    ensure_topology(ctx, accesses());
+    ensure_topology(ctx, *this);
     const std::size_t n = s.n();
     const std::size_t found = fill_triangles(s.field(fields::halfedge).host<std::int32_t>(), n,
                                              s.field(fields::triangles).host<std::int32_t>(), 2 * n);
