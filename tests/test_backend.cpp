@@ -1,7 +1,8 @@
 // The backend object (core/backend: CpuExec, CudaExec, memory.h): reductions equal a serial
 // loop (and so each other, bit for bit: they are integer), a reused Reduction starts from its
 // identity, fresh scratch memory reads zero and keeps its contents, counters read the same
-// synchronously and deferred; a thread's time blocked on the device is counted for it alone.
+// synchronously and deferred; a thread's time blocked on the device is counted for it alone; a
+// State finds its fields by a C string as by a std::string, through a reused buffer too.
 #include <oneapi/tbb/global_control.h>
 
 #include <catch2/catch.hpp>
@@ -10,9 +11,11 @@
 #include "core/backend/exec_cpu.h"
 #include "core/backend/field.h"
 #include "core/backend/host_wait.h"
+#include "core/stage/state.h"
 #include "support/backends.h"
 
 #include <chrono>
+#include <cstdio>
 #include <thread>
 
 #ifdef FLIPFLOW_HAVE_CUDA
@@ -152,3 +155,25 @@ TEST_CASE("the CUDA backend's waits for the device are counted", "[backend][cuda
   cudaStreamDestroy(s);
 }
 #endif
+
+TEST_CASE("State::field by a C string: the same field as by std::string, also when a buffer is reused",
+          "[backend][state]") {
+  State s(2, Precision::f64, 10);
+  s.add_field("alpha.long_field_name", DType::i32, 1, 10);
+  s.add_field("beta", DType::f64, 3, 4);
+  for (int round = 0; round < 3; ++round) {  // found, then remembered by address
+    CHECK(&s.field(fields::position) == &s.field(std::string(fields::position)));
+    CHECK(&s.field("beta") == &s.field(std::string("beta")));
+    CHECK(s.field("alpha.long_field_name").name() == "alpha.long_field_name");
+  }
+  // One buffer, three names in turn: the remembered field of the first must not answer the others.
+  char buffer[32];
+  for (const char* name : {"beta", "alpha.long_field_name", "position", "beta"}) {
+    std::snprintf(buffer, sizeof buffer, "%s", name);
+    CHECK(s.field(static_cast<const char*>(buffer)).name() == name);
+    const State& cs = s;
+    CHECK(cs.field(static_cast<const char*>(buffer)).name() == name);
+  }
+  std::snprintf(buffer, sizeof buffer, "%s", "gamma");
+  CHECK_THROWS_AS(s.field(static_cast<const char*>(buffer)), std::out_of_range);
+}

@@ -1,5 +1,6 @@
 #include "core/stage/state.h"
 
+#include <cstring>
 #include <stdexcept>
 
 namespace ff {
@@ -60,6 +61,21 @@ const Field& State::field(const std::string& name) const {
   if (it == fields_.end()) throw std::out_of_range("no field named '" + name + "'");
   return *it->second;
 }
+
+Field* State::remembered(const char* name) const {
+  const auto a = reinterpret_cast<std::uintptr_t>(name);
+  std::atomic<Field*>& slot = by_name_address_[((a >> 3) ^ (a >> 9)) % kNameSlots];
+  Field* f = slot.load(std::memory_order_acquire);
+  if (f && std::strcmp(f->name().c_str(), name) == 0) return f;
+  auto it = fields_.find(name);
+  if (it == fields_.end()) throw std::out_of_range("no field named '" + std::string(name) + "'");
+  slot.store(it->second.get(), std::memory_order_release);
+  return it->second.get();
+}
+
+Field& State::field(const char* name) { return *remembered(name); }
+
+const Field& State::field(const char* name) const { return *remembered(name); }
 
 std::vector<std::string> State::field_names() const {
   std::vector<std::string> names;
