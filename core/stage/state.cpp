@@ -50,27 +50,24 @@ void State::set_particles(std::size_t n, std::size_t owned) {
   ++particles_version_;
 }
 
-Field& State::field(const std::string& name) {
+Field* State::lookup(const std::string& name) const {
   auto it = fields_.find(name);
   if (it == fields_.end()) throw std::out_of_range("no field named '" + name + "'");
-  return *it->second;
+  return it->second.get();
 }
 
-const Field& State::field(const std::string& name) const {
-  auto it = fields_.find(name);
-  if (it == fields_.end()) throw std::out_of_range("no field named '" + name + "'");
-  return *it->second;
-}
+Field& State::field(const std::string& name) { return *lookup(name); }
+
+const Field& State::field(const std::string& name) const { return *lookup(name); }
 
 Field* State::remembered(const char* name) const {
   const auto a = reinterpret_cast<std::uintptr_t>(name);
   std::atomic<Field*>& slot = by_name_address_[((a >> 3) ^ (a >> 9)) % kNameSlots];
   Field* f = slot.load(std::memory_order_acquire);
   if (f && std::strcmp(f->name().c_str(), name) == 0) return f;
-  auto it = fields_.find(name);
-  if (it == fields_.end()) throw std::out_of_range("no field named '" + std::string(name) + "'");
-  slot.store(it->second.get(), std::memory_order_release);
-  return it->second.get();
+  f = lookup(name);
+  slot.store(f, std::memory_order_release);
+  return f;
 }
 
 Field& State::field(const char* name) { return *remembered(name); }

@@ -96,6 +96,7 @@ class State {
   static constexpr std::size_t kNameSlots = 32;
   mutable std::array<std::atomic<Field*>, kNameSlots> by_name_address_{};
   Field* remembered(const char* name) const;
+  Field* lookup(const std::string& name) const;  // by the map; throws when there is none
 };
 
 }  // namespace ff

@@ -57,13 +57,12 @@ def local_file(path, root):
     # binaries here (a system library of the same name is another build, whose names would lie).
     if not root:
         return path if os.path.exists(path) else None
-    if True:
-        parts = path.split("/")
-        for k, p in enumerate(parts):
-            if p in ("bin", "lib", "plugins"):
-                cand = os.path.join(root, *parts[k:])
-                if os.path.exists(cand):
-                    return cand
+    parts = path.split("/")
+    for k, p in enumerate(parts):
+        if p in ("bin", "lib", "plugins"):
+            cand = os.path.join(root, *parts[k:])
+            if os.path.exists(cand):
+                return cand
     return None
 
 
