@@ -232,23 +232,29 @@ __global__ void __launch_bounds__(kDenseThreads, 1) dense_kernel(Args<R, false> 
   };
 
   wait_for_previous_kernel();  // launched programmatically, as the teams (cuda.cu)
-  // Every global load of the set-up at once, before the gate is read (a closed gate's launch
-  // writes nothing, so what it read does not matter): a thread's particle and its edges' records
-  // in one round trip to L2 instead of one each. A block holds at most a particle a thread.
+  // Every global load of the set-up at once: a thread's particle and its edges' records in one
+  // round trip to L2 instead of one each (a block holds at most a particle a thread). One block
+  // issues them before the gate is read (a closed gate's launch writes nothing, so what it read
+  // does not matter); a cluster after it, where loads before the gate cost 0.2-0.5 % (bench/
+  // experiments/README.md, session 44's "J").
   const int v = v0 + tid;
   double x0 = 0, y0 = 0;
-  if (v < v1) load_xy(a.p.pos, v, x0, y0);
   int ra[kRounds], rna[kRounds], rb[kRounds], rnb[kRounds];
+  auto load_setup = [&] {
+    if (v < v1) load_xy(a.p.pos, v, x0, y0);
 #pragma unroll
-  for (int r = 0; r < kRounds; ++r) {
-    const int e = e0 + r * kDenseThreads + tid;
-    ra[r] = rna[r] = rb[r] = rnb[r] = 0;
-    if (e < e1) load_edge(ov.he, std::size_t(e), ra[r], rna[r], rb[r], rnb[r]);
-  }
+    for (int r = 0; r < kRounds; ++r) {
+      const int e = e0 + r * kDenseThreads + tid;
+      ra[r] = rna[r] = rb[r] = rnb[r] = 0;
+      if (e < e1) load_edge(ov.he, std::size_t(e), ra[r], rna[r], rb[r], rnb[r]);
+    }
+  };
+  if constexpr (!Cluster) load_setup();
   if (gate_closed(a.p)) {  // (Problem::gate)
     if (rank == 0) report_closed_gate(a.result);
     return;
   }
+  if constexpr (Cluster) load_setup();
   if (tid < 2) s_listed[tid] = 0;
   if (Cluster && tid == 0) s_bad_at = 0;
   if (v < v1) {
