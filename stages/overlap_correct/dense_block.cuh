@@ -53,6 +53,8 @@ constexpr std::size_t kDenseClusterMaxN = std::size_t(kDenseMaxBlocks) << kDense
 static_assert(kDenseClusterMaxN <= 0xFFFF && kDenseMaxN <= 0xFFFF, "particle ids in 16 bits (kCorruptEdge is the last)");
 static_assert((6 << kDenseMaxShift) <= 0x10000, "a list token's index in 16 bits: 2 x the 3 edges of each particle held");
 static_assert(kDenseMaxBlocks <= 32, "a warp's lanes reach every block (the stamps, the set-up sums)");
+static_assert(kDenseMaxN <= std::size_t(kDenseThreads) && (1 << kDenseMaxShift) <= kDenseThreads,
+              "a block holds at most a particle a thread (the set-up's loads)");
 constexpr std::uint16_t kCorruptEdge = 0xFFFF;
 constexpr std::uint32_t kNoToken = 0xFFFFFFFFu;
 constexpr std::uint16_t kNoLink = 0xFFFF;
@@ -230,17 +232,34 @@ __global__ void __launch_bounds__(kDenseThreads, 1) dense_kernel(Args<R, false> 
   };
 
   wait_for_previous_kernel();  // launched programmatically, as the teams (cuda.cu)
+  // Every global load of the set-up at once: a thread's particle and its edges' records in one
+  // round trip to L2 instead of one each (a block holds at most a particle a thread). One block
+  // issues them before the gate is read (a closed gate's launch writes nothing, so what it read
+  // does not matter); a cluster after it, where loads before the gate cost 0.2-0.5 % (bench/
+  // experiments/README.md, session 44's "J").
+  const int v = v0 + tid;
+  double x0 = 0, y0 = 0;
+  int ra[kRounds], rna[kRounds], rb[kRounds], rnb[kRounds];
+  auto load_setup = [&] {
+    if (v < v1) load_xy(a.p.pos, v, x0, y0);
+#pragma unroll
+    for (int r = 0; r < kRounds; ++r) {
+      const int e = e0 + r * kDenseThreads + tid;
+      ra[r] = rna[r] = rb[r] = rnb[r] = 0;
+      if (e < e1) load_edge(ov.he, std::size_t(e), ra[r], rna[r], rb[r], rnb[r]);
+    }
+  };
+  if constexpr (!Cluster) load_setup();
   if (gate_closed(a.p)) {  // (Problem::gate)
     if (rank == 0) report_closed_gate(a.result);
     return;
   }
+  if constexpr (Cluster) load_setup();
   if (tid < 2) s_listed[tid] = 0;
   if (Cluster && tid == 0) s_bad_at = 0;
-  for (int v = v0 + tid; v < v1; v += kDenseThreads) {
-    double x, y;
-    load_xy(a.p.pos, v, x, y);
-    s_pos[2 * (v - v0)] = R(x);  // exact: widened from R
-    s_pos[2 * (v - v0) + 1] = R(y);
+  if (v < v1) {
+    s_pos[2 * (v - v0)] = R(x0);  // exact: widened from R
+    s_pos[2 * (v - v0) + 1] = R(y0);
     s_head[v - v0] = kNoToken;
   }
   // The edges' ends, checked as the CPU's edge pass checks them (Overlaps::edge_ends): a corrupt
@@ -248,15 +267,17 @@ __global__ void __launch_bounds__(kDenseThreads, 1) dense_kernel(Args<R, false> 
   const bool check = a.k0 == 0;
   u64 corrupt = 0, expected = 0;
   std::uint64_t mixes = 0;
-  for (int e = e0 + tid; e < e1; e += kDenseThreads) {
-    int ia, ib;
-    if (!ov.edge_ends(std::size_t(e), ia, ib, check, mixes)) {
+#pragma unroll
+  for (int r = 0; r < kRounds; ++r) {
+    const int e = e0 + r * kDenseThreads + tid;
+    if (e >= e1) continue;
+    if (!ov.edge_ends_checked(ra[r], rna[r], rb[r], rnb[r], check, mixes)) {
       s_ea[e - e0] = kCorruptEdge;
       ++corrupt;
       continue;
     }
-    s_ea[e - e0] = std::uint16_t(ia);
-    s_eb[e - e0] = std::uint16_t(ib);
+    s_ea[e - e0] = std::uint16_t(ra[r]);
+    s_eb[e - e0] = std::uint16_t(rb[r]);
   }
   if (check)
     for (int h = 2 * e0 + tid; h < 2 * e1; h += kDenseThreads) expected += mix(std::uint64_t(h));

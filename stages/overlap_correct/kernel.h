@@ -403,6 +403,10 @@ struct Overlaps : PushRule {
   FF_HD bool edge_ends(std::size_t e, int& a, int& b, bool check, std::uint64_t& next_hash) const {
     int na, nb;
     load_edge(he, e, a, na, b, nb);
+    return edge_ends_checked(a, na, b, nb, check, next_hash);
+  }
+  // edge_ends of a record already loaded (load_edge): ends a, b and next pointers na, nb.
+  FF_HD bool edge_ends_checked(int a, int na, int b, int nb, bool check, std::uint64_t& next_hash) const {
     if (unsigned(a) >= unsigned(n) || unsigned(b) >= unsigned(n) || a == b) return false;
     if (check) {
       if (unsigned(na) >= 6u * unsigned(n) || unsigned(nb) >= 6u * unsigned(n)) return false;
