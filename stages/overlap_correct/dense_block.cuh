@@ -22,7 +22,8 @@
 // What did not pay (64-bit shared atomics, a block sum in every thread, testing only the moved
 // particles' edges; in a cluster, positions written to global memory once a launch, the barrier
 // after the moves split around the next reach tests; each thread pushing its own edges without a
-// listing) is in bench/experiments/README.md.
+// listing; the late iterations in warp 0 alone, or skipping warps with no edge at a particle the
+// last iteration touched) is in bench/experiments/README.md.
 //
 // The same bits as the other loops: the records are checked and the pushes made by kernel.h's
 // Overlaps::edge_ends and edge_push (the CPU edge pass's own), summed in fixed point (any order),
@@ -235,8 +236,8 @@ __global__ void __launch_bounds__(kDenseThreads, 1) dense_kernel(Args<R, false> 
   // Every global load of the set-up at once: a thread's particle and its edges' records in one
   // round trip to L2 instead of one each (a block holds at most a particle a thread). One block
   // issues them before the gate is read (a closed gate's launch writes nothing, so what it read
-  // does not matter); a cluster after it, where loads before the gate cost 0.2-0.5 % (bench/
-  // experiments/README.md, session 44's "J").
+  // does not matter); a cluster after it, where issuing them before the gate measured slower
+  // (bench/experiments/README.md, sessions 44 and 47).
   const int v = v0 + tid;
   double x0 = 0, y0 = 0;
   int ra[kRounds], rna[kRounds], rb[kRounds], rnb[kRounds];
