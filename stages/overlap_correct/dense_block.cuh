@@ -263,7 +263,8 @@ __global__ void __launch_bounds__(kDenseThreads, 1) dense_kernel(Args<R, false> 
     s_pos[2 * (v - v0) + 1] = R(y0);
     s_head[v - v0] = kNoToken;
   }
-  // The edges' ends, checked as the CPU's edge pass checks them (Overlaps::edge_ends): a corrupt
+  // The edges' ends, checked as the CPU's edge pass checks them (Overlaps::edge_ends_checked, what
+  // its edge_ends does after the load): a corrupt
   // record is counted and never read again; in a step's first launch the next pointers too.
   const bool check = a.k0 == 0;
   u64 corrupt = 0, expected = 0;
