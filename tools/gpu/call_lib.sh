@@ -45,7 +45,11 @@
 #                        step V-tests (session 44's calls 11 and 13 wrote these lines out)
 #   timelines N...       CUPTI timelines of bench-abp at each N (tools/gpu_trace; 200 steps after
 #                        20, 60 at 2^20): trace-N.csv.xz and summarize.py's typical step and
-#                        groups (trace-N-summary.txt, trace-N-group2.txt), then step trace-N
+#                        groups (trace-N-summary.txt, trace-N-group2.txt), then step trace-N;
+#                        TRACE_PIPELINE (a shipped pipeline's stem, default bench-abp) and
+#                        TRACE_MARKER (the step's first kernel, summarize.py's --step-marker,
+#                        default abp; overdamped_kernel for the brownian pipelines) for another
+#                        pipeline, whose files are then named trace-PIPELINE-N*
 #   host_waits N...      the host's side of bench-abp's step at each N (tools/gpu/host_waits.c, preloaded;
 #                        400 steps after 20): host_waits.py's summary in host-waits.txt (the host's
 #                        own time a step, its waits, the typical step's calls), the records in
@@ -156,18 +160,20 @@ sweep_abp() {
   step "sweep$1" "${PIPESTATUS[0]}"
 }
 timelines() {
-  local n st
+  local n st t
   for n in "$@"; do
     st=200
     [[ $n == 1048576 ]] && st=60
-    CUDA_INJECTION64_PATH=$B/lib/libflipflow_gpu_trace.so FLIPFLOW_GPU_TRACE=/tmp/trace-$n.csv timeout 100 \
-      "$B/bin/pipeline" bench "$B/pipelines/bench-abp.yaml" --device cuda --sizes "$n" --steps $st --warmup 20 \
-      > "$O/trace-run-$n.txt" 2>&1
-    python3 tools/gpu_trace/summarize.py /tmp/trace-$n.csv --skip 25 --count $((st - 10)) > "$O/trace-$n-summary.txt" 2>&1
-    python3 tools/gpu_trace/summarize.py /tmp/trace-$n.csv --skip 25 --count $((st - 10)) --group 2 \
-      > "$O/trace-$n-group2.txt" 2>&1
-    xz -c /tmp/trace-$n.csv > "$O/trace-$n.csv.xz"
-    step "trace-$n" $?
+    t=${TRACE_PIPELINE:+$TRACE_PIPELINE-}$n  # bench-abp's files keep their names
+    CUDA_INJECTION64_PATH=$B/lib/libflipflow_gpu_trace.so FLIPFLOW_GPU_TRACE=/tmp/trace-$t.csv timeout 100 \
+      "$B/bin/pipeline" bench "$B/pipelines/${TRACE_PIPELINE:-bench-abp}.yaml" --device cuda --sizes "$n" --steps $st \
+      --warmup 20 > "$O/trace-run-$t.txt" 2>&1
+    local summarize=(python3 tools/gpu_trace/summarize.py /tmp/trace-$t.csv --step-marker "${TRACE_MARKER:-abp}" --skip 25
+      --count $((st - 10)))
+    "${summarize[@]}" > "$O/trace-$t-summary.txt" 2>&1
+    "${summarize[@]}" --group 2 > "$O/trace-$t-group2.txt" 2>&1
+    xz -c /tmp/trace-$t.csv > "$O/trace-$t.csv.xz"
+    step "trace-$t" $?
   done
 }
 issue20_rows() {
