@@ -144,11 +144,15 @@ class DeviceLoops final : public OverlapCorrectLoops<R> {
   static int run_wide(const Args<R, Walls>& a, CUstream_st* s) {
     const int blocks = int((a.p.n + kWideThreads - 1) / kWideThreads);
     for (int j = 0; j < kWideIterations; ++j) {
-      wide_gather<R, kWideThreads, kWideMinBlocks, Walls, Mark><<<blocks, kWideThreads, 0, s>>>(a, j);
-      wide_apply<R, kWideThreads, Walls, Mark><<<blocks, kWideThreads, 0, s>>>(a, j);
-      wide_check<R, kWideThreads, kWideMinBlocks, Walls, Mark><<<blocks, kWideThreads, 0, s>>>(a, j);
+      launch_after_previous("launching overlap_correct's wide gather",
+                            wide_gather<R, kWideThreads, kWideMinBlocks, Walls, Mark>, dim3(blocks),
+                            dim3(kWideThreads), s, a, j);
+      launch_after_previous("launching overlap_correct's wide apply", wide_apply<R, kWideThreads, Walls, Mark>,
+                            dim3(blocks), dim3(kWideThreads), s, a, j);
+      launch_after_previous("launching overlap_correct's wide check",
+                            wide_check<R, kWideThreads, kWideMinBlocks, Walls, Mark>, dim3(blocks),
+                            dim3(kWideThreads), s, a, j);
     }
-    FF_CUDA_CHECK(cudaGetLastError(), "launching overlap_correct's wide iterations");
     return kWideIterations;
   }
 

@@ -10,12 +10,13 @@ namespace ff::overlap {
 namespace {
 
 // The wide kernels: the first iterations of a grid's step (kWideIterations of them; iteration 0
-// gathers every particle, most of the stage's work on a full grid) as three ordinary launches each
+// gathers every particle, most of the stage's work on a full grid) as three launches each
 // (gather, apply, check), a thread per particle, with few registers and many warps on an SM. The
 // cooperative kernel's registers hold it to one block of 512 an SM for its later iterations; one
 // particle's gather is a chain of dependent loads (ncu: bench/README.md, session 18), so what
 // hides its latency is how many chains are in flight. Kernel boundaries stand in for the grid barriers
-// and order the memory the same way.
+// and order the memory the same way. Each is launched programmatically (pdl.cuh) and waits for the
+// kernel before it before it reads anything, so the next one is scheduled while it runs.
 //
 // They write what the cooperative kernel's iterations write: the lists (nb, degree, fan) in
 // iteration 0, the touched field, plain marks for the next iteration, and the iteration's sums in
@@ -58,6 +59,8 @@ __global__ void __launch_bounds__(Threads, MinBlocks) wide_gather(Args<R, Walls>
   constexpr int kWarps = Threads / 32;
   __shared__ u64 s_red[kAll][kWarps];
   __shared__ u64 s_tot[kAll];
+  wait_for_previous_kernel();
+  allow_next_kernel();
   if (j > 0 ? !went_on<Mark>(a, j - 1, s_tot) : gate_closed(a.p)) return;  // (then its slot stays zero: nothing went on)
   const Overlaps<R, Walls>& ov = a.ov;
   const long long k = a.k0 + j;
@@ -103,6 +106,8 @@ __global__ void __launch_bounds__(Threads, MinBlocks) wide_gather(Args<R, Walls>
 template <class R, int Threads, bool Walls, bool Mark>
 __global__ void __launch_bounds__(Threads) wide_apply(Args<R, Walls> a, int j) {
   __shared__ u64 s_tot[Sums<Mark>::kAll];
+  wait_for_previous_kernel();
+  allow_next_kernel();
   if (!went_on<Mark>(a, j, s_tot)) return;
   const int v = int(blockIdx.x) * Threads + int(threadIdx.x);
   if (v >= int(a.p.n) || a.state[v] != kWideMoved) return;
@@ -119,6 +124,8 @@ __global__ void __launch_bounds__(Threads) wide_apply(Args<R, Walls> a, int j) {
 template <class R, int Threads, int MinBlocks, bool Walls, bool Mark>
 __global__ void __launch_bounds__(Threads, MinBlocks) wide_check(Args<R, Walls> a, int j) {
   __shared__ u64 s_tot[Sums<Mark>::kAll];
+  wait_for_previous_kernel();
+  allow_next_kernel();
   if (!went_on<Mark>(a, j, s_tot)) return;
   const int v = int(blockIdx.x) * Threads + int(threadIdx.x);
   if (v >= int(a.p.n)) return;
