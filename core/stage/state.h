@@ -75,9 +75,9 @@ class State {
   const Field& field(const std::string& name) const;
   // The same by a C string: the stages name fields by constants (fields::position), so the
   // name's address finds a remembered field first, checked against the field's own name (a
-  // buffer reused for another name finds the right field too). A lookup by name in the map was
-  // ~6-9 % of the host's own time a step at 2^10 on CUDA (bench/experiments/README.md, "The
-  // host's own time, sampled").
+  // buffer reused for another name finds the right field too). The stages look fields up every
+  // step, and a map lookup by name was a visible share of the host's own time a step on CUDA
+  // (measured in bench/experiments/README.md, "The host's own time, sampled").
   Field& field(const char* name);
   const Field& field(const char* name) const;
   bool has_field(const std::string& name) const { return fields_.count(name) != 0; }
