@@ -48,7 +48,7 @@
 #                        groups (trace-N-summary.txt, trace-N-group2.txt), then step trace-N;
 #                        TRACE_PIPELINE (a shipped pipeline's stem, default bench-abp) and
 #                        TRACE_MARKER (the step's first kernel, summarize.py's --step-marker,
-#                        default abp; overdamped_kernel for the brownian pipelines) for another
+#                        default abp; OverdampedStep for the brownian pipelines) for another
 #                        pipeline, whose files are then named trace-PIPELINE-N*
 #   host_waits N...      the host's side of bench-abp's step at each N (tools/gpu/host_waits.c, preloaded;
 #                        400 steps after 20): host_waits.py's summary in host-waits.txt (the host's

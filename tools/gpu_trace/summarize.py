@@ -2,7 +2,8 @@
 """Summarize a GPU timeline written by libflipflow_gpu_trace.so (README.md): the typical step.
 
 A step starts at each GPU activity whose name contains --step-marker (default "abp": the ABP
-integrate kernel is ff::for_each_kernel<ff::abp::AbpStep<double, 2>>) and ends where the next one
+integrate kernel is ff::after_previous_kernel<ff::overdamped::OverdampedStep<double, 2, false,
+ff::abp::SelfPropulsion<double, 2>, false>>) and ends where the next one
 starts; the last marker (no next one) starts an unfinished step, which is left out. The first
 --skip steps are left out, then --count steps are used (default: all the rest). A rolled-back step
 runs the marker kernel again, so it shows up as two short steps.

@@ -33,23 +33,24 @@ void cuda_for_each(std::size_t n, const F& f, CUstream_st* stream) {
   FF_CUDA_CHECK_LAUNCH("launching an element loop");
 }
 
-// The overdamped integrators' loop: cuda_for_each's, launched after the previous kernel
-// programmatically (pdl.cuh). The integrator is the first kernel of a step, so it may be
-// scheduled while the last step's final kernel runs, and lets the next stage's (detect_inversion's
-// marking) be scheduled while it runs.
+// An element loop launched after the previous kernel programmatically (pdl.cuh): scheduled while
+// that kernel runs, it waits for it before it reads anything, and lets the next kernel be scheduled
+// while it runs. The overdamped integrators' loop uses it (the first kernel of a step, so it may be
+// scheduled while the last step's final kernel runs, and detect_inversion's marking while it runs),
+// and so do Lawson's grid rounds (a large step's rounds: three kernels a round).
 template <class F>
-__global__ void overdamped_kernel(std::size_t n, F f) {
+__global__ void after_previous_kernel(std::size_t n, F f) {
   wait_for_previous_kernel();
   allow_next_kernel();
   const std::size_t i = loop_element();
   if (i < n) f(i);
 }
 
+// `what` names the launch in the error a failed launch throws.
 template <class F>
-void cuda_overdamped(std::size_t n, const F& f, CUstream_st* stream) {
+void cuda_for_each_after_previous(const char* what, std::size_t n, const F& f, CUstream_st* stream) {
   if (n == 0) return;
-  launch_after_previous("launching an integrator's loop", overdamped_kernel<F>, dim3(loop_blocks(n)),
-                        dim3(kLoopThreads), stream, n, f);
+  launch_after_previous(what, after_previous_kernel<F>, dim3(loop_blocks(n)), dim3(kLoopThreads), stream, n, f);
 }
 
 // cuda_for_each with __launch_bounds__(kLoopThreads, MinBlocks): registers capped so that MinBlocks
@@ -118,7 +119,9 @@ struct CudaExec {
   static void for_each_bounded(std::size_t n, const F& f, CUstream_st* s) { cuda_for_each_bounded<F, MinBlocks>(n, f, s); }
   // The overdamped integrators (core/physics/overdamped.h): one particle per thread (F::operator()).
   template <class F>
-  static void overdamped(std::size_t n, const F& f, CUstream_st* s) { cuda_overdamped(n, f, s); }
+  static void overdamped(std::size_t n, const F& f, CUstream_st* s) {
+    cuda_for_each_after_previous("launching an integrator's loop", n, f, s);
+  }
   template <class F>
   static std::uint32_t max(std::size_t n, const F& f, Reduction<std::uint32_t>& r, CUstream_st* s) {
     return cuda_max(n, f, r, s);

@@ -210,22 +210,12 @@ unsigned tail_pass(std::size_t edges) {
   return unsigned(tail_on_cluster<R>(edges) ? kTailCluster * kTailThreads : kTailThreads);
 }
 
-// A grid round's passes (mark, decide, apply: one element a thread), each launched
-// programmatically (pdl.cuh) and waiting for the kernel before it before it reads anything, so
-// that it is scheduled while that kernel runs (a large step's rounds: three kernels a round).
-template <class F>
-__global__ void round_kernel(std::size_t n, F f) {
-  wait_for_previous_kernel();
-  allow_next_kernel();
-  const std::size_t i = loop_element();
-  if (i < n) f(i);
-}
-
+// A grid round's passes (mark, decide, apply: one element a thread), each launched after the
+// kernel before it (core/backend/cuda/loop.cuh), so that it is scheduled while that kernel runs
+// (a large step's rounds: three kernels a round).
 template <class F>
 void round_pass(std::size_t n, const F& f, CUstream_st* stream) {
-  if (n == 0) return;
-  launch_after_previous("launching a delaunay.lawson round's pass", round_kernel<F>, dim3(loop_blocks(n)),
-                        dim3(kLoopThreads), stream, n, f);
+  cuda_for_each_after_previous("launching a delaunay.lawson round's pass", n, f, stream);
 }
 
 }  // namespace
