@@ -13,7 +13,7 @@ for r in $(seq 1 "$rounds"); do
   for spec in "$@"; do
     tree=${spec%%:*}; build=$tree/build; [[ $spec == *:* ]] && build=${spec#*:}
     a=$($c2c); res=$(mktemp -d)
-    "$build/bin/pipeline" bench "$tree/pipelines/hard-disks.yaml" --device cpu --threads 2 --sizes 65536 \
+    "$build/bin/pipeline" bench "$tree/pipelines/hard-disks.yaml" --device cpu --threads ${THREADS:-2} --sizes 65536 \
       --steps ${STEPS:-300} --warmup 200 --set run.dt=1e-3 --results "$res" 2>&1 | grep -E "^65536" | head -1 > "$res/row"
     b=$($c2c)
     printf "%s %s %s %s %s\n" "$r" "$(basename $tree)" "$a" "$b" "$(cat $res/row)"
