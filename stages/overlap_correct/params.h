@@ -120,6 +120,18 @@ struct DiameterRange {
   bool stale(State& s) const { return s.field(fields::diameter).version() != version; }
 };
 
+// What the error of a step that ends with pairs still overlapping after max_iterations advises
+// (both corrections): the levers a user has, and for mode: contact the one that usually matters.
+inline std::string unconverged_advice(const Params& p) {
+  std::string a =
+      "Lower run.dt (smaller moves make fewer, shallower overlaps), raise max_iterations, or lower the packing "
+      "fraction";
+  if (p.mode == "contact")
+    a += "; mode: contact needs ~15 times the iterations of mode: reflect in dense or active systems "
+         "(docs/model-notes.md#g4): reflect is the one for them";
+  return a;
+}
+
 // The push rule of this step's gathers, the same for both corrections: tol from tolerance_for,
 // unit the largest diameter at configure, diam the diameters now, wall_axis from wall_axis_of.
 inline PushRule push_rule(const Params& p, const State& s, double tol, double unit, const DiameterRange& diam,

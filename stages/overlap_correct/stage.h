@@ -448,13 +448,7 @@ class OverlapCorrect final : public Stage {
        << " after max_iterations = " << p_.max_iterations << " iterations; the worst "
        << (moved ? "now (the next step had moved the particles when this was read back) " : "") << "is particles " << wa
        << " and " << wb << " at r = " << wr << " with σ_ij = " << ws << " (overlap " << worst
-       << "·σ_ij)" << (wall_axis_ >= 0 ? " or a particle and a wall" : "")
-       << ". Lower run.dt (smaller moves make fewer, shallower overlaps), raise max_iterations, or lower "
-          "the packing fraction"
-       << (p_.mode == "contact"
-               ? "; mode: contact needs ~15 times the iterations of mode: reflect in dense or active systems "
-                 "(docs/model-notes.md#g4): reflect is the one for them"
-               : "");
+       << "·σ_ij)" << (wall_axis_ >= 0 ? " or a particle and a wall" : "") << ". " << unconverged_advice(p_);
     throw RunError(os.str());
   }
 

@@ -341,12 +341,7 @@ class OverlapCorrectVerlet final : public Stage {
        << " pair(s) still overlap by more than tolerance = " << tol_ << " after max_iterations = " << p_.max_iterations
        << " iterations; the worst is particles " << wa << " and " << wb << " at r = " << wr << " with σ_ij = " << ws
        << " (overlap " << worst
-       << "·σ_ij). Lower run.dt (smaller moves make fewer, shallower overlaps), raise max_iterations, or lower "
-          "the packing fraction"
-       << (p_.mode == "contact"
-               ? "; mode: contact needs ~15 times the iterations of mode: reflect in dense or active systems "
-                 "(docs/model-notes.md#g4): reflect is the one for them"
-               : "");
+       << "·σ_ij). " << unconverged_advice(p_);
     throw RunError(os.str());
   }
 
