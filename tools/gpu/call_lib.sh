@@ -33,6 +33,8 @@
 #                        hit rates, per-instruction stall sampling): ncu-details-N.txt, ncu-sass-N.csv.xz;
 #                        NCU_KERNEL (a regex, default correct_kernel), NCU_LAUNCHES (default 1) and
 #                        NCU_EXTRA (more ncu options) change what it profiles
+#   ncu_profile TAG DIR N  the same profile of bench-abp at N particles from the bundle at DIR (a
+#                        variant's, ${D[V]}), its files named by TAG: ncu-details-TAG.txt, ...
 #   sweep_abp TAG        issue 20's sweep row: 64 runs of bench-abp 2^14 at once on the bundle B
 #                        (`pipeline sweep --in-process --concurrent 64`, 5 000 steps each); its two
 #                        last lines in sweep.txt as "sweep TAG: ...", then step sweepTAG
@@ -133,24 +135,26 @@ correction_tests() {
   for v in "$@"; do echo "$v: $(grep -c "^PASS" "$O/$v-tests.txt") PASS, $(grep -c "^FAIL" "$O/$v-tests.txt") FAIL" >> "$I"; done
   step variant-tests 0
 }
-ncu_correction() {
-  local n ncu
+ncu_profile() {
+  local tag=$1 bundle=$2 n=$3 ncu
   ncu=$(command -v ncu || ls /usr/local/cuda*/bin/ncu /opt/nvidia/nsight-compute/*/ncu 2>/dev/null | head -n 1)
   echo "ncu: ${ncu:-none}" >> "$I"
-  for n in "$@"; do
-    timeout 180 "$ncu" --target-processes all --clock-control none -k regex:"${NCU_KERNEL:-correct_kernel}" \
-      --launch-skip 120 --launch-count "${NCU_LAUNCHES:-1}" ${NCU_EXTRA:-} \
-      --section LaunchStats --section Occupancy --section SchedulerStats --section WarpStateStats \
-      --section InstructionStats --section SpeedOfLight --section SourceCounters --section MemoryWorkloadAnalysis \
-      -f -o "$O/oc-$n" "$B/bin/pipeline" bench "$B/pipelines/bench-abp.yaml" --device cuda --sizes "$n" \
-      --steps 1 --warmup 125 > "$O/ncu-run-$n.txt" 2>&1
-    step "ncu-$n" $?
-    [[ -f $O/oc-$n.ncu-rep ]] || continue
-    "$ncu" -i "$O/oc-$n.ncu-rep" --page details > "$O/ncu-details-$n.txt" 2>&1
-    "$ncu" -i "$O/oc-$n.ncu-rep" --page source --csv --print-source sass 2>&1 | xz > "$O/ncu-sass-$n.csv.xz"
-    rm -f "$O/oc-$n.ncu-rep"
-    step "ncu-export-$n" 0
-  done
+  timeout 180 "$ncu" --target-processes all --clock-control none -k regex:"${NCU_KERNEL:-correct_kernel}" \
+    --launch-skip 120 --launch-count "${NCU_LAUNCHES:-1}" ${NCU_EXTRA:-} \
+    --section LaunchStats --section Occupancy --section SchedulerStats --section WarpStateStats \
+    --section InstructionStats --section SpeedOfLight --section SourceCounters --section MemoryWorkloadAnalysis \
+    -f -o "$O/oc-$tag" "$bundle/bin/pipeline" bench "$bundle/pipelines/bench-abp.yaml" --device cuda --sizes "$n" \
+    --steps 1 --warmup 125 > "$O/ncu-run-$tag.txt" 2>&1
+  step "ncu-$tag" $?
+  [[ -f $O/oc-$tag.ncu-rep ]] || return 0
+  "$ncu" -i "$O/oc-$tag.ncu-rep" --page details > "$O/ncu-details-$tag.txt" 2>&1
+  "$ncu" -i "$O/oc-$tag.ncu-rep" --page source --csv --print-source sass 2>&1 | xz > "$O/ncu-sass-$tag.csv.xz"
+  rm -f "$O/oc-$tag.ncu-rep"
+  step "ncu-export-$tag" 0
+}
+ncu_correction() {
+  local n
+  for n in "$@"; do ncu_profile "$n" "$B" "$n"; done
 }
 sweep_abp() {
   rm -rf /tmp/sw
