@@ -8,7 +8,7 @@
 //
 //   kind         kernel | memcpy | memset | api
 //   name         kernel: demangled, return type and parameter list removed, template arguments
-//                kept ("ff::for_each_kernel<ff::abp::AbpStep<double, 2>>");
+//                kept ("ff::for_each_kernel<ff::delaunay::CheckInverted<double>>");
 //                memcpy: "HtoD(pageable->device)" (direction, then source and destination memory);
 //                memset: "memset(device)"; api: the runtime function ("cudaStreamSynchronize")
 //   start_ns, end_ns   CUPTI timestamps (one clock for GPU and host records)
