@@ -121,21 +121,23 @@ TEST_CASE("overlap_correct: CPU and CUDA give the same bits when runs share the 
 }
 
 // Many steps of ABP at φ = 0.7 (abp.yaml's stages: integrate, Delaunay maintenance with flips
-// every step, overlap_correct) on the grid path: the device keeps each particle's fan from one
-// step to the next where the flips left it alone (neighbor_lists.cuh, kept_fan) and runs the
-// late iterations of a step in one block; neither may change a bit. Positions, image counts and
-// each step's iterations and pairs must equal the CPU's.
+// every step, overlap_correct). On the grid path (20000, 100000) the device keeps each particle's
+// fan from one step to the next where the flips left it alone (neighbor_lists.cuh, kept_fan) and
+// runs the late iterations of a step in one block; 600 and 1000 run in the dense block and 2000 in
+// the dense cluster (dense_block.cuh), crossings of the box included. None may change a bit.
+// Positions, image counts and each step's iterations, pairs and summed correction must equal the
+// CPU's.
 TEST_CASE("overlap_correct: CPU and CUDA give the same bits over many steps of ABP (kept fans)",
           "[overlap][cuda]") {
   if (!test::have_cuda("overlap_correct CPU-vs-CUDA over many steps")) return;
-  for (std::uint64_t n : {2000u, 20000u, 100000u}) {
+  for (std::uint64_t n : {600u, 1000u, 2000u, 20000u, 100000u}) {
     INFO("n " << n);
     const auto l = test::load_compute_steps(
         test::repo_file("pipelines/abp.yaml").string(),
         {"system.N=" + std::to_string(n), "system.packing_fraction=0.7", "system.init=triangular_lattice_sample",
          "run.steps=150"});
     struct Run {
-      std::vector<double> xy, iterations, pairs;
+      std::vector<double> xy, iterations, pairs, correction;
       std::vector<std::int32_t> image;
     };
     auto run = [&](Backend b) {
@@ -145,6 +147,7 @@ TEST_CASE("overlap_correct: CPU and CUDA give the same bits over many steps of A
         sim.advance();
         r.iterations.push_back(metric(sim, "iterations"));
         r.pairs.push_back(metric(sim, "pairs"));
+        r.correction.push_back(metric(sim, "correction"));
       }
       sim.synchronize();
       r.xy = positions(sim.state());
@@ -159,6 +162,7 @@ TEST_CASE("overlap_correct: CPU and CUDA give the same bits over many steps of A
     CHECK(most >= 5);  // the late iterations (block 0's tail) do run
     CHECK(cpu.iterations == cuda.iterations);
     CHECK(cpu.pairs == cuda.pairs);
+    CHECK(cpu.correction == cuda.correction);
     CHECK(cpu.image == cuda.image);
     CHECK(std::memcmp(cpu.xy.data(), cuda.xy.data(), cpu.xy.size() * sizeof(double)) == 0);
   }
