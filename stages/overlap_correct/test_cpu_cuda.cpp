@@ -159,7 +159,7 @@ TEST_CASE("overlap_correct: CPU and CUDA give the same bits over many steps of A
     const Run cpu = run(Backend::cpu), cuda = run(Backend::cuda);
     double most = 0;
     for (double it : cpu.iterations) most = std::max(most, it);
-    CHECK(most >= 5);  // the late iterations (block 0's tail) do run
+    CHECK(most >= 5);  // the late iterations do run (on the grid path, in block 0's tail)
     CHECK(cpu.iterations == cuda.iterations);
     CHECK(cpu.pairs == cuda.pairs);
     CHECK(cpu.correction == cuda.correction);
